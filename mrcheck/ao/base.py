@@ -1,0 +1,65 @@
+"""What every screen-space AO pass shares: G-buffer inputs, kernel, rotation tile, one draw."""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from ..gl import load_program
+from . import kernel
+
+
+class AOPass:
+    """A full-screen AO pass compiled for one sample count.
+
+    Subclasses name their shader (``shader``) and set their own uniforms in
+    :meth:`_set_method_uniforms`.
+    """
+
+    shader: str = ""
+
+    def __init__(self, ctx: moderngl.Context, samples: int, seed: int = 0):
+        self.ctx = ctx
+        self.samples = int(samples)
+        self.program = load_program(ctx, self.shader, kernel.defines(samples))
+        self.program["u_kernel"].write(kernel.sphere_kernel(samples, seed).tobytes())
+        tile = kernel.rotation_tile(seed)
+        self.noise = ctx.texture((kernel.NOISE_SIZE, kernel.NOISE_SIZE), 3, tile.tobytes(), dtype="f4")
+        self.noise.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        for unit, name in enumerate(("u_depth", "u_normal", "u_noise")):
+            self.program[name].value = unit
+        self.vao = ctx.vertex_array(self.program, [])
+
+    def run(self, target: moderngl.Framebuffer, depth: moderngl.Texture, normal: moderngl.Texture,
+            intrinsics, settings, scale: float = 1.0) -> None:
+        """Write AO into ``target`` (R32F, the size of ``depth``).
+
+        ``intrinsics`` are (fx, fy, cx, cy) at the pass's resolution; ``scale`` is that
+        resolution over the output resolution (0.5 for half-resolution AO).
+        """
+        fx, fy, cx, cy = intrinsics
+        self.program["u_intrinsics"].value = (fx, fy, cx, cy)
+        self.program["u_size"].value = depth.size
+        self.program["u_intensity"].value = float(settings.intensity)
+        self._set_method_uniforms(settings, scale)
+        depth.use(0)
+        normal.use(1)
+        self.noise.use(2)
+        target.use()
+        self.vao.render(moderngl.TRIANGLES, vertices=3)
+
+    def _set_method_uniforms(self, settings, scale: float) -> None:
+        raise NotImplementedError
+
+    def release(self) -> None:
+        self.noise.release()
+        self.vao.release()
+
+
+def set_if_present(program: moderngl.Program, name: str, value) -> None:
+    """Set a uniform the compiler may have optimised away (then there is nothing to set)."""
+    if name in program:
+        program[name].value = value
+
+
+__all__ = ["AOPass", "set_if_present"]

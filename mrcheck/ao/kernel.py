@@ -1,0 +1,46 @@
+"""Sample kernels and the rotation tile shared by the screen-space AO passes.
+
+The kernel holds ``n`` offsets inside the unit sphere with random directions and lengths that
+grow quadratically with the index, so more samples land near the centre, where occluders
+matter most (NOTES.md 5). Per pixel each offset is reflected on a random plane taken from a
+``NOISE_SIZE`` x ``NOISE_SIZE`` tile (Mittring 2007), which turns banding into high-frequency
+noise that the 4x4-periodic pattern lets the bilateral blur remove.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+NOISE_SIZE = 4          # the rotation tile is NOISE_SIZE x NOISE_SIZE pixels
+MIN_OFFSET = 0.1        # shortest offset, as a fraction of the sampling radius
+PAPER_SAMPLE_COUNTS = (16, 36, 64, 128)  # Scheer & Keutel, table 1
+
+
+def _unit_vectors(rng: np.random.Generator, n: int) -> np.ndarray:
+    v = rng.normal(size=(n, 3))
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def sphere_kernel(samples: int, seed: int = 0) -> np.ndarray:
+    """(samples, 3) float32 offsets inside the unit sphere, denser near the centre."""
+    if samples < 1:
+        raise ValueError("samples must be >= 1")
+    rng = np.random.default_rng(seed)
+    directions = _unit_vectors(rng, samples)
+    t = (np.arange(samples) + 1.0) / samples
+    lengths = MIN_OFFSET + (1.0 - MIN_OFFSET) * t * t
+    return (directions * lengths[:, None]).astype(np.float32)
+
+
+def rotation_tile(seed: int = 0) -> np.ndarray:
+    """(NOISE_SIZE, NOISE_SIZE, 3) float32 unit normals of the per-pixel reflection planes."""
+    rng = np.random.default_rng(seed + 0x5EED)
+    return _unit_vectors(rng, NOISE_SIZE * NOISE_SIZE).reshape(NOISE_SIZE, NOISE_SIZE, 3).astype(np.float32)
+
+
+def defines(samples: int) -> dict:
+    """The constants the AO shaders are compiled with (one place for Python and GLSL)."""
+    return {"AO_SAMPLES": int(samples), "NOISE_SIZE": NOISE_SIZE}
+
+
+__all__ = ["sphere_kernel", "rotation_tile", "defines", "NOISE_SIZE", "PAPER_SAMPLE_COUNTS"]

@@ -1,0 +1,224 @@
+"""OpenCV pinhole cameras and the OpenGL projection built exactly from them.
+
+Conventions (stated once, tested in tests/test_camera.py):
+
+* Camera space is OpenCV's: x right, y down, z forward; ``X_cam = R @ X_world + t``.
+* Pixel coordinates are OpenCV's: the centre of pixel column ``i`` / row ``j`` is at
+  ``(u, v) = (i, j)``; ``u = fx * x / z + cx``. In GL window coordinates that centre is at
+  ``(i + 0.5, j + 0.5)``, hence the ``+ 0.5`` in :func:`gl_projection`.
+* Images are stored row 0 = top. The projection maps image row 0 to framebuffer row 0, so a
+  framebuffer read back from GL is already in image order (no flip) and every shader can go
+  from ``gl_FragCoord`` to ``(u, v)`` by subtracting 0.5.
+* Lens distortion (``dist``) is carried along for the photo overlay; the renderer itself draws
+  the ideal pinhole image of K.
+
+Camera JSON (the contract other tools rely on)::
+
+    {"width": W, "height": H, "K": [[fx,0,cx],[0,fy,cy],[0,0,1]],
+     "dist": [k1,k2,p1,p2,k3] (optional), "R": 3x3, "t": [tx,ty,tz]}
+
+Extra keys (``photo``, ``rms``, ...) are ignored, so a registered SHOT.json is a camera too.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import MrcheckError
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A calibrated pinhole camera with its pose.
+
+    Attributes
+    ----------
+    width, height : int
+        Image size in pixels.
+    K : (3, 3) float64
+        Intrinsics, pixels.
+    R : (3, 3) float64
+        World-to-camera rotation (OpenCV convention).
+    t : (3,) float64
+        World-to-camera translation, world units.
+    dist : (n,) float64
+        OpenCV distortion coefficients (may be empty).
+    """
+
+    width: int
+    height: int
+    K: np.ndarray
+    R: np.ndarray = field(default_factory=lambda: np.eye(3))
+    t: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    dist: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def __post_init__(self):
+        for name, shape in (("K", (3, 3)), ("R", (3, 3)), ("t", (3,))):
+            value = np.array(getattr(self, name), dtype=np.float64)
+            if value.shape != shape:
+                raise MrcheckError(f"camera {name} must have shape {shape}, got {value.shape}")
+            if not np.all(np.isfinite(value)):
+                raise MrcheckError(f"camera {name} contains NaN or infinite values")
+            value.flags.writeable = False
+            object.__setattr__(self, name, value)
+        dist = np.array(self.dist, dtype=np.float64).reshape(-1)
+        dist.flags.writeable = False
+        object.__setattr__(self, "dist", dist)
+        if int(self.width) != self.width or int(self.height) != self.height:
+            raise MrcheckError("camera width and height must be whole numbers of pixels")
+        object.__setattr__(self, "width", int(self.width))
+        object.__setattr__(self, "height", int(self.height))
+        if self.width <= 0 or self.height <= 0:
+            raise MrcheckError(f"camera size must be positive, got {self.width}x{self.height}")
+        if self.fx <= 0 or self.fy <= 0:
+            raise MrcheckError(f"camera focal lengths must be positive, got fx={self.fx}, fy={self.fy}")
+        if abs(np.linalg.det(self.R) - 1.0) > 1e-3 or not np.allclose(self.R @ self.R.T, np.eye(3), atol=1e-3):
+            raise MrcheckError("camera R is not a rotation matrix (R @ R.T must be I, det(R) = 1)")
+
+    # -- intrinsics ---------------------------------------------------------------------------
+    @property
+    def fx(self) -> float:
+        return float(self.K[0, 0])
+
+    @property
+    def fy(self) -> float:
+        return float(self.K[1, 1])
+
+    @property
+    def cx(self) -> float:
+        return float(self.K[0, 2])
+
+    @property
+    def cy(self) -> float:
+        return float(self.K[1, 2])
+
+    @property
+    def center(self) -> np.ndarray:
+        """(3,) float64: camera centre in world coordinates, ``-R.T @ t``."""
+        return -self.R.T @ self.t
+
+    def resized(self, width: int, height: int) -> "Camera":
+        """The same camera at another image size (K scaled about the pixel grid, not the origin)."""
+        sx, sy = width / self.width, height / self.height
+        K = self.K.copy()
+        # pixel centres sit at integer u, so the continuous image edge is at -0.5
+        K[0, 0] *= sx
+        K[1, 1] *= sy
+        K[0, 2] = (self.cx + 0.5) * sx - 0.5
+        K[1, 2] = (self.cy + 0.5) * sy - 0.5
+        return Camera(width, height, K, self.R, self.t, self.dist)
+
+    def with_pose(self, R, t) -> "Camera":
+        return Camera(self.width, self.height, self.K, R, t, self.dist)
+
+    def view_matrix(self) -> np.ndarray:
+        """(4, 4) float64 world-to-camera matrix [R | t]."""
+        V = np.eye(4)
+        V[:3, :3] = self.R
+        V[:3, 3] = self.t
+        return V
+
+    def project(self, points_world) -> np.ndarray:
+        """(n, 2) float64 pixel coordinates (OpenCV, no distortion) of world points."""
+        p = (np.asarray(points_world, dtype=np.float64) @ self.R.T) + self.t
+        return np.column_stack((self.fx * p[:, 0] / p[:, 2] + self.cx, self.fy * p[:, 1] / p[:, 2] + self.cy))
+
+    # -- construction -------------------------------------------------------------------------
+    @classmethod
+    def from_look_at(cls, eye, target, up, fov_y_deg: float, width: int, height: int) -> "Camera":
+        """A centred camera at ``eye`` looking at ``target`` with vertical field of view in DEGREES."""
+        eye, target, up = (np.asarray(a, dtype=np.float64) for a in (eye, target, up))
+        if not 0.0 < fov_y_deg < 180.0:
+            raise MrcheckError(f"fov_y_deg must be between 0 and 180 degrees, got {fov_y_deg}")
+        if width <= 0 or height <= 0:
+            raise MrcheckError(f"image size must be positive, got {width}x{height}")
+        forward = target - eye
+        if np.linalg.norm(forward) < 1e-12:
+            raise MrcheckError("viewpoint eye and target are the same point")
+        z = forward / np.linalg.norm(forward)
+        x = np.cross(z, up)  # OpenCV x (right) = forward x up ... y (down) = z x x
+        if np.linalg.norm(x) < 1e-9:
+            raise MrcheckError("viewpoint up vector is parallel to the viewing direction")
+        x /= np.linalg.norm(x)
+        y = np.cross(z, x)
+        R = np.stack([x, y, z])
+        fy = 0.5 * height / math.tan(math.radians(fov_y_deg) / 2.0)
+        K = np.array([[fy, 0.0, (width - 1) / 2.0], [0.0, fy, (height - 1) / 2.0], [0.0, 0.0, 1.0]])
+        return cls(width, height, K, R, -R @ eye)
+
+    @classmethod
+    def from_dict(cls, data: dict, source="camera") -> "Camera":
+        if not isinstance(data, dict):
+            raise MrcheckError("camera JSON must be an object", source)
+        missing = [key for key in ("width", "height", "K") if key not in data]
+        if missing:
+            raise MrcheckError(f"camera JSON is missing {', '.join(missing)}", source)
+        try:
+            return cls(
+                width=_whole(data["width"], "width"),
+                height=_whole(data["height"], "height"),
+                K=np.asarray(data["K"], dtype=np.float64),
+                R=np.asarray(data.get("R", np.eye(3)), dtype=np.float64),
+                t=np.asarray(data.get("t", np.zeros(3)), dtype=np.float64).reshape(-1),
+                dist=np.asarray(data.get("dist") or [], dtype=np.float64),
+            )
+        except MrcheckError as exc:
+            raise MrcheckError(str(exc), source) from None
+        except (TypeError, ValueError) as exc:
+            raise MrcheckError(f"malformed camera JSON ({exc})", source) from None
+
+    @classmethod
+    def load(cls, path) -> "Camera":
+        path = Path(path)
+        try:
+            data = json.loads(path.read_text())
+        except FileNotFoundError:
+            raise MrcheckError("camera file not found", path) from None
+        except (OSError, UnicodeDecodeError) as exc:
+            raise MrcheckError(f"cannot read camera file ({exc})", path) from None
+        except json.JSONDecodeError as exc:
+            raise MrcheckError(f"malformed camera JSON: {exc.msg} at line {exc.lineno}", path) from None
+        return cls.from_dict(data, path)
+
+    def to_dict(self) -> dict:
+        out = {"width": self.width, "height": self.height, "K": self.K.tolist()}
+        if self.dist.size:
+            out["dist"] = self.dist.tolist()
+        out["R"] = self.R.tolist()
+        out["t"] = self.t.tolist()
+        return out
+
+
+def _whole(value, name) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or int(value) != value:
+        raise MrcheckError(f"camera {name} must be a whole number, got {value!r}")
+    return int(value)
+
+
+def gl_projection(camera: Camera, near: float, far: float) -> np.ndarray:
+    """(4, 4) float64 GL projection for OpenCV camera-space points, exactly from K.
+
+    Maps camera point (x, y, z) to clip space so that window x = u + 0.5 and window y = v + 0.5
+    (image row 0 in framebuffer row 0), with z in [near, far] to NDC [-1, 1]. The principal point
+    may be anywhere (off-centre, even outside the image).
+    """
+    if not 0.0 < near < far:
+        raise MrcheckError(f"invalid depth range near={near}, far={far}")
+    W, H = camera.width, camera.height
+    P = np.zeros((4, 4))
+    P[0, 0] = 2.0 * camera.fx / W
+    P[0, 2] = 2.0 * (camera.cx + 0.5) / W - 1.0
+    P[1, 1] = 2.0 * camera.fy / H
+    P[1, 2] = 2.0 * (camera.cy + 0.5) / H - 1.0
+    P[2, 2] = (far + near) / (far - near)
+    P[2, 3] = -2.0 * far * near / (far - near)
+    P[3, 2] = 1.0
+    return P
+
+
+__all__ = ["Camera", "gl_projection"]

@@ -1,0 +1,139 @@
+"""The ``mrcheck`` command line. Commands only; the work lives in the modules.
+
+Exit status: 0 on success; 1 with a one-line ``error: ...`` on stderr when the input is bad
+(file, option value, scene); 2 for a malformed command line (click's usage message).
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+
+from .errors import MrcheckError
+
+EXIT_ERROR = 1
+
+_MODE_CHOICES = ["phong", "ssao", "vector", "all"]
+
+
+def _positive(ctx, param, value):
+    if value is not None and value <= 0:
+        raise click.BadParameter(f"must be positive, got {value}")
+    return value
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+@click.version_option(package_name="mrcheck")
+def cli():
+    """mrcheck: planned factory CAD rendered from a calibrated camera, with vector-based SSAO
+    (Scheer & Keutel), for mixed-reality discrepancy checks."""
+
+
+@cli.command()
+@click.argument("scene", metavar="SCENE")
+@click.option("--view", metavar="NAME", help="Named viewpoint of the scene manifest.")
+@click.option("--camera", "camera_path", metavar="CAM.json",
+              help="Camera JSON (K, size, distortion, world-to-camera R|t, OpenCV convention); a registered SHOT.json works too.")
+@click.option("--mode", type=click.Choice(_MODE_CHOICES), default="vector", show_default=True,
+              help="phong = D1 (no AO), vector = D2 (Scheer & Keutel), ssao = D3 (standard SSAO); all = D1|D2|D3 side by side, labelled.")
+@click.option("--width", type=int, callback=_positive, help="Image width in pixels [default: the view's or camera's].")
+@click.option("--height", type=int, callback=_positive, help="Image height in pixels [default: the view's or camera's].")
+@click.option("--samples", type=int, default=16, show_default=True, callback=_positive,
+              help="AO samples per pixel (the paper uses 16, 36, 64, 128).")
+@click.option("--radius-px", type=float, callback=_positive,
+              help="vector: sampling radius on screen, pixels at the output resolution [default: 3% of the image height].")
+@click.option("--radius-fraction", type=float, default=0.03, show_default=True, callback=_positive,
+              help="vector: sampling radius as a fraction of the image height (when --radius-px is not given).")
+@click.option("--radius", "radius_world", type=float, default=0.2, show_default=True, callback=_positive,
+              help="ssao: constant world radius in scene units (metres for parts with declared units).")
+@click.option("--min-world-radius", type=float, help="vector: clamp the world sampling radius from below (scene units).")
+@click.option("--max-world-radius", type=float, help="vector: clamp the world sampling radius from above (scene units).")
+@click.option("--falloff", type=float, default=1.0, show_default=True,
+              help="c, the attenuation of o = cos / (1 + c (|v|/r)^2); larger = occlusion falls off faster with distance.")
+@click.option("--intensity", type=float, default=1.0, show_default=True,
+              help="AO strength: 0 none, 0.5 weak ... 2 strong (the study stepped four levels, weak to strong).")
+@click.option("--blur/--no-blur", default=True, show_default=True, help="Depth-aware bilateral blur of the AO buffer.")
+@click.option("--blur-size", type=int, default=9, show_default=True, help="Blur kernel size, odd (the paper uses 9 and 13).")
+@click.option("--ao-scale", type=click.Choice(["1", "0.5"]), default="1", show_default=True,
+              help="AO resolution: 1 full, 0.5 half resolution with depth-aware upsampling (the paper's 'Half Res.').")
+@click.option("--ao-direct", is_flag=True, help="Let AO darken the direct light too (default: the ambient term only).")
+@click.option("--light", type=click.Choice(["headlight", "sun"]), default="headlight", show_default=True,
+              help="headlight: a light just above the camera; sun: a fixed direction from above.")
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the AO kernel and rotation tile (renders are reproducible).")
+@click.option("--units", type=click.Choice(["mm", "cm", "m", "in", "ft"]),
+              help="Unit of a single mesh file SCENE (a manifest declares units per part); default: as authored.")
+@click.option("-o", "--output", required=True, metavar="OUT.png", help="Output image (.png, .jpg, .tif).")
+@click.option("--output-ao", metavar="AO.npy",
+              help="Also write the AO term alone: .npy float32 (H, W) in [0,1], background 1, or 16-bit grey .png. "
+                   "With --mode all, one file per AO mode, named AO_vector.npy, AO_ssao.npy.")
+def render(scene, view, camera_path, mode, width, height, samples, radius_px, radius_fraction, radius_world,
+           min_world_radius, max_world_radius, falloff, intensity, blur, blur_size, ao_scale, ao_direct, light,
+           seed, units, output, output_ao):
+    """Render SCENE (a .toml manifest or one mesh file) from a named view or a calibrated camera.
+
+    \b
+    Examples:
+      mrcheck render factory_scenes/sample_cell/scene.toml --view overview --mode all -o study.png
+      mrcheck render hall.glb --units mm --camera shot.json --mode vector --no-blur -o v.png --output-ao ao.npy
+    """
+    from .commands import render_command
+
+    render_command(
+        scene=scene, view=view, camera_path=camera_path, mode=mode, width=width, height=height, units=units,
+        output=output, output_ao=output_ao,
+        settings=dict(samples=samples, radius_px=radius_px, radius_fraction=radius_fraction, radius_world=radius_world,
+                      min_world_radius=min_world_radius, max_world_radius=max_world_radius, falloff=falloff,
+                      intensity=intensity, blur=blur, blur_size=blur_size, ao_scale=float(ao_scale),
+                      ao_direct=ao_direct, light=light, seed=seed),
+    )
+
+
+@cli.command()
+@click.option("-o", "--output", "outdir", default="mrcheck-demo", show_default=True, metavar="DIR",
+              help="Folder for the demo images.")
+@click.option("--width", type=int, callback=_positive, help="Image width [default: each viewpoint's, 1024].")
+@click.option("--height", type=int, callback=_positive, help="Image height [default: each viewpoint's, 768].")
+def demo(outdir, width, height):
+    """Render the embedded sample factory cell from each of its viewpoints in D1, D2 and D3,
+    write PNGs (one per mode and a labelled side-by-side sheet per view) and print their paths."""
+    from .commands import demo_command
+
+    demo_command(Path(outdir), width, height)
+
+
+@cli.command()
+@click.option("--quick", is_flag=True, help="Fewer sizes and repetitions: a few minutes on a 2-core CPU; every ratio is still computed.")
+@click.option("--json", "json_path", metavar="OUT.json", help="Also write every raw figure and the ratios as JSON.")
+@click.option("--repeat", type=int, default=None, callback=_positive, help="Timed runs per figure after one warm-up [default: 5, --quick: 3].")
+def bench(quick, json_path, repeat):
+    """Measure the AO passes on this machine: vector vs ssao, the fetch floor, half vs full
+    resolution, and AO time at 1 M vs 10 M triangles. Prints a table of what it measured."""
+    from .bench import bench_command
+
+    bench_command(quick=quick, json_path=json_path, repeat=repeat)
+
+
+def main(argv=None) -> int:
+    try:
+        cli.main(args=argv, prog_name="mrcheck", standalone_mode=False)
+    except MrcheckError as exc:
+        click.echo(f"error: {exc}", err=True)
+        return EXIT_ERROR
+    except click.exceptions.Abort:
+        click.echo("error: aborted", err=True)
+        return EXIT_ERROR
+    except click.ClickException as exc:
+        exc.show()
+        return exc.exit_code
+    except click.exceptions.Exit as exc:
+        return exc.exit_code
+    except KeyboardInterrupt:
+        click.echo("error: interrupted", err=True)
+        return 130
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,80 @@
+"""What the CLI commands do, as plain functions (testable without click)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from .camera import Camera
+from .errors import MrcheckError
+from .output import AO_SUFFIXES, IMAGE_SUFFIXES, check_output_path, labelled_sheet, write_ao, write_image
+from .renderer import MODES, STUDY_LABELS, Renderer, RenderSettings
+from .resources import sample_scene_path
+from .scene import load_scene
+
+STUDY_ORDER = ("phong", "vector", "ssao")  # D1 | D2 | D3, as in the paper's figure 5
+
+
+def resolve_camera(scene, view, camera_path, width, height) -> Camera:
+    if (view is None) == (camera_path is None):
+        raise MrcheckError("give exactly one of --view NAME or --camera CAM.json")
+    if view is not None:
+        return scene.camera(view, width, height)
+    camera = Camera.load(camera_path)
+    if width or height:
+        # keep the aspect ratio when only one side is given
+        w = width or round(camera.width * height / camera.height)
+        h = height or round(camera.height * width / camera.width)
+        camera = camera.resized(w, h)
+    return camera
+
+
+def _ao_paths(output_ao: Path, modes) -> dict:
+    ao_modes = [m for m in modes if m != "phong"]
+    if len(ao_modes) == 1:
+        return {ao_modes[0]: output_ao}
+    return {m: output_ao.with_name(f"{output_ao.stem}_{m}{output_ao.suffix}") for m in ao_modes}
+
+
+def render_command(scene, view, camera_path, mode, width, height, units, output, output_ao, settings: dict):
+    output = check_output_path(output, IMAGE_SUFFIXES)
+    modes = list(STUDY_ORDER) if mode == "all" else [mode]
+    if output_ao is not None:
+        output_ao = check_output_path(output_ao, AO_SUFFIXES, "AO output")
+        if mode == "phong":
+            raise MrcheckError("--output-ao needs an AO mode (vector, ssao or all), not phong")
+    settings = RenderSettings(**settings)
+    loaded = load_scene(scene, units=units, progress=True)
+    camera = resolve_camera(loaded, view, camera_path, width, height)
+    settings.validated(camera.height)  # option errors before the GL context is made
+
+    renderer = Renderer(loaded)
+    results = renderer.render(camera, modes, settings, want_ao=output_ao is not None)
+    if mode == "all":
+        image = labelled_sheet([results[m].image for m in modes], [STUDY_LABELS[m] for m in modes])
+    else:
+        image = results[mode].image
+    written = []
+    if output_ao is not None:
+        for m, path in _ao_paths(Path(output_ao), modes).items():
+            written.append(write_ao(path, results[m].ao))
+    written.append(write_image(output, image))
+    for path in written:
+        print(path)
+
+
+def demo_command(outdir: Path, width=None, height=None):
+    scene = load_scene(sample_scene_path(), progress=True)
+    renderer = Renderer(scene)
+    from tqdm import tqdm
+
+    for view in tqdm(sorted(scene.viewpoints), desc="rendering demo", unit="view", file=sys.stderr):
+        camera = scene.camera(view, width, height)
+        results = renderer.render(camera, MODES)
+        for m in STUDY_ORDER:
+            print(write_image(outdir / f"{view}_{m}.png", results[m].image))
+        sheet = labelled_sheet([results[m].image for m in STUDY_ORDER], [STUDY_LABELS[m] for m in STUDY_ORDER])
+        print(write_image(outdir / f"{view}_study.png", sheet))
+
+
+__all__ = ["render_command", "demo_command", "resolve_camera"]

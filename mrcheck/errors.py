@@ -1,0 +1,19 @@
+"""The one exception type the command line turns into ``error: ...`` and a non-zero exit.
+
+Anything a user can cause (a bad file, a bad option, a scene the camera sits inside) raises
+:class:`MrcheckError` with a one-line message that names the file and the problem. Anything
+else is a bug and keeps its traceback.
+"""
+
+
+class MrcheckError(Exception):
+    """A user-facing error: one line, naming the file (when there is one) and the problem."""
+
+    def __init__(self, message: str, path=None):
+        message = " ".join(str(message).split())  # one line, always
+        if path is not None:
+            message = f"{path}: {message}"
+        super().__init__(message)
+
+
+__all__ = ["MrcheckError"]

@@ -1,0 +1,89 @@
+"""Writing results: atomically (temp file + rename, never a half-written file), and the
+labelled side-by-side sheet of the paper's study figure.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from .errors import MrcheckError
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff")
+AO_SUFFIXES = (".npy", ".png")
+
+
+def check_output_path(path, suffixes, what="output") -> Path:
+    """Validate an output path before any work is done (fail fast, not after a long render)."""
+    path = Path(path)
+    if path.suffix.lower() not in suffixes:
+        raise MrcheckError(f"{what} must end in {', '.join(suffixes)}", path)
+    if path.exists() and path.is_dir():
+        raise MrcheckError(f"{what} is a directory", path)
+    return path
+
+
+def _atomic_write(path: Path, write) -> None:
+    path = Path(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+    except OSError as exc:
+        raise MrcheckError(f"cannot write output ({exc.strerror})", path) from None
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            write(handle)
+        os.replace(tmp, path)
+    except BaseException as exc:
+        Path(tmp).unlink(missing_ok=True)
+        if isinstance(exc, OSError):
+            raise MrcheckError(f"cannot write output ({exc.strerror})", path) from None
+        raise
+
+
+def write_image(path, rgb: np.ndarray) -> Path:
+    """Write (H, W, 3) uint8 RGB (or (H, W) uint8/uint16 grey) to PNG/JPEG/TIFF, atomically."""
+    path = Path(path)
+    data = rgb[..., ::-1] if rgb.ndim == 3 else rgb  # OpenCV wants BGR
+    ok, encoded = cv2.imencode(path.suffix.lower(), np.ascontiguousarray(data))
+    if not ok:
+        raise MrcheckError("could not encode the image", path)
+    _atomic_write(path, lambda handle: handle.write(encoded.tobytes()))
+    return path
+
+
+def write_ao(path, ao: np.ndarray) -> Path:
+    """AO as ``.npy`` (float32 (H, W) in [0, 1], background 1) or 16-bit grey ``.png``."""
+    path = Path(path)
+    ao = np.asarray(ao, np.float32)
+    if path.suffix.lower() == ".npy":
+        _atomic_write(path, lambda handle: np.save(handle, ao))
+    else:
+        write_image(path, np.round(np.clip(ao, 0.0, 1.0) * 65535.0).astype(np.uint16))
+    return path
+
+
+def labelled_sheet(images, labels) -> np.ndarray:
+    """Images side by side, each under a dark bar with its label (the study's D1 | D2 | D3)."""
+    h = images[0].shape[0]
+    bar = max(24, h // 18)
+    scale = bar / 40.0
+    panels = []
+    for image, label in zip(images, labels):
+        panel = np.full((h + bar, image.shape[1], 3), 32, np.uint8)
+        panel[bar:] = image
+        cv2.putText(panel, label, (int(bar * 0.35), int(bar * 0.72)), cv2.FONT_HERSHEY_SIMPLEX, scale,
+                    (240, 240, 240), max(1, int(round(scale * 2))), cv2.LINE_AA)
+        panels.append(panel)
+    gap = np.full((h + bar, max(2, h // 200), 3), 255, np.uint8)
+    out = [panels[0]]
+    for panel in panels[1:]:
+        out += [gap, panel]
+    return np.hstack(out)
+
+
+__all__ = ["write_image", "write_ao", "labelled_sheet", "check_output_path", "IMAGE_SUFFIXES", "AO_SUFFIXES"]

@@ -1,0 +1,251 @@
+"""The renderer: one public :meth:`Renderer.render` that runs the passes in order.
+
+geometry (G-buffer) -> AO (full or half resolution [-> depth-aware upsampling])
+-> bilateral blur (optional) -> composite (Blinn-Phong, AO on the ambient term).
+
+One G-buffer serves every mode of a frame, so ``--mode all`` draws the geometry once.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field, replace
+
+import moderngl
+import numpy as np
+
+from .ao import AO_METHODS
+from .blur import BilateralBlur
+from .camera import Camera
+from .composite import LIGHTS, Composite
+from .errors import MrcheckError
+from .gbuffer import GBuffer, GeometryPass, check_camera_outside
+from .gl import create_context, load_program
+from .scene import Scene
+
+MODES = ("phong", "vector", "ssao")            # D1, D2, D3 of the paper's study
+STUDY_LABELS = {"phong": "D1 Phong", "vector": "D2 vector SSAO", "ssao": "D3 standard SSAO"}
+
+DEFAULT_SAMPLES = 16
+DEFAULT_RADIUS_FRACTION = 0.03  # vector: sampling radius as a fraction of the image height
+DEFAULT_RADIUS_WORLD = 0.2      # ssao: metres; matches the vector radius at ~5 m at 1024x768, 60 deg
+DEFAULT_FALLOFF = 1.0           # c of o = cos / (1 + c (|v| / r_S)^2)
+DEFAULT_BLUR = 9                # bilateral kernel size (the paper's 9x9 / 13x13, table 2)
+
+
+@dataclass(frozen=True)
+class RenderSettings:
+    """Everything that shapes a frame, with the CLI's defaults.
+
+    radius_px : screen radius of ``vector`` in pixels at the output resolution; when None,
+        ``radius_fraction`` of the image height.
+    radius_world : world radius of ``ssao`` in scene units.
+    intensity : AO strength (0 none, 1 default, larger stronger).
+    ao_scale : 1.0 full-resolution AO, 0.5 half resolution with depth-aware upsampling.
+    """
+
+    samples: int = DEFAULT_SAMPLES
+    radius_px: float | None = None
+    radius_fraction: float = DEFAULT_RADIUS_FRACTION
+    radius_world: float = DEFAULT_RADIUS_WORLD
+    min_world_radius: float | None = None
+    max_world_radius: float | None = None
+    falloff: float = DEFAULT_FALLOFF
+    intensity: float = 1.0
+    blur: bool = True
+    blur_size: int = DEFAULT_BLUR
+    ao_scale: float = 1.0
+    ao_direct: bool = False
+    light: str = "headlight"
+    seed: int = 0
+
+    def validated(self, height: int) -> "RenderSettings":
+        """A copy with ``radius_px`` resolved for an image ``height`` pixels high, checked."""
+        checks = [
+            (self.samples >= 1, f"samples must be >= 1, got {self.samples}"),
+            (self.samples <= 512, f"samples must be <= 512, got {self.samples}"),
+            (self.radius_px is None or self.radius_px > 0, f"radius in pixels must be positive, got {self.radius_px}"),
+            (0 < self.radius_fraction < 1, f"radius fraction must be in (0, 1), got {self.radius_fraction}"),
+            (self.radius_world > 0, f"world radius must be positive, got {self.radius_world}"),
+            (self.falloff >= 0, f"falloff must be >= 0, got {self.falloff}"),
+            (self.intensity >= 0, f"intensity must be >= 0, got {self.intensity}"),
+            (self.ao_scale in (0.5, 1.0), f"ao scale must be 1.0 or 0.5, got {self.ao_scale}"),
+            (self.light in LIGHTS, f"light must be one of {', '.join(LIGHTS)}, got {self.light!r}"),
+            (self.min_world_radius is None or self.min_world_radius >= 0, "minimum world radius must be >= 0"),
+            (self.max_world_radius is None or self.max_world_radius > 0, "maximum world radius must be > 0"),
+        ]
+        for ok, message in checks:
+            if not ok:
+                raise MrcheckError(message)
+        radius_px = self.radius_px if self.radius_px is not None else self.radius_fraction * height
+        return replace(self, radius_px=float(radius_px))
+
+
+@dataclass
+class RenderResult:
+    """Images of one mode. ``image``: (H, W, 3) uint8 sRGB; ``ao``: (H, W) float32 or None."""
+
+    mode: str
+    image: np.ndarray
+    ao: np.ndarray | None = None
+    timings_ms: dict = field(default_factory=dict)
+
+
+class _Targets:
+    """Render targets of one output size, reused frame to frame."""
+
+    def __init__(self, ctx: moderngl.Context, size):
+        w, h = size
+        self.size = (w, h)
+        self.half_size = ((w + 1) // 2, (h + 1) // 2)
+        self.gbuffer = GBuffer.create(ctx, self.size)
+        self.ao = [self._r32f(ctx, self.size) for _ in range(3)]  # raw, scratch, blurred
+        self.color = ctx.texture(self.size, 4, dtype="f1")
+        self.color_fbo = ctx.framebuffer([self.color])
+        self.half = None  # created on first half-resolution use
+
+    @staticmethod
+    def _r32f(ctx, size):
+        texture = ctx.texture(size, 1, dtype="f4")
+        texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return texture, ctx.framebuffer([texture])
+
+    def half_targets(self, ctx):
+        if self.half is None:
+            depth = ctx.texture(self.half_size, 1, dtype="f4")
+            normal = ctx.texture(self.half_size, 4, dtype="f2")
+            for t in (depth, normal):
+                t.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            self.half = {"depth": depth, "normal": normal, "gbuffer_fbo": ctx.framebuffer([depth, normal]),
+                         "ao": self._r32f(ctx, self.half_size)}
+        return self.half
+
+
+class Renderer:
+    """Renders one scene from calibrated cameras, headless.
+
+    >>> renderer = Renderer(load_scene("scene.toml"))          # doctest: +SKIP
+    >>> results = renderer.render(camera, ["phong", "vector"])   # doctest: +SKIP
+    """
+
+    def __init__(self, scene: Scene, ctx: moderngl.Context | None = None):
+        self.ctx = ctx or create_context()
+        self.scene = scene
+        self.geometry = GeometryPass(self.ctx, scene)
+        self.composite = Composite(self.ctx)
+        self._targets: _Targets | None = None
+        self._ao_passes = {}
+        self._blurs = {}
+        self._screen_programs = {}
+        max_size = self.ctx.info["GL_MAX_TEXTURE_SIZE"]
+        self.max_size = int(max_size)
+
+    # -- public ----------------------------------------------------------------------------
+    def render(self, camera: Camera, modes, settings: RenderSettings | None = None,
+               want_ao: bool = False) -> dict[str, RenderResult]:
+        """Render ``modes`` (subset of :data:`MODES`) from ``camera``; geometry drawn once."""
+        settings = (settings or RenderSettings()).validated(camera.height)
+        unknown = [m for m in modes if m not in MODES]
+        if unknown:
+            raise MrcheckError(f"unknown mode(s) {', '.join(unknown)} (use {', '.join(MODES)})")
+        if max(camera.width, camera.height) > self.max_size:
+            raise MrcheckError(f"image size {camera.width}x{camera.height} exceeds this GPU's limit of {self.max_size}")
+        targets = self._targets_for((camera.width, camera.height))
+
+        t_geometry = self._timed(lambda: self.geometry.draw(targets.gbuffer, camera))
+        check_camera_outside(self.geometry, targets.gbuffer, camera, self.scene.source)
+
+        results = {}
+        for mode in modes:
+            timings = {"geometry": t_geometry}
+            ao_texture = targets.ao[0][0]
+            if mode != "phong":
+                timings["ao"] = self._timed(lambda: self._ao_pass(mode, camera, settings, targets))
+                ao_texture = targets.ao[0][0]
+                if settings.blur:
+                    blur = self._blur(settings.blur_size)
+                    timings["blur"] = self._timed(
+                        lambda: blur.run(targets.ao[0][0], targets.ao[1][1], targets.ao[2][1], targets.gbuffer.depth))
+                    ao_texture = targets.ao[2][0]
+            timings["composite"] = self._timed(lambda: self.composite.run(
+                targets.color_fbo, targets.gbuffer, ao_texture, camera, use_ao=mode != "phong",
+                light=settings.light, ao_direct=settings.ao_direct))
+            image = self._read_rgb(targets)
+            ao = None
+            if want_ao:
+                ao = np.ones((camera.height, camera.width), np.float32) if mode == "phong" else \
+                    np.frombuffer(ao_texture.read(), np.float32).reshape(camera.height, camera.width).copy()
+            results[mode] = RenderResult(mode, image, ao, timings)
+        return results
+
+    def release(self) -> None:
+        for p in self._ao_passes.values():
+            p.release()
+        self.geometry.release()
+        self.ctx.release()
+
+    # -- Rendering passes ------------------------------------------------------------------
+    def _ao_pass(self, mode: str, camera: Camera, settings: RenderSettings, targets: _Targets) -> None:
+        ao = self._ao(mode, settings)
+        gb = targets.gbuffer
+        intrinsics = (camera.fx, camera.fy, camera.cx, camera.cy)
+        if settings.ao_scale == 1.0:
+            ao.run(targets.ao[0][1], gb.depth, gb.normal, intrinsics, settings)
+            return
+        half = targets.half_targets(self.ctx)
+        # half-res pixel (i, j) is full-res pixel (2i, 2j): K halves exactly (ao_downsample.glsl)
+        self._screen_pass("ao_downsample", half["gbuffer_fbo"], {"u_depth_full": gb.depth, "u_normal_full": gb.normal})
+        half_intrinsics = tuple(v / 2.0 for v in intrinsics)
+        ao.run(half["ao"][1], half["depth"], half["normal"], half_intrinsics, settings, scale=0.5)
+        self._screen_pass("ao_upsample", targets.ao[0][1],
+                          {"u_ao_half": half["ao"][0], "u_depth_half": half["depth"], "u_depth_full": gb.depth},
+                          u_size_half=targets.half_size)
+
+    def _screen_pass(self, name: str, target, textures: dict, **uniforms) -> None:
+        program, vao = self._screen_programs.get(name) or self._make_screen_program(name)
+        for unit, (uniform, texture) in enumerate(textures.items()):
+            program[uniform].value = unit
+            texture.use(unit)
+        for key, value in uniforms.items():
+            program[key].value = value
+        target.use()
+        vao.render(moderngl.TRIANGLES, vertices=3)
+
+    def _make_screen_program(self, name):
+        program = load_program(self.ctx, name)
+        self._screen_programs[name] = (program, self.ctx.vertex_array(program, []))
+        return self._screen_programs[name]
+
+    # -- helpers ---------------------------------------------------------------------------
+    def _targets_for(self, size) -> _Targets:
+        if self._targets is None or self._targets.size != tuple(size):
+            self._targets = _Targets(self.ctx, size)
+        return self._targets
+
+    def _ao(self, mode: str, settings: RenderSettings):
+        key = (mode, settings.samples, settings.seed)
+        if key not in self._ao_passes:
+            self._ao_passes[key] = AO_METHODS[mode](self.ctx, settings.samples, settings.seed)
+        return self._ao_passes[key]
+
+    def _blur(self, size: int) -> BilateralBlur:
+        if size not in self._blurs:
+            self._blurs[size] = BilateralBlur(self.ctx, size)
+        return self._blurs[size]
+
+    def _timed(self, work) -> float:
+        """Milliseconds of GL work, measured with the pipeline drained before and after."""
+        self.ctx.finish()
+        start = time.perf_counter()
+        work()
+        self.ctx.finish()
+        return (time.perf_counter() - start) * 1000.0
+
+    @staticmethod
+    def _read_rgb(targets: _Targets) -> np.ndarray:
+        w, h = targets.size
+        rgba = np.frombuffer(targets.color.read(), np.uint8).reshape(h, w, 4)
+        return rgba[..., :3].copy()
+
+
+__all__ = ["Renderer", "RenderSettings", "RenderResult", "MODES", "STUDY_LABELS"]

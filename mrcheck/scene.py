@@ -1,0 +1,358 @@
+"""Scenes: a TOML manifest (or one mesh file) -> parts with float64 world transforms.
+
+A part is one mesh drawn at one or more transforms (instances). World units are metres for
+parts that declare ``units``; a part without ``units`` keeps its coordinates as authored, which
+is what a CAD export with a forgotten unit looks like.
+
+Precision for large extents: each mesh is re-centred on its own bounding-box centre in float64
+before its vertices are stored as float32, and the offset goes into the part's float64 world
+transform. The renderer multiplies view @ world in float64 and casts to float32 only then, so
+float32 only ever holds coordinates relative to the camera (a hall 1e6 m from the origin
+renders exactly like one at the origin).
+
+Manifest (format 1)::
+
+    format = 1
+    name = "sample_cell"
+
+    [[parts]]
+    name = "conveyor"
+    mesh = "meshes/conveyor.glb"   # relative to the manifest; glb/gltf/obj/stl/ply/off/urdf
+    units = "mm"                   # mm, cm, m, in, ft; omitted: coordinates as authored
+    color = [0.3, 0.3, 0.35]       # optional linear RGB 0..1
+    translate = [4.0, 2.0, 0.0]    # metres, after unit scaling
+    rotate_deg = [0, 0, 90]        # XYZ Euler degrees about world axes
+    scale = 1.0
+    instances = [{ translate = [0, 3, 0] }, ...]   # optional, applied after the part transform
+    joints = { joint_a1 = 0.5 }    # URDF only, radians (or metres for prismatic joints)
+
+    [[viewpoints]]
+    name = "overview"
+    eye = [x, y, z]
+    target = [x, y, z]
+    up = [0, 0, 1]
+    fov_y_deg = 60
+    width = 1024
+    height = 768
+"""
+
+from __future__ import annotations
+
+import sys
+import tomllib
+from dataclasses import dataclass, field
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+
+from .camera import Camera
+from .errors import MrcheckError
+
+UNITS = {"mm": 0.001, "cm": 0.01, "m": 1.0, "in": 0.0254, "ft": 0.3048}  # metres per unit
+MESH_SUFFIXES = (".glb", ".gltf", ".obj", ".stl", ".ply", ".off", ".urdf")
+DEFAULT_COLOR = (0.7, 0.7, 0.7)  # linear RGB of parts without a colour
+
+_PART_KEYS = {"name", "mesh", "units", "color", "translate", "rotate_deg", "scale", "matrix", "instances", "joints"}
+_VIEW_KEYS = {"name", "eye", "target", "up", "fov_y_deg", "width", "height"}
+
+
+@dataclass
+class Part:
+    """One mesh and the transforms it is drawn at.
+
+    Attributes
+    ----------
+    vertices : (n, 3) float32
+        Vertex positions relative to the mesh's own bounding-box centre, already in metres for
+        a part with declared units.
+    faces : (m, 3) uint32
+    transforms : (k, 4, 4) float64
+        Local -> world, one per instance.
+    """
+
+    name: str
+    source: Path
+    vertices: np.ndarray
+    faces: np.ndarray
+    transforms: np.ndarray
+    color: tuple = DEFAULT_COLOR
+    units: str | None = None
+
+    @property
+    def triangle_count(self) -> int:
+        return int(len(self.faces))
+
+    def local_bounds(self) -> np.ndarray:
+        """(2, 3) float64 bounds of ``vertices``."""
+        v = self.vertices.astype(np.float64)
+        return np.stack([v.min(axis=0), v.max(axis=0)])
+
+    def instance_bounds(self) -> np.ndarray:
+        """(k, 2, 3) float64 world-space axis-aligned bounds of every instance."""
+        lo, hi = self.local_bounds()
+        corners = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        world = np.einsum("kij,cj->kci", self.transforms, corners)[..., :3]
+        return np.stack([world.min(axis=1), world.max(axis=1)], axis=1)
+
+
+@dataclass
+class Scene:
+    name: str
+    source: Path
+    parts: list[Part]
+    viewpoints: dict = field(default_factory=dict)
+
+    @property
+    def triangle_count(self) -> int:
+        """Triangles as rendered (instances counted)."""
+        return sum(p.triangle_count * len(p.transforms) for p in self.parts)
+
+    def bounds(self) -> np.ndarray:
+        """(2, 3) float64 world bounds of everything."""
+        boxes = np.concatenate([p.instance_bounds() for p in self.parts])
+        return np.stack([boxes[:, 0].min(axis=0), boxes[:, 1].max(axis=0)])
+
+    def camera(self, view: str, width: int | None = None, height: int | None = None) -> Camera:
+        """The camera of a named viewpoint, at its own size unless one is given."""
+        if view not in self.viewpoints:
+            known = ", ".join(sorted(self.viewpoints)) or "none"
+            raise MrcheckError(f"no viewpoint named {view!r} (the scene has: {known})", self.source)
+        vp = self.viewpoints[view]
+        width = width or vp.get("width", 1024)
+        height = height or vp.get("height", 768)
+        try:
+            return Camera.from_look_at(vp["eye"], vp["target"], vp.get("up", (0, 0, 1)), vp.get("fov_y_deg", 60.0), width, height)
+        except MrcheckError as exc:
+            raise MrcheckError(f"viewpoint {view!r}: {exc}", self.source) from None
+
+
+# -- transforms ------------------------------------------------------------------------------------
+def _rotation_xyz(degrees) -> np.ndarray:
+    rx, ry, rz = np.radians(degrees)
+    cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
+    Rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    Ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    Rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return Rz @ Ry @ Rx  # about world x first, then y, then z
+
+
+def transform_from_table(table: dict, where: str) -> np.ndarray:
+    """(4, 4) float64 from ``translate`` / ``rotate_deg`` / ``scale`` or a full ``matrix``."""
+    M = np.eye(4)
+    try:
+        if "matrix" in table:
+            if any(k in table for k in ("translate", "rotate_deg", "scale")):
+                raise MrcheckError(f"{where}: give either matrix or translate/rotate_deg/scale, not both")
+            M = np.array(table["matrix"], dtype=np.float64)
+            if M.shape != (4, 4):
+                raise MrcheckError(f"{where}: matrix must be 4x4")
+        else:
+            scale = float(table.get("scale", 1.0))
+            if not scale > 0:
+                raise MrcheckError(f"{where}: scale must be positive, got {scale}")
+            M[:3, :3] = _rotation_xyz(_vector(table.get("rotate_deg", (0, 0, 0)), f"{where} rotate_deg")) * scale
+            M[:3, 3] = _vector(table.get("translate", (0, 0, 0)), f"{where} translate")
+    except (TypeError, ValueError):
+        raise MrcheckError(f"{where}: transform values must be numbers") from None
+    if not np.all(np.isfinite(M)):
+        raise MrcheckError(f"{where}: transform has NaN or infinite values")
+    return M
+
+
+def _vector(value, where: str) -> np.ndarray:
+    try:
+        v = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise MrcheckError(f"{where} must be three numbers") from None
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise MrcheckError(f"{where} must be three finite numbers, got {value!r}")
+    return v
+
+
+def unit_scale(units, where) -> float:
+    if units is None:
+        return 1.0
+    if units not in UNITS:
+        raise MrcheckError(f"unknown units {units!r} (use one of {', '.join(UNITS)})", where)
+    return UNITS[units]
+
+
+# -- mesh files ------------------------------------------------------------------------------------
+def read_mesh(path: Path, joints: dict | None = None):
+    """(vertices (n, 3) float64, faces (m, 3) int64) of a mesh file or a posed URDF, validated.
+
+    NaN/infinite coordinates and meshes with no proper triangle are errors; degenerate
+    (zero-area) triangles among good ones are dropped with a warning, as CAD exports often
+    carry a few.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise MrcheckError("mesh file not found", path)
+    suffix = path.suffix.lower()
+    if suffix not in MESH_SUFFIXES:
+        raise MrcheckError(f"unsupported mesh format {suffix or '(none)'} (use {', '.join(MESH_SUFFIXES)})", path)
+    if joints and suffix != ".urdf":
+        raise MrcheckError("joints are only meaningful for a URDF part", path)
+    try:
+        if suffix == ".urdf":
+            vertices, faces = _read_urdf(path, joints or {})
+        else:
+            import trimesh
+
+            # process=False: no vertex merging; a 10 M-triangle export loads in seconds, not minutes
+            mesh = trimesh.load(path, force="mesh", process=False)
+            vertices, faces = np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64)
+    except MrcheckError:
+        raise
+    except Exception as exc:  # trimesh and yourdfpy raise many types for corrupt files
+        reason = " ".join(str(exc).split())[:200] or type(exc).__name__
+        raise MrcheckError(f"cannot read mesh ({reason})", path) from None
+    return validate_mesh(vertices, faces, path)
+
+
+def _read_urdf(path: Path, joints: dict):
+    import yourdfpy
+
+    handler = partial(yourdfpy.filename_handler_magic, dir=str(path.parent))
+    robot = yourdfpy.URDF.load(
+        str(path), filename_handler=handler, build_collision_scene_graph=False, load_collision_meshes=False
+    )
+    unknown = sorted(set(joints) - set(robot.actuated_joint_names))
+    if unknown:
+        raise MrcheckError(f"unknown joint(s) {', '.join(unknown)} (the robot has: {', '.join(robot.actuated_joint_names)})", path)
+    cfg = [float(joints.get(name, 0.0)) for name in robot.actuated_joint_names]
+    robot.update_cfg(np.array(cfg))
+    mesh = robot.scene.to_mesh() if hasattr(robot.scene, "to_mesh") else robot.scene.dump(concatenate=True)
+    return np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64)
+
+
+def validate_mesh(vertices, faces, path):
+    vertices = np.asarray(vertices, np.float64).reshape(-1, 3)
+    faces = np.asarray(faces, np.int64).reshape(-1, 3)
+    if len(faces) == 0 or len(vertices) == 0:
+        raise MrcheckError("mesh has no triangles", path)
+    if not np.all(np.isfinite(vertices)):
+        bad = int((~np.isfinite(vertices)).any(axis=1).sum())
+        raise MrcheckError(f"mesh has {bad} vertices with NaN or infinite coordinates", path)
+    if faces.min() < 0 or faces.max() >= len(vertices):
+        raise MrcheckError("mesh has triangles that index missing vertices", path)
+    tri = vertices[faces]
+    doubled_area = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    extent = float(np.ptp(vertices, axis=0).max())
+    good = doubled_area > (extent * 1e-9) ** 2
+    if not good.any():
+        raise MrcheckError(f"mesh has only degenerate (zero-area) triangles ({len(faces)} of them)", path)
+    if not good.all():
+        print(f"warning: {path}: dropped {int((~good).sum())} degenerate triangles of {len(faces)}", file=sys.stderr)
+        faces = faces[good]
+    return vertices, faces
+
+
+def make_part(name, source, vertices, faces, transforms, color=None, units=None) -> Part:
+    """A :class:`Part` from float64 geometry: re-centred, scaled to metres, stored as float32."""
+    scale = unit_scale(units, source)
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    centre = (lo + hi) / 2.0
+    local = ((vertices - centre) * scale).astype(np.float32)
+    to_world = np.eye(4)
+    to_world[:3, 3] = centre * scale
+    transforms = np.asarray(transforms, np.float64).reshape(-1, 4, 4) @ to_world
+    return Part(
+        name=name,
+        source=Path(source),
+        vertices=local,
+        faces=faces.astype(np.uint32),
+        transforms=transforms,
+        color=tuple(float(c) for c in (color if color is not None else DEFAULT_COLOR)),
+        units=units,
+    )
+
+
+# -- loading ------------------------------------------------------------------------------------
+def load_scene(path, units: str | None = None, progress: bool = False) -> Scene:
+    """A manifest (``.toml``) or any single mesh file (then ``units`` says its unit)."""
+    path = Path(path)
+    if not path.exists():
+        raise MrcheckError("scene file not found", path)
+    if path.is_dir():
+        candidates = [path / "scene.toml", *sorted(path.glob("*.toml"))]
+        manifest = next((c for c in candidates if c.exists()), None)
+        if manifest is None:
+            raise MrcheckError("folder has no scene manifest (scene.toml)", path)
+        path = manifest
+    if path.suffix.lower() == ".toml":
+        if units is not None:
+            raise MrcheckError("--units applies to a single mesh file; a manifest declares units per part", path)
+        return _load_manifest(path, progress)
+    vertices, faces = read_mesh(path)
+    part = make_part(path.stem, path, vertices, faces, np.eye(4), units=units)
+    return Scene(name=path.stem, source=path, parts=[part])
+
+
+def _load_manifest(path: Path, progress: bool) -> Scene:
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise MrcheckError(f"malformed manifest: {exc}", path) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise MrcheckError(f"cannot read manifest ({exc})", path) from None
+    if data.get("format", 1) != 1:
+        raise MrcheckError(f"unsupported manifest format {data.get('format')!r} (this mrcheck reads format 1)", path)
+    tables = data.get("parts", [])
+    if not isinstance(tables, list) or not all(isinstance(t, dict) for t in tables):
+        raise MrcheckError("manifest 'parts' must be an array of tables ([[parts]])", path)
+    if not tables:
+        raise MrcheckError("scene is empty (no [[parts]])", path)
+
+    from tqdm import tqdm
+
+    parts, names = [], set()
+    for index, table in enumerate(tqdm(tables, desc="loading scene", unit="part", disable=not progress, leave=False)):
+        where = f"part {table.get('name', index)!r}"
+        unknown = sorted(set(table) - _PART_KEYS)
+        if unknown:
+            raise MrcheckError(f"{where}: unknown key(s) {', '.join(unknown)}", path)
+        name = table.get("name", f"part{index}")
+        if name in names:
+            raise MrcheckError(f"two parts are named {name!r}", path)
+        names.add(name)
+        if not isinstance(table.get("mesh"), str):
+            raise MrcheckError(f"{where}: needs a mesh = \"file\" entry", path)
+        try:
+            unit_scale(table.get("units"), None)
+        except MrcheckError as exc:
+            raise MrcheckError(f"{where}: {exc}", path) from None
+        base = transform_from_table(table, where)
+        instances = table.get("instances") or [{}]
+        if not isinstance(instances, list) or not all(isinstance(t, dict) for t in instances):
+            raise MrcheckError(f"{where}: instances must be an array of tables", path)
+        try:
+            transforms = [transform_from_table(t, f"{where} instance {i}") @ base for i, t in enumerate(instances)]
+        except MrcheckError as exc:
+            raise MrcheckError(str(exc), path) from None
+        color = table.get("color")
+        if color is not None:
+            color = np.asarray(color, dtype=np.float64)
+            if color.shape != (3,) or not np.all((color >= 0) & (color <= 1)):
+                raise MrcheckError(f"{where}: color must be three numbers in 0..1", path)
+        joints = table.get("joints")
+        if joints is not None and not isinstance(joints, dict):
+            raise MrcheckError(f"{where}: joints must be a table of name = value", path)
+        vertices, faces = read_mesh(path.parent / table["mesh"], joints)
+        parts.append(make_part(name, path.parent / table["mesh"], vertices, faces, transforms, color, table.get("units")))
+
+    viewpoints = {}
+    for table in data.get("viewpoints", []):
+        name = table.get("name")
+        unknown = sorted(set(table) - _VIEW_KEYS)
+        if not name or unknown or "eye" not in table or "target" not in table:
+            raise MrcheckError(f"viewpoint {name!r} needs name, eye and target (unknown keys: {unknown or 'none'})", path)
+        viewpoints[name] = table
+    scene = Scene(name=data.get("name", path.stem), source=path, parts=parts, viewpoints=viewpoints)
+    for view in viewpoints:
+        scene.camera(view)  # validate every viewpoint once, at load time
+    return scene
+
+
+__all__ = ["Part", "Scene", "UNITS", "load_scene", "read_mesh", "make_part", "transform_from_table"]

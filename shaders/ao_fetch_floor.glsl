@@ -1,0 +1,18 @@
+// Benchmark kernel, not a render mode: the "fetch floor" of an AO pass. It reads the same
+// number of depth texels as an AO pass with AO_SAMPLES samples (1 centre + AO_SAMPLES) with
+// trivial arithmetic, so an AO pass time divided by this one says how much the arithmetic
+// costs on top of the memory traffic.
+uniform sampler2D u_depth;
+uniform ivec2 u_size;
+uniform ivec2 u_offsets[AO_SAMPLES];   // pixel offsets inside the sampling radius
+
+out float ao;
+
+void main() {
+    ivec2 ij = ivec2(gl_FragCoord.xy);
+    float sum = texelFetch(u_depth, ij, 0).r;
+    for (int i = 0; i < AO_SAMPLES; ++i) {
+        sum += texelFetch(u_depth, clamp(ij + u_offsets[i], ivec2(0), u_size - 1), 0).r;
+    }
+    ao = sum;
+}

@@ -1,0 +1,37 @@
+// Depth-aware Gaussian bilateral blur (Petschnigg et al. 2004, as the paper uses it), one
+// separable direction per draw: (2 * BLUR_RADIUS + 1) taps along u_step. Taps across a depth
+// discontinuity get a small weight, so AO does not bleed over object silhouettes; background
+// taps get none.
+uniform sampler2D u_ao;
+uniform sampler2D u_depth;
+uniform ivec2 u_size;
+uniform ivec2 u_step;                       // (1, 0) horizontal, (0, 1) vertical
+uniform float u_weights[BLUR_RADIUS + 1];   // Gaussian, centre first (mrcheck/blur.py)
+
+// Relative depth difference at which a tap's weight falls to 1/e. Relative, so the blur
+// behaves the same in a scene authored in millimetres or metres.
+const float DEPTH_TOLERANCE = 0.05;
+
+out float ao;
+
+void main() {
+    ivec2 ij = ivec2(gl_FragCoord.xy);
+    float z = texelFetch(u_depth, ij, 0).r;
+    float centre = texelFetch(u_ao, ij, 0).r;
+    if (z <= 0.0) { ao = centre; return; }
+    float inv_tol = 1.0 / (z * DEPTH_TOLERANCE);
+
+    float sum = centre * u_weights[0];
+    float weight = u_weights[0];
+    for (int k = 1; k <= BLUR_RADIUS; ++k) {
+        for (int side = -1; side <= 1; side += 2) {
+            ivec2 q = clamp(ij + side * k * u_step, ivec2(0), u_size - 1);
+            float zq = texelFetch(u_depth, q, 0).r;
+            float d = (zq - z) * inv_tol;
+            float w = zq > 0.0 ? u_weights[k] * exp(-d * d) : 0.0;
+            sum += w * texelFetch(u_ao, q, 0).r;
+            weight += w;
+        }
+    }
+    ao = sum / weight;
+}

@@ -1,0 +1,41 @@
+// Composite: Blinn-Phong with one light (a headlight at the camera or a directional "sun"),
+// and an ambient term that the AO modulates (optionally the direct light too). Output sRGB.
+uniform sampler2D u_depth;
+uniform sampler2D u_normal;
+uniform sampler2D u_albedo;
+uniform sampler2D u_ao;
+uniform vec4 u_intrinsics;     // fx, fy, cx, cy
+uniform vec3 u_light_dir;      // camera space, unit, towards the light
+uniform vec3 u_background;     // linear RGB
+uniform float u_ao_weight;     // 0: Phong (D1), 1: AO applied
+uniform float u_ao_direct;     // 0: AO darkens ambient only, 1: also the direct light
+
+const float AMBIENT = 0.45;    // share of light that is indirect, the part AO acts on
+const float DIFFUSE = 0.60;
+const float SPECULAR = 0.12;
+const float SHININESS = 40.0;
+
+out vec4 color;
+
+vec3 linear_to_srgb(vec3 c) {
+    c = clamp(c, 0.0, 1.0);
+    return mix(c * 12.92, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, c));
+}
+
+void main() {
+    ivec2 ij = ivec2(gl_FragCoord.xy);
+    float z = texelFetch(u_depth, ij, 0).r;
+    if (z <= 0.0) { color = vec4(linear_to_srgb(u_background), 1.0); return; }
+
+    vec3 P = vec3((vec2(ij) - u_intrinsics.zw) / u_intrinsics.xy * z, z);
+    vec3 n = texelFetch(u_normal, ij, 0).xyz;
+    vec3 albedo = texelFetch(u_albedo, ij, 0).rgb;
+    float a = mix(1.0, texelFetch(u_ao, ij, 0).r, u_ao_weight);
+
+    vec3 V = normalize(-P);
+    vec3 H = normalize(u_light_dir + V);
+    float diffuse = max(dot(n, u_light_dir), 0.0);
+    float specular = diffuse > 0.0 ? pow(max(dot(n, H), 0.0), SHININESS) : 0.0;
+    vec3 direct = (DIFFUSE * diffuse * albedo + SPECULAR * specular) * mix(1.0, a, u_ao_direct);
+    color = vec4(linear_to_srgb(AMBIENT * a * albedo + direct), 1.0);
+}
