@@ -27,8 +27,8 @@ MODES = ("phong", "vector", "ssao")            # D1, D2, D3 of the paper's study
 STUDY_LABELS = {"phong": "D1 Phong", "vector": "D2 vector SSAO", "ssao": "D3 standard SSAO"}
 
 DEFAULT_SAMPLES = 16
-DEFAULT_RADIUS_FRACTION = 0.03  # vector: sampling radius as a fraction of the image height
-DEFAULT_RADIUS_WORLD = 0.2      # ssao: metres; matches the vector radius at ~5 m at 1024x768, 60 deg
+DEFAULT_RADIUS_FRACTION = 0.02  # vector: sampling radius as a fraction of the image height (15 px at 768)
+DEFAULT_RADIUS_WORLD = 0.2      # ssao: metres; equals the default vector radius at ~9 m (1024x768, 60 deg)
 DEFAULT_FALLOFF = 1.0           # c of o = cos / (1 + c (|v| / r_S)^2)
 DEFAULT_BLUR = 9                # bilateral kernel size (the paper's 9x9 / 13x13, table 2)
 
@@ -177,6 +177,12 @@ class Renderer:
                     np.frombuffer(ao_texture.read(), np.float32).reshape(camera.height, camera.width).copy()
             results[mode] = RenderResult(mode, image, ao, timings)
         return results
+
+    def last_depth(self) -> np.ndarray:
+        """(H, W) float32 linear depth of the last frame (scene units, 0 = background)."""
+        if self._targets is None:
+            raise MrcheckError("nothing rendered yet")
+        return self._targets.gbuffer.read_depth().copy()
 
     def release(self) -> None:
         for p in self._ao_passes.values():

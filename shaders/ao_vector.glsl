@@ -9,8 +9,11 @@
 //
 //   o(v) = cos(v, n) / (1 + c * (|v| / r_S)^2)          paper eq. 1 + quasi-normalisation
 //   r_S  = r_px * Z_p / f_y                             NOTES 1 (the paper prints d / Z_p)
-//   AO   = clamp(1 - intensity * sum(o) / N, 0, 1)      NOTES 4: misses and samples below
+//   AO   = clamp(1 - intensity * 2 * sum(o) / N, 0, 1)  NOTES 4: misses and samples below
 //                                                       the hemisphere count in N as open
+// The 2: offsets are uniform over the hemisphere, and the cosine-weighted occlusion
+// (1/pi) * integral(V cos dw) equals 2 * E_uniform[V cos]. So intensity 1 gives an unbiased
+// estimate of the definition (attenuation aside): a point in a 90-degree crease -> about 0.5.
 // r_px (the paper's r_B * s_scene) is the sampling radius in pixels, so its projection is the
 // same at every depth, and |v| / r_S makes the result independent of the scene's unit.
 #include "ao_common.glsl"
@@ -44,5 +47,5 @@ void main() {
         float o = cos_vn / (1.0 + c_over_r2 * len2);
         sum += (zq > 0.0 && cos_vn > EPS) ? o : 0.0;
     }
-    ao = clamp(1.0 - u_intensity * sum / float(AO_SAMPLES), 0.0, 1.0);
+    ao = clamp(1.0 - u_intensity * 2.0 * sum / float(AO_SAMPLES), 0.0, 1.0);
 }

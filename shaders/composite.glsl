@@ -10,8 +10,8 @@ uniform vec3 u_background;     // linear RGB
 uniform float u_ao_weight;     // 0: Phong (D1), 1: AO applied
 uniform float u_ao_direct;     // 0: AO darkens ambient only, 1: also the direct light
 
-const float AMBIENT = 0.45;    // share of light that is indirect, the part AO acts on
-const float DIFFUSE = 0.60;
+const float AMBIENT = 0.60;    // share of light that is indirect (a hall under diffuse light): what AO acts on
+const float DIFFUSE = 0.45;
 const float SPECULAR = 0.12;
 const float SHININESS = 40.0;
 

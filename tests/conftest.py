@@ -1,0 +1,44 @@
+"""Shared fixtures: one headless GL context per test session, and small scene builders."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from mrcheck.gl import create_context
+from mrcheck.renderer import Renderer, RenderSettings
+from mrcheck.scene import Scene, make_part
+
+
+@pytest.fixture(scope="session")
+def ctx():
+    context = create_context()
+    yield context
+    context.release()
+
+
+def box(size, centre) -> trimesh.Trimesh:
+    return trimesh.creation.box(extents=size, transform=trimesh.transformations.translation_matrix(centre))
+
+
+def scene_of(*meshes, offset=(0.0, 0.0, 0.0), name="test") -> Scene:
+    """A scene of trimesh meshes (metres), each a part, all moved by ``offset``."""
+    T = np.eye(4)
+    T[:3, 3] = offset
+    parts = [make_part(f"part{i}", name, np.asarray(m.vertices, np.float64), np.asarray(m.faces), T)
+             for i, m in enumerate(meshes)]
+    return Scene(name, name, parts)
+
+
+def render_ao(ctx, scene, camera, mode, **settings) -> np.ndarray:
+    """(H, W) float32 AO of one mode, unblurred unless ``blur=True`` is passed."""
+    settings.setdefault("blur", False)
+    result = Renderer(scene, ctx=ctx).render(camera, [mode], RenderSettings(**settings), want_ao=True)
+    return result[mode].ao
+
+
+def render_depth(ctx, scene, camera) -> np.ndarray:
+    renderer = Renderer(scene, ctx=ctx)
+    renderer.render(camera, ["phong"])
+    return renderer.last_depth()

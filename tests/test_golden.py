@@ -1,0 +1,86 @@
+"""Golden-image regression tests: every mode on the embedded sample scene.
+
+Compared with a tolerance (llvmpipe versions may differ in the last bit); on failure the test
+writes ``tests/_failures/<name>_{actual,golden,diff}.png`` (diff amplified 8x) and says where.
+
+Update the goldens after an intended change, then look at them before committing:
+
+    MRCHECK_UPDATE_GOLDEN=1 ./bootstrap.sh test tests/test_golden.py
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from mrcheck.renderer import Renderer, RenderSettings
+from mrcheck.resources import sample_scene_path
+from mrcheck.scene import load_scene
+
+GOLDEN = Path(__file__).parent / "golden"
+FAILURES = Path(__file__).parent / "_failures"
+UPDATE = os.environ.get("MRCHECK_UPDATE_GOLDEN") == "1"
+W, H = 320, 240
+
+# (mean absolute difference, share of pixels allowed to differ by more than 8/255)
+TOLERANCE = (1.0 / 255.0, 0.005)
+
+CASES = {
+    # name: (view, mode, settings, what is compared)
+    "overview_phong": ("overview", "phong", {}, "image"),
+    "overview_vector": ("overview", "vector", {}, "image"),
+    "overview_ssao": ("overview", "ssao", {}, "image"),
+    "robot_vector_ao_raw": ("robot", "vector", {"blur": False, "samples": 36}, "ao"),
+    "robot_ssao_ao_raw": ("robot", "ssao", {"blur": False, "samples": 36}, "ao"),
+    "robot_vector_half_res": ("robot", "vector", {"ao_scale": 0.5, "blur_size": 13}, "image"),
+    "conveyor_vector_sun_direct": ("conveyor", "vector", {"light": "sun", "ao_direct": True, "intensity": 2.0}, "image"),
+}
+
+
+@pytest.fixture(scope="module")
+def renderer(ctx):
+    return Renderer(load_scene(sample_scene_path()), ctx=ctx)
+
+
+def _as_8bit(result, what) -> np.ndarray:
+    if what == "ao":
+        return np.round(result.ao * 255.0).astype(np.uint8)
+    return result.image[..., ::-1]  # BGR for OpenCV
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_golden(renderer, name):
+    view, mode, settings, what = CASES[name]
+    camera = renderer.scene.camera(view, W, H)
+    result = renderer.render(camera, [mode], RenderSettings(**settings), want_ao=what == "ao")[mode]
+    actual = _as_8bit(result, what)
+    path = GOLDEN / f"{name}.png"
+    if UPDATE:
+        GOLDEN.mkdir(exist_ok=True)
+        cv2.imwrite(str(path), actual)
+        pytest.skip(f"golden updated: {path}")
+    assert path.exists(), f"no golden image {path}; create it with MRCHECK_UPDATE_GOLDEN=1"
+    golden = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    assert golden.shape == actual.shape
+    diff = np.abs(actual.astype(np.int16) - golden.astype(np.int16))
+    mean, share = diff.mean() / 255.0, (diff > 8).mean()
+    if mean > TOLERANCE[0] or share > TOLERANCE[1]:
+        FAILURES.mkdir(exist_ok=True)
+        for suffix, image in (("actual", actual), ("golden", golden), ("diff", np.clip(diff * 8, 0, 255).astype(np.uint8))):
+            cv2.imwrite(str(FAILURES / f"{name}_{suffix}.png"), image)
+        pytest.fail(f"{name}: mean difference {mean:.4f}, {share:.2%} of pixels off by > 8/255; "
+                    f"see {FAILURES}/{name}_diff.png")
+
+
+def test_golden_comparison_catches_a_change(renderer):
+    # the comparison itself must be able to fail: a darker AO is far outside the tolerance
+    view, mode, settings, what = CASES["overview_vector"]
+    camera = renderer.scene.camera(view, W, H)
+    stronger = renderer.render(camera, [mode], RenderSettings(intensity=4.0))[mode].image[..., ::-1]
+    golden = cv2.imread(str(GOLDEN / "overview_vector.png"))
+    diff = np.abs(stronger.astype(np.int16) - golden.astype(np.int16))
+    assert diff.mean() / 255.0 > TOLERANCE[0] or (diff > 8).mean() > TOLERANCE[1]
