@@ -1,0 +1,113 @@
+"""The command line and its output contracts (other tools and tests rely on them)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from mrcheck.cli import main
+from mrcheck.resources import sample_scene_path
+
+SCENE = str(sample_scene_path())
+SMALL = ["--width", "160", "--height", "120"]
+REPO = Path(__file__).resolve().parents[1]
+
+
+def test_render_all_writes_the_labelled_study_sheet(tmp_path, capsys):
+    out = tmp_path / "study.png"
+    assert main(["render", SCENE, "--view", "overview", "--mode", "all", *SMALL, "-o", str(out)]) == 0
+    sheet = cv2.imread(str(out))
+    assert sheet.shape[1] >= 3 * 160 and sheet.shape[0] > 120  # three panels under a label bar
+    assert str(out) in capsys.readouterr().out
+
+
+def test_output_ao_npy_contract(tmp_path):
+    out, ao_path = tmp_path / "v.png", tmp_path / "ao.npy"
+    args = ["render", SCENE, "--view", "robot", "--mode", "vector", "--no-blur", *SMALL, "-o", str(out)]
+    assert main([*args, "--output-ao", str(ao_path)]) == 0
+    ao = np.load(ao_path)
+    assert ao.dtype == np.float32 and ao.shape == (120, 160)
+    assert 0.0 <= ao.min() < 0.9 and ao.max() == 1.0
+    # the same render again is bit-identical: fixed default seed
+    again = tmp_path / "again.npy"
+    assert main([*args, "--output-ao", str(again)]) == 0
+    assert np.array_equal(np.load(again), ao)
+
+
+def test_output_ao_png_is_16_bit_and_all_mode_writes_one_per_ao_mode(tmp_path):
+    out = tmp_path / "all.png"
+    assert main(["render", SCENE, "--view", "robot", "--mode", "all", *SMALL, "-o", str(out),
+                 "--output-ao", str(tmp_path / "ao.png")]) == 0
+    for mode in ("vector", "ssao"):
+        ao = cv2.imread(str(tmp_path / f"ao_{mode}.png"), cv2.IMREAD_UNCHANGED)
+        assert ao.dtype == np.uint16 and ao.shape == (120, 160) and ao.max() == 65535
+
+
+def test_background_is_unoccluded_and_camera_json_works(tmp_path):
+    # a camera looking into the sky over the cell: mostly background
+    from mrcheck.camera import Camera
+
+    cam = Camera.from_look_at((0, -30, 2), (0, 0, 30), (0, 0, 1), 40, 64, 48)
+    cam_path = tmp_path / "sky.json"
+    cam_path.write_text(json.dumps(cam.to_dict() | {"photo": "x.jpg", "rms": 0.3}))
+    ao_path = tmp_path / "ao.npy"
+    assert main(["render", SCENE, "--camera", str(cam_path), "-o", str(tmp_path / "s.png"),
+                 "--output-ao", str(ao_path)]) == 0
+    assert np.all(np.load(ao_path) == 1.0)
+
+
+def test_half_resolution_ao_is_close_to_full_resolution(ctx):
+    from mrcheck.renderer import Renderer, RenderSettings
+    from mrcheck.scene import load_scene
+
+    renderer = Renderer(load_scene(SCENE), ctx=ctx)
+    camera = renderer.scene.camera("robot", 320, 240)
+    full = renderer.render(camera, ["vector"], RenderSettings(), want_ao=True)["vector"].ao
+    half = renderer.render(camera, ["vector"], RenderSettings(ao_scale=0.5), want_ao=True)["vector"].ao
+    assert np.abs(full - half).mean() < 0.03
+
+
+def test_demo_writes_every_view_and_mode(tmp_path, capsys):
+    assert main(["demo", "-o", str(tmp_path), *SMALL]) == 0
+    printed = capsys.readouterr().out.split()
+    names = {Path(p).name for p in printed}
+    for view in ("overview", "robot", "conveyor"):
+        for kind in ("phong", "vector", "ssao", "study"):
+            assert f"{view}_{kind}.png" in names
+    assert all(Path(p).exists() for p in printed)
+
+
+def test_help_explains_every_option(capsys):
+    assert main(["render", "--help"]) == 0
+    text = capsys.readouterr().out
+    for option in ("--view", "--camera", "--mode", "--samples", "--radius-px", "--radius", "--falloff",
+                   "--intensity", "--blur", "--ao-scale", "--output-ao", "--seed", "--units"):
+        assert option in text
+
+
+def test_wheel_carries_shaders_and_sample_scene_and_renders_installed(tmp_path):
+    # A non-editable install must find its shaders and the sample scene inside the package.
+    wheel_dir, site = tmp_path / "wheel", tmp_path / "site"
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheel_dir), str(REPO)],
+                   check=True, capture_output=True)
+    wheel = next(wheel_dir.glob("mrcheck-*.whl"))
+    names = zipfile.ZipFile(wheel).namelist()
+    assert "mrcheck/_data/shaders/ao_vector.glsl" in names
+    assert "mrcheck/_data/sample_cell/scene.toml" in names
+    assert "mrcheck/_data/sample_cell/robots/kuka_iiwa/LICENSE.txt" in names
+    subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target", str(site), str(wheel)],
+                   check=True, capture_output=True)
+    code = ("import sys; sys.path.insert(0, sys.argv[1]); import mrcheck.resources as r, mrcheck.cli as c;"
+            "assert r.shader_dir().is_relative_to(sys.argv[1]), r.shader_dir();"
+            "sys.exit(c.main(['demo', '-o', sys.argv[2], '--width', '64', '--height', '48']))")
+    run = subprocess.run([sys.executable, "-c", code, str(site), str(tmp_path / "demo")], cwd=tmp_path,
+                         capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert (tmp_path / "demo" / "robot_study.png").exists()
