@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import json
 import math
+import numbers
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -67,6 +68,8 @@ class Camera:
             value.flags.writeable = False
             object.__setattr__(self, name, value)
         dist = np.array(self.dist, dtype=np.float64).reshape(-1)
+        if not np.all(np.isfinite(dist)):  # the photo overlay would undistort into NaN
+            raise MrcheckError("camera dist contains NaN or infinite values")
         dist.flags.writeable = False
         object.__setattr__(self, "dist", dist)
         if int(self.width) != self.width or int(self.height) != self.height:
@@ -132,9 +135,11 @@ class Camera:
     @classmethod
     def from_look_at(cls, eye, target, up, fov_y_deg: float, width: int, height: int) -> "Camera":
         """A centred camera at ``eye`` looking at ``target`` with vertical field of view in DEGREES."""
-        eye, target, up = (np.asarray(a, dtype=np.float64) for a in (eye, target, up))
-        if not 0.0 < fov_y_deg < 180.0:
-            raise MrcheckError(f"fov_y_deg must be between 0 and 180 degrees, got {fov_y_deg}")
+        eye, target, up = (_vec3(a, name) for a, name in ((eye, "eye"), (target, "target"), (up, "up")))
+        # "not 0 < x" rather than "x <= 0": a manifest value may be nan or not a number at all
+        if isinstance(fov_y_deg, bool) or not isinstance(fov_y_deg, numbers.Real) or not 0.0 < fov_y_deg < 180.0:
+            raise MrcheckError(f"fov_y_deg must be between 0 and 180 degrees, got {fov_y_deg!r}")
+        width, height = _whole(width, "width"), _whole(height, "height")
         if width <= 0 or height <= 0:
             raise MrcheckError(f"image size must be positive, got {width}x{height}")
         forward = target - eye
@@ -162,15 +167,13 @@ class Camera:
             return cls(
                 width=_whole(data["width"], "width"),
                 height=_whole(data["height"], "height"),
-                K=np.asarray(data["K"], dtype=np.float64),
-                R=np.asarray(data.get("R", np.eye(3)), dtype=np.float64),
-                t=np.asarray(data.get("t", np.zeros(3)), dtype=np.float64).reshape(-1),
-                dist=np.asarray(data.get("dist") or [], dtype=np.float64),
+                K=_numbers(data["K"], "K"),
+                R=_numbers(data.get("R", np.eye(3)), "R"),
+                t=_numbers(data.get("t", np.zeros(3)), "t").reshape(-1),
+                dist=_numbers(data.get("dist") or [], "dist"),
             )
         except MrcheckError as exc:
             raise MrcheckError(str(exc), source) from None
-        except (TypeError, ValueError) as exc:
-            raise MrcheckError(f"malformed camera JSON ({exc})", source) from None
 
     @classmethod
     def load(cls, path) -> "Camera":
@@ -195,9 +198,28 @@ class Camera:
 
 
 def _whole(value, name) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or int(value) != value:
+    # numbers.Real takes numpy scalars too; isfinite first, as int(inf) raises (JSON allows Infinity)
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value) or int(value) != value:
         raise MrcheckError(f"camera {name} must be a whole number, got {value!r}")
     return int(value)
+
+
+def _numbers(value, name) -> np.ndarray:
+    """A float64 array of a JSON value, or an error naming the key (ragged lists, strings...)."""
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise MrcheckError(f"camera {name} must be an array of numbers, got {value!r}"[:200]) from None
+
+
+def _vec3(value, name) -> np.ndarray:
+    try:
+        v = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        v = None
+    if v is None or v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise MrcheckError(f"{name} must be three finite numbers, got {value!r}")
+    return v
 
 
 def gl_projection(camera: Camera, near: float, far: float) -> np.ndarray:

@@ -6,6 +6,7 @@ Exit status: 0 on success; 1 with a one-line ``error: ...`` on stderr when the i
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
@@ -19,8 +20,16 @@ _MODE_CHOICES = ["phong", "ssao", "vector", "all"]
 
 
 def _positive(ctx, param, value):
-    if value is not None and value <= 0:
+    # "not > 0" so that nan fails too (click's float type accepts "nan" and "inf")
+    if value is not None and not (value > 0 and math.isfinite(value)):
         raise click.BadParameter(f"must be positive, got {value}")
+    return value
+
+
+def _odd_kernel(ctx, param, value):
+    # checked here, not when the blur is built: that is after loading the scene, and never for phong
+    if value < 3 or value % 2 == 0:
+        raise click.BadParameter(f"must be odd and >= 3, got {value}")
     return value
 
 
@@ -43,8 +52,8 @@ def cli():
 @click.option("--samples", type=int, default=16, show_default=True, callback=_positive,
               help="AO samples per pixel (the paper uses 16, 36, 64, 128).")
 @click.option("--radius-px", type=float, callback=_positive,
-              help="vector: sampling radius on screen, pixels at the output resolution [default: 3% of the image height].")
-@click.option("--radius-fraction", type=float, default=0.03, show_default=True, callback=_positive,
+              help="vector: sampling radius on screen, pixels at the output resolution [default: 2% of the image height].")
+@click.option("--radius-fraction", type=float, default=0.02, show_default=True, callback=_positive,
               help="vector: sampling radius as a fraction of the image height (when --radius-px is not given).")
 @click.option("--radius", "radius_world", type=float, default=0.2, show_default=True, callback=_positive,
               help="ssao: constant world radius in scene units (metres for parts with declared units).")
@@ -55,7 +64,7 @@ def cli():
 @click.option("--intensity", type=float, default=1.0, show_default=True,
               help="AO strength: 0 none, 0.5 weak ... 2 strong (the study stepped four levels, weak to strong).")
 @click.option("--blur/--no-blur", default=True, show_default=True, help="Depth-aware bilateral blur of the AO buffer.")
-@click.option("--blur-size", type=int, default=9, show_default=True, help="Blur kernel size, odd (the paper uses 9 and 13).")
+@click.option("--blur-size", type=int, default=9, show_default=True, callback=_odd_kernel, help="Blur kernel size, odd (the paper uses 9 and 13).")
 @click.option("--ao-scale", type=click.Choice(["1", "0.5"]), default="1", show_default=True,
               help="AO resolution: 1 full, 0.5 half resolution with depth-aware upsampling (the paper's 'Half Res.').")
 @click.option("--ao-direct", is_flag=True, help="Let AO darken the direct light too (default: the ambient term only).")
@@ -120,6 +129,13 @@ def main(argv=None) -> int:
         cli.main(args=argv, prog_name="mrcheck", standalone_mode=False)
     except MrcheckError as exc:
         click.echo(f"error: {exc}", err=True)
+        return EXIT_ERROR
+    except click.MissingParameter as exc:  # a malformed command line: usage and exit 2, below
+        exc.show()
+        return exc.exit_code
+    except click.BadParameter as exc:
+        # a bad option value is bad input like a bad file: one line and exit 1, not the usage text
+        click.echo(f"error: {' '.join(exc.format_message().split())}", err=True)
         return EXIT_ERROR
     except click.exceptions.Abort:
         click.echo("error: aborted", err=True)

@@ -23,8 +23,8 @@ def resolve_camera(scene, view, camera_path, width, height) -> Camera:
     camera = Camera.load(camera_path)
     if width or height:
         # keep the aspect ratio when only one side is given
-        w = width or round(camera.width * height / camera.height)
-        h = height or round(camera.height * width / camera.width)
+        w = width or max(1, round(camera.width * height / camera.height))
+        h = height or max(1, round(camera.height * width / camera.width))
         camera = camera.resized(w, h)
     return camera
 
@@ -39,42 +39,59 @@ def _ao_paths(output_ao: Path, modes) -> dict:
 def render_command(scene, view, camera_path, mode, width, height, units, output, output_ao, settings: dict):
     output = check_output_path(output, IMAGE_SUFFIXES)
     modes = list(STUDY_ORDER) if mode == "all" else [mode]
+    ao_paths = {}
     if output_ao is not None:
         output_ao = check_output_path(output_ao, AO_SUFFIXES, "AO output")
         if mode == "phong":
             raise MrcheckError("--output-ao needs an AO mode (vector, ssao or all), not phong")
+        ao_paths = {m: check_output_path(p, AO_SUFFIXES, "AO output") for m, p in _ao_paths(output_ao, modes).items()}
+        for path in ao_paths.values():
+            if path.resolve() == output.resolve():  # one would overwrite the other
+                raise MrcheckError("the image and an AO output are the same file", path)
     settings = RenderSettings(**settings)
     loaded = load_scene(scene, units=units, progress=True)
     camera = resolve_camera(loaded, view, camera_path, width, height)
     settings.validated(camera.height)  # option errors before the GL context is made
 
     renderer = Renderer(loaded)
-    results = renderer.render(camera, modes, settings, want_ao=output_ao is not None)
+    try:
+        results = renderer.render(camera, modes, settings, want_ao=output_ao is not None)
+    finally:
+        renderer.release()
     if mode == "all":
         image = labelled_sheet([results[m].image for m in modes], [STUDY_LABELS[m] for m in modes])
     else:
         image = results[mode].image
     written = []
-    if output_ao is not None:
-        for m, path in _ao_paths(Path(output_ao), modes).items():
+    try:
+        for m, path in ao_paths.items():
             written.append(write_ao(path, results[m].ao))
-    written.append(write_image(output, image))
+        written.append(write_image(output, image))
+    except BaseException:
+        # all outputs or none: AO files without their image would pass for a complete result
+        for path in written:
+            path.unlink(missing_ok=True)
+        raise
     for path in written:
         print(path)
 
 
 def demo_command(outdir: Path, width=None, height=None):
-    scene = load_scene(sample_scene_path(), progress=True)
-    renderer = Renderer(scene)
     from tqdm import tqdm
 
-    for view in tqdm(sorted(scene.viewpoints), desc="rendering demo", unit="view", file=sys.stderr):
-        camera = scene.camera(view, width, height)
-        results = renderer.render(camera, MODES)
-        for m in STUDY_ORDER:
-            print(write_image(outdir / f"{view}_{m}.png", results[m].image))
-        sheet = labelled_sheet([results[m].image for m in STUDY_ORDER], [STUDY_LABELS[m] for m in STUDY_ORDER])
-        print(write_image(outdir / f"{view}_study.png", sheet))
+    scene = load_scene(sample_scene_path(), progress=True)
+    renderer = Renderer(scene)
+    try:
+        # disable=None: a bar on a terminal, nothing in a log or a pipe
+        for view in tqdm(sorted(scene.viewpoints), desc="rendering demo", unit="view", file=sys.stderr, disable=None):
+            camera = scene.camera(view, width, height)
+            results = renderer.render(camera, MODES)
+            for m in STUDY_ORDER:
+                print(write_image(outdir / f"{view}_{m}.png", results[m].image))
+            sheet = labelled_sheet([results[m].image for m in STUDY_ORDER], [STUDY_LABELS[m] for m in STUDY_ORDER])
+            print(write_image(outdir / f"{view}_study.png", sheet))
+    finally:
+        renderer.release()
 
 
 __all__ = ["render_command", "demo_command", "resolve_camera"]

@@ -24,7 +24,20 @@ def check_output_path(path, suffixes, what="output") -> Path:
         raise MrcheckError(f"{what} must end in {', '.join(suffixes)}", path)
     if path.exists() and path.is_dir():
         raise MrcheckError(f"{what} is a directory", path)
+    # missing folders are made at write time, but one that is a file would fail only after the render
+    parent = next((p for p in path.parents if p.exists()), None)
+    if parent is not None and not parent.is_dir():
+        raise MrcheckError(f"{what} folder {parent} is a file, not a folder", path)
     return path
+
+
+def _current_umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+_UMASK = _current_umask()
 
 
 def _atomic_write(path: Path, write) -> None:
@@ -37,6 +50,7 @@ def _atomic_write(path: Path, write) -> None:
     try:
         with os.fdopen(fd, "wb") as handle:
             write(handle)
+        os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp makes 0600; outputs get the usual permissions
         os.replace(tmp, path)
     except BaseException as exc:
         Path(tmp).unlink(missing_ok=True)

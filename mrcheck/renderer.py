@@ -70,6 +70,7 @@ class RenderSettings:
             (self.falloff >= 0, f"falloff must be >= 0, got {self.falloff}"),
             (self.intensity >= 0, f"intensity must be >= 0, got {self.intensity}"),
             (self.ao_scale in (0.5, 1.0), f"ao scale must be 1.0 or 0.5, got {self.ao_scale}"),
+            (self.blur_size >= 3 and self.blur_size % 2 == 1, f"blur size must be odd and >= 3, got {self.blur_size}"),
             (self.light in LIGHTS, f"light must be one of {', '.join(LIGHTS)}, got {self.light!r}"),
             (self.min_world_radius is None or self.min_world_radius >= 0, "minimum world radius must be >= 0"),
             (self.max_world_radius is None or self.max_world_radius > 0, "maximum world radius must be > 0"),
@@ -129,21 +130,29 @@ class Renderer:
     """
 
     def __init__(self, scene: Scene, ctx: moderngl.Context | None = None):
+        self._owns_ctx = ctx is None
         self.ctx = ctx or create_context()
         self.scene = scene
-        self.geometry = GeometryPass(self.ctx, scene)
-        self.composite = Composite(self.ctx)
         self._targets: _Targets | None = None
         self._ao_passes = {}
         self._blurs = {}
         self._screen_programs = {}
-        max_size = self.ctx.info["GL_MAX_TEXTURE_SIZE"]
-        self.max_size = int(max_size)
+        # moderngl issues GL calls on whatever context is current, and creating another
+        # context (a second Renderer) makes that one current: every entry point makes ours
+        # current for its duration and restores the previous one after.
+        with self.ctx:
+            self.geometry = GeometryPass(self.ctx, scene)
+            self.composite = Composite(self.ctx)
+            self.max_size = int(self.ctx.info["GL_MAX_TEXTURE_SIZE"])
 
     # -- public ----------------------------------------------------------------------------
     def render(self, camera: Camera, modes, settings: RenderSettings | None = None,
                want_ao: bool = False) -> dict[str, RenderResult]:
         """Render ``modes`` (subset of :data:`MODES`) from ``camera``; geometry drawn once."""
+        with self.ctx:
+            return self._render(camera, modes, settings, want_ao)
+
+    def _render(self, camera, modes, settings, want_ao) -> dict[str, RenderResult]:
         settings = (settings or RenderSettings()).validated(camera.height)
         unknown = [m for m in modes if m not in MODES]
         if unknown:
@@ -182,13 +191,17 @@ class Renderer:
         """(H, W) float32 linear depth of the last frame (scene units, 0 = background)."""
         if self._targets is None:
             raise MrcheckError("nothing rendered yet")
-        return self._targets.gbuffer.read_depth().copy()
+        with self.ctx:
+            return self._targets.gbuffer.read_depth().copy()
 
     def release(self) -> None:
-        for p in self._ao_passes.values():
-            p.release()
-        self.geometry.release()
-        self.ctx.release()
+        """Free the GPU resources; the context too when this renderer created it."""
+        with self.ctx:
+            for p in self._ao_passes.values():
+                p.release()
+            self.geometry.release()
+        if self._owns_ctx:
+            self.ctx.release()
 
     # -- Rendering passes ------------------------------------------------------------------
     def _ao_pass(self, mode: str, camera: Camera, settings: RenderSettings, targets: _Targets) -> None:

@@ -53,7 +53,11 @@ UNITS = {"mm": 0.001, "cm": 0.01, "m": 1.0, "in": 0.0254, "ft": 0.3048}  # metre
 MESH_SUFFIXES = (".glb", ".gltf", ".obj", ".stl", ".ply", ".off", ".urdf")
 DEFAULT_COLOR = (0.7, 0.7, 0.7)  # linear RGB of parts without a colour
 
+DEGENERATE_WARNING_SHARE = 0.001  # warn when more than 0.1 % of a mesh's triangles have zero area
+
+_TOP_KEYS = {"format", "name", "description", "parts", "viewpoints"}
 _PART_KEYS = {"name", "mesh", "units", "color", "translate", "rotate_deg", "scale", "matrix", "instances", "joints"}
+_INSTANCE_KEYS = {"translate", "rotate_deg", "scale", "matrix"}
 _VIEW_KEYS = {"name", "eye", "target", "up", "fov_y_deg", "width", "height"}
 
 
@@ -123,7 +127,7 @@ class Scene:
         height = height or vp.get("height", 768)
         try:
             return Camera.from_look_at(vp["eye"], vp["target"], vp.get("up", (0, 0, 1)), vp.get("fov_y_deg", 60.0), width, height)
-        except MrcheckError as exc:
+        except (MrcheckError, TypeError, ValueError) as exc:  # TOML gives any type: width = "wide"
             raise MrcheckError(f"viewpoint {view!r}: {exc}", self.source) from None
 
 
@@ -147,6 +151,12 @@ def transform_from_table(table: dict, where: str) -> np.ndarray:
             M = np.array(table["matrix"], dtype=np.float64)
             if M.shape != (4, 4):
                 raise MrcheckError(f"{where}: matrix must be 4x4")
+            A = M[:3, :3]
+            if np.all(np.isfinite(M)) and not np.allclose(M[3], (0, 0, 0, 1)):
+                raise MrcheckError(f"{where}: matrix bottom row must be [0, 0, 0, 1] (an affine transform)")
+            # a singular matrix flattens the part, and its normals (inverse transpose) would be NaN
+            if np.all(np.isfinite(M)) and not abs(np.linalg.det(A)) > 1e-12 * np.linalg.norm(A) ** 3:
+                raise MrcheckError(f"{where}: matrix is singular")
         else:
             scale = float(table.get("scale", 1.0))
             if not scale > 0:
@@ -173,7 +183,7 @@ def _vector(value, where: str) -> np.ndarray:
 def unit_scale(units, where) -> float:
     if units is None:
         return 1.0
-    if units not in UNITS:
+    if not isinstance(units, str) or units not in UNITS:  # a TOML list is not hashable
         raise MrcheckError(f"unknown units {units!r} (use one of {', '.join(UNITS)})", where)
     return UNITS[units]
 
@@ -189,6 +199,10 @@ def read_mesh(path: Path, joints: dict | None = None):
     path = Path(path)
     if not path.exists():
         raise MrcheckError("mesh file not found", path)
+    if path.is_dir():
+        raise MrcheckError("mesh path is a folder, not a file", path)
+    if path.stat().st_size == 0:  # the readers' own errors for this are cryptic (index out of bounds)
+        raise MrcheckError("mesh file is empty", path)
     suffix = path.suffix.lower()
     if suffix not in MESH_SUFFIXES:
         raise MrcheckError(f"unsupported mesh format {suffix or '(none)'} (use {', '.join(MESH_SUFFIXES)})", path)
@@ -244,7 +258,10 @@ def validate_mesh(vertices, faces, path):
     if not good.any():
         raise MrcheckError(f"mesh has only degenerate (zero-area) triangles ({len(faces)} of them)", path)
     if not good.all():
-        print(f"warning: {path}: dropped {int((~good).sum())} degenerate triangles of {len(faces)}", file=sys.stderr)
+        # a handful is normal in CAD and scan meshes (the KUKA model has one); more says the
+        # export or its unit is broken, which the user should hear about
+        if (~good).mean() > DEGENERATE_WARNING_SHARE:
+            print(f"warning: {path}: dropped {int((~good).sum())} degenerate triangles of {len(faces)}", file=sys.stderr)
         faces = faces[good]
     return vertices, faces
 
@@ -297,6 +314,9 @@ def _load_manifest(path: Path, progress: bool) -> Scene:
         raise MrcheckError(f"malformed manifest: {exc}", path) from None
     except (OSError, UnicodeDecodeError) as exc:
         raise MrcheckError(f"cannot read manifest ({exc})", path) from None
+    unknown = sorted(set(data) - _TOP_KEYS)
+    if unknown:  # e.g. [[viewpoint]] for [[viewpoints]]: silently ignoring it would lose the views
+        raise MrcheckError(f"unknown manifest key(s) {', '.join(unknown)} (known: {', '.join(sorted(_TOP_KEYS))})", path)
     if data.get("format", 1) != 1:
         raise MrcheckError(f"unsupported manifest format {data.get('format')!r} (this mrcheck reads format 1)", path)
     tables = data.get("parts", [])
@@ -305,54 +325,77 @@ def _load_manifest(path: Path, progress: bool) -> Scene:
     if not tables:
         raise MrcheckError("scene is empty (no [[parts]])", path)
 
+    viewpoints = {}
+    views = data.get("viewpoints", [])
+    if not isinstance(views, list) or not all(isinstance(t, dict) for t in views):
+        raise MrcheckError("manifest 'viewpoints' must be an array of tables ([[viewpoints]])", path)
+    for table in views:
+        name = table.get("name")
+        unknown = sorted(set(table) - _VIEW_KEYS)
+        if not isinstance(name, str) or not name or unknown or "eye" not in table or "target" not in table:
+            raise MrcheckError(f"viewpoint {name!r} needs name, eye and target (unknown keys: {unknown or 'none'})", path)
+        if name in viewpoints:
+            raise MrcheckError(f"two viewpoints are named {name!r}", path)
+        viewpoints[name] = table
+
     from tqdm import tqdm
 
     parts, names = [], set()
-    for index, table in enumerate(tqdm(tables, desc="loading scene", unit="part", disable=not progress, leave=False)):
-        where = f"part {table.get('name', index)!r}"
-        unknown = sorted(set(table) - _PART_KEYS)
-        if unknown:
-            raise MrcheckError(f"{where}: unknown key(s) {', '.join(unknown)}", path)
-        name = table.get("name", f"part{index}")
-        if name in names:
-            raise MrcheckError(f"two parts are named {name!r}", path)
-        names.add(name)
-        if not isinstance(table.get("mesh"), str):
-            raise MrcheckError(f"{where}: needs a mesh = \"file\" entry", path)
-        try:
-            unit_scale(table.get("units"), None)
-        except MrcheckError as exc:
-            raise MrcheckError(f"{where}: {exc}", path) from None
-        base = transform_from_table(table, where)
-        instances = table.get("instances") or [{}]
-        if not isinstance(instances, list) or not all(isinstance(t, dict) for t in instances):
-            raise MrcheckError(f"{where}: instances must be an array of tables", path)
-        try:
-            transforms = [transform_from_table(t, f"{where} instance {i}") @ base for i, t in enumerate(instances)]
-        except MrcheckError as exc:
-            raise MrcheckError(str(exc), path) from None
-        color = table.get("color")
-        if color is not None:
-            color = np.asarray(color, dtype=np.float64)
-            if color.shape != (3,) or not np.all((color >= 0) & (color <= 1)):
-                raise MrcheckError(f"{where}: color must be three numbers in 0..1", path)
-        joints = table.get("joints")
-        if joints is not None and not isinstance(joints, dict):
-            raise MrcheckError(f"{where}: joints must be a table of name = value", path)
-        vertices, faces = read_mesh(path.parent / table["mesh"], joints)
-        parts.append(make_part(name, path.parent / table["mesh"], vertices, faces, transforms, color, table.get("units")))
+    # a with block closes (and, leave=False, erases) the bar on an error too, so the error line
+    # starts a clean line; disable=None: no bar when stderr is not a terminal (pipes, logs, tests)
+    with tqdm(tables, desc="loading scene", unit="part", disable=None if progress else True, leave=False) as bar:
+        for index, table in enumerate(bar):
+            parts.append(_part_from_table(path, index, table, names))
 
-    viewpoints = {}
-    for table in data.get("viewpoints", []):
-        name = table.get("name")
-        unknown = sorted(set(table) - _VIEW_KEYS)
-        if not name or unknown or "eye" not in table or "target" not in table:
-            raise MrcheckError(f"viewpoint {name!r} needs name, eye and target (unknown keys: {unknown or 'none'})", path)
-        viewpoints[name] = table
     scene = Scene(name=data.get("name", path.stem), source=path, parts=parts, viewpoints=viewpoints)
     for view in viewpoints:
         scene.camera(view)  # validate every viewpoint once, at load time
     return scene
+
+
+def _part_from_table(path: Path, index: int, table: dict, names: set) -> Part:
+    """The part of one [[parts]] table of the manifest ``path``; ``names`` collects part names."""
+    where = f"part {table.get('name', index)!r}"
+    unknown = sorted(set(table) - _PART_KEYS)
+    if unknown:
+        raise MrcheckError(f"{where}: unknown key(s) {', '.join(unknown)}", path)
+    name = table.get("name", f"part{index}")
+    if not isinstance(name, str):
+        raise MrcheckError(f"{where}: name must be a string", path)
+    if name in names:
+        raise MrcheckError(f"two parts are named {name!r}", path)
+    names.add(name)
+    if not isinstance(table.get("mesh"), str):
+        raise MrcheckError(f"{where}: needs a mesh = \"file\" entry", path)
+    try:
+        unit_scale(table.get("units"), None)
+    except MrcheckError as exc:
+        raise MrcheckError(f"{where}: {exc}", path) from None
+    instances = table.get("instances") or [{}]
+    if not isinstance(instances, list) or not all(isinstance(t, dict) for t in instances):
+        raise MrcheckError(f"{where}: instances must be an array of tables", path)
+    for i, t in enumerate(instances):
+        unknown = sorted(set(t) - _INSTANCE_KEYS)
+        if unknown:
+            raise MrcheckError(f"{where} instance {i}: unknown key(s) {', '.join(unknown)}", path)
+    try:
+        base = transform_from_table(table, where)
+        transforms = [transform_from_table(t, f"{where} instance {i}") @ base for i, t in enumerate(instances)]
+    except MrcheckError as exc:
+        raise MrcheckError(str(exc), path) from None
+    color = table.get("color")
+    if color is not None:
+        try:
+            color = np.asarray(color, dtype=np.float64)
+        except (TypeError, ValueError):
+            color = None  # reported just below, like a colour out of range
+        if color is None or color.shape != (3,) or not np.all((color >= 0) & (color <= 1)):
+            raise MrcheckError(f"{where}: color must be three numbers in 0..1, got {table['color']!r}", path)
+    joints = table.get("joints")
+    if joints is not None and not isinstance(joints, dict):
+        raise MrcheckError(f"{where}: joints must be a table of name = value", path)
+    vertices, faces = read_mesh(path.parent / table["mesh"], joints)
+    return make_part(name, path.parent / table["mesh"], vertices, faces, transforms, color, table.get("units"))
 
 
 __all__ = ["Part", "Scene", "UNITS", "load_scene", "read_mesh", "make_part", "transform_from_table"]

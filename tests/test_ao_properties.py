@@ -75,7 +75,7 @@ def _band_width_px(ao, depth, wall_depth):
     return float((distance * darkening).sum() / max(darkening.sum(), 1e-9)), float(darkening.sum())
 
 
-@pytest.mark.parametrize("mode", ["vector", "ssao"])
+@pytest.mark.parametrize("mode", ["vector", "ssao", "vector clamped"])
 def test_projected_sampling_radius_is_constant_with_depth(ctx, mode):
     # A wall facing the camera with a block standing 0.1 m out of it at 2 m, and the same scaled
     # to stand at 200 m: both views show the same picture, so only the sampling radius decides
@@ -86,7 +86,9 @@ def test_projected_sampling_radius_is_constant_with_depth(ctx, mode):
         s = distance / 2.0
         scene = scene_of(box((20 * s, 0.1 * s, 20 * s), (0, distance + 0.05 * s, 0)),
                          box((0.6 * s, 0.1 * s, 0.6 * s), (0, distance - 0.05 * s, 0)))
-        ao = render_ao(ctx, scene, camera, mode, samples=64, radius_px=12, radius_world=0.12)
+        # NOTES.md 6: the optional world clamp turns the vector radius back into a world one
+        clamp = {"max_world_radius": 0.12} if mode == "vector clamped" else {}
+        ao = render_ao(ctx, scene, camera, mode.split()[0], samples=64, radius_px=12, radius_world=0.12, **clamp)
         widths[distance], totals[distance] = _band_width_px(ao, render_depth(ctx, scene, camera), distance)
     assert widths[2.0] > 2.0 and totals[2.0] > 10.0  # there is a band to measure at 2 m
     if mode == "vector":

@@ -111,3 +111,31 @@ def test_wheel_carries_shaders_and_sample_scene_and_renders_installed(tmp_path):
                          capture_output=True, text=True)
     assert run.returncode == 0, run.stderr
     assert (tmp_path / "demo" / "robot_study.png").exists()
+
+
+def test_two_renderers_interleaved_give_the_same_images(ctx):
+    # moderngl draws on whatever context is current; creating a second context makes that one
+    # current. Each Renderer must make its own current, or the first one draws into the second.
+    from mrcheck.renderer import Renderer, RenderSettings
+    from mrcheck.scene import load_scene
+
+    scene = load_scene(SCENE)
+    first = Renderer(scene, ctx=ctx)
+    camera = scene.camera("robot", 96, 72)
+    alone = first.render(camera, ["vector"], RenderSettings(), want_ao=True)["vector"]
+    second = Renderer(scene)  # its own, new context
+    other = second.render(scene.camera("overview", 64, 48), ["ssao"])
+    again = first.render(camera, ["vector"], RenderSettings(), want_ao=True)["vector"]
+    second.release()
+    assert np.array_equal(again.ao, alone.ao) and np.array_equal(again.image, alone.image)
+    assert other["ssao"].image.shape == (48, 64, 3)
+
+
+def test_outputs_get_the_usual_file_permissions(tmp_path):
+    import os
+
+    out = tmp_path / "p.png"
+    assert main(["render", SCENE, "--view", "robot", "--mode", "phong", *SMALL, "-o", str(out)]) == 0
+    mask = os.umask(0)
+    os.umask(mask)
+    assert (out.stat().st_mode & 0o777) == (0o666 & ~mask)

@@ -105,3 +105,33 @@ def test_translation_by_a_million_metres_changes_nothing(ctx, meshes, how):
     for mode in ("phong", "vector", "ssao"):
         diff = np.abs(moved[mode].image.astype(float) - here[mode].image.astype(float)) / 255.0
         assert diff.mean() < 0.005, mode
+
+
+def _terrain(n: int):
+    """(vertices, faces) of an n x n grid of bumps, 2 n^2 triangles over 40 x 40 m, in metres."""
+    x, y = np.meshgrid(np.linspace(-20, 20, n + 1), np.linspace(0, 40, n + 1))
+    z = 0.3 * np.sin(x * 1.3) * np.cos(y * 0.9) + 0.2 * np.sin(x * 7.0 + y * 5.0)
+    vertices = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+    i = np.arange(n)[None, :] + (n + 1) * np.arange(n)[:, None]
+    quads = np.stack([i, i + 1, i + n + 2, i + n + 1], axis=-1).reshape(-1, 4)
+    faces = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+    return vertices, faces
+
+
+def test_ten_million_triangles_far_from_the_origin_render_like_at_the_origin(ctx):
+    from mrcheck.scene import Scene, make_part
+
+    vertices, faces = _terrain(2237)  # 10.0 M triangles
+    assert len(faces) >= 10_000_000
+    offset = np.array([1e6, -2e6, 300.0])
+    results = {}
+    for name, shift in (("here", np.zeros(3)), ("far", offset)):
+        # the far copy's coordinates themselves are at 1e6 m (float64), as a site CAD export would be
+        part = make_part("terrain", "terrain", vertices + shift, faces, np.eye(4), units="m")
+        renderer = Renderer(Scene(name, name, [part]), ctx=ctx)
+        results[name] = renderer.render(_camera(offset=shift), ["vector"], SETTINGS, want_ao=True)["vector"]
+        assert renderer.geometry.last_stats["triangles_drawn"] == len(faces)
+        renderer.geometry.release()
+    assert (results["here"].ao < 0.95).mean() > 0.01
+    assert np.abs(results["far"].ao - results["here"].ao).mean() < 0.005
+    assert np.abs(results["far"].image.astype(float) - results["here"].image.astype(float)).mean() / 255 < 0.005
