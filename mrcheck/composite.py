@@ -26,28 +26,42 @@ def light_direction(camera: Camera, light: str) -> np.ndarray:
 
 
 class Composite:
+    """Two program variants: AO at full resolution, or at half resolution upsampled in place
+    (``shaders/ao_upsample_common.glsl``), which saves a whole full-resolution pass."""
+
     def __init__(self, ctx: moderngl.Context):
         self.ctx = ctx
-        self.program = load_program(ctx, "composite")
-        for unit, name in enumerate(("u_depth", "u_normal", "u_albedo", "u_ao")):
-            self.program[name].value = unit
-        self.program["u_background"].value = BACKGROUND
-        self.vao = ctx.vertex_array(self.program, [])
+        self.variants = {}
+        for half in (False, True):
+            program = load_program(ctx, "composite", {"AO_HALF": half})
+            names = ("u_depth", "u_normal", "u_albedo", "u_ao_half" if half else "u_ao", "u_depth_half")
+            for unit, name in enumerate(names[: 5 if half else 4]):
+                program[name].value = unit
+            program["u_background"].value = BACKGROUND
+            self.variants[half] = (program, ctx.vertex_array(program, []))
 
     def run(self, target: moderngl.Framebuffer, gbuffer, ao: moderngl.Texture, camera: Camera,
-            use_ao: bool, light: str = "headlight", ao_direct: bool = False) -> None:
-        p = self.program
+            use_ao: bool, light: str = "headlight", ao_direct: bool = False,
+            ao_depth_half: moderngl.Texture | None = None) -> None:
+        """Shade into ``target``. With ``ao_depth_half`` given, ``ao`` is half resolution."""
+        half = ao_depth_half is not None
+        p, vao = self.variants[half]
         p["u_intrinsics"].value = (camera.fx, camera.fy, camera.cx, camera.cy)
         p["u_light_dir"].value = tuple(light_direction(camera, light))
         p["u_ao_weight"].value = 1.0 if use_ao else 0.0
         p["u_ao_direct"].value = 1.0 if ao_direct else 0.0
-        for unit, texture in enumerate((gbuffer.depth, gbuffer.normal, gbuffer.albedo, ao)):
+        textures = [gbuffer.depth, gbuffer.normal, gbuffer.albedo, ao]
+        if half:
+            p["u_size_half"].value = ao_depth_half.size
+            textures.append(ao_depth_half)
+        for unit, texture in enumerate(textures):
             texture.use(unit)
         target.use()
-        self.vao.render(moderngl.TRIANGLES, vertices=3)
+        vao.render(moderngl.TRIANGLES, vertices=3)
 
     def release(self) -> None:
-        self.vao.release()
+        for _, vao in self.variants.values():
+            vao.release()
 
 
 __all__ = ["Composite", "LIGHTS", "light_direction"]

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import ctypes
 import re
+from contextlib import contextmanager
 from functools import lru_cache
 from pathlib import Path
 
@@ -25,7 +26,7 @@ from .resources import shader_dir
 
 GL_VERSION = 450  # OpenGL 4.5 core: glClipControl, texelFetch, float depth buffers
 
-_INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$', re.MULTILINE)
+_INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"[^\n]*$', re.MULTILINE)
 
 # GL enums used through ctypes (moderngl does not wrap them)
 _GL_TEXTURE_2D = 0x0DE1
@@ -34,6 +35,34 @@ _GL_DEPTH_COMPONENT = 0x1902
 _GL_FLOAT = 0x1406
 _GL_LOWER_LEFT = 0x8CA1
 _GL_ZERO_TO_ONE = 0x935F
+
+
+@contextmanager
+def made_current(ctx: moderngl.Context):
+    """Make ``ctx`` the current GL context for the block, re-entrantly.
+
+    moderngl issues GL calls on whatever context is current, and creating another context
+    makes that one current. ``with ctx:`` fixes that, but glcontext's exit *releases* the
+    context instead of restoring the outer one, so a nested ``with ctx:`` would leave the outer
+    block with no context. This counts the nesting and enters/exits only at the outermost level.
+    """
+    state = _extra(ctx)
+    if state.get("current_depth", 0) == 0:
+        ctx.__enter__()
+    state["current_depth"] = state.get("current_depth", 0) + 1
+    try:
+        yield ctx
+    finally:
+        state["current_depth"] -= 1
+        if state["current_depth"] == 0:
+            ctx.__exit__(None, None, None)
+
+
+def _extra(ctx: moderngl.Context) -> dict:
+    """mrcheck's per-context state (program cache, nesting depth) in ``ctx.extra``."""
+    if not isinstance(ctx.extra, dict):
+        ctx.extra = {}
+    return ctx.extra
 
 
 def create_context() -> moderngl.Context:
@@ -124,9 +153,7 @@ def load_program(ctx: moderngl.Context, name: str, defines: dict | None = None) 
     """Compile ``shaders/<name>.glsl`` with ``defines``; cached per (context, name, defines)."""
     defines = dict(defines or {})
     key = (name, tuple(sorted(defines.items())))
-    if not isinstance(ctx.extra, dict):
-        ctx.extra = {}
-    cache = ctx.extra.setdefault("mrcheck_programs", {})
+    cache = _extra(ctx).setdefault("programs", {})
     if key in cache:
         return cache[key]
     body = _read_shader(f"{name}.glsl")
@@ -146,4 +173,4 @@ def shader_path(name: str) -> Path:
     return shader_dir() / f"{name}.glsl"
 
 
-__all__ = ["create_context", "float_depth_texture", "load_program", "shader_path", "GL_VERSION"]
+__all__ = ["create_context", "made_current", "float_depth_texture", "load_program", "shader_path", "GL_VERSION"]

@@ -20,7 +20,7 @@ from .camera import Camera
 from .composite import LIGHTS, Composite
 from .errors import MrcheckError
 from .gbuffer import GBuffer, GeometryPass, check_camera_outside
-from .gl import create_context, load_program
+from .gl import create_context, load_program, made_current
 from .scene import Scene
 
 MODES = ("phong", "vector", "ssao")            # D1, D2, D3 of the paper's study
@@ -92,6 +92,25 @@ class RenderResult:
     timings_ms: dict = field(default_factory=dict)
 
 
+@dataclass
+class _AOBuffers:
+    buffers: list          # [(texture, fbo)] x 3: raw, scratch, blurred
+    depth: moderngl.Texture  # depth at the AO's resolution (for the blur)
+    half_depth: moderngl.Texture | None  # set when the AO is half resolution
+
+    @property
+    def raw(self):
+        return self.buffers[0]
+
+    @property
+    def scratch(self):
+        return self.buffers[1]
+
+    @property
+    def blurred(self):
+        return self.buffers[2]
+
+
 class _Targets:
     """Render targets of one output size, reused frame to frame."""
 
@@ -109,6 +128,7 @@ class _Targets:
     def _r32f(ctx, size):
         texture = ctx.texture(size, 1, dtype="f4")
         texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        texture.repeat_x = texture.repeat_y = False  # gathers at the border clamp, not wrap
         return texture, ctx.framebuffer([texture])
 
     def half_targets(self, ctx):
@@ -117,9 +137,17 @@ class _Targets:
             normal = ctx.texture(self.half_size, 4, dtype="f2")
             for t in (depth, normal):
                 t.filter = (moderngl.NEAREST, moderngl.NEAREST)
+                t.repeat_x = t.repeat_y = False
             self.half = {"depth": depth, "normal": normal, "gbuffer_fbo": ctx.framebuffer([depth, normal]),
-                         "ao": self._r32f(ctx, self.half_size)}
+                         "ao": [self._r32f(ctx, self.half_size) for _ in range(3)]}  # raw, scratch, blurred
         return self.half
+
+    def ao_buffers(self, ctx, scale: float) -> "_AOBuffers":
+        """The AO buffers (raw, scratch, blurred) and depth of the AO resolution."""
+        if scale == 1.0:
+            return _AOBuffers(self.ao, self.gbuffer.depth, None)
+        half = self.half_targets(ctx)
+        return _AOBuffers(half["ao"], half["depth"], half["depth"])
 
 
 class Renderer:
@@ -137,10 +165,8 @@ class Renderer:
         self._ao_passes = {}
         self._blurs = {}
         self._screen_programs = {}
-        # moderngl issues GL calls on whatever context is current, and creating another
-        # context (a second Renderer) makes that one current: every entry point makes ours
-        # current for its duration and restores the previous one after.
-        with self.ctx:
+        # every public entry point makes this renderer's context current (see made_current)
+        with made_current(self.ctx):
             self.geometry = GeometryPass(self.ctx, scene)
             self.composite = Composite(self.ctx)
             self.max_size = int(self.ctx.info["GL_MAX_TEXTURE_SIZE"])
@@ -149,7 +175,7 @@ class Renderer:
     def render(self, camera: Camera, modes, settings: RenderSettings | None = None,
                want_ao: bool = False) -> dict[str, RenderResult]:
         """Render ``modes`` (subset of :data:`MODES`) from ``camera``; geometry drawn once."""
-        with self.ctx:
+        with made_current(self.ctx):
             return self._render(camera, modes, settings, want_ao)
 
     def _render(self, camera, modes, settings, want_ao) -> dict[str, RenderResult]:
@@ -167,36 +193,35 @@ class Renderer:
         results = {}
         for mode in modes:
             timings = {"geometry": t_geometry}
-            ao_texture = targets.ao[0][0]
+            ao = _AOBuffers(targets.ao, targets.gbuffer.depth, None)  # phong: never read
             if mode != "phong":
                 timings["ao"] = self._timed(lambda: self._ao_pass(mode, camera, settings, targets))
-                ao_texture = targets.ao[0][0]
+                ao = targets.ao_buffers(self.ctx, settings.ao_scale)
                 if settings.blur:
                     blur = self._blur(settings.blur_size)
-                    timings["blur"] = self._timed(
-                        lambda: blur.run(targets.ao[0][0], targets.ao[1][1], targets.ao[2][1], targets.gbuffer.depth))
-                    ao_texture = targets.ao[2][0]
+                    timings["blur"] = self._timed(lambda: blur.run(ao.raw[0], ao.scratch[1], ao.blurred[1], ao.depth))
+            ao_texture = ao.blurred[0] if settings.blur and mode != "phong" else ao.raw[0]
             timings["composite"] = self._timed(lambda: self.composite.run(
                 targets.color_fbo, targets.gbuffer, ao_texture, camera, use_ao=mode != "phong",
-                light=settings.light, ao_direct=settings.ao_direct))
+                light=settings.light, ao_direct=settings.ao_direct, ao_depth_half=ao.half_depth))
             image = self._read_rgb(targets)
-            ao = None
+            ao_array = None
             if want_ao:
-                ao = np.ones((camera.height, camera.width), np.float32) if mode == "phong" else \
-                    np.frombuffer(ao_texture.read(), np.float32).reshape(camera.height, camera.width).copy()
-            results[mode] = RenderResult(mode, image, ao, timings)
+                ao_array = np.ones((camera.height, camera.width), np.float32) if mode == "phong" else \
+                    self._read_ao_full(ao_texture, ao, targets)
+            results[mode] = RenderResult(mode, image, ao_array, timings)
         return results
 
     def last_depth(self) -> np.ndarray:
         """(H, W) float32 linear depth of the last frame (scene units, 0 = background)."""
         if self._targets is None:
             raise MrcheckError("nothing rendered yet")
-        with self.ctx:
+        with made_current(self.ctx):
             return self._targets.gbuffer.read_depth().copy()
 
     def release(self) -> None:
         """Free the GPU resources; the context too when this renderer created it."""
-        with self.ctx:
+        with made_current(self.ctx):
             for p in self._ao_passes.values():
                 p.release()
             self.geometry.release()
@@ -205,6 +230,8 @@ class Renderer:
 
     # -- Rendering passes ------------------------------------------------------------------
     def _ao_pass(self, mode: str, camera: Camera, settings: RenderSettings, targets: _Targets) -> None:
+        """AO into ``targets.ao_buffers(scale).raw``: full resolution, or half resolution from a
+        half-resolution G-buffer (the paper's 'Half Res.'; upsampled later, in the composite)."""
         ao = self._ao(mode, settings)
         gb = targets.gbuffer
         intrinsics = (camera.fx, camera.fy, camera.cx, camera.cy)
@@ -215,10 +242,18 @@ class Renderer:
         # half-res pixel (i, j) is full-res pixel (2i, 2j): K halves exactly (ao_downsample.glsl)
         self._screen_pass("ao_downsample", half["gbuffer_fbo"], {"u_depth_full": gb.depth, "u_normal_full": gb.normal})
         half_intrinsics = tuple(v / 2.0 for v in intrinsics)
-        ao.run(half["ao"][1], half["depth"], half["normal"], half_intrinsics, settings, scale=0.5)
-        self._screen_pass("ao_upsample", targets.ao[0][1],
-                          {"u_ao_half": half["ao"][0], "u_depth_half": half["depth"], "u_depth_full": gb.depth},
-                          u_size_half=targets.half_size)
+        ao.run(half["ao"][0][1], half["depth"], half["normal"], half_intrinsics, settings, scale=0.5)
+
+    def _read_ao_full(self, ao_texture, ao: "_AOBuffers", targets: _Targets) -> np.ndarray:
+        """(H, W) float32 AO at the output resolution; half-resolution AO is upsampled first."""
+        if ao.half_depth is not None:
+            self._screen_pass("ao_upsample", targets.ao[1][1],
+                              {"u_ao_half": ao_texture, "u_depth_half": ao.half_depth,
+                               "u_depth_full": targets.gbuffer.depth},
+                              u_size_half=ao.half_depth.size)
+            ao_texture = targets.ao[1][0]
+        w, h = targets.size
+        return np.frombuffer(ao_texture.read(), np.float32).reshape(h, w).copy()
 
     def _screen_pass(self, name: str, target, textures: dict, **uniforms) -> None:
         program, vao = self._screen_programs.get(name) or self._make_screen_program(name)

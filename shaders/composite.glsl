@@ -3,7 +3,10 @@
 uniform sampler2D u_depth;
 uniform sampler2D u_normal;
 uniform sampler2D u_albedo;
-uniform sampler2D u_ao;
+uniform sampler2D u_ao;        // AO at full resolution (AO_HALF 0) ...
+#if AO_HALF
+#include "ao_upsample_common.glsl"  // ... or at half resolution, upsampled here (AO_HALF 1)
+#endif
 uniform vec4 u_intrinsics;     // fx, fy, cx, cy
 uniform vec3 u_light_dir;      // camera space, unit, towards the light
 uniform vec3 u_background;     // linear RGB
@@ -30,7 +33,11 @@ void main() {
     vec3 P = vec3((vec2(ij) - u_intrinsics.zw) / u_intrinsics.xy * z, z);
     vec3 n = texelFetch(u_normal, ij, 0).xyz;
     vec3 albedo = texelFetch(u_albedo, ij, 0).rgb;
+#if AO_HALF
+    float a = mix(1.0, upsampled_ao(ij, z), u_ao_weight);
+#else
     float a = mix(1.0, texelFetch(u_ao, ij, 0).r, u_ao_weight);
+#endif
 
     vec3 V = normalize(-P);
     vec3 H = normalize(u_light_dir + V);
