@@ -133,13 +133,10 @@ class _Targets:
 
     def half_targets(self, ctx):
         if self.half is None:
-            depth = ctx.texture(self.half_size, 1, dtype="f4")
-            normal = ctx.texture(self.half_size, 4, dtype="f2")
-            for t in (depth, normal):
-                t.filter = (moderngl.NEAREST, moderngl.NEAREST)
-                t.repeat_x = t.repeat_y = False
-            self.half = {"depth": depth, "normal": normal, "gbuffer_fbo": ctx.framebuffer([depth, normal]),
-                         "ao": [self._r32f(ctx, self.half_size) for _ in range(3)]}  # raw, scratch, blurred
+            ao = [self._r32f(ctx, self.half_size) for _ in range(3)]  # raw, scratch, blurred
+            depth, _ = self._r32f(ctx, self.half_size)
+            # the half-resolution AO pass writes its AO and a copy of the depth it read
+            self.half = {"depth": depth, "ao": ao, "ao_and_depth_fbo": ctx.framebuffer([ao[0][0], depth])}
         return self.half
 
     def ao_buffers(self, ctx, scale: float) -> "_AOBuffers":
@@ -232,17 +229,16 @@ class Renderer:
     def _ao_pass(self, mode: str, camera: Camera, settings: RenderSettings, targets: _Targets) -> None:
         """AO into ``targets.ao_buffers(scale).raw``: full resolution, or half resolution from a
         half-resolution G-buffer (the paper's 'Half Res.'; upsampled later, in the composite)."""
-        ao = self._ao(mode, settings)
+        ao = self._ao(mode, settings, stride=1 if settings.ao_scale == 1.0 else 2)
         gb = targets.gbuffer
         intrinsics = (camera.fx, camera.fy, camera.cx, camera.cy)
         if settings.ao_scale == 1.0:
             ao.run(targets.ao[0][1], gb.depth, gb.normal, intrinsics, settings)
             return
         half = targets.half_targets(self.ctx)
-        # half-res pixel (i, j) is full-res pixel (2i, 2j): K halves exactly (ao_downsample.glsl)
-        self._screen_pass("ao_downsample", half["gbuffer_fbo"], {"u_depth_full": gb.depth, "u_normal_full": gb.normal})
+        # half-res pixel (i, j) is full-res pixel (2i, 2j): K halves exactly (ao_common.glsl)
         half_intrinsics = tuple(v / 2.0 for v in intrinsics)
-        ao.run(half["ao"][0][1], half["depth"], half["normal"], half_intrinsics, settings, scale=0.5)
+        ao.run(half["ao_and_depth_fbo"], gb.depth, gb.normal, half_intrinsics, settings, scale=0.5)
 
     def _read_ao_full(self, ao_texture, ao: "_AOBuffers", targets: _Targets) -> np.ndarray:
         """(H, W) float32 AO at the output resolution; half-resolution AO is upsampled first."""
@@ -276,10 +272,10 @@ class Renderer:
             self._targets = _Targets(self.ctx, size)
         return self._targets
 
-    def _ao(self, mode: str, settings: RenderSettings):
-        key = (mode, settings.samples, settings.seed)
+    def _ao(self, mode: str, settings: RenderSettings, stride: int = 1):
+        key = (mode, settings.samples, settings.seed, stride)
         if key not in self._ao_passes:
-            self._ao_passes[key] = AO_METHODS[mode](self.ctx, settings.samples, settings.seed)
+            self._ao_passes[key] = AO_METHODS[mode](self.ctx, settings.samples, settings.seed, stride)
         return self._ao_passes[key]
 
     def _blur(self, size: int) -> BilateralBlur:

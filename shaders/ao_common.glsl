@@ -1,29 +1,52 @@
 // Shared by the AO passes: G-buffer access, the sample kernel and the 4x4 rotation tile.
-// Defines injected from Python (mrcheck/ao/kernel.py): AO_SAMPLES, NOISE_SIZE.
+// Defines injected from Python (mrcheck/ao/kernel.py): AO_SAMPLES, NOISE_SIZE, AO_STRIDE.
+//
+// AO_STRIDE 2 is half-resolution AO (the paper's "Half Res."): pass pixel (i, j) reads the
+// full-resolution G-buffer at (2i, 2j) and uses intrinsics fx/2, fy/2, cx/2, cy/2, so every
+// unprojected point is exactly that full-res pixel's surface point (a flat plane stays flat).
+// No downsampling pass: the half-resolution depth that the blur and the upsampling need is
+// written alongside the AO, as a second output.
 
 uniform sampler2D u_depth;      // R32F linear camera-space z, 0 = background
 uniform sampler2D u_normal;     // RGBA16F camera-space unit normal
 uniform sampler2D u_noise;      // NOISE_SIZE^2 random unit vectors (reflection planes)
 uniform vec4 u_intrinsics;      // fx, fy, cx, cy in pixels at this pass's resolution
-uniform ivec2 u_size;           // this pass's resolution, pixels
+uniform ivec2 u_size;           // this pass's resolution, pixels (the G-buffer's / AO_STRIDE)
 uniform vec3 u_kernel[AO_SAMPLES];  // offsets inside the unit sphere, denser near the centre
 uniform float u_intensity;      // AO strength: 0 none, 1 the paper's average, > 1 stronger
 
-out float ao;                   // 1 = unoccluded
+layout(location = 0) out float ao;         // 1 = unoccluded
+#if AO_STRIDE > 1
+layout(location = 1) out float ao_depth;   // half-resolution copy of the depth, for blur/upsampling
+#endif
+
+// Depth and normal of this pass's pixel (background: depth 0).
+float centre_depth(ivec2 ij) {
+    float z = texelFetch(u_depth, ij * AO_STRIDE, 0).r;
+#if AO_STRIDE > 1
+    ao_depth = z;
+#endif
+    return z;
+}
+
+vec3 centre_normal(ivec2 ij) {
+    return texelFetch(u_normal, ij * AO_STRIDE, 0).xyz;
+}
 
 // Camera-space point of pixel (u, v) (OpenCV pixel centres at integers) at depth z.
 vec3 unproject(vec2 uv, float z) {
     return vec3((uv - u_intrinsics.zw) / u_intrinsics.xy * z, z);
 }
 
-// Nearest pixel of camera-space point S, and the depth stored there; 0 (background, which
-// occludes nothing) when S falls outside the image. texelFetch, no filtering: one fetch.
-float depth_at(vec3 S, out ivec2 q) {
+// Nearest pixel q of camera-space point S and the depth stored there (texelFetch, one fetch,
+// no filtering). Outside the image the fetch is clamped to the border and ``inside`` is false:
+// the caller folds it into its final select (one unsigned compare, as negative q wraps to a
+// huge value; measured 4-6 % faster than selecting the depth here).
+float depth_at(vec3 S, out ivec2 q, out bool inside) {
     vec2 uv = S.xy / max(S.z, 1e-6) * u_intrinsics.xy + u_intrinsics.zw;
     q = ivec2(floor(uv + 0.5));
-    ivec2 qc = clamp(q, ivec2(0), u_size - 1);
-    float z = texelFetch(u_depth, qc, 0).r;
-    return q == qc ? z : 0.0;
+    inside = all(lessThan(uvec2(q), uvec2(u_size)));
+    return texelFetch(u_depth, clamp(q, ivec2(0), u_size - 1) * AO_STRIDE, 0).r;
 }
 
 // Offset i reflected on this pixel's random plane (Mittring 2007) and flipped into the

@@ -17,11 +17,11 @@ const float BIAS = 0.02;        // fraction of R: depth deltas below it are the 
 
 void main() {
     ivec2 ij = ivec2(gl_FragCoord.xy);
-    float z = texelFetch(u_depth, ij, 0).r;
+    float z = centre_depth(ij);
     if (z <= 0.0) { ao = 1.0; return; }          // background
 
     vec3 P = unproject(vec2(ij), z);
-    vec3 n = texelFetch(u_normal, ij, 0).xyz;
+    vec3 n = centre_normal(ij);
     vec3 plane = texelFetch(u_noise, ij % NOISE_SIZE, 0).xyz;
     float inv_r = 1.0 / u_radius_world;
 
@@ -29,10 +29,11 @@ void main() {
     for (int i = 0; i < AO_SAMPLES; ++i) {
         vec3 S = P + hemisphere_offset(i, plane, n) * u_radius_world;
         ivec2 q;
-        float zq = depth_at(S, q);
+        bool inside;
+        float zq = depth_at(S, q, inside);
         float delta = (S.z - zq) * inv_r;
         float o = 1.0 / (1.0 + u_falloff * delta * delta);
-        sum += (zq > 0.0 && delta > BIAS && delta < 1.0) ? o : 0.0;
+        sum += (inside && zq > 0.0 && delta > BIAS && delta < 1.0) ? o : 0.0;
     }
     ao = clamp(1.0 - u_intensity * sum / float(AO_SAMPLES), 0.0, 1.0);
 }

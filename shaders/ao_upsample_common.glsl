@@ -1,7 +1,7 @@
 // Depth-aware upsampling of half-resolution AO, shared by ao_upsample.glsl (the AO buffer at
 // full resolution, for --output-ao) and composite.glsl (fused, so no extra full-resolution
 // pass is paid per frame). Full-res pixel p sits at half-res coordinate p / 2 (see
-// ao_downsample.glsl); the four surrounding half-res values are weighted bilinearly and by
+// ao_common.glsl, AO_STRIDE); the four surrounding half-res values are weighted bilinearly and by
 // depth similarity, so AO does not leak across silhouettes; when no neighbour is on the same
 // surface, the one with the closest depth is taken. Two textureGather calls fetch the 2x2
 // footprint of depth and AO, and the weights are computed four at a time.

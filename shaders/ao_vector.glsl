@@ -27,11 +27,11 @@ const float EPS = 0.02;         // cos threshold: rejects in-plane candidates wh
 
 void main() {
     ivec2 ij = ivec2(gl_FragCoord.xy);
-    float z = texelFetch(u_depth, ij, 0).r;
+    float z = centre_depth(ij);
     if (z <= 0.0) { ao = 1.0; return; }          // background
 
     vec3 P = unproject(vec2(ij), z);
-    vec3 n = texelFetch(u_normal, ij, 0).xyz;
+    vec3 n = centre_normal(ij);
     vec3 plane = texelFetch(u_noise, ij % NOISE_SIZE, 0).xyz;
     float r_S = clamp(u_radius_px * z / u_intrinsics.y, u_radius_clamp.x, u_radius_clamp.y);
     float c_over_r2 = u_falloff / (r_S * r_S);
@@ -40,12 +40,13 @@ void main() {
     for (int i = 0; i < AO_SAMPLES; ++i) {
         vec3 S = P + hemisphere_offset(i, plane, n) * r_S;
         ivec2 q;
-        float zq = depth_at(S, q);
+        bool inside;
+        float zq = depth_at(S, q, inside);
         vec3 v = unproject(vec2(q), zq) - P;     // occlusion vector to the visible surface
         float len2 = dot(v, v);
         float cos_vn = dot(v, n) * inversesqrt(max(len2, 1e-30));
         float o = cos_vn / (1.0 + c_over_r2 * len2);
-        sum += (zq > 0.0 && cos_vn > EPS) ? o : 0.0;
+        sum += (inside && zq > 0.0 && cos_vn > EPS) ? o : 0.0;   // background occludes nothing
     }
     ao = clamp(1.0 - u_intensity * 2.0 * sum / float(AO_SAMPLES), 0.0, 1.0);
 }

@@ -30,6 +30,9 @@ def test_flat_plane_is_unoccluded_in_vector_mode_and_ssao_is_reported(ctx, recor
 
     vector = render_ao(ctx, scene, camera, "vector", samples=16)
     assert vector[plane].min() >= 0.999
+    # half resolution reads the full-res G-buffer at (2i, 2j) with K halved exactly: still flat
+    half = render_ao(ctx, scene, camera, "vector", samples=16, ao_scale=0.5)
+    assert half[plane].min() >= 0.999
 
     # Standard SSAO on the same plane: report, do not require (NOTES.md: it is the comparison mode).
     # Its depth-delta test reads the neighbouring pixel's depth, which on a grazing floor

@@ -18,10 +18,11 @@ class AOPass:
 
     shader: str = ""
 
-    def __init__(self, ctx: moderngl.Context, samples: int, seed: int = 0):
+    def __init__(self, ctx: moderngl.Context, samples: int, seed: int = 0, stride: int = 1):
         self.ctx = ctx
         self.samples = int(samples)
-        self.program = load_program(ctx, self.shader, kernel.defines(samples))
+        self.stride = int(stride)
+        self.program = load_program(ctx, self.shader, kernel.defines(samples, stride))
         self.program["u_kernel"].write(kernel.sphere_kernel(samples, seed).tobytes())
         tile = kernel.rotation_tile(seed)
         self.noise = ctx.texture((kernel.NOISE_SIZE, kernel.NOISE_SIZE), 3, tile.tobytes(), dtype="f4")
@@ -32,14 +33,15 @@ class AOPass:
 
     def run(self, target: moderngl.Framebuffer, depth: moderngl.Texture, normal: moderngl.Texture,
             intrinsics, settings, scale: float = 1.0) -> None:
-        """Write AO into ``target`` (R32F, the size of ``depth``).
+        """Write AO into ``target``: R32F at the G-buffer's size / stride; with stride 2 a
+        second R32F attachment receives the half-resolution depth.
 
         ``intrinsics`` are (fx, fy, cx, cy) at the pass's resolution; ``scale`` is that
         resolution over the output resolution (0.5 for half-resolution AO).
         """
         fx, fy, cx, cy = intrinsics
         self.program["u_intrinsics"].value = (fx, fy, cx, cy)
-        self.program["u_size"].value = depth.size
+        self.program["u_size"].value = target.size
         self.program["u_intensity"].value = float(settings.intensity)
         self._set_method_uniforms(settings, scale)
         depth.use(0)

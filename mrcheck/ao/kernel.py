@@ -38,9 +38,10 @@ def rotation_tile(seed: int = 0) -> np.ndarray:
     return _unit_vectors(rng, NOISE_SIZE * NOISE_SIZE).reshape(NOISE_SIZE, NOISE_SIZE, 3).astype(np.float32)
 
 
-def defines(samples: int) -> dict:
-    """The constants the AO shaders are compiled with (one place for Python and GLSL)."""
-    return {"AO_SAMPLES": int(samples), "NOISE_SIZE": NOISE_SIZE}
+def defines(samples: int, stride: int = 1) -> dict:
+    """The constants the AO shaders are compiled with (one place for Python and GLSL);
+    ``stride`` 2 is half-resolution AO reading the full-resolution G-buffer."""
+    return {"AO_SAMPLES": int(samples), "NOISE_SIZE": NOISE_SIZE, "AO_STRIDE": int(stride)}
 
 
 __all__ = ["sphere_kernel", "rotation_tile", "defines", "NOISE_SIZE", "PAPER_SAMPLE_COUNTS"]

@@ -1,0 +1,504 @@
+"""``mrcheck bench``: time the AO passes on this machine and print what was measured.
+
+Every figure is measured in the run that prints it, never written down: one warm-up draw, then
+``repeat`` timed draws through :meth:`Renderer._timed` (``ctx.finish()`` before and after, so a
+figure is the GL work of that pass, including llvmpipe's rasterisation threads). Reported:
+min / median / max in milliseconds; ratios use medians.
+
+What is timed (Scheer & Keutel, Tables 1 and 2, benchmarked at 1280x1024):
+
+* the AO pass of ``vector`` (D2) and ``ssao`` (D3) per sample count, at full resolution and at
+  half resolution (``ao_scale=0.5``: the G-buffer downsample plus the half-size AO draw; the
+  depth-aware upsampling is fused into the composite, so it shows up in the half-res composite);
+* the *fetch floor* (``shaders/ao_fetch_floor.glsl``): the same number of depth fetches per pixel
+  inside the same pixel radius, with no arithmetic; an AO pass over its floor is the price of
+  the arithmetic on top of the memory traffic;
+* the bilateral blur (9x9 and 13x13) and the composite, each at both AO resolutions;
+* the geometry pass and the vector AO pass of a synthetic height field of ~1 M and ~10 M
+  triangles seen by the same camera: screen-space AO should not care about triangle count.
+
+Scene for the first three: the embedded sample cell from its ``overview`` viewpoint (a synthetic
+height field stands in when the sample cell is missing, and the output says so).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import resource
+import sys
+from dataclasses import dataclass, field
+from statistics import median
+from typing import Callable
+
+import moderngl
+import numpy as np
+
+from .ao.kernel import PAPER_SAMPLE_COUNTS, sphere_kernel
+from .camera import Camera
+from .gl import create_context, load_program, made_current
+from .output import _atomic_write, check_output_path
+from .renderer import Renderer, RenderSettings
+from .resources import sample_scene_path
+from .scene import Scene, load_scene, make_part
+
+PAPER_SIZE = (1280, 1024)             # the paper's benchmark resolution
+SIZES = (PAPER_SIZE, (1024, 768))     # 1024x768: the study's camera resolution
+QUICK_SAMPLES = (16, 64)
+AO_MODES = ("vector", "ssao")
+SCALES = (1.0, 0.5)                   # full and half resolution AO
+BLUR_SIZES = (9, 13)                  # the paper's kernels (Table 2)
+TRIANGLE_COUNTS = (1_000_000, 10_000_000)
+DEFAULT_REPEAT, QUICK_REPEAT = 5, 3
+SAMPLE_VIEW = "overview"
+
+# Scheer & Keutel, Table 1: their SSAO pass on a GTX 285 at 1280x1024, ms, by (samples, scale)
+PAPER_AO_MS = {(16, 1.0): 12.4, (16, 0.5): 1.6, (36, 1.0): 24.6, (36, 0.5): 3.5,
+               (64, 1.0): 47.0, (64, 0.5): 6.1, (128, 1.0): 96.9, (128, 0.5): 12.4}
+PAPER_BLUR_MS = {13: 3.6}             # Table 2, 13x13 blur at full resolution, ms
+
+# The issue's targets for the ratios: measured and shown against these, never adjusted to them.
+TARGETS = {
+    "vector_over_ssao": 1.2,          # vector AO pass / ssao AO pass, 16 samples, full res
+    "vector_over_fetch_floor": 3.0,   # vector AO pass / fetch floor, 16 samples
+    "half_over_full": 0.3,            # vector AO pass half res / full res, 16 samples
+    "ao_10m_over_1m": 1.1,            # vector AO pass at 10 M / 1 M triangles
+    # the same floor target on the 1 M height field, which covers every pixel (on the sample
+    # cell both the AO passes and the floor skip the background, a third of the image)
+    "vector_over_fetch_floor_covered": 3.0,
+}
+RATIO_SAMPLES = 16
+
+# Synthetic height field: a grid of box-shaped blocks on gently rolling ground, TERRAIN_EXTENT
+# metres square, viewed from above so it covers the whole image (no background pixels that the
+# AO passes would skip). Block edges ramp over BLOCK_RAMP metres, several grid cells even at
+# 1 M triangles, so both tessellations draw practically the same G-buffer.
+TERRAIN_EXTENT = 48.0       # metres
+BLOCK_PITCH = 3.0           # metres between block centres
+BLOCK_HALF_WIDTH = 0.6      # metres
+BLOCK_RAMP = 0.15           # metres
+TERRAIN_EYE, TERRAIN_TARGET, TERRAIN_FOV = (0.0, -10.0, 20.0), (0.0, 0.0, 0.0), 60.0
+
+
+# -- figures -------------------------------------------------------------------------------------
+@dataclass
+class Figure:
+    """One measured figure: what was timed, and its timed runs in milliseconds."""
+
+    name: str
+    mode: str | None
+    width: int
+    height: int
+    samples: int | None
+    scale: float | None
+    scene: str
+    triangles: int | None = None
+    paper_ms: float | None = None
+    times_ms: list = field(default_factory=list)
+
+    def describe(self) -> str:
+        """A short label, e.g. ``ao vector 1280x1024 16 samples half``."""
+        parts = [self.name, self.mode, f"{self.width}x{self.height}", self.samples and f"{self.samples} samples",
+                 self.scale and ("full" if self.scale == 1.0 else "half"),
+                 self.triangles and f"{self.triangles / 1e6:.0f}M triangles"]
+        return " ".join(str(p) for p in parts if p)
+
+    @property
+    def median_ms(self) -> float:
+        return median(self.times_ms)
+
+    def to_json(self) -> dict:
+        return {"name": self.name, "mode": self.mode, "width": self.width, "height": self.height,
+                "samples": self.samples, "scale": self.scale, "scene": self.scene, "triangles": self.triangles,
+                "min_ms": min(self.times_ms), "median_ms": self.median_ms, "max_ms": max(self.times_ms),
+                "runs_ms": self.times_ms, "paper_gtx285_ms": self.paper_ms, "unit": "ms"}
+
+
+@dataclass
+class _Job:
+    """A figure to measure: ``setup`` leaves the GL state the pass reads, ``work`` is the pass."""
+
+    figure: Figure
+    setup: Callable[[], None]
+    work: Callable[[], None]
+
+
+class _FetchFloor:
+    """``ao_fetch_floor.glsl`` with ``samples`` fixed pixel offsets inside ``radius_px``.
+
+    The offsets are the xy of the AO kernel times the vector pass's pixel radius, so the fetches
+    spread over the same neighbourhood; unlike the AO passes they are not rotated per pixel, which
+    if anything makes the floor a little kinder to the texture cache (a floor, not an estimate).
+    """
+
+    def __init__(self, ctx: moderngl.Context, samples: int, radius_px: float, seed: int):
+        self.program = load_program(ctx, "ao_fetch_floor", {"AO_SAMPLES": samples})
+        offsets = np.rint(sphere_kernel(samples, seed)[:, :2] * radius_px).astype(np.int32)
+        self.program["u_offsets"].write(offsets.tobytes())
+        self.program["u_depth"].value = 0
+        self.vao = ctx.vertex_array(self.program, [])
+
+    def run(self, target: moderngl.Framebuffer, depth: moderngl.Texture) -> None:
+        self.program["u_size"].value = depth.size
+        depth.use(0)
+        target.use()
+        self.vao.render(moderngl.TRIANGLES, vertices=3)
+
+    def release(self) -> None:
+        self.vao.release()
+
+
+class _Stage:
+    """A renderer and camera: every figure of one scene at one image size starts here.
+
+    The only place that reaches into :class:`Renderer`'s passes (``_targets_for``, ``_ao_pass``,
+    ``_blur``, ``_timed``), so a change there is mended here once.
+    """
+
+    def __init__(self, renderer: Renderer, camera: Camera, label: str):
+        self.renderer = renderer
+        self.camera = camera
+        self.label = label
+        self.ctx = renderer.ctx
+        self._floors = {}
+
+    @property
+    def targets(self):
+        return self.renderer._targets_for((self.camera.width, self.camera.height))
+
+    def settings(self, samples: int = RATIO_SAMPLES, scale: float = 1.0) -> RenderSettings:
+        """The CLI's defaults at this sample count and AO scale, resolved for this image."""
+        return RenderSettings(samples=samples, ao_scale=scale).validated(self.camera.height)
+
+    def draw_geometry(self) -> None:
+        self.renderer.geometry.draw(self.targets.gbuffer, self.camera)
+
+    def ao(self, mode: str, settings: RenderSettings) -> None:
+        self.renderer._ao_pass(mode, self.camera, settings, self.targets)
+
+    def blur(self, size: int, scale: float) -> None:
+        ao = self.targets.ao_buffers(self.ctx, scale)
+        self.renderer._blur(size).run(ao.raw[0], ao.scratch[1], ao.blurred[1], ao.depth)
+
+    def composite(self, scale: float) -> None:
+        ao = self.targets.ao_buffers(self.ctx, scale)
+        self.renderer.composite.run(self.targets.color_fbo, self.targets.gbuffer, ao.blurred[0], self.camera,
+                                    use_ao=True, ao_depth_half=ao.half_depth)
+
+    def fetch_floor(self, samples: int) -> None:
+        settings = self.settings(samples)
+        key = (samples, settings.radius_px, settings.seed)
+        if key not in self._floors:
+            self._floors[key] = _FetchFloor(self.ctx, samples, settings.radius_px, settings.seed)
+        self._floors[key].run(self.targets.ao[1][1], self.targets.gbuffer.depth)
+
+    def release(self) -> None:
+        for floor in self._floors.values():
+            floor.release()
+        self.renderer.release()
+
+
+# -- scenes --------------------------------------------------------------------------------------
+def _terrain_heights(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Heights (metres) of the synthetic field: blocks of hashed height on rolling ground."""
+    ix, iy = np.floor(x / BLOCK_PITCH), np.floor(y / BLOCK_PITCH)
+    dx, dy = np.abs(x - (ix + 0.5) * BLOCK_PITCH), np.abs(y - (iy + 0.5) * BLOCK_PITCH)
+    block = 0.5 + 2.0 * ((np.sin(ix * 12.9898 + iy * 78.233) * 43758.5453) % 1.0)  # 0.5..2.5 m per cell
+    inside = np.clip((BLOCK_HALF_WIDTH - np.maximum(dx, dy)) / BLOCK_RAMP + 0.5, 0.0, 1.0)
+    return block * inside + 0.3 * np.sin(0.35 * x) * np.cos(0.27 * y)
+
+
+def terrain_scene(triangles: int) -> Scene:
+    """A height field of about ``triangles`` triangles (a square grid, two per cell), in memory."""
+    n = max(1, int(round(np.sqrt(triangles / 2.0))))
+    t = np.linspace(-TERRAIN_EXTENT / 2.0, TERRAIN_EXTENT / 2.0, n + 1)
+    x, y = np.meshgrid(t, t)
+    vertices = np.column_stack([x.ravel(), y.ravel(), _terrain_heights(x, y).ravel()])
+    del x, y
+    i = np.arange(n, dtype=np.uint32)
+    a = (i[None, :] + i[:, None] * np.uint32(n + 1)).ravel()  # lower-left corner of every cell
+    faces = np.empty((2 * n * n, 3), np.uint32)
+    faces[0::2, 0], faces[0::2, 1], faces[0::2, 2] = a, a + 1, a + n + 2
+    faces[1::2, 0], faces[1::2, 1], faces[1::2, 2] = a, a + n + 2, a + n + 1
+    name = f"terrain_{len(faces) / 1e6:.0f}M"
+    part = make_part(name, "<synthetic>", vertices, faces, np.eye(4), color=(0.7, 0.7, 0.7), units="m")
+    return Scene(name, "<synthetic>", [part])
+
+
+def terrain_camera(size) -> Camera:
+    return Camera.from_look_at(TERRAIN_EYE, TERRAIN_TARGET, (0.0, 0.0, 1.0), TERRAIN_FOV, *size)
+
+
+def _sample_scene() -> tuple[Scene, Callable[[tuple], Camera], str]:
+    """The sample cell and its overview camera, or the 1 M height field if the cell is missing."""
+    path = sample_scene_path()
+    if path.exists():
+        scene = load_scene(path)
+        return scene, lambda size: scene.camera(SAMPLE_VIEW, *size), f"{scene.name}:{SAMPLE_VIEW}"
+    print(f"warning: {path} not found; timing a synthetic height field instead of the sample cell", file=sys.stderr)
+    scene = terrain_scene(TRIANGLE_COUNTS[0])
+    return scene, terrain_camera, scene.name
+
+
+# -- the plan ------------------------------------------------------------------------------------
+def _pass_jobs(stage: _Stage, samples_list) -> list[list]:
+    """AO passes, fetch floors, blurs and composites of one stage (items 1-3 of the issue)."""
+    w, h = stage.camera.width, stage.camera.height
+    paper = (w, h) == PAPER_SIZE
+
+    def fig(name, mode=None, samples=None, scale=None, paper_ms=None):
+        return Figure(name, mode, w, h, samples, scale, stage.label, paper_ms=paper_ms if paper else None)
+
+    entries = []
+    for samples in samples_list:
+        # everything a ratio compares at this sample count is timed in turns (see _measure)
+        group = []
+        for mode in AO_MODES:
+            for scale in SCALES:
+                s = stage.settings(samples, scale)
+                group.append((stage, _Job(fig("ao", mode, samples, scale, PAPER_AO_MS.get((samples, scale))),
+                                          stage.draw_geometry, lambda m=mode, s=s: stage.ao(m, s))))
+        group.append((stage, _Job(fig("fetch_floor", None, samples, 1.0), stage.draw_geometry,
+                                  lambda n=samples: stage.fetch_floor(n))))
+        entries.append(group)
+
+    for scale in SCALES:
+        def with_ao(scale=scale):
+            stage.draw_geometry()
+            stage.ao("vector", stage.settings(RATIO_SAMPLES, scale))
+
+        for size in BLUR_SIZES:
+            paper_ms = PAPER_BLUR_MS.get(size) if scale == 1.0 else None
+            entries.append([(stage, _Job(fig(f"blur_{size}x{size}", None, None, scale, paper_ms), with_ao,
+                                         lambda n=size, sc=scale: stage.blur(n, sc)))])
+
+        def with_blur(scale=scale, with_ao=with_ao):
+            with_ao()
+            stage.blur(BLUR_SIZES[0], scale)
+
+        entries.append([(stage, _Job(fig("composite", None, None, scale), with_blur,
+                                     lambda sc=scale: stage.composite(sc)))])
+    return entries
+
+
+def _triangle_jobs(group: "_StageGroup") -> list[list]:
+    """Per height field the geometry pass; then the 16-sample vector AO pass of each, timed in
+    turns, with the fetch floor on the first (it covers every pixel)."""
+    entries, compared = [], []
+    for stage, triangles in zip(group.stages, TRIANGLE_COUNTS):
+        w, h = stage.camera.width, stage.camera.height
+        entries.append([(stage, _Job(Figure("geometry", None, w, h, None, None, stage.label, triangles),
+                                     lambda: None, stage.draw_geometry))])
+        settings = stage.settings()
+        compared.append((stage, _Job(Figure("ao", "vector", w, h, RATIO_SAMPLES, 1.0, stage.label, triangles),
+                                     stage.draw_geometry, lambda st=stage, s=settings: st.ao("vector", s))))
+    first, (w, h) = group.stages[0], PAPER_SIZE
+    compared.append((first, _Job(Figure("fetch_floor", None, w, h, RATIO_SAMPLES, 1.0, first.label,
+                                        TRIANGLE_COUNTS[0]), first.draw_geometry,
+                                 lambda: first.fetch_floor(RATIO_SAMPLES))))
+    return entries + [compared]
+
+
+def _measure(entry: list, repeat: int) -> list[Figure]:
+    """Time the jobs of one entry in turns: each job's setup and warm-up, then ``repeat`` rounds
+    of one run of every job. A ratio must hold within 10 %, about the drift of this machine over
+    a minute; taken in turns, the drift falls on both sides of the ratio alike. The G-buffer
+    and AO buffers a job's setup leaves persist because the jobs of one entry on one stage
+    write different targets (full/half resolution, AO/floor), or live in different renderers."""
+    for stage, job in entry:
+        with made_current(stage.ctx):
+            job.setup()
+            stage.renderer._timed(job.work)  # warm-up: shader compile/JIT, first touch of buffers
+    for _ in range(repeat):
+        for stage, job in entry:
+            with made_current(stage.ctx):
+                job.setup()
+                job.figure.times_ms.append(stage.renderer._timed(job.work))
+    return [job.figure for _, job in entry]
+
+
+class _StageGroup:
+    """The height-field stages, alive together so that their AO passes can be timed in turns."""
+
+    def __init__(self, stages):
+        self.stages = stages
+
+    def release(self) -> None:
+        for stage in self.stages:
+            stage.release()
+
+
+@dataclass
+class _Section:
+    """Jobs sharing one stage; the stage is built when the section starts and freed after it,
+    so the 10 M-triangle scene is never in memory together with the 1 M one."""
+
+    make_stage: Callable[[], _Stage]
+    jobs: Callable[[object], list]   # -> entries: lists of (stage, job) measured in turns
+    count: int                       # figures, for the progress bar
+    release_after: bool = True   # False while a later section reuses the stage's renderer
+
+
+def _plan(ctx: moderngl.Context, quick: bool) -> list[_Section]:
+    sizes = SIZES[:1] if quick else SIZES
+    samples_list = QUICK_SAMPLES if quick else PAPER_SAMPLE_COUNTS
+    sections = []
+    sample = {}
+
+    def sample_stage(size):
+        if not sample:  # one renderer (one upload) for every size of the sample scene
+            scene, camera_for, label = _sample_scene()
+            sample.update(renderer=Renderer(scene, ctx=ctx), camera_for=camera_for, label=label)
+        return _Stage(sample["renderer"], sample["camera_for"](size), sample["label"])
+
+    per_size = len(samples_list) * (len(AO_MODES) * len(SCALES) + 1) + len(SCALES) * (len(BLUR_SIZES) + 1)
+    for size in sizes:
+        sections.append(_Section(lambda size=size: sample_stage(size), lambda st: _pass_jobs(st, samples_list),
+                                 per_size, release_after=size == sizes[-1]))
+
+    def terrain_stages():
+        stages = []
+        for triangles in TRIANGLE_COUNTS:
+            scene = terrain_scene(triangles)
+            stages.append(_Stage(Renderer(scene, ctx=ctx), terrain_camera(PAPER_SIZE), scene.name))
+        return _StageGroup(stages)
+
+    sections.append(_Section(terrain_stages, _triangle_jobs, 2 * len(TRIANGLE_COUNTS) + 1))
+    return sections
+
+
+# -- results -------------------------------------------------------------------------------------
+def _find(figures, **match) -> Figure:
+    hits = [f for f in figures if all(getattr(f, k) == v for k, v in match.items())]
+    if len(hits) != 1:
+        raise LookupError(f"expected one figure for {match}, found {len(hits)}")
+    return hits[0]
+
+
+def _ratios(figures) -> tuple[dict, dict]:
+    """The issue's four ratios (medians, same run), and the first three at every sample count."""
+    w, h = PAPER_SIZE
+
+    def ao(mode, samples, scale=1.0, **extra):
+        return _find(figures, name="ao", mode=mode, samples=samples, scale=scale, width=w, height=h, **extra).median_ms
+
+    def floor(samples, triangles):
+        return _find(figures, name="fetch_floor", samples=samples, width=w, height=h, triangles=triangles).median_ms
+
+    def at(samples):
+        vector = ao("vector", samples, triangles=None)
+        return {"vector_over_ssao": vector / ao("ssao", samples, triangles=None),
+                "vector_over_fetch_floor": vector / floor(samples, None),
+                "half_over_full": ao("vector", samples, 0.5, triangles=None) / vector}
+
+    samples_list = sorted({f.samples for f in figures
+                           if f.name == "fetch_floor" and (f.width, f.height) == PAPER_SIZE and f.triangles is None})
+    by_samples = {str(n): at(n) for n in samples_list}
+    ratios = dict(by_samples[str(RATIO_SAMPLES)])
+    few, many = TRIANGLE_COUNTS
+    ratios["ao_10m_over_1m"] = ao("vector", RATIO_SAMPLES, triangles=many) / ao("vector", RATIO_SAMPLES, triangles=few)
+    ratios["vector_over_fetch_floor_covered"] = ao("vector", RATIO_SAMPLES, triangles=few) / floor(RATIO_SAMPLES, few)
+    return ratios, by_samples
+
+
+def _machine(ctx: moderngl.Context) -> dict:
+    info = ctx.info
+    cpu_model = None
+    try:
+        with open("/proc/cpuinfo") as cpuinfo:  # Linux only; None elsewhere
+            models = [line.split(":", 1)[1].strip() for line in cpuinfo if line.startswith("model name")]
+        cpu_model = models[0] if models else None
+    except OSError:
+        pass
+    usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return {"gl_renderer": info["GL_RENDERER"], "gl_vendor": info["GL_VENDOR"], "gl_version": info["GL_VERSION"],
+            "cpu_count": os.cpu_count(), "cpus_usable": usable, "cpu_model": cpu_model,
+            "lp_num_threads": os.environ.get("LP_NUM_THREADS"), "python": platform.python_version(),
+            "platform": platform.platform(), "numpy": np.__version__, "moderngl": moderngl.__version__}
+
+
+def _peak_rss_mb() -> float:
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return rss / 2**20 if sys.platform == "darwin" else rss / 1024.0  # bytes on macOS, KiB on Linux
+
+
+def _format_table(figures) -> str:
+    header = ("figure", "mode", "scene", "size", "samples", "scale", "min ms", "median ms", "max ms", "GTX285 ms")
+    rows = [header]
+    for f in figures:
+        rows.append((f.name, f.mode or "", f.scene, f"{f.width}x{f.height}", str(f.samples or ""),
+                     "" if f.scale is None else ("full" if f.scale == 1.0 else "half"),
+                     f"{min(f.times_ms):.1f}", f"{f.median_ms:.1f}", f"{max(f.times_ms):.1f}",
+                     "" if f.paper_ms is None else f"{f.paper_ms:.1f}"))
+    widths = [max(len(r[i]) for r in rows) for i in range(len(header))]
+    numeric = range(4, len(header))
+    lines = ["  ".join(c.rjust(wd) if i in numeric else c.ljust(wd) for i, (c, wd) in enumerate(zip(r, widths)))
+             .rstrip() for r in rows]
+    lines.insert(1, "-" * len(lines[0]))
+    return "\n".join(lines)
+
+
+def _format_ratios(ratios: dict, by_samples: dict) -> str:
+    width = max(map(len, ratios))
+    lines = [f"ratios (medians, this run; {RATIO_SAMPLES} samples, {PAPER_SIZE[0]}x{PAPER_SIZE[1]}):"]
+    for name, value in ratios.items():
+        verdict = "meets" if value <= TARGETS[name] else "MISSES"
+        lines.append(f"  {name:<{width}}  {value:6.3f}   target <= {TARGETS[name]:.2f}  {verdict}")
+    lines.append(f"by samples, sample scene at {PAPER_SIZE[0]}x{PAPER_SIZE[1]}:")
+    lines.append("  samples  vector/ssao  vector/fetch_floor  vector half/full")
+    for n, r in by_samples.items():
+        lines.append(f"  {n:>7}  {r['vector_over_ssao']:11.3f}  {r['vector_over_fetch_floor']:18.3f}  "
+                     f"{r['half_over_full']:16.3f}")
+    return "\n".join(lines)
+
+
+# -- the command ---------------------------------------------------------------------------------
+def bench_command(quick: bool, json_path: str | None, repeat: int | None) -> dict:
+    """Measure, print the table and ratios to stdout, optionally write JSON; returns the report."""
+    from tqdm import tqdm
+
+    if json_path is not None:
+        json_path = check_output_path(json_path, (".json",), "JSON output")  # fail before minutes of work
+    repeat = repeat or (QUICK_REPEAT if quick else DEFAULT_REPEAT)
+
+    ctx = create_context()
+    figures = []
+    try:
+        with made_current(ctx):
+            machine = _machine(ctx)
+            sections = _plan(ctx, quick)
+            with tqdm(total=sum(s.count for s in sections), desc="bench", unit="figure", file=sys.stderr) as bar:
+                for section in sections:
+                    stage = section.make_stage()
+                    for entry in section.jobs(stage):
+                        measured = _measure(entry, repeat)
+                        figures.extend(measured)
+                        bar.set_postfix_str(measured[-1].describe())
+                        bar.update(len(measured))
+                    if section.release_after:
+                        stage.release()
+                    del stage  # before the next section builds its scene (10 M triangles)
+    finally:
+        ctx.release()
+
+    ratios, by_samples = _ratios(figures)
+    report = {"machine": machine, "run": {"quick": quick, "repeat": repeat, "warmup": 1},
+              "figures": [f.to_json() for f in figures], "ratios": ratios, "ratios_by_samples": by_samples,
+              "targets": TARGETS, "peak_rss_mb": _peak_rss_mb()}
+
+    print(_format_table(figures))
+    print()
+    print(_format_ratios(ratios, by_samples))
+    print()
+    print(f"machine: {machine['gl_renderer']}, {machine['cpus_usable']} of {machine['cpu_count']} CPUs usable, "
+          f"Python {machine['python']}; {repeat} timed runs per figure after 1 warm-up; "
+          f"peak RSS {report['peak_rss_mb']:.0f} MB")
+    print("GTX285 ms: Scheer & Keutel, Tables 1-2 (their SSAO pass at 1280x1024; 13x13 blur), for comparison.")
+    if json_path is not None:
+        _atomic_write(json_path, lambda handle: handle.write(json.dumps(report, indent=2).encode()))
+        print(json_path)
+    return report
+
+
+__all__ = ["bench_command", "terrain_scene", "terrain_camera", "Figure", "TARGETS", "PAPER_AO_MS"]
