@@ -331,8 +331,8 @@ class _StageGroup:
 
 @dataclass
 class _Section:
-    """Jobs sharing one stage; the stage is built when the section starts and freed after it,
-    so the 10 M-triangle scene is never in memory together with the 1 M one."""
+    """Entries sharing one stage (or group of stages); it is built when the section starts and
+    freed after it, so each scene is in memory only while its figures are measured."""
 
     make_stage: Callable[[], _Stage]
     jobs: Callable[[object], list]   # -> entries: lists of (stage, job) measured in turns

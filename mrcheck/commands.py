@@ -79,6 +79,7 @@ def render_command(scene, view, camera_path, mode, width, height, units, output,
 def demo_command(outdir: Path, width=None, height=None):
     from tqdm import tqdm
 
+    outdir = Path(outdir).resolve()  # absolute: bootstrap.sh runs from the repository folder
     scene = load_scene(sample_scene_path(), progress=True)
     renderer = Renderer(scene)
     try:
