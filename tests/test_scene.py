@@ -1,0 +1,60 @@
+"""Scene loading: every mesh format the manifest accepts, every unit, instancing, URDF."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from mrcheck import gl
+from mrcheck.errors import MrcheckError
+from mrcheck.resources import sample_scene_path
+from mrcheck.scene import UNITS, load_scene
+
+
+@pytest.mark.parametrize("suffix", [".glb", ".gltf", ".obj", ".stl", ".ply", ".off"])
+def test_every_mesh_format_loads_to_the_same_geometry(tmp_path, suffix):
+    mesh = trimesh.creation.box((2.0, 3.0, 4.0), trimesh.transformations.translation_matrix((5, 6, 7)))
+    path = tmp_path / f"box{suffix}"
+    mesh.export(path)
+    scene = load_scene(path)
+    assert scene.triangle_count == 12
+    assert np.allclose(scene.bounds(), [[4, 4.5, 5], [6, 7.5, 9]], atol=1e-5)
+
+
+@pytest.mark.parametrize("unit", sorted(UNITS))
+def test_a_part_in_any_unit_lands_at_the_right_place_and_size_in_metres(tmp_path, unit):
+    size = 1.0 / UNITS[unit]  # one metre, in that unit
+    trimesh.creation.box((size, size, size), trimesh.transformations.translation_matrix((size, 0, 0))).export(tmp_path / "box.stl")
+    (tmp_path / "scene.toml").write_text(
+        f'[[parts]]\nname = "box"\nmesh = "box.stl"\nunits = "{unit}"\ntranslate = [10.0, 0.0, 0.0]\n'
+        'instances = [{}, { translate = [0.0, 5.0, 0.0] }]\n')
+    scene = load_scene(tmp_path / "scene.toml")
+    boxes = scene.parts[0].instance_bounds()
+    assert np.allclose(boxes[0], [[10.5, -0.5, -0.5], [11.5, 0.5, 0.5]], atol=1e-5)
+    assert np.allclose(boxes[1], boxes[0] + [0, 5, 0], atol=1e-5)
+    assert scene.triangle_count == 24  # instances counted
+
+
+def test_sample_scene_mixes_units_and_poses_its_robot_from_the_urdf():
+    scene = load_scene(sample_scene_path())
+    parts = {p.name: p for p in scene.parts}
+    assert {p.units for p in scene.parts} >= {"m", "mm"}
+    conveyor = parts["conveyor"].instance_bounds()[0]
+    assert 7.5 < conveyor[1, 0] - conveyor[0, 0] < 8.5  # an 8 m conveyor authored in millimetres
+    robot = parts["robot"].instance_bounds()[0]
+    pedestal = parts["robot_pedestal"].instance_bounds()[0]
+    # standing on its pedestal's top plate (the pedestal's bounds include its bolt heads)
+    assert pedestal[1, 2] - 0.05 < robot[0, 2] <= pedestal[1, 2]
+    assert scene.triangle_count < 200_000 and set(scene.viewpoints) == {"overview", "robot", "conveyor"}
+
+
+def test_missing_opengl_is_one_line_naming_what_to_install(monkeypatch):
+    def no_egl(**kwargs):
+        raise Exception("libEGL.so.1: cannot open shared object file:\nNo such file or directory")
+
+    monkeypatch.setattr(gl.moderngl, "create_standalone_context", no_egl)
+    with pytest.raises(MrcheckError) as caught:
+        gl.create_context()
+    message = str(caught.value)
+    assert "\n" not in message and "libegl1" in message and "libgl1-mesa-dri" in message
