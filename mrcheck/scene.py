@@ -23,7 +23,8 @@ Manifest (format 1)::
     translate = [4.0, 2.0, 0.0]    # metres, after unit scaling
     rotate_deg = [0, 0, 90]        # XYZ Euler degrees about world axes
     scale = 1.0
-    instances = [{ translate = [0, 3, 0] }, ...]   # optional, applied after the part transform
+    instances = [{ translate = [0, 3, 0] }, ...]   # optional, applied after the part transform;
+                                   # an instance may carry id = "column-A3" (else NAME#i)
     joints = { joint_a1 = 0.5 }    # URDF only, radians (or metres for prismatic joints)
 
     [[viewpoints]]
@@ -57,7 +58,7 @@ DEGENERATE_WARNING_SHARE = 0.001  # warn when more than 0.1 % of a mesh's triang
 
 _TOP_KEYS = {"format", "name", "description", "parts", "viewpoints"}
 _PART_KEYS = {"name", "mesh", "units", "color", "translate", "rotate_deg", "scale", "matrix", "instances", "joints"}
-_INSTANCE_KEYS = {"translate", "rotate_deg", "scale", "matrix"}
+_INSTANCE_KEYS = {"id", "translate", "rotate_deg", "scale", "matrix"}
 _VIEW_KEYS = {"name", "eye", "target", "up", "fov_y_deg", "width", "height"}
 
 
@@ -73,6 +74,9 @@ class Part:
     faces : (m, 3) uint32
     transforms : (k, 4, 4) float64
         Local -> world, one per instance.
+    instance_ids : list of str
+        One per instance: the manifest's ``id``, else ``NAME`` for a single instance and
+        ``NAME#i`` for instance i (what as-built discrepancy lists refer to).
     """
 
     name: str
@@ -82,6 +86,12 @@ class Part:
     transforms: np.ndarray
     color: tuple = DEFAULT_COLOR
     units: str | None = None
+    instance_ids: list = field(default_factory=list)
+
+    def __post_init__(self):
+        if not self.instance_ids:
+            k = len(self.transforms)
+            self.instance_ids = [self.name] if k == 1 else [f"{self.name}#{i}" for i in range(k)]
 
     @property
     def triangle_count(self) -> int:
@@ -266,7 +276,7 @@ def validate_mesh(vertices, faces, path):
     return vertices, faces
 
 
-def make_part(name, source, vertices, faces, transforms, color=None, units=None) -> Part:
+def make_part(name, source, vertices, faces, transforms, color=None, units=None, instance_ids=None) -> Part:
     """A :class:`Part` from float64 geometry: re-centred, scaled to metres, stored as float32."""
     scale = unit_scale(units, source)
     lo, hi = vertices.min(axis=0), vertices.max(axis=0)
@@ -283,6 +293,7 @@ def make_part(name, source, vertices, faces, transforms, color=None, units=None)
         transforms=transforms,
         color=tuple(float(c) for c in (color if color is not None else DEFAULT_COLOR)),
         units=units,
+        instance_ids=list(instance_ids or []),
     )
 
 
@@ -394,8 +405,14 @@ def _part_from_table(path: Path, index: int, table: dict, names: set) -> Part:
     joints = table.get("joints")
     if joints is not None and not isinstance(joints, dict):
         raise MrcheckError(f"{where}: joints must be a table of name = value", path)
+    ids = [str(t["id"]) if "id" in t else None for t in instances]
+    if any(ids):
+        ids = [given or f"{name}#{i}" for i, given in enumerate(ids)]
+        if len(set(ids)) != len(ids):
+            raise MrcheckError(f"{where}: instance ids must be unique", path)
     vertices, faces = read_mesh(path.parent / table["mesh"], joints)
-    return make_part(name, path.parent / table["mesh"], vertices, faces, transforms, color, table.get("units"))
+    return make_part(name, path.parent / table["mesh"], vertices, faces, transforms, color, table.get("units"),
+                     ids if any(ids) else None)
 
 
 __all__ = ["Part", "Scene", "UNITS", "load_scene", "read_mesh", "make_part", "transform_from_table"]

@@ -100,8 +100,8 @@ def test_wheel_carries_shaders_and_sample_scene_and_renders_installed(tmp_path):
     wheel = next(wheel_dir.glob("mrcheck-*.whl"))
     names = zipfile.ZipFile(wheel).namelist()
     assert "mrcheck/_data/shaders/ao_vector.glsl" in names
-    assert "mrcheck/_data/sample_cell/scene.toml" in names
-    assert "mrcheck/_data/sample_cell/robots/kuka_iiwa/LICENSE.txt" in names
+    assert "factory_scenes/sample_cell/scene.toml" in names
+    assert "factory_scenes/sample_cell/robots/kuka_iiwa/LICENSE.txt" in names
     subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target", str(site), str(wheel)],
                    check=True, capture_output=True)
     code = ("import sys; sys.path.insert(0, sys.argv[1]); import mrcheck.resources as r, mrcheck.cli as c;"
