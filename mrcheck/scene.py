@@ -55,6 +55,7 @@ MESH_SUFFIXES = (".glb", ".gltf", ".obj", ".stl", ".ply", ".off", ".urdf")
 DEFAULT_COLOR = (0.7, 0.7, 0.7)  # linear RGB of parts without a colour
 
 DEGENERATE_WARNING_SHARE = 0.001  # warn when more than 0.1 % of a mesh's triangles have zero area
+VALIDATION_CHUNK = 1 << 20        # triangles checked per step (bounds the validation's memory)
 
 _TOP_KEYS = {"format", "name", "description", "parts", "viewpoints"}
 _PART_KEYS = {"name", "mesh", "units", "color", "translate", "rotate_deg", "scale", "matrix", "instances", "joints"}
@@ -261,10 +262,12 @@ def validate_mesh(vertices, faces, path):
         raise MrcheckError(f"mesh has {bad} vertices with NaN or infinite coordinates", path)
     if faces.min() < 0 or faces.max() >= len(vertices):
         raise MrcheckError("mesh has triangles that index missing vertices", path)
-    tri = vertices[faces]
-    doubled_area = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
     extent = float(np.ptp(vertices, axis=0).max())
-    good = doubled_area > (extent * 1e-9) ** 2
+    good = np.empty(len(faces), bool)
+    for start in range(0, len(faces), VALIDATION_CHUNK):  # chunks: no float64 copy of all triangles
+        tri = vertices[faces[start:start + VALIDATION_CHUNK]]
+        doubled_area = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+        good[start:start + VALIDATION_CHUNK] = doubled_area > (extent * 1e-9) ** 2
     if not good.any():
         raise MrcheckError(f"mesh has only degenerate (zero-area) triangles ({len(faces)} of them)", path)
     if not good.all():
