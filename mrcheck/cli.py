@@ -106,8 +106,9 @@ def render(scene, view, camera_path, mode, width, height, samples, radius_px, ra
 @click.option("--width", type=int, callback=_positive, help="Image width [default: each viewpoint's, 1024].")
 @click.option("--height", type=int, callback=_positive, help="Image height [default: each viewpoint's, 768].")
 def demo(outdir, width, height):
-    """Render the embedded sample factory cell from each of its viewpoints in D1, D2 and D3,
-    write PNGs (one per mode and a labelled side-by-side sheet per view) and print their paths."""
+    """Render the embedded sample factory cell and the generator's shipped cell from each of
+    their viewpoints in D1, D2 and D3, write PNGs (one per mode and a labelled side-by-side
+    sheet per view; the generated cell's prefixed cell_) and print their paths."""
     from .commands import demo_command
 
     demo_command(Path(outdir), width, height)

@@ -9,7 +9,7 @@ from .camera import Camera
 from .errors import MrcheckError
 from .output import AO_SUFFIXES, IMAGE_SUFFIXES, check_output_path, labelled_sheet, write_ao, write_image
 from .renderer import MODES, STUDY_LABELS, Renderer, RenderSettings
-from .resources import sample_scene_path
+from .resources import factory_scenes_dir, sample_scene_path
 from .scene import load_scene
 
 STUDY_ORDER = ("phong", "vector", "ssao")  # D1 | D2 | D3, as in the paper's figure 5
@@ -77,22 +77,26 @@ def render_command(scene, view, camera_path, mode, width, height, units, output,
 
 
 def demo_command(outdir: Path, width=None, height=None):
+    """Render the embedded scenes from each of their viewpoints in D1, D2, D3: the sample cell
+    as ``VIEW_MODE.png`` and the generator's shipped cell as ``cell_VIEW_MODE.png``."""
     from tqdm import tqdm
 
     outdir = Path(outdir).resolve()  # absolute: bootstrap.sh runs from the repository folder
-    scene = load_scene(sample_scene_path(), progress=True)
-    renderer = Renderer(scene)
-    try:
-        # disable=None: a bar on a terminal, nothing in a log or a pipe
-        for view in tqdm(sorted(scene.viewpoints), desc="rendering demo", unit="view", file=sys.stderr, disable=None):
-            camera = scene.camera(view, width, height)
-            results = renderer.render(camera, MODES)
-            for m in STUDY_ORDER:
-                print(write_image(outdir / f"{view}_{m}.png", results[m].image))
-            sheet = labelled_sheet([results[m].image for m in STUDY_ORDER], [STUDY_LABELS[m] for m in STUDY_ORDER])
-            print(write_image(outdir / f"{view}_study.png", sheet))
-    finally:
-        renderer.release()
+    scenes = [("", sample_scene_path()), ("cell_", factory_scenes_dir() / "cell" / "scene.toml")]
+    for prefix, manifest in scenes:
+        scene = load_scene(manifest, progress=True)
+        renderer = Renderer(scene)
+        try:
+            # disable=None: a bar on a terminal, nothing in a log or a pipe
+            for view in tqdm(sorted(scene.viewpoints), desc=f"rendering {scene.name}", unit="view",
+                             file=sys.stderr, disable=None):
+                results = renderer.render(scene.camera(view, width, height), MODES)
+                for m in STUDY_ORDER:
+                    print(write_image(outdir / f"{prefix}{view}_{m}.png", results[m].image))
+                sheet = labelled_sheet([results[m].image for m in STUDY_ORDER], [STUDY_LABELS[m] for m in STUDY_ORDER])
+                print(write_image(outdir / f"{prefix}{view}_study.png", sheet))
+        finally:
+            renderer.release()
 
 
 __all__ = ["render_command", "demo_command", "resolve_camera"]

@@ -78,7 +78,7 @@ def test_demo_writes_every_view_and_mode(tmp_path, capsys):
     assert main(["demo", "-o", str(tmp_path), *SMALL]) == 0
     printed = capsys.readouterr().out.split()
     names = {Path(p).name for p in printed}
-    for view in ("overview", "robot", "conveyor"):
+    for view in ("overview", "robot", "conveyor", "cell_aisle", "cell_robot_cell", "cell_overview"):
         for kind in ("phong", "vector", "ssao", "study"):
             assert f"{view}_{kind}.png" in names
     assert all(Path(p).exists() for p in printed)
