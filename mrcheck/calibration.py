@@ -1,0 +1,389 @@
+"""Camera calibration from photos of a chessboard or ChArUco board, and camera file I/O.
+
+Conventions:
+
+* Board SPEC strings: ``chessboard:COLSxROWS:SQUARE`` counts INNER corners (OpenCV's
+  ``patternSize``), ``charuco:COLSxROWS:SQUARE:MARKER:DICT`` counts SQUARES (OpenCV's
+  ``CharucoBoard`` size); sizes are in metres, DICT is an OpenCV predefined dictionary name
+  (``DICT_6X6_250``). The board lies in its own z = 0 plane; its units only scale the (unused)
+  extrinsics, never K.
+* Pixel coordinates and K are OpenCV's (see :mod:`mrcheck.camera`); ``dist`` is OpenCV's
+  ``[k1, k2, p1, p2, k3]``. Errors are RMS reprojection errors in pixels: ``rms`` over all
+  points of the kept views, ``per_view_errors`` per view (``calibrateCameraExtended``).
+* A calibrated camera has no pose: R = I, t = 0 (the camera frame is the world frame).
+* Output: our camera JSON (``Camera.load`` reads it; extra keys rms, per_view_errors,
+  rejected_views, std, board), or for ``.yml``/``.yaml`` OpenCV FileStorage in the layout of
+  OpenCV's calibration samples (``image_width``, ``image_height``, ``camera_matrix``,
+  ``distortion_coefficients``, ``avg_reprojection_error``). :func:`read_camera` reads both.
+
+Views where the board is not found and unreadable images are skipped with a warning on
+stderr; outlier views (RMS above ``max_view_error``, by default above
+``max(3 x median, 1 px)``) are rejected and the camera is calibrated once more without them.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from .camera import Camera
+from .errors import MrcheckError
+from .output import _atomic_write, check_output_path
+
+DEFAULT_MIN_VIEWS = 5
+YAML_SUFFIXES = (".yml", ".yaml")
+CAMERA_SUFFIXES = (".json",) + YAML_SUFFIXES
+
+# "3 x median" catches a view far worse than its peers; the 1 px floor keeps a set of very
+# good views (median 0.1 px) from losing ordinary ones at 0.4 px
+OUTLIER_FACTOR = 3.0
+OUTLIER_FLOOR_PX = 1.0
+# fewer ChArUco corners than this cannot constrain a view's pose (six parameters) reliably
+MIN_CHARUCO_CORNERS = 6
+_SUBPIX_CRITERIA = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.001)  # OpenCV's samples
+# the FileStorage key names OpenCV's samples and tutorials use, the first one is what we write
+_YAML_KEYS = {
+    "K": ("camera_matrix", "cameraMatrix", "K", "M"),
+    "dist": ("distortion_coefficients", "dist_coeffs", "distCoeffs", "D", "dist"),
+    "width": ("image_width", "width"),
+    "height": ("image_height", "height"),
+}
+
+
+# -- boards -------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Board:
+    """A parsed board SPEC; :meth:`detect` finds it in a grey image."""
+
+    spec: str
+    kind: str  # "chessboard" or "charuco"
+    cols: int
+    rows: int
+    square: float
+    marker: float = 0.0
+    dictionary: str = ""
+
+    def __post_init__(self):
+        if self.kind == "charuco":
+            aruco = cv2.aruco
+            board = aruco.CharucoBoard((self.cols, self.rows), self.square, self.marker,
+                                       aruco.getPredefinedDictionary(getattr(aruco, self.dictionary)))
+            # the detector interpolates the chessboard corners from the markers and refines them
+            # to sub-pixel accuracy itself (cornerSubPix inside detectBoard)
+            object.__setattr__(self, "_charuco", (board, aruco.CharucoDetector(board)))
+        else:
+            grid = np.mgrid[0:self.cols, 0:self.rows].T.reshape(-1, 2) * self.square
+            object.__setattr__(self, "_grid", np.column_stack((grid, np.zeros(len(grid)))).astype(np.float32))
+
+    def detect(self, gray: np.ndarray):
+        """(object points (n, 3) float32 metres, image points (n, 2) float32 px), or None."""
+        return self._detect_charuco(gray) if self.kind == "charuco" else self._detect_chessboard(gray)
+
+    def _detect_chessboard(self, gray):
+        size = (self.cols, self.rows)
+        # the classic detector first: it is what OpenCV's calibration sample uses, so results match
+        # it; FAST_CHECK only skips images without a board sooner
+        flags = cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_FAST_CHECK
+        found, corners = cv2.findChessboardCorners(gray, size, flags=flags)
+        if found:
+            corners = cv2.cornerSubPix(gray, corners, _subpix_window(corners, size), (-1, -1), _SUBPIX_CRITERIA)
+        else:
+            # the sector-based detector copes with blur and strong distortion, and is sub-pixel already
+            found, corners = cv2.findChessboardCornersSB(gray, size, flags=cv2.CALIB_CB_ACCURACY)
+        if not found:
+            return None
+        return self._grid, corners.reshape(-1, 2).astype(np.float32)
+
+    def _detect_charuco(self, gray):
+        board, detector = self._charuco
+        corners, ids, _, _ = detector.detectBoard(gray)
+        if ids is None or len(ids) < MIN_CHARUCO_CORNERS or board.checkCharucoCornersCollinear(ids):
+            return None  # collinear corners give no homography, calibrateCamera would fail
+        obj, img = board.matchImagePoints(corners, ids)  # object points of the corners, by id
+        return obj.reshape(-1, 3).astype(np.float32), img.reshape(-1, 2).astype(np.float32)
+
+
+def _subpix_window(corners, size):
+    """cornerSubPix's winSize (a HALF size): a quarter of the smallest corner spacing, 2 to 5 px.
+
+    OpenCV's calibration sample passes (11, 11), a 23 x 23 px window; where squares are smaller
+    than that (left02.jpg of its own photos: 21.8 px) the window takes in the neighbouring
+    corners and pulls the refined corner up to 6 px off, a 1.2 px view error instead of 0.17 px.
+    """
+    grid = corners.reshape(size[1], size[0], 2)
+    spacing = min(float(np.linalg.norm(np.diff(grid, axis=axis), axis=2).min()) for axis in (0, 1))
+    half = int(min(5, max(2, spacing // 4)))
+    return (half, half)
+
+
+def parse_board(spec: str) -> Board:
+    """A :class:`Board` of a SPEC string, or MrcheckError naming what is wrong with it."""
+    fields = spec.split(":")
+    kind = fields[0].strip().lower()
+    expected = {"chessboard": 3, "charuco": 5}
+    if kind not in expected:
+        raise MrcheckError(f"board SPEC {spec!r}: unknown board type {fields[0]!r} (chessboard or charuco)")
+    if len(fields) != expected[kind]:
+        form = "chessboard:COLSxROWS:SQUARE" if kind == "chessboard" else "charuco:COLSxROWS:SQUARE:MARKER:DICT"
+        raise MrcheckError(f"board SPEC {spec!r}: expected {form}")
+    try:
+        cols, rows = (int(n) for n in fields[1].lower().split("x"))
+    except ValueError:
+        raise MrcheckError(f"board SPEC {spec!r}: size {fields[1]!r} is not COLSxROWS, e.g. 9x6") from None
+    smallest = 3 if kind == "chessboard" else 2  # OpenCV's chessboard detectors need 3x3 inner corners
+    if cols < smallest or rows < smallest:
+        raise MrcheckError(f"board SPEC {spec!r}: size must be at least {smallest}x{smallest}")
+    sizes = [_length(spec, name, value) for name, value in zip(("square", "marker"), fields[2:4])]
+    if kind == "chessboard":
+        return Board(spec, kind, cols, rows, sizes[0])
+    square, marker = sizes
+    if marker >= square:
+        raise MrcheckError(f"board SPEC {spec!r}: marker size must be smaller than the square size")
+    dictionary = fields[4].strip().upper()
+    if not dictionary.startswith("DICT_") or not isinstance(getattr(cv2.aruco, dictionary, None), int):
+        raise MrcheckError(f"board SPEC {spec!r}: unknown ArUco dictionary {fields[4]!r} (e.g. DICT_6X6_250)")
+    return Board(spec, kind, cols, rows, square, marker, dictionary)
+
+
+def _length(spec, name, text) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (value > 0 and math.isfinite(value)):
+        raise MrcheckError(f"board SPEC {spec!r}: {name} size must be a positive length in metres, got {text!r}")
+    return value
+
+
+# -- calibration --------------------------------------------------------------------------------
+@dataclass
+class Calibration:
+    """One cv2.calibrateCameraExtended result over the views named ``names``."""
+
+    names: list
+    rms: float
+    K: np.ndarray
+    dist: np.ndarray
+    std: np.ndarray  # OpenCV's stdDeviationsIntrinsics: fx, fy, cx, cy, then the dist coefficients
+    per_view: np.ndarray
+
+    def std_dict(self) -> dict:
+        s = [float(v) for v in self.std]
+        return {"fx": s[0], "fy": s[1], "cx": s[2], "cy": s[3], "dist": s[4:4 + len(self.dist)]}
+
+
+def _calibrate(views: dict, size) -> Calibration:
+    names = list(views)
+    try:
+        rms, K, dist, _, _, std, _, per_view = cv2.calibrateCameraExtended(
+            [views[n][0] for n in names], [views[n][1] for n in names], size, None, None)
+    except cv2.error as exc:
+        raise MrcheckError(f"calibration failed ({exc.err})") from None
+    if not (np.all(np.isfinite(K)) and np.all(np.isfinite(dist)) and math.isfinite(rms)):
+        raise MrcheckError("calibration failed (non-finite result); use more views at varied angles")
+    return Calibration(names, float(rms), K, dist.reshape(-1), std.reshape(-1), per_view.reshape(-1))
+
+
+def _read_gray(path: Path):
+    if not path.is_file():
+        raise MrcheckError("image not found", path)
+    try:
+        image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    except cv2.error:
+        image = None
+    return image
+
+
+def _warn(name, problem):
+    print(f"warning: {name}: {problem}", file=sys.stderr)
+
+
+def detect_views(images, board: Board):
+    """({name: (object points, image points)}, (width, height), skipped names); warns on stderr."""
+    views, skipped, size, size_from = {}, [], None, None
+    for name in images:
+        gray = _read_gray(Path(name))
+        if gray is None:
+            _warn(name, "cannot read image, skipped")
+            skipped.append(name)
+            continue
+        shape = (gray.shape[1], gray.shape[0])
+        if size is None:
+            size, size_from = shape, name
+        elif shape != size:
+            raise MrcheckError(f"image is {shape[0]}x{shape[1]}, but {size_from} is {size[0]}x{size[1]}; "
+                               "all views must come from one camera at one resolution", name)
+        points = board.detect(gray)
+        if points is None:
+            _warn(name, "board not found")
+            skipped.append(name)
+        else:
+            views[name] = points
+    return views, size, skipped
+
+
+def calibrate(images, board: Board, min_views=None, max_view_error=None):
+    """Detect, calibrate, reject outlier views, recalibrate once.
+
+    Returns (camera, extra, report lines); ``extra`` holds the JSON's rms, per_view_errors, ...
+    """
+    min_views = DEFAULT_MIN_VIEWS if min_views is None else int(min_views)
+    views, size, skipped = detect_views(images, board)
+    if len(views) < min_views:
+        raise MrcheckError(f"board found in only {len(views)} of {len(images)} images, need at least {min_views} "
+                           "(--min-views)")
+    first = _calibrate(views, size)
+    threshold = (max_view_error if max_view_error is not None
+                 else max(OUTLIER_FACTOR * float(np.median(first.per_view)), OUTLIER_FLOOR_PX))
+    rejected = {n: float(e) for n, e in zip(first.names, first.per_view) if e > threshold}
+    result = first
+    if rejected:
+        kept = {n: v for n, v in views.items() if n not in rejected}
+        if len(kept) < min_views:
+            raise MrcheckError(f"only {len(kept)} views have an RMS error <= {threshold:.3g} px, need at least "
+                               f"{min_views}; loosen --max-view-error or add views")
+        result = _calibrate(kept, size)
+    camera = Camera(size[0], size[1], result.K, dist=result.dist)
+    extra = {
+        "rms": result.rms,
+        "per_view_errors": {n: float(e) for n, e in zip(result.names, result.per_view)},
+        "rejected_views": list(rejected),
+        "skipped_views": skipped,
+        "std": result.std_dict(),
+        "board": board.spec,
+    }
+    return camera, extra, _report(camera, extra, rejected, threshold, len(images))
+
+
+def _report(camera, extra, rejected, threshold, n_images) -> list:
+    used = extra["per_view_errors"]
+    std = extra["std"]
+    lines = [f"board {extra['board']}: {len(used)} of {n_images} images used, {len(rejected)} rejected, "
+             f"{len(extra['skipped_views'])} without a board or unreadable"]
+    lines += [f"  not found/skipped: {name}" for name in extra["skipped_views"]]
+    lines += [f"  rejected: {name} ({err:.3f} px > {threshold:.3f} px)" for name, err in rejected.items()]
+    lines.append(f"RMS reprojection error: {extra['rms']:.4f} px")
+    lines.append("per-view RMS error (px):")
+    lines += [f"  {name}  {err:.4f}" for name, err in used.items()]
+    for key in ("fx", "fy", "cx", "cy"):
+        lines.append(f"{key} = {getattr(camera, key):.3f} +/- {std[key]:.3f} px")
+    dist = ", ".join(f"{k}={v:.5g}+/-{s:.2g}" for k, v, s in zip(("k1", "k2", "p1", "p2", "k3"), camera.dist, std["dist"]))
+    lines.append(f"dist: {dist}")
+    return lines
+
+
+def calibrate_command(images, board, output, min_views=None, max_view_error=None) -> None:
+    """The ``mrcheck calibrate`` command: everything checked before the work, output written last."""
+    spec = parse_board(board)
+    output = check_output_path(output, CAMERA_SUFFIXES, "camera output")
+    camera, extra, report = calibrate(images, spec, min_views, max_view_error)
+    write_camera(output, camera, extra)
+    print("\n".join(report))
+    print(f"wrote {output}")
+
+
+# -- camera files -------------------------------------------------------------------------------
+def _is_yaml(path: Path) -> bool:
+    return path.suffix.lower() in YAML_SUFFIXES
+
+
+def write_camera(path, camera: Camera, extra: dict = None) -> Path:
+    """Camera JSON (camera keys + ``extra``), or OpenCV FileStorage YAML for .yml/.yaml, atomically."""
+    path, extra = Path(path), dict(extra or {})
+    if not _is_yaml(path):
+        text = json.dumps({**camera.to_dict(), **extra}, indent=2) + "\n"
+        _atomic_write(path, lambda handle: handle.write(text.encode()))
+        return path
+    fs = cv2.FileStorage(".yml", cv2.FILE_STORAGE_WRITE | cv2.FILE_STORAGE_MEMORY)
+    fs.write("image_width", camera.width)
+    fs.write("image_height", camera.height)
+    fs.write("camera_matrix", camera.K)
+    fs.write("distortion_coefficients", camera.dist.reshape(-1, 1))  # 5x1, as the chessboard sample
+    if not (np.allclose(camera.R, np.eye(3)) and not camera.t.any()):
+        fs.write("R", camera.R)  # a pose only when there is one: the samples' layout has none
+        fs.write("t", camera.t.reshape(3, 1))
+    if "rms" in extra:
+        fs.write("avg_reprojection_error", float(extra.pop("rms")))
+    if "per_view_errors" in extra:
+        errors = extra.pop("per_view_errors")
+        fs.write("per_view_reprojection_errors", np.array(list(errors.values()), np.float64).reshape(-1, 1))
+        _write_strings(fs, "views", errors)  # file names cannot be FileStorage keys, hence a list
+    for key, value in extra.items():
+        if isinstance(value, str) or (isinstance(value, (int, float)) and not isinstance(value, bool)):
+            fs.write(key, value)
+        elif isinstance(value, list) and all(isinstance(v, str) for v in value):
+            _write_strings(fs, key, value)
+        elif isinstance(value, dict):  # std: one entry per parameter, like OpenCV's own stdDev keys
+            for sub, v in value.items():
+                fs.write(f"{key}_{sub}", np.asarray(v, np.float64).reshape(-1, 1) if isinstance(v, list) else float(v))
+    text = fs.releaseAndGetString()
+    _atomic_write(path, lambda handle: handle.write(text.encode()))
+    return path
+
+
+def _write_strings(fs, key, values):
+    fs.startWriteStruct(key, cv2.FileNode_SEQ)
+    for value in values:
+        fs.write("", str(value))
+    fs.endWriteStruct()
+
+
+def read_camera(path) -> Camera:
+    """A :class:`Camera` from our camera JSON or an OpenCV calibration YAML (no pose: R = I, t = 0)."""
+    path = Path(path)
+    if not _is_yaml(path):
+        return Camera.load(path)
+    if not path.is_file():
+        raise MrcheckError("camera file not found", path)
+    try:
+        fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    except cv2.error as exc:
+        raise MrcheckError(f"malformed OpenCV YAML ({exc.err})", path) from None
+    try:
+        if not fs.isOpened():
+            raise MrcheckError("cannot read OpenCV YAML", path)
+        values = {name: _yaml_value(fs, keys) for name, keys in _YAML_KEYS.items()}
+        values["R"], values["t"] = _yaml_value(fs, ("R",)), _yaml_value(fs, ("t",))
+    finally:
+        fs.release()
+    if values["K"] is None:
+        raise MrcheckError(f"OpenCV YAML has no camera matrix ({' or '.join(_YAML_KEYS['K'])})", path)
+    if values["width"] is None or values["height"] is None:
+        raise MrcheckError("OpenCV YAML has no image_width/image_height; pass a camera JSON with width and height",
+                           path)
+    for key in ("K", "R"):  # a plain 9-number list is a 3x3 matrix too
+        if values[key] is not None and values[key].size == 9:
+            values[key] = values[key].reshape(3, 3)
+    data = {key: value.tolist() for key, value in values.items() if value is not None}
+    data["width"], data["height"] = (float(np.ravel(values[k])[0]) for k in ("width", "height"))
+    if "t" in data:
+        data["t"] = np.ravel(values["t"]).tolist()
+    if "dist" in data:
+        data["dist"] = np.ravel(values["dist"]).tolist()
+    return Camera.from_dict(data, path)
+
+
+def _yaml_value(fs, keys):
+    """The first present key's value as a float64 array (matrix, number or list), else None."""
+    for key in keys:
+        node = fs.getNode(key)
+        if node.empty() or node.isNone():
+            continue
+        if node.isSeq():
+            return np.array([node.at(i).real() for i in range(node.size())], np.float64)
+        if node.isInt() or node.isReal():
+            return np.array(node.real(), np.float64)
+        matrix = node.mat()
+        if matrix is not None:
+            return np.asarray(matrix, np.float64)
+    return None
+
+
+__all__ = ["Board", "parse_board", "detect_views", "calibrate", "calibrate_command", "read_camera", "write_camera",
+           "DEFAULT_MIN_VIEWS"]

@@ -1,0 +1,189 @@
+"""mrcheck calibrate on real photos: OpenCV's own chessboard sample (left*.jpg, 9x6 inner corners,
+25 mm) and the aruco tutorial's ChArUco photos (5x7 squares, 40/20 mm, DICT_6X6_250), checked
+against plain OpenCV and against the intrinsics OpenCV ships with them."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from mrcheck.calibration import read_camera, write_camera
+from mrcheck.camera import Camera
+from mrcheck.cli import main
+
+DATA = Path(__file__).parent / "data" / "calibration"
+CHESS = sorted(str(p) for p in (DATA / "opencv_chessboard").glob("left[0-9]*.jpg"))
+CHARUCO = sorted(str(p) for p in (DATA / "opencv_charuco").glob("img_*.jpg"))
+CHESS_SPEC = "chessboard:9x6:0.025"
+CHARUCO_SPEC = "charuco:5x7:0.04:0.02:DICT_6X6_250"
+
+
+def run(capsys, *args):
+    """(exit code, stdout, stderr) of ``mrcheck calibrate ARGS``."""
+    code = main(["calibrate", *map(str, args)])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def plain_opencv(images):
+    """OpenCV's calibration sample, verbatim: classic detector, cornerSubPix (11, 11), default flags."""
+    grid = np.zeros((54, 3), np.float32)
+    grid[:, :2] = np.mgrid[0:9, 0:6].T.reshape(-1, 2) * 0.025
+    points = []
+    for name in images:
+        gray = cv2.imread(name, cv2.IMREAD_GRAYSCALE)
+        found, corners = cv2.findChessboardCorners(gray, (9, 6))
+        assert found, name
+        points.append(cv2.cornerSubPix(gray, corners, (11, 11), (-1, -1),
+                                       (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.001)))
+    rms, K, _, _, _, _, _, per_view = cv2.calibrateCameraExtended([grid] * len(points), points, (640, 480), None, None)
+    return rms, K, per_view.ravel()
+
+
+def test_data_is_complete():
+    assert len(CHESS) == 13 and len(CHARUCO) == 4
+    assert (DATA / "opencv_chessboard" / "debian_copyright.txt").is_file()
+    assert (DATA / "opencv_charuco" / "LICENSE").is_file()
+
+
+def test_chessboard_against_opencv(tmp_path, capsys):
+    out = tmp_path / "cam.json"
+    code, stdout, _ = run(capsys, *CHESS, "--board", CHESS_SPEC, "-o", out)
+    assert code == 0
+    result = json.loads(out.read_text())
+    plain_rms, plain_K, plain_per_view = plain_opencv(CHESS)
+    assert plain_rms == pytest.approx(0.41, abs=0.02)
+    # never worse than OpenCV's sample; it is better: the sample's 23 px cornerSubPix window spans
+    # more than a square of left02.jpg and pulls its corners off (1.2 px view error, ours 0.2)
+    assert result["rms"] <= plain_rms + 0.05
+    left02 = CHESS[1]
+    assert plain_per_view[1] > 1.0 and result["per_view_errors"][left02] < 0.5
+    assert result["rejected_views"] == []  # so the default outlier rule keeps all 13 views
+    shipped = read_camera(DATA / "opencv_chessboard" / "left_intrinsics.yml")
+    assert abs(result["K"][0][0] / shipped.fx - 1.0) < 0.01
+    assert abs(result["K"][0][0] / plain_K[0, 0] - 1.0) < 0.01
+    assert f"RMS reprojection error: {result['rms']:.4f} px" in stdout
+    for key in ("fx =", "fy =", "cx =", "cy =", "dist:", "13 of 13 images used"):
+        assert key in stdout
+
+
+def test_charuco_against_opencv_tutorial(tmp_path, capsys):
+    out = tmp_path / "cam.yml"
+    code, _, err = run(capsys, *CHARUCO, "--board", CHARUCO_SPEC, "--min-views", 4, "-o", out)
+    assert code == 0, err
+    camera = read_camera(out)
+    shipped = read_camera(DATA / "opencv_charuco" / "tutorial_camera_charuco.yml")
+    assert (camera.width, camera.height) == (shipped.width, shipped.height) == (640, 480)
+    assert abs(camera.fx / shipped.fx - 1.0) < 0.02
+    assert abs(camera.fy / shipped.fy - 1.0) < 0.02
+    fs = cv2.FileStorage(str(out), cv2.FILE_STORAGE_READ)  # OpenCV itself reads the samples' keys
+    assert fs.getNode("camera_matrix").mat().shape == (3, 3)
+    assert fs.getNode("avg_reprojection_error").real() < 0.5
+    fs.release()
+
+
+def test_json_output_is_a_camera(tmp_path, capsys):
+    out = tmp_path / "cam.json"
+    assert run(capsys, *CHESS, "--board", CHESS_SPEC, "-o", out)[0] == 0
+    camera = Camera.load(out)
+    data = json.loads(out.read_text())
+    assert (camera.width, camera.height) == (640, 480) and camera.dist.shape == (5,)
+    assert np.array_equal(camera.R, np.eye(3)) and not camera.t.any()
+    assert set(data["per_view_errors"]) == set(CHESS)
+    assert set(data["std"]) == {"fx", "fy", "cx", "cy", "dist"} and len(data["std"]["dist"]) == 5
+    assert 0 < data["std"]["fx"] < 5 and data["board"] == CHESS_SPEC
+    assert read_camera(out).fx == camera.fx
+
+
+def test_yaml_round_trip(tmp_path):
+    camera = Camera(640, 480, [[500.5, 0, 320.25], [0, 501.5, 240.75], [0, 0, 1]], dist=[-0.1, 0.01, 0.001, -0.002, 0.05])
+    path = write_camera(tmp_path / "c.yaml", camera, {"rms": 0.3, "board": CHESS_SPEC})
+    back = read_camera(path)
+    assert np.array_equal(back.K, camera.K) and np.array_equal(back.dist, camera.dist)
+    assert np.array_equal(back.R, np.eye(3)) and (back.width, back.height) == (640, 480)
+    posed = camera.with_pose(cv2.Rodrigues(np.array([0.1, -0.2, 0.3]))[0], [1.0, 2.0, 3.0])
+    back = read_camera(write_camera(tmp_path / "posed.yml", posed))
+    assert np.allclose(back.R, posed.R, atol=1e-12) and np.array_equal(back.t, posed.t)
+
+
+def test_yaml_without_size_asks_for_json(tmp_path):
+    path = tmp_path / "k.yml"
+    path.write_text("%YAML:1.0\n---\ncamera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+                    "   data: [ 500., 0., 320., 0., 500., 240., 0., 0., 1. ]\n")
+    with pytest.raises(Exception, match="image_width.*JSON"):
+        read_camera(path)
+
+
+def test_views_without_board_and_corrupt_files_are_skipped(tmp_path, capsys):
+    noise = tmp_path / "noise.png"
+    cv2.imwrite(str(noise), np.random.default_rng(0).integers(0, 256, (480, 640), np.uint8))
+    corrupt = tmp_path / "corrupt.jpg"
+    corrupt.write_bytes(Path(CHESS[0]).read_bytes()[:200])
+    out = tmp_path / "cam.json"
+    code, stdout, err = run(capsys, *CHESS[:6], noise, corrupt, "--board", CHESS_SPEC, "-o", out)
+    assert code == 0
+    assert f"warning: {noise}: board not found" in err
+    assert f"warning: {corrupt}: cannot read image, skipped" in err
+    data = json.loads(out.read_text())
+    assert data["skipped_views"] == [str(noise), str(corrupt)] and len(data["per_view_errors"]) == 6
+    assert "6 of 8 images used" in stdout
+
+
+def test_too_few_views_fails_without_output(tmp_path, capsys):
+    out = tmp_path / "cam.json"
+    code, _, err = run(capsys, *CHARUCO, "--board", CHARUCO_SPEC, "-o", out)  # 4 views, default 5
+    assert code == 1
+    assert err.startswith("error: ") and err.count("\n") == 1 and "need at least 5" in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_wrong_board_finds_nothing(tmp_path, capsys):
+    code, _, err = run(capsys, *CHESS[:5], "--board", "chessboard:7x7:0.025", "-o", tmp_path / "c.json")
+    # (the sector-based fallback detector can lock onto a 7x7 grid of one photo, never on 5)
+    assert code == 1 and err.count("warning:") >= 4 and "need at least 5" in err
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("spec, problem", [
+    ("checkerboard:9x6:0.025", "unknown board type"),
+    ("chessboard:9x6", "expected chessboard:COLSxROWS:SQUARE"),
+    ("chessboard:9by6:0.025", "not COLSxROWS"),
+    ("chessboard:2x6:0.025", "at least 3x3"),
+    ("chessboard:9x6:-1", "positive length"),
+    ("chessboard:9x6:nan", "positive length"),
+    ("charuco:5x7:0.04:0.05:DICT_6X6_250", "smaller than the square"),
+    ("charuco:5x7:0.04:0.02:DICT_9X9_1", "unknown ArUco dictionary"),
+])
+def test_bad_spec(tmp_path, capsys, spec, problem):
+    code, _, err = run(capsys, *CHESS, "--board", spec, "-o", tmp_path / "c.json")
+    assert code == 1 and err.startswith("error: board SPEC") and problem in err and err.count("\n") == 1
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_images_of_different_sizes(tmp_path, capsys):
+    small = tmp_path / "small.jpg"
+    cv2.imwrite(str(small), cv2.resize(cv2.imread(CHESS[0]), (320, 240)))
+    code, _, err = run(capsys, *CHESS[:5], small, "--board", CHESS_SPEC, "-o", tmp_path / "c.json")
+    assert code == 1 and f"error: {small}: image is 320x240" in err
+
+
+def test_outlier_views_rejected_then_recalibrated(tmp_path, capsys):
+    out = tmp_path / "cam.json"
+    code, stdout, _ = run(capsys, *CHESS, "--board", CHESS_SPEC, "--max-view-error", 0.2, "-o", out)
+    assert code == 0
+    data = json.loads(out.read_text())
+    assert data["rejected_views"] and not set(data["rejected_views"]) & set(data["per_view_errors"])
+    assert len(data["rejected_views"]) + len(data["per_view_errors"]) == 13
+    assert "rejected: " in stdout and "> 0.200 px" in stdout
+    # too strict a limit leaves too few views: an error, not a calibration from 2 views
+    code, _, err = run(capsys, *CHESS, "--board", CHESS_SPEC, "--max-view-error", 0.17, "-o", out)
+    assert code == 1 and "loosen --max-view-error" in err
+
+
+def test_output_suffix_checked_first(tmp_path, capsys):
+    code, _, err = run(capsys, *CHESS, "--board", CHESS_SPEC, "-o", tmp_path / "cam.txt")
+    assert code == 1 and "must end in .json, .yml, .yaml" in err
