@@ -1,0 +1,361 @@
+"""Registration: the camera pose of a photo in the factory, from markers or clicked points.
+
+Conventions: OpenCV pinhole with distortion (see :mod:`mrcheck.camera`), ``X_cam = R @ X_world + t``,
+world units metres, pixel centres at integer (u, v).
+
+Inputs: a calibrated camera (intrinsics; its R, t are ignored) and either a marker map
+(:mod:`mrcheck.markers`) or correspondences JSON::
+
+    {"points": [{"pixel": [u, v], "world": [x, y, z]}, ...]}     (>= 4, not collinear)
+
+Output, SHOT.json: the camera JSON (``width``, ``height``, ``K``, ``dist``, ``R``, ``t``, so
+``mrcheck render --camera SHOT.json`` takes it as is) plus::
+
+    "photo": absolute path of the photo,  "method": "markers" | "points",
+    "rms": reprojection RMS on the inliers (px),  "inlier_threshold_px": the RANSAC threshold,
+    "used" / "rejected": [{"id": 7, "dictionary": ..., "error_px": worst corner}, {"board": 0, ...,
+        "corners": n}, or for points {"index": i, "pixel": .., "world": .., "error_px": ..}],
+    "unknown_ids" / "unseen_ids" (markers only), "camera_position": world [x, y, z],
+    "expected_overlay_error_px": predicted overlay error at the points' depth (1 sigma, RMS
+        over the image, first order, from the pose covariance), "warnings": [str, ...]
+
+The pose: RANSAC (``cv2.solvePnPRansac``) over all points of all markers jointly, a refit on the
+inliers (IPPE's two solutions when the points are coplanar, SQPnP otherwise) and
+``cv2.solvePnPRefineLM``; the candidate with the lowest RMS wins.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import click
+import cv2
+import numpy as np
+
+from .camera import Camera
+from .errors import MrcheckError
+from .markers import Group, detect_markers, load_marker_map, parse_marker_map
+from .output import _atomic_write, check_output_path
+
+# corner noise assumed when the residuals cannot tell (exact synthetic data, a single marker):
+# subpixel ArUco/ChArUco corners are good to a few tenths of a pixel
+_MIN_SIGMA_PX = 0.3
+_WARN_OVERLAY_PX = 3.0  # predicted overlay error worth a warning
+_WARN_DISTANCE_RATIO = 15.0  # mean distance / extent of the points
+_WARN_FRONTAL_DEG = 20.0  # coplanar points whose plane faces the camera within this angle
+
+
+def fit_camera(camera: Camera, width: int, height: int, source="photo"):
+    """``camera`` at the photo's size: as is, rescaled (same aspect ratio, with a warning), or an error."""
+    if (width, height) == (camera.width, camera.height):
+        return camera, []
+    # a resized photo keeps the aspect ratio up to rounding of one pixel
+    if abs(width * camera.height - height * camera.width) <= max(camera.width, camera.height, width, height):
+        warning = (f"photo is {width}x{height} but the intrinsics are for {camera.width}x{camera.height}: "
+                   "K rescaled (same aspect ratio; a crop would be wrong)")
+        return camera.resized(width, height), [warning]
+    raise MrcheckError(f"photo is {width}x{height} but the intrinsics are for {camera.width}x{camera.height} "
+                       "(another aspect ratio: a crop or another camera mode; calibrate at this size)", source)
+
+
+def read_photo(path) -> np.ndarray:
+    """The photo as (H, W) uint8 grey, or a one-line error."""
+    path = Path(path)
+    try:
+        data = np.fromfile(path, np.uint8)  # imdecode, unlike imread, handles any path and says nothing
+    except FileNotFoundError:
+        raise MrcheckError("photo not found", path) from None
+    except (OSError, ValueError) as exc:
+        raise MrcheckError(f"cannot read photo ({exc})", path) from None
+    image = cv2.imdecode(data, cv2.IMREAD_GRAYSCALE) if data.size else None
+    if image is None:
+        raise MrcheckError("cannot decode photo (corrupt or not an image)", path)
+    return image
+
+
+def read_intrinsics(path) -> Camera:
+    try:  # the calibration module reads OpenCV YAML too, when present
+        from .calibration import read_camera
+    except ImportError:
+        read_camera = Camera.load
+    return read_camera(path)
+
+
+def load_points(path) -> list:
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise MrcheckError("correspondences file not found", path) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise MrcheckError(f"cannot read correspondences ({exc})", path) from None
+    except json.JSONDecodeError as exc:
+        raise MrcheckError(f"malformed correspondences JSON: {exc.msg} at line {exc.lineno}", path) from None
+    return _parse_points(data, path)
+
+
+def _parse_points(data, source="correspondences") -> list:
+    points = data.get("points") if isinstance(data, dict) else data
+    if not isinstance(points, list):
+        raise MrcheckError('correspondences must be {"points": [{"pixel": [u, v], "world": [x, y, z]}, ...]}', source)
+    groups = []
+    for i, entry in enumerate(points):
+        try:
+            pixel = np.asarray(entry["pixel"], np.float64)
+            world = np.asarray(entry["world"], np.float64)
+        except (TypeError, KeyError, ValueError):
+            pixel = world = np.zeros(0)
+        if pixel.shape != (2,) or world.shape != (3,) or not np.all(np.isfinite(pixel)) or not np.all(np.isfinite(world)):
+            raise MrcheckError(f"point #{i} needs 'pixel': [u, v] and 'world': [x, y, z], finite numbers", source)
+        groups.append(Group({"index": i, "pixel": pixel.tolist(), "world": world.tolist()}, pixel[None], world[None]))
+    if len(groups) < 4:
+        raise MrcheckError(f"need at least 4 correspondences, got {len(groups)}", source)
+    return groups
+
+
+# -- the pose ---------------------------------------------------------------------------------
+
+@dataclass
+class Pose:
+    R: np.ndarray
+    t: np.ndarray
+    errors: np.ndarray  # (n,) reprojection error of every point, px
+    inliers: np.ndarray  # (n,) bool
+    threshold: float
+
+    @property
+    def rms(self) -> float:
+        return float(np.sqrt(np.mean(self.errors[self.inliers] ** 2)))
+
+
+def _reprojection_errors(camera, rvec, tvec, pixels, world) -> np.ndarray:
+    projected, _ = cv2.projectPoints(world, rvec, tvec, camera.K, camera.dist)
+    return np.linalg.norm(projected.reshape(-1, 2) - pixels, axis=1)
+
+
+def _shape(world):
+    """Singular values of the centred world points and the normal of their best plane."""
+    _, s, vt = np.linalg.svd(world - world.mean(axis=0))
+    return np.concatenate([s, np.zeros(3 - s.size)]), vt[-1]
+
+
+def solve_pose(camera: Camera, pixels, world, max_error=None) -> Pose:
+    """Robust pose of ``camera`` from 2D-3D pairs: RANSAC, refit on the inliers, LM refinement."""
+    pixels = np.ascontiguousarray(pixels, np.float64).reshape(-1, 2)
+    world = np.ascontiguousarray(world, np.float64).reshape(-1, 3)
+    n = len(world)
+    if n < 4:
+        raise MrcheckError(f"need at least 4 usable points for a pose, got {n}")
+    s, _ = _shape(world)
+    if s[0] < 1e-6 or s[1] < 1e-3 * s[0]:
+        raise MrcheckError("the world points are collinear (or coincide): the pose is undetermined; "
+                           "use points spread over an area")
+    if _shape(np.column_stack([pixels, np.zeros(n)]))[0][1] < 1e-3 * max(camera.width, camera.height):
+        raise MrcheckError("the image points are collinear (or coincide): the pose is undetermined")
+    planar = s[2] < 1e-3 * s[0]
+    # automatic threshold: a few pixels, more for big photos (clicks and corners scale with size)
+    threshold = float(max_error) if max_error else max(3.0, 0.003 * math.hypot(camera.width, camera.height))
+
+    candidates = []
+    inliers = np.ones(n, bool)
+    if n > 4:  # with exactly 4 points every subset fits; there is nothing to vote on
+        ok, rvec, tvec, idx = cv2.solvePnPRansac(world, pixels, camera.K, camera.dist, iterationsCount=1000,
+                                                 reprojectionError=threshold, confidence=0.9999,
+                                                 flags=cv2.SOLVEPNP_EPNP)
+        if ok and idx is not None and len(idx) >= 4:
+            candidates.append((rvec, tvec))
+            inliers = _reprojection_errors(camera, rvec, tvec, pixels, world) < threshold
+    for _ in range(2):  # refit on the inliers, then once more on the inliers of the refit
+        if inliers.sum() < 4:
+            break
+        flag = cv2.SOLVEPNP_IPPE if planar else cv2.SOLVEPNP_SQPNP
+        try:
+            count, rvecs, tvecs, _ = cv2.solvePnPGeneric(world[inliers], pixels[inliers], camera.K, camera.dist, flags=flag)
+        except cv2.error:
+            count, rvecs, tvecs = 0, [], []
+        candidates += list(zip(rvecs, tvecs))[:count]
+        best = _best(camera, candidates, pixels, world, inliers)
+        if best is None:
+            break
+        inliers = best[2] < threshold
+    best = _best(camera, candidates, pixels, world, inliers) if inliers.sum() >= 4 else None
+    if best is None:
+        raise MrcheckError(f"no consistent pose: fewer than 4 points agree within {threshold:.1f} px "
+                           "(check the survey, the ids and the intrinsics, or raise --max-error)")
+    rvec, tvec, errors = best
+    return Pose(cv2.Rodrigues(rvec)[0], tvec.ravel(), errors, errors < threshold, threshold)
+
+
+def _best(camera, candidates, pixels, world, inliers):
+    """LM-refine every candidate on the inliers; the lowest RMS with all inliers in front wins."""
+    best, best_rms = None, np.inf
+    for rvec, tvec in candidates:
+        rvec, tvec = cv2.solvePnPRefineLM(world[inliers], pixels[inliers], camera.K, camera.dist,
+                                          rvec.copy(), tvec.copy())
+        R = cv2.Rodrigues(rvec)[0]
+        if np.any((world[inliers] @ R.T + tvec.ravel())[:, 2] <= 0):
+            continue  # the mirror solution of a plane puts the points behind the camera
+        errors = _reprojection_errors(camera, rvec, tvec, pixels, world)
+        rms = np.sqrt(np.mean(errors[inliers] ** 2))
+        if rms < best_rms:
+            best, best_rms = (rvec, tvec, errors), rms
+    return best
+
+
+def expected_overlay_error(camera: Camera, world, sigma_px: float) -> float:
+    """Predicted overlay error (px, 1 sigma, RMS over a 5x5 grid filling the image) at the points' depth.
+
+    The pose covariance ``sigma^2 (J^T J)^-1`` of the registration points, propagated to points that
+    fill the image at the median depth of the registration points: a small far marker pins down
+    only its own neighbourhood, and this number says how badly the rest of the view may be off.
+    """
+    rvec, no_dist = cv2.Rodrigues(camera.R)[0], np.zeros(5)
+    # pinhole Jacobians: a distortion polynomial extrapolated to the image corners would blow up
+    _, J = cv2.projectPoints(world, rvec, camera.t, camera.K, no_dist)
+    information = J[:, :6].T @ J[:, :6]
+    depth = float(np.median(world @ camera.R[2] + camera.t[2]))
+    u, v = np.meshgrid(np.linspace(0, camera.width - 1, 5), np.linspace(0, camera.height - 1, 5))
+    rays = np.linalg.solve(camera.K, np.stack([u.ravel(), v.ravel(), np.ones(u.size)]))
+    grid = (depth * rays - camera.t[:, None]).T @ camera.R  # R.T @ (depth * ray - t), row-wise
+    _, Jg = cv2.projectPoints(grid, rvec, camera.t, camera.K, no_dist)
+    try:
+        covariance = sigma_px ** 2 * np.linalg.inv(information)
+    except np.linalg.LinAlgError:
+        return float("inf")
+    per_point = np.einsum("ij,jk,ik->i", Jg[:, :6], covariance, Jg[:, :6]).reshape(-1, 2).sum(axis=1)
+    return float(np.sqrt(per_point.mean()))
+
+
+def _geometry_warnings(camera: Camera, world, pose: Pose, single_marker: bool):
+    """Warnings about poses the data barely constrain, and the predicted overlay error."""
+    warnings = []
+    n = len(world)
+    # residuals estimate the corner noise (6 pose parameters use up 6 of the 2n residual dofs)
+    sigma = max(_MIN_SIGMA_PX, pose.rms * math.sqrt(2 * n / (2 * n - 6)) if 2 * n > 6 else 0.0)
+    overlay = expected_overlay_error(camera, world, sigma)
+    if single_marker:
+        warnings.append("only one marker was used: a pose from a single small target is weak "
+                        "away from it (a 20 cm marker at 10 m: ~30 px overlay error); add markers spread over the view")
+    s, normal = _shape(world)
+    extent = 2.0 * s[0] / math.sqrt(n)  # ~ the points' spread along their longest direction
+    distance = float(np.mean(np.linalg.norm(world @ camera.R.T + camera.t, axis=1)))
+    if extent > 0 and distance / extent > _WARN_DISTANCE_RATIO:
+        warnings.append(f"the points span ~{extent:.2f} m seen from {distance:.1f} m (ratio {distance / extent:.0f}): "
+                        "far, small targets; use bigger boards or markers spread wider")
+    if s[2] < 1e-3 * s[0]:
+        tilt = math.degrees(math.acos(min(1.0, abs(float(normal @ camera.R[2])))))
+        if tilt < _WARN_FRONTAL_DEG:
+            warnings.append(f"the points lie in one plane facing the camera (tilt {tilt:.0f} deg): distance and "
+                            "rotation trade off; add points at other depths or view the plane obliquely")
+    if overlay > _WARN_OVERLAY_PX:
+        warnings.append(f"weak geometry: expected overlay error ~{overlay:.1f} px (1 sigma) across the image "
+                        f"at {distance:.1f} m")
+    return overlay, warnings
+
+
+# -- registration -----------------------------------------------------------------------------
+
+def _register(camera: Camera, groups: list, method: str, max_error, warnings: list) -> dict:
+    """Solve the pose over all groups jointly, reject bad markers or pairs, and build the shot dict."""
+    pixels = np.concatenate([g.pixels for g in groups])
+    world = np.concatenate([g.world for g in groups])
+    owner = np.concatenate([np.full(len(g.world), i) for i, g in enumerate(groups)])
+    pose = solve_pose(camera, pixels, world, max_error)
+    atomic = [owner == i for i, g in enumerate(groups) if g.atomic]
+    for _ in range(2):
+        keep = pose.inliers.copy()
+        for mine in atomic:
+            keep[mine] = keep[mine].all()  # one bad corner: the marker moved or was misdetected
+        if (keep == pose.inliers).all():
+            break
+        if keep.sum() < 4:
+            raise MrcheckError("fewer than 4 usable points after rejecting inconsistent markers")
+        refit = solve_pose(camera, pixels[keep], world[keep], pose.threshold)
+        errors = _reprojection_errors(camera, cv2.Rodrigues(refit.R)[0], refit.t, pixels, world)
+        pose = Pose(refit.R, refit.t, errors, keep & (errors < refit.threshold), refit.threshold)
+    used, rejected = [], []
+    for i, group in enumerate(groups):
+        mine = owner == i
+        entry = dict(group.label, error_px=round(float(pose.errors[mine].max()), 3))
+        if not group.atomic:
+            entry["corners"] = int((mine & pose.inliers).sum())
+            if (mine & ~pose.inliers).any():
+                rejected.append(dict(group.label, corners=int((mine & ~pose.inliers).sum()),
+                                     error_px=round(float(pose.errors[mine & ~pose.inliers].max()), 3)))
+        (used if (mine & pose.inliers).any() else rejected).append(entry)
+    posed = camera.with_pose(pose.R, pose.t)
+    if len(groups) < 6 and method == "points":
+        warnings.append(f"only {len(groups)} correspondences: outliers cannot be detected (use 6 or more)")
+    single = len(used) == 1 and method == "markers" and "id" in used[0]  # a board is many corners
+    overlay, more = _geometry_warnings(posed, world[pose.inliers], pose, single)
+    shot = posed.to_dict()
+    shot.update(method=method, rms=round(pose.rms, 4), inlier_threshold_px=round(pose.threshold, 3),
+                used=used, rejected=rejected, camera_position=posed.center.tolist(),
+                expected_overlay_error_px=round(overlay, 2), warnings=warnings + more)
+    return shot
+
+
+def register_markers(image: np.ndarray, camera: Camera, marker_map, max_error=None) -> dict:
+    """The shot dict (see the module docstring) of a photo with markers of ``marker_map``
+    (parsed JSON or :class:`~mrcheck.markers.MarkerMap`); ``camera`` is rescaled to the photo."""
+    marker_map = parse_marker_map(marker_map)
+    camera, warnings = fit_camera(camera, image.shape[1], image.shape[0])
+    detection = detect_markers(image, marker_map)
+    unknown = [m["id"] for m in detection.unknown]
+    if not detection.groups:
+        found = f"; found only markers not in the map: {unknown[:20]}" if unknown else ""
+        raise MrcheckError(f"no marker of the map was found in the photo{found}")
+    if unknown:
+        warnings.append(f"markers in the photo but not in the map (ignored): {unknown[:20]}")
+    shot = _register(camera, detection.groups, "markers", max_error, warnings)
+    shot.update(unknown_ids=detection.unknown, unseen_ids=detection.unseen)
+    return shot
+
+
+def register_points(camera: Camera, pairs, max_error=None) -> dict:
+    """The shot dict of manual correspondences: ``{"points": [...]}`` or its list of
+    ``{"pixel": [u, v], "world": [x, y, z]}`` (the camera must be at the photo's size)."""
+    return _register(camera, _parse_points(pairs), "points", max_error, [])
+
+
+def register_command(scene, photo, intrinsics, markers=None, points=None, max_error=None, output="SHOT.json") -> dict:
+    """``mrcheck register``: register ``photo``, write SHOT.json atomically, print a summary."""
+    output = check_output_path(output, (".json",), "shot")
+    if (markers is None) == (points is None):
+        raise MrcheckError("give either --markers MAP.json or --points CORR.json (exactly one)")
+    if not Path(scene).exists():  # fail before the work; the scene is only named here
+        raise MrcheckError("scene not found", scene)
+    camera = read_intrinsics(intrinsics)
+    image = read_photo(photo)
+    if markers is not None:
+        shot = register_markers(image, camera, load_marker_map(markers), max_error)
+    else:
+        camera, warnings = fit_camera(camera, image.shape[1], image.shape[0], photo)
+        shot = _register(camera, load_points(points), "points", max_error, warnings)
+    shot = {**{k: shot[k] for k in ("width", "height", "K", "dist", "R", "t") if k in shot},
+            "photo": str(Path(photo).resolve()), **shot}
+    text = json.dumps(shot, indent=2)
+    _atomic_write(output, lambda handle: handle.write(text.encode() + b"\n"))
+    _print_summary(shot, output)
+    return shot
+
+
+def _print_summary(shot: dict, output) -> None:
+    def names(entries):
+        return ", ".join(str(e.get("id", e.get("index", f"board {e.get('board')}"))) for e in entries) or "none"
+
+    x, y, z = shot["camera_position"]
+    click.echo(f"registered {shot['photo']} from {shot['method']}: used {names(shot['used'])}; "
+               f"rejected {names(shot['rejected'])}")
+    click.echo(f"  rms {shot['rms']:.3f} px, camera at ({x:.3f}, {y:.3f}, {z:.3f}) m, "
+               f"expected overlay error ~{shot['expected_overlay_error_px']:.1f} px")
+    for warning in shot["warnings"]:
+        click.echo(f"  warning: {warning}")
+    click.echo(f"wrote {output}")
+
+
+__all__ = ["register_command", "register_markers", "register_points", "solve_pose", "fit_camera",
+           "expected_overlay_error", "read_photo", "read_intrinsics", "load_points", "Pose"]

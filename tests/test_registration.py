@@ -1,0 +1,179 @@
+"""Registration on real photos (OpenCV's ChArUco tutorial photo, a simulated AprilTag rotation
+series), synthetic correspondences with outliers, and bad input through the command line."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from mrcheck.camera import Camera
+from mrcheck.cli import main
+from mrcheck.registration import read_photo, register_markers, register_points
+
+DATA = Path(__file__).parent / "data"
+CHARUCO = DATA / "calibration" / "opencv_charuco"
+APRILTAG = DATA / "markers" / "apriltag"
+BOARD_MAP = {"charuco_boards": [{"squares": [5, 7], "square": 0.04, "marker": 0.02, "dictionary": "DICT_6X6_250",
+                                 "pose": {"R": np.eye(3).tolist(), "t": [0.0, 0.0, 0.0]}}]}
+# the 70 deg photo is too oblique for OpenCV's AprilTag detector; every other angle is detected
+ANGLES = [0, 10, 20, 30, 40, 50, 60, -10, -20, -30, -40, -50, -60, -70]
+
+
+def charuco_camera() -> Camera:
+    fs = cv2.FileStorage(str(CHARUCO / "tutorial_camera_charuco.yml"), cv2.FILE_STORAGE_READ)
+    return Camera(fs.getNode("image_width").real(), fs.getNode("image_height").real(),
+                  fs.getNode("camera_matrix").mat(), dist=fs.getNode("distortion_coefficients").mat().ravel())
+
+
+def apriltag_setup():
+    """The rotation test's camera and a map with its tag (id 76) centred at the world origin."""
+    text = (APRILTAG / "test_info.yaml").read_text().split("rotation_test:")[1].split("multiple_tags_test:")[0]
+    value = lambda key: re.search(rf"{key}: (\S.*)", text).group(1)  # noqa: E731 (no PyYAML here)
+    camera = Camera(int(value("width")), int(value("height")), np.reshape(json.loads(value("K")), (3, 3)))
+    s = float(value("tag_size")) / 2.0
+    marker_map = {"dictionary": "DICT_APRILTAG_36h11",
+                  "markers": [{"id": 76, "corners": [[-s, s, 0], [s, s, 0], [s, -s, 0], [-s, -s, 0]]}]}
+    return camera, marker_map
+
+
+@pytest.fixture
+def files(tmp_path):
+    """Paths for a CLI run: scene, intrinsics JSON (of the ChArUco camera), board map, output."""
+    (tmp_path / "scene.obj").write_text("v 0 0 0\n")
+    (tmp_path / "cam.json").write_text(json.dumps(charuco_camera().to_dict()))
+    (tmp_path / "map.json").write_text(json.dumps(BOARD_MAP))
+    return tmp_path
+
+
+def run(files, *extra, photo=CHARUCO / "choriginal.jpg", intrinsics="cam.json"):
+    return main(["register", str(files / "scene.obj"), "--photo", str(photo), "--intrinsics",
+                 str(files / intrinsics), "-o", str(files / "SHOT.json"), *extra])
+
+
+def test_charuco_photo_registers_sub_pixel():
+    shot = register_markers(read_photo(CHARUCO / "choriginal.jpg"), charuco_camera(), BOARD_MAP)
+    assert shot["method"] == "markers"
+    assert shot["rms"] < 0.4  # measured 0.22 px; the calibration's own RMS is 0.18 px
+    assert shot["used"][0]["board"] == 0 and shot["used"][0]["corners"] == 24
+    assert shot["rejected"] == [] and shot["unknown_ids"] == []
+    assert 0.2 < np.linalg.norm(shot["camera_position"]) < 0.8  # a desk photo of a 20 x 28 cm board
+
+
+def test_cli_writes_a_shot_that_is_a_camera(files, capsys):
+    assert run(files, "--markers", str(files / "map.json")) == 0
+    shot = json.loads((files / "SHOT.json").read_text())
+    camera = Camera.load(files / "SHOT.json")  # what `mrcheck render --camera SHOT.json` reads
+    assert (camera.width, camera.height) == (640, 480)
+    assert Path(shot["photo"]) == (CHARUCO / "choriginal.jpg").resolve()
+    assert {"rms", "method", "used", "rejected", "warnings"} <= set(shot)
+    out = capsys.readouterr().out
+    assert "from markers" in out and "rms" in out and "wrote" in out
+
+
+def test_apriltag_rotation_series_consistent():
+    camera, marker_map = apriltag_setup()
+    distances, first = {}, None
+    for angle in ANGLES:
+        shot = register_markers(read_photo(APRILTAG / f"test_image_rotation_{angle}.png"), camera, marker_map)
+        R, t = np.array(shot["R"]), np.array(shot["t"])  # t = the tag centre in the camera frame
+        distances[angle] = np.linalg.norm(t)
+        assert shot["rms"] < 1.5
+        # the tag turns about its vertical axis: its normal leaves the line of sight by the angle
+        # (a nearly frontal single tag is ambiguous by a few degrees, hence only from 20 deg)
+        viewing = np.degrees(np.arccos(abs(R[:, 2] @ t) / np.linalg.norm(t)))
+        if abs(angle) >= 20:
+            assert viewing == pytest.approx(abs(angle), abs=2.5), angle
+            rotation = cv2.Rodrigues(R @ first.T)[0].ravel()
+            assert np.sign(rotation[1]) == -np.sign(angle)  # turns the other way for negative angles
+        if angle == 0:
+            first = R
+            assert any("one plane facing the camera" in w for w in shot["warnings"])
+        assert any("only one marker" in w for w in shot["warnings"])
+    d = np.array(list(distances.values()))
+    assert d.max() / d.min() < 1.05  # measured 0.2075 .. 0.2143 m
+
+
+def test_resized_photo_same_aspect_rescales_k_and_warns():
+    camera, marker_map = apriltag_setup()
+    image = read_photo(APRILTAG / "test_image_rotation_30.png")
+    full = register_markers(image, camera, marker_map)
+    half = register_markers(cv2.resize(image, (528, 396), interpolation=cv2.INTER_AREA), camera, marker_map)
+    assert (half["width"], half["height"]) == (528, 396)
+    assert any("K rescaled" in w for w in half["warnings"])
+    assert np.linalg.norm(half["t"]) == pytest.approx(np.linalg.norm(full["t"]), rel=0.02)
+
+
+def test_points_with_outliers_are_rejected_and_pose_recovered():
+    truth = Camera.from_look_at([4.0, -6.0, 2.5], [0.5, 1.0, 0.8], [0, 0, 1], 60.0, 1920, 1080)
+    truth = Camera(1920, 1080, truth.K, truth.R, truth.t, dist=[0.05, -0.02, 0.001, 0.0005, 0.0])
+    rng = np.random.default_rng(1)
+    world = rng.uniform([-2, -1, 0], [3, 4, 3], size=(14, 3))
+    pixels = cv2.projectPoints(world, cv2.Rodrigues(truth.R)[0], truth.t, truth.K, truth.dist)[0].reshape(-1, 2)
+    pixels[[3, 9]] += [[40.0, -25.0], [-60.0, 80.0]]  # two mis-clicks
+    pairs = {"points": [{"pixel": p.tolist(), "world": w.tolist()} for p, w in zip(pixels, world)]}
+    shot = register_points(Camera(1920, 1080, truth.K, dist=truth.dist), pairs)
+    assert sorted(r["index"] for r in shot["rejected"]) == [3, 9]
+    assert all(r["error_px"] > 20 for r in shot["rejected"]) and len(shot["used"]) == 12
+    assert shot["rms"] < 1e-6
+    found = Camera.from_dict(shot)
+    assert np.linalg.norm(found.center - truth.center) < 1e-3
+    angle = np.degrees(np.linalg.norm(cv2.Rodrigues(found.R @ truth.R.T)[0]))
+    assert angle < 0.01
+
+
+def _points_file(files, world, pixels=None):
+    pixels = pixels if pixels is not None else [[100.0 + 50 * i, 100.0 + 30 * i * i] for i in range(len(world))]
+    (files / "corr.json").write_text(json.dumps({"points": [{"pixel": p, "world": w} for p, w in zip(pixels, world)]}))
+    return str(files / "corr.json")
+
+
+def _corrupt(files):
+    (files / "bad.jpg").write_bytes(b"\xff\xd8\xff\xe0 not really a jpeg")
+    return {"photo": files / "bad.jpg"}
+
+
+def _blank(files):
+    cv2.imwrite(str(files / "blank.png"), np.full((480, 640), 128, np.uint8))
+    return {"photo": files / "blank.png"}
+
+
+def _other_aspect(files):
+    cv2.imwrite(str(files / "wide.png"), cv2.resize(cv2.imread(str(CHARUCO / "choriginal.jpg")), (640, 360)))
+    return {"photo": files / "wide.png"}
+
+
+def _unknown_ids(files):
+    camera, marker_map = apriltag_setup()
+    marker_map["markers"][0]["id"] = 5
+    (files / "tags.json").write_text(json.dumps(marker_map))
+    (files / "tagcam.json").write_text(json.dumps(camera.to_dict()))
+    return {"photo": APRILTAG / "test_image_rotation_30.png", "intrinsics": "tagcam.json",
+            "extra": ["--markers", str(files / "tags.json")]}
+
+
+BAD = {
+    "three_pairs": (lambda f: {"extra": ["--points", _points_file(f, [[0, 0, 0], [1, 0, 0], [0, 1, 0]])]},
+                    "at least 4"),
+    "collinear": (lambda f: {"extra": ["--points", _points_file(f, [[i, 2 * i, 0.5 * i] for i in range(6)])]},
+                  "collinear"),
+    "corrupt_photo": (_corrupt, "cannot decode photo"),
+    "no_markers": (_blank, "no marker of the map"),
+    "unknown_ids_only": (_unknown_ids, "not in the map: [76]"),
+    "other_aspect": (_other_aspect, "another aspect ratio"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_input_one_line_error_and_no_shot(files, capsys, case):
+    make, message = BAD[case]
+    spec = make(files)
+    extra = spec.pop("extra", ["--markers", str(files / "map.json")])
+    assert run(files, *extra, **spec) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error:") and "\n" not in err and message in err, err
+    assert not (files / "SHOT.json").exists()
