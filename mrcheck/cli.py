@@ -177,6 +177,60 @@ def scene_info(scene_path, as_json, units):
     print(json.dumps(info, indent=2) if as_json else format_info(info))
 
 
+@cli.command()
+@click.argument("images", nargs=-1, required=True, metavar="IMAGES...")
+@click.option("--board", required=True, metavar="SPEC",
+              help="chessboard:COLSxROWS:SQUARE (inner corners, square size in metres) or "
+                   "charuco:COLSxROWS:SQUARE:MARKER:DICT (squares, sizes in metres, OpenCV dictionary, e.g. DICT_6X6_250).")
+@click.option("--min-views", type=int, default=None, callback=_positive, help="Fewest usable views to calibrate from [default: 5].")
+@click.option("--max-view-error", type=float, default=None, callback=_positive, metavar="PX",
+              help="Reject views whose RMS reprojection error exceeds this, then recalibrate [default: automatic].")
+@click.option("-o", "--output", required=True, metavar="CAM.json",
+              help="Camera JSON (K, dist, width, height, rms, per-view errors); .yml/.yaml writes OpenCV FileStorage.")
+def calibrate(images, board, min_views, max_view_error, output):
+    """Calibrate a camera from photos of a chessboard or ChArUco board (cv2.calibrateCamera)."""
+    from .calibration import calibrate_command
+
+    calibrate_command(images=list(images), board=board, output=output, min_views=min_views,
+                      max_view_error=max_view_error)
+
+
+@cli.command()
+@click.argument("scene_path", metavar="SCENE")
+@click.option("--photo", required=True, metavar="P", help="The photo to register.")
+@click.option("--intrinsics", required=True, metavar="CAM.json", help="Calibrated camera (JSON, or OpenCV YAML).")
+@click.option("--markers", metavar="MAP.json", help="Marker map: surveyed world corners of ArUco/AprilTag markers and ChArUco boards.")
+@click.option("--points", metavar="CORR.json", help="Manual correspondences: pixel <-> world point pairs (>= 4).")
+@click.option("--max-error", type=float, default=None, callback=_positive, metavar="PX",
+              help="RANSAC inlier threshold in pixels [default: automatic].")
+@click.option("-o", "--output", required=True, metavar="SHOT.json", help="The registered shot (camera JSON + photo, rms, method, ids used/rejected).")
+def register(scene_path, photo, intrinsics, markers, points, max_error, output):
+    """Find the camera pose of a photo in the factory, from markers or clicked correspondences."""
+    from .registration import register_command
+
+    register_command(scene=scene_path, photo=photo, intrinsics=intrinsics, markers=markers, points=points,
+                     max_error=max_error, output=output)
+
+
+@cli.command()
+@click.argument("shot", metavar="SHOT.json")
+@click.option("--scene", "scene_path", required=True, metavar="SCENE", help="The planned scene (manifest or mesh).")
+@click.option("--mode", type=click.Choice(_MODE_CHOICES), default="vector", show_default=True,
+              help="Shading of the CAD; all = the study's sheet: D1, D2, D3, each virtual and with the photo.")
+@click.option("--alpha", type=float, default=0.5, show_default=True, help="Photo opacity, 0 (CAD only) .. 1 (photo only).")
+@click.option("--edges", is_flag=True, help="Draw CAD silhouette and crease edges over the photo.")
+@click.option("--edge-color", default="ff00ff", show_default=True, metavar="RRGGBB", help="Colour of the CAD edges.")
+@click.option("--intensity", type=float, default=1.0, show_default=True, help="AO strength (0 none ... 2 strong).")
+@click.option("--samples", type=int, default=16, show_default=True, callback=_positive, help="AO samples per pixel.")
+@click.option("-o", "--output", required=True, metavar="OUT.png", help="Output image.")
+def overlay(shot, scene_path, mode, alpha, edges, edge_color, intensity, samples, output):
+    """Blend the CAD rendered from a registered shot over its photo, lens distortion included."""
+    from .overlay import overlay_command
+
+    overlay_command(shot=shot, scene=scene_path, mode=mode, alpha=alpha, edges=edges, edge_color=edge_color,
+                    intensity=intensity, samples=samples, output=output)
+
+
 def main(argv=None) -> int:
     try:
         cli.main(args=argv, prog_name="mrcheck", standalone_mode=False)
