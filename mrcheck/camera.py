@@ -22,7 +22,6 @@ Extra keys (``photo``, ``rms``, ...) are ignored, so a registered SHOT.json is a
 
 from __future__ import annotations
 
-import json
 import math
 import numbers
 from dataclasses import dataclass, field
@@ -31,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import MrcheckError
+from .jsonfile import read_json
 
 
 @dataclass(frozen=True)
@@ -177,16 +177,7 @@ class Camera:
 
     @classmethod
     def load(cls, path) -> "Camera":
-        path = Path(path)
-        try:
-            data = json.loads(path.read_text())
-        except FileNotFoundError:
-            raise MrcheckError("camera file not found", path) from None
-        except (OSError, UnicodeDecodeError) as exc:
-            raise MrcheckError(f"cannot read camera file ({exc})", path) from None
-        except json.JSONDecodeError as exc:
-            raise MrcheckError(f"malformed camera JSON: {exc.msg} at line {exc.lineno}", path) from None
-        return cls.from_dict(data, path)
+        return cls.from_dict(read_json(path, "camera"), Path(path))
 
     def to_dict(self) -> dict:
         out = {"width": self.width, "height": self.height, "K": self.K.tolist()}

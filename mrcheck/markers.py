@@ -24,7 +24,6 @@ marker corners are refined to subpixel accuracy, ChArUco corners are chessboard 
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -32,6 +31,7 @@ import cv2
 import numpy as np
 
 from .errors import MrcheckError
+from .jsonfile import read_json
 
 
 def dictionary(name, source=None) -> cv2.aruco.Dictionary:
@@ -97,16 +97,7 @@ class Detection:
 
 
 def load_marker_map(path) -> MarkerMap:
-    path = Path(path)
-    try:
-        data = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise MrcheckError("marker map not found", path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise MrcheckError(f"cannot read marker map ({exc})", path) from None
-    except json.JSONDecodeError as exc:
-        raise MrcheckError(f"malformed marker map JSON: {exc.msg} at line {exc.lineno}", path) from None
-    return parse_marker_map(data, path)
+    return parse_marker_map(read_json(path, "marker map"), Path(path))
 
 
 def parse_marker_map(data, source="marker map") -> MarkerMap:

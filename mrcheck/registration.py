@@ -37,6 +37,7 @@ import numpy as np
 
 from .camera import Camera
 from .errors import MrcheckError
+from .jsonfile import read_json
 from .markers import Group, detect_markers, load_marker_map, parse_marker_map
 from .output import _atomic_write, check_output_path
 
@@ -85,16 +86,7 @@ def read_intrinsics(path) -> Camera:
 
 
 def load_points(path) -> list:
-    path = Path(path)
-    try:
-        data = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise MrcheckError("correspondences file not found", path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise MrcheckError(f"cannot read correspondences ({exc})", path) from None
-    except json.JSONDecodeError as exc:
-        raise MrcheckError(f"malformed correspondences JSON: {exc.msg} at line {exc.lineno}", path) from None
-    return _parse_points(data, path)
+    return _parse_points(read_json(path, "correspondences"), Path(path))
 
 
 def _parse_points(data, source="correspondences") -> list:

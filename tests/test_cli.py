@@ -10,7 +10,6 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-import pytest
 
 from mrcheck.cli import main
 from mrcheck.resources import sample_scene_path

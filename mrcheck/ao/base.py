@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import moderngl
-import numpy as np
 
 from ..gl import load_program
 from . import kernel

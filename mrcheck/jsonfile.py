@@ -1,0 +1,25 @@
+"""Reading a JSON input file with the one-line errors of :class:`mrcheck.errors.MrcheckError`."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from .errors import MrcheckError
+
+
+def read_json(path, what: str):
+    """The parsed JSON of ``path``; ``what`` names the file's role in errors ("camera",
+    "marker map"): "camera file not found", "malformed camera JSON: ... at line 3"."""
+    path = Path(path)
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        raise MrcheckError(f"{what} file not found", path) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise MrcheckError(f"cannot read {what} file ({exc})", path) from None
+    except json.JSONDecodeError as exc:
+        raise MrcheckError(f"malformed {what} JSON: {exc.msg} at line {exc.lineno}", path) from None
+
+
+__all__ = ["read_json"]
