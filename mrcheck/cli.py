@@ -17,7 +17,13 @@ from .errors import MrcheckError
 
 EXIT_ERROR = 1
 
-_MODE_CHOICES = ["phong", "ssao", "vector", "all"]
+def _mode_choices() -> list[str]:
+    from .renderer import MODES  # every render mode (the AO modes register themselves there)
+
+    return [*MODES, "all"]
+
+
+_MODE_CHOICES = _mode_choices()
 
 
 def _positive(ctx, param, value):
@@ -229,6 +235,50 @@ def overlay(shot, scene_path, mode, alpha, edges, edge_color, intensity, samples
 
     overlay_command(shot=shot, scene=scene_path, mode=mode, alpha=alpha, edges=edges, edge_color=edge_color,
                     intensity=intensity, samples=samples, output=output)
+
+
+@cli.command()
+@click.argument("scene_path", metavar="SCENE")
+@click.option("--view", metavar="NAME", help="Named viewpoint of the scene manifest.")
+@click.option("--camera", "camera_path", metavar="CAM.json", help="Camera JSON.")
+@click.option("--width", type=int, callback=_positive, help="Image width [default: the view's or camera's].")
+@click.option("--height", type=int, callback=_positive, help="Image height [default: the view's or camera's].")
+@click.option("--rays", type=int, default=256, show_default=True, callback=_positive, help="Cosine-weighted hemisphere rays per pixel.")
+@click.option("--radius-mode", type=click.Choice(["world", "screen"]), default="screen", show_default=True,
+              help="world: a constant world radius (for ssao and the other world-radius modes); "
+                   "screen: the vector method's per-pixel r_S = r_px * Z / f_y.")
+@click.option("--radius", "radius_world", type=float, default=None, callback=_positive, help="World radius (scene units) [default: 0.2].")
+@click.option("--radius-px", type=float, default=None, callback=_positive, help="Screen radius in pixels [default: 2% of the image height].")
+@click.option("--falloff", type=float, default=1.0, show_default=True, help="c of the attenuation 1 / (1 + c (d/r)^2), as in the render modes.")
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the ray directions.")
+@click.option("--units", type=click.Choice(["mm", "cm", "m", "in", "ft"]), help="Unit of a single mesh file SCENE.")
+@click.option("-o", "--output", required=True, metavar="REF.npy", help="Reference AO: .npy float32 (H, W), or 16-bit .png (as --output-ao).")
+def reference(scene_path, view, camera_path, width, height, rays, radius_mode, radius_world, radius_px, falloff, seed,
+              units, output):
+    """Ray-traced reference AO (Open3D ray casting) for the pixels of a render, with the same AO
+    definition as the method it judges."""
+    from .reference import reference_command
+
+    reference_command(scene=scene_path, view=view, camera_path=camera_path, width=width, height=height, rays=rays,
+                      radius_mode=radius_mode, radius_world=radius_world, radius_px=radius_px, falloff=falloff,
+                      seed=seed, units=units, output=output)
+
+
+@cli.command()
+@click.argument("scene_path", metavar="SCENE")
+@click.option("--view", required=True, metavar="NAME", help="Named viewpoint of the scene manifest.")
+@click.option("--samples", type=int, default=16, show_default=True, callback=_positive, help="AO samples per pixel for every mode.")
+@click.option("--rays", type=int, default=256, show_default=True, callback=_positive, help="Reference rays per pixel.")
+@click.option("--width", type=int, callback=_positive, help="Image width [default: the view's].")
+@click.option("--height", type=int, callback=_positive, help="Image height [default: the view's].")
+@click.option("-o", "--output", "outdir", required=True, metavar="OUTDIR", help="Folder for the figure, metrics.json and metrics.md.")
+def compare(scene_path, view, samples, rays, width, height, outdir):
+    """Render every AO mode and its ray-traced reference; write a figure (shaded, AO, signed error
+    per mode) and metrics (MAE, RMSE, SSIM, false occlusion, distance retention, pass time)."""
+    from .compare import compare_command
+
+    compare_command(scene=scene_path, view=view, samples=samples, rays=rays, width=width, height=height,
+                    outdir=outdir)
 
 
 def main(argv=None) -> int:

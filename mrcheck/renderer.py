@@ -23,8 +23,8 @@ from .gbuffer import GBuffer, GeometryPass, check_camera_outside
 from .gl import create_context, load_program, made_current
 from .scene import Scene
 
-MODES = ("phong", "vector", "ssao")            # D1, D2, D3 of the paper's study
-STUDY_LABELS = {"phong": "D1 Phong", "vector": "D2 vector SSAO", "ssao": "D3 standard SSAO"}
+MODES = ("phong", "vector", "ssao", "crytek", "hbao", "alchemy")  # D1, D2, D3 of the paper's study, then more AO
+STUDY_LABELS = {"phong": "D1 Phong", "vector": "D2 vector SSAO", "ssao": "D3 standard SSAO", "crytek": "Crytek SSAO", "hbao": "HBAO", "alchemy": "Alchemy AO"}
 
 DEFAULT_SAMPLES = 16
 DEFAULT_RADIUS_FRACTION = 0.02  # vector: sampling radius as a fraction of the image height (15 px at 768)
@@ -215,6 +215,16 @@ class Renderer:
             raise MrcheckError("nothing rendered yet")
         with made_current(self.ctx):
             return self._targets.gbuffer.read_depth().copy()
+
+    def last_normals(self) -> np.ndarray:
+        """(H, W, 3) float32 unit camera-space normals of the last frame (OpenCV axes, facing
+        the camera; zero on the background)."""
+        if self._targets is None:
+            raise MrcheckError("nothing rendered yet")
+        with made_current(self.ctx):
+            w, h = self._targets.size
+            normal = np.frombuffer(self._targets.gbuffer.normal.read(), np.float16).reshape(h, w, 4)
+        return normal[..., :3].astype(np.float32)
 
     def release(self) -> None:
         """Free the GPU resources; the context too when this renderer created it."""

@@ -38,6 +38,10 @@ CASES = {
     "robot_ssao_ao_raw": ("robot", "ssao", {"blur": False, "samples": 36}, "ao"),
     "robot_vector_half_res": ("robot", "vector", {"ao_scale": 0.5, "blur_size": 13}, "image"),
     "conveyor_vector_sun_direct": ("conveyor", "vector", {"light": "sun", "ao_direct": True, "intensity": 2.0}, "image"),
+    "overview_crytek": ("overview", "crytek", {}, "image"),
+    "overview_hbao": ("overview", "hbao", {}, "image"),
+    "overview_alchemy": ("overview", "alchemy", {}, "image"),
+    "robot_hbao_ao_raw": ("robot", "hbao", {"blur": False, "samples": 36}, "ao"),
 }
 
 

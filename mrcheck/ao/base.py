@@ -22,12 +22,13 @@ class AOPass:
         self.samples = int(samples)
         self.stride = int(stride)
         self.program = load_program(ctx, self.shader, kernel.defines(samples, stride))
-        self.program["u_kernel"].write(kernel.sphere_kernel(samples, seed).tobytes())
+        if "u_kernel" in self.program:  # a method may not use the kernel (hbao)
+            self.program["u_kernel"].write(kernel.sphere_kernel(samples, seed).tobytes())
         tile = kernel.rotation_tile(seed)
         self.noise = ctx.texture((kernel.NOISE_SIZE, kernel.NOISE_SIZE), 3, tile.tobytes(), dtype="f4")
         self.noise.filter = (moderngl.NEAREST, moderngl.NEAREST)
         for unit, name in enumerate(("u_depth", "u_normal", "u_noise")):
-            self.program[name].value = unit
+            set_if_present(self.program, name, unit)  # crytek reads no normal
         self.vao = ctx.vertex_array(self.program, [])
 
     def run(self, target: moderngl.Framebuffer, depth: moderngl.Texture, normal: moderngl.Texture,
