@@ -1,7 +1,8 @@
 """The ``mrcheck`` command line. Commands only; the work lives in the modules.
 
 Exit status: 0 on success; 1 with a one-line ``error: ...`` on stderr when the input is bad
-(file, option value, scene); 2 for a malformed command line (click's usage message).
+(file, option value, scene), or when ``export`` finished but some shots failed; 2 for a
+malformed command line (click's usage message).
 """
 
 from __future__ import annotations
@@ -282,9 +283,26 @@ def compare(scene_path, view, samples, rays, width, height, outdir):
                     outdir=outdir)
 
 
+@cli.command()
+@click.argument("job", metavar="JOB.toml")
+@click.option("-o", "--output", "outdir", required=True, metavar="OUTDIR", help="Folder for every shot's outputs, manifest.json and report.html.")
+@click.option("--workers", type=int, default=1, show_default=True, callback=_positive,
+              help="Local worker processes, each with its own EGL context.")
+@click.option("--scheduler", metavar="ADDRESS",
+              help="Run the shots on a Dask distributed cluster (e.g. tcp://10.0.0.5:8786) instead of locally; "
+                   "workers load the scene themselves from the path the job names.")
+@click.option("--force", is_flag=True, help="Redo shots whose outputs are already complete (default: skip them).")
+def export(job, outdir, workers, scheduler, force):
+    """Batch overlays for a whole job: register every shot, render the modes, blend the photo at
+    every alpha and AO intensity, write side-by-side sheets, a manifest and an HTML report."""
+    from .export import export_command
+
+    return export_command(job=job, outdir=outdir, workers=workers, scheduler=scheduler, force=force)
+
+
 def main(argv=None) -> int:
     try:
-        cli.main(args=argv, prog_name="mrcheck", standalone_mode=False)
+        result = cli.main(args=argv, prog_name="mrcheck", standalone_mode=False)
     except MrcheckError as exc:
         click.echo(f"error: {exc}", err=True)
         return EXIT_ERROR
@@ -306,7 +324,8 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         click.echo("error: interrupted", err=True)
         return 130
-    return 0
+    # a command may return its own exit status (export: 1 when any shot failed)
+    return result if isinstance(result, int) else 0
 
 
 if __name__ == "__main__":

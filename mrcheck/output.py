@@ -59,15 +59,27 @@ def _atomic_write(path: Path, write) -> None:
         raise
 
 
-def write_image(path, rgb: np.ndarray) -> Path:
-    """Write (H, W, 3) uint8 RGB (or (H, W) uint8/uint16 grey) to PNG/JPEG/TIFF, atomically."""
+def encode_image(path, rgb: np.ndarray) -> bytes:
+    """The file bytes of (H, W, 3) uint8 RGB (or (H, W) grey) in the format of ``path``'s suffix
+    (PNG carries no timestamp: the same pixels give the same bytes)."""
     path = Path(path)
     data = rgb[..., ::-1] if rgb.ndim == 3 else rgb  # OpenCV wants BGR
     ok, encoded = cv2.imencode(path.suffix.lower(), np.ascontiguousarray(data))
     if not ok:
         raise MrcheckError("could not encode the image", path)
-    _atomic_write(path, lambda handle: handle.write(encoded.tobytes()))
+    return encoded.tobytes()
+
+
+def write_bytes(path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically (temp file + rename)."""
+    path = Path(path)
+    _atomic_write(path, lambda handle: handle.write(data))
     return path
+
+
+def write_image(path, rgb: np.ndarray) -> Path:
+    """Write (H, W, 3) uint8 RGB (or (H, W) uint8/uint16 grey) to PNG/JPEG/TIFF, atomically."""
+    return write_bytes(path, encode_image(path, rgb))
 
 
 def write_ao(path, ao: np.ndarray) -> Path:
@@ -100,4 +112,4 @@ def labelled_sheet(images, labels) -> np.ndarray:
     return np.hstack(out)
 
 
-__all__ = ["write_image", "write_ao", "labelled_sheet", "check_output_path", "IMAGE_SUFFIXES", "AO_SUFFIXES"]
+__all__ = ["write_image", "write_bytes", "encode_image", "write_ao", "labelled_sheet", "check_output_path", "IMAGE_SUFFIXES", "AO_SUFFIXES"]

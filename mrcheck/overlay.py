@@ -245,12 +245,15 @@ def read_photo(path: Path, camera: Camera) -> np.ndarray:
     return np.ascontiguousarray(bgr[..., ::-1])
 
 
-def render_for_photo(renderer: Renderer, camera: Camera, modes, settings: RenderSettings, want_edges: bool):
+def render_for_photo(renderer: Renderer, camera: Camera, modes, settings: RenderSettings, want_edges: bool,
+                     maps=None):
     """Ideal renders covering the photo's distorted frame.
 
-    Returns ``(renders, edges, offset, maps)``, ready for :func:`overlay_images`.
+    ``maps``: the :func:`distortion_map` of ``camera`` when already computed (several renders
+    of one shot). Returns ``(renders, edges, offset, maps)``, ready for :func:`overlay_images`.
     """
-    maps = distortion_map(camera)
+    if maps is None:
+        maps = distortion_map(camera)
     render_camera, offset = padded_camera(camera, maps)
     # the AO radius stays that of the photo's height, not of the padded render's
     settings = settings.validated(camera.height)

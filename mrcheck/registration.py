@@ -313,6 +313,22 @@ def register_points(camera: Camera, pairs, max_error=None) -> dict:
     return _register(camera, _parse_points(pairs), "points", max_error, [])
 
 
+def register_photo(photo, camera: Camera, marker_map=None, points=None, max_error=None) -> dict:
+    """The SHOT.json dict of the photo file ``photo``: registered from ``marker_map`` (a
+    :class:`~mrcheck.markers.MarkerMap` or its JSON) or from ``points`` (groups of
+    :func:`load_points`, or the correspondences JSON), with the absolute ``"photo"`` path.
+    ``camera`` holds the intrinsics (rescaled to the photo when needed)."""
+    image = read_photo(photo)
+    if marker_map is not None:
+        shot = register_markers(image, camera, marker_map, max_error)
+    else:
+        camera, warnings = fit_camera(camera, image.shape[1], image.shape[0], photo)
+        groups = points if isinstance(points, list) and points and isinstance(points[0], Group) else _parse_points(points)
+        shot = _register(camera, groups, "points", max_error, warnings)
+    return {**{k: shot[k] for k in ("width", "height", "K", "dist", "R", "t") if k in shot},
+            "photo": str(Path(photo).resolve()), **shot}
+
+
 def register_command(scene, photo, intrinsics, markers=None, points=None, max_error=None, output="SHOT.json") -> dict:
     """``mrcheck register``: register ``photo``, write SHOT.json atomically, print a summary."""
     output = check_output_path(output, (".json",), "shot")
@@ -321,14 +337,9 @@ def register_command(scene, photo, intrinsics, markers=None, points=None, max_er
     if not Path(scene).exists():  # fail before the work; the scene is only named here
         raise MrcheckError("scene not found", scene)
     camera = read_intrinsics(intrinsics)
-    image = read_photo(photo)
-    if markers is not None:
-        shot = register_markers(image, camera, load_marker_map(markers), max_error)
-    else:
-        camera, warnings = fit_camera(camera, image.shape[1], image.shape[0], photo)
-        shot = _register(camera, load_points(points), "points", max_error, warnings)
-    shot = {**{k: shot[k] for k in ("width", "height", "K", "dist", "R", "t") if k in shot},
-            "photo": str(Path(photo).resolve()), **shot}
+    shot = register_photo(photo, camera,
+                          marker_map=load_marker_map(markers) if markers is not None else None,
+                          points=load_points(points) if points is not None else None, max_error=max_error)
     text = json.dumps(shot, indent=2)
     _atomic_write(output, lambda handle: handle.write(text.encode() + b"\n"))
     _print_summary(shot, output)
@@ -349,5 +360,5 @@ def _print_summary(shot: dict, output) -> None:
     click.echo(f"wrote {output}")
 
 
-__all__ = ["register_command", "register_markers", "register_points", "solve_pose", "fit_camera",
+__all__ = ["register_command", "register_photo", "register_markers", "register_points", "solve_pose", "fit_camera",
            "expected_overlay_error", "read_photo", "read_intrinsics", "load_points", "Pose"]

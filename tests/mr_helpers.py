@@ -1,0 +1,77 @@
+"""Shared helpers of the mixed-reality tests: cameras, synthetic photos, ArUco markers as scene parts."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from mrcheck.camera import Camera
+from mrcheck.overlay import distort_to_photo, render_for_photo
+from mrcheck.renderer import Renderer, RenderSettings
+from mrcheck.scene import make_part
+
+from .conftest import box
+
+
+def _camera(width, height, f, dist=(), eye=None, target=None, principal=(0.0, 0.0)):
+    """A camera of focal length ``f`` (pixels), optionally looking from ``eye`` at ``target``."""
+    R, t = np.eye(3), np.zeros(3)
+    if eye is not None:
+        look = Camera.from_look_at(eye, target, (0, 0, 1), 60.0, width, height)
+        R, t = look.R, look.t
+    K = np.array([[f, 0.0, (width - 1) / 2 + principal[0]], [0.0, f, (height - 1) / 2 + principal[1]], [0, 0, 1]])
+    return Camera(width, height, K, R, t, np.asarray(dist, np.float64))
+
+
+def _photo(ctx, scene, camera, supersample=1) -> np.ndarray:
+    """A synthetic photo: the ideal render of ``camera`` distorted by its lens (optionally
+    rendered at ``supersample`` x the size and area-averaged, for cleaner marker edges)."""
+    big = camera.resized(camera.width * supersample, camera.height * supersample)
+    renders, _, offset, maps = render_for_photo(Renderer(scene, ctx=ctx), big, ["phong"], RenderSettings(), False)
+    photo = distort_to_photo(renders["phong"], maps, offset)
+    if supersample > 1:
+        photo = cv2.resize(photo, (camera.width, camera.height), interpolation=cv2.INTER_AREA)
+    return photo
+
+
+DICTIONARY = "DICT_6X6_250"
+
+
+def _marker_parts(markers):
+    """Two parts (white plates, black cells) for markers given as (id, centre, right, down, size).
+
+    A plate is the marker plus one white cell of quiet zone on every side; each black cell is a
+    thin box standing 1 mm proud of the plate toward the viewer; the map's corners are on the
+    cells' top faces. Returns (parts, marker map).
+    """
+    dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, DICTIONARY))
+    white, black, entries = [], [], []
+    for marker_id, centre, right, down, size in markers:
+        centre, right, down = (np.asarray(a, np.float64) for a in (centre, right, down))
+        right, down = right / np.linalg.norm(right), down / np.linalg.norm(down)
+        normal = np.cross(down, right)  # toward the viewer for a marker read the right way round
+        pattern = dictionary.generateImageMarker(marker_id, 8)  # 6x6 cells + black border, 1 px each
+        cell = size / 8.0
+        frame = np.column_stack((right, down, normal))
+
+        def slab(ci, cj, ni, nj, lift, thickness):
+            # cells ci..ci+ni (columns), cj..cj+nj (rows) of the 8x8 grid, origin at the top left
+            local = np.array([(ci + ni / 2) * cell - size / 2, (cj + nj / 2) * cell - size / 2, lift])
+            m = box((ni * cell, nj * cell, thickness), local)
+            m.apply_transform(np.vstack([np.column_stack((frame, centre)), [0, 0, 0, 1]]))
+            return m
+
+        white.append(slab(-1, -1, 10, 10, -0.005, 0.01))  # plate front face in the marker's plane
+        black += [slab(i, j, 1, 1, 0.0, 0.002) for j in range(8) for i in range(8) if pattern[j, i] < 128]
+        face = centre + 0.001 * normal  # the black cells' top faces, what the camera sees
+        corners = [face + (sx * right + sy * down) * size / 2 for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+        entries.append({"id": marker_id, "corners": [c.tolist() for c in corners]})
+
+    def part(name, meshes, color):
+        vertices = np.concatenate([m.vertices for m in meshes])
+        offsets = np.cumsum([0] + [len(m.vertices) for m in meshes[:-1]])
+        faces = np.concatenate([m.faces + o for m, o in zip(meshes, offsets)])
+        return make_part(name, "markers", vertices, faces, np.eye(4), color=color)
+
+    return [part("marker_plates", white, (1.0, 1.0, 1.0)), part("marker_cells", black, (0.0, 0.0, 0.0))], \
+        {"dictionary": DICTIONARY, "markers": entries}
