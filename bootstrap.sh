@@ -14,7 +14,9 @@ cd "$(dirname "$0")"
 #   libegl1 + libgl1-mesa-dri  headless OpenGL 4.5 through EGL (Mesa llvmpipe on a CPU)
 #   libgles2                   GL dispatch that Mesa's EGL pulls in
 #   libusb-1.0-0 + libgomp1    shared libraries that Open3D's wheel links against
-SYSTEM_PACKAGES=(libegl1 libgl1-mesa-dri libgles2 libusb-1.0-0 libgomp1)
+#   chromium                   the headless browser of the `mrcheck review` end-to-end test
+#                              (Playwright drives /usr/bin/chromium; it never downloads one)
+SYSTEM_PACKAGES=(libegl1 libgl1-mesa-dri libgles2 libusb-1.0-0 libgomp1 chromium)
 
 missing=()
 for pkg in "${SYSTEM_PACKAGES[@]}"; do

@@ -300,6 +300,21 @@ def export(job, outdir, workers, scheduler, force):
     return export_command(job=job, outdir=outdir, workers=workers, scheduler=scheduler, force=force)
 
 
+@cli.command()
+@click.argument("target", metavar="(JOB.toml | OUTDIR | SCENE)")
+@click.option("--shots", "shots_dir", metavar="DIR", help="With SCENE: a folder of registered SHOT.json files.")
+@click.option("--host", default="127.0.0.1", show_default=True, help="Address to bind; any other than loopback needs a token.")
+@click.option("--port", type=int, default=8765, show_default=True, callback=_positive, help="Port to listen on.")
+@click.option("--token", metavar="TOKEN", help="Require this token (generated and printed when --host is not loopback).")
+@click.option("--db", metavar="FILE", help="SQLite file of the review [default: review.sqlite next to the job/export].")
+def review(target, shots_dir, host, port, token, db):
+    """Review shots in the browser: photo and CAD blended, modes, zoom, discrepancy markers with a
+    category, severity and note, the CAD part under the cursor; exports an HTML report and CSV."""
+    from .review.app import serve
+
+    serve(target, shots_dir=shots_dir, host=host, port=port, token=token, db=db)
+
+
 def main(argv=None) -> int:
     try:
         result = cli.main(args=argv, prog_name="mrcheck", standalone_mode=False)

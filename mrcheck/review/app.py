@@ -1,0 +1,217 @@
+"""The review web app: FastAPI routes over a Source, a Store, a RenderService and a Picker.
+
+Files are served by shot name + kind only (never by a client-given path); static files from a
+fixed table. With a token, every request needs it (query ``token``, header ``X-Review-Token``
+or the cookie set when the page is opened with ``?token=``), else 401.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hmac
+import threading
+from importlib import resources
+from pathlib import Path
+from typing import Literal
+
+from fastapi import FastAPI, HTTPException, Query, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, PlainTextResponse, Response
+from pydantic import BaseModel, Field
+
+from ..renderer import MODES, STUDY_LABELS
+from .renders import INTENSITIES, RenderService
+from .report import markers_csv, report_html
+from .storage import CATEGORIES, MAX_NOTE, Store
+
+STATIC = {"index.html": "text/html", "app.js": "text/javascript", "style.css": "text/css"}
+KINDS = ("photo", "render", "edges", "thumb")
+COOKIE = "mrcheck_review_token"
+
+Category = Literal["missing", "moved", "extra", "wrong size", "other"]
+assert set(Category.__args__) == set(CATEGORIES)
+
+
+class MarkerIn(BaseModel):
+    shot: str = Field(max_length=128)
+    x: float
+    y: float
+    category: Category
+    severity: int = Field(ge=1, le=3)
+    note: str = Field(default="", max_length=MAX_NOTE)
+    mode: str | None = Field(default=None, max_length=32)
+
+
+class MarkerPatch(BaseModel):
+    x: float | None = None
+    y: float | None = None
+    category: Category | None = None
+    severity: int | None = Field(default=None, ge=1, le=3)
+    note: str | None = Field(default=None, max_length=MAX_NOTE)
+
+
+def _static(name: str) -> bytes:
+    return resources.files("mrcheck.review").joinpath("static", name).read_bytes()
+
+
+def create_app(source, db_path: Path | None = None, cache_dir: Path | None = None, token: str | None = None,
+               samples: int = 16) -> FastAPI:
+    db_path = Path(db_path or source.home / "review.sqlite")
+    store = Store(db_path, source.label)
+    renders = RenderService(source, cache_dir or db_path.parent / ".review-cache", samples=samples)
+    picker_lock = threading.Lock()
+    picker_box: list = []
+
+    def picker():
+        with picker_lock:
+            if not picker_box:
+                from ..scene import load_scene
+                from .pick import Picker
+                picker_box.append(Picker(load_scene(source.scene)))
+            return picker_box[0]
+
+    @contextlib.asynccontextmanager
+    async def lifespan(app):
+        yield
+        renders.close()
+
+    app = FastAPI(title="mrcheck review", docs_url=None, redoc_url=None, openapi_url=None, lifespan=lifespan)
+    app.state.source, app.state.store, app.state.renders = source, store, renders
+
+    @app.exception_handler(RequestValidationError)
+    async def _invalid(request, exc):
+        errors = [f"{'.'.join(str(p) for p in e['loc'][1:]) or e['loc'][0]}: {e['msg']}" for e in exc.errors()]
+        return JSONResponse({"error": "invalid input", "details": errors}, status_code=422)
+
+    @app.exception_handler(HTTPException)
+    async def _http(request, exc):
+        return JSONResponse({"error": exc.detail}, status_code=exc.status_code)
+
+    @app.middleware("http")
+    async def _token(request: Request, call_next):
+        if token is None:
+            return await call_next(request)
+        given = request.query_params.get("token") or request.headers.get("x-review-token") or request.cookies.get(COOKIE)
+        if not given or not hmac.compare_digest(given.encode(), token.encode()):
+            return JSONResponse({"error": "a valid token is required (?token=...)"}, status_code=401)
+        response = await call_next(request)
+        if request.query_params.get("token"):
+            response.set_cookie(COOKIE, token, httponly=True, samesite="strict")
+        return response
+
+    def shot_or_404(name: str):
+        if name not in source.shots:
+            raise HTTPException(404, f"no shot named {name!r}")
+        return source.shots[name]
+
+    def check_marker_xy(shot, x, y):
+        w, h = shot.size
+        if not (0 <= x < w and 0 <= y < h):
+            raise HTTPException(422, f"coordinates ({x}, {y}) are outside the {w}x{h} image")
+
+    @app.get("/", response_class=HTMLResponse)
+    def index():
+        return HTMLResponse(_static("index.html"))
+
+    @app.get("/static/{name}")
+    def static(name: str):
+        if name not in STATIC:
+            raise HTTPException(404, "not found")
+        return Response(_static(name), media_type=STATIC[name])
+
+    @app.get("/api/info")
+    def info():
+        return {"label": source.label, "modes": list(MODES), "labels": STUDY_LABELS, "intensities": list(INTENSITIES),
+                "categories": list(CATEGORIES), "max_note": MAX_NOTE}
+
+    @app.get("/api/shots")
+    def shots():
+        return [{"name": s.name, "error_px": s.error_px, "width": s.size[0], "height": s.size[1]}
+                for s in source.shots.values()]
+
+    @app.get("/api/shots/{name}/{kind}.png")
+    def image(name: str, kind: str, mode: str = "phong", intensity: float = 1.0):
+        shot_or_404(name)
+        if kind not in KINDS:
+            raise HTTPException(404, f"unknown image kind {kind!r} (use {', '.join(KINDS)})")
+        if mode not in MODES:
+            raise HTTPException(422, f"unknown mode {mode!r} (use {', '.join(MODES)})")
+        if intensity not in INTENSITIES:
+            raise HTTPException(422, f"intensity must be one of {', '.join(map(str, INTENSITIES))}")
+        path = renders.file(name, kind, mode, intensity)
+        return FileResponse(path, media_type="image/png", headers={"Cache-Control": "private, max-age=3600"})
+
+    @app.get("/api/shots/{name}/pick")
+    def pick(name: str, x: float = Query(...), y: float = Query(...)):
+        shot = shot_or_404(name)
+        check_marker_xy(shot, x, y)
+        return picker().pick(shot.served_camera(), x, y)
+
+    @app.get("/api/markers")
+    def list_markers(shot: str | None = None):
+        if shot is not None:
+            shot_or_404(shot)
+        return store.markers(shot)
+
+    @app.post("/api/markers", status_code=201)
+    def add_marker(marker: MarkerIn):
+        shot = shot_or_404(marker.shot)
+        check_marker_xy(shot, marker.x, marker.y)
+        if marker.mode is not None and marker.mode not in MODES:
+            raise HTTPException(422, f"unknown mode {marker.mode!r}")
+        hit = picker().pick(shot.served_camera(), marker.x, marker.y)
+        return store.add({**marker.model_dump(), "part": hit["instance"], "distance": hit["distance"]})
+
+    @app.patch("/api/markers/{marker_id}")
+    def edit_marker(marker_id: int, patch: MarkerPatch):
+        current = store.get(marker_id)
+        if current is None:
+            raise HTTPException(404, f"no marker {marker_id}")
+        values = patch.model_dump(exclude_none=True)
+        if "x" in values or "y" in values:
+            shot = source.shots[current["shot"]]
+            x, y = values.get("x", current["x"]), values.get("y", current["y"])
+            check_marker_xy(shot, x, y)
+            hit = picker().pick(shot.served_camera(), x, y)
+            values.update(part=hit["instance"], distance=hit["distance"])
+        return store.update(marker_id, values)
+
+    @app.delete("/api/markers/{marker_id}")
+    def delete_marker(marker_id: int):
+        if not store.delete(marker_id):
+            raise HTTPException(404, f"no marker {marker_id}")
+        return {"deleted": marker_id}
+
+    @app.get("/api/export/report.html")
+    def export_html():
+        return HTMLResponse(report_html(source, renders, store.markers()),
+                            headers={"Content-Disposition": 'attachment; filename="review.html"'})
+
+    @app.get("/api/export/markers.csv")
+    def export_csv():
+        return PlainTextResponse(markers_csv(store.markers()), media_type="text/csv",
+                                 headers={"Content-Disposition": 'attachment; filename="review.csv"'})
+
+    return app
+
+
+def is_loopback(host: str) -> bool:
+    return host in ("127.0.0.1", "localhost", "::1") or host.startswith("127.")
+
+
+def serve(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=None):
+    """``mrcheck review``: open the source, print the URL, run uvicorn until interrupted."""
+    import secrets
+
+    import uvicorn
+
+    from .source import open_source
+
+    source = open_source(target, shots_dir)
+    if token is None and not is_loopback(host):
+        token = secrets.token_urlsafe(18)
+    app = create_app(source, db_path=Path(db) if db else None, token=token)
+    url = f"http://{'[' + host + ']' if ':' in host else host}:{port}/" + (f"?token={token}" if token else "")
+    print(f"mrcheck review: {len(source.shots)} shot(s) of {source.label}", flush=True)
+    print(f"open {url}", flush=True)
+    uvicorn.run(app, host=host, port=port, log_level="warning")

@@ -1,0 +1,66 @@
+"""The review's export: a self-contained HTML report (a crop of every marker in every mode) and CSV."""
+
+from __future__ import annotations
+
+import base64
+import csv
+import html
+import io
+import time
+
+import cv2
+import numpy as np
+
+from ..renderer import MODES, STUDY_LABELS
+
+CROP = 96  # half-size of a marker crop, px
+
+
+def _crop(image: np.ndarray, x: float, y: float) -> np.ndarray:
+    h, w = image.shape[:2]
+    cx, cy = int(round(x)), int(round(y))
+    x0, y0 = max(0, cx - CROP), max(0, cy - CROP)
+    crop = image[y0:min(h, cy + CROP), x0:min(w, cx + CROP)].copy()
+    cv2.circle(crop, (cx - x0, cy - y0), 9, (255, 0, 0), 2)
+    return crop
+
+
+def _data_url(image: np.ndarray) -> str:
+    ok, data = cv2.imencode(".png", cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+    return "data:image/png;base64," + base64.b64encode(data.tobytes()).decode()
+
+
+def markers_csv(markers: list) -> str:
+    out = io.StringIO()
+    writer = csv.writer(out)
+    writer.writerow(["id", "shot", "x", "y", "category", "severity", "note", "part", "distance_m", "mode", "updated"])
+    for m in markers:
+        writer.writerow([m["id"], m["shot"], f"{m['x']:.1f}", f"{m['y']:.1f}", m["category"], m["severity"],
+                         m["note"], m["part"] or "", "" if m["distance"] is None else f"{m['distance']:.3f}",
+                         m["mode"] or "", time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(m["updated"]))])
+    return out.getvalue()
+
+
+def report_html(source, renders, markers: list, intensity: float = 1.0) -> str:
+    """Every marker with its note, part, shot and a crop of the photo and of every mode."""
+    e = html.escape
+    rows = []
+    for m in markers:
+        crops = [("photo", renders.image(m["shot"], "photo"))]
+        crops += [(STUDY_LABELS[mode], renders.image(m["shot"], "render", mode, intensity)) for mode in MODES]
+        figures = "".join(f'<figure><img src="{_data_url(_crop(img, m["x"], m["y"]))}" alt="{e(label)}">'
+                          f"<figcaption>{e(label)}</figcaption></figure>" for label, img in crops)
+        distance = "" if m["distance"] is None else f" at {m['distance']:.2f} m"
+        rows.append(f'<section class="marker" id="marker-{m["id"]}"><h2>#{m["id"]} {e(m["category"])} '
+                    f'(severity {m["severity"]}) -- shot {e(m["shot"])}</h2>'
+                    f'<p class="meta">pixel ({m["x"]:.0f}, {m["y"]:.0f}); CAD part: '
+                    f'<b>{e(m["part"] or "none")}</b>{distance}</p>'
+                    f'<p class="note">{e(m["note"]) or "<i>no note</i>"}</p><div class="crops">{figures}</div></section>')
+    body = "".join(rows) or "<p>No markers.</p>"
+    return f"""<!doctype html><html><head><meta charset="utf-8"><title>mrcheck review</title><style>
+body{{font-family:sans-serif;margin:2em;color:#222}} .marker{{border-top:1px solid #ccc;padding:.5em 0}}
+.crops{{display:flex;flex-wrap:wrap;gap:6px}} figure{{margin:0}} figcaption{{font-size:12px;color:#555}}
+.note{{white-space:pre-wrap}} h2{{font-size:1.1em}}</style></head><body>
+<h1>mrcheck review: {e(source.label)}</h1><p>{len(markers)} marker(s), scene {e(str(source.scene))},
+exported {time.strftime('%Y-%m-%d %H:%M:%S')}. Crops: photo and every mode (AO intensity {intensity:g}).</p>
+{body}</body></html>"""

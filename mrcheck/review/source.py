@@ -1,0 +1,116 @@
+"""What a review looks at: shots (camera + photo) of one scene, from a job, an export or a folder."""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..camera import Camera
+from ..errors import MrcheckError
+from ..overlay import load_shot
+
+MAX_SIZE = 1280  # renders and photos are served at most this wide (same aspect as the photo)
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,127}")
+
+
+@dataclass
+class Shot:
+    name: str
+    camera: Camera          # at the photo's native size
+    photo: Path
+    error_px: float | None  # registration RMS, px
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """(width, height) served to the browser."""
+        w, h = self.camera.width, self.camera.height
+        if w <= MAX_SIZE:
+            return w, h
+        return MAX_SIZE, max(1, round(MAX_SIZE * h / w))
+
+    def served_camera(self) -> Camera:
+        w, h = self.size
+        return self.camera if (w, h) == (self.camera.width, self.camera.height) else self.camera.resized(w, h)
+
+
+@dataclass
+class Source:
+    scene: Path
+    shots: dict            # name -> Shot, in display order
+    home: Path             # folder for review.sqlite and the render cache
+    label: str
+
+
+def _shot(name, path) -> Shot:
+    camera, photo = load_shot(path)
+    data = json.loads(Path(path).read_text())
+    rms = data.get("rms")
+    return Shot(name, camera, photo, float(rms) if isinstance(rms, (int, float)) else None)
+
+
+def _checked_name(name: str) -> str:
+    if not _NAME.fullmatch(name):
+        raise MrcheckError(f"shot name {name!r} is not usable (letters, digits, . _ -)")
+    return name
+
+
+def from_outdir(outdir: Path) -> Source:
+    manifest_path = outdir / "manifest.json"
+    manifest = json.loads(manifest_path.read_text())
+    scene = Path(manifest["settings"]["scene"])
+    shots = {}
+    for entry in sorted(manifest.get("shots", []), key=lambda e: (e.get("status") == "failed", e.get("name", ""))):
+        if entry.get("status") not in ("done", "skipped"):
+            continue
+        name = _checked_name(str(entry["name"]))
+        path = outdir / entry.get("folder", f"shots/{name}") / "SHOT.json"
+        if path.is_file():
+            shots[name] = _shot(name, path)
+    return Source(scene, shots, outdir, str(outdir))
+
+
+def from_job(job_path: Path) -> Source:
+    from ..export import _register, load_job
+
+    job = load_job(job_path)
+    shots = {}
+    for entry in job.shots:
+        inputs = {k: v for k, v in entry.items() if k != "name"}
+        try:
+            data, camera, photo = _register(inputs, None)
+        except MrcheckError as exc:
+            print(f"warning: shot {entry['name']} skipped: {exc}")
+            continue
+        rms = data.get("rms")
+        name = _checked_name(entry["name"])
+        shots[name] = Shot(name, camera, Path(photo), float(rms) if isinstance(rms, (int, float)) else None)
+    return Source(Path(job.scene), shots, job_path.resolve().parent, str(job_path))
+
+
+def from_scene(scene: Path, shots_dir: Path) -> Source:
+    shots = {}
+    for path in sorted(shots_dir.glob("*.json")):
+        shots[_checked_name(path.stem)] = _shot(path.stem, path)
+    return Source(scene, shots, shots_dir, f"{scene} + {shots_dir}")
+
+
+def open_source(target, shots_dir=None) -> Source:
+    """``JOB.toml`` | ``OUTDIR`` (with manifest.json) | ``SCENE`` with ``shots_dir``."""
+    target = Path(target)
+    if shots_dir is not None:
+        if not Path(shots_dir).is_dir():
+            raise MrcheckError("--shots must be a folder of registered SHOT.json files", shots_dir)
+        source = from_scene(target, Path(shots_dir))
+    elif target.is_dir():
+        if not (target / "manifest.json").is_file():
+            raise MrcheckError("not an export folder (no manifest.json); pass JOB.toml, OUTDIR or SCENE --shots DIR", target)
+        source = from_outdir(target)
+    elif target.suffix == ".toml" and target.is_file():
+        source = from_job(target)
+    else:
+        raise MrcheckError("pass JOB.toml, an export OUTDIR or SCENE --shots DIR", target)
+    if not source.shots:
+        raise MrcheckError("no usable shots to review", target)
+    return source

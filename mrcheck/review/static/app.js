@@ -1,0 +1,229 @@
+// mrcheck review: plain JS, no build step. Blending, swipe, zoom and pan happen on the client.
+"use strict";
+const $ = (s, root = document) => root.querySelector(s);
+const $$ = (s, root = document) => [...root.querySelectorAll(s)];
+const S = { info: null, shots: [], shot: null, mode: "phong", level: 1, view: "overlay", edges: false,
+  opacity: 50, t: { s: 1, x: 0, y: 0 }, markers: [], selected: null };
+const panes = [$("#pane-a"), $("#pane-b")];
+const enc = encodeURIComponent;
+
+async function api(method, url, body) {
+  const res = await fetch(url, { method, headers: body ? { "Content-Type": "application/json" } : {},
+    body: body ? JSON.stringify(body) : undefined });
+  const data = await res.json().catch(() => ({}));
+  if (!res.ok) { status(`error: ${data.error || res.status} ${(data.details || []).join("; ")}`); throw new Error(data.error); }
+  return data;
+}
+function status(text) { $("#status").textContent = text; }
+function imageUrl(kind, mode, level) {
+  const q = kind === "render" ? `?mode=${enc(mode)}&intensity=${S.info.intensities[level]}` : "";
+  return `api/shots/${enc(S.shot.name)}/${kind}.png${q}`;
+}
+
+// -- layout and view ---------------------------------------------------------------------
+function applyTransform() {
+  const { s, x, y } = S.t;
+  for (const st of $$(".stage")) st.style.transform = `translate(${x}px, ${y}px) scale(${s})`;
+  for (const m of $$(".marker")) m.style.transform = `scale(${1 / s})`;
+}
+function fit() {
+  if (!S.shot) return;
+  const p = visiblePanes()[0].getBoundingClientRect();
+  const s = Math.min(p.width / S.shot.width, p.height / S.shot.height);
+  S.t = { s, x: (p.width - S.shot.width * s) / 2, y: (p.height - S.shot.height * s) / 2 };
+  applyTransform();
+}
+function visiblePanes() { return S.view === "side" ? panes : [panes[0]]; }
+function applyView() {
+  const a = panes[0], b = panes[1];
+  b.hidden = S.view !== "side";
+  const op = S.opacity / 100;
+  const ra = $(".render", a), pb = $(".photo", b), rb = $(".render", b);
+  $(".photo", a).style.visibility = "visible";
+  if (S.view === "overlay") { ra.style.opacity = op; ra.style.clipPath = "none"; }
+  else if (S.view === "swipe") { ra.style.opacity = 1; ra.style.clipPath = `inset(0 0 0 ${S.opacity}%)`; }
+  else { ra.style.opacity = 0; pb.style.visibility = "hidden"; rb.style.opacity = 1; }
+  $("#opacity").previousSibling.textContent = S.view === "swipe" ? "split " : "CAD opacity ";
+  for (const e of $$(".edges")) e.style.display = S.edges ? "block" : "none";
+}
+function loadRender() {
+  const mode = S.mode, level = S.level, url = imageUrl("render", mode, level), t0 = performance.now();
+  status(`rendering ${mode}...`);
+  const img = new Image();
+  img.onload = () => {
+    if (S.mode !== mode || S.level !== level) return;
+    for (const r of $$(".render")) r.src = url;
+    status(`${S.info.labels[mode]}, AO ${S.info.intensities[level]}: ${Math.round(performance.now() - t0)} ms`);
+    document.body.dataset.loaded = `${S.shot.name}|${mode}|${level}`;
+  };
+  img.onerror = () => status(`render failed (${mode})`);
+  img.src = url;
+}
+
+// -- shots ---------------------------------------------------------------------------------
+async function selectShot(shot) {
+  S.shot = shot; S.selected = null; $("#editor").hidden = true;
+  for (const li of $$("#shot-list li")) li.classList.toggle("active", li.dataset.name === shot.name);
+  for (const st of $$(".stage")) { st.style.width = shot.width + "px"; st.style.height = shot.height + "px"; }
+  for (const p of $$(".photo")) p.src = imageUrl("photo");
+  for (const e of $$(".edges")) e.src = imageUrl("edges");
+  for (const r of $$(".render")) r.removeAttribute("src");
+  fit(); loadRender(); await loadMarkers();
+}
+async function loadMarkers() {
+  S.markers = await api("GET", `api/markers?shot=${enc(S.shot.name)}`);
+  drawMarkers();
+}
+
+// -- markers -------------------------------------------------------------------------------
+function drawMarkers() {
+  for (const layer of $$(".markers")) {
+    layer.textContent = "";
+    for (const m of S.markers) {
+      const el = document.createElement("div");
+      el.className = `marker sev${m.severity}` + (S.selected === m.id ? " selected" : "");
+      el.style.left = m.x + "px"; el.style.top = m.y + "px"; el.textContent = m.id;
+      el.dataset.id = m.id; el.title = `${m.category}: ${m.note}`;
+      el.addEventListener("mousedown", (ev) => dragMarker(ev, m));
+      layer.appendChild(el);
+    }
+  }
+  const list = $("#marker-list"); list.textContent = "";
+  for (const m of S.markers) {
+    const li = document.createElement("li");
+    li.dataset.id = m.id; li.classList.toggle("selected", S.selected === m.id);
+    li.textContent = `#${m.id} ${m.category} (sev ${m.severity}) ${m.part || "-"}: ${m.note}`;
+    li.onclick = () => select(m.id);
+    list.appendChild(li);
+  }
+  applyTransform();
+}
+function select(id) {
+  S.selected = id; const m = S.markers.find((k) => k.id === id);
+  $("#editor").hidden = !m;
+  if (m) {
+    $("#ed-id").textContent = "#" + m.id;
+    $("#ed-part").textContent = m.part ? `on ${m.part}` + (m.distance != null ? ` (${m.distance.toFixed(2)} m)` : "") : "(no CAD part)";
+    $("#ed-category").value = m.category; $("#ed-severity").value = m.severity; $("#ed-note").value = m.note;
+  }
+  drawMarkers();
+}
+async function addMarker(x, y) {
+  const m = await api("POST", "api/markers", { shot: S.shot.name, x, y, category: "missing", severity: 2, note: "", mode: S.mode });
+  S.markers.push(m); select(m.id); $("#ed-note").focus();
+}
+function dragMarker(ev, m) {
+  ev.stopPropagation(); ev.preventDefault();
+  const start = { x: ev.clientX, y: ev.clientY }, orig = { x: m.x, y: m.y };
+  let moved = false;
+  const move = (e) => {
+    const dx = (e.clientX - start.x) / S.t.s, dy = (e.clientY - start.y) / S.t.s;
+    if (Math.abs(dx) + Math.abs(dy) > 2) moved = true;
+    m.x = Math.min(S.shot.width - 0.5, Math.max(0, orig.x + dx)); m.y = Math.min(S.shot.height - 0.5, Math.max(0, orig.y + dy));
+    for (const el of $$(`.marker[data-id="${m.id}"]`)) { el.style.left = m.x + "px"; el.style.top = m.y + "px"; }
+  };
+  const up = async () => {
+    window.removeEventListener("mousemove", move); window.removeEventListener("mouseup", up);
+    if (moved) Object.assign(m, await api("PATCH", `api/markers/${m.id}`, { x: m.x, y: m.y }));
+    select(m.id);
+  };
+  window.addEventListener("mousemove", move); window.addEventListener("mouseup", up);
+}
+$("#editor").addEventListener("submit", async (ev) => {
+  ev.preventDefault();
+  const m = await api("PATCH", `api/markers/${S.selected}`, { category: $("#ed-category").value,
+    severity: Number($("#ed-severity").value), note: $("#ed-note").value });
+  S.markers = S.markers.map((k) => (k.id === m.id ? m : k)); select(m.id); status(`marker #${m.id} saved`);
+});
+$("#ed-delete").onclick = async () => {
+  await api("DELETE", `api/markers/${S.selected}`);
+  S.markers = S.markers.filter((k) => k.id !== S.selected); select(null);
+};
+$("#ed-close").onclick = () => select(null);
+
+// -- zoom, pan, click, hover (both panes share one transform) ------------------------------
+function toImage(pane, ev) {
+  const r = pane.getBoundingClientRect();
+  return { x: (ev.clientX - r.left - S.t.x) / S.t.s, y: (ev.clientY - r.top - S.t.y) / S.t.s };
+}
+let pickTimer = null, pickSeq = 0;
+for (const pane of panes) {
+  pane.addEventListener("wheel", (ev) => {
+    ev.preventDefault();
+    const r = pane.getBoundingClientRect(), px = ev.clientX - r.left, py = ev.clientY - r.top;
+    const k = Math.exp(-ev.deltaY * 0.0015), s = Math.min(40, Math.max(0.05, S.t.s * k));
+    S.t = { s, x: px - (px - S.t.x) * (s / S.t.s), y: py - (py - S.t.y) * (s / S.t.s) };
+    applyTransform();
+  }, { passive: false });
+  pane.addEventListener("mousedown", (ev) => {
+    if (ev.button !== 0 || !S.shot) return;
+    const start = { x: ev.clientX, y: ev.clientY, tx: S.t.x, ty: S.t.y };
+    let moved = false;
+    const move = (e) => {
+      const dx = e.clientX - start.x, dy = e.clientY - start.y;
+      if (Math.abs(dx) + Math.abs(dy) > 3) moved = true;
+      if (moved) { S.t.x = start.tx + dx; S.t.y = start.ty + dy; applyTransform(); }
+    };
+    const up = (e) => {
+      window.removeEventListener("mousemove", move); window.removeEventListener("mouseup", up);
+      if (moved) return;
+      const p = toImage(pane, e);
+      if (p.x >= 0 && p.y >= 0 && p.x < S.shot.width && p.y < S.shot.height) addMarker(p.x, p.y);
+    };
+    window.addEventListener("mousemove", move); window.addEventListener("mouseup", up);
+  });
+  pane.addEventListener("mousemove", (ev) => {
+    if (!S.shot) return;
+    const p = toImage(pane, ev), tip = $("#tooltip"), vr = $("#viewport").getBoundingClientRect();
+    tip.style.left = ev.clientX - vr.left + 14 + "px"; tip.style.top = ev.clientY - vr.top + 14 + "px";
+    if (p.x < 0 || p.y < 0 || p.x >= S.shot.width || p.y >= S.shot.height) { tip.style.display = "none"; return; }
+    clearTimeout(pickTimer);
+    pickTimer = setTimeout(async () => {
+      const seq = ++pickSeq;
+      const hit = await api("GET", `api/shots/${enc(S.shot.name)}/pick?x=${p.x.toFixed(1)}&y=${p.y.toFixed(1)}`);
+      if (seq !== pickSeq) return;
+      tip.textContent = hit.part ? `${hit.instance} - ${hit.distance.toFixed(2)} m` : "no CAD";
+      tip.style.display = "block";
+    }, 60);
+  });
+  pane.addEventListener("mouseleave", () => { clearTimeout(pickTimer); pickSeq++; $("#tooltip").style.display = "none"; });
+}
+
+// -- controls --------------------------------------------------------------------------------
+$("#opacity").addEventListener("input", (ev) => { S.opacity = Number(ev.target.value); applyView(); });
+$("#intensity").addEventListener("input", (ev) => {
+  S.level = Number(ev.target.value); $("#intensity-out").textContent = S.info.intensities[S.level]; loadRender();
+});
+$("#view").addEventListener("change", (ev) => { S.view = ev.target.value; applyView(); fit(); });
+$("#edges").addEventListener("change", (ev) => { S.edges = ev.target.checked; applyView(); });
+$("#reset-view").onclick = fit;
+window.addEventListener("resize", fit);
+
+async function start() {
+  S.info = await api("GET", "api/info");
+  for (const mode of S.info.modes) {
+    const b = document.createElement("button");
+    b.textContent = S.info.labels[mode]; b.dataset.mode = mode; b.type = "button";
+    b.onclick = () => { S.mode = mode; for (const x of $$("#modes button")) x.classList.toggle("active", x === b); loadRender(); };
+    b.classList.toggle("active", mode === S.mode);
+    $("#modes").appendChild(b);
+  }
+  for (const c of S.info.categories) $("#ed-category").add(new Option(c, c));
+  $("#intensity-out").textContent = S.info.intensities[S.level];
+  S.shots = await api("GET", "api/shots");
+  for (const shot of S.shots) {
+    const li = document.createElement("li");
+    li.dataset.name = shot.name;
+    const err = shot.error_px == null ? "error n/a" : `error ${shot.error_px.toFixed(2)} px`;
+    li.innerHTML = `<img alt=""><div><b></b><br><small></small></div>`;
+    $("img", li).src = `api/shots/${enc(shot.name)}/thumb.png`;
+    $("b", li).textContent = shot.name; $("small", li).textContent = err;
+    li.onclick = () => selectShot(shot);
+    $("#shot-list").appendChild(li);
+  }
+  applyView();
+  const wanted = new URLSearchParams(location.search).get("shot");
+  await selectShot(S.shots.find((s) => s.name === wanted) || S.shots[0]);
+  document.body.dataset.ready = "1";
+}
+start();

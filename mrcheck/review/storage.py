@@ -1,0 +1,91 @@
+"""Reviews and markers in SQLite (WAL): every change is committed before it is acknowledged."""
+
+from __future__ import annotations
+
+import sqlite3
+import time
+from pathlib import Path
+
+CATEGORIES = ("missing", "moved", "extra", "wrong size", "other")
+SEVERITIES = (1, 2, 3)
+MAX_NOTE = 2000
+_FIELDS = ("id", "shot", "x", "y", "category", "severity", "note", "part", "distance", "mode", "created", "updated")
+
+_SCHEMA = """
+CREATE TABLE IF NOT EXISTS reviews (id INTEGER PRIMARY KEY, source TEXT NOT NULL, created REAL NOT NULL);
+CREATE TABLE IF NOT EXISTS markers (
+    id INTEGER PRIMARY KEY AUTOINCREMENT,
+    review INTEGER NOT NULL REFERENCES reviews(id),
+    shot TEXT NOT NULL, x REAL NOT NULL, y REAL NOT NULL,
+    category TEXT NOT NULL, severity INTEGER NOT NULL, note TEXT NOT NULL DEFAULT '',
+    part TEXT, distance REAL, mode TEXT,
+    created REAL NOT NULL, updated REAL NOT NULL);
+CREATE INDEX IF NOT EXISTS markers_shot ON markers(review, shot);
+"""
+
+
+class Store:
+    """One SQLite file; a short-lived connection per call (safe from any server thread)."""
+
+    def __init__(self, path: Path, source_label: str):
+        self.path = Path(path)
+        with self._connect() as db:
+            db.execute("PRAGMA journal_mode=WAL")
+            db.executescript(_SCHEMA)
+            row = db.execute("SELECT id FROM reviews ORDER BY id LIMIT 1").fetchone()
+            self.review = row[0] if row else db.execute("INSERT INTO reviews(source, created) VALUES (?, ?)",
+                                                        (source_label, time.time())).lastrowid
+
+    def _connect(self):
+        db = sqlite3.connect(self.path, timeout=10, isolation_level=None)  # autocommit: each statement commits
+        db.execute("PRAGMA synchronous=FULL")
+        db.row_factory = sqlite3.Row
+        return _Closing(db)
+
+    def markers(self, shot: str | None = None) -> list[dict]:
+        with self._connect() as db:
+            sql = f"SELECT {', '.join(_FIELDS)} FROM markers WHERE review = ?"
+            args = [self.review]
+            if shot is not None:
+                sql += " AND shot = ?"
+                args.append(shot)
+            return [dict(r) for r in db.execute(sql + " ORDER BY id", args)]
+
+    def get(self, marker_id: int) -> dict | None:
+        with self._connect() as db:
+            row = db.execute(f"SELECT {', '.join(_FIELDS)} FROM markers WHERE review = ? AND id = ?",
+                             (self.review, marker_id)).fetchone()
+            return dict(row) if row else None
+
+    def add(self, values: dict) -> dict:
+        now = time.time()
+        keys = ("shot", "x", "y", "category", "severity", "note", "part", "distance", "mode")
+        with self._connect() as db:
+            marker_id = db.execute(
+                f"INSERT INTO markers(review, {', '.join(keys)}, created, updated) VALUES (?, {', '.join('?' * len(keys))}, ?, ?)",
+                (self.review, *[values.get(k) for k in keys], now, now)).lastrowid
+        return self.get(marker_id)
+
+    def update(self, marker_id: int, values: dict) -> dict | None:
+        allowed = {k: v for k, v in values.items() if k in ("x", "y", "category", "severity", "note", "part", "distance", "mode")}
+        if allowed:
+            sets = ", ".join(f"{k} = ?" for k in allowed)
+            with self._connect() as db:
+                db.execute(f"UPDATE markers SET {sets}, updated = ? WHERE review = ? AND id = ?",
+                           (*allowed.values(), time.time(), self.review, marker_id))
+        return self.get(marker_id)
+
+    def delete(self, marker_id: int) -> bool:
+        with self._connect() as db:
+            return db.execute("DELETE FROM markers WHERE review = ? AND id = ?", (self.review, marker_id)).rowcount > 0
+
+
+class _Closing:
+    def __init__(self, db):
+        self.db = db
+
+    def __enter__(self):
+        return self.db
+
+    def __exit__(self, *exc):
+        self.db.close()

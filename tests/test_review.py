@@ -1,0 +1,200 @@
+"""``mrcheck review``: API (bad input, path traversal, token, marker CRUD, WAL persistence) and
+end to end in headless Chromium (Playwright driving Debian's /usr/bin/chromium)."""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("fastapi")
+from fastapi.testclient import TestClient  # noqa: E402
+
+from mrcheck.cli import main  # noqa: E402
+from mrcheck.output import write_image  # noqa: E402
+from mrcheck.resources import sample_scene_path  # noqa: E402
+from mrcheck.review.app import create_app  # noqa: E402
+from mrcheck.review.source import open_source  # noqa: E402
+from mrcheck.scene import load_scene  # noqa: E402
+
+from .mr_helpers import _camera, _photo  # noqa: E402
+
+EYE, TARGET = np.array([-11.4, -6.2, 1.7]), np.array([-5.0, -4.2, 0.9])
+CHROMIUM = "/usr/bin/chromium"
+
+
+@pytest.fixture(scope="module")
+def outdir(ctx, tmp_path_factory):
+    root = tmp_path_factory.mktemp("review_job")
+    scene = load_scene(sample_scene_path())
+    for i, offset in enumerate([(0, 0, 0), (0.4, -0.3, 0.1)]):
+        cam = _camera(320, 240, 250.0, dist=(-0.05, 0, 0, 0, 0), eye=EYE + offset, target=TARGET)
+        write_image(root / f"shot{i}.png", _photo(ctx, scene, cam))
+        (root / f"shot{i}.json").write_text(json.dumps({**cam.to_dict(), "photo": f"shot{i}.png", "rms": 0.1 + i}))
+    shots = "".join(f'\n[[shots]]\nshot = "shot{i}.json"\n' for i in range(2))
+    (root / "job.toml").write_text(f'scene = "{sample_scene_path()}"\nmodes = ["phong", "vector"]\nsamples = 4\n{shots}')
+    assert main(["export", str(root / "job.toml"), "-o", str(root / "out")]) == 0
+    return root / "out"
+
+
+@pytest.fixture()
+def client(outdir, tmp_path):
+    app = create_app(open_source(outdir), db_path=tmp_path / "review.sqlite", cache_dir=outdir / ".cache", samples=4)
+    with TestClient(app) as c:
+        yield c
+
+
+def test_shots_images_and_pick(client):
+    shots = client.get("/api/shots").json()
+    assert [s["name"] for s in shots] == ["shot0", "shot1"] and shots[0]["width"] == 320
+    for kind in ("photo", "thumb", "edges", "render"):
+        r = client.get(f"/api/shots/shot0/{kind}.png", params={"mode": "vector", "intensity": 1.5})
+        assert r.status_code == 200 and r.content[:4] == b"\x89PNG"
+    hit = client.get("/api/shots/shot0/pick", params={"x": 160, "y": 150}).json()
+    assert hit["part"] and 1.0 < hit["distance"] < 30.0
+
+
+@pytest.mark.parametrize("url", [
+    "/api/shots/../../etc/passwd/photo.png", "/api/shots/..%2F..%2Fetc%2Fpasswd/photo.png",
+    "/api/shots/%2e%2e%2f%2e%2e%2fetc%2fpasswd/photo.png", "/static/..%2F..%2Fcli.py", "/static/../app.py",
+    "/static/%2e%2e/app.py", "/api/shots/shot0/..%2F..%2FSHOT.json.png", "/api/shots/shot0/passwd.png"])
+def test_path_traversal_is_refused(client, url):
+    r = client.get(url)
+    assert r.status_code == 404 and b"root:" not in r.content and b"import" not in r.content
+
+
+def test_bad_input_is_a_clear_4xx(client):
+    base = {"shot": "shot0", "x": 10, "y": 10, "category": "missing", "severity": 2, "note": "x"}
+    for bad, status in [({"category": "broken"}, 422), ({"severity": 4}, 422), ({"note": "n" * 2001}, 422),
+                        ({"x": 320}, 422), ({"y": -1}, 422), ({"shot": "nope"}, 404), ({"mode": "fancy"}, 422)]:
+        r = client.post("/api/markers", json={**base, **bad})
+        assert r.status_code == status, (bad, r.text)
+        assert "error" in r.json()
+    assert client.get("/api/shots/shot0/render.png", params={"mode": "fancy"}).status_code == 422
+    assert client.get("/api/shots/shot0/render.png", params={"intensity": 3}).status_code == 422
+    assert client.patch("/api/markers/999", json={"note": "x"}).status_code == 404
+
+
+def test_marker_crud_and_persistence(client, outdir, tmp_path):
+    r = client.post("/api/markers", json={"shot": "shot1", "x": 160, "y": 150, "category": "moved", "severity": 3,
+                                          "note": "pillar 20 cm off"})
+    assert r.status_code == 201
+    m = r.json()
+    assert m["part"] and m["distance"] > 0
+    m2 = client.patch(f"/api/markers/{m['id']}", json={"note": "pillar 25 cm off", "x": 100}).json()
+    assert m2["note"] == "pillar 25 cm off" and m2["x"] == 100
+    gone = client.post("/api/markers", json={"shot": "shot1", "x": 5, "y": 5, "category": "other", "severity": 1}).json()
+    assert client.delete(f"/api/markers/{gone['id']}").status_code == 200
+    # a second app on the same database (another planner, or after a kill) sees the change
+    app2 = create_app(open_source(outdir), db_path=tmp_path / "review.sqlite", cache_dir=outdir / ".cache", samples=4)
+    with TestClient(app2) as other:
+        markers = other.get("/api/markers", params={"shot": "shot1"}).json()
+        assert [(x["id"], x["note"]) for x in markers] == [(m["id"], "pillar 25 cm off")]
+        assert "pillar 25 cm off" in other.get("/api/export/markers.csv").text
+        report = other.get("/api/export/report.html").text
+        assert "pillar 25 cm off" in report and report.count("data:image/png") == 7  # photo + 6 modes
+    assert (tmp_path / "review.sqlite-wal").exists() or (tmp_path / "review.sqlite").stat().st_size > 0
+
+
+def test_token_required(outdir, tmp_path):
+    app = create_app(open_source(outdir), db_path=tmp_path / "r.sqlite", cache_dir=outdir / ".cache", token="s3cret")
+    with TestClient(app) as c:
+        assert c.get("/api/shots").status_code == 401
+        assert c.get("/api/shots", headers={"X-Review-Token": "wrong"}).status_code == 401
+        assert c.get("/api/shots", headers={"X-Review-Token": "s3cret"}).status_code == 200
+        assert c.get("/?token=s3cret").status_code == 200
+        assert c.get("/api/shots").status_code == 200  # the cookie set by the page
+
+
+# -- end to end in a real browser -------------------------------------------------------------
+def _free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _start(outdir, db, port):
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    proc = subprocess.Popen([sys.executable, "-m", "mrcheck.cli", "review", str(outdir), "--port", str(port),
+                             "--db", str(db)], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    deadline = time.time() + 60
+    while time.time() < deadline:
+        try:
+            urllib.request.urlopen(f"http://127.0.0.1:{port}/api/info", timeout=1)
+            return proc
+        except OSError:
+            time.sleep(0.2)
+    proc.kill()
+    raise AssertionError(proc.stdout.read().decode())
+
+
+@pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="needs Debian's chromium (bootstrap.sh installs it)")
+def test_browser_end_to_end(outdir, tmp_path):
+    sync_api = pytest.importorskip("playwright.sync_api")
+    port, db = _free_port(), tmp_path / "e2e.sqlite"
+    url = f"http://127.0.0.1:{port}/"
+    proc = _start(outdir, db, port)
+    args = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+            "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+    try:
+        with sync_api.sync_playwright() as pw:
+            browser = pw.chromium.launch_persistent_context(str(tmp_path / "profile"), executable_path=CHROMIUM,
+                                                            args=args, headless=True, viewport={"width": 1280, "height": 720},
+                                                            accept_downloads=True)
+            page = browser.new_page()
+            page.goto(url)
+            page.wait_for_selector("body[data-loaded='shot0|phong|1']", timeout=60000)
+            viewport = page.locator("#viewport")
+            page.fill("#opacity", "0")
+            page.dispatch_event("#opacity", "input")
+            a = np.frombuffer(viewport.screenshot(), np.uint8).copy()
+            page.evaluate("document.querySelector('#opacity').value = 100")
+            page.dispatch_event("#opacity", "input")
+            viewport.screenshot(path="/tmp/review_cad.png")
+            b = np.frombuffer(viewport.screenshot(), np.uint8).copy()
+            assert a.shape != b.shape or np.any(a != b)
+            latency = page.evaluate("""() => new Promise(done => {
+                const s = document.querySelector('#opacity'); const t0 = performance.now();
+                s.value = 30; s.dispatchEvent(new Event('input'));
+                requestAnimationFrame(() => done(performance.now() - t0)); })""")
+            print(f"slider latency {latency:.1f} ms")
+            page.click("#modes button[data-mode='vector']")
+            page.wait_for_selector("body[data-loaded='shot0|vector|1']", timeout=60000)
+            # place a marker in the middle of the image, edit it
+            box = page.locator("#pane-a").bounding_box()
+            page.mouse.click(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+            page.wait_for_selector("#editor:not([hidden])")
+            page.select_option("#ed-category", "wrong size")
+            page.fill("#ed-note", "conveyor too short")
+            page.click("#ed-save")
+            page.wait_for_selector("#marker-list li:has-text('conveyor too short')")
+            page.check("#edges")
+            page.screenshot(path="/tmp/review_marker.png")
+            page.select_option("#view", "swipe")
+            page.screenshot(path="/tmp/review_swipe.png")
+            page.select_option("#view", "side")
+            page.screenshot(path="/tmp/review_side.png")
+            page.reload()
+            page.wait_for_selector("#marker-list li:has-text('conveyor too short')", timeout=30000)
+            # kill the server, start a new one on the same database: the marker is there
+            proc.kill()
+            proc.wait()
+            proc = _start(outdir, db, port)
+            page.reload()
+            page.wait_for_selector("#marker-list li:has-text('wrong size')", timeout=30000)
+            with page.expect_download() as info:
+                page.click("#export-html")
+            report = Path(info.value.path()).read_text()
+            assert "conveyor too short" in report and "wrong size" in report
+            browser.close()
+    finally:
+        proc.kill()
+        proc.wait()
