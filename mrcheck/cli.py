@@ -315,6 +315,35 @@ def review(target, shots_dir, host, port, token, db):
     serve(target, shots_dir=shots_dir, host=host, port=port, token=token, db=db)
 
 
+@cli.command()
+@click.argument("shot", metavar="SHOT.json")
+@click.option("--scene", "scene_path", required=True, metavar="SCENE", help="The planned scene.")
+@click.option("--tolerance-px", type=float, default=None, callback=_positive,
+              help="How far (px) a photo edge may lie from a CAD edge and still support it [default: automatic].")
+@click.option("-o", "--output", "outdir", required=True, metavar="OUTDIR",
+              help="Folder for heatmap.png, suspects.json (ranked parts, for the review tool) and suspects.md.")
+def discrepancies(shot, scene_path, tolerance_px, outdir):
+    """Point at the CAD parts the photo disagrees with: CAD silhouette and crease edges against the
+    photo's edges, per part, with a heat map and a ranked list of suspects."""
+    from .discrepancies import discrepancies_command
+
+    discrepancies_command(shot=shot, scene=scene_path, tolerance_px=tolerance_px, outdir=outdir)
+
+
+@cli.command()
+@click.argument("scan", metavar="SCAN")
+@click.option("--scene", "scene_path", required=True, metavar="SCENE", help="The planned scene.")
+@click.option("--shot", metavar="SHOT.json", help="Colour the deviations on this shot's render / overlay too.")
+@click.option("--units", type=click.Choice(["mm", "cm", "m", "in", "ft"]), help="Unit of the scan's coordinates [default: as the scene, metres].")
+@click.option("-o", "--output", "outdir", required=True, metavar="OUTDIR", help="Folder for deviations, the coloured images and the per-part list.")
+def deviation(scan, scene_path, shot, units, outdir):
+    """Signed cloud-to-mesh distances from a laser scan (PLY, PCD, XYZ) to the planned CAD, per
+    point and per part (as CloudCompare's C2M)."""
+    from .deviation import deviation_command
+
+    deviation_command(scan=scan, scene=scene_path, shot=shot, units=units, outdir=outdir)
+
+
 def main(argv=None) -> int:
     try:
         result = cli.main(args=argv, prog_name="mrcheck", standalone_mode=False)

@@ -67,6 +67,24 @@ def _triangle_soup(scene: Scene, origin: np.ndarray):
     return np.concatenate(vertices), faces.astype(np.uint32)
 
 
+def triangle_owners(scene: Scene):
+    """Which part instance every triangle of :func:`_triangle_soup` belongs to.
+
+    Returns ``(owners, first)``: ``owners`` lists ``(part, instance index)`` in the soup's order
+    (parts in scene order, each at every transform; empty parts skipped), ``first`` is the
+    (len(owners) + 1,) int64 start of each one's triangles, so the owner of primitive id ``p`` is
+    ``owners[np.searchsorted(first, p, side="right") - 1]``.
+    """
+    owners, counts = [], []
+    for part in scene.parts:
+        if len(part.faces) == 0 or len(part.vertices) == 0:
+            continue   # the same skip as _triangle_soup: the two orders must agree
+        for k in range(len(part.transforms)):
+            owners.append((part, k))
+            counts.append(len(part.faces))
+    return owners, np.concatenate(([0], np.cumsum(counts, dtype=np.int64)))
+
+
 def _raycasting_scene(scene: Scene, origin: np.ndarray):
     import open3d as o3d
 
@@ -251,4 +269,4 @@ def reference_command(scene, view, camera_path, width, height, rays, radius_mode
     return path
 
 
-__all__ = ["reference_ao", "reference_command", "RADIUS_MODES"]
+__all__ = ["reference_ao", "reference_command", "triangle_owners", "RADIUS_MODES"]

@@ -1,0 +1,460 @@
+"""``mrcheck discrepancies``: which planned CAD parts does a registered photo disagree with?
+
+Method
+------
+1. **Object ids in the photo's lens geometry.** For every photo pixel the undistorted (ideal)
+   pixel comes from :func:`mrcheck.overlay.distortion_map`; one ray per pixel is cast through
+   it with Open3D's ``RaycastingScene`` over the triangle soup of every part at every instance
+   (:mod:`mrcheck.reference` builds it, relative to the camera centre for float32 precision).
+   The hit's primitive id, looked up in a table of per-instance face ranges, gives the instance
+   (``Part.instance_ids``); its ``t_hit`` is the camera-space depth (the ray's z is 1). No
+   renderer change is needed and the ids are exactly in the photo's (distorted) frame.
+2. **CAD edges** are :func:`mrcheck.overlay.cad_edges` of the planned render's depth (inverse
+   depth second differences: silhouettes and creases), resampled into the photo's geometry as
+   the overlay does, plus the boundaries between different instance ids (two touching parts at
+   the same depth have a real outline that depth alone does not show). Each edge pixel belongs
+   to the *nearest* instance in its 3x3 neighbourhood: a silhouette is the occluder's outline.
+3. **Photo edges**: Canny on the grey photo after a light Gaussian blur, thresholds set
+   automatically from the median gradient magnitude (so a darker or brighter exposure, or
+   another light, gives the same edges), then a distance transform of the edge map.
+4. **Support** of an instance = share of its visible CAD *outline* pixels (instance/background
+   boundaries and depth steps > 5 %, :func:`silhouettes`; creases are drawn but not scored,
+   since a crease can lose all contrast under another light) with a photo edge within
+   ``tolerance_px`` (default 2 px, scaled with the image's longer side / 1000).
+   **Score** = 1 - support. Instances with fewer than :data:`MIN_EDGE_PIXELS` visible edge
+   pixels have too little evidence and are not scored. Suspects = instances with score >=
+   :data:`SCORE_THRESHOLD`, ranked by score.
+5. **Unexplained structure**: photo edge pixels farther than ``3 * tolerance`` from every CAD
+   edge, closed morphologically and grouped into connected regions; a region with at least
+   :data:`MIN_REGION_PIXELS` edge pixels is an "extra" suggestion (an added object, clutter).
+
+Outputs (``OUTDIR``): ``heatmap.png`` (50 % photo / CAD overlay, unsupported CAD edges red,
+supported CAD edges dim green, unexplained photo edges cyan, suspect boxes yellow),
+``suspects.json`` (``suspects``: id, part, name, score, support, edge_pixels, bbox [x0, y0,
+x1, y1]; ``regions``; ``suggested_markers`` for the review tool) and ``suspects.md``.
+
+Evaluation protocol (:func:`evaluate`)
+--------------------------------------
+For each seed, :func:`mrcheck.asbuilt.make_asbuilt` writes an as-built variant; for each view
+the "photo" is the as-built scene rendered with the ``sun`` light (the planned render uses the
+headlight), distorted by a k1 lens through the overlay's mapping, blurred (Gaussian sigma
+0.7 px) and with Gaussian noise (sigma 4 grey levels). Detection runs against the planned scene
+with that exact camera. A ground-truth discrepancy is *in view* when its instance covers at
+least :data:`MIN_EDGE_PIXELS` visible CAD edge pixels in the planned scene (moved, rotated,
+missing, replaced) or, for "added", at least 50 pixels of the as-built id buffer. It is
+*found* when its id is among the suspects (score >= threshold); an added one when an
+unexplained region's box overlaps the added instance's box in the as-built id buffer.
+Precision = suspects (and regions) that are a ground-truth change / all suspects (and
+regions); a suspect whose box overlaps the image box of a change (an object uncovered or
+covered by a moved part) counts as "explained" and is reported apart, not as a true positive.
+
+Reproduce::
+
+    from mrcheck.discrepancies import evaluate
+    from mrcheck.resources import sample_scene_path
+    print(evaluate(sample_scene_path(), seeds=(0, 1, 2), views=("overview", "conveyor"),
+                   width=400, height=300, workdir="/tmp/eval")["summary"])
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tempfile
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from .camera import Camera
+from .errors import MrcheckError
+from .overlay import blend, distort_to_photo, distortion_map, load_shot, read_photo, render_for_photo
+from .reference import _raycasting_scene, triangle_owners
+from .renderer import Renderer, RenderSettings
+from .scene import Scene, load_scene
+from .output import write_bytes, write_image
+
+__all__ = ["object_ids", "photo_edges", "cad_edge_owner", "detect", "heatmap", "discrepancies_command",
+           "evaluate", "synthetic_photo", "silhouettes", "default_tolerance", "SCORE_THRESHOLD", "MIN_EDGE_PIXELS", "MIN_REGION_PIXELS"]
+
+SCORE_THRESHOLD = 0.35    # a suspect: over a third of its outline is missing from the photo (swept on the evaluation)
+MIN_EDGE_PIXELS = 20      # fewer visible edge pixels is too little evidence either way
+MIN_REGION_PIXELS = 25    # unexplained photo edge pixels a region needs to be reported
+SILHOUETTE_STEP = 0.05    # relative depth jump that makes an outline (creases are not used for support)
+FLOOR_FACTOR = 4.0        # Canny's high threshold over the median gradient (the noise floor)
+BACKGROUND = -1
+
+
+def default_tolerance(camera: Camera) -> float:
+    """2 px at 1000 px on the longer side or less, growing with resolution."""
+    return 2.0 * max(1.0, max(camera.width, camera.height) / 1000.0)
+
+
+# -- object ids ----------------------------------------------------------------------------
+def _instance_table(scene: Scene):
+    """Face offsets and (part, instance id) of each instance, in the ray-casting soup's order."""
+    owners, first = triangle_owners(scene)
+    return first[:-1], [(part.name, part.instance_ids[k]) for part, k in owners]
+
+
+def object_ids(scene: Scene, camera: Camera, maps=None):
+    """Per photo pixel the index of the visible instance (-1 = nothing) and its depth.
+
+    Returns ``(ids (H, W) int32, depth (H, W) float32 (0 = nothing), labels)``; ``labels[i]``
+    is ``(part name, instance id)``. Rays go through the *undistorted* pixel of each photo
+    pixel, so the buffer is in the photo's lens geometry.
+    """
+    import open3d as o3d
+
+    h, w = camera.height, camera.width
+    if maps is None:
+        maps = distortion_map(camera)
+    if maps is None:
+        v, u = np.mgrid[0:h, 0:w].astype(np.float64)
+    else:
+        u, v = maps[0].astype(np.float64), maps[1].astype(np.float64)
+    valid = u > -1e5
+    starts, labels = _instance_table(scene)
+    ids = np.full((h, w), BACKGROUND, np.int32)
+    depth = np.zeros((h, w), np.float32)
+    rc = _raycasting_scene(scene, camera.center)
+    if rc is None:
+        return ids, depth, labels
+    d_cam = np.stack(((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, np.ones_like(u)), -1)[valid]
+    rays = np.zeros((len(d_cam), 6), np.float32)
+    rays[:, 3:] = d_cam @ camera.R          # world orientation, origin at the camera centre
+    hit = rc.cast_rays(o3d.core.Tensor(rays))
+    t = hit["t_hit"].numpy()
+    prim = hit["primitive_ids"].numpy().astype(np.int64)
+    ok = np.isfinite(t) & (prim != o3d.t.geometry.RaycastingScene.INVALID_ID)
+    inst = np.where(ok, np.searchsorted(starts, np.where(ok, prim, 0), side="right") - 1, BACKGROUND)
+    ids[valid] = inst.astype(np.int32)
+    depth[valid] = np.where(ok, t, 0.0).astype(np.float32)
+    return ids, depth, labels
+
+
+# -- edges ---------------------------------------------------------------------------------
+def photo_edges(photo: np.ndarray) -> np.ndarray:
+    """(H, W) bool Canny edges with thresholds from the median gradient magnitude."""
+    grey = cv2.cvtColor(photo, cv2.COLOR_RGB2GRAY)
+    grey = cv2.GaussianBlur(grey, (0, 0), 1.0)
+    gx = cv2.Sobel(grey, cv2.CV_32F, 1, 0)
+    gy = cv2.Sobel(grey, cv2.CV_32F, 0, 1)
+    mag = np.hypot(gx, gy)
+    # the median of the *textured* pixels: a flat image half sky would set no threshold at all;
+    # a noise floor (~ the median) times a factor keeps noise out at any exposure
+    floor = float(np.median(mag[mag > 0])) if np.any(mag > 0) else 1.0
+    high = max(FLOOR_FACTOR * floor, 20.0)
+    low = 0.4 * high
+    return cv2.Canny(grey, low, high, L2gradient=True) > 0
+
+
+def cad_edge_owner(ids: np.ndarray, depth: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """(H, W) int32: for every CAD edge pixel the nearest instance of its 3x3 neighbourhood
+    (a silhouette belongs to the occluder), -1 elsewhere."""
+    h, w = ids.shape
+    far = np.where(depth > 0, depth, np.inf)
+    pd = np.pad(far, 1, constant_values=np.inf)
+    pi = np.pad(ids, 1, constant_values=BACKGROUND)
+    best_d, best_i = far.copy(), ids.copy()
+    for dy in (0, 1, 2):
+        for dx in (0, 1, 2):
+            d = pd[dy:dy + h, dx:dx + w]
+            closer = d < best_d
+            best_d = np.where(closer, d, best_d)
+            best_i = np.where(closer, pi[dy:dy + h, dx:dx + w], best_i)
+    return np.where(edges, best_i, BACKGROUND).astype(np.int32)
+
+
+def silhouettes(ids: np.ndarray, depth: np.ndarray, step: float = SILHOUETTE_STEP) -> np.ndarray:
+    """(H, W) bool: pixels on a boundary between instances (or instance and background) or on a
+    depth step of more than ``step`` relative to the nearer side (a part occluding itself)."""
+    out = np.zeros(ids.shape, bool)
+    for axis in (0, 1):
+        a = np.moveaxis(ids, axis, 0)
+        z = np.moveaxis(depth, axis, 0)
+        near = np.minimum(z[1:], z[:-1])
+        jump = (a[1:] != a[:-1]) | (np.abs(z[1:] - z[:-1]) > step * np.where(near > 0, near, np.inf))
+        o = np.moveaxis(out, axis, 0)
+        o[1:] |= jump
+        o[:-1] |= jump
+    return out
+
+
+# -- detection -----------------------------------------------------------------------------
+def detect(scene: Scene, camera: Camera, photo: np.ndarray, tolerance_px: float | None = None, renderer=None,
+           threshold: float = None):
+    """Compare the planned ``scene`` seen by ``camera`` with ``photo``; the reusable core.
+
+    Returns a dict: ``suspects`` (ranked, every scored instance, with ``suspect`` True above
+    the threshold), ``regions`` (unexplained photo structure), ``suggested_markers``, and the
+    arrays ``ids``, ``cad``, ``supported``, ``unexplained``, ``render`` for the heat map.
+    """
+    if photo.shape[:2] != (camera.height, camera.width):
+        raise MrcheckError(f"photo is {photo.shape[1]}x{photo.shape[0]}, the camera {camera.width}x{camera.height}")
+    tol = default_tolerance(camera) if tolerance_px is None else float(tolerance_px)
+    threshold = SCORE_THRESHOLD if threshold is None else float(threshold)
+    maps = distortion_map(camera)
+    own = renderer is None
+    renderer = Renderer(scene) if own else renderer
+    try:
+        renders, edges, offset, maps = render_for_photo(renderer, camera, ["phong"], RenderSettings(), True, maps)
+    finally:
+        if own:
+            renderer.release()
+    shape = photo.shape[:2]
+    render = distort_to_photo(renders["phong"], maps, offset, shape)
+    cad = distort_to_photo(edges.astype(np.float32), maps, offset, shape) > 0.25
+    ids, depth, labels = object_ids(scene, camera, maps)
+    outline = silhouettes(ids, depth)
+    cad |= outline                             # touching parts at one depth: the outline is real too
+    for m in (cad, outline):                   # the frame border is no edge of the scene
+        m[[0, -1], :] = False
+        m[:, [0, -1]] = False
+    # support is judged on outlines only: a crease between two faces may show no contrast
+    # under another light (a corrugated wall in the sun), an outline against what lies behind
+    # almost always does
+    owner = cad_edge_owner(ids, depth, outline)
+
+    pe = photo_edges(photo)
+    dist_to_photo = cv2.distanceTransform((~pe).astype(np.uint8), cv2.DIST_L2, 5)
+    supported = cad & (dist_to_photo <= tol)
+
+    suspects = []
+    for index in np.unique(owner[owner >= 0]):
+        mask = owner == index
+        n = int(mask.sum())
+        if n < MIN_EDGE_PIXELS:
+            continue
+        support = float(np.count_nonzero(supported & mask)) / n
+        ys, xs = np.nonzero(ids == index)
+        bad_y, bad_x = np.nonzero(mask & ~supported)
+        cy, cx = (bad_y.mean(), bad_x.mean()) if len(bad_y) else (ys.mean(), xs.mean())
+        part, name = labels[index]
+        score = 1.0 - support
+        suspects.append({"id": name, "part": part, "name": name, "score": round(score, 4),
+                         "support": round(support, 4), "edge_pixels": n,
+                         "bbox": [int(xs.min()), int(ys.min()), int(xs.max()), int(ys.max())],
+                         "centre": [round(float(cx), 1), round(float(cy), 1)],
+                         "suspect": score >= threshold})
+    suspects.sort(key=lambda s: (-s["score"], s["id"]))
+
+    # unexplained photo structure: photo edges far from every CAD edge, grouped into regions
+    dist_to_cad = cv2.distanceTransform((~cad).astype(np.uint8), cv2.DIST_L2, 5)
+    unexplained = pe & (dist_to_cad > 3.0 * tol)
+    k = max(3, int(round(3 * tol)) | 1)
+    grouped = cv2.morphologyEx(unexplained.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((k, k), np.uint8))
+    count, comp, stats, _ = cv2.connectedComponentsWithStats(grouped, connectivity=8)
+    regions = []
+    for c in range(1, count):
+        pixels = int(np.count_nonzero(unexplained & (comp == c)))
+        if pixels < MIN_REGION_PIXELS:
+            continue
+        x, y, bw, bh = (int(v) for v in stats[c, :4])
+        regions.append({"bbox": [x, y, x + bw - 1, y + bh - 1], "edge_pixels": pixels})
+    regions.sort(key=lambda r: -r["edge_pixels"])
+
+    markers = []
+    for s in suspects:
+        if not s["suspect"]:
+            continue
+        category = "missing" if s["support"] < 0.15 else "moved"
+        severity = 3 if s["score"] >= 0.8 else 2 if s["score"] >= 0.65 else 1
+        markers.append({"x": s["centre"][0], "y": s["centre"][1], "category": category, "severity": severity,
+                        "note": f"{s['name']}: {100 * s['support']:.0f} % of its CAD outline found in the photo",
+                        "part": s["id"]})
+    for r in regions:
+        x0, y0, x1, y1 = r["bbox"]
+        markers.append({"x": round((x0 + x1) / 2, 1), "y": round((y0 + y1) / 2, 1), "category": "extra",
+                        "severity": 2 if r["edge_pixels"] >= 4 * MIN_REGION_PIXELS else 1,
+                        "note": f"photo structure no CAD part explains ({r['edge_pixels']} edge px)", "part": None})
+    return {"tolerance_px": tol, "threshold": threshold, "suspects": suspects, "regions": regions,
+            "suggested_markers": markers, "ids": ids, "labels": labels, "cad": cad, "supported": supported,
+            "unexplained": unexplained, "render": render}
+
+
+def heatmap(photo: np.ndarray, result: dict) -> np.ndarray:
+    """The 50 % overlay with supported CAD edges dim green, unsupported red, unexplained photo
+    edges cyan and the suspects' boxes yellow."""
+    out = blend(photo, result["render"], 0.5)
+    cad, sup = result["cad"], result["supported"]
+    out[sup] = (out[sup] * 0.5 + np.array([0, 200, 0]) * 0.5).astype(np.uint8)
+    out[cad & ~sup] = (255, 0, 0)
+    out[result["unexplained"]] = (0, 255, 255)
+    for s in result["suspects"]:
+        if s["suspect"]:
+            x0, y0, x1, y1 = s["bbox"]
+            cv2.rectangle(out, (x0, y0), (x1, y1), (255, 255, 0), 1)
+    for r in result["regions"]:
+        x0, y0, x1, y1 = r["bbox"]
+        cv2.rectangle(out, (x0, y0), (x1, y1), (0, 255, 255), 1)
+    return out
+
+
+def _markdown(result: dict, shot) -> str:
+    lines = [f"# Suspect parts: {shot}", "",
+             f"Score = 1 - support (share of a part's visible CAD edge pixels with a photo edge within "
+             f"{result['tolerance_px']:g} px); suspects score >= {SCORE_THRESHOLD}.", "",
+             "| rank | id | part | score | support | edge px | bbox (x0, y0, x1, y1) |", "|---|---|---|---|---|---|---|"]
+    rank = 0
+    for s in result["suspects"]:
+        if s["suspect"]:
+            rank += 1
+            lines.append(f"| {rank} | {s['id']} | {s['part']} | {s['score']:.2f} | {s['support']:.2f} | "
+                         f"{s['edge_pixels']} | {', '.join(map(str, s['bbox']))} |")
+    if rank == 0:
+        lines.append("| - | no suspects | | | | | |")
+    lines += ["", f"Unexplained photo structure: {len(result['regions'])} region(s).", ""]
+    for r in result["regions"]:
+        lines.append(f"- bbox {', '.join(map(str, r['bbox']))}: {r['edge_pixels']} edge px")
+    return "\n".join(lines) + "\n"
+
+
+def discrepancies_command(shot, scene, tolerance_px=None, outdir=None):
+    """``mrcheck discrepancies``: validate, detect, then write heatmap.png, suspects.json/.md."""
+    if tolerance_px is not None and not (math.isfinite(tolerance_px) and tolerance_px > 0):
+        raise MrcheckError(f"tolerance must be positive, got {tolerance_px}")
+    camera, photo_path = load_shot(shot)
+    photo = read_photo(photo_path, camera)      # missing, unreadable or wrong-size photo: exit 1
+    outdir = Path(outdir)
+    if outdir.exists() and not outdir.is_dir():
+        raise MrcheckError("output is not a folder", outdir)
+    loaded = load_scene(scene, progress=True)
+    result = detect(loaded, camera, photo, tolerance_px)
+    image = heatmap(photo, result)
+    keys = ("tolerance_px", "threshold", "suspects", "regions", "suggested_markers")
+    doc = {"shot": str(Path(shot).resolve()), "scene": str(Path(scene).resolve()), **{k: result[k] for k in keys}}
+    paths = [write_image(outdir / "heatmap.png", image),
+             write_bytes(outdir / "suspects.json", (json.dumps(doc, indent=2) + "\n").encode()),
+             write_bytes(outdir / "suspects.md", _markdown(result, shot).encode())]
+    for p in paths:
+        print(p)
+
+
+# -- evaluation ----------------------------------------------------------------------------
+def synthetic_photo(scene: Scene, camera: Camera, renderer=None, seed: int = 0, noise: float = 4.0,
+                    blur_sigma: float = 0.7) -> np.ndarray:
+    """The as-built "photo": sun light, the camera's lens distortion, blur and noise."""
+    own = renderer is None
+    renderer = Renderer(scene) if own else renderer
+    try:
+        renders, _, offset, maps = render_for_photo(renderer, camera, ["phong"], RenderSettings(light="sun"), False)
+    finally:
+        if own:
+            renderer.release()
+    photo = distort_to_photo(renders["phong"], maps, offset, (camera.height, camera.width)).astype(np.float32)
+    photo = cv2.GaussianBlur(photo, (0, 0), blur_sigma)
+    photo += np.random.default_rng(seed).normal(0.0, noise, photo.shape).astype(np.float32)
+    return np.clip(np.rint(photo), 0, 255).astype(np.uint8)
+
+
+def _band(d) -> str:
+    kind, mag = d["kind"], d["magnitude"]
+    if kind == "moved":
+        return "moved <0.2 m" if mag < 0.2 else "moved 0.2-0.5 m" if mag < 0.5 else "moved >=0.5 m"
+    if kind == "rotated":
+        return "rotated <20 deg" if mag < 20 else "rotated >=20 deg"
+    if kind == "replaced":
+        return "replaced |s-1|<0.2" if abs(mag - 1) < 0.2 else "replaced |s-1|>=0.2"
+    return kind
+
+
+def _overlap(a, b) -> bool:
+    return a[0] <= b[2] and b[0] <= a[2] and a[1] <= b[3] and b[1] <= a[3]
+
+
+def _ratio(a, b):
+    return round(a / b, 3) if b else None
+
+
+def evaluate(planned, seeds=(0, 1, 2), views=("overview", "conveyor"), width=400, height=300, k1=-0.12,
+             workdir=None, ctx=None, tolerance_px=None) -> dict:
+    """Precision / recall of :func:`detect` on as-built variants (protocol: module docstring).
+
+    Returns ``{"summary": {...}, "cases": [...]}``; ``summary`` holds ``precision``,
+    ``recall``, ``per_kind``, ``per_band`` (moved by distance, rotated by angle, ...),
+    ``false_suspects_planned`` (suspects when the untouched planned scene is the photo).
+    """
+    from .asbuilt import make_asbuilt
+
+    planned = Path(planned)
+    scene = load_scene(planned)
+    tmp = tempfile.TemporaryDirectory() if workdir is None else None
+    root = Path(tmp.name if tmp else workdir)
+    cases, tally = [], {}
+    tp = fp = explained = 0
+    planned_false = []
+    renderer = Renderer(scene, ctx=ctx)
+    try:
+        cameras = {}
+        for view in views:
+            cam = scene.camera(view, width, height)
+            cameras[view] = Camera(cam.width, cam.height, cam.K, cam.R, cam.t, np.array([k1, 0.0, 0.0, 0.0]))
+            photo = synthetic_photo(scene, cameras[view], renderer)
+            result = detect(scene, cameras[view], photo, tolerance_px, renderer)
+            planned_false.append(sum(s["suspect"] for s in result["suspects"]) + len(result["regions"]))
+        for seed in seeds:
+            out = root / f"asbuilt_{seed}"
+            make_asbuilt(planned, out, seed=seed)
+            built = load_scene(out / "scene.toml")
+            truth = json.loads((out / "discrepancies.json").read_text())["discrepancies"]
+            built_renderer = Renderer(built, ctx=ctx)
+            try:
+                for view in views:
+                    camera = cameras[view]
+                    photo = synthetic_photo(built, camera, built_renderer, seed=seed)
+                    result = detect(scene, camera, photo, tolerance_px, renderer)
+                    bids, _, blabels = object_ids(built, camera)
+                    scored = {s["id"]: s for s in result["suspects"]}
+                    suspects = [s for s in result["suspects"] if s["suspect"]]
+                    changed_boxes, found = [], []
+                    for d in truth:
+                        if d["kind"] == "added":
+                            idx = [i for i, lab in enumerate(blabels) if lab[1] == d["id"]]
+                            ys, xs = np.nonzero(bids == idx[0]) if idx else (np.array([]), np.array([]))
+                            if len(ys) < 50:
+                                continue
+                            box = [xs.min(), ys.min(), xs.max(), ys.max()]
+                            changed_boxes.append(box)
+                            hit = any(_overlap(box, r["bbox"]) for r in result["regions"])
+                        else:
+                            if d["id"] not in scored:
+                                continue      # out of view, hidden, or too small to judge
+                            changed_boxes.append(scored[d["id"]]["bbox"])
+                            hit = scored[d["id"]]["suspect"]
+                        for key in (d["kind"], _band(d), "all"):
+                            t = tally.setdefault(key, [0, 0])
+                            t[0] += int(hit)
+                            t[1] += 1
+                        found.append({"id": d["id"], "kind": d["kind"], "magnitude": d["magnitude"], "found": bool(hit)})
+                    truth_ids = {d["id"] for d in truth}
+                    for s in suspects:
+                        if s["id"] in truth_ids:
+                            tp += 1
+                        elif any(_overlap(s["bbox"], b) for b in changed_boxes):
+                            explained += 1
+                        else:
+                            fp += 1
+                    for r in result["regions"]:
+                        if any(_overlap(r["bbox"], b) for b in changed_boxes):
+                            tp += 1
+                        else:
+                            fp += 1
+                    cases.append({"seed": seed, "view": view, "truth": found,
+                                  "suspects": [(s["id"], s["score"]) for s in suspects],
+                                  "regions": len(result["regions"])})
+            finally:
+                built_renderer.release()
+    finally:
+        renderer.release()
+        if tmp:
+            tmp.cleanup()
+    summary = {
+        "recall": _ratio(*tally.get("all", [0, 0])),
+        "precision": _ratio(tp, tp + fp),
+        "precision_counting_explained": _ratio(tp + explained, tp + fp + explained),
+        "true_positives": tp, "false_positives": fp, "explained_neighbours": explained,
+        "per_kind": {k: {"found": v[0], "in_view": v[1], "recall": _ratio(*v)} for k, v in sorted(tally.items())},
+        "false_suspects_planned": planned_false,
+    }
+    return {"summary": summary, "cases": cases}
