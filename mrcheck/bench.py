@@ -27,8 +27,12 @@ import json
 import os
 import platform
 import resource
+import shutil
 import sys
+import tempfile
+import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from statistics import median
 from typing import Callable
 
@@ -67,7 +71,10 @@ TARGETS = {
     # the same floor target on the 1 M height field, which covers every pixel (on the sample
     # cell both the AO passes and the floor skip the background, a third of the image)
     "vector_over_fetch_floor_covered": 3.0,
+    "geometry_20m_over_1m": 3.0,      # geometry pass of the generated hall at 20 M / 1 M triangles
 }
+# Peer ratios: measured for comparison, no target (null with a reason when a peer cannot run).
+PEER_RATIOS = {"vtk": "vtk_over_mrcheck_frame", "open3d": "open3d_over_mrcheck_frame"}
 RATIO_SAMPLES = 16
 
 # Synthetic height field: a grid of box-shaped blocks on gently rolling ground, TERRAIN_EXTENT
@@ -79,6 +86,19 @@ BLOCK_PITCH = 3.0           # metres between block centres
 BLOCK_HALF_WIDTH = 0.6      # metres
 BLOCK_RAMP = 0.15           # metres
 TERRAIN_EYE, TERRAIN_TARGET, TERRAIN_FOV = (0.0, -10.0, 20.0), (0.0, 0.0, 0.0), 60.0
+
+# Generated hall (factory_scenes.generator, preset "hall"): the geometry pass from its ``aisle``
+# viewpoint at these triangle budgets (triangles as rendered, instances counted). Scenes are
+# generated once per (budget, seed) into a cache under the temporary directory.
+HALL_TRIANGLES = (1_000_000, 10_000_000, 20_000_000)
+QUICK_HALL_TRIANGLES = (1_000_000, 20_000_000)
+HALL_SEED, HALL_VIEW = 0, "aisle"
+# Whole frame (geometry + vector AO + blur + composite, full-resolution AO) on the ``line`` scene
+# from its first viewpoint: (size, samples, blur) -- the README's setting and the peers' setting.
+LINE_SCENE = ("factory_scenes", "line", "scene.toml")
+PEER_SIZE, PEER_SAMPLES, PEER_BLUR = (1024, 768), 32, 9
+FRAME_SETTINGS = ((PAPER_SIZE, 16, 13), (PEER_SIZE, PEER_SAMPLES, PEER_BLUR))
+PEERS = ("vtk", "open3d")
 
 
 # -- figures -------------------------------------------------------------------------------------
@@ -96,6 +116,7 @@ class Figure:
     triangles: int | None = None
     paper_ms: float | None = None
     times_ms: list = field(default_factory=list)
+    stats: dict = field(default_factory=dict)   # e.g. triangles drawn, blur size, what a peer timed
 
     def describe(self) -> str:
         """A short label, e.g. ``ao vector 1280x1024 16 samples half``."""
@@ -112,7 +133,7 @@ class Figure:
         return {"name": self.name, "mode": self.mode, "width": self.width, "height": self.height,
                 "samples": self.samples, "scale": self.scale, "scene": self.scene, "triangles": self.triangles,
                 "min_ms": min(self.times_ms), "median_ms": self.median_ms, "max_ms": max(self.times_ms),
-                "runs_ms": self.times_ms, "paper_gtx285_ms": self.paper_ms, "unit": "ms"}
+                "runs_ms": self.times_ms, "paper_gtx285_ms": self.paper_ms, "stats": self.stats, "unit": "ms"}
 
 
 @dataclass
@@ -241,6 +262,213 @@ def _sample_scene() -> tuple[Scene, Callable[[tuple], Camera], str]:
     return scene, terrain_camera, scene.name
 
 
+def hall_scene_path(triangles: int, seed: int = HALL_SEED) -> Path:
+    """scene.toml of the generated hall at ``triangles``, generated once per (budget, seed) into
+    ``<tmp>/mrcheck-bench/`` (a finished scene is moved into place whole, so a crash leaves none)."""
+    from factory_scenes.generator import generate
+
+    cache = Path(tempfile.gettempdir()) / "mrcheck-bench"
+    final = cache / f"hall_{triangles}_seed{seed}"
+    if not (final / "scene.toml").exists():
+        cache.mkdir(parents=True, exist_ok=True)
+        work = Path(tempfile.mkdtemp(prefix=final.name + ".", dir=cache))
+        generate("hall", work / "scene", seed=seed, target_triangles=triangles, progress=False)
+        try:
+            os.replace(work / "scene", final)
+        except OSError:  # another run finished first
+            if not (final / "scene.toml").exists():
+                raise
+        shutil.rmtree(work, ignore_errors=True)
+    return final / "scene.toml"
+
+
+def line_scene_path() -> Path:
+    return Path(__file__).resolve().parent.parent.joinpath(*LINE_SCENE)
+
+
+def flattened_mesh(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
+    """Every instance of every part in world space, as one (V, 3) float32 / (F, 3) int32 mesh."""
+    vertices, faces, offset = [], [], 0
+    for part in scene.parts:
+        local = np.asarray(part.vertices, np.float64)
+        for T in part.transforms:
+            vertices.append((local @ T[:3, :3].T + T[:3, 3]).astype(np.float32))
+            faces.append(np.asarray(part.faces, np.int64) + offset)
+            offset += len(local)
+    return np.concatenate(vertices), np.concatenate(faces).astype(np.int32)
+
+
+# -- peers ---------------------------------------------------------------------------------------
+class _VtkPeer:
+    """VTK's SSAO pass through pyvista: ``enable_ssao(kernel_size=32)``, no anti-aliasing, off
+    screen. A frame is ``Render()`` plus reading the RGBA back buffer (which drains the GL work)."""
+
+    name = "vtk"
+
+    def __init__(self, vertices, faces, viewpoint: dict, size):
+        if not os.environ.get("DISPLAY"):  # no X server: VTK's wheel renders through EGL
+            os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+        import pyvista as pv
+        import vtk
+
+        self.size = size
+        mesh = pv.PolyData.from_regular_faces(vertices, faces)
+        self.plotter = pv.Plotter(off_screen=True, window_size=list(size))
+        self.plotter.add_mesh(mesh, color=(0.7, 0.7, 0.7))
+        self.plotter.disable_anti_aliasing()
+        self.plotter.ren_win.SetMultiSamples(0)
+        self.plotter.enable_ssao(kernel_size=32)
+        self.plotter.camera_position = [tuple(viewpoint["eye"]), tuple(viewpoint["target"]),
+                                        tuple(viewpoint.get("up", (0, 0, 1)))]
+        self.plotter.camera.view_angle = float(viewpoint.get("fov_y_deg", 60.0))  # vertical, like ours
+        self.plotter.renderer.ResetCameraClippingRange()
+        self._pixels = vtk.vtkUnsignedCharArray()
+        self.run()
+        self.version = f"pyvista {pv.__version__}, VTK {vtk.vtkVersion.GetVTKVersion()}, " \
+                       f"{self.plotter.ren_win.GetClassName()}"
+
+    def run(self) -> None:
+        w, h = self.size
+        self.plotter.ren_win.Render()
+        self.plotter.ren_win.GetRGBACharPixelData(0, 0, w - 1, h - 1, 0, self._pixels)
+
+    def release(self) -> None:
+        self.plotter.close()
+
+
+class _Open3DPeer:
+    """Open3D's Filament renderer (``OffscreenRenderer``) with ambient occlusion on, anti-aliasing
+    off, lit grey material. A frame is ``render_to_image()`` (render and read back)."""
+
+    name = "open3d"
+
+    def __init__(self, vertices, faces, viewpoint: dict, size):
+        import open3d as o3d
+        from open3d.visualization import rendering
+
+        mesh = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(vertices.astype(np.float64)),
+                                         o3d.utility.Vector3iVector(faces))
+        mesh.compute_vertex_normals()
+        mesh.paint_uniform_color((0.7, 0.7, 0.7))
+        self.renderer = rendering.OffscreenRenderer(*size)
+        material = rendering.MaterialRecord()
+        material.shader = "defaultLit"
+        self.renderer.scene.add_geometry("line", mesh, material)
+        self.renderer.scene.view.set_ambient_occlusion(True)
+        self.renderer.scene.view.set_antialiasing(False)
+        self.renderer.setup_camera(float(viewpoint.get("fov_y_deg", 60.0)), np.asarray(viewpoint["target"], float),
+                                   np.asarray(viewpoint["eye"], float),
+                                   np.asarray(viewpoint.get("up", (0, 0, 1)), float))
+        self.run()
+        self.version = f"Open3D {o3d.__version__} (Filament)"
+
+    def run(self) -> None:
+        self.image = self.renderer.render_to_image()
+
+    def release(self) -> None:
+        del self.renderer
+
+
+class _PeerStage:
+    """Lets a peer's frame sit in a :func:`_measure` entry next to mrcheck's: wall time of
+    ``work`` (which ends with a read-back, so the peer's GPU work is finished)."""
+
+    def __init__(self, ctx: moderngl.Context, peer):
+        self.ctx = ctx
+        self.peer = peer
+        self.renderer = self
+
+    @staticmethod
+    def _timed(work) -> float:
+        start = time.perf_counter()
+        work()
+        return (time.perf_counter() - start) * 1000.0
+
+    def release(self) -> None:
+        self.peer.release()
+
+
+def _start_peers(ctx, scene: Scene, viewpoint: dict, reasons: dict) -> list:
+    """The peers that start here; a peer that cannot gets its reason in ``reasons``."""
+    if not os.environ.get("MRCHECK_BENCH_PEERS"):
+        why = ("not run in the bench process: started next to mrcheck's context, VTK's EGL window left it "
+               "unable to create textures ('cannot create texture') and the full run segfaulted; the peers "
+               "need a subprocess of their own (not done yet). MRCHECK_BENCH_PEERS=1 tries in-process.")
+        reasons.update({name: why for name in PEERS})
+        return []
+    vertices, faces = flattened_mesh(scene)
+    peers = []
+    for cls, missing in ((_VtkPeer, "pyvista is not installed (pip install 'mrcheck[bench]')"),
+                         (_Open3DPeer, "open3d is not installed")):
+        try:
+            with made_current(ctx):  # whatever the peer makes current, ours is restored after
+                peers.append(_PeerStage(ctx, cls(vertices, faces, viewpoint, PEER_SIZE)))
+        except ImportError as exc:
+            reasons[cls.name] = f"{missing}: {exc}"
+        except Exception as exc:  # noqa: BLE001 -- any failure of a peer is its reason, not ours
+            reasons[cls.name] = f"{type(exc).__name__}: {exc}"
+    return peers
+
+
+class _LineStages:
+    """The ``line`` scene at both frame sizes (one renderer) and the peers at PEER_SIZE."""
+
+    def __init__(self, ctx, quick: bool, reasons: dict):
+        scene = load_scene(line_scene_path())
+        view = next(iter(scene.viewpoints))
+        renderer = Renderer(scene, ctx=ctx)
+        label = f"{scene.name}:{view}"
+        self.triangles = scene.triangle_count
+        self.stages = [_Stage(renderer, scene.camera(view, *size), label) for size, _, _ in FRAME_SETTINGS]
+        self.peers = _start_peers(ctx, scene, scene.viewpoints[view], reasons)
+        self.label = label
+
+    def release(self) -> None:
+        for peer in self.peers:
+            peer.release()
+        self.stages[0].release()  # the renderer the stages share
+
+
+def _frame_jobs(group: _LineStages) -> list[list]:
+    """mrcheck's whole frame at each setting; at the peers' setting timed in turns with them."""
+    entries = []
+    for stage, (size, samples, blur) in zip(group.stages, FRAME_SETTINGS):
+        settings = stage.settings(samples)
+
+        def frame(stage=stage, settings=settings, blur=blur):
+            stage.draw_geometry()
+            stage.ao("vector", settings)
+            stage.blur(blur, 1.0)
+            stage.composite(1.0)
+
+        figure = Figure("frame", "vector", *size, samples, 1.0, stage.label, group.triangles,
+                        stats={"blur": blur, "passes": "geometry + ao + blur + composite"})
+        entry = [(stage, _Job(figure, lambda: None, frame))]
+        if size == PEER_SIZE:
+            for peer in group.peers:
+                figure = Figure("frame", peer.peer.name, *size, None, None, stage.label, group.triangles,
+                                stats={"peer": peer.peer.version, "timed": "render + read back RGB(A)"})
+                entry.append((peer, _Job(figure, lambda: None, peer.peer.run)))
+        entries.append(entry)
+    return entries
+
+
+def _hall_jobs(group: "_StageGroup") -> list[list]:
+    """The geometry pass of every hall, timed in turns; the figure keeps the drawn triangles."""
+    entry = []
+    for stage, triangles in zip(group.stages, group.triangles):
+        w, h = stage.camera.width, stage.camera.height
+        figure = Figure("geometry", None, w, h, None, None, stage.label, triangles,
+                        stats={"generated": "hall", "seed": HALL_SEED,
+                               "scene_triangles": stage.renderer.scene.triangle_count})
+
+        def draw(stage=stage, figure=figure):
+            figure.stats.update(stage.renderer.geometry.draw(stage.targets.gbuffer, stage.camera))
+
+        entry.append((stage, _Job(figure, lambda: None, draw)))
+    return [entry]
+
+
 # -- the plan ------------------------------------------------------------------------------------
 def _pass_jobs(stage: _Stage, samples_list) -> list[list]:
     """AO passes, fetch floors, blurs and composites of one stage (items 1-3 of the issue)."""
@@ -321,8 +549,9 @@ def _measure(entry: list, repeat: int) -> list[Figure]:
 class _StageGroup:
     """The height-field stages, alive together so that their AO passes can be timed in turns."""
 
-    def __init__(self, stages):
+    def __init__(self, stages, triangles=TRIANGLE_COUNTS):
         self.stages = stages
+        self.triangles = triangles
 
     def release(self) -> None:
         for stage in self.stages:
@@ -340,7 +569,7 @@ class _Section:
     release_after: bool = True   # False while a later section reuses the stage's renderer
 
 
-def _plan(ctx: moderngl.Context, quick: bool) -> list[_Section]:
+def _plan(ctx: moderngl.Context, quick: bool, reasons: dict | None = None) -> list[_Section]:
     sizes = SIZES[:1] if quick else SIZES
     samples_list = QUICK_SAMPLES if quick else PAPER_SAMPLE_COUNTS
     sections = []
@@ -365,6 +594,21 @@ def _plan(ctx: moderngl.Context, quick: bool) -> list[_Section]:
         return _StageGroup(stages)
 
     sections.append(_Section(terrain_stages, _triangle_jobs, 2 * len(TRIANGLE_COUNTS) + 1))
+
+    hall_triangles = QUICK_HALL_TRIANGLES if quick else HALL_TRIANGLES
+
+    def hall_stages():
+        stages = []
+        for triangles in hall_triangles:
+            scene = load_scene(hall_scene_path(triangles))
+            stages.append(_Stage(Renderer(scene, ctx=ctx), scene.camera(HALL_VIEW, *PAPER_SIZE),
+                                 f"{scene.name}_{triangles / 1e6:.0f}M:{HALL_VIEW}"))
+        return _StageGroup(stages, hall_triangles)
+
+    sections.append(_Section(hall_stages, _hall_jobs, len(hall_triangles)))
+    reasons = {} if reasons is None else reasons
+    sections.append(_Section(lambda: _LineStages(ctx, quick, reasons), _frame_jobs,
+                             len(FRAME_SETTINGS) + len(PEERS)))
     return sections
 
 
@@ -399,6 +643,15 @@ def _ratios(figures) -> tuple[dict, dict]:
     few, many = TRIANGLE_COUNTS
     ratios["ao_10m_over_1m"] = ao("vector", RATIO_SAMPLES, triangles=many) / ao("vector", RATIO_SAMPLES, triangles=few)
     ratios["vector_over_fetch_floor_covered"] = ao("vector", RATIO_SAMPLES, triangles=few) / floor(RATIO_SAMPLES, few)
+
+    halls = {f.triangles: f.median_ms for f in figures if f.name == "geometry" and f.stats.get("generated") == "hall"}
+    ratios["geometry_20m_over_1m"] = halls[20_000_000] / halls[1_000_000]
+
+    pw, ph = PEER_SIZE
+    ours = _find(figures, name="frame", mode="vector", width=pw, height=ph, samples=PEER_SAMPLES).median_ms
+    for peer, key in PEER_RATIOS.items():
+        hits = [f for f in figures if f.name == "frame" and f.mode == peer]
+        ratios[key] = hits[0].median_ms / ours if hits else None
     return ratios, by_samples
 
 
@@ -443,6 +696,11 @@ def _format_ratios(ratios: dict, by_samples: dict) -> str:
     width = max(map(len, ratios))
     lines = [f"ratios (medians, this run; {RATIO_SAMPLES} samples, {PAPER_SIZE[0]}x{PAPER_SIZE[1]}):"]
     for name, value in ratios.items():
+        if name not in TARGETS:  # a peer: no target
+            shown = "  null" if value is None else f"{value:6.3f}"
+            lines.append(f"  {name:<{width}}  {shown}   (peer frame / mrcheck frame, "
+                         f"{PEER_SIZE[0]}x{PEER_SIZE[1]}, {PEER_SAMPLES} samples, blur {PEER_BLUR})")
+            continue
         verdict = "meets" if value <= TARGETS[name] else "MISSES"
         lines.append(f"  {name:<{width}}  {value:6.3f}   target <= {TARGETS[name]:.2f}  {verdict}")
     lines.append(f"by samples, sample scene at {PAPER_SIZE[0]}x{PAPER_SIZE[1]}:")
@@ -467,7 +725,8 @@ def bench_command(quick: bool, json_path: str | None, repeat: int | None) -> dic
     try:
         with made_current(ctx):
             machine = _machine(ctx)
-            sections = _plan(ctx, quick)
+            reasons = {}
+            sections = _plan(ctx, quick, reasons)
             with tqdm(total=sum(s.count for s in sections), desc="bench", unit="figure", file=sys.stderr) as bar:
                 for section in sections:
                     stage = section.make_stage()
@@ -485,7 +744,8 @@ def bench_command(quick: bool, json_path: str | None, repeat: int | None) -> dic
     ratios, by_samples = _ratios(figures)
     report = {"machine": machine, "run": {"quick": quick, "repeat": repeat, "warmup": 1},
               "figures": [f.to_json() for f in figures], "ratios": ratios, "ratios_by_samples": by_samples,
-              "targets": TARGETS, "peak_rss_mb": _peak_rss_mb()}
+              "targets": TARGETS, "reasons": {PEER_RATIOS[peer]: why for peer, why in reasons.items()},
+              "peak_rss_mb": _peak_rss_mb()}
 
     print(_format_table(figures))
     print()
@@ -494,6 +754,8 @@ def bench_command(quick: bool, json_path: str | None, repeat: int | None) -> dic
     print(f"machine: {machine['gl_renderer']}, {machine['cpus_usable']} of {machine['cpu_count']} CPUs usable, "
           f"Python {machine['python']}; {repeat} timed runs per figure after 1 warm-up; "
           f"peak RSS {report['peak_rss_mb']:.0f} MB")
+    for key, why in report["reasons"].items():
+        print(f"{key} is null: {why}")
     print("GTX285 ms: Scheer & Keutel, Tables 1-2 (their SSAO pass at 1280x1024; 13x13 blur), for comparison.")
     if json_path is not None:
         _atomic_write(json_path, lambda handle: handle.write(json.dumps(report, indent=2).encode()))
