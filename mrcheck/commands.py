@@ -7,7 +7,8 @@ from pathlib import Path
 
 from .camera import Camera
 from .errors import MrcheckError
-from .output import AO_SUFFIXES, IMAGE_SUFFIXES, check_output_path, labelled_sheet, write_ao, write_image
+from .output import (AO_SUFFIXES, IMAGE_SUFFIXES, check_output_path, labelled_sheet, write_all_or_none, write_ao,
+                     write_image)
 from .renderer import MODES, STUDY_LABELS, Renderer, RenderSettings
 from .resources import factory_scenes_dir, sample_scene_path
 from .scene import load_scene
@@ -62,17 +63,8 @@ def render_command(scene, view, camera_path, mode, width, height, units, output,
         image = labelled_sheet([results[m].image for m in modes], [STUDY_LABELS[m] for m in modes])
     else:
         image = results[mode].image
-    written = []
-    try:
-        for m, path in ao_paths.items():
-            written.append(write_ao(path, results[m].ao))
-        written.append(write_image(output, image))
-    except BaseException:
-        # all outputs or none: AO files without their image would pass for a complete result
-        for path in written:
-            path.unlink(missing_ok=True)
-        raise
-    for path in written:
+    writes = [lambda m=m, path=path: write_ao(path, results[m].ao) for m, path in ao_paths.items()]
+    for path in write_all_or_none([*writes, lambda: write_image(output, image)]):
         print(path)
 
 

@@ -32,7 +32,7 @@ import numpy as np
 from .commands import resolve_camera
 from .errors import MrcheckError
 from .metrics import METRIC_NAMES, all_metrics, covered, distance_retention, MetricUndefined
-from .output import _atomic_write, labelled_sheet, write_image
+from .output import _atomic_write, labelled_sheet, write_all_or_none, write_image
 from .renderer import MODES, STUDY_LABELS, Renderer, RenderSettings
 from .scene import load_scene
 
@@ -285,18 +285,13 @@ def compare_command(scene, view, samples, rays, width, height, outdir):
 
     figure = build_figure(phong, references, rows, mask, rays)
     text = json.dumps(report, indent=2) + "\n"
-    written = []
-    try:
-        written.append(write_image(outdir / FIGURE_NAME, figure))
-        for name, content in ((JSON_NAME, text), (MD_NAME, markdown(report))):
-            _atomic_write(outdir / name, lambda handle, c=content: handle.write(c.encode()))
-            written.append(outdir / name)
-    except BaseException:
-        # all outputs or none: a figure without its metrics would pass for a complete result
-        for path in written:
-            path.unlink(missing_ok=True)
-        raise
-    for path in written:
+    def write_text(name, content):
+        _atomic_write(outdir / name, lambda handle: handle.write(content.encode()))
+        return outdir / name
+
+    writes = [lambda: write_image(outdir / FIGURE_NAME, figure),
+              lambda: write_text(JSON_NAME, text), lambda: write_text(MD_NAME, markdown(report))]
+    for path in write_all_or_none(writes):
         print(path)
     _print_table(modes)
     return report

@@ -93,6 +93,22 @@ def write_ao(path, ao: np.ndarray) -> Path:
     return path
 
 
+def write_all_or_none(writes) -> list[Path]:
+    """Run ``writes`` (callables that each write one file atomically and return its path); if
+    one fails, remove the files already written and re-raise. Several outputs that belong
+    together (an image and its AO, a figure and its metrics) are all written or none: a part
+    of them would pass for a complete result."""
+    written = []
+    try:
+        for write in writes:
+            written.append(Path(write()))
+    except BaseException:
+        for path in written:
+            path.unlink(missing_ok=True)
+        raise
+    return written
+
+
 def labelled_sheet(images, labels) -> np.ndarray:
     """Images side by side, each under a dark bar with its label (the study's D1 | D2 | D3)."""
     h = images[0].shape[0]
