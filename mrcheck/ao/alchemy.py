@@ -29,13 +29,7 @@ def disk_kernel(samples: int, seed: int = 0) -> np.ndarray:
 
 class AlchemyAO(AOPass):
     shader = "ao_alchemy"
-
-    def __init__(self, ctx, samples: int, seed: int = 0, stride: int = 1):
-        super().__init__(ctx, samples, seed, stride)
-        self.program["u_kernel"].write(disk_kernel(self.samples, seed).tobytes())
-
-    def _set_method_uniforms(self, settings, scale: float) -> None:
-        self.program["u_radius_world"].value = float(settings.radius_world)
+    offsets = staticmethod(disk_kernel)
 
 
 __all__ = ["AlchemyAO", "disk_kernel"]

@@ -11,11 +11,13 @@ from . import kernel
 class AOPass:
     """A full-screen AO pass compiled for one sample count.
 
-    Subclasses name their shader (``shader``) and set their own uniforms in
-    :meth:`_set_method_uniforms`.
+    Subclasses name their shader (``shader``), may replace the offsets (``offsets``, a function
+    of (samples, seed)) and set their own uniforms in :meth:`_set_method_uniforms` (by default
+    the world radius, which every mode but ``vector`` uses).
     """
 
     shader: str = ""
+    offsets = staticmethod(kernel.sphere_kernel)
 
     def __init__(self, ctx: moderngl.Context, samples: int, seed: int = 0, stride: int = 1):
         self.ctx = ctx
@@ -23,7 +25,7 @@ class AOPass:
         self.stride = int(stride)
         self.program = load_program(ctx, self.shader, kernel.defines(samples, stride))
         if "u_kernel" in self.program:  # a method may not use the kernel (hbao)
-            self.program["u_kernel"].write(kernel.sphere_kernel(samples, seed).tobytes())
+            self.program["u_kernel"].write(self.offsets(self.samples, seed).tobytes())
         tile = kernel.rotation_tile(seed)
         self.noise = ctx.texture((kernel.NOISE_SIZE, kernel.NOISE_SIZE), 3, tile.tobytes(), dtype="f4")
         self.noise.filter = (moderngl.NEAREST, moderngl.NEAREST)
@@ -51,7 +53,7 @@ class AOPass:
         self.vao.render(moderngl.TRIANGLES, vertices=3)
 
     def _set_method_uniforms(self, settings, scale: float) -> None:
-        raise NotImplementedError
+        self.program["u_radius_world"].value = float(settings.radius_world)
 
     def release(self) -> None:
         self.noise.release()

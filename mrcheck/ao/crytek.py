@@ -30,13 +30,7 @@ def antipodal_kernel(samples: int, seed: int = 0) -> np.ndarray:
 
 class CrytekAO(AOPass):
     shader = "ao_crytek"
-
-    def __init__(self, ctx, samples: int, seed: int = 0, stride: int = 1):
-        super().__init__(ctx, samples, seed, stride)
-        self.program["u_kernel"].write(antipodal_kernel(self.samples, seed).tobytes())
-
-    def _set_method_uniforms(self, settings, scale: float) -> None:
-        self.program["u_radius_world"].value = float(settings.radius_world)
+    offsets = staticmethod(antipodal_kernel)
 
 
 __all__ = ["CrytekAO", "antipodal_kernel"]

@@ -22,8 +22,5 @@ def directions_and_steps(samples: int) -> tuple[int, int]:
 class HBAO(AOPass):
     shader = "ao_hbao"
 
-    def _set_method_uniforms(self, settings, scale: float) -> None:
-        self.program["u_radius_world"].value = float(settings.radius_world)
-
 
 __all__ = ["HBAO", "directions_and_steps"]

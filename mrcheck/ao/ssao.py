@@ -12,7 +12,7 @@ class StandardSSAO(AOPass):
     shader = "ao_ssao"
 
     def _set_method_uniforms(self, settings, scale: float) -> None:
-        self.program["u_radius_world"].value = float(settings.radius_world)
+        super()._set_method_uniforms(settings, scale)  # the world radius
         self.program["u_falloff"].value = float(settings.falloff)
 
 
