@@ -88,6 +88,7 @@ class Part:
     color: tuple = DEFAULT_COLOR
     units: str | None = None
     instance_ids: list = field(default_factory=list)
+    _bounds: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
         if not self.instance_ids:
@@ -99,9 +100,11 @@ class Part:
         return int(len(self.faces))
 
     def local_bounds(self) -> np.ndarray:
-        """(2, 3) float64 bounds of ``vertices``."""
-        v = self.vertices.astype(np.float64)
-        return np.stack([v.min(axis=0), v.max(axis=0)])
+        """(2, 3) float64 bounds of ``vertices`` (computed once: the vertices never change, and
+        the renderer asks every frame; min/max of float32 are exact, no float64 copy needed)."""
+        if self._bounds is None:
+            self._bounds = np.stack([self.vertices.min(axis=0), self.vertices.max(axis=0)]).astype(np.float64)
+        return self._bounds
 
     def instance_bounds(self) -> np.ndarray:
         """(k, 2, 3) float64 world-space axis-aligned bounds of every instance."""
