@@ -42,7 +42,7 @@ import numpy as np
 from .ao.kernel import PAPER_SAMPLE_COUNTS, sphere_kernel
 from .camera import Camera
 from .gl import create_context, load_program, made_current
-from .output import _atomic_write, check_output_path
+from .output import check_output_path, write_text
 from .renderer import Renderer, RenderSettings
 from .resources import sample_scene_path
 from .scene import Scene, load_scene, make_part
@@ -758,7 +758,7 @@ def bench_command(quick: bool, json_path: str | None, repeat: int | None) -> dic
         print(f"{key} is null: {why}")
     print("GTX285 ms: Scheer & Keutel, Tables 1-2 (their SSAO pass at 1280x1024; 13x13 blur), for comparison.")
     if json_path is not None:
-        _atomic_write(json_path, lambda handle: handle.write(json.dumps(report, indent=2).encode()))
+        write_text(json_path, json.dumps(report, indent=2))
         print(json_path)
     return report
 

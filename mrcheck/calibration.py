@@ -34,7 +34,7 @@ import numpy as np
 
 from .camera import Camera
 from .errors import MrcheckError
-from .output import _atomic_write, check_output_path
+from .output import check_output_path, write_text
 
 DEFAULT_MIN_VIEWS = 5
 YAML_SUFFIXES = (".yml", ".yaml")
@@ -298,7 +298,7 @@ def write_camera(path, camera: Camera, extra: dict = None) -> Path:
     path, extra = Path(path), dict(extra or {})
     if not _is_yaml(path):
         text = json.dumps({**camera.to_dict(), **extra}, indent=2) + "\n"
-        _atomic_write(path, lambda handle: handle.write(text.encode()))
+        write_text(path, text)
         return path
     fs = cv2.FileStorage(".yml", cv2.FILE_STORAGE_WRITE | cv2.FILE_STORAGE_MEMORY)
     fs.write("image_width", camera.width)
@@ -323,7 +323,7 @@ def write_camera(path, camera: Camera, extra: dict = None) -> Path:
             for sub, v in value.items():
                 fs.write(f"{key}_{sub}", np.asarray(v, np.float64).reshape(-1, 1) if isinstance(v, list) else float(v))
     text = fs.releaseAndGetString()
-    _atomic_write(path, lambda handle: handle.write(text.encode()))
+    write_text(path, text)
     return path
 
 

@@ -32,7 +32,7 @@ import numpy as np
 from .commands import resolve_camera
 from .errors import MrcheckError
 from .metrics import METRIC_NAMES, all_metrics, covered, distance_retention, MetricUndefined
-from .output import _atomic_write, labelled_sheet, write_all_or_none, write_image
+from .output import labelled_sheet, write_all_or_none, write_image, write_text
 from .renderer import MODES, STUDY_LABELS, Renderer, RenderSettings
 from .scene import load_scene
 
@@ -285,12 +285,8 @@ def compare_command(scene, view, samples, rays, width, height, outdir):
 
     figure = build_figure(phong, references, rows, mask, rays)
     text = json.dumps(report, indent=2) + "\n"
-    def write_text(name, content):
-        _atomic_write(outdir / name, lambda handle: handle.write(content.encode()))
-        return outdir / name
-
     writes = [lambda: write_image(outdir / FIGURE_NAME, figure),
-              lambda: write_text(JSON_NAME, text), lambda: write_text(MD_NAME, markdown(report))]
+              lambda: write_text(outdir / JSON_NAME, text), lambda: write_text(outdir / MD_NAME, markdown(report))]
     for path in write_all_or_none(writes):
         print(path)
     _print_table(modes)

@@ -87,7 +87,7 @@ import cv2
 
 from .camera import Camera
 from .errors import MrcheckError
-from .output import _atomic_write, encode_image, write_bytes
+from .output import encode_image, write_bytes, write_text
 from .overlay import STUDY_ORDER, check_alpha, distortion_map, load_shot, overlay_images, read_photo, \
     render_for_photo, study_sheet
 from .renderer import DEFAULT_SAMPLES, MODES, RenderSettings
@@ -478,7 +478,7 @@ def store_shot(folder, record: dict) -> dict:
         write_bytes(folder / name, data)
     record = {k: v for k, v in record.items() if k != "files"}
     record["timings_s"] = dict(record.get("timings_s") or {}, write=round(time.perf_counter() - start, 4))
-    _atomic_write(folder / RECORD, lambda handle: handle.write((json.dumps(record, indent=2) + "\n").encode()))
+    write_text(folder / RECORD, json.dumps(record, indent=2) + "\n")
     return record
 
 
@@ -608,7 +608,7 @@ def export_command(job, outdir, workers: int = 1, scheduler: str | None = None, 
             "shots_per_minute": round(60.0 * len(ran) / elapsed, 2) if ran and elapsed > 0 else None},
         "shots": shots,
     }
-    _atomic_write(outdir / "manifest.json", lambda h: h.write((json.dumps(manifest, indent=2) + "\n").encode()))
+    write_text(outdir / "manifest.json", json.dumps(manifest, indent=2) + "\n")
     write_report(manifest, outdir)
 
     click.echo(f"export: {len(shots)} shots: {counts['done']} done, {counts['skipped']} skipped, "

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import cv2
 
-from .output import _atomic_write
+from .output import write_text
 
 THUMB_WIDTH = 480
 
@@ -98,7 +98,7 @@ def write_report(manifest: dict, outdir) -> Path:
     outdir = Path(outdir)
     text = render_report(manifest, outdir)
     path = outdir / "report.html"
-    _atomic_write(path, lambda handle: handle.write(text.encode()))
+    write_text(path, text)
     return path
 
 

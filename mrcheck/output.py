@@ -77,6 +77,11 @@ def write_bytes(path, data: bytes) -> Path:
     return path
 
 
+def write_text(path, text: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` atomically (temp file + rename)."""
+    return write_bytes(path, text.encode())
+
+
 def write_image(path, rgb: np.ndarray) -> Path:
     """Write (H, W, 3) uint8 RGB (or (H, W) uint8/uint16 grey) to PNG/JPEG/TIFF, atomically."""
     return write_bytes(path, encode_image(path, rgb))

@@ -39,7 +39,7 @@ from .camera import Camera
 from .errors import MrcheckError
 from .jsonfile import read_json
 from .markers import Group, detect_markers, load_marker_map, parse_marker_map
-from .output import _atomic_write, check_output_path
+from .output import check_output_path, write_text
 
 # corner noise assumed when the residuals cannot tell (exact synthetic data, a single marker):
 # subpixel ArUco/ChArUco corners are good to a few tenths of a pixel
@@ -341,7 +341,7 @@ def register_command(scene, photo, intrinsics, markers=None, points=None, max_er
                           marker_map=load_marker_map(markers) if markers is not None else None,
                           points=load_points(points) if points is not None else None, max_error=max_error)
     text = json.dumps(shot, indent=2)
-    _atomic_write(output, lambda handle: handle.write(text.encode() + b"\n"))
+    write_text(output, text + "\n")
     _print_summary(shot, output)
     return shot
 
