@@ -114,6 +114,46 @@ def test_token_required(outdir, tmp_path):
         assert c.get("/api/shots").status_code == 200  # the cookie set by the page
 
 
+def test_suggested_markers_of_a_discrepancies_run(outdir, tmp_path):
+    """--suggestions: a suspects.json's suggested markers become editable markers of category
+    "suggested" on the shot with the same photo; a deleted one does not come back on restart."""
+    from mrcheck.errors import MrcheckError
+    from mrcheck.review.suggestions import load_suggestions
+
+    source = open_source(outdir)
+    manifest = json.loads((outdir / "manifest.json").read_text())
+    entry = next(e for e in manifest["shots"] if e["name"] == "shot1")
+    shot_json = outdir / entry.get("folder", "shots/shot1") / "SHOT.json"
+    suspects = tmp_path / "suspects.json"
+    suspects.write_text(json.dumps({"shot": str(shot_json), "suggested_markers": [
+        {"x": 100.0, "y": 80.5, "category": "moved", "severity": 3, "note": "workbench: 12 % of its CAD outline found",
+         "part": "workbench"},
+        {"x": 200.0, "y": 120.0, "category": "extra", "severity": 1, "note": "photo structure no CAD part explains",
+         "part": None}]}))
+
+    def app_with(specs):
+        return create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=outdir / ".cache", samples=4,
+                          suggestions=load_suggestions(source, specs))
+
+    with TestClient(app_with([str(suspects)])) as c:
+        markers = c.get("/api/markers", params={"shot": "shot1"}).json()
+        assert [(m["category"], m["x"], m["y"], m["severity"], m["part"]) for m in markers] == [
+            ("suggested", 100.0, 80.5, 3, "workbench"), ("suggested", 200.0, 120.0, 1, None)]
+        assert markers[0]["note"].startswith("moved? workbench") and c.get("/api/markers", params={"shot": "shot0"}).json() == []
+        assert "suggested" in c.get("/api/info").json()["categories"]
+        kept = c.patch(f"/api/markers/{markers[0]['id']}", json={"category": "moved", "note": "confirmed"}).json()
+        assert (kept["category"], kept["note"]) == ("moved", "confirmed")
+        assert c.delete(f"/api/markers/{markers[1]['id']}").status_code == 200
+    with TestClient(app_with([str(suspects), f"shot0={suspects}"])) as c:   # a restart, plus a named shot
+        assert [m["note"] for m in c.get("/api/markers", params={"shot": "shot1"}).json()] == ["confirmed"]
+        assert len(c.get("/api/markers", params={"shot": "shot0"}).json()) == 2
+    with pytest.raises(MrcheckError, match="no shot named 'nope'"):
+        load_suggestions(source, [f"nope={suspects}"])
+    (tmp_path / "bad.json").write_text("{}")
+    with pytest.raises(MrcheckError, match="suggested_markers"):
+        load_suggestions(source, [str(tmp_path / "bad.json")])
+
+
 # -- end to end in a real browser -------------------------------------------------------------
 def _free_port():
     with socket.socket() as s:

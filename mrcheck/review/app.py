@@ -28,7 +28,7 @@ STATIC = {"index.html": "text/html", "app.js": "text/javascript", "style.css": "
 KINDS = ("photo", "render", "edges", "thumb")
 COOKIE = "mrcheck_review_token"
 
-Category = Literal["missing", "moved", "extra", "wrong size", "other"]
+Category = Literal["missing", "moved", "extra", "wrong size", "other", "suggested"]
 assert set(Category.__args__) == set(CATEGORIES)
 
 
@@ -55,9 +55,13 @@ def _static(name: str) -> bytes:
 
 
 def create_app(source, db_path: Path | None = None, cache_dir: Path | None = None, token: str | None = None,
-               samples: int = 16) -> FastAPI:
+               samples: int = 16, suggestions: dict | None = None) -> FastAPI:
+    """``suggestions``: {shot name: markers} (:func:`.suggestions.load_suggestions`), imported
+    into the review's markers once."""
     db_path = Path(db_path or source.home / "review.sqlite")
     store = Store(db_path, source.label)
+    for shot, markers in (suggestions or {}).items():
+        store.import_suggestions(shot, markers)
     renders = RenderService(source, cache_dir or db_path.parent / ".review-cache", samples=samples)
     picker_lock = threading.Lock()
     picker_box: list = []
@@ -199,7 +203,7 @@ def is_loopback(host: str) -> bool:
     return host in ("127.0.0.1", "localhost", "::1") or host.startswith("127.")
 
 
-def serve(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=None):
+def serve(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=None, suggestions=()):
     """``mrcheck review``: open the source, print the URL, run uvicorn until interrupted."""
     import secrets
 
@@ -207,10 +211,13 @@ def serve(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=No
 
     from .source import open_source
 
+    from .suggestions import load_suggestions
+
     source = open_source(target, shots_dir)
+    suggested = load_suggestions(source, suggestions)
     if token is None and not is_loopback(host):
         token = secrets.token_urlsafe(18)
-    app = create_app(source, db_path=Path(db) if db else None, token=token)
+    app = create_app(source, db_path=Path(db) if db else None, token=token, suggestions=suggested)
     url = f"http://{'[' + host + ']' if ':' in host else host}:{port}/" + (f"?token={token}" if token else "")
     print(f"mrcheck review: {len(source.shots)} shot(s) of {source.label}", flush=True)
     print(f"open {url}", flush=True)

@@ -6,7 +6,7 @@ import sqlite3
 import time
 from pathlib import Path
 
-CATEGORIES = ("missing", "moved", "extra", "wrong size", "other")
+CATEGORIES = ("missing", "moved", "extra", "wrong size", "other", "suggested")
 SEVERITIES = (1, 2, 3)
 MAX_NOTE = 2000
 _FIELDS = ("id", "shot", "x", "y", "category", "severity", "note", "part", "distance", "mode", "created", "updated")
@@ -21,6 +21,8 @@ CREATE TABLE IF NOT EXISTS markers (
     part TEXT, distance REAL, mode TEXT,
     created REAL NOT NULL, updated REAL NOT NULL);
 CREATE INDEX IF NOT EXISTS markers_shot ON markers(review, shot);
+CREATE TABLE IF NOT EXISTS imported (review INTEGER NOT NULL, shot TEXT NOT NULL, key TEXT NOT NULL,
+    PRIMARY KEY (review, shot, key));
 """
 
 
@@ -65,6 +67,20 @@ class Store:
                 f"INSERT INTO markers(review, {', '.join(keys)}, created, updated) VALUES (?, {', '.join('?' * len(keys))}, ?, ?)",
                 (self.review, *[values.get(k) for k in keys], now, now)).lastrowid
         return self.get(marker_id)
+
+    def import_suggestions(self, shot: str, suggestions: list[dict]) -> int:
+        """Add the suggestions not imported into this review before (deleted ones stay deleted);
+        returns how many were added."""
+        added = 0
+        for s in suggestions:
+            key = f"{s['x']:.1f},{s['y']:.1f},{s['note']}"
+            with self._connect() as db:
+                fresh = db.execute("INSERT OR IGNORE INTO imported(review, shot, key) VALUES (?, ?, ?)",
+                                   (self.review, shot, key)).rowcount
+            if fresh:
+                self.add({**s, "shot": shot})
+                added += 1
+        return added
 
     def update(self, marker_id: int, values: dict) -> dict | None:
         allowed = {k: v for k, v in values.items() if k in ("x", "y", "category", "severity", "note", "part", "distance", "mode")}

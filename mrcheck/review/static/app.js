@@ -81,7 +81,7 @@ function drawMarkers() {
     layer.textContent = "";
     for (const m of S.markers) {
       const el = document.createElement("div");
-      el.className = `marker sev${m.severity}` + (S.selected === m.id ? " selected" : "");
+      el.className = `marker sev${m.severity}` + (m.category === "suggested" ? " suggested" : "") + (S.selected === m.id ? " selected" : "");
       el.style.left = m.x + "px"; el.style.top = m.y + "px"; el.textContent = m.id;
       el.dataset.id = m.id; el.title = `${m.category}: ${m.note}`;
       el.addEventListener("mousedown", (ev) => dragMarker(ev, m));

@@ -1,0 +1,57 @@
+"""Suggested markers from ``mrcheck discrepancies`` runs, imported into a review.
+
+``mrcheck review TARGET --suggestions OUTDIR/suspects.json`` (repeatable; ``NAME=FILE`` names
+the shot explicitly) adds each of the run's ``suggested_markers`` to its shot as an ordinary
+marker of category ``suggested`` whose note carries the detector's guess and score, so the
+planner keeps (re-categorises), moves, edits or deletes it like any other. The shot of a file
+without ``NAME=`` is the review shot with the same photo file. Every suggestion is imported
+once per review: restarting the server does not bring back one the planner deleted.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from ..errors import MrcheckError
+from ..overlay import load_shot
+
+CATEGORY = "suggested"
+
+
+def _shot_of(source, spec: str, doc: dict, path: Path):
+    name, sep, _ = spec.partition("=")
+    if sep:
+        if name not in source.shots:
+            raise MrcheckError(f"no shot named {name!r} in the review (have: {', '.join(source.shots)})", path)
+        return source.shots[name]
+    try:
+        _, photo = load_shot(doc["shot"])
+    except (KeyError, TypeError, MrcheckError):
+        raise MrcheckError("cannot open the shot this file was made from; pass NAME=FILE", path) from None
+    for shot in source.shots.values():
+        if Path(shot.photo).resolve() == Path(photo).resolve():
+            return shot
+    raise MrcheckError("its photo is not one of the review's shots; pass NAME=FILE", path)
+
+
+def load_suggestions(source, specs) -> dict:
+    """{shot name: [marker dicts in served pixels]} from ``FILE`` or ``NAME=FILE`` specs."""
+    out = {}
+    for spec in specs:
+        path = Path(spec.partition("=")[2] or spec)
+        try:
+            doc = json.loads(path.read_text())
+            suggested = doc["suggested_markers"]
+        except (OSError, ValueError, KeyError, TypeError):
+            raise MrcheckError("not a suspects.json of mrcheck discrepancies (no suggested_markers)", path) from None
+        shot = _shot_of(source, spec, doc, path)
+        # the detector worked on the photo's native pixels; the review serves at most MAX_SIZE wide
+        sx, sy = shot.size[0] / shot.camera.width, shot.size[1] / shot.camera.height
+        for m in suggested:
+            guess = m.get("category", "other")
+            out.setdefault(shot.name, []).append({
+                "x": float(m["x"]) * sx, "y": float(m["y"]) * sy, "category": CATEGORY,
+                "severity": int(m.get("severity", 2)), "part": m.get("part"), "distance": None, "mode": None,
+                "note": f"{guess}? {m.get('note', '')}".strip()})
+    return out
