@@ -3,6 +3,7 @@
 #
 #   ./bootstrap.sh demo [-o DIR]     render the embedded sample scene in all modes
 #   ./bootstrap.sh test [PYTEST...]  run the test suite (this is what .ci/run calls)
+#   ./bootstrap.sh bench [ARGS...]   also set up the benchmark's peers, then run `mrcheck bench ARGS`
 #   ./bootstrap.sh shell             only set up; prints how to activate the environment
 #
 # Set-up is idempotent: system packages are installed only when missing, the virtual
@@ -17,6 +18,15 @@ cd "$(dirname "$0")"
 #   chromium                   the headless browser of the `mrcheck review` end-to-end test
 #                              (Playwright drives /usr/bin/chromium; it never downloads one)
 SYSTEM_PACKAGES=(libegl1 libgl1-mesa-dri libgles2 libusb-1.0-0 libgomp1 chromium)
+# Only for `./bootstrap.sh bench`, whose peers include Open3D's renderer: headless, Open3D renders
+# through Filament's Vulkan backend, on Mesa's software Vulkan driver (lavapipe) here.
+BENCH_SYSTEM_PACKAGES=(libvulkan1 mesa-vulkan-drivers)
+
+cmd=${1:-demo}
+shift || true
+if [[ $cmd == bench ]]; then
+    SYSTEM_PACKAGES+=("${BENCH_SYSTEM_PACKAGES[@]}")
+fi
 
 missing=()
 for pkg in "${SYSTEM_PACKAGES[@]}"; do
@@ -54,11 +64,17 @@ if [[ ! -f $stamp || $(cat "$stamp") != "$want" ]]; then
     echo "$want" >"$stamp"
 fi
 
-cmd=${1:-demo}
-shift || true
+bench_stamp=.venv/.mrcheck-bench-installed
+if [[ $cmd == bench && ( ! -f $bench_stamp || $(cat "$bench_stamp") != "$want" ) ]]; then
+    echo "bootstrap: installing the benchmark's peers (the bench extra: pyvista/VTK) into .venv" >&2
+    .venv/bin/python -m pip install -q -e '.[bench]'
+    echo "$want" >"$bench_stamp"
+fi
+
 case "$cmd" in
     demo) exec .venv/bin/mrcheck demo "$@" ;;
     test) exec .venv/bin/python -m pytest "$@" ;;
+    bench) exec .venv/bin/mrcheck bench "$@" ;;
     shell) echo "set up; activate with: source .venv/bin/activate" ;;
-    *) echo "usage: ./bootstrap.sh {demo|test|shell} [ARGS...]" >&2; exit 2 ;;
+    *) echo "usage: ./bootstrap.sh {demo|test|bench|shell} [ARGS...]" >&2; exit 2 ;;
 esac

@@ -80,6 +80,9 @@ def cli():
 @click.option("--light", type=click.Choice(["headlight", "sun"]), default="headlight", show_default=True,
               help="headlight: a light just above the camera; sun: a fixed direction from above.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the AO kernel and rotation tile (renders are reproducible).")
+@click.option("--lod-px", type=float, default=0.5, show_default=True,
+              help="Level of detail: parts drawn 4+ times use a simplified mesh where its measured error stays "
+                   "below this many pixels; 0 draws every part at full detail.")
 @click.option("--units", type=click.Choice(["mm", "cm", "m", "in", "ft"]),
               help="Unit of a single mesh file SCENE (a manifest declares units per part); default: as authored.")
 @click.option("-o", "--output", required=True, metavar="OUT.png", help="Output image (.png, .jpg, .tif).")
@@ -88,7 +91,7 @@ def cli():
                    "With --mode all, one file per AO mode, named AO_vector.npy, AO_ssao.npy.")
 def render(scene, view, camera_path, mode, width, height, samples, radius_px, radius_fraction, radius_world,
            min_world_radius, max_world_radius, falloff, intensity, blur, blur_size, ao_scale, ao_direct, light,
-           seed, units, output, output_ao):
+           seed, lod_px, units, output, output_ao):
     """Render SCENE (a .toml manifest or one mesh file) from a named view or a calibrated camera.
 
     \b
@@ -104,7 +107,7 @@ def render(scene, view, camera_path, mode, width, height, samples, radius_px, ra
         settings=dict(samples=samples, radius_px=radius_px, radius_fraction=radius_fraction, radius_world=radius_world,
                       min_world_radius=min_world_radius, max_world_radius=max_world_radius, falloff=falloff,
                       intensity=intensity, blur=blur, blur_size=blur_size, ao_scale=float(ao_scale),
-                      ao_direct=ao_direct, light=light, seed=seed),
+                      ao_direct=ao_direct, light=light, seed=seed, lod_px=lod_px),
     )
 
 
@@ -128,7 +131,8 @@ def demo(outdir, width, height):
 @click.option("--repeat", type=int, default=None, callback=_positive, help="Timed runs per figure after one warm-up [default: 5, --quick: 3].")
 def bench(quick, json_path, repeat):
     """Measure the AO passes on this machine: vector vs ssao, the fetch floor, half vs full
-    resolution, and AO time at 1 M vs 10 M triangles. Prints a table of what it measured."""
+    resolution, and AO time at 1 M vs 10 M triangles; the whole frame against VTK's SSAO and
+    Open3D's renderer with AO when they can run. Prints a table of what it measured."""
     from .bench import bench_command
 
     bench_command(quick=quick, json_path=json_path, repeat=repeat)
@@ -307,12 +311,14 @@ def export(job, outdir, workers, scheduler, force):
 @click.option("--port", type=int, default=8765, show_default=True, callback=_positive, help="Port to listen on.")
 @click.option("--token", metavar="TOKEN", help="Require this token (generated and printed when --host is not loopback).")
 @click.option("--db", metavar="FILE", help="SQLite file of the review [default: review.sqlite next to the job/export].")
-def review(target, shots_dir, host, port, token, db):
+@click.option("--suggestions", multiple=True, metavar="[NAME=]SUSPECTS.json",
+              help="Import the suggested markers of an `mrcheck discrepancies` run (repeatable; NAME picks the shot).")
+def review(target, shots_dir, host, port, token, db, suggestions):
     """Review shots in the browser: photo and CAD blended, modes, zoom, discrepancy markers with a
     category, severity and note, the CAD part under the cursor; exports an HTML report and CSV."""
     from .review.app import serve
 
-    serve(target, shots_dir=shots_dir, host=host, port=port, token=token, db=db)
+    serve(target, shots_dir=shots_dir, host=host, port=port, token=token, db=db, suggestions=suggestions)
 
 
 @cli.command()

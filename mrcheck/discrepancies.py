@@ -254,7 +254,9 @@ def planned_view(scene: Scene, camera: Camera, renderer=None) -> dict:
     own = renderer is None
     renderer = Renderer(scene) if own else renderer
     try:
-        renders, edges, offset, maps = render_for_photo(renderer, camera, ["phong"], RenderSettings(), True, maps)
+        # full detail (lod_px=0): the outlines are measured to the pixel, and it is one render
+        renders, edges, offset, maps = render_for_photo(renderer, camera, ["phong"], RenderSettings(lod_px=0.0), True,
+                                                        maps)
     finally:
         if own:
             renderer.release()
@@ -429,7 +431,8 @@ def synthetic_photo(scene: Scene, camera: Camera, renderer=None, seed: int = 0, 
     own = renderer is None
     renderer = Renderer(scene) if own else renderer
     try:
-        renders, _, offset, maps = render_for_photo(renderer, camera, ["phong"], RenderSettings(light="sun"), False)
+        renders, _, offset, maps = render_for_photo(renderer, camera, ["phong"], RenderSettings(light="sun", lod_px=0.0),
+                                                  False)  # a photo shows every detail
     finally:
         if own:
             renderer.release()

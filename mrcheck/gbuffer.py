@@ -13,8 +13,9 @@ zbuffer    D32F      reversed-Z hardware depth (see :func:`mrcheck.gl._enable_re
 
 Each part is one vertex/index buffer, drawn instanced with per-instance model-view matrices
 that are computed in float64 (view @ world) and cast to float32 only afterwards. Instances
-whose bounds lie outside the view frustum are skipped, and parts are drawn front to back so
-that early depth testing saves fragment work (llvmpipe shades every covered fragment).
+outside the view frustum or hidden behind the big near occluders are skipped
+(:mod:`mrcheck.culling`, exact), and parts are drawn front to back so that early depth testing
+saves fragment work (llvmpipe shades every covered fragment).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
+from . import culling, lod
 from .camera import Camera, gl_projection
 from .errors import MrcheckError
 from .gl import float_depth_texture, load_program
@@ -66,70 +68,85 @@ class GBuffer:
 
 
 @dataclass
-class _GpuPart:
-    name: str
+class _GpuMesh:
+    """One level of detail of a part on the GPU, with its own per-instance buffer."""
     vbo: moderngl.Buffer
     ibo: moderngl.Buffer
     instances: moderngl.Buffer
     vao: moderngl.VertexArray
+    triangles: int
+
+    def release(self) -> None:
+        for obj in (self.vao, self.vbo, self.ibo, self.instances):
+            obj.release()
+
+
+@dataclass
+class _GpuPart:
+    source: object             # the scene's Part (its mesh, for building levels of detail)
+    levels: list               # [_GpuMesh]: 0 = the part's own mesh, then coarser ones
+    errors: np.ndarray         # (len(levels),) measured error of each level, part units (0 first)
+    lod_pending: bool          # levels may still be built on first need
     color: tuple
     transforms: np.ndarray     # (k, 4, 4) float64 local -> world
+    scales: np.ndarray         # (k,) largest stretch of each transform (units, scaling)
     local_corners: np.ndarray  # (8, 4) float64 homogeneous corners of the local bounds
+
+    @property
+    def triangles(self) -> int:
+        return self.levels[0].triangles
 
 
 class GeometryPass:
-    """Uploads a :class:`Scene` once; :meth:`draw` renders it into a :class:`GBuffer`."""
+    """Uploads a :class:`Scene` once; :meth:`draw` renders it into a :class:`GBuffer`.
+
+    ``lod_px``: allowed error of a level of detail on screen, pixels (0 draws every part at full
+    detail); see :mod:`mrcheck.lod`. ``occlusion_culling``: exact, off only to measure it.
+    """
 
     def __init__(self, ctx: moderngl.Context, scene: Scene):
         self.ctx = ctx
         self.scene = scene
         self.program = load_program(ctx, "gbuffer")
         self.parts = [self._upload(part) for part in scene.parts]
+        self.hiz = culling.HiZ(ctx)
+        self.occlusion_culling = True
+        self.lod_px = lod.LOD_PIXELS
         self.last_stats = {}
 
-    def _upload(self, part) -> _GpuPart:
+    def _upload_mesh(self, vertices, faces, instance_count: int) -> _GpuMesh:
         ctx = self.ctx
-        vbo = ctx.buffer(np.ascontiguousarray(part.vertices, np.float32).tobytes())
-        ibo = ctx.buffer(np.ascontiguousarray(part.faces, np.uint32).tobytes())
-        instances = ctx.buffer(reserve=64 * len(part.transforms), dynamic=True)
+        vbo = ctx.buffer(np.ascontiguousarray(vertices, np.float32).tobytes())
+        ibo = ctx.buffer(np.ascontiguousarray(faces, np.uint32).tobytes())
+        instances = ctx.buffer(reserve=64 * instance_count, dynamic=True)
         vao = ctx.vertex_array(
             self.program,
             [(vbo, "3f", "in_position"), (instances, "16f/i", "in_model_view")],
             index_buffer=ibo,
             index_element_size=4,
         )
+        return _GpuMesh(vbo, ibo, instances, vao, len(faces))
+
+    def _upload(self, part) -> _GpuPart:
+        mesh = self._upload_mesh(part.vertices, part.faces, len(part.transforms))
         lo, hi = part.local_bounds()
         corners = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-        return _GpuPart(part.name, vbo, ibo, instances, vao, part.color, part.transforms, corners)
+        scales = np.linalg.norm(part.transforms[:, :3, :3], ord=2, axis=(1, 2))
+        pending = lod.eligible(len(part.faces)) and len(part.transforms) >= lod.MIN_INSTANCES
+        return _GpuPart(part, [mesh], np.zeros(1), pending, part.color, part.transforms, scales, corners)
+
+    def _build_levels(self, gpu: _GpuPart) -> None:
+        levels = lod.build_levels(gpu.source.vertices, gpu.source.faces)
+        gpu.levels += [self._upload_mesh(level.vertices, level.faces, len(gpu.transforms)) for level in levels]
+        gpu.errors = np.array([0.0] + [level.error for level in levels])
+        gpu.lod_pending = False
 
     # -- per-camera work --------------------------------------------------------------------
-    def _visible_instances(self, camera: Camera):
-        """Per part: (model-view (k, 4, 4) float64 of instances in the frustum, nearest z, farthest z)."""
-        V = camera.view_matrix()
-        # frustum side planes in camera space through the image corners (with a 1 px margin)
-        u0, u1 = (-1.5 - camera.cx) / camera.fx, (camera.width + 0.5 - camera.cx) / camera.fx
-        v0, v1 = (-1.5 - camera.cy) / camera.fy, (camera.height + 0.5 - camera.cy) / camera.fy
-        result = []
-        for gpu in self.parts:
-            mv = V @ gpu.transforms                                   # (k, 4, 4) float64
-            c = np.einsum("kij,cj->kci", mv, gpu.local_corners)[..., :3]  # (k, 8, 3) camera space
-            x, y, z = c[..., 0], c[..., 1], c[..., 2]
-            outside = (
-                (z <= 0).all(axis=1)
-                | (x < u0 * z).all(axis=1) | (x > u1 * z).all(axis=1)
-                | (y < v0 * z).all(axis=1) | (y > v1 * z).all(axis=1)
-            )
-            keep = ~outside
-            if keep.any():
-                zk = z[keep]
-                result.append((gpu, mv[keep], float(zk.min()), float(zk.max())))
-        return result
-
     def draw(self, gbuffer: GBuffer, camera: Camera) -> dict:
-        """Render the scene into ``gbuffer``; returns stats (near, far, drawn instances...)."""
-        visible = self._visible_instances(camera)
-        far = max((v[3] for v in visible), default=1.0)
-        nearest = min((v[2] for v in visible), default=far)
+        """Render the scene into ``gbuffer``; returns stats (near, far, what was drawn and culled)."""
+        batches = culling.frustum(self.parts, camera)
+        far = max((float(b.z_far.max()) for b in batches), default=1.0)
+        nearest = min((float(b.z_near.min()) for b in batches), default=far)
         # Reversed-Z float depth keeps relative precision at any distance, so near only has to
         # be in front of every visible surface; a camera inside a part's bounds (a hall's walls)
         # falls back to a near plane 1e-6 of the far distance.
@@ -140,26 +157,68 @@ class GeometryPass:
         P = _reversed_z(gl_projection(camera, near, far), near, far)
         self.program["u_projection"].write(P.T.astype(np.float32).tobytes())
 
-        ctx = self.ctx
         gbuffer.fbo.use()
         gbuffer.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0)
+        stats = {"near": near, "far": far, "instances_in_frustum": int(sum(len(b) for b in batches)),
+                 "instances_occluded": 0}
+        focal = max(camera.fx, camera.fy)
+        occluders, candidates = culling.split_occluders(batches, camera)
+        planned = self._plan(candidates, focal)
+        if self.occlusion_culling and _triangles(planned) >= culling.MIN_CANDIDATE_TRIANGLES:
+            draws = self._plan(occluders, focal)
+            self._submit(draws)
+            drawn = list(occluders)
+            for band in culling.depth_bands(candidates, culling.DEPTH_BANDS):
+                self.hiz.build(gbuffer.depth)
+                hidden = [self.hiz.occluded(b.rect, b.z_near) for b in band]
+                stats["instances_occluded"] += int(sum(h.sum() for h in hidden))
+                visible = [b.subset(~h) for b, h in zip(band, hidden) if not h.all()]
+                gbuffer.fbo.use()
+                band_draws = self._plan(visible, focal)
+                self._submit(band_draws)
+                draws += band_draws
+                drawn += visible
+        else:
+            drawn = batches
+            draws = self._plan(occluders, focal) + planned
+            self._submit(draws)
+        stats.update(triangles_drawn=_triangles(draws), triangles_full_detail=_triangles(drawn),
+                     instances_drawn=int(sum(len(b) for b in drawn)))
+        self.last_stats = stats
+        return stats
+
+    def _plan(self, batches, focal: float) -> list["_Draw"]:
+        """One draw per part and level of detail: each instance at the coarsest level whose
+        error stays below ``lod_px`` pixels at its nearest depth (levels built on first need)."""
+        draws = []
+        for batch in batches:
+            gpu = batch.part
+            level = np.zeros(len(batch), np.int64)
+            if self.lod_px > 0 and (gpu.lod_pending or len(gpu.levels) > 1):
+                allowed = lod.allowed_error(batch.z_near, batch.scale, focal, self.lod_px)
+                if gpu.lod_pending and allowed.max() > 0:
+                    self._build_levels(gpu)
+                level = lod.choose(gpu.errors, allowed)
+            for index in np.unique(level):
+                chosen = level == index
+                draws.append(_Draw(float(batch.z_near[chosen].min()), gpu.levels[index], batch.mv[chosen], gpu.color))
+        return draws
+
+    def _submit(self, draws: list["_Draw"]) -> None:
+        """Draw into the bound framebuffer, nearest first (early depth testing saves fragments)."""
+        ctx = self.ctx
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.depth_func = ">"   # reversed-Z: larger is nearer
         ctx.disable(moderngl.CULL_FACE)  # CAD exports have inconsistent winding; normals face the camera anyway
         # image row 0 is framebuffer row 0, a y flip, so counter-clockwise meshes appear clockwise
         ctx.front_face = "cw"
-        triangles = 0
-        for gpu, mv, _, _ in sorted(visible, key=lambda v: v[2]):  # front to back
-            gpu.instances.orphan(64 * len(mv))
+        for draw in sorted(draws, key=lambda d: d.z_near):
+            draw.mesh.instances.orphan(64 * len(draw.mv))
             # column-major for GLSL: transpose each 4x4
-            gpu.instances.write(np.ascontiguousarray(mv.transpose(0, 2, 1), np.float32).tobytes())
-            self.program["u_albedo"].value = gpu.color
-            gpu.vao.render(moderngl.TRIANGLES, instances=len(mv))
-            triangles += (gpu.ibo.size // 12) * len(mv)
+            draw.mesh.instances.write(np.ascontiguousarray(draw.mv.transpose(0, 2, 1), np.float32).tobytes())
+            self.program["u_albedo"].value = draw.color
+            draw.mesh.vao.render(moderngl.TRIANGLES, instances=len(draw.mv))
         ctx.disable(moderngl.DEPTH_TEST)
-        self.last_stats = {"near": near, "far": far, "triangles_drawn": triangles,
-                           "instances_drawn": int(sum(len(v[1]) for v in visible))}
-        return self.last_stats
 
     def camera_inside_part(self, camera: Camera) -> str | None:
         """Name of a part whose instance bounds contain the camera centre, if any."""
@@ -172,8 +231,26 @@ class GeometryPass:
 
     def release(self) -> None:
         for gpu in self.parts:
-            for obj in (gpu.vao, gpu.vbo, gpu.ibo, gpu.instances):
-                obj.release()
+            for mesh in gpu.levels:
+                mesh.release()
+        self.hiz.release()
+
+
+@dataclass
+class _Draw:
+    z_near: float
+    mesh: _GpuMesh
+    mv: np.ndarray
+    color: tuple
+
+    @property
+    def triangles(self) -> int:
+        return self.mesh.triangles * len(self.mv)
+
+
+def _triangles(items) -> int:
+    """Triangles of batches (at full detail) or of draws (at their level)."""
+    return int(sum(item.triangles if isinstance(item, _Draw) else item.part.triangles * len(item) for item in items))
 
 
 def _reversed_z(P: np.ndarray, near: float, far: float) -> np.ndarray:

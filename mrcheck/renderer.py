@@ -21,6 +21,7 @@ from .composite import LIGHTS, Composite
 from .errors import MrcheckError
 from .gbuffer import GBuffer, GeometryPass, check_camera_outside
 from .gl import create_context, load_program, made_current
+from .lod import LOD_PIXELS
 from .scene import Scene
 
 MODES = ("phong", "vector", "ssao", "crytek", "hbao", "alchemy")  # D1, D2, D3 of the paper's study, then more AO
@@ -42,6 +43,8 @@ class RenderSettings:
     radius_world : world radius of ``ssao`` in scene units.
     intensity : AO strength (0 none, 1 default, larger stronger).
     ao_scale : 1.0 full-resolution AO, 0.5 half resolution with depth-aware upsampling.
+    lod_px : allowed error of a level of detail on screen, pixels (0: every part at full detail;
+        see :mod:`mrcheck.lod`).
     """
 
     samples: int = DEFAULT_SAMPLES
@@ -58,6 +61,7 @@ class RenderSettings:
     ao_direct: bool = False
     light: str = "headlight"
     seed: int = 0
+    lod_px: float = LOD_PIXELS
 
     def validated(self, height: int) -> "RenderSettings":
         """A copy with ``radius_px`` resolved for an image ``height`` pixels high, checked."""
@@ -73,6 +77,7 @@ class RenderSettings:
             (self.blur_size >= 3 and self.blur_size % 2 == 1, f"blur size must be odd and >= 3, got {self.blur_size}"),
             (self.light in LIGHTS, f"light must be one of {', '.join(LIGHTS)}, got {self.light!r}"),
             (self.min_world_radius is None or self.min_world_radius >= 0, "minimum world radius must be >= 0"),
+            (0 <= self.lod_px <= 4, f"level-of-detail error must be in [0, 4] pixels, got {self.lod_px}"),
             (self.max_world_radius is None or self.max_world_radius > 0, "maximum world radius must be > 0"),
         ]
         for ok, message in checks:
@@ -184,6 +189,7 @@ class Renderer:
             raise MrcheckError(f"image size {camera.width}x{camera.height} exceeds this GPU's limit of {self.max_size}")
         targets = self._targets_for((camera.width, camera.height))
 
+        self.geometry.lod_px = settings.lod_px
         t_geometry = self._timed(lambda: self.geometry.draw(targets.gbuffer, camera))
         check_camera_outside(self.geometry, targets.gbuffer, camera, self.scene.source)
 

@@ -32,3 +32,146 @@ def test_bench_quick_writes_every_figure_and_ratio(tmp_path, capsys):
     assert report["machine"]["gl_renderer"] and report["peak_rss_mb"] > 0
     printed = capsys.readouterr().out
     assert "vector_over_ssao" in printed and "GTX285" in printed
+
+
+# -- peers: the report contract, without timing anything heavy ----------------------------------
+import sys  # noqa: E402
+import textwrap  # noqa: E402
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+from mrcheck import bench, bench_peers  # noqa: E402
+from mrcheck.bench_peers import PeerError, PeerWorker  # noqa: E402
+
+from .conftest import box, scene_of  # noqa: E402
+
+VIEW = {"eye": (3.0, -4.0, 3.0), "target": (0.0, 0.0, 0.3), "up": (0.0, 0.0, 1.0), "fov_y_deg": 50.0}
+
+
+def _box_on_floor():
+    return scene_of(box((10.0, 10.0, 0.2), (0.0, 0.0, -0.1)), box((1.0, 1.0, 1.0), (0.0, 0.0, 0.5)))
+
+
+def _fake_worker(tmp_path, body: str) -> list:
+    """A stand-in worker process (a short Python script) for the protocol's failure cases."""
+    script = tmp_path / "fake_worker.py"
+    script.write_text(textwrap.dedent(body))
+    return [sys.executable, str(script)]
+
+
+READY = ('print(json.dumps({"ready": True, "version": "fake 1", "settings": {}, "png": "x.png", '
+         '"ao_effect": {}, "setup_ms": 1.0}), flush=True)')
+
+
+def test_peer_not_installed_gives_its_reason(tmp_path, monkeypatch):
+    monkeypatch.setattr(bench_peers, "importable", lambda peer: f"{peer} is not installed (test)")
+    reasons = {}
+    assert bench._start_peers(None, _box_on_floor(), VIEW, reasons, tmp_path) == []
+    assert reasons == {"vtk": "vtk is not installed (test)", "open3d": "open3d is not installed (test)"}
+    assert not list(tmp_path.glob("*.npz"))  # the mesh file is gone once the workers have started
+
+
+def test_peer_worker_that_dies_at_start_gives_a_one_line_reason(tmp_path, monkeypatch):
+    command = _fake_worker(tmp_path, """
+        import sys
+        sys.stderr.write("loading the peer\\nvkCreateInstance failed: no Vulkan driver\\n")
+        sys.exit(3)
+    """)
+
+    class Crashing(PeerWorker):
+        def __init__(self, peer, mesh, png):
+            super().__init__(peer, mesh, png, command=command)
+
+    monkeypatch.setattr(bench_peers, "importable", lambda peer: None)
+    monkeypatch.setattr(bench_peers, "PeerWorker", Crashing)
+    reasons = {}
+    assert bench._start_peers(None, _box_on_floor(), VIEW, reasons, tmp_path) == []
+    for peer in ("vtk", "open3d"):
+        assert "exit code 3" in reasons[peer] and "no Vulkan driver" in reasons[peer]
+        assert "\n" not in reasons[peer]
+
+
+def test_peer_error_answer_and_garbage_are_reasons(tmp_path):
+    error = PeerWorker("vtk", tmp_path / "m.npz", tmp_path / "vtk.png", command=_fake_worker(tmp_path, """
+        import json
+        print(json.dumps({"error": "ImportError: libvulkan.so.1"}), flush=True)
+    """)).start()
+    with pytest.raises(PeerError, match="libvulkan"):
+        error.wait_ready(timeout=60)
+    garbage = PeerWorker("vtk", tmp_path / "m.npz", tmp_path / "vtk2.png",
+                         command=[sys.executable, "-c", "print('FEngine created'); import time; time.sleep(60)"])
+    with pytest.raises(PeerError, match="answered"):
+        garbage.start().wait_ready(timeout=60)
+    silent = PeerWorker("vtk", tmp_path / "m.npz", tmp_path / "vtk3.png",
+                        command=[sys.executable, "-c", "import time; time.sleep(60)"])
+    with pytest.raises(PeerError, match="no answer within"):
+        silent.start().wait_ready(timeout=1)
+    assert error.proc is None and garbage.proc is None and silent.proc is None  # stopped, not left running
+
+
+def test_peer_worker_that_crashes_mid_run_gives_null_and_reason(ctx, tmp_path):
+    """A worker that segfaults on its second frame: the bench goes on, the peer has no figure,
+    its ratio is null and its reason names the crash."""
+    command = _fake_worker(tmp_path, f"""
+        import json, os, signal, sys
+        {READY}
+        for n, line in enumerate(sys.stdin):
+            if n == 1:
+                sys.stderr.write("Segmentation fault in the driver\\n"); sys.stderr.flush()
+                os.kill(os.getpid(), signal.SIGSEGV)
+            print(json.dumps({{"ms": 5.0}}), flush=True)
+    """)
+    worker = PeerWorker("vtk", tmp_path / "m.npz", tmp_path / "vtk.png", command=command).start()
+    worker.wait_ready(timeout=60)
+    reasons = {}
+    peer = bench._PeerStage(ctx, worker, reasons)
+
+    class Ours:  # a stand-in for mrcheck's frame
+        def __init__(self):
+            self.ctx, self.renderer = ctx, self
+
+        def _timed(self, work):
+            work()
+            return 10.0
+
+    ours = bench.Figure("frame", "vector", *bench.PEER_SIZE, bench.PEER_SAMPLES, 1.0, "fake", 1)
+    theirs = bench.Figure("frame", "vtk", *bench.PEER_SIZE, None, None, "fake", 1)
+    entry = [(Ours(), bench._Job(ours, lambda: None, lambda: None)),
+             (peer, bench._Job(theirs, lambda: None, lambda: None))]
+    figures = bench._measure(entry, repeat=3)
+    assert figures == [ours] and ours.times_ms == [10.0] * 3
+    assert "exit code -11" in reasons["vtk"] and "Segmentation fault" in reasons["vtk"]
+    peer.release()
+    assert worker.proc is None
+    hits = [f for f in figures if f.mode == "vtk"]
+    assert not hits  # so _ratios reports vtk_over_mrcheck_frame as None
+
+
+@pytest.mark.parametrize("peer", bench_peers.PEERS)
+def test_peer_worker_renders_with_ao_on(tmp_path, peer):
+    """The real worker on a box on a floor: the protocol, the settings it reports, and that its AO
+    changes the image (no timing asserted). Skipped when the peer cannot run on this machine."""
+    if why := bench_peers.importable(peer):
+        pytest.skip(why)
+    scene = _box_on_floor()
+    mesh = bench_peers.write_mesh(tmp_path / "mesh.npz", *bench.flattened_mesh(scene), VIEW, (160, 120))
+    worker = PeerWorker(peer, mesh, tmp_path / f"{peer}.png").start()
+    try:
+        info = worker.wait_ready()
+    except PeerError as exc:
+        pytest.skip(f"{peer} could not run here: {exc}")
+    try:
+        assert worker.frame() > 0
+        assert worker.frame() > 0
+    finally:
+        summary = worker.stop()
+    assert summary["frames"] == 2 and summary["min_ms"] <= summary["median_ms"] <= summary["max_ms"]
+    assert info["size"] == [160, 120] and info["version"]
+    assert (tmp_path / f"{peer}.png").stat().st_size > 0 and (tmp_path / f"{peer}_ao_off.png").exists()
+    assert info["ao_effect"]["mean_abs_levels"] > 0  # AO on changes the frame
+    if peer == "vtk":
+        assert info["settings"]["kernel_size"] == 32 and info["settings"]["msaa_samples"] == 0
+    else:
+        assert info["settings"]["ambient_occlusion"] is True and info["settings"]["antialiasing"] is False
+    assert np.isfinite(info["setup_ms"])

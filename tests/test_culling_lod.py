@@ -1,0 +1,143 @@
+"""Occlusion culling (exact: the image must not change) and levels of detail (bounded change).
+
+The scenes are built in code: a wall hiding a field of spheres, with a few spheres beside it in
+view, so that both what is hidden and what is not are known.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from mrcheck import culling, lod
+from mrcheck.camera import Camera
+from mrcheck.gbuffer import GBuffer
+from mrcheck.gl import made_current
+from mrcheck.renderer import Renderer, RenderSettings
+from mrcheck.scene import Scene, make_part
+
+W, H = 320, 240
+
+
+def _grid(xs, ys, z=1.0):
+    return [trimesh.transformations.translation_matrix((x, y, z)) for x in xs for y in ys]
+
+
+def _scene(sphere_subdivisions=2) -> tuple[Scene, Camera]:
+    """A floor, a 12 m wide wall 12 m ahead (26.6 degrees to either side), 160 spheres behind it
+    (at most 14 degrees off the axis) and 8 beside it, 30-36 degrees off (the image's half-width
+    is 37.6 degrees)."""
+    floor = trimesh.creation.box((80, 80, 0.1), trimesh.transformations.translation_matrix((0, 20, -0.05)))
+    wall = trimesh.creation.box((12, 0.3, 6), trimesh.transformations.translation_matrix((0, 10, 3)))
+    sphere = trimesh.creation.icosphere(sphere_subdivisions, radius=0.5)
+    hidden = _grid(np.linspace(-4, 4, 16), np.linspace(14, 30, 10))
+    beside = [trimesh.transformations.translation_matrix((sx * x, y, 1.0))
+              for sx in (-1, 1) for x, y in ((11.0, 16.0), (12.5, 16.0), (14.5, 22.0), (16.0, 22.0))]
+    parts = [
+        make_part("floor", Path("floor"), floor.vertices, floor.faces, [np.eye(4)]),
+        make_part("wall", Path("wall"), wall.vertices, wall.faces, [np.eye(4)]),
+        make_part("spheres", Path("spheres"), sphere.vertices, sphere.faces, hidden + beside),
+    ]
+    camera = Camera.from_look_at((0.0, -2.0, 1.7), (0.0, 20.0, 1.7), (0, 0, 1), 60, W, H)
+    return Scene("culling-test", Path("culling-test"), parts), camera
+
+
+def _draw(renderer: Renderer, camera: Camera, occlusion: bool, lod_px: float):
+    with made_current(renderer.ctx):
+        gbuffer = GBuffer.create(renderer.ctx, (W, H))
+        renderer.geometry.occlusion_culling = occlusion
+        renderer.geometry.lod_px = lod_px
+        stats = renderer.geometry.draw(gbuffer, camera)
+        depth = gbuffer.read_depth().copy()
+        gbuffer.release()
+    return stats, depth
+
+
+def test_occlusion_culling_skips_hidden_instances_and_changes_no_pixel(monkeypatch):
+    monkeypatch.setattr(culling, "MIN_CANDIDATE_TRIANGLES", 0)  # the test scene is small
+    scene, camera = _scene()
+    renderer = Renderer(scene)
+    try:
+        plain, depth_plain = _draw(renderer, camera, occlusion=False, lod_px=0.0)
+        culled, depth_culled = _draw(renderer, camera, occlusion=True, lod_px=0.0)
+    finally:
+        renderer.release()
+    assert plain["instances_occluded"] == 0
+    # the wall hides the 160 spheres behind it; floor, wall and the 8 beside it are drawn
+    assert culled["instances_occluded"] == 160
+    assert culled["instances_drawn"] == 8 + 2
+    assert culled["triangles_drawn"] < plain["triangles_drawn"] / 2
+    np.testing.assert_array_equal(depth_culled, depth_plain)
+
+
+def test_hiz_test_is_conservative_at_block_edges():
+    """A box is hidden only if every block its rectangle touches is nearer than its nearest depth."""
+    scene, camera = _scene()
+    renderer = Renderer(scene)
+    try:
+        with made_current(renderer.ctx):
+            depth = np.full((H, W), 5.0, np.float32)
+            depth[:, 200:] = 0.0             # background from x = 200 on: nothing hidden there
+            depth[100, 50] = 20.0            # one far pixel in an otherwise near block
+            texture = renderer.ctx.texture((W, H), 1, depth.tobytes(), dtype="f4")
+            renderer.geometry.hiz.build(texture)
+            rects = np.array([[10, 10, 40, 40],      # all near: hidden behind 5 m
+                              [190, 10, 205, 40],    # reaches the background: visible
+                              [45, 95, 55, 105],     # covers the far pixel: visible at 10 m
+                              [100, 150, 110, 160]], float)
+            hidden = renderer.geometry.hiz.occluded(rects, np.full(4, 10.0))
+            texture.release()
+    finally:
+        renderer.release()
+    assert hidden.tolist() == [True, False, False, True]
+
+
+def test_levels_have_measured_errors_and_remove_flat_subdivisions():
+    # a box whose faces are subdivided 8x8: the coarser levels reach ~12 triangles at zero error
+    box = trimesh.creation.box((1.0, 1.0, 1.0)).subdivide().subdivide().subdivide()
+    levels = lod.build_levels(box.vertices, box.faces)
+    assert levels and len(levels[-1].faces) < len(box.faces) / 16
+    flat = [level for level in levels if level.error < 1e-5]
+    assert flat and min(len(level.faces) for level in flat) <= 24
+    # a sphere: fewer triangles cost shape, and the measured error says how much
+    sphere = trimesh.creation.icosphere(4, radius=1.0)
+    levels = lod.build_levels(sphere.vertices, sphere.faces)
+    errors = [level.error for level in levels]
+    assert len(levels) >= 3 and errors[-1] > errors[0] > 0
+    for level in levels:   # the error is at least the distance of the level's vertices from the sphere
+        assert level.error >= np.abs(np.linalg.norm(level.vertices, axis=1) - 1.0).max() - 1e-4
+
+
+def test_choose_picks_the_coarsest_level_within_the_allowed_error():
+    errors = np.array([0.0, 0.01, 0.05, 0.2])
+    allowed = np.array([0.0, 0.009, 0.01, 0.1, 5.0])
+    assert lod.choose(errors, allowed).tolist() == [0, 0, 1, 2, 3]
+    # the allowed error grows with depth, shrinks with the instance's scale; 0 at the camera plane
+    a = lod.allowed_error(np.array([-1.0, 10.0, 20.0, 20.0]), np.array([1.0, 1.0, 1.0, 2.0]), 500.0, 0.5)
+    assert a.tolist() == pytest.approx([0.0, 0.01, 0.02, 0.01])
+
+
+def test_levels_of_detail_cut_triangles_and_move_silhouettes_by_less_than_a_pixel():
+    scene, camera = _scene(sphere_subdivisions=4)   # 5120 triangles per sphere
+    renderer = Renderer(scene)
+    try:
+        full, depth_full = _draw(renderer, camera, occlusion=False, lod_px=0.0)
+        coarse, depth_lod = _draw(renderer, camera, occlusion=False, lod_px=lod.LOD_PIXELS)
+    finally:
+        renderer.release()
+    assert coarse["triangles_drawn"] < full["triangles_drawn"] / 4
+    assert coarse["triangles_full_detail"] == full["triangles_drawn"]
+    both = (depth_full > 0) & (depth_lod > 0)
+    assert ((depth_full > 0) != (depth_lod > 0)).mean() < 0.002    # coverage: silhouette pixels only
+    relative = np.abs(depth_lod - depth_full)[both] / depth_full[both]
+    assert np.mean(relative > 0.01) < 0.005
+
+
+def test_lod_setting_is_validated():
+    from mrcheck.errors import MrcheckError
+
+    with pytest.raises(MrcheckError, match="level-of-detail"):
+        RenderSettings(lod_px=-1).validated(240)
