@@ -192,6 +192,10 @@ class _Stage:
         self.label = label
         self.ctx = renderer.ctx
         self._floors = {}
+        # levels of detail loaded or built before timing, as a long session has them (a first
+        # render builds only those of parts with many instances; see mrcheck.lod)
+        with made_current(self.ctx):
+            renderer.geometry.prepare_levels()
 
     @property
     def targets(self):

@@ -86,7 +86,7 @@ class _GpuPart:
     source: object             # the scene's Part (its mesh, for building levels of detail)
     levels: list               # [_GpuMesh]: 0 = the part's own mesh, then coarser ones
     errors: np.ndarray         # (len(levels),) measured error of each level, part units (0 first)
-    lod_pending: bool          # levels may still be built on first need
+    lod_pending: bool          # levels to be loaded or built on first need (mrcheck.lod.eligible)
     color: tuple
     transforms: np.ndarray     # (k, 4, 4) float64 local -> world
     scales: np.ndarray         # (k,) largest stretch of each transform (units, scaling)
@@ -132,14 +132,22 @@ class GeometryPass:
         lo, hi = part.local_bounds()
         corners = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
         scales = np.linalg.norm(part.transforms[:, :3, :3], ord=2, axis=(1, 2))
-        pending = lod.eligible(len(part.faces)) and len(part.transforms) >= lod.MIN_INSTANCES
+        pending = lod.eligible(len(part.faces), len(part.transforms))
         return _GpuPart(part, [mesh], np.zeros(1), pending, part.color, part.transforms, scales, corners)
 
-    def _build_levels(self, gpu: _GpuPart) -> None:
-        levels = lod.build_levels(gpu.source.vertices, gpu.source.faces)
+    def _use_levels(self, gpu: _GpuPart) -> None:
+        """Give ``gpu`` its levels of detail (from the disk cache, or built now)."""
+        levels = lod.levels_for(gpu.source.vertices, gpu.source.faces)
         gpu.levels += [self._upload_mesh(level.vertices, level.faces, len(gpu.transforms)) for level in levels]
         gpu.errors = np.array([0.0] + [level.error for level in levels])
         gpu.lod_pending = False
+
+    def prepare_levels(self) -> None:
+        """Load or build every part's levels of detail now (a long session would have them;
+        the benchmark times the geometry pass that way)."""
+        for gpu in self.parts:
+            if gpu.lod_pending:
+                self._use_levels(gpu)
 
     # -- per-camera work --------------------------------------------------------------------
     def draw(self, gbuffer: GBuffer, camera: Camera) -> dict:
@@ -189,7 +197,8 @@ class GeometryPass:
 
     def _plan(self, batches, focal: float) -> list["_Draw"]:
         """One draw per part and level of detail: each instance at the coarsest level whose
-        error stays below ``lod_px`` pixels at its nearest depth (levels built on first need)."""
+        error stays below ``lod_px`` pixels at its nearest depth (levels loaded or built on first
+        need: which level an instance gets never depends on what was rendered before)."""
         draws = []
         for batch in batches:
             gpu = batch.part
@@ -197,7 +206,7 @@ class GeometryPass:
             if self.lod_px > 0 and (gpu.lod_pending or len(gpu.levels) > 1):
                 allowed = lod.allowed_error(batch.z_near, batch.scale, focal, self.lod_px)
                 if gpu.lod_pending and allowed.max() > 0:
-                    self._build_levels(gpu)
+                    self._use_levels(gpu)
                 level = lod.choose(gpu.errors, allowed)
             for index in np.unique(level):
                 chosen = level == index

@@ -15,21 +15,36 @@ step saves less than a quarter. The error of a level is
 *measured*, not assumed: the larger of the distances from the original's vertices and triangle
 centroids to the level's surface and from the level's vertices to the original's surface (a
 Hausdorff distance sampled at those points), in the part's own units.
+
+Building costs about 1-2 s per 100 k triangles (the hall's 116 k-triangle robot: 2 s), while
+drawing an instance at a coarser level saves about 50 ns per triangle and frame, so building
+pays off after a few hundred instance-frames. Which parts get levels is decided from the scene
+alone, never from what was rendered before, so a render stays reproducible byte for byte: parts
+of MIN_TRIANGLES to MAX_TRIANGLES triangles placed at least MIN_INSTANCES times (the hall's
+cartons, pallets, rack frames, conveyors; not a single robot, whose levels a one-off render
+would not win back). Built levels are cached on disk by the mesh's content
+(``$MRCHECK_CACHE_DIR``, else ``$XDG_CACHE_HOME/mrcheck`` or ``~/.cache/mrcheck``;
+``lod/<hash>.npz``), so later renderers and processes (export workers, the review server) load
+them in milliseconds.
 """
 
 from __future__ import annotations
 
+import hashlib
+import os
+import tempfile
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 LOD_PIXELS = 0.5
 MIN_TRIANGLES = 64           # fewer: a coarser copy saves less than its extra draw call costs
-MIN_INSTANCES = 4            # fewer: the one-off build (about 1 s per 100 k triangles) does not
-                             # pay off within a few renders; single robots are drawn as they are
 MAX_TRIANGLES = 1_000_000    # more: building the chain takes seconds; drawn as it is
 STEP = 2                     # each level about 1/STEP of the triangles of the one before
 MIN_SAVING = 0.75            # stop when a step keeps more than this share of the triangles
+CACHE_VERSION = 1            # bump when the levels a mesh gets change
+MIN_INSTANCES = 4            # fewer: a single part's levels would not pay off in a one-off render
 
 
 @dataclass(frozen=True)
@@ -39,8 +54,46 @@ class Level:
     error: float           # measured distance to the original surface, part units
 
 
-def eligible(triangles: int) -> bool:
-    return MIN_TRIANGLES <= triangles <= MAX_TRIANGLES
+def eligible(triangles: int, instances: int) -> bool:
+    return MIN_TRIANGLES <= triangles <= MAX_TRIANGLES and instances >= MIN_INSTANCES
+
+
+def cache_dir() -> Path:
+    explicit = os.environ.get("MRCHECK_CACHE_DIR")
+    if explicit:
+        return Path(explicit)
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "mrcheck"
+
+
+def _cache_path(vertices: np.ndarray, faces: np.ndarray) -> Path:
+    key = hashlib.blake2b(vertices.tobytes(), digest_size=16)
+    key.update(faces.tobytes())
+    key.update(f"{STEP} {MIN_SAVING} {CACHE_VERSION}".encode())
+    return cache_dir() / "lod" / f"{key.hexdigest()}.npz"
+
+
+def levels_for(vertices: np.ndarray, faces: np.ndarray) -> list[Level]:
+    """:func:`build_levels` through the on-disk cache (an unwritable cache only costs time)."""
+    vertices = np.ascontiguousarray(vertices, np.float32)
+    faces = np.ascontiguousarray(faces, np.uint32)
+    path = _cache_path(vertices, faces)
+    try:
+        with np.load(path) as data:
+            return [Level(data[f"v{i}"], data[f"f{i}"], float(e)) for i, e in enumerate(data["errors"])]
+    except (OSError, KeyError, ValueError):
+        pass   # not cached yet, or a damaged file: build (and replace it)
+    levels = build_levels(vertices, faces)
+    arrays = {"errors": np.array([level.error for level in levels])}
+    for i, level in enumerate(levels):
+        arrays[f"v{i}"], arrays[f"f{i}"] = level.vertices, level.faces
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=path.parent, suffix=".tmp", delete=False) as tmp:
+            np.savez(tmp, **arrays)
+        os.replace(tmp.name, path)   # whole or not at all: concurrent renderers may race here
+    except OSError:
+        pass
+    return levels
 
 
 def build_levels(vertices: np.ndarray, faces: np.ndarray) -> list[Level]:
@@ -100,4 +153,4 @@ def _distance_query(vertices, faces):
     return lambda points: scene.compute_distance(o3d.core.Tensor(np.asarray(points, np.float32))).numpy()
 
 
-__all__ = ["Level", "LOD_PIXELS", "allowed_error", "build_levels", "choose", "eligible"]
+__all__ = ["Level", "LOD_PIXELS", "allowed_error", "build_levels", "cache_dir", "choose", "eligible", "levels_for"]

@@ -11,6 +11,15 @@ from mrcheck.renderer import Renderer, RenderSettings
 from mrcheck.scene import Scene, make_part
 
 
+@pytest.fixture(scope="session", autouse=True)
+def lod_cache(tmp_path_factory):
+    """Levels of detail are cached on disk: in a fresh folder per session, never the user's."""
+    folder = tmp_path_factory.mktemp("lod-cache")
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("MRCHECK_CACHE_DIR", str(folder))
+        yield folder
+
+
 @pytest.fixture(scope="session")
 def ctx():
     context = create_context()

@@ -45,8 +45,10 @@ def _scene(sphere_subdivisions=2) -> tuple[Scene, Camera]:
     return Scene("culling-test", Path("culling-test"), parts), camera
 
 
-def _draw(renderer: Renderer, camera: Camera, occlusion: bool, lod_px: float):
+def _draw(renderer: Renderer, camera: Camera, occlusion: bool, lod_px: float, prepare: bool = True):
     with made_current(renderer.ctx):
+        if prepare:
+            renderer.geometry.prepare_levels()
         gbuffer = GBuffer.create(renderer.ctx, (W, H))
         renderer.geometry.occlusion_culling = occlusion
         renderer.geometry.lod_px = lod_px
@@ -136,8 +138,40 @@ def test_levels_of_detail_cut_triangles_and_move_silhouettes_by_less_than_a_pixe
     assert np.mean(relative > 0.01) < 0.005
 
 
+def test_which_parts_get_levels_depends_on_the_scene_alone():
+    """A render must not depend on what was rendered before (reproducible bytes)."""
+    scene, camera = _scene()
+    first = Renderer(scene)
+    try:
+        one, depth_one = _draw(first, camera, occlusion=False, lod_px=lod.LOD_PIXELS, prepare=False)
+        two, depth_two = _draw(first, camera, occlusion=False, lod_px=lod.LOD_PIXELS, prepare=False)
+    finally:
+        first.release()
+    assert one["triangles_drawn"] < one["triangles_full_detail"]   # 168 spheres: levels from the first frame
+    assert two == one
+    np.testing.assert_array_equal(depth_two, depth_one)
+    assert not lod.eligible(100_000, 1) and lod.eligible(100_000, lod.MIN_INSTANCES)
+
+
 def test_lod_setting_is_validated():
     from mrcheck.errors import MrcheckError
 
     with pytest.raises(MrcheckError, match="level-of-detail"):
         RenderSettings(lod_px=-1).validated(240)
+
+
+def test_levels_are_cached_on_disk_by_content(tmp_path, monkeypatch):
+    monkeypatch.setenv("MRCHECK_CACHE_DIR", str(tmp_path))
+    sphere = trimesh.creation.icosphere(3, radius=1.0)
+    built = lod.levels_for(sphere.vertices, sphere.faces)
+    files = list((tmp_path / "lod").glob("*.npz"))
+    assert len(files) == 1
+    loaded = lod.levels_for(sphere.vertices, sphere.faces)
+    assert [len(level.faces) for level in loaded] == [len(level.faces) for level in built]
+    assert [level.error for level in loaded] == [level.error for level in built]
+    # another mesh, another entry; a damaged entry is rebuilt, not trusted
+    lod.levels_for(sphere.vertices * 2.0, sphere.faces)
+    assert len(list((tmp_path / "lod").glob("*.npz"))) == 2
+    files[0].write_bytes(b"not an npz")
+    rebuilt = lod.levels_for(sphere.vertices, sphere.faces)
+    assert [level.error for level in rebuilt] == [level.error for level in built]
