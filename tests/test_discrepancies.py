@@ -47,23 +47,23 @@ def test_object_ids_match_the_render_silhouette(ctx, sample):
 
 
 def test_precision_and_recall_on_asbuilt_variants(ctx, tmp_path):
-    """Measured (seeds 0-2, views overview + conveyor + far_overview, 400x300, k1 -0.12, sun
-    light, blur, noise): recall 0.50 (23/46), precision 0.68 (23 true / 11 false), moved >= 0.2 m
-    4/9 (the 0.8 goal is NOT met: a 0.23 m move at 17 m and a machine seen through the fence
-    are missed in every view), missing 12/16. Asserted at the measured level."""
-    result = evaluate(SAMPLE, seeds=(0, 1, 2), views=("overview", "conveyor", SAMPLE_CELL_FAR_VIEWS[0]), width=W,
-                      height=H, workdir=tmp_path, ctx=ctx)
+    """Measured (seeds 0-2, views overview + conveyor + far_overview, 640x480 -- the evaluation's
+    default size --, k1 -0.12, sun light, blur, noise): recall 0.67 (34/51), precision 0.63 (41
+    true / 24 false), moved >= 0.2 m 8/9, missing 14/18. Asserted at the measured level (at
+    400x300 this set gave moved 4/9, recall 0.50, precision 0.68)."""
+    result = evaluate(SAMPLE, seeds=(0, 1, 2), views=("overview", "conveyor", SAMPLE_CELL_FAR_VIEWS[0]), width=640,
+                      height=480, workdir=tmp_path, ctx=ctx)
     s = result["summary"]
     print(json.dumps(s, indent=1))
     kinds = s["per_kind"]
-    assert kinds["moved >=0.2 m"]["recall"] >= 0.44
-    assert s["recall"] >= 0.48
-    assert s["precision"] >= 0.65
-    assert kinds["missing"]["recall"] >= 0.7
+    assert kinds["moved >=0.2 m"]["recall"] >= 0.85
+    assert s["recall"] >= 0.65
+    assert s["precision"] >= 0.6
+    assert kinds["missing"]["recall"] >= 0.75
     # every truth item in view has a distance band, and the bands add up
     assert sum(kinds.get(b, {"in_view": 0})["in_view"] for b in ("at <10 m", "at 10-20 m", "at >=20 m")) == kinds["all"]["in_view"]
     # the untouched planned scene as the photo: a few false suspects per view at most
-    assert max(s["false_suspects_planned"]) <= 5
+    assert max(s["false_suspects_planned"]) <= 6
 
 
 def test_planned_scene_as_photo_gives_few_suspects(ctx, sample):
