@@ -15,7 +15,10 @@ What is timed (Scheer & Keutel, Tables 1 and 2, benchmarked at 1280x1024):
   the arithmetic on top of the memory traffic;
 * the bilateral blur (9x9 and 13x13) and the composite, each at both AO resolutions;
 * the geometry pass and the vector AO pass of a synthetic height field of ~1 M and ~10 M
-  triangles seen by the same camera: screen-space AO should not care about triangle count.
+  triangles seen by the same camera: screen-space AO should not care about triangle count;
+* the geometry pass of the generated hall at 1, 10 and 20 M triangles from its ``aisle``
+  viewpoint, with its culling and level-of-detail statistics (levels prepared before timing);
+* the whole frame on the ``line`` scene (full- and, at the peers' size, half-resolution AO).
 
 Peers (``vtk_over_mrcheck_frame``, ``open3d_over_mrcheck_frame``): mrcheck's whole frame on the
 ``line`` scene at 1024x768 against VTK's SSAO through pyvista and Open3D's Filament renderer with
