@@ -11,7 +11,8 @@ import pytest
 
 from mrcheck.camera import Camera
 from mrcheck.cli import main
-from mrcheck.discrepancies import SAMPLE_CELL_FAR_VIEWS, SCORE_THRESHOLD, detect, evaluate, object_ids, synthetic_photo
+from mrcheck.discrepancies import (DISCRIMINATIVE_FLOOR, DISCRIMINATIVE_THRESHOLD, SAMPLE_CELL_FAR_VIEWS, SCORE_THRESHOLD,
+                                   behind_ids, detect, evaluate, object_ids, synthetic_photo)
 from mrcheck.renderer import Renderer
 from mrcheck.resources import sample_scene_path
 from mrcheck.scene import load_scene
@@ -46,20 +47,36 @@ def test_object_ids_match_the_render_silhouette(ctx, sample):
     assert "conveyor" in names and all(isinstance(n, str) for n in names)
 
 
+def test_behind_ids_see_past_the_first_instance(sample):
+    """The second layer: never the pixel's own instance, always farther than it, and the floor
+    behind the conveyor's pixels (it stands on the floor, in front of nothing else there)."""
+    camera = _camera(sample, k1=0.0)
+    ids, depth, labels = object_ids(sample, camera)
+    bids, bdepth = behind_ids(sample, camera, ids, depth)
+    hit = bids >= 0
+    assert hit.mean() > 0.1
+    assert not np.any(hit & (bids == ids))
+    assert np.all(bdepth[hit] > depth[hit])
+    conveyor = ids == [i for i, lab in enumerate(labels) if lab[1] == "conveyor"][0]
+    behind = bids[conveyor & hit]
+    assert len(behind) > 100 and np.mean([labels[i][1] == "floor" for i in behind]) > 0.8
+
+
 def test_precision_and_recall_on_asbuilt_variants(ctx, tmp_path):
-    """Measured (seeds 0-2, views overview + conveyor + far_overview, 640x480 -- the evaluation's
-    default size --, k1 -0.12, sun light, blur, noise): recall 0.67 (34/51), precision 0.63 (41
-    true / 24 false), moved >= 0.2 m 8/9, missing 14/18. Asserted at the measured level (at
-    400x300 this set gave moved 4/9, recall 0.50, precision 0.68)."""
-    result = evaluate(SAMPLE, seeds=(0, 1, 2), views=("overview", "conveyor", SAMPLE_CELL_FAR_VIEWS[0]), width=640,
+    """Measured (seeds 0-2, views overview + conveyor + far_overview + far_back, 640x480 -- the
+    evaluation's default size --, k1 -0.12, sun light, blur, noise): recall 0.70 (47/67),
+    precision 0.69 (60 true / 27 false), moved >= 0.2 m 12/13, missing 9/11. Without the
+    discriminative-outline rule the same set gives recall 0.67, moved 11/13, missing 8/11, so
+    the asserted (measured) levels fail if that rule stops working."""
+    result = evaluate(SAMPLE, seeds=(0, 1, 2), views=("overview", "conveyor", *SAMPLE_CELL_FAR_VIEWS[:2]), width=640,
                       height=480, workdir=tmp_path, ctx=ctx)
     s = result["summary"]
     print(json.dumps(s, indent=1))
     kinds = s["per_kind"]
-    assert kinds["moved >=0.2 m"]["recall"] >= 0.85
-    assert s["recall"] >= 0.65
-    assert s["precision"] >= 0.6
-    assert kinds["missing"]["recall"] >= 0.75
+    assert kinds["moved >=0.2 m"]["recall"] >= 0.9
+    assert s["recall"] >= 0.7
+    assert s["precision"] >= 0.68
+    assert kinds["missing"]["recall"] >= 0.8
     # every truth item in view has a distance band, and the bands add up
     assert sum(kinds.get(b, {"in_view": 0})["in_view"] for b in ("at <10 m", "at 10-20 m", "at >=20 m")) == kinds["all"]["in_view"]
     # the untouched planned scene as the photo: a few false suspects per view at most
@@ -74,7 +91,8 @@ def test_planned_scene_as_photo_gives_few_suspects(ctx, sample):
     assert len(scored) > 10
     flagged = [s for s in scored if s["suspect"]]
     assert len(flagged) <= 0.1 * len(scored)
-    assert all(s["score"] >= SCORE_THRESHOLD and not s["thin"] for s in flagged)
+    assert all(not s["thin"] and (s["score"] >= SCORE_THRESHOLD or (s["score"] >= DISCRIMINATIVE_FLOOR and
+               s["discriminative_score"] >= DISCRIMINATIVE_THRESHOLD)) for s in flagged)
     solid = [s for s in scored if not s["thin"]]
     assert np.median([s["support"] for s in solid]) > 0.85
     # unshifted is (about) the best match of a part that is where it was planned
