@@ -3,7 +3,8 @@
 Every figure is measured in the run that prints it, never written down: one warm-up draw, then
 ``repeat`` timed draws through :meth:`Renderer._timed` (``ctx.finish()`` before and after, so a
 figure is the GL work of that pass, including llvmpipe's rasterisation threads). Reported:
-min / median / max in milliseconds; ratios use medians.
+min / median / max in milliseconds. Ratios are paired: figures compared are timed in turns, one
+run of each per round, and a ratio is the median of the per-round ratios (:func:`_ratio`).
 
 What is timed (Scheer & Keutel, Tables 1 and 2, benchmarked at 1280x1024):
 
@@ -32,6 +33,7 @@ height field stands in when the sample cell is missing, and the output says so).
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 import platform
@@ -129,6 +131,7 @@ class Figure:
     paper_ms: float | None = None
     times_ms: list = field(default_factory=list)
     stats: dict = field(default_factory=dict)   # e.g. triangles drawn, blur size, what a peer timed
+    entry: int | None = None   # figures of one entry were timed in turns: run i of each in round i
 
     def describe(self) -> str:
         """A short label, e.g. ``ao vector 1280x1024 16 samples half``."""
@@ -145,7 +148,8 @@ class Figure:
         return {"name": self.name, "mode": self.mode, "width": self.width, "height": self.height,
                 "samples": self.samples, "scale": self.scale, "scene": self.scene, "triangles": self.triangles,
                 "min_ms": min(self.times_ms), "median_ms": self.median_ms, "max_ms": max(self.times_ms),
-                "runs_ms": self.times_ms, "paper_gtx285_ms": self.paper_ms, "stats": self.stats, "unit": "ms"}
+                "runs_ms": self.times_ms, "paper_gtx285_ms": self.paper_ms, "stats": self.stats, "unit": "ms",
+                "timed_in_turns_with": self.entry}
 
 
 @dataclass
@@ -510,13 +514,18 @@ def _triangle_jobs(group: "_StageGroup") -> list[list]:
     return entries + [compared]
 
 
+_ENTRIES = itertools.count()
+
+
 def _measure(entry: list, repeat: int) -> list[Figure]:
     """Time the jobs of one entry in turns: each job's setup and warm-up, then ``repeat`` rounds
     of one run of every job. A ratio must hold within 10 %, about the drift of this machine over
     a minute; taken in turns, the drift falls on both sides of the ratio alike. The G-buffer
     and AO buffers a job's setup leaves persist because the jobs of one entry on one stage
     write different targets (full/half resolution, AO/floor), or live in different renderers."""
+    tag = next(_ENTRIES)
     for stage, job in entry:
+        job.figure.entry = tag
         with made_current(stage.ctx):
             job.setup()
             stage.renderer._timed(job.work)  # warm-up: shader compile/JIT, first touch of buffers
@@ -602,40 +611,52 @@ def _find(figures, **match) -> Figure:
     return hits[0]
 
 
+def _ratio(a: Figure, b: Figure) -> float:
+    """a / b. For figures timed in turns (one entry), the median of the per-round ratios: a
+    paired estimate, so that the machine speeding up or slowing down during the entry (seen:
+    10-20 % within one entry) cannot tilt it, as it can a ratio of two medians taken from
+    different rounds. Otherwise the ratio of the medians."""
+    if a.entry is not None and a.entry == b.entry and len(a.times_ms) == len(b.times_ms):
+        return float(np.median(np.asarray(a.times_ms) / np.asarray(b.times_ms)))
+    return a.median_ms / b.median_ms
+
+
 def _ratios(figures) -> tuple[dict, dict]:
-    """The issue's four ratios (medians, same run), and the first three at every sample count."""
+    """The issue's ratios (paired within one run, see :func:`_ratio`), and the first three at
+    every sample count."""
     w, h = PAPER_SIZE
 
     def ao(mode, samples, scale=1.0, **extra):
-        return _find(figures, name="ao", mode=mode, samples=samples, scale=scale, width=w, height=h, **extra).median_ms
+        return _find(figures, name="ao", mode=mode, samples=samples, scale=scale, width=w, height=h, **extra)
 
     def floor(samples, triangles):
-        return _find(figures, name="fetch_floor", samples=samples, width=w, height=h, triangles=triangles).median_ms
+        return _find(figures, name="fetch_floor", samples=samples, width=w, height=h, triangles=triangles)
 
     def at(samples):
         vector = ao("vector", samples, triangles=None)
-        return {"vector_over_ssao": vector / ao("ssao", samples, triangles=None),
-                "vector_over_fetch_floor": vector / floor(samples, None),
-                "half_over_full": ao("vector", samples, 0.5, triangles=None) / vector}
+        return {"vector_over_ssao": _ratio(vector, ao("ssao", samples, triangles=None)),
+                "vector_over_fetch_floor": _ratio(vector, floor(samples, None)),
+                "half_over_full": _ratio(ao("vector", samples, 0.5, triangles=None), vector)}
 
     samples_list = sorted({f.samples for f in figures
                            if f.name == "fetch_floor" and (f.width, f.height) == PAPER_SIZE and f.triangles is None})
     by_samples = {str(n): at(n) for n in samples_list}
     ratios = dict(by_samples[str(RATIO_SAMPLES)])
     few, many = TRIANGLE_COUNTS
-    ratios["ao_10m_over_1m"] = ao("vector", RATIO_SAMPLES, triangles=many) / ao("vector", RATIO_SAMPLES, triangles=few)
-    ratios["vector_over_fetch_floor_covered"] = ao("vector", RATIO_SAMPLES, triangles=few) / floor(RATIO_SAMPLES, few)
+    ratios["ao_10m_over_1m"] = _ratio(ao("vector", RATIO_SAMPLES, triangles=many), ao("vector", RATIO_SAMPLES, triangles=few))
+    ratios["vector_over_fetch_floor_covered"] = _ratio(ao("vector", RATIO_SAMPLES, triangles=few),
+                                                       floor(RATIO_SAMPLES, few))
 
-    halls = {f.triangles: f.median_ms for f in figures if f.name == "geometry" and f.stats.get("generated") == "hall"}
-    ratios["geometry_20m_over_1m"] = halls[20_000_000] / halls[1_000_000]
+    halls = {f.triangles: f for f in figures if f.name == "geometry" and f.stats.get("generated") == "hall"}
+    ratios["geometry_20m_over_1m"] = _ratio(halls[20_000_000], halls[1_000_000])
 
     pw, ph = PEER_SIZE
-    ours = _find(figures, name="frame", mode="vector", width=pw, height=ph, samples=PEER_SAMPLES, scale=1.0).median_ms
-    ours_half = _find(figures, name="frame", mode="vector", width=pw, height=ph, samples=PEER_SAMPLES, scale=0.5).median_ms
+    ours = _find(figures, name="frame", mode="vector", width=pw, height=ph, samples=PEER_SAMPLES, scale=1.0)
+    ours_half = _find(figures, name="frame", mode="vector", width=pw, height=ph, samples=PEER_SAMPLES, scale=0.5)
     for peer, key in PEER_RATIOS.items():
         hits = [f for f in figures if f.name == "frame" and f.mode == peer]
-        ratios[key] = hits[0].median_ms / ours if hits else None
-        ratios[key + "_half_res_ao"] = hits[0].median_ms / ours_half if hits else None
+        ratios[key] = _ratio(hits[0], ours) if hits else None
+        ratios[key + "_half_res_ao"] = _ratio(hits[0], ours_half) if hits else None
     return ratios, by_samples
 
 
@@ -678,7 +699,7 @@ def _format_table(figures) -> str:
 
 def _format_ratios(ratios: dict, by_samples: dict) -> str:
     width = max(map(len, ratios))
-    lines = [f"ratios (medians, this run; {RATIO_SAMPLES} samples, {PAPER_SIZE[0]}x{PAPER_SIZE[1]}):"]
+    lines = [f"ratios (median of per-round ratios, this run; {RATIO_SAMPLES} samples, {PAPER_SIZE[0]}x{PAPER_SIZE[1]}):"]
     for name, value in ratios.items():
         if name in PEER_TARGETS:  # a minimum: mrcheck's frame must be that many times faster
             verdict = "(not run)" if value is None else ("meets" if value >= PEER_TARGETS[name] else "MISSES")

@@ -20,10 +20,11 @@ Building costs about 1-2 s per 100 k triangles (the hall's 116 k-triangle robot:
 drawing an instance at a coarser level saves about 50 ns per triangle and frame, so building
 pays off after a few hundred instance-frames. Which parts get levels is decided from the scene
 alone, never from what was rendered before, so a render stays reproducible byte for byte: parts
-of MIN_TRIANGLES to MAX_TRIANGLES triangles, and at most SINGLE_MAX_TRIANGLES per placement (a
-single 116 k-triangle robot gets levels, saving about 4 ms per frame at 1024x768 once far away;
-a single 1 M-triangle machine is drawn as it is, as its first build would take 15 s).
-Built levels are cached on disk by the mesh's content
+of MIN_TRIANGLES to MAX_TRIANGLES triangles placed at least MIN_INSTANCES times (the hall's
+cartons, pallets, rack frames, conveyors). Not a single robot: tried, levels for the line scene's
+three 96 k-triangle robots saved about 12 ms per 1024x768 frame, but the hall's eight robots made
+its first render on a machine take 16.7 s instead of 3.4 s, a price most one-off renders pay
+and never win back. Built levels are cached on disk by the mesh's content
 (``$MRCHECK_CACHE_DIR``, else ``$XDG_CACHE_HOME/mrcheck`` or ``~/.cache/mrcheck``;
 ``lod/<hash>.npz``), so later renderers and processes (export workers, the review server) load
 them in milliseconds.
@@ -45,7 +46,7 @@ MAX_TRIANGLES = 1_000_000    # more: building the chain takes seconds; drawn as 
 STEP = 2                     # each level about 1/STEP of the triangles of the one before
 MIN_SAVING = 0.75            # stop when a step keeps more than this share of the triangles
 CACHE_VERSION = 1            # bump when the levels a mesh gets change
-SINGLE_MAX_TRIANGLES = 200_000  # per placement: a first build costs ~1.5 s per 100 k triangles
+MIN_INSTANCES = 4            # fewer: a single part's levels would not pay off in a one-off render
 
 
 @dataclass(frozen=True)
@@ -56,7 +57,7 @@ class Level:
 
 
 def eligible(triangles: int, instances: int) -> bool:
-    return MIN_TRIANGLES <= triangles <= min(MAX_TRIANGLES, SINGLE_MAX_TRIANGLES * instances)
+    return MIN_TRIANGLES <= triangles <= MAX_TRIANGLES and instances >= MIN_INSTANCES
 
 
 def cache_dir() -> Path:
