@@ -143,8 +143,8 @@ class GeometryPass:
         gpu.lod_pending = False
 
     def prepare_levels(self) -> None:
-        """Load or build every part's levels of detail now (a long session would have them;
-        the benchmark times the geometry pass that way)."""
+        """Load or build every eligible part's levels of detail now instead of on first need
+        (the benchmark does, so that no timed frame includes a build)."""
         for gpu in self.parts:
             if gpu.lod_pending:
                 self._use_levels(gpu)
