@@ -131,8 +131,10 @@ def demo(outdir, width, height):
 @click.option("--repeat", type=int, default=None, callback=_positive, help="Timed runs per figure after one warm-up [default: 5, --quick: 3].")
 def bench(quick, json_path, repeat):
     """Measure the AO passes on this machine: vector vs ssao, the fetch floor, half vs full
-    resolution, and AO time at 1 M vs 10 M triangles; the whole frame against VTK's SSAO and
-    Open3D's renderer with AO when they can run. Prints a table of what it measured."""
+    resolution, and AO time at 1 M vs 10 M triangles; the geometry pass of the generated hall
+    at 1, 10 and 20 M triangles; the whole frame against VTK's SSAO and Open3D's renderer with
+    AO when they can run (./bootstrap.sh bench installs them). Prints a table of what it
+    measured and the issue's ratios, each against its target."""
     from .bench import bench_command
 
     bench_command(quick=quick, json_path=json_path, repeat=repeat)
