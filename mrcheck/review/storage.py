@@ -60,26 +60,31 @@ class Store:
             return dict(row) if row else None
 
     def add(self, values: dict) -> dict:
+        with self._connect() as db:
+            marker_id = self._insert(db, values)
+        return self.get(marker_id)
+
+    def _insert(self, db, values: dict) -> int:
         now = time.time()
         keys = ("shot", "x", "y", "category", "severity", "note", "part", "distance", "mode")
-        with self._connect() as db:
-            marker_id = db.execute(
-                f"INSERT INTO markers(review, {', '.join(keys)}, created, updated) VALUES (?, {', '.join('?' * len(keys))}, ?, ?)",
-                (self.review, *[values.get(k) for k in keys], now, now)).lastrowid
-        return self.get(marker_id)
+        return db.execute(
+            f"INSERT INTO markers(review, {', '.join(keys)}, created, updated) VALUES (?, {', '.join('?' * len(keys))}, ?, ?)",
+            (self.review, *[values.get(k) for k in keys], now, now)).lastrowid
 
     def import_suggestions(self, shot: str, suggestions: list[dict]) -> int:
         """Add the suggestions not imported into this review before (deleted ones stay deleted);
-        returns how many were added."""
+        returns how many were added. One transaction: a suggestion is recorded as imported
+        exactly when its marker is written."""
         added = 0
-        for s in suggestions:
-            key = f"{s['x']:.1f},{s['y']:.1f},{s['note']}"
-            with self._connect() as db:
-                fresh = db.execute("INSERT OR IGNORE INTO imported(review, shot, key) VALUES (?, ?, ?)",
-                                   (self.review, shot, key)).rowcount
-            if fresh:
-                self.add({**s, "shot": shot})
-                added += 1
+        with self._connect() as db:
+            db.execute("BEGIN IMMEDIATE")
+            for s in suggestions:
+                key = f"{s['x']:.1f},{s['y']:.1f},{s['note']}"
+                if db.execute("INSERT OR IGNORE INTO imported(review, shot, key) VALUES (?, ?, ?)",
+                              (self.review, shot, key)).rowcount:
+                    self._insert(db, {**s, "shot": shot})
+                    added += 1
+            db.execute("COMMIT")   # on an exception the connection closes uncommitted: nothing is kept
         return added
 
     def update(self, marker_id: int, values: dict) -> dict | None:
