@@ -50,6 +50,7 @@ import moderngl
 import numpy as np
 
 from .ao.kernel import PAPER_SAMPLE_COUNTS, sphere_kernel
+from .bench_peers import PEERS
 from .camera import Camera
 from .gl import create_context, load_program, made_current
 from .output import check_output_path, write_text
@@ -112,7 +113,6 @@ HALL_SEED, HALL_VIEW = 0, "aisle"
 LINE_SCENE = ("factory_scenes", "line", "scene.toml")
 PEER_SIZE, PEER_SAMPLES, PEER_BLUR = (1024, 768), 32, 9
 FRAME_SETTINGS = ((PAPER_SIZE, 16, 13), (PEER_SIZE, PEER_SAMPLES, PEER_BLUR))
-PEERS = ("vtk", "open3d")
 
 
 # -- figures -------------------------------------------------------------------------------------
