@@ -180,12 +180,13 @@ def _hit_instances(hit, starts):
     return t, ok, np.where(ok, np.searchsorted(starts, np.where(ok, prim, 0), side="right") - 1, BACKGROUND)
 
 
-def object_ids(scene: Scene, camera: Camera, maps=None):
+def object_ids(scene: Scene, camera: Camera, maps=None, rc=None):
     """Per photo pixel the index of the visible instance (-1 = nothing) and its depth.
 
     Returns ``(ids (H, W) int32, depth (H, W) float32 (0 = nothing), labels)``; ``labels[i]``
     is ``(part name, instance id)``. Rays go through the *undistorted* pixel of each photo
-    pixel, so the buffer is in the photo's lens geometry.
+    pixel, so the buffer is in the photo's lens geometry. ``rc``: the ray-casting scene of
+    ``scene`` around ``camera.center``, when the caller has built it already.
     """
     import open3d as o3d
 
@@ -195,8 +196,9 @@ def object_ids(scene: Scene, camera: Camera, maps=None):
     starts, labels = _instance_table(scene)
     ids = np.full((h, w), BACKGROUND, np.int32)
     depth = np.zeros((h, w), np.float32)
-    rc = _raycasting_scene(scene, camera.center)
     if rc is None:
+        rc = _raycasting_scene(scene, camera.center)
+    if rc is None:   # an empty scene
         return ids, depth, labels
     d_cam = np.stack(((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, np.ones_like(u)), -1)[valid]
     rays = np.zeros((len(d_cam), 6), np.float32)
@@ -209,18 +211,20 @@ def object_ids(scene: Scene, camera: Camera, maps=None):
 
 
 def behind_ids(scene: Scene, camera: Camera, ids: np.ndarray, depth: np.ndarray, maps=None,
-               passes: int = BEHIND_PASSES):
+               passes: int = BEHIND_PASSES, rc=None):
     """What the planned scene shows at each pixel *without* the pixel's own instance: ``(ids,
     depth)`` of the nearest hit of another instance behind it (-1 / 0 = nothing, or not found in
     ``passes`` casts). Each pass re-casts the rays still inside their first instance from just
-    behind their last hit, so one extra pass or two serve every instance of the view at once."""
+    behind their last hit, so one extra pass or two serve every instance of the view at once.
+    ``rc`` as in :func:`object_ids`."""
     import open3d as o3d
 
     h, w = camera.height, camera.width
     u, v = _undistorted_pixels(camera, maps)
     out_ids = np.full((h, w), BACKGROUND, np.int32)
     out_depth = np.zeros((h, w), np.float32)
-    rc = _raycasting_scene(scene, camera.center)
+    if rc is None:
+        rc = _raycasting_scene(scene, camera.center)
     yy, xx = np.nonzero(ids >= 0)
     if rc is None or len(yy) == 0:
         return out_ids, out_depth
@@ -392,7 +396,8 @@ def planned_view(scene: Scene, camera: Camera, renderer=None) -> dict:
     shape = (camera.height, camera.width)
     render = distort_to_photo(renders["phong"], maps, offset, shape)
     cad = distort_to_photo(edges.astype(np.float32), maps, offset, shape) > 0.25
-    ids, depth, labels = object_ids(scene, camera, maps)
+    rc = _raycasting_scene(scene, camera.center)   # one BVH for the visible and the behind pass
+    ids, depth, labels = object_ids(scene, camera, maps, rc)
     outline = silhouettes(ids, depth)
     cad |= outline                             # touching parts at one depth: the outline is real too
     for m in (cad, outline):                   # the frame border is no edge of the scene
@@ -404,7 +409,8 @@ def planned_view(scene: Scene, camera: Camera, renderer=None) -> dict:
     owner = cad_edge_owner(ids, depth, outline)
     planned = {"render": render, "cad": cad, "ids": ids, "depth": depth, "labels": labels, "outline": outline,
                "owner": owner}
-    planned["discriminative"] = discriminative_outlines(planned, behind_ids(scene, camera, ids, depth, maps), camera.fx,
+    behind = behind_ids(scene, camera, ids, depth, maps, rc=rc)
+    planned["discriminative"] = discriminative_outlines(planned, behind, camera.fx,
                                                         default_tolerance(camera))
     return planned
 
