@@ -69,12 +69,14 @@ class GBuffer:
 
 @dataclass
 class _GpuMesh:
-    """One level of detail of a part on the GPU, with its own per-instance buffer."""
+    """One level of detail of a part on the GPU, with its own per-instance buffer. The first
+    ``closed`` triangles belong to closed outward bodies (:func:`mrcheck.culling.closed_faces`)."""
     vbo: moderngl.Buffer
     ibo: moderngl.Buffer
     instances: moderngl.Buffer
     vao: moderngl.VertexArray
     triangles: int
+    closed: int
 
     def release(self) -> None:
         for obj in (self.vao, self.vbo, self.ibo, self.instances):
@@ -101,7 +103,8 @@ class GeometryPass:
     """Uploads a :class:`Scene` once; :meth:`draw` renders it into a :class:`GBuffer`.
 
     ``lod_px``: allowed error of a level of detail on screen, pixels (0 draws every part at full
-    detail); see :mod:`mrcheck.lod`. ``occlusion_culling``: exact, off only to measure it.
+    detail); see :mod:`mrcheck.lod`. ``occlusion_culling`` and ``backface_culling``: exact
+    (:mod:`mrcheck.culling`), off only to measure them.
     """
 
     def __init__(self, ctx: moderngl.Context, scene: Scene):
@@ -111,11 +114,14 @@ class GeometryPass:
         self.parts = [self._upload(part) for part in scene.parts]
         self.hiz = culling.HiZ(ctx)
         self.occlusion_culling = True
+        self.backface_culling = True
         self.lod_px = lod.LOD_PIXELS
         self.last_stats = {}
 
     def _upload_mesh(self, vertices, faces, instance_count: int) -> _GpuMesh:
         ctx = self.ctx
+        closed = culling.closed_faces(vertices, faces)
+        faces = np.concatenate([faces[closed], faces[~closed]])  # closed bodies first: one culled range
         vbo = ctx.buffer(np.ascontiguousarray(vertices, np.float32).tobytes())
         ibo = ctx.buffer(np.ascontiguousarray(faces, np.uint32).tobytes())
         instances = ctx.buffer(reserve=64 * instance_count, dynamic=True)
@@ -125,7 +131,7 @@ class GeometryPass:
             index_buffer=ibo,
             index_element_size=4,
         )
-        return _GpuMesh(vbo, ibo, instances, vao, len(faces))
+        return _GpuMesh(vbo, ibo, instances, vao, len(faces), int(closed.sum()))
 
     def _upload(self, part) -> _GpuPart:
         mesh = self._upload_mesh(part.vertices, part.faces, len(part.transforms))
@@ -191,7 +197,8 @@ class GeometryPass:
             draws = self._plan(occluders, focal) + planned
             self._submit(draws)
         stats.update(triangles_drawn=_triangles(draws), triangles_full_detail=_triangles(drawn),
-                     instances_drawn=int(sum(len(b) for b in drawn)))
+                     instances_drawn=int(sum(len(b) for b in drawn)),
+                     triangles_with_backface_culling=int(sum(d.mesh.closed * len(d.mv) for d in draws if d.cull)))
         self.last_stats = stats
         return stats
 
@@ -208,9 +215,18 @@ class GeometryPass:
                 if gpu.lod_pending and allowed.max() > 0:
                     self._use_levels(gpu)
                 level = lod.choose(gpu.errors, allowed)
+            # Back faces of closed bodies may be culled for instances wholly in front of the
+            # camera; which faces are "back" on screen flips with a mirroring transform.
+            cull = np.full(len(batch), None, object)
+            if self.backface_culling:
+                in_front = batch.z_near > 0
+                mirrored = np.linalg.det(batch.mv[:, :3, :3]) < 0
+                cull[in_front] = np.where(mirrored[in_front], "front", "back")
             for index in np.unique(level):
-                chosen = level == index
-                draws.append(_Draw(float(batch.z_near[chosen].min()), gpu.levels[index], batch.mv[chosen], gpu.color))
+                for face in set(cull[level == index]):
+                    chosen = (level == index) & (cull == face)
+                    draws.append(_Draw(float(batch.z_near[chosen].min()), gpu.levels[index], batch.mv[chosen],
+                                       gpu.color, face))
         return draws
 
     def _submit(self, draws: list["_Draw"]) -> None:
@@ -218,15 +234,24 @@ class GeometryPass:
         ctx = self.ctx
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.depth_func = ">"   # reversed-Z: larger is nearer
-        ctx.disable(moderngl.CULL_FACE)  # CAD exports have inconsistent winding; normals face the camera anyway
         # image row 0 is framebuffer row 0, a y flip, so counter-clockwise meshes appear clockwise
         ctx.front_face = "cw"
         for draw in sorted(draws, key=lambda d: d.z_near):
-            draw.mesh.instances.orphan(64 * len(draw.mv))
+            mesh, count = draw.mesh, len(draw.mv)
+            mesh.instances.orphan(64 * count)
             # column-major for GLSL: transpose each 4x4
-            draw.mesh.instances.write(np.ascontiguousarray(draw.mv.transpose(0, 2, 1), np.float32).tobytes())
+            mesh.instances.write(np.ascontiguousarray(draw.mv.transpose(0, 2, 1), np.float32).tobytes())
             self.program["u_albedo"].value = draw.color
-            draw.mesh.vao.render(moderngl.TRIANGLES, instances=len(draw.mv))
+            # closed bodies with back-face culling, the rest (open shells, inconsistent winding:
+            # CAD exports have both) without; normals face the camera either way
+            culled = 3 * mesh.closed if draw.cull else 0
+            if culled:
+                ctx.enable(moderngl.CULL_FACE)
+                ctx.cull_face = draw.cull
+                mesh.vao.render(moderngl.TRIANGLES, vertices=culled, instances=count)
+            ctx.disable(moderngl.CULL_FACE)
+            if culled < 3 * mesh.triangles:
+                mesh.vao.render(moderngl.TRIANGLES, vertices=3 * mesh.triangles - culled, first=culled, instances=count)
         ctx.disable(moderngl.DEPTH_TEST)
 
     def camera_inside_part(self, camera: Camera) -> str | None:
@@ -251,6 +276,7 @@ class _Draw:
     mesh: _GpuMesh
     mv: np.ndarray
     color: tuple
+    cull: str | None  # "back" / "front": cull those faces of the mesh's closed bodies; None: none
 
     @property
     def triangles(self) -> int:
