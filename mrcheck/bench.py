@@ -220,12 +220,12 @@ class _Stage:
 
     def blur(self, size: int, scale: float) -> None:
         ao = self.targets.ao_buffers(self.ctx, scale)
-        self.renderer._blur(size).run(ao.raw[0], ao.scratch[1], ao.blurred[1], ao.depth)
+        self.renderer._blur(size).run(ao.raw[0], ao.scratch[1], ao.blurred[1])
 
     def composite(self, scale: float) -> None:
         ao = self.targets.ao_buffers(self.ctx, scale)
         self.renderer.composite.run(self.targets.color_fbo, self.targets.gbuffer, ao.blurred[0], self.camera,
-                                    use_ao=True, ao_depth_half=ao.half_depth)
+                                    use_ao=True, ao_half=ao.half)
 
     def read_back(self) -> np.ndarray:
         return self.renderer._read_rgb(self.targets)

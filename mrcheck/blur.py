@@ -29,15 +29,13 @@ class BilateralBlur:
         self.size = size
         self.program = load_program(ctx, "blur_bilateral", {"BLUR_RADIUS": size // 2})
         self.program["u_weights"].write(gaussian_weights(size).tobytes())
-        self.program["u_ao"].value = 0
-        self.program["u_depth"].value = 1
+        self.program["u_ao_depth"].value = 0
         self.vao = ctx.vertex_array(self.program, [])
 
-    def run(self, source: moderngl.Texture, scratch: moderngl.Framebuffer, target: moderngl.Framebuffer,
-            depth: moderngl.Texture) -> None:
-        """Blur ``source`` into ``target`` through ``scratch`` (both R32F of the same size)."""
-        self.program["u_size"].value = depth.size
-        depth.use(1)
+    def run(self, source: moderngl.Texture, scratch: moderngl.Framebuffer, target: moderngl.Framebuffer) -> None:
+        """Blur the AO of ``source`` into ``target`` through ``scratch`` (all RG32F (AO, depth)
+        texels of one size; see ``shaders/ao_common.glsl``)."""
+        self.program["u_size"].value = source.size
         for step, src, dst in (((1, 0), source, scratch), ((0, 1), scratch.color_attachments[0], target)):
             self.program["u_step"].value = step
             src.use(0)

@@ -34,26 +34,25 @@ class Composite:
         self.variants = {}
         for half in (False, True):
             program = load_program(ctx, "composite", {"AO_HALF": half})
-            names = ("u_depth", "u_normal", "u_albedo", "u_ao_half" if half else "u_ao", "u_depth_half")
-            for unit, name in enumerate(names[: 5 if half else 4]):
+            names = ("u_depth", "u_normal", "u_albedo", "u_ao_half" if half else "u_ao")
+            for unit, name in enumerate(names):
                 program[name].value = unit
             program["u_background"].value = BACKGROUND
             self.variants[half] = (program, ctx.vertex_array(program, []))
 
     def run(self, target: moderngl.Framebuffer, gbuffer, ao: moderngl.Texture, camera: Camera,
             use_ao: bool, light: str = "headlight", ao_direct: bool = False,
-            ao_depth_half: moderngl.Texture | None = None) -> None:
-        """Shade into ``target``. With ``ao_depth_half`` given, ``ao`` is half resolution."""
-        half = ao_depth_half is not None
-        p, vao = self.variants[half]
+            ao_half: bool = False) -> None:
+        """Shade into ``target``; ``ao`` holds (AO, depth) texels, at half resolution when
+        ``ao_half``."""
+        p, vao = self.variants[ao_half]
         p["u_intrinsics"].value = (camera.fx, camera.fy, camera.cx, camera.cy)
         p["u_light_dir"].value = tuple(light_direction(camera, light))
         p["u_ao_weight"].value = 1.0 if use_ao else 0.0
         p["u_ao_direct"].value = 1.0 if ao_direct else 0.0
         textures = [gbuffer.depth, gbuffer.normal, gbuffer.albedo, ao]
-        if half:
-            p["u_size_half"].value = ao_depth_half.size
-            textures.append(ao_depth_half)
+        if ao_half:
+            p["u_size_half"].value = ao.size
         for unit, texture in enumerate(textures):
             texture.use(unit)
         target.use()

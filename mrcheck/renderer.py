@@ -99,9 +99,8 @@ class RenderResult:
 
 @dataclass
 class _AOBuffers:
-    buffers: list          # [(texture, fbo)] x 3: raw, scratch, blurred
-    depth: moderngl.Texture  # depth at the AO's resolution (for the blur)
-    half_depth: moderngl.Texture | None  # set when the AO is half resolution
+    buffers: list          # [(texture, fbo)] x 3: raw, scratch, blurred; RG32F (AO, depth) texels
+    half: bool             # at half the output resolution
 
     @property
     def raw(self):
@@ -124,32 +123,29 @@ class _Targets:
         self.size = (w, h)
         self.half_size = ((w + 1) // 2, (h + 1) // 2)
         self.gbuffer = GBuffer.create(ctx, self.size)
-        self.ao = [self._r32f(ctx, self.size) for _ in range(3)]  # raw, scratch, blurred
+        self.ao = [self._ao_target(ctx, self.size) for _ in range(3)]  # raw, scratch, blurred
         self.color = ctx.texture(self.size, 4, dtype="f1")
         self.color_fbo = ctx.framebuffer([self.color])
         self.half = None  # created on first half-resolution use
 
     @staticmethod
-    def _r32f(ctx, size):
-        texture = ctx.texture(size, 1, dtype="f4")
+    def _ao_target(ctx, size):
+        """RG32F (AO, depth) texels: what the AO passes and the blur write (ao_common.glsl)."""
+        texture = ctx.texture(size, 2, dtype="f4")
         texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         texture.repeat_x = texture.repeat_y = False  # gathers at the border clamp, not wrap
         return texture, ctx.framebuffer([texture])
 
-    def half_targets(self, ctx):
+    def half_targets(self, ctx) -> list:
         if self.half is None:
-            ao = [self._r32f(ctx, self.half_size) for _ in range(3)]  # raw, scratch, blurred
-            depth, _ = self._r32f(ctx, self.half_size)
-            # the half-resolution AO pass writes its AO and a copy of the depth it read
-            self.half = {"depth": depth, "ao": ao, "ao_and_depth_fbo": ctx.framebuffer([ao[0][0], depth])}
+            self.half = [self._ao_target(ctx, self.half_size) for _ in range(3)]  # raw, scratch, blurred
         return self.half
 
     def ao_buffers(self, ctx, scale: float) -> "_AOBuffers":
-        """The AO buffers (raw, scratch, blurred) and depth of the AO resolution."""
+        """The AO buffers (raw, scratch, blurred) of the AO resolution."""
         if scale == 1.0:
-            return _AOBuffers(self.ao, self.gbuffer.depth, None)
-        half = self.half_targets(ctx)
-        return _AOBuffers(half["ao"], half["depth"], half["depth"])
+            return _AOBuffers(self.ao, False)
+        return _AOBuffers(self.half_targets(ctx), True)
 
 
 class Renderer:
@@ -196,17 +192,17 @@ class Renderer:
         results = {}
         for mode in modes:
             timings = {"geometry": t_geometry}
-            ao = _AOBuffers(targets.ao, targets.gbuffer.depth, None)  # phong: never read
+            ao = _AOBuffers(targets.ao, False)  # phong: never read
             if mode != "phong":
                 timings["ao"] = self._timed(lambda: self._ao_pass(mode, camera, settings, targets))
                 ao = targets.ao_buffers(self.ctx, settings.ao_scale)
                 if settings.blur:
                     blur = self._blur(settings.blur_size)
-                    timings["blur"] = self._timed(lambda: blur.run(ao.raw[0], ao.scratch[1], ao.blurred[1], ao.depth))
+                    timings["blur"] = self._timed(lambda: blur.run(ao.raw[0], ao.scratch[1], ao.blurred[1]))
             ao_texture = ao.blurred[0] if settings.blur and mode != "phong" else ao.raw[0]
             timings["composite"] = self._timed(lambda: self.composite.run(
                 targets.color_fbo, targets.gbuffer, ao_texture, camera, use_ao=mode != "phong",
-                light=settings.light, ao_direct=settings.ao_direct, ao_depth_half=ao.half_depth))
+                light=settings.light, ao_direct=settings.ao_direct, ao_half=ao.half))
             image = self._read_rgb(targets)
             ao_array = None
             if want_ao:
@@ -251,21 +247,19 @@ class Renderer:
         if settings.ao_scale == 1.0:
             ao.run(targets.ao[0][1], gb.depth, gb.normal, intrinsics, settings)
             return
-        half = targets.half_targets(self.ctx)
         # half-res pixel (i, j) is full-res pixel (2i, 2j): K halves exactly (ao_common.glsl)
         half_intrinsics = tuple(v / 2.0 for v in intrinsics)
-        ao.run(half["ao_and_depth_fbo"], gb.depth, gb.normal, half_intrinsics, settings, scale=0.5)
+        ao.run(targets.half_targets(self.ctx)[0][1], gb.depth, gb.normal, half_intrinsics, settings, scale=0.5)
 
     def _read_ao_full(self, ao_texture, ao: "_AOBuffers", targets: _Targets) -> np.ndarray:
         """(H, W) float32 AO at the output resolution; half-resolution AO is upsampled first."""
-        if ao.half_depth is not None:
+        if ao.half:
             self._screen_pass("ao_upsample", targets.ao[1][1],
-                              {"u_ao_half": ao_texture, "u_depth_half": ao.half_depth,
-                               "u_depth_full": targets.gbuffer.depth},
-                              u_size_half=ao.half_depth.size)
+                              {"u_ao_half": ao_texture, "u_depth_full": targets.gbuffer.depth},
+                              u_size_half=ao_texture.size)
             ao_texture = targets.ao[1][0]
         w, h = targets.size
-        return np.frombuffer(ao_texture.read(), np.float32).reshape(h, w).copy()
+        return np.frombuffer(ao_texture.read(), np.float32).reshape(h, w, 2)[..., 0].copy()
 
     def _screen_pass(self, name: str, target, textures: dict, **uniforms) -> None:
         program, vao = self._screen_programs.get(name) or self._make_screen_program(name)

@@ -27,7 +27,7 @@ const float CONTRAST = 1.0;     // k
 void main() {
     ivec2 ij = ivec2(gl_FragCoord.xy);
     float z = centre_depth(ij);
-    if (z <= 0.0) { ao = 1.0; return; }          // background
+    if (z <= 0.0) { ao_depth.x = 1.0; return; }          // background
 
     vec2 p = vec2(ij);
     vec3 P = unproject(p, z);
@@ -48,5 +48,5 @@ void main() {
         float o_i = max(dot(v, n) - bias, 0.0) / (dot(v, v) + EPS);
         sum += (inside && zq > 0.0) ? o_i : 0.0;
     }
-    ao = pow(max(0.0, 1.0 - 2.0 * u_intensity / float(AO_SAMPLES) * sum), CONTRAST);
+    ao_depth.x = pow(max(0.0, 1.0 - 2.0 * u_intensity / float(AO_SAMPLES) * sum), CONTRAST);
 }

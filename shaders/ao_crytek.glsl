@@ -24,7 +24,7 @@ uniform float u_radius_world;   // R, scene units (the thesis' offsetScale / d_m
 void main() {
     ivec2 ij = ivec2(gl_FragCoord.xy);
     float z = centre_depth(ij);
-    if (z <= 0.0) { ao = 1.0; return; }          // background
+    if (z <= 0.0) { ao_depth.x = 1.0; return; }          // background
 
     vec3 P = unproject(vec2(ij), z);
     vec3 plane = texelFetch(u_noise, ij % NOISE_SIZE, 0).xyz;
@@ -40,5 +40,5 @@ void main() {
         float invalid = clamp((z - zq) * inv_r, 0.0, 1.0);           // thesis 4.3.1.3
         access += (inside && zq > 0.0) ? mix(visible, 0.5, invalid) : 1.0;
     }
-    ao = clamp(1.0 - u_intensity * (1.0 - access / float(AO_SAMPLES)), 0.0, 1.0);
+    ao_depth.x = clamp(1.0 - u_intensity * (1.0 - access / float(AO_SAMPLES)), 0.0, 1.0);
 }

@@ -42,7 +42,7 @@ const float TWO_PI = 6.28318530718;
 void main() {
     ivec2 ij = ivec2(gl_FragCoord.xy);
     float z = centre_depth(ij);
-    if (z <= 0.0) { ao = 1.0; return; }          // background
+    if (z <= 0.0) { ao_depth.x = 1.0; return; }          // background
 
     vec2 p = vec2(ij);
     vec3 P = unproject(p, z);
@@ -79,5 +79,5 @@ void main() {
         }
         sum += ao_d;
     }
-    ao = clamp(1.0 - u_intensity * sum / float(HBAO_DIRS), 0.0, 1.0);
+    ao_depth.x = clamp(1.0 - u_intensity * sum / float(HBAO_DIRS), 0.0, 1.0);
 }

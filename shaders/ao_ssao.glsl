@@ -18,7 +18,7 @@ const float BIAS = 0.02;        // fraction of R: depth deltas below it are the 
 void main() {
     ivec2 ij = ivec2(gl_FragCoord.xy);
     float z = centre_depth(ij);
-    if (z <= 0.0) { ao = 1.0; return; }          // background
+    if (z <= 0.0) { ao_depth.x = 1.0; return; }          // background
 
     vec3 P = unproject(vec2(ij), z);
     vec3 n = centre_normal(ij);
@@ -35,5 +35,5 @@ void main() {
         float o = 1.0 / (1.0 + u_falloff * delta * delta);
         sum += (inside && zq > 0.0 && delta > BIAS && delta < 1.0) ? o : 0.0;
     }
-    ao = clamp(1.0 - u_intensity * sum / float(AO_SAMPLES), 0.0, 1.0);
+    ao_depth.x = clamp(1.0 - u_intensity * sum / float(AO_SAMPLES), 0.0, 1.0);
 }

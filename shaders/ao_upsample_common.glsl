@@ -4,9 +4,9 @@
 // ao_common.glsl, AO_STRIDE); the four surrounding half-res values are weighted bilinearly and by
 // depth similarity, so AO does not leak across silhouettes; when no neighbour is on the same
 // surface, the one with the closest depth is taken. Two textureGather calls fetch the 2x2
-// footprint of depth and AO, and the weights are computed four at a time.
+// footprint of AO and depth (components x and y of the half-resolution (AO, depth) texels),
+// and the weights are computed four at a time.
 uniform sampler2D u_ao_half;
-uniform sampler2D u_depth_half;
 uniform ivec2 u_size_half;
 
 const float UPSAMPLE_DEPTH_TOLERANCE = 0.05;   // relative, as in blur_bilateral.glsl
@@ -16,7 +16,7 @@ float upsampled_ao(ivec2 ij, float z) {
     vec2 f = fract(h);
     vec2 uv = (floor(h) + 1.0) / vec2(u_size_half);  // bilinear footprint starts at floor(h)
     // gather order: x (0,1), y (1,1), z (1,0), w (0,0) relative to floor(h)
-    vec4 zq = textureGather(u_depth_half, uv, 0);
+    vec4 zq = textureGather(u_ao_half, uv, 1);
     vec4 aq = textureGather(u_ao_half, uv, 0);
     vec4 bilinear = vec4((1.0 - f.x) * f.y, f.x * f.y, f.x * (1.0 - f.y), (1.0 - f.x) * (1.0 - f.y));
     vec4 d = (zq - z) / (max(z, 1e-30) * UPSAMPLE_DEPTH_TOLERANCE);

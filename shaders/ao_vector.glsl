@@ -28,7 +28,7 @@ const float EPS = 0.02;         // cos threshold: rejects in-plane candidates wh
 void main() {
     ivec2 ij = ivec2(gl_FragCoord.xy);
     float z = centre_depth(ij);
-    if (z <= 0.0) { ao = 1.0; return; }          // background
+    if (z <= 0.0) { ao_depth.x = 1.0; return; }          // background
 
     vec3 P = unproject(vec2(ij), z);
     vec3 n = centre_normal(ij);
@@ -48,5 +48,5 @@ void main() {
         float o = cos_vn / (1.0 + c_over_r2 * len2);
         sum += (inside && zq > 0.0 && cos_vn > EPS) ? o : 0.0;   // background occludes nothing
     }
-    ao = clamp(1.0 - u_intensity * 2.0 * sum / float(AO_SAMPLES), 0.0, 1.0);
+    ao_depth.x = clamp(1.0 - u_intensity * 2.0 * sum / float(AO_SAMPLES), 0.0, 1.0);
 }

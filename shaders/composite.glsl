@@ -3,7 +3,7 @@
 uniform sampler2D u_depth;
 uniform sampler2D u_normal;
 uniform sampler2D u_albedo;
-uniform sampler2D u_ao;        // AO at full resolution (AO_HALF 0) ...
+uniform sampler2D u_ao;        // (AO, depth) at full resolution (AO_HALF 0) ...
 #if AO_HALF
 #include "ao_upsample_common.glsl"  // ... or at half resolution, upsampled here (AO_HALF 1)
 #endif

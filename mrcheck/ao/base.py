@@ -35,8 +35,8 @@ class AOPass:
 
     def run(self, target: moderngl.Framebuffer, depth: moderngl.Texture, normal: moderngl.Texture,
             intrinsics, settings, scale: float = 1.0) -> None:
-        """Write AO into ``target``: R32F at the G-buffer's size / stride; with stride 2 a
-        second R32F attachment receives the half-resolution depth.
+        """Write (AO, depth) texels into ``target`` (RG32F, the G-buffer's size / stride; see
+        ``shaders/ao_common.glsl``).
 
         ``intrinsics`` are (fx, fy, cx, cy) at the pass's resolution; ``scale`` is that
         resolution over the output resolution (0.5 for half-resolution AO).
