@@ -80,7 +80,7 @@ def create_context() -> moderngl.Context:
 
 
 class _GLFunctions:
-    """The two GL entry points moderngl does not expose, looked up through EGL once."""
+    """The GL entry points moderngl does not expose, looked up through EGL once."""
 
     def __init__(self):
         egl = ctypes.CDLL("libEGL.so.1")
@@ -97,11 +97,22 @@ class _GLFunctions:
         self.clip_control = lookup("glClipControl", u, u)
         self.bind_texture = lookup("glBindTexture", u, u)
         self.tex_image_2d = lookup("glTexImage2D", u, i, i, i, i, i, u, u, p)
+        self.flush = lookup("glFlush")
 
 
 @lru_cache(maxsize=1)
 def _gl() -> _GLFunctions:
     return _GLFunctions()
+
+
+def flush() -> None:
+    """glFlush on the current context: hand the commands issued so far to the driver now.
+
+    On llvmpipe this starts rasterising the draws binned so far on its worker threads while the
+    calling thread goes on shading and binning the vertices of the next ones (see
+    :meth:`mrcheck.gbuffer.GeometryPass._submit`); without it the two run one after the other.
+    """
+    _gl().flush()
 
 
 def _enable_reversed_z(ctx: moderngl.Context) -> None:
@@ -173,4 +184,4 @@ def shader_path(name: str) -> Path:
     return shader_dir() / f"{name}.glsl"
 
 
-__all__ = ["create_context", "made_current", "float_depth_texture", "load_program", "shader_path", "GL_VERSION"]
+__all__ = ["create_context", "flush", "made_current", "float_depth_texture", "load_program", "shader_path", "GL_VERSION"]

@@ -150,6 +150,19 @@ def test_backface_culling_on_the_line_scene_changes_only_crack_pixels(view):
     assert relative.max(initial=0.0) < 1e-3
 
 
+def test_flushing_between_draws_changes_no_pixel():
+    scene, camera = _closed_scene()
+    renderer = Renderer(scene)
+    try:
+        renderer.geometry.flush_triangles = 0
+        _, depth_one_go = _draw(renderer, camera, occlusion=False, lod_px=0.0)
+        renderer.geometry.flush_triangles = 1    # glFlush after every draw
+        _, depth_flushed = _draw(renderer, camera, occlusion=False, lod_px=0.0)
+    finally:
+        renderer.release()
+    np.testing.assert_array_equal(depth_flushed, depth_one_go)
+
+
 def test_hiz_test_is_conservative_at_block_edges():
     """A box is hidden only if every block its rectangle touches is nearer than its nearest depth."""
     scene, camera = _scene()
