@@ -23,11 +23,12 @@ void main() {
     vec3 P = unproject(vec2(ij), z);
     vec3 n = centre_normal(ij);
     vec3 plane = texelFetch(u_noise, ij % NOISE_SIZE, 0).xyz;
+    vec3 n_reflected = reflect(n, plane);       // for hemisphere_offset's flip
     float inv_r = 1.0 / u_radius_world;
 
     float sum = 0.0;
     for (int i = 0; i < AO_SAMPLES; ++i) {
-        vec3 S = P + hemisphere_offset(i, plane, n) * u_radius_world;
+        vec3 S = P + hemisphere_offset(i, plane, n_reflected) * u_radius_world;
         ivec2 q;
         bool inside;
         float zq = depth_at(S, q, inside);

@@ -33,12 +33,13 @@ void main() {
     vec3 P = unproject(vec2(ij), z);
     vec3 n = centre_normal(ij);
     vec3 plane = texelFetch(u_noise, ij % NOISE_SIZE, 0).xyz;
+    vec3 n_reflected = reflect(n, plane);       // for hemisphere_offset's flip
     float r_S = clamp(u_radius_px * z / u_intrinsics.y, u_radius_clamp.x, u_radius_clamp.y);
     float c_over_r2 = u_falloff / (r_S * r_S);
 
     float sum = 0.0;
     for (int i = 0; i < AO_SAMPLES; ++i) {
-        vec3 S = P + hemisphere_offset(i, plane, n) * r_S;
+        vec3 S = P + hemisphere_offset(i, plane, n_reflected) * r_S;
         ivec2 q;
         bool inside;
         float zq = depth_at(S, q, inside);
