@@ -8,7 +8,7 @@ import moderngl
 import numpy as np
 
 from .camera import Camera
-from .gl import load_program
+from .gl import GL_FRAMEBUFFER_SRGB, load_program
 
 LIGHTS = ("headlight", "sun")
 SUN_DIRECTION = np.array([0.35, -0.25, 0.90])  # world, towards the sun: high, from one side (z up)
@@ -56,7 +56,9 @@ class Composite:
         for unit, texture in enumerate(textures):
             texture.use(unit)
         target.use()
+        self.ctx.enable_direct(GL_FRAMEBUFFER_SRGB)   # encode into the sRGB target (gl.srgb_texture)
         vao.render(moderngl.TRIANGLES, vertices=3)
+        self.ctx.disable_direct(GL_FRAMEBUFFER_SRGB)
 
     def release(self) -> None:
         for _, vao in self.variants.values():

@@ -20,7 +20,7 @@ from .camera import Camera
 from .composite import LIGHTS, Composite
 from .errors import MrcheckError
 from .gbuffer import GBuffer, GeometryPass, check_camera_outside
-from .gl import create_context, load_program, made_current
+from .gl import create_context, load_program, made_current, srgb_texture
 from .lod import LOD_PIXELS
 from .scene import Scene
 
@@ -124,7 +124,7 @@ class _Targets:
         self.half_size = ((w + 1) // 2, (h + 1) // 2)
         self.gbuffer = GBuffer.create(ctx, self.size)
         self.ao = [self._ao_target(ctx, self.size) for _ in range(3)]  # raw, scratch, blurred
-        self.color = ctx.texture(self.size, 4, dtype="f1")
+        self.color = srgb_texture(ctx, self.size)
         self.color_fbo = ctx.framebuffer([self.color])
         self.half = None  # created on first half-resolution use
 

@@ -1,5 +1,6 @@
 // Composite: Blinn-Phong with one light (a headlight at the camera or a directional "sun"),
-// and an ambient term that the AO modulates (optionally the direct light too). Output sRGB.
+// and an ambient term that the AO modulates (optionally the direct light too). Output: linear
+// colour into an sRGB attachment, which encodes it (mrcheck/gl.py, srgb_texture).
 uniform sampler2D u_depth;
 uniform sampler2D u_normal;
 uniform sampler2D u_albedo;
@@ -20,15 +21,10 @@ const float SHININESS = 40.0;
 
 out vec4 color;
 
-vec3 linear_to_srgb(vec3 c) {
-    c = clamp(c, 0.0, 1.0);
-    return mix(c * 12.92, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, c));
-}
-
 void main() {
     ivec2 ij = ivec2(gl_FragCoord.xy);
     float z = texelFetch(u_depth, ij, 0).r;
-    if (z <= 0.0) { color = vec4(linear_to_srgb(u_background), 1.0); return; }
+    if (z <= 0.0) { color = vec4(u_background, 1.0); return; }
 
     vec3 P = vec3((vec2(ij) - u_intrinsics.zw) / u_intrinsics.xy * z, z);
     vec3 n = texelFetch(u_normal, ij, 0).xyz;
@@ -44,5 +40,5 @@ void main() {
     float diffuse = max(dot(n, u_light_dir), 0.0);
     float specular = diffuse > 0.0 ? pow(max(dot(n, H), 0.0), SHININESS) : 0.0;
     vec3 direct = (DIFFUSE * diffuse * albedo + SPECULAR * specular) * mix(1.0, a, u_ao_direct);
-    color = vec4(linear_to_srgb(AMBIENT * a * albedo + direct), 1.0);
+    color = vec4(clamp(AMBIENT * a * albedo + direct, 0.0, 1.0), 1.0);
 }
