@@ -16,15 +16,16 @@ step saves less than a quarter. The error of a level is
 centroids to the level's surface and from the level's vertices to the original's surface (a
 Hausdorff distance sampled at those points), in the part's own units.
 
-Building costs about 1-2 s per 100 k triangles (the hall's 116 k-triangle robot: 2 s), while
+Building costs about 1.7 s per 100 k triangles (a 96 k-triangle robot: 1.7 s), while
 drawing an instance at a coarser level saves about 50 ns per triangle and frame, so building
 pays off after a few hundred instance-frames. Which parts get levels is decided from the scene
 alone, never from what was rendered before, so a render stays reproducible byte for byte: parts
 of MIN_TRIANGLES to MAX_TRIANGLES triangles placed at least MIN_INSTANCES times (the hall's
-cartons, pallets, rack frames, conveyors). Not a single robot: tried, levels for the line scene's
-three 96 k-triangle robots saved about 12 ms per 1024x768 frame, but the hall's eight robots made
-its first render on a machine take 16.7 s instead of 3.4 s, a price most one-off renders pay
-and never win back. Built levels are cached on disk by the mesh's content
+cartons, pallets, rack frames, conveyors), and single parts of at least MIN_SINGLE_TRIANGLES
+(the robots). The robots are the trade-off: the `line` scene's three 96 k-triangle robots cost
+5 s once, on the first render on a machine, and then save 8-9 ms of every 1024x768 frame
+(paired rounds, 131 -> 123 ms), which an interactive review or a batch export gets back
+quickly and a single one-off render does not. Built levels are cached on disk by the mesh's content
 (``$MRCHECK_CACHE_DIR``, else ``$XDG_CACHE_HOME/mrcheck`` or ``~/.cache/mrcheck``;
 ``lod/<hash>.npz``), so later renderers and processes (export workers, the review server) load
 them in milliseconds.
@@ -46,7 +47,8 @@ MAX_TRIANGLES = 1_000_000    # more: building the chain takes seconds; drawn as 
 STEP = 2                     # each level about 1/STEP of the triangles of the one before
 MIN_SAVING = 0.75            # stop when a step keeps more than this share of the triangles
 CACHE_VERSION = 1            # bump when the levels a mesh gets change
-MIN_INSTANCES = 4            # fewer: a single part's levels would not pay off in a one-off render
+MIN_INSTANCES = 4            # fewer: levels of a small part would not pay off in a one-off render
+MIN_SINGLE_TRIANGLES = 50_000  # ... unless it is this big (robots): see the module's docstring
 
 
 @dataclass(frozen=True)
@@ -57,7 +59,8 @@ class Level:
 
 
 def eligible(triangles: int, instances: int) -> bool:
-    return MIN_TRIANGLES <= triangles <= MAX_TRIANGLES and instances >= MIN_INSTANCES
+    return MIN_TRIANGLES <= triangles <= MAX_TRIANGLES and (
+        instances >= MIN_INSTANCES or triangles >= MIN_SINGLE_TRIANGLES)
 
 
 def cache_dir() -> Path:

@@ -238,7 +238,8 @@ def test_which_parts_get_levels_depends_on_the_scene_alone():
     assert one["triangles_drawn"] < one["triangles_full_detail"]   # 168 spheres: levels from the first frame
     assert two == one
     np.testing.assert_array_equal(depth_two, depth_one)
-    assert not lod.eligible(100_000, 1) and lod.eligible(100_000, lod.MIN_INSTANCES)
+    assert not lod.eligible(20_000, 1) and lod.eligible(20_000, lod.MIN_INSTANCES)
+    assert lod.eligible(lod.MIN_SINGLE_TRIANGLES, 1)   # a robot
     assert not lod.eligible(10, 1000) and not lod.eligible(2_000_000, 100)
 
 
