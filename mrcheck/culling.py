@@ -83,34 +83,51 @@ class Batch:
         return len(self.mv)
 
 
-def frustum(parts, camera: Camera) -> list[Batch]:
+class Boxes:
+    """The world-space bounding-box corners of every instance of every part, in one array
+    (built once per scene), so that the frustum test of a frame is one matrix product over all
+    instances, not one per part (the 20 M hall's 50 parts: 13 ms per frame before)."""
+
+    def __init__(self, parts):
+        self.parts = parts
+        counts = [len(part.transforms) for part in parts]
+        self.start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        corners = [np.einsum("kij,cj->kci", part.transforms, part.local_corners)[..., :3] for part in parts]
+        self.corners = np.concatenate(corners) if corners else np.zeros((0, 8, 3))   # (N, 8, 3) float64
+
+
+def frustum(boxes: Boxes, camera: Camera) -> list[Batch]:
     """Per part (objects with ``transforms``, ``scales`` and ``local_corners``), the instances in the view frustum."""
     V = camera.view_matrix()
     w, h = camera.width, camera.height
     # side planes in camera space through the image corners (with a 1 px margin)
     u0, u1 = (-1.5 - camera.cx) / camera.fx, (w + 0.5 - camera.cx) / camera.fx
     v0, v1 = (-1.5 - camera.cy) / camera.fy, (h + 0.5 - camera.cy) / camera.fy
+    c = (boxes.corners.reshape(-1, 3) @ V[:3, :3].T + V[:3, 3]).reshape(-1, 8, 3)   # camera space
+    x, y, z = c[..., 0], c[..., 1], c[..., 2]
+    keep = ~((z <= 0).all(axis=1)
+             | (x < u0 * z).all(axis=1) | (x > u1 * z).all(axis=1)
+             | (y < v0 * z).all(axis=1) | (y > v1 * z).all(axis=1))
+    kept = np.flatnonzero(keep)
+    x, y, z = x[kept], y[kept], z[kept]
+    z_near, z_far = z.min(axis=1), z.max(axis=1)
+    # The projection of a box is the hull of its projected corners when all lie in front of
+    # the camera; a box that reaches behind it may cover any pixel.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = camera.fx * x / z + camera.cx
+        v = camera.fy * y / z + camera.cy
+    rect = np.stack([u.min(axis=1), v.min(axis=1), u.max(axis=1), v.max(axis=1)], axis=1)
+    rect[z_near <= 0] = (0.0, 0.0, w, h)
+    rect = np.clip(rect, 0.0, [w, h, w, h])
     batches = []
-    for part in parts:
-        mv = V @ part.transforms                                          # (k, 4, 4) float64
-        c = np.einsum("kij,cj->kci", mv, part.local_corners)[..., :3]     # (k, 8, 3) camera space
-        x, y, z = c[..., 0], c[..., 1], c[..., 2]
-        keep = ~((z <= 0).all(axis=1)
-                 | (x < u0 * z).all(axis=1) | (x > u1 * z).all(axis=1)
-                 | (y < v0 * z).all(axis=1) | (y > v1 * z).all(axis=1))
-        if not keep.any():
+    bounds = np.searchsorted(kept, boxes.start)     # the kept instances of part i: bounds[i]:bounds[i + 1]
+    for i, part in enumerate(boxes.parts):
+        a, b = bounds[i], bounds[i + 1]
+        if a == b:
             continue
-        x, y, z = x[keep], y[keep], z[keep]
-        z_near = z.min(axis=1)
-        # The projection of a box is the hull of its projected corners when all lie in front of
-        # the camera; a box that reaches behind it may cover any pixel.
-        with np.errstate(divide="ignore", invalid="ignore"):
-            u = camera.fx * x / z + camera.cx
-            v = camera.fy * y / z + camera.cy
-        rect = np.stack([u.min(axis=1), v.min(axis=1), u.max(axis=1), v.max(axis=1)], axis=1)
-        rect[z_near <= 0] = (0.0, 0.0, w, h)
-        rect = np.clip(rect, 0.0, [w, h, w, h])
-        batches.append(Batch(part, mv[keep], z_near, z.max(axis=1), rect, part.scales[keep]))
+        local = kept[a:b] - boxes.start[i]
+        batches.append(Batch(part, V @ part.transforms[local], z_near[a:b], z_far[a:b], rect[a:b],
+                             part.scales[local]))
     return batches
 
 
@@ -246,4 +263,4 @@ class HiZ:
         self.vao.release()
 
 
-__all__ = ["Batch", "HiZ", "closed_faces", "frustum", "split_occluders", "OCCLUDER_AREA", "MIN_CANDIDATE_TRIANGLES"]
+__all__ = ["Batch", "Boxes", "HiZ", "closed_faces", "frustum", "split_occluders", "OCCLUDER_AREA", "MIN_CANDIDATE_TRIANGLES"]

@@ -114,6 +114,7 @@ class GeometryPass:
         self.scene = scene
         self.program = load_program(ctx, "gbuffer")
         self.parts = [self._upload(part) for part in scene.parts]
+        self.boxes = culling.Boxes(self.parts)
         self.hiz = culling.HiZ(ctx)
         self.occlusion_culling = True
         self.backface_culling = True
@@ -161,7 +162,7 @@ class GeometryPass:
     # -- per-camera work --------------------------------------------------------------------
     def draw(self, gbuffer: GBuffer, camera: Camera) -> dict:
         """Render the scene into ``gbuffer``; returns stats (near, far, what was drawn and culled)."""
-        batches = culling.frustum(self.parts, camera)
+        batches = culling.frustum(self.boxes, camera)
         far = max((float(b.z_far.max()) for b in batches), default=1.0)
         nearest = min((float(b.z_near.min()) for b in batches), default=far)
         # Reversed-Z float depth keeps relative precision at any distance, so near only has to
