@@ -49,6 +49,7 @@ from typing import Callable
 import moderngl
 import numpy as np
 
+from .ao.base import draw_covered
 from .ao.kernel import PAPER_SAMPLE_COUNTS, sphere_kernel
 from .bench_peers import PEERS
 from .camera import Camera
@@ -174,13 +175,13 @@ class _FetchFloor:
         offsets = np.rint(sphere_kernel(samples, seed)[:, :2] * radius_px).astype(np.int32)
         self.program["u_offsets"].write(offsets.tobytes())
         self.program["u_depth"].value = 0
+        self.ctx = ctx
         self.vao = ctx.vertex_array(self.program, [])
 
     def run(self, target: moderngl.Framebuffer, depth: moderngl.Texture) -> None:
         self.program["u_size"].value = depth.size
         depth.use(0)
-        target.use()
-        self.vao.render(moderngl.TRIANGLES, vertices=3)
+        draw_covered(self.ctx, target, self.vao)   # the background skipped as in the AO passes
 
     def release(self) -> None:
         self.vao.release()

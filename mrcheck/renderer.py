@@ -20,7 +20,7 @@ from .camera import Camera
 from .composite import LIGHTS, Composite
 from .errors import MrcheckError
 from .gbuffer import GBuffer, GeometryPass, check_camera_outside
-from .gl import create_context, load_program, made_current, srgb_texture
+from .gl import create_context, float_depth_texture, load_program, made_current, srgb_texture
 from .lod import LOD_PIXELS
 from .scene import Scene
 
@@ -123,22 +123,27 @@ class _Targets:
         self.size = (w, h)
         self.half_size = ((w + 1) // 2, (h + 1) // 2)
         self.gbuffer = GBuffer.create(ctx, self.size)
-        self.ao = [self._ao_target(ctx, self.size) for _ in range(3)]  # raw, scratch, blurred
+        # raw, scratch, blurred; with the G-buffer's depth buffer, so that the AO passes skip the
+        # background (mrcheck.ao.base.draw_covered; the blur and composite never depth-test)
+        self.ao = [self._ao_target(ctx, self.size, self.gbuffer.zbuffer) for _ in range(3)]
         self.color = srgb_texture(ctx, self.size)
         self.color_fbo = ctx.framebuffer([self.color])
         self.half = None  # created on first half-resolution use
 
     @staticmethod
-    def _ao_target(ctx, size):
+    def _ao_target(ctx, size, zbuffer=None):
         """RG32F (AO, depth) texels: what the AO passes and the blur write (ao_common.glsl)."""
         texture = ctx.texture(size, 2, dtype="f4")
         texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         texture.repeat_x = texture.repeat_y = False  # gathers at the border clamp, not wrap
-        return texture, ctx.framebuffer([texture])
+        return texture, ctx.framebuffer([texture], zbuffer)
 
     def half_targets(self, ctx) -> list:
         if self.half is None:
-            self.half = [self._ao_target(ctx, self.half_size) for _ in range(3)]  # raw, scratch, blurred
+            # the half-resolution coverage (shaders/ao_coverage.glsl) plays the G-buffer depth's part
+            self.half_coverage = float_depth_texture(ctx, self.half_size)
+            self.half_coverage_fbo = ctx.framebuffer([], self.half_coverage)
+            self.half = [self._ao_target(ctx, self.half_size, self.half_coverage) for _ in range(3)]
         return self.half
 
     def ao_buffers(self, ctx, scale: float) -> "_AOBuffers":
@@ -249,7 +254,12 @@ class Renderer:
             return
         # half-res pixel (i, j) is full-res pixel (2i, 2j): K halves exactly (ao_common.glsl)
         half_intrinsics = tuple(v / 2.0 for v in intrinsics)
-        ao.run(targets.half_targets(self.ctx)[0][1], gb.depth, gb.normal, half_intrinsics, settings, scale=0.5)
+        raw = targets.half_targets(self.ctx)[0][1]
+        self.ctx.enable(moderngl.DEPTH_TEST)
+        self.ctx.depth_func = "1"    # always: the coverage pass writes every depth
+        self._screen_pass("ao_coverage", targets.half_coverage_fbo, {"u_depth": gb.depth})
+        self.ctx.disable(moderngl.DEPTH_TEST)
+        ao.run(raw, gb.depth, gb.normal, half_intrinsics, settings, scale=0.5)
 
     def _read_ao_full(self, ao_texture, ao: "_AOBuffers", targets: _Targets) -> np.ndarray:
         """(H, W) float32 AO at the output resolution; half-resolution AO is upsampled first."""

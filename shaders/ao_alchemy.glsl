@@ -24,6 +24,18 @@ const float BETA = 1e-4;
 const float EPS = 1e-4;
 const float CONTRAST = 1.0;     // k
 
+// Sample i's term: p the pixel, P its camera-space point, n its normal.
+float sample_term(int i, vec2 p, vec3 P, vec3 n, vec2 rot, float r_px, float inv_r, float bias) {
+    vec2 o = u_kernel[i].xy;
+    vec2 uv = p + vec2(o.x * rot.x - o.y * rot.y, o.x * rot.y + o.y * rot.x) * r_px;
+    ivec2 q;
+    bool inside;
+    float zq = depth_at(unproject(uv, 1.0), q, inside);
+    vec3 v = (unproject(vec2(q), zq) - P) * inv_r;
+    float o_i = max(dot(v, n) - bias, 0.0) / (dot(v, v) + EPS);
+    return (inside && zq > 0.0) ? o_i : 0.0;
+}
+
 void main() {
     ivec2 ij = ivec2(gl_FragCoord.xy);
     float z = centre_depth(ij);
@@ -38,15 +50,7 @@ void main() {
     float bias = BETA * z * inv_r;                      // beta * z_C, in units of R
 
     float sum = 0.0;
-    for (int i = 0; i < AO_SAMPLES; ++i) {
-        vec2 o = u_kernel[i].xy;
-        vec2 uv = p + vec2(o.x * rot.x - o.y * rot.y, o.x * rot.y + o.y * rot.x) * r_px;
-        ivec2 q;
-        bool inside;
-        float zq = depth_at(unproject(uv, 1.0), q, inside);
-        vec3 v = (unproject(vec2(q), zq) - P) * inv_r;
-        float o_i = max(dot(v, n) - bias, 0.0) / (dot(v, v) + EPS);
-        sum += (inside && zq > 0.0) ? o_i : 0.0;
-    }
+#define AO_SAMPLE(i) sum += sample_term(i, p, P, n, rot, r_px, inv_r, bias);
+#include "ao_unroll.glsl"   // for (i = 0; i < AO_SAMPLES; ++i) AO_SAMPLE(i), unrolled
     ao_depth.x = pow(max(0.0, 1.0 - 2.0 * u_intensity / float(AO_SAMPLES) * sum), CONTRAST);
 }

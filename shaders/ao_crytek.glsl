@@ -21,6 +21,17 @@
 
 uniform float u_radius_world;   // R, scene units (the thesis' offsetScale / d_max)
 
+// Sample i's accessibility: P the pixel's camera-space point at depth z.
+float sample_access(int i, vec3 P, float z, vec3 plane, float inv_r) {
+    vec3 S = P + reflect(u_kernel[i], plane) * u_radius_world;   // whole sphere, no flip
+    ivec2 q;
+    bool inside;
+    float zq = depth_at(S, q, inside);
+    float visible = zq > S.z ? 1.0 : 0.0;
+    float invalid = clamp((z - zq) * inv_r, 0.0, 1.0);           // thesis 4.3.1.3
+    return (inside && zq > 0.0) ? mix(visible, 0.5, invalid) : 1.0;
+}
+
 void main() {
     ivec2 ij = ivec2(gl_FragCoord.xy);
     float z = centre_depth(ij);
@@ -31,14 +42,7 @@ void main() {
     float inv_r = 1.0 / u_radius_world;
 
     float access = 0.0;
-    for (int i = 0; i < AO_SAMPLES; ++i) {
-        vec3 S = P + reflect(u_kernel[i], plane) * u_radius_world;   // whole sphere, no flip
-        ivec2 q;
-        bool inside;
-        float zq = depth_at(S, q, inside);
-        float visible = zq > S.z ? 1.0 : 0.0;
-        float invalid = clamp((z - zq) * inv_r, 0.0, 1.0);           // thesis 4.3.1.3
-        access += (inside && zq > 0.0) ? mix(visible, 0.5, invalid) : 1.0;
-    }
+#define AO_SAMPLE(i) access += sample_access(i, P, z, plane, inv_r);
+#include "ao_unroll.glsl"   // for (i = 0; i < AO_SAMPLES; ++i) AO_SAMPLE(i), unrolled
     ao_depth.x = clamp(1.0 - u_intensity * (1.0 - access / float(AO_SAMPLES)), 0.0, 1.0);
 }

@@ -12,8 +12,7 @@ void main() {
     ivec2 ij = ivec2(gl_FragCoord.xy);
     float sum = texelFetch(u_depth, ij, 0).r;
     if (sum <= 0.0) { ao = 1.0; return; }   // background, skipped as in the AO passes
-    for (int i = 0; i < AO_SAMPLES; ++i) {
-        sum += texelFetch(u_depth, clamp(ij + u_offsets[i], ivec2(0), u_size - 1), 0).r;
-    }
+#define AO_SAMPLE(i) sum += texelFetch(u_depth, clamp(ij + u_offsets[i], ivec2(0), u_size - 1), 0).r;
+#include "ao_unroll.glsl"   // unrolled like the AO passes' sample loops
     ao = sum;
 }

@@ -15,6 +15,17 @@ uniform float u_falloff;        // c
 
 const float BIAS = 0.02;        // fraction of R: depth deltas below it are the surface itself
 
+// Sample i's term: P the pixel's camera-space point.
+float sample_term(int i, vec3 P, vec3 plane, vec3 n_reflected, float inv_r) {
+    vec3 S = P + hemisphere_offset(i, plane, n_reflected) * u_radius_world;
+    ivec2 q;
+    bool inside;
+    float zq = depth_at(S, q, inside);
+    float delta = (S.z - zq) * inv_r;
+    float o = 1.0 / (1.0 + u_falloff * delta * delta);
+    return (inside && zq > 0.0 && delta > BIAS && delta < 1.0) ? o : 0.0;
+}
+
 void main() {
     ivec2 ij = ivec2(gl_FragCoord.xy);
     float z = centre_depth(ij);
@@ -27,14 +38,7 @@ void main() {
     float inv_r = 1.0 / u_radius_world;
 
     float sum = 0.0;
-    for (int i = 0; i < AO_SAMPLES; ++i) {
-        vec3 S = P + hemisphere_offset(i, plane, n_reflected) * u_radius_world;
-        ivec2 q;
-        bool inside;
-        float zq = depth_at(S, q, inside);
-        float delta = (S.z - zq) * inv_r;
-        float o = 1.0 / (1.0 + u_falloff * delta * delta);
-        sum += (inside && zq > 0.0 && delta > BIAS && delta < 1.0) ? o : 0.0;
-    }
+#define AO_SAMPLE(i) sum += sample_term(i, P, plane, n_reflected, inv_r);
+#include "ao_unroll.glsl"   // for (i = 0; i < AO_SAMPLES; ++i) AO_SAMPLE(i), unrolled
     ao_depth.x = clamp(1.0 - u_intensity * sum / float(AO_SAMPLES), 0.0, 1.0);
 }

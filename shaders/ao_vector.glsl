@@ -25,6 +25,19 @@ uniform float u_falloff;        // c, the paper's one artistic parameter
 const float EPS = 0.02;         // cos threshold: rejects in-plane candidates whose float
                                 // error would otherwise read as grazing occluders
 
+// Sample i's term o(v): P the pixel's camera-space point, n its normal.
+float sample_term(int i, vec3 P, vec3 n, vec3 plane, vec3 n_reflected, float r_S, float c_over_r2) {
+    vec3 S = P + hemisphere_offset(i, plane, n_reflected) * r_S;
+    ivec2 q;
+    bool inside;
+    float zq = depth_at(S, q, inside);
+    vec3 v = unproject(vec2(q), zq) - P;     // occlusion vector to the visible surface
+    float len2 = dot(v, v);
+    float cos_vn = dot(v, n) * inversesqrt(max(len2, 1e-30));
+    float o = cos_vn / (1.0 + c_over_r2 * len2);
+    return (inside && zq > 0.0 && cos_vn > EPS) ? o : 0.0;   // background occludes nothing
+}
+
 void main() {
     ivec2 ij = ivec2(gl_FragCoord.xy);
     float z = centre_depth(ij);
@@ -38,16 +51,7 @@ void main() {
     float c_over_r2 = u_falloff / (r_S * r_S);
 
     float sum = 0.0;
-    for (int i = 0; i < AO_SAMPLES; ++i) {
-        vec3 S = P + hemisphere_offset(i, plane, n_reflected) * r_S;
-        ivec2 q;
-        bool inside;
-        float zq = depth_at(S, q, inside);
-        vec3 v = unproject(vec2(q), zq) - P;     // occlusion vector to the visible surface
-        float len2 = dot(v, v);
-        float cos_vn = dot(v, n) * inversesqrt(max(len2, 1e-30));
-        float o = cos_vn / (1.0 + c_over_r2 * len2);
-        sum += (inside && zq > 0.0 && cos_vn > EPS) ? o : 0.0;   // background occludes nothing
-    }
+#define AO_SAMPLE(i) sum += sample_term(i, P, n, plane, n_reflected, r_S, c_over_r2);
+#include "ao_unroll.glsl"   // for (i = 0; i < AO_SAMPLES; ++i) AO_SAMPLE(i), unrolled
     ao_depth.x = clamp(1.0 - u_intensity * 2.0 * sum / float(AO_SAMPLES), 0.0, 1.0);
 }

@@ -45,10 +45,13 @@ def test_flat_plane_is_unoccluded_in_vector_mode_and_ssao_is_reported(ctx, recor
           f"{(ssao[plane] < 0.99).mean():.1%} of pixels below 0.99")
 
 
-def test_frontal_plane_is_unoccluded_in_vector_mode(ctx):
+# sample counts: the sample loop is unrolled by the binary digits of the count up to 128
+# (shaders/ao_unroll.glsl; 13 = 8 + 4 + 1) and stays a loop above (129)
+@pytest.mark.parametrize("samples", [13, 36, 129])
+def test_frontal_plane_is_unoccluded_in_vector_mode(ctx, samples):
     scene = scene_of(box((50, 0.2, 50), (0, 10, 0)))
     camera = Camera.from_look_at((0, 0, 0), (0, 1, 0), (0, 0, 1), 60, W, H)
-    ao = render_ao(ctx, scene, camera, "vector", samples=36)
+    ao = render_ao(ctx, scene, camera, "vector", samples=samples)
     assert ao.min() >= 0.999
 
 
@@ -57,9 +60,10 @@ def _corner_scene():
     return scene_of(box((30, 12, 0.2), (0, 0, -0.1)), box((30, 0.2, 10), (0, 6.1, 5)))
 
 
-def test_concave_corner_is_clearly_occluded(ctx):
+@pytest.mark.parametrize("samples", [36, 129])
+def test_concave_corner_is_clearly_occluded(ctx, samples):
     camera = Camera.from_look_at((0, 0, 1.7), (0, 6, 0.3), (0, 0, 1), 60, W, H)
-    ao = render_ao(ctx, _corner_scene(), camera, "vector", samples=36, radius_px=12)
+    ao = render_ao(ctx, _corner_scene(), camera, "vector", samples=samples, radius_px=12)
     # the crease line projected from the world, and the AO across it in the middle half
     crease = camera.project(np.array([[x, 6.0, 0.0] for x in np.linspace(-2, 2, 9)]))
     row = int(round(crease[:, 1].mean()))
