@@ -42,6 +42,7 @@ class GBuffer:
     albedo: moderngl.Texture
     zbuffer: moderngl.Texture
     fbo: moderngl.Framebuffer
+    frame: int = 0   # counts the geometry passes drawn into it (what is derived from it is per frame)
 
     @classmethod
     def create(cls, ctx: moderngl.Context, size) -> "GBuffer":
@@ -177,6 +178,7 @@ class GeometryPass:
 
         gbuffer.fbo.use()
         gbuffer.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0)
+        gbuffer.frame += 1
         stats = {"near": near, "far": far, "instances_in_frustum": int(sum(len(b) for b in batches)),
                  "instances_occluded": 0}
         focal = max(camera.fx, camera.fy)

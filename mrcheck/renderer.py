@@ -143,6 +143,7 @@ class _Targets:
             # the half-resolution coverage (shaders/ao_coverage.glsl) plays the G-buffer depth's part
             self.half_coverage = float_depth_texture(ctx, self.half_size)
             self.half_coverage_fbo = ctx.framebuffer([], self.half_coverage)
+            self.half_coverage_frame = -1    # the G-buffer frame it was made from
             self.half = [self._ao_target(ctx, self.half_size, self.half_coverage) for _ in range(3)]
         return self.half
 
@@ -255,10 +256,12 @@ class Renderer:
         # half-res pixel (i, j) is full-res pixel (2i, 2j): K halves exactly (ao_common.glsl)
         half_intrinsics = tuple(v / 2.0 for v in intrinsics)
         raw = targets.half_targets(self.ctx)[0][1]
-        self.ctx.enable(moderngl.DEPTH_TEST)
-        self.ctx.depth_func = "1"    # always: the coverage pass writes every depth
-        self._screen_pass("ao_coverage", targets.half_coverage_fbo, {"u_depth": gb.depth})
-        self.ctx.disable(moderngl.DEPTH_TEST)
+        if targets.half_coverage_frame != gb.frame:   # once per G-buffer, for every mode of a frame
+            self.ctx.enable(moderngl.DEPTH_TEST)
+            self.ctx.depth_func = "1"    # always: the coverage pass writes every depth
+            self._screen_pass("ao_coverage", targets.half_coverage_fbo, {"u_depth": gb.depth})
+            self.ctx.disable(moderngl.DEPTH_TEST)
+            targets.half_coverage_frame = gb.frame
         ao.run(raw, gb.depth, gb.normal, half_intrinsics, settings, scale=0.5)
 
     def _read_ao_full(self, ao_texture, ao: "_AOBuffers", targets: _Targets) -> np.ndarray:

@@ -108,3 +108,20 @@ def test_translation_by_a_million_metres_changes_nothing(ctx, mode):
     here = render_ao(ctx, cell((0, 0, 0)), camera((0, 0, 0)), mode, samples=16)
     there = render_ao(ctx, cell(far), camera(far), mode, samples=16)
     assert np.abs(here - there).mean() < 0.005
+
+
+def test_half_resolution_coverage_follows_the_geometry(sample, ctx):
+    """The half-resolution coverage (which pixels the AO pass skips) is made once per G-buffer:
+    after another view, the AO must be what a fresh renderer computes for that view."""
+    settings = RenderSettings(samples=16, blur=False, ao_scale=0.5)
+    overview, robot = (sample.scene.camera(view, W, H) for view in ("overview", "robot"))
+    sample.render(overview, ["vector", "ssao"], settings, want_ao=True)
+    after = sample.render(robot, ["vector", "ssao"], settings, want_ao=True)
+    fresh_renderer = Renderer(sample.scene, ctx=ctx)
+    try:
+        fresh = fresh_renderer.render(robot, ["vector", "ssao"], settings, want_ao=True)
+    finally:
+        fresh_renderer.release()
+    for mode in ("vector", "ssao"):
+        np.testing.assert_array_equal(after[mode].ao, fresh[mode].ao)
+        assert (after[mode].ao < 0.9).mean() > 0.01     # AO was computed, not skipped
