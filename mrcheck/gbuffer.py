@@ -229,8 +229,10 @@ class GeometryPass:
                 mirrored = np.linalg.det(batch.mv[:, :3, :3]) < 0
                 cull[in_front] = np.where(mirrored[in_front], "front", "back")
             for index in np.unique(level):
-                for face in set(cull[level == index]):
+                for face in ("back", "front", None):   # a fixed order: the same bytes every run
                     chosen = (level == index) & (cull == face)
+                    if not chosen.any():
+                        continue
                     draws.append(_Draw(float(batch.z_near[chosen].min()), gpu.levels[index], batch.mv[chosen],
                                        gpu.color, face))
         return draws
