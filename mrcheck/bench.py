@@ -336,14 +336,13 @@ class _PeerStage:
         self.renderer = self
 
     def _timed(self, work) -> float:
-        from .bench_peers import PeerError
+        from .bench_peers import failure_reason
 
         if self.failed is None:
             try:
                 return self.worker.frame()
             except Exception as exc:  # noqa: BLE001 -- whatever a peer does, it is its reason, not ours
-                self.failed = self.reasons[self.worker.peer] = str(exc) if isinstance(exc, PeerError) \
-                    else f"{type(exc).__name__}: {exc}"
+                self.failed = self.reasons[self.worker.peer] = failure_reason(exc)
                 self.worker.stop()
         return float("nan")
 
@@ -354,7 +353,7 @@ class _PeerStage:
 def _start_peers(ctx, scene: Scene, viewpoint: dict, reasons: dict, workdir: Path) -> list:
     """The peers whose workers start and render (one at a time, so neither set-up competes with
     the other); a peer that cannot gets its one-line reason in ``reasons``."""
-    from .bench_peers import PeerError, PeerWorker, importable, write_mesh
+    from .bench_peers import PeerWorker, failure_reason, importable, write_mesh
 
     mesh = write_mesh(workdir / "line_mesh.npz", *flattened_mesh(scene), viewpoint, PEER_SIZE)
     peers = []
@@ -368,7 +367,7 @@ def _start_peers(ctx, scene: Scene, viewpoint: dict, reasons: dict, workdir: Pat
                 worker.start().wait_ready()
                 peers.append(_PeerStage(ctx, worker, reasons))
             except Exception as exc:  # noqa: BLE001 -- whatever a peer does, it is its reason, not ours
-                reasons[name] = str(exc) if isinstance(exc, PeerError) else f"{type(exc).__name__}: {exc}"
+                reasons[name] = failure_reason(exc)
                 worker.stop()
     finally:
         mesh.unlink(missing_ok=True)  # the workers have loaded it

@@ -263,6 +263,11 @@ class PeerError(RuntimeError):
         super().__init__(" ".join(str(reason).split()))
 
 
+def failure_reason(exc: BaseException) -> str:
+    """The one-line reason a peer gives for any exception from its worker."""
+    return str(exc) if isinstance(exc, PeerError) else f"{type(exc).__name__}: {exc}"
+
+
 def write_mesh(path: Path, vertices, faces, viewpoint: dict, size) -> Path:
     np.savez(path, vertices=np.asarray(vertices, np.float32), faces=np.asarray(faces, np.int32),
              eye=np.asarray(viewpoint["eye"], float), target=np.asarray(viewpoint["target"], float),
