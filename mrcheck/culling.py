@@ -101,7 +101,8 @@ class Boxes:
 
 
 def frustum(boxes: Boxes, camera: Camera) -> list[Batch]:
-    """Per part (objects with ``transforms``, ``scales`` and ``local_corners``), the instances in the view frustum."""
+    """Per part of ``boxes`` (objects with ``transforms``, ``scales`` and ``local_corners``), the
+    instances in the view frustum."""
     V = camera.view_matrix()
     w, h = camera.width, camera.height
     # side planes in camera space through the image corners (with a 1 px margin)

@@ -60,8 +60,9 @@ class AOPass:
 
 
 def draw_covered(ctx: moderngl.Context, target: moderngl.Framebuffer, vao: moderngl.VertexArray) -> None:
-    """Draw a full-screen pass into ``target``; when ``target`` carries the G-buffer's depth
-    buffer (full resolution, see ``renderer._Targets``), only where the G-buffer has geometry.
+    """Draw a full-screen pass into ``target`` only where the G-buffer has geometry: ``target``
+    carries the G-buffer's depth buffer at full resolution, the coverage pass's at half
+    (``renderer._Targets``; both 0 on the background).
 
     The background's texels are cleared to (AO 1, depth 0) and an early depth test rejects its
     fragments: the full-screen triangle lies at depth 0, the reversed-Z background too, so
@@ -72,9 +73,6 @@ def draw_covered(ctx: moderngl.Context, target: moderngl.Framebuffer, vao: moder
     unrolled than as a loop).
     """
     target.use()
-    if target.depth_attachment is None:
-        vao.render(moderngl.TRIANGLES, vertices=3)
-        return
     target.depth_mask = False                 # the clear and the pass leave the G-buffer's depth alone
     target.clear(1.0, 0.0, 0.0, 0.0)
     ctx.enable(moderngl.DEPTH_TEST)
