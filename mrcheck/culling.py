@@ -89,15 +89,27 @@ class Batch:
 
 class Boxes:
     """The world-space bounding-box corners of every instance of every part, in one array
-    (built once per scene), so that the frustum test of a frame is one matrix product over all
-    instances, not one per part (the 20 M hall's 50 parts: 13 ms per frame before)."""
+    (built once per scene), so that the frustum test of a frame is a few array operations over
+    all instances, not a loop over parts (the 20 M hall's 50 parts: 13 ms per frame before).
+
+    Stored as three contiguous (N, 8) planes, x, y and z: the camera-space corners are then
+    nine multiply-adds over whole planes, with no BLAS call. A (N * 8, 3) @ (3, 3) product
+    wakes OpenBLAS's threads, which stall when the cores are busy: measured on the 20 M hall's
+    14 k instances, 40 ms per frame with another process rendering, against 5-9 ms for this
+    (on a quiet machine 5.5 against 5.9 ms).
+    """
 
     def __init__(self, parts):
         self.parts = parts
         counts = [len(part.transforms) for part in parts]
         self.start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-        corners = [np.einsum("kij,cj->kci", part.transforms, part.local_corners)[..., :3] for part in parts]
-        self.corners = np.concatenate(corners) if corners else np.zeros((0, 8, 3))   # (N, 8, 3) float64
+        corners = [np.einsum("kij,cj->ikc", part.transforms[:, :3], part.local_corners) for part in parts]
+        self.xyz = np.ascontiguousarray(np.concatenate(corners, axis=1)) if corners else np.zeros((3, 0, 8))
+
+    def camera_space(self, V: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(N, 8) camera-space x, y and z of every corner under the view matrix ``V``."""
+        X, Y, Z = self.xyz
+        return tuple(V[i, 0] * X + V[i, 1] * Y + V[i, 2] * Z + V[i, 3] for i in range(3))
 
 
 def frustum(boxes: Boxes, camera: Camera) -> list[Batch]:
@@ -108,8 +120,7 @@ def frustum(boxes: Boxes, camera: Camera) -> list[Batch]:
     # side planes in camera space through the image corners (with a 1 px margin)
     u0, u1 = (-1.5 - camera.cx) / camera.fx, (w + 0.5 - camera.cx) / camera.fx
     v0, v1 = (-1.5 - camera.cy) / camera.fy, (h + 0.5 - camera.cy) / camera.fy
-    c = (boxes.corners.reshape(-1, 3) @ V[:3, :3].T + V[:3, 3]).reshape(-1, 8, 3)   # camera space
-    x, y, z = c[..., 0], c[..., 1], c[..., 2]
+    x, y, z = boxes.camera_space(V)
     keep = ~((z <= 0).all(axis=1)
              | (x < u0 * z).all(axis=1) | (x > u1 * z).all(axis=1)
              | (y < v0 * z).all(axis=1) | (y > v1 * z).all(axis=1))
