@@ -9,7 +9,9 @@
 # Set-up is idempotent: system packages are installed only when missing, the virtual
 # environment (.venv/) is created once and reinstalled only when pyproject.toml changes.
 set -euo pipefail
+caller=$PWD                 # demo and bench write their outputs relative to where they were called
 cd "$(dirname "$0")"
+repo=$PWD
 
 # Debian packages the renderer and Open3D load at run time:
 #   libegl1 + libgl1-mesa-dri  headless OpenGL 4.5 through EGL (Mesa llvmpipe on a CPU)
@@ -72,9 +74,9 @@ if [[ $cmd == bench && ( ! -f $bench_stamp || $(cat "$bench_stamp") != "$want" )
 fi
 
 case "$cmd" in
-    demo) exec .venv/bin/mrcheck demo "$@" ;;
-    test) exec .venv/bin/python -m pytest "$@" ;;
-    bench) exec .venv/bin/mrcheck bench "$@" ;;
+    demo) cd "$caller" && exec "$repo/.venv/bin/mrcheck" demo "$@" ;;
+    test) exec .venv/bin/python -m pytest "$@" ;;          # from the repository: its test paths
+    bench) cd "$caller" && exec "$repo/.venv/bin/mrcheck" bench "$@" ;;
     shell) echo "set up; activate with: source .venv/bin/activate" ;;
     *) echo "usage: ./bootstrap.sh {demo|test|bench|shell} [ARGS...]" >&2; exit 2 ;;
 esac

@@ -85,6 +85,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import MrcheckError
+from .output import check_writable_ancestor
 from .scene import load_scene, transform_from_table
 from .scenefiles import dumps_manifest, mesh_files, notice_files, read_manifest
 
@@ -462,6 +463,7 @@ def _check_outdir(outdir: Path, manifest: Path):
         raise MrcheckError("the output folder contains the planned scene, which replacing it would delete", outdir)
     if outdir.exists() and not outdir.is_dir():
         raise MrcheckError("the output is a file, not a folder", outdir)
+    check_writable_ancestor(outdir)    # the variant is built beside it, then renamed into place
     if outdir.is_dir() and any(outdir.iterdir()) and not (outdir / "discrepancies.json").is_file():
         # only an earlier as-built variant (or an empty folder) is replaced, never other files
         raise MrcheckError("the output folder exists and is not an as-built variant (no discrepancies.json)", outdir)

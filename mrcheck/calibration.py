@@ -32,12 +32,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .camera import Camera
+from .camera import YAML_SUFFIXES, Camera
 from .errors import MrcheckError
 from .output import check_output_path, write_text
 
 DEFAULT_MIN_VIEWS = 5
-YAML_SUFFIXES = (".yml", ".yaml")
 CAMERA_SUFFIXES = (".json",) + YAML_SUFFIXES
 
 # "3 x median" catches a view far worse than its peers; the 1 px floor keeps a set of very
@@ -191,6 +190,8 @@ def _calibrate(views: dict, size) -> Calibration:
 
 
 def _read_gray(path: Path):
+    if path.is_dir():
+        raise MrcheckError("is a folder, not an image (give the photos themselves, e.g. DIR/*.jpg)", path)
     if not path.is_file():
         raise MrcheckError("image not found", path)
     try:
@@ -336,22 +337,34 @@ def _write_strings(fs, key, values):
 
 def read_camera(path) -> Camera:
     """A :class:`Camera` from our camera JSON or an OpenCV calibration YAML (no pose: R = I, t = 0)."""
+    return Camera.load(path, need_pose=False)
+
+
+def read_yaml_camera(path: Path) -> dict:
+    """The camera dict (:meth:`Camera.from_dict`'s keys) of an OpenCV FileStorage YAML.
+
+    R and t are there only when the file has them: :meth:`Camera.load` tells an intrinsics file
+    from a posed camera by that.
+    """
     path = Path(path)
-    if not _is_yaml(path):
-        return Camera.load(path)
     if not path.is_file():
         raise MrcheckError("camera file not found", path)
+    if path.stat().st_size == 0:
+        raise MrcheckError("cannot read OpenCV YAML camera: the file is empty", path)
     try:
         fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
-    except cv2.error as exc:
-        raise MrcheckError(f"malformed OpenCV YAML ({exc.err})", path) from None
-    try:
-        if not fs.isOpened():
-            raise MrcheckError("cannot read OpenCV YAML", path)
-        values = {name: _yaml_value(fs, keys) for name, keys in _YAML_KEYS.items()}
-        values["R"], values["t"] = _yaml_value(fs, ("R",)), _yaml_value(fs, ("t",))
-    finally:
-        fs.release()
+        try:
+            if not fs.isOpened():
+                raise MrcheckError("cannot read OpenCV YAML camera", path)
+            values = {name: _yaml_value(fs, keys) for name, keys in _YAML_KEYS.items()}
+            values["R"], values["t"] = _yaml_value(fs, ("R",)), _yaml_value(fs, ("t",))
+        finally:
+            fs.release()
+    except (cv2.error, SystemError) as exc:
+        # a parse error surfaces from the FileStorage constructor as a SystemError caused by the
+        # cv2.error, a truncated matrix from FileNode.mat() as the cv2.error itself
+        raise MrcheckError(f"cannot read OpenCV YAML camera (truncated or malformed): {_cv_reason(exc)}",
+                           path) from None
     if values["K"] is None:
         raise MrcheckError(f"OpenCV YAML has no camera matrix ({' or '.join(_YAML_KEYS['K'])})", path)
     if values["width"] is None or values["height"] is None:
@@ -361,12 +374,18 @@ def read_camera(path) -> Camera:
         if values[key] is not None and values[key].size == 9:
             values[key] = values[key].reshape(3, 3)
     data = {key: value.tolist() for key, value in values.items() if value is not None}
-    data["width"], data["height"] = (float(np.ravel(values[k])[0]) for k in ("width", "height"))
-    if "t" in data:
-        data["t"] = np.ravel(values["t"]).tolist()
-    if "dist" in data:
-        data["dist"] = np.ravel(values["dist"]).tolist()
-    return Camera.from_dict(data, path)
+    for key in ("width", "height"):  # a number, or what it is, for Camera.from_dict to reject
+        data[key] = values[key].item() if values[key].size == 1 else data[key]
+    for key in ("t", "dist"):  # a 3x1 or 1x5 matrix is a vector
+        if key in data:
+            data[key] = np.ravel(values[key]).tolist()
+    return data
+
+
+def _cv_reason(exc) -> str:
+    """OpenCV's own words from "OpenCV(5.0.0) FILE:LINE: error: (-212:Parsing error) WHAT in function 'WHERE'"."""
+    error = exc if isinstance(exc, cv2.error) else exc.__cause__ or exc
+    return str(error).split(" error: ", 1)[-1].strip()
 
 
 def _yaml_value(fs, keys):
@@ -376,14 +395,19 @@ def _yaml_value(fs, keys):
         if node.empty() or node.isNone():
             continue
         if node.isSeq():
-            return np.array([node.at(i).real() for i in range(node.size())], np.float64)
-        if node.isInt() or node.isReal():
-            return np.array(node.real(), np.float64)
+            return np.array([_number(node.at(i)) for i in range(node.size())], np.float64)
+        if node.isInt() or node.isReal() or node.isString():
+            return np.array(_number(node), np.float64)
         matrix = node.mat()
         if matrix is not None:
             return np.asarray(matrix, np.float64)
     return None
 
 
-__all__ = ["Board", "parse_board", "detect_views", "calibrate", "calibrate_command", "read_camera", "write_camera",
-           "DEFAULT_MIN_VIEWS"]
+def _number(node) -> float:
+    # FileNode.real() of a string is DBL_MAX, a plausible-looking number; NaN is rejected by Camera
+    return node.real() if node.isInt() or node.isReal() else math.nan
+
+
+__all__ = ["Board", "parse_board", "detect_views", "calibrate", "calibrate_command", "read_camera", "read_yaml_camera",
+           "write_camera", "DEFAULT_MIN_VIEWS"]

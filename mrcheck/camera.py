@@ -18,6 +18,7 @@ Camera JSON (the contract other tools rely on)::
      "dist": [k1,k2,p1,p2,k3] (optional), "R": 3x3, "t": [tx,ty,tz]}
 
 Extra keys (``photo``, ``rms``, ...) are ignored, so a registered SHOT.json is a camera too.
+A ``.yml``/``.yaml`` camera file is OpenCV FileStorage instead (see :mod:`mrcheck.calibration`).
 """
 
 from __future__ import annotations
@@ -31,6 +32,11 @@ import numpy as np
 
 from .errors import MrcheckError
 from .jsonfile import read_json
+
+YAML_SUFFIXES = (".yml", ".yaml")
+# the lengths OpenCV's projectPoints/undistortPoints take (0: no distortion); any other length
+# passes here and fails deep inside OpenCV in the overlay or the registration
+DIST_SIZES = (0, 4, 5, 8, 12, 14)
 
 
 @dataclass(frozen=True)
@@ -48,7 +54,7 @@ class Camera:
     t : (3,) float64
         World-to-camera translation, world units.
     dist : (n,) float64
-        OpenCV distortion coefficients (may be empty).
+        OpenCV distortion coefficients: none, or 4, 5, 8, 12 or 14 (see ``DIST_SIZES``).
     """
 
     width: int
@@ -70,6 +76,9 @@ class Camera:
         dist = np.array(self.dist, dtype=np.float64).reshape(-1)
         if not np.all(np.isfinite(dist)):  # the photo overlay would undistort into NaN
             raise MrcheckError("camera dist contains NaN or infinite values")
+        if dist.size not in DIST_SIZES:
+            raise MrcheckError(f"camera dist must have 4, 5, 8, 12 or 14 coefficients (OpenCV's) or none, "
+                               f"got {dist.size}")
         dist.flags.writeable = False
         object.__setattr__(self, "dist", dist)
         if int(self.width) != self.width or int(self.height) != self.height:
@@ -176,8 +185,22 @@ class Camera:
             raise MrcheckError(str(exc), source) from None
 
     @classmethod
-    def load(cls, path) -> "Camera":
-        return cls.from_dict(read_json(path, "camera"), Path(path))
+    def load(cls, path, need_pose=True) -> "Camera":
+        """A camera file: our camera JSON, or OpenCV FileStorage YAML for .yml/.yaml.
+
+        OpenCV's calibration YAML holds intrinsics only; with ``need_pose`` (a render) a YAML
+        without R and t is an error rather than a camera silently standing at the world origin.
+        """
+        path = Path(path)
+        if path.suffix.lower() not in YAML_SUFFIXES:
+            return cls.from_dict(read_json(path, "camera"), path)
+        from .calibration import read_yaml_camera  # a local import: calibration imports this module
+
+        data = read_yaml_camera(path)
+        if need_pose and not ("R" in data and "t" in data):
+            raise MrcheckError("OpenCV YAML camera has intrinsics but no pose (R and t); register a photo with it "
+                               "(mrcheck register --intrinsics) and use the SHOT.json", path)
+        return cls.from_dict(data, path)
 
     def to_dict(self) -> dict:
         out = {"width": self.width, "height": self.height, "K": self.K.tolist()}
@@ -234,4 +257,4 @@ def gl_projection(camera: Camera, near: float, far: float) -> np.ndarray:
     return P
 
 
-__all__ = ["Camera", "gl_projection"]
+__all__ = ["Camera", "gl_projection", "YAML_SUFFIXES", "DIST_SIZES"]

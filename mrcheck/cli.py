@@ -1,14 +1,16 @@
 """The ``mrcheck`` command line. Commands only; the work lives in the modules.
 
 Exit status: 0 on success; 1 with a one-line ``error: ...`` on stderr when the input is bad
-(file, option value, scene), or when ``export`` finished but some shots failed; 2 for a
-malformed command line (click's usage message).
+(file, option value, scene), when ``export`` finished but some shots failed, or on an internal
+error (a bug: one line too, MRCHECK_DEBUG=1 shows the traceback); 2 for a malformed command
+line (an unknown or missing option: click's usage message).
 """
 
 from __future__ import annotations
 
-import math
 import json
+import math
+import os
 import sys
 from pathlib import Path
 
@@ -51,8 +53,9 @@ def cli():
 @cli.command()
 @click.argument("scene", metavar="SCENE")
 @click.option("--view", metavar="NAME", help="Named viewpoint of the scene manifest.")
-@click.option("--camera", "camera_path", metavar="CAM.json",
-              help="Camera JSON (K, size, distortion, world-to-camera R|t, OpenCV convention); a registered SHOT.json works too.")
+@click.option("--camera", "camera_path", metavar="CAM.json|CAM.yml",
+              help="Camera JSON (K, size, distortion, world-to-camera R|t, OpenCV convention) or OpenCV YAML with R and t; "
+                   "a registered SHOT.json works too.")
 @click.option("--mode", type=click.Choice(_MODE_CHOICES), default="vector", show_default=True,
               help="phong = D1 (no AO), vector = D2 (Scheer & Keutel), ssao = D3 (standard SSAO); comparison modes crytek, "
                    "hbao, alchemy (world radius like ssao); all = D1|D2|D3 side by side, labelled.")
@@ -62,8 +65,8 @@ def cli():
               help="AO samples per pixel (the paper uses 16, 36, 64, 128).")
 @click.option("--radius-px", type=float, callback=_positive,
               help="vector: sampling radius on screen, pixels at the output resolution [default: 2% of the image height].")
-@click.option("--radius-fraction", type=float, default=0.02, show_default=True, callback=_positive,
-              help="vector: sampling radius as a fraction of the image height (when --radius-px is not given).")
+@click.option("--radius-fraction", type=float, callback=_positive,
+              help="vector: sampling radius as a fraction of the image height, instead of --radius-px [default: 0.02].")
 @click.option("--radius", "radius_world", type=float, default=0.2, show_default=True, callback=_positive,
               help="ssao: constant world radius in scene units (metres for parts with declared units).")
 @click.option("--min-world-radius", type=float, help="vector: clamp the world sampling radius from below (scene units).")
@@ -79,7 +82,7 @@ def cli():
 @click.option("--ao-direct", is_flag=True, help="Let AO darken the direct light too (default: the ambient term only).")
 @click.option("--light", type=click.Choice(["headlight", "sun"]), default="headlight", show_default=True,
               help="headlight: a light just above the camera; sun: a fixed direction from above.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the AO kernel and rotation tile (renders are reproducible).")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Seed of the AO kernel and rotation tile (renders are reproducible).")
 @click.option("--lod-px", type=float, default=0.5, show_default=True,
               help="Level of detail: parts drawn 4+ times use a simplified mesh where its measured error stays "
                    "below this many pixels; 0 draws every part at full detail.")
@@ -100,11 +103,15 @@ def render(scene, view, camera_path, mode, width, height, samples, radius_px, ra
       mrcheck render hall.glb --units mm --camera shot.json --mode vector --no-blur -o v.png --output-ao ao.npy
     """
     from .commands import render_command
+    from .renderer import DEFAULT_RADIUS_FRACTION
 
+    if radius_px is not None and radius_fraction is not None:
+        raise MrcheckError("give --radius-px or --radius-fraction, not both")
     render_command(
         scene=scene, view=view, camera_path=camera_path, mode=mode, width=width, height=height, units=units,
         output=output, output_ao=output_ao,
-        settings=dict(samples=samples, radius_px=radius_px, radius_fraction=radius_fraction, radius_world=radius_world,
+        settings=dict(samples=samples, radius_px=radius_px, radius_fraction=radius_fraction or DEFAULT_RADIUS_FRACTION,
+                      radius_world=radius_world,
                       min_world_radius=min_world_radius, max_world_radius=max_world_radius, falloff=falloff,
                       intensity=intensity, blur=blur, blur_size=blur_size, ao_scale=float(ao_scale),
                       ao_direct=ao_direct, light=light, seed=seed, lod_px=lod_px),
@@ -151,7 +158,7 @@ def scene():
 @click.option("--seed", type=int, default=0, show_default=True, help="Same seed, same files (byte for byte).")
 @click.option("--size-m", nargs=3, type=float, metavar="L W H", help="Hall length, width and height in metres [default: the preset's].")
 @click.option("--target-triangles", type=int, callback=_positive, metavar="N",
-              help="Triangles as rendered (instances counted), 50 k to 20 M and more: scales detail and repetition [default: the preset's].")
+              help="Triangles as rendered (instances counted), 50 k to 200 M: scales detail and repetition [default: the preset's].")
 @click.option("--units-mix", is_flag=True,
               help="Write parts in mm, m and inches as CAD exports arrive (declared in the manifest), plus a variant "
                    "scene_unit_missing.toml in which one part's unit is not declared.")
@@ -167,7 +174,7 @@ def scene_generate(preset, seed, size_m, target_triangles, units_mix, outdir):
 
 @scene.command("asbuilt")
 @click.argument("scene_path", metavar="SCENE")
-@click.option("--seed", type=int, default=0, show_default=True, help="Which perturbations (same seed, same variant).")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Which perturbations (same seed, same variant).")
 @click.option("-o", "--output", "outdir", required=True, metavar="DIR", help="Folder for the as-built scene and discrepancies.json.")
 def scene_asbuilt(scene_path, seed, outdir):
     """Write a perturbed copy of a planned scene (objects moved, rotated, missing, added, replaced by
@@ -248,7 +255,8 @@ def overlay(shot, scene_path, mode, alpha, edges, edge_color, intensity, samples
 @cli.command()
 @click.argument("scene_path", metavar="SCENE")
 @click.option("--view", metavar="NAME", help="Named viewpoint of the scene manifest.")
-@click.option("--camera", "camera_path", metavar="CAM.json", help="Camera JSON.")
+@click.option("--camera", "camera_path", metavar="CAM.json|CAM.yml",
+              help="Camera JSON, or OpenCV YAML with R and t (as render --camera).")
 @click.option("--width", type=int, callback=_positive, help="Image width [default: the view's or camera's].")
 @click.option("--height", type=int, callback=_positive, help="Image height [default: the view's or camera's].")
 @click.option("--rays", type=int, default=256, show_default=True, callback=_positive, help="Cosine-weighted hemisphere rays per pixel.")
@@ -258,7 +266,7 @@ def overlay(shot, scene_path, mode, alpha, edges, edge_color, intensity, samples
 @click.option("--radius", "radius_world", type=float, default=None, callback=_positive, help="World radius (scene units) [default: 0.2].")
 @click.option("--radius-px", type=float, default=None, callback=_positive, help="Screen radius in pixels [default: 2% of the image height].")
 @click.option("--falloff", type=float, default=1.0, show_default=True, help="c of the attenuation 1 / (1 + c (d/r)^2), as in the render modes.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the ray directions.")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Seed of the ray directions.")
 @click.option("--units", type=click.Choice(["mm", "cm", "m", "in", "ft"]), help="Unit of a single mesh file SCENE.")
 @click.option("-o", "--output", required=True, metavar="REF.npy", help="Reference AO: .npy float32 (H, W), or 16-bit .png (as --output-ao).")
 def reference(scene_path, view, camera_path, width, height, rays, radius_mode, radius_world, radius_px, falloff, seed,
@@ -310,7 +318,7 @@ def export(job, outdir, workers, scheduler, force):
 @click.argument("target", metavar="(JOB.toml | OUTDIR | SCENE)")
 @click.option("--shots", "shots_dir", metavar="DIR", help="With SCENE: a folder of registered SHOT.json files.")
 @click.option("--host", default="127.0.0.1", show_default=True, help="Address to bind; any other than loopback needs a token.")
-@click.option("--port", type=int, default=8765, show_default=True, callback=_positive, help="Port to listen on.")
+@click.option("--port", type=click.IntRange(1, 65535), default=8765, show_default=True, help="Port to listen on.")
 @click.option("--token", metavar="TOKEN", help="Require this token (generated and printed when --host is not loopback).")
 @click.option("--db", metavar="FILE", help="SQLite file of the review [default: review.sqlite next to the job/export].")
 @click.option("--suggestions", multiple=True, metavar="[NAME=]SUSPECTS.json",
@@ -376,6 +384,13 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         click.echo("error: interrupted", err=True)
         return 130
+    except Exception as exc:  # a bug, not bad input: still one line; the traceback on request
+        if os.environ.get("MRCHECK_DEBUG"):
+            raise
+        reason = " ".join(str(exc).split())[:300]
+        click.echo(f"error: internal error, please report it: {type(exc).__name__}: {reason} "
+                   "(MRCHECK_DEBUG=1 shows the traceback)", err=True)
+        return EXIT_ERROR
     # a command may return its own exit status (export: 1 when any shot failed)
     return result if isinstance(result, int) else 0
 

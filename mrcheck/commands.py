@@ -7,8 +7,8 @@ from pathlib import Path
 
 from .camera import Camera
 from .errors import MrcheckError
-from .output import (AO_SUFFIXES, IMAGE_SUFFIXES, check_output_path, labelled_sheet, write_all_or_none, write_ao,
-                     write_image)
+from .output import (AO_SUFFIXES, IMAGE_SUFFIXES, check_output_dir, check_output_path, labelled_sheet,
+                     write_all_or_none, write_ao, write_image)
 from .renderer import MODES, STUDY_LABELS, Renderer, RenderSettings
 from .resources import factory_scenes_dir, sample_scene_path
 from .scene import load_scene
@@ -18,7 +18,7 @@ STUDY_ORDER = ("phong", "vector", "ssao")  # D1 | D2 | D3, as in the paper's fig
 
 def resolve_camera(scene, view, camera_path, width, height) -> Camera:
     if (view is None) == (camera_path is None):
-        raise MrcheckError("give exactly one of --view NAME or --camera CAM.json")
+        raise MrcheckError("give exactly one of --view NAME or --camera CAM.json|CAM.yml")
     if view is not None:
         return scene.camera(view, width, height)
     camera = Camera.load(camera_path)
@@ -44,12 +44,13 @@ def render_command(scene, view, camera_path, mode, width, height, units, output,
     if output_ao is not None:
         output_ao = check_output_path(output_ao, AO_SUFFIXES, "AO output")
         if mode == "phong":
-            raise MrcheckError("--output-ao needs an AO mode (vector, ssao or all), not phong")
+            raise MrcheckError(f"--output-ao needs an AO mode ({', '.join(m for m in MODES if m != 'phong')} or all), not phong")
         ao_paths = {m: check_output_path(p, AO_SUFFIXES, "AO output") for m, p in _ao_paths(output_ao, modes).items()}
         for path in ao_paths.values():
             if path.resolve() == output.resolve():  # one would overwrite the other
                 raise MrcheckError("the image and an AO output are the same file", path)
     settings = RenderSettings(**settings)
+    settings.validated(1)  # option errors before a long scene load (the height only sets radius_px)
     loaded = load_scene(scene, units=units, progress=True)
     camera = resolve_camera(loaded, view, camera_path, width, height)
     settings.validated(camera.height)  # option errors before the GL context is made
@@ -73,7 +74,7 @@ def demo_command(outdir: Path, width=None, height=None):
     as ``VIEW_MODE.png`` and the generator's shipped cell as ``cell_VIEW_MODE.png``."""
     from tqdm import tqdm
 
-    outdir = Path(outdir).resolve()  # absolute: bootstrap.sh runs from the repository folder
+    outdir = check_output_dir(Path(outdir).resolve())
     scenes = [("", sample_scene_path()), ("cell_", factory_scenes_dir() / "cell" / "scene.toml")]
     for prefix, manifest in scenes:
         scene = load_scene(manifest, progress=True)

@@ -32,7 +32,7 @@ import numpy as np
 from .commands import resolve_camera
 from .errors import MrcheckError
 from .metrics import METRIC_NAMES, all_metrics, covered, distance_retention, MetricUndefined
-from .output import labelled_sheet, write_all_or_none, write_image, write_text
+from .output import check_output_dir, labelled_sheet, write_all_or_none, write_image, write_text
 from .renderer import MODES, STUDY_LABELS, Renderer, RenderSettings
 from .scene import load_scene
 
@@ -51,15 +51,6 @@ COLUMNS = {"mae": ("MAE", False), "rmse": ("RMSE", False), "ssim": ("SSIM", True
 def reference_kind(mode: str) -> str:
     """``"screen"`` for ``vector`` (screen-constant radius), ``"world"`` for every other AO mode."""
     return "screen" if mode == "vector" else "world"
-
-
-def _check_outdir(outdir) -> Path:
-    """OUTDIR must be a folder or not exist yet (made at write time, so bad input leaves none)."""
-    outdir = Path(outdir)
-    existing = next((p for p in (outdir, *outdir.parents) if p.exists()), None)
-    if existing is not None and not existing.is_dir():
-        raise MrcheckError("output folder is a file" if existing == outdir else f"output folder {existing} is a file", outdir)
-    return outdir
 
 
 # -- figure ----------------------------------------------------------------------------------------
@@ -235,9 +226,11 @@ def compare_command(scene, view, samples, rays, width, height, outdir):
     ``figure.png``, ``metrics.json`` and ``metrics.md`` into ``outdir`` and print their paths."""
     from tqdm import tqdm
 
-    outdir = _check_outdir(outdir)
-    if rays < 1:
-        raise MrcheckError(f"rays must be >= 1, got {rays}")
+    from .reference import MAX_RAYS
+
+    outdir = check_output_dir(outdir)
+    if not 1 <= rays <= MAX_RAYS:
+        raise MrcheckError(f"rays must be in [1, {MAX_RAYS}], got {rays}")
     loaded = load_scene(scene, progress=True)
     camera = resolve_camera(loaded, view, None, width, height)
     settings = RenderSettings(samples=samples).validated(camera.height)  # radius_px resolved, options checked

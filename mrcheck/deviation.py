@@ -50,17 +50,21 @@ scene's bounding-box centre in float64 before they become float32.
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import math
+import os
+import re
 import sys
+import tempfile
 from pathlib import Path
 
 import cv2
 import numpy as np
 
 from .errors import MrcheckError
-from .output import write_bytes, write_image
+from .output import check_output_dir, write_bytes, write_image
 from .scene import UNITS, Scene, unit_scale
 
 SCAN_SUFFIXES = (".ply", ".pcd", ".xyz", ".txt", ".pts")
@@ -98,11 +102,7 @@ def read_scan(path, units: str | None = None) -> np.ndarray:
     try:
         # sniff, do not trust the suffix: header-less "x y z" files are often named .ply
         if suffix == ".pcd" or (suffix == ".ply" and _is_ply_binary_or_header(path)):
-            import open3d as o3d
-
-            cloud = o3d.io.read_point_cloud(str(path), format=suffix[1:], remove_nan_points=False,
-                                            remove_infinite_points=False)
-            points = np.asarray(cloud.points, np.float64)
+            points = _read_cloud(path, suffix[1:])
         else:
             points = _read_text(path)
     except MrcheckError:
@@ -117,6 +117,37 @@ def read_scan(path, units: str | None = None) -> np.ndarray:
     if bad.any():
         raise MrcheckError(f"scan has {int(bad.sum())} points with NaN or infinite coordinates", path)
     return points * scale
+
+
+def _read_cloud(path: Path, fmt: str) -> np.ndarray:
+    """Points of a .ply / .pcd through Open3D, which reports a corrupt or truncated file only by
+    printing (RPly's "Error reading 'x' of 'vertex' number 20125", then "Read PLY failed") and
+    returns the cloud anyway, the unread points left as garbage: its output is captured at the
+    file-descriptor level (it is C++) and a failure becomes the error."""
+    import open3d as o3d
+
+    printed = io.StringIO()    # Open3D's own warnings go through Python's sys.stdout
+    with tempfile.TemporaryFile() as log, contextlib.redirect_stdout(printed), contextlib.redirect_stderr(printed):
+        sys.__stdout__.flush()
+        sys.__stderr__.flush()
+        saved = [os.dup(1), os.dup(2)]
+        try:
+            os.dup2(log.fileno(), 1)     # RPly's C library writes to the file descriptors
+            os.dup2(log.fileno(), 2)
+            cloud = o3d.io.read_point_cloud(str(path), format=fmt, remove_nan_points=False,
+                                            remove_infinite_points=False)
+        finally:
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            for fd in saved:
+                os.close(fd)
+        log.seek(0)
+        messages = log.read().decode(errors="replace") + printed.getvalue()
+    failed = [line for line in messages.splitlines() if "failed" in line.lower() or "error" in line.lower()]
+    if failed:
+        reason = re.sub(r"\x1b\[[0-9;]*m", "", failed[0]).strip()   # Open3D colours its warnings
+        raise MrcheckError(f"cannot read scan, corrupt or truncated ({reason})", path)
+    return np.asarray(cloud.points, np.float64)
 
 
 def _read_text(path: Path) -> np.ndarray:
@@ -388,9 +419,7 @@ def deviation_command(scan, scene, shot=None, units=None, outdir="deviation"):
     from .overlay import load_shot, read_photo
     from .scene import load_scene
 
-    outdir = Path(outdir)
-    if outdir.exists() and not outdir.is_dir():
-        raise MrcheckError("output folder is a file", outdir)
+    outdir = check_output_dir(outdir)
     camera = photo = None
     if shot is not None:
         camera, photo_path = load_shot(shot)

@@ -119,7 +119,7 @@ from .overlay import blend, cad_edges, distort_to_photo, distortion_map, load_sh
 from .reference import _raycasting_scene, triangle_owners
 from .renderer import Renderer, RenderSettings
 from .scene import Scene, load_scene
-from .output import write_bytes, write_image
+from .output import check_output_dir, write_bytes, write_image
 
 __all__ = ["object_ids", "photo_edges", "outline_normals", "oriented_support", "shifted_support", "cad_edge_owner",
            "planned_view", "detect", "heatmap", "discrepancies_command",
@@ -133,6 +133,7 @@ SILHOUETTE_STEP = 0.05    # relative depth jump that makes an outline (creases a
 FLOOR_FACTOR = 4.0        # Canny's high threshold over the median gradient (the noise floor)
 ORIENTATION_BINS = 8      # of edge normal directions over 180 degrees
 SHIFT_RADIUS = 4.0        # the displaced copies searched reach this many tolerances
+MAX_TOLERANCE_SHARE = 0.05   # --tolerance-px at most this share of the photo's shorter side
 # second rule (seeds 0-9): the outline the planned scene *without* the part would not show
 # scores >= DISCRIMINATIVE_THRESHOLD while the whole outline scores >= DISCRIMINATIVE_FLOOR
 DISCRIMINATIVE_THRESHOLD = 0.85
@@ -565,10 +566,14 @@ def discrepancies_command(shot, scene, tolerance_px=None, outdir=None):
     if tolerance_px is not None and not (math.isfinite(tolerance_px) and tolerance_px > 0):
         raise MrcheckError(f"tolerance must be positive, got {tolerance_px}")
     camera, photo_path = load_shot(shot)
+    # outlines are searched up to SHIFT_RADIUS tolerances away, on arrays padded by as much: a
+    # tolerance near the image's size means nothing and costs gigabytes (10000 px: 48 GB)
+    limit = MAX_TOLERANCE_SHARE * min(camera.width, camera.height)
+    if tolerance_px is not None and tolerance_px > limit:
+        raise MrcheckError(f"tolerance must be at most {MAX_TOLERANCE_SHARE:.0%} of the photo's shorter side "
+                           f"({limit:g} px for {camera.width}x{camera.height}), got {tolerance_px:g}", shot)
     photo = read_photo(photo_path, camera)      # missing, unreadable or wrong-size photo: exit 1
-    outdir = Path(outdir)
-    if outdir.exists() and not outdir.is_dir():
-        raise MrcheckError("output is not a folder", outdir)
+    outdir = check_output_dir(outdir)
     loaded = load_scene(scene, progress=True)
     result = detect(loaded, camera, photo, tolerance_px)
     image = heatmap(photo, result)

@@ -30,9 +30,9 @@ Job file (TOML; every relative path is relative to the job file's folder)::
     markers = "markers.json"                  # (a glob takes markers only: points are per photo)
 
 Shot names must be unique and use letters, digits, ``.``, ``_`` and ``-`` (names from a glob
-are sanitised). A bad job (malformed TOML, unknown key, no scene, no shots, an unknown mode, an
-alpha outside 0..1, a glob matching nothing, a missing intrinsics or marker file) is a one-line
-``error: JOB.toml: ...`` before anything is written.
+are sanitised). A bad job (malformed TOML, unknown key, no scene or one that does not load, no
+shots, an unknown mode, an alpha outside 0..1, a glob matching nothing, a missing intrinsics or
+marker file) is a one-line ``error: JOB.toml: ...`` before anything is written.
 
 Per shot, under ``OUTDIR/shots/NAME/`` (``{x:g}`` numbers: ``i1``, ``i0.5``, ``a0``):
 
@@ -76,6 +76,7 @@ import multiprocessing
 import os
 import re
 import sys
+import tempfile
 import time
 import tomllib
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -96,6 +97,7 @@ RECORD = "record.json"
 SHOT_FILE = "SHOT.json"
 SHEET = "sheet.png"
 SHEET_ALPHA = 0.5
+SCHEDULER_TIMEOUT = "30s"  # how long to try reaching --scheduler before giving up
 _TOP_KEYS = {"scene", "modes", "alphas", "intensities", "overlay_intensity", "width", "max_registration_error_px",
              "samples", "edges", "intrinsics", "markers", "points", "shots"}
 _SHOT_KEYS = {"name", "shot", "photo", "photos", "intrinsics", "markers", "points"}
@@ -116,6 +118,7 @@ class Job:
     samples: int
     edges: bool
     shots: list = field(default_factory=list)  # [{"name", "shot" | "photo" + "intrinsics" + "markers"|"points"}]
+    loaded: object = field(default=None, repr=False, compare=False)  # the Scene, loaded once by load_job
 
     def settings(self) -> dict:
         return {"scene": str(self.scene), "modes": self.modes, "alphas": self.alphas, "intensities": self.intensities,
@@ -157,6 +160,12 @@ def load_job(path) -> Job:
     scene = resolve(data["scene"], "scene")
     if not scene.exists():
         fail(f"scene not found: {scene}")
+    from .scene import load_scene
+
+    try:  # loaded here, not first in a shot: a bad scene (a PNG, a corrupt mesh) is a bad job, not N failed shots
+        loaded = load_scene(scene, progress=True)
+    except MrcheckError as exc:
+        fail(f"scene: {exc}")
 
     modes = data.get("modes", list(STUDY_ORDER))
     if not isinstance(modes, list) or not modes or not all(isinstance(m, str) for m in modes):
@@ -268,7 +277,7 @@ def load_job(path) -> Job:
             names.add(shot["name"])
         shots += planned
     return Job(path, scene, modes, alphas, intensities, float(overlay_intensity), width,
-               None if max_error is None else float(max_error), samples, edges, shots)
+               None if max_error is None else float(max_error), samples, edges, shots, loaded)
 
 
 def _safe_name(stem: str) -> str:
@@ -332,8 +341,9 @@ def finished_record(task: dict) -> dict | None:
 _RENDERERS: dict = {}  # per process: (scene path, mtime) -> Renderer, kept across shots
 
 
-def _renderer(scene_path: str):
-    """This process's Renderer of ``scene_path`` (the scene is loaded once per process)."""
+def _renderer(scene_path: str, scene=None):
+    """This process's Renderer of ``scene_path`` (the scene is loaded once per process; ``scene``:
+    already loaded, by :func:`load_job` when the shots run in this process)."""
     from .renderer import Renderer
     from .scene import load_scene
 
@@ -342,7 +352,7 @@ def _renderer(scene_path: str):
     if key not in _RENDERERS:
         for old in [k for k in _RENDERERS if k[0] == key[0]]:
             _RENDERERS.pop(old).release()
-        _RENDERERS[key] = Renderer(load_scene(path, progress=False))
+        _RENDERERS[key] = Renderer(scene if scene is not None else load_scene(path, progress=False))
     return _RENDERERS[key]
 
 
@@ -381,7 +391,7 @@ def _register(inputs: dict, max_error) -> tuple[dict, Camera, Path]:
     return shot, camera, photo
 
 
-def _shot_files(task: dict, timings: dict) -> tuple[dict, dict]:
+def _shot_files(task: dict, timings: dict, scene=None) -> tuple[dict, dict]:
     """Every output of one shot as ``{file name: bytes}`` and the registration summary."""
     settings = task["settings"]
     t = time.perf_counter()
@@ -396,7 +406,7 @@ def _shot_files(task: dict, timings: dict) -> tuple[dict, dict]:
     timings["registration"] = time.perf_counter() - t
 
     t = time.perf_counter()
-    renderer = _renderer(settings["scene"])
+    renderer = _renderer(settings["scene"], scene)
     timings["scene"] = time.perf_counter() - t
     modes, default = settings["modes"], settings["overlay_intensity"]
     maps = distortion_map(camera)
@@ -436,19 +446,20 @@ def _shot_files(task: dict, timings: dict) -> tuple[dict, dict]:
     return files, {"registration": registration, "size": [camera.width, camera.height], "photo": str(photo_path)}
 
 
-def run_shot(task: dict) -> dict:
+def run_shot(task: dict, scene=None) -> dict:
     """Register, render, blend and encode one shot; never raises for a bad shot.
 
     Returns the shot's record (``status`` "done" or "failed" with ``error``). With
     ``task["write"]`` the files and ``record.json`` are written into ``task["dir"]`` here;
-    otherwise the record carries them as ``files`` (bytes) for the caller to write.
+    otherwise the record carries them as ``files`` (bytes) for the caller to write. ``scene``:
+    the job's loaded Scene, when this runs in the process that loaded it.
     """
     start = time.perf_counter()
     timings = {}
     record = {"name": task["name"], "status": "failed", "error": None, "fingerprint": task["fingerprint"],
               "inputs": task["inputs"], "registration": None}
     try:
-        files, info = _shot_files(task, timings)
+        files, info = _shot_files(task, timings, scene)
         outputs = [dict(o) for o in plan_outputs(task["settings"])] + [{"file": SHOT_FILE, "kind": "shot"}]
         missing = [o["file"] for o in outputs if o["file"] not in files]
         if missing:
@@ -498,10 +509,10 @@ def _worker_init(gl_threads: int | None) -> None:
         os.environ["LP_NUM_THREADS"] = str(gl_threads)
 
 
-def _run_local(tasks, workers: int):
+def _run_local(tasks, workers: int, scene=None):
     if workers <= 1 or len(tasks) <= 1:
         for task in tasks:
-            yield task, run_shot(task)
+            yield task, run_shot(task, scene)
         return
     workers = min(workers, len(tasks))
     threads = max(1, (os.cpu_count() or 1) // workers)
@@ -516,28 +527,31 @@ def _run_local(tasks, workers: int):
                 yield task, _lost(task, exc)
 
 
-def _run_dask(tasks, address: str):
+def _connect(address: str):
+    """A Dask client of the scheduler at ``address``; a bad or unreachable address is a one-line error."""
     try:
-        from distributed import Client, as_completed as dask_completed
+        from distributed import Client
     except ImportError:
         raise MrcheckError("--scheduler needs Dask distributed: pip install 'mrcheck[cluster]'") from None
     try:
-        client = Client(address, timeout="30s")
+        return Client(address, timeout=SCHEDULER_TIMEOUT)
     except (OSError, TimeoutError, ValueError) as exc:
         raise MrcheckError(f"cannot connect to the Dask scheduler at {address} ({exc})") from None
-    try:
-        futures = client.map(run_shot, tasks, pure=False)
-        owner = {f.key: t for f, t in zip(futures, tasks)}
-        for future in dask_completed(futures):
-            task = owner[future.key]
-            try:
-                record = future.result()
-            except Exception as exc:  # a worker died or could not unpickle the task
-                record = _lost(task, exc)
-            future.release()
-            yield task, record
-    finally:
-        client.close()
+
+
+def _run_dask(tasks, client):
+    from distributed import as_completed as dask_completed
+
+    futures = client.map(run_shot, tasks, pure=False)
+    owner = {f.key: t for f, t in zip(futures, tasks)}
+    for future in dask_completed(futures):
+        task = owner[future.key]
+        try:
+            record = future.result()
+        except Exception as exc:  # a worker died or could not unpickle the task
+            record = _lost(task, exc)
+        future.release()
+        yield task, record
 
 
 def _lost(task, exc) -> dict:
@@ -555,6 +569,17 @@ def _manifest_entry(record: dict, status: str, outdir: Path, folder: Path) -> di
     entry["outputs"] = [dict(o, path=f"{rel}/{o['file']}") for o in record.get("outputs", [])] \
         if record.get("status") == "done" else []
     return entry
+
+
+def _make_outdir(outdir: Path) -> None:
+    """Create OUTDIR and check that it takes files: one under /proc, below a file or read-only
+    fails now, in one line, not after the first shot's render."""
+    try:
+        outdir.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=outdir):
+            pass
+    except OSError as exc:
+        raise MrcheckError(f"cannot create or write to the output folder ({exc.strerror or exc})", outdir) from None
 
 
 def export_command(job, outdir, workers: int = 1, scheduler: str | None = None, force: bool = False) -> int:
@@ -579,22 +604,28 @@ def export_command(job, outdir, workers: int = 1, scheduler: str | None = None, 
             entries[task["name"]] = _manifest_entry(record, "skipped", outdir, Path(task["dir"]))
         else:
             to_run.append(task)
-    outdir.mkdir(parents=True, exist_ok=True)
-    for task in to_run:
-        _prepare_folder(Path(task["dir"]))
+    # connected before OUTDIR is made: a bad or unreachable scheduler leaves no empty OUTDIR behind
+    client = _connect(scheduler) if scheduler else None
+    try:
+        _make_outdir(outdir)
+        for task in to_run:
+            _prepare_folder(Path(task["dir"]))
 
-    runner = _run_dask(to_run, scheduler) if scheduler else _run_local(to_run, workers)
-    with tqdm(total=len(tasks), initial=len(tasks) - len(to_run), desc="export", unit="shot", file=sys.stderr,
-              dynamic_ncols=True) as bar:
-        for task, record in runner:
-            folder = Path(task["dir"])
-            if record["status"] == "done" and "files" in record:  # from a cluster: written here
-                record = store_shot(folder, record)
-            entries[task["name"]] = _manifest_entry(record, record["status"], outdir, folder)
-            bar.update(1)
-            failed = sum(e["status"] == "failed" for e in entries.values())
-            if failed:
-                bar.set_postfix(failed=failed)
+        runner = _run_dask(to_run, client) if client is not None else _run_local(to_run, workers, job.loaded)
+        with tqdm(total=len(tasks), initial=len(tasks) - len(to_run), desc="export", unit="shot", file=sys.stderr,
+                  dynamic_ncols=True) as bar:
+            for task, record in runner:
+                folder = Path(task["dir"])
+                if record["status"] == "done" and "files" in record:  # from a cluster: written here
+                    record = store_shot(folder, record)
+                entries[task["name"]] = _manifest_entry(record, record["status"], outdir, folder)
+                bar.update(1)
+                failed = sum(e["status"] == "failed" for e in entries.values())
+                if failed:
+                    bar.set_postfix(failed=failed)
+    finally:
+        if client is not None:
+            client.close()
 
     shots = [entries[t["name"]] for t in tasks]
     counts = {s: sum(e["status"] == s for e in shots) for s in ("done", "skipped", "failed")}

@@ -24,11 +24,37 @@ def check_output_path(path, suffixes, what="output") -> Path:
         raise MrcheckError(f"{what} must end in {', '.join(suffixes)}", path)
     if path.exists() and path.is_dir():
         raise MrcheckError(f"{what} is a directory", path)
-    # missing folders are made at write time, but one that is a file would fail only after the render
-    parent = next((p for p in path.parents if p.exists()), None)
-    if parent is not None and not parent.is_dir():
-        raise MrcheckError(f"{what} folder {parent} is a file, not a folder", path)
+    check_writable_ancestor(path, what)
     return path
+
+
+def check_output_dir(outdir, what="output folder") -> Path:
+    """OUTDIR must be a folder or not exist yet (made at write time, so bad input leaves none),
+    and writable: checked before any work."""
+    outdir = Path(outdir)
+    if outdir.exists() and not outdir.is_dir():
+        raise MrcheckError(f"{what} is a file", outdir)
+    check_writable_ancestor(outdir, what, itself=True)
+    return outdir
+
+
+def check_writable_ancestor(path: Path, what: str = "output", itself: bool = False) -> None:
+    """Missing folders are made at write time, but one that is a file, or one that cannot be
+    written (read-only, /proc), would fail only after the work: its nearest existing ancestor
+    is checked now, by creating and removing a temporary file in it (permission bits say
+    nothing for root or for special file systems). ``itself``: ``path`` is a folder that the
+    output goes into, and counts as its own nearest ancestor."""
+    path = Path(path)
+    parent = next((p for p in ((path,) if itself else ()) + tuple(path.parents) if p.exists()), None)
+    if parent is None:
+        return
+    if not parent.is_dir():
+        raise MrcheckError(f"cannot write {what}: {parent} is a file, not a folder", path)
+    try:
+        with tempfile.TemporaryFile(dir=parent):
+            pass
+    except OSError as exc:
+        raise MrcheckError(f"cannot write {what}: folder {parent} is not writable ({exc.strerror or exc})", path) from None
 
 
 def _current_umask() -> int:
@@ -133,4 +159,4 @@ def labelled_sheet(images, labels) -> np.ndarray:
     return np.hstack(out)
 
 
-__all__ = ["write_image", "write_bytes", "encode_image", "write_ao", "labelled_sheet", "check_output_path", "IMAGE_SUFFIXES", "AO_SUFFIXES"]
+__all__ = ["write_image", "write_bytes", "encode_image", "write_ao", "labelled_sheet", "check_output_path", "check_output_dir", "check_writable_ancestor", "IMAGE_SUFFIXES", "AO_SUFFIXES"]

@@ -33,7 +33,6 @@ Blending: ``out = alpha * photo + (1 - alpha) * render``; ``alpha`` is the photo
 
 from __future__ import annotations
 
-import json
 import math
 import re
 from pathlib import Path
@@ -43,6 +42,7 @@ import numpy as np
 
 from .camera import Camera
 from .errors import MrcheckError
+from .jsonfile import read_json
 from .output import IMAGE_SUFFIXES, check_output_path, labelled_sheet, write_image
 from .renderer import STUDY_LABELS, Renderer, RenderSettings
 from .scene import load_scene
@@ -221,8 +221,8 @@ def overlay_images(photo: np.ndarray, renders: dict, camera: Camera, alpha: floa
 def load_shot(path) -> tuple[Camera, Path]:
     """The camera of a registered SHOT.json and the absolute path of its photo."""
     path = Path(path)
-    camera = Camera.load(path)  # the file's errors (missing, malformed) with its name
-    data = json.loads(path.read_text())
+    data = read_json(path, "shot")   # a shot is JSON (camera keys + "photo"), never OpenCV YAML
+    camera = Camera.from_dict(data, path)
     photo = data.get("photo")
     if not isinstance(photo, str) or not photo:
         raise MrcheckError("shot JSON has no \"photo\" path", path)

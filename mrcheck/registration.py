@@ -40,6 +40,7 @@ from .errors import MrcheckError
 from .jsonfile import read_json
 from .markers import Group, detect_markers, load_marker_map, parse_marker_map
 from .output import check_output_path, write_text
+from .scene import MESH_SUFFIXES
 
 # corner noise assumed when the residuals cannot tell (exact synthetic data, a single marker):
 # subpixel ArUco/ChArUco corners are good to a few tenths of a pixel
@@ -78,11 +79,8 @@ def read_photo(path) -> np.ndarray:
 
 
 def read_intrinsics(path) -> Camera:
-    try:  # the calibration module reads OpenCV YAML too, when present
-        from .calibration import read_camera
-    except ImportError:
-        read_camera = Camera.load
-    return read_camera(path)
+    """The camera of a JSON or OpenCV YAML file; its pose, if any, is ignored (the photo's is solved)."""
+    return Camera.load(path, need_pose=False)
 
 
 def load_points(path) -> list:
@@ -334,8 +332,12 @@ def register_command(scene, photo, intrinsics, markers=None, points=None, max_er
     output = check_output_path(output, (".json",), "shot")
     if (markers is None) == (points is None):
         raise MrcheckError("give either --markers MAP.json or --points CORR.json (exactly one)")
-    if not Path(scene).exists():  # fail before the work; the scene is only named here
+    # fail before the work; the scene is only named in the shot (its file is read by the
+    # commands that render), so this checks that it is one
+    if not Path(scene).exists():
         raise MrcheckError("scene not found", scene)
+    if Path(scene).is_file() and Path(scene).suffix.lower() not in (".toml", *MESH_SUFFIXES):
+        raise MrcheckError(f"not a scene (a .toml manifest or a mesh: {', '.join(MESH_SUFFIXES)})", scene)
     camera = read_intrinsics(intrinsics)
     shot = register_photo(photo, camera,
                           marker_map=load_marker_map(markers) if markers is not None else None,

@@ -8,6 +8,7 @@ One G-buffer serves every mode of a frame, so ``--mode all`` draws the geometry 
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field, replace
 
@@ -71,14 +72,18 @@ class RenderSettings:
             (self.radius_px is None or self.radius_px > 0, f"radius in pixels must be positive, got {self.radius_px}"),
             (0 < self.radius_fraction < 1, f"radius fraction must be in (0, 1), got {self.radius_fraction}"),
             (self.radius_world > 0, f"world radius must be positive, got {self.radius_world}"),
-            (self.falloff >= 0, f"falloff must be >= 0, got {self.falloff}"),
-            (self.intensity >= 0, f"intensity must be >= 0, got {self.intensity}"),
+            # "not >= 0" lets nan through, and inf makes every pixel 0 (background included)
+            (0 <= self.falloff < math.inf, f"falloff must be >= 0 and finite, got {self.falloff}"),
+            (0 <= self.intensity < math.inf, f"intensity must be >= 0 and finite, got {self.intensity}"),
+            (self.seed >= 0, f"seed must be >= 0, got {self.seed}"),
             (self.ao_scale in (0.5, 1.0), f"ao scale must be 1.0 or 0.5, got {self.ao_scale}"),
             (self.blur_size >= 3 and self.blur_size % 2 == 1, f"blur size must be odd and >= 3, got {self.blur_size}"),
             (self.light in LIGHTS, f"light must be one of {', '.join(LIGHTS)}, got {self.light!r}"),
             (self.min_world_radius is None or self.min_world_radius >= 0, "minimum world radius must be >= 0"),
             (0 <= self.lod_px <= 4, f"level-of-detail error must be in [0, 4] pixels, got {self.lod_px}"),
             (self.max_world_radius is None or self.max_world_radius > 0, "maximum world radius must be > 0"),
+            (None in (self.min_world_radius, self.max_world_radius) or self.min_world_radius <= self.max_world_radius,
+             f"minimum world radius {self.min_world_radius} exceeds the maximum {self.max_world_radius}"),
         ]
         for ok, message in checks:
             if not ok:

@@ -39,6 +39,7 @@ Manifest (format 1)::
 
 from __future__ import annotations
 
+import logging
 import sys
 import tomllib
 from dataclasses import dataclass, field
@@ -132,16 +133,21 @@ class Scene:
         return np.stack([boxes[:, 0].min(axis=0), boxes[:, 1].max(axis=0)])
 
     def camera(self, view: str, width: int | None = None, height: int | None = None) -> Camera:
-        """The camera of a named viewpoint, at its own size unless one is given."""
+        """The camera of a named viewpoint, at its own size unless one is given; given one side
+        only, the other keeps the viewpoint's aspect ratio (as a resized camera file does)."""
         if view not in self.viewpoints:
             known = ", ".join(sorted(self.viewpoints)) or "none"
             raise MrcheckError(f"no viewpoint named {view!r} (the scene has: {known})", self.source)
         vp = self.viewpoints[view]
-        width = width or vp.get("width", 1024)
-        height = height or vp.get("height", 768)
         try:
+            own_width, own_height = vp.get("width", 1024), vp.get("height", 768)
+            if width and not height:
+                height = max(1, round(own_height * width / own_width))
+            elif height and not width:
+                width = max(1, round(own_width * height / own_height))
+            width, height = width or own_width, height or own_height
             return Camera.from_look_at(vp["eye"], vp["target"], vp.get("up", (0, 0, 1)), vp.get("fov_y_deg", 60.0), width, height)
-        except (MrcheckError, TypeError, ValueError) as exc:  # TOML gives any type: width = "wide"
+        except (MrcheckError, TypeError, ValueError, ZeroDivisionError) as exc:  # TOML gives any type: width = "wide"
             raise MrcheckError(f"viewpoint {view!r}: {exc}", self.source) from None
 
 
@@ -239,13 +245,37 @@ def read_mesh(path: Path, joints: dict | None = None):
     return validate_mesh(vertices, faces, path)
 
 
+class _Collect(logging.Handler):
+    def __init__(self):
+        super().__init__(logging.DEBUG)
+        self.messages = []
+
+    def emit(self, record):
+        self.messages.append(" ".join(record.getMessage().split()))
+
+
 def _read_urdf(path: Path, joints: dict):
     import yourdfpy
 
+    # yourdfpy logs what goes wrong (malformed XML, a mesh file it cannot find) and carries on;
+    # its messages are kept for the one-line error instead of being printed around it
     handler = partial(yourdfpy.filename_handler_magic, dir=str(path.parent))
-    robot = yourdfpy.URDF.load(
-        str(path), filename_handler=handler, build_collision_scene_graph=False, load_collision_meshes=False
-    )
+    logger, collect = logging.getLogger("yourdfpy"), _Collect()
+    logger.addHandler(collect)
+    propagate, logger.propagate = logger.propagate, False
+    try:
+        robot = yourdfpy.URDF.load(
+            str(path), filename_handler=handler, build_collision_scene_graph=False, load_collision_meshes=False
+        )
+    except Exception as exc:
+        reason = "; ".join(collect.messages[:1] + [" ".join(str(exc).split()) or type(exc).__name__])
+        raise MrcheckError(f"cannot read URDF ({reason[:200]})", path) from None
+    finally:
+        logger.removeHandler(collect)
+        logger.propagate = propagate
+    missing = [m[len("Can't find "):] for m in collect.messages if m.startswith("Can't find ")]
+    if missing:
+        raise MrcheckError(f"URDF mesh file(s) not found: {', '.join(missing)}", path)
     unknown = sorted(set(joints) - set(robot.actuated_joint_names))
     if unknown:
         raise MrcheckError(f"unknown joint(s) {', '.join(unknown)} (the robot has: {', '.join(robot.actuated_joint_names)})", path)

@@ -350,14 +350,18 @@ def test_cli_writes_the_variant_and_prints_its_two_files(tmp_path, capsys):
     check_variant(SAMPLE, out)
 
 
-@pytest.mark.parametrize("case", ["missing scene", "mesh file", "planned folder"])
+@pytest.mark.parametrize("case", ["missing scene", "mesh file", "planned folder", "unwritable folder", "negative seed"])
 def test_cli_bad_input_is_one_error_line_and_no_output(tmp_path, capsys, case):
     box_file(tmp_path / "crate.stl", (1, 1, 1))
     scene, out = {"missing scene": (tmp_path / "nope.toml", tmp_path / "out"),
                   "mesh file": (tmp_path / "crate.stl", tmp_path / "out"),
-                  "planned folder": (SAMPLE, SAMPLE.parent)}[case]
+                  "planned folder": (SAMPLE, SAMPLE.parent),
+                  "unwritable folder": (SAMPLE, Path("/proc/variant")),
+                  "negative seed": (SAMPLE, tmp_path / "out")}[case]
     before = sorted(os.listdir(tmp_path))
-    assert main(["scene", "asbuilt", str(scene), "-o", str(out)]) == 1
+    # a negative seed would silently make the same variant as its positive twin (random.Random)
+    seed = ["--seed", "-1"] if case == "negative seed" else []
+    assert main(["scene", "asbuilt", str(scene), *seed, "-o", str(out)]) == 1
     captured = capsys.readouterr()
     lines = captured.err.strip().splitlines()
     assert captured.out == "" and len(lines) == 1 and lines[0].startswith("error: ") and "Traceback" not in captured.err

@@ -193,6 +193,10 @@ CASES = [
     option_case("radius-fraction-above-one", ["--radius-fraction", "2"], "radius fraction"),
     option_case("falloff-negative", ["--falloff", "-1"], "falloff"),
     option_case("intensity-negative", ["--intensity", "-1"], "intensity"),
+    option_case("intensity-infinite", ["--intensity", "inf"], "finite"),
+    option_case("seed-negative", ["--seed", "-1"], "-1", "--seed"),
+    option_case("radius-px-and-fraction", ["--radius-px", "5", "--radius-fraction", "0.1"], "not both"),
+    option_case("world-radius-min-above-max", ["--min-world-radius", "5", "--max-world-radius", "1"], "exceeds"),
     option_case("mode-unknown", ["--mode", "raytraced"], "raytraced", "--mode"),
     option_case("size-too-large", ["--width", "100000", "--height", "10"], "exceeds"),
     # -- outputs ---------------------------------------------------------------------------------
@@ -200,6 +204,9 @@ CASES = [
     option_case("output-no-suffix", ["-o", "out/render"], "must end in", "out/render"),
     case("output-is-folder", {OUT: DIR}, BOX, "is a directory", OUT),
     option_case("output-parent-is-file", ["-o", "box.stl/render.png"], "is a file, not a folder", "box.stl"),
+    # /proc takes no new files, even from root (whom permission bits never stop)
+    option_case("output-folder-unwritable", ["-o", "/proc/render.png"], "folder /proc is not writable", "/proc/render.png"),
+    option_case("output-ao-folder-unwritable", ["--output-ao", "/proc/ao.npy"], "cannot write AO output", "/proc/ao.npy"),
     option_case("output-ao-suffix", ["--output-ao", "out/ao.txt"], "AO output must end in", "ao.txt"),
     option_case("output-ao-with-phong", ["--mode", "phong", "--output-ao", OUT_AO], "not phong"),
     option_case("output-ao-same-as-image", ["-o", "out/x.png", "--output-ao", "out/x.png"], "same file", "x.png"),

@@ -187,3 +187,9 @@ def test_outlier_views_rejected_then_recalibrated(tmp_path, capsys):
 def test_output_suffix_checked_first(tmp_path, capsys):
     code, _, err = run(capsys, *CHESS, "--board", CHESS_SPEC, "-o", tmp_path / "cam.txt")
     assert code == 1 and "must end in .json, .yml, .yaml" in err
+
+
+def test_a_folder_of_photos_is_named_as_a_folder(tmp_path, capsys):
+    code, _, err = run(capsys, tmp_path, "--board", CHESS_SPEC, "-o", tmp_path / "c.json")
+    assert code == 1 and f"error: {tmp_path}: is a folder, not an image" in err and err.count("\n") == 1
+    assert list(tmp_path.iterdir()) == []

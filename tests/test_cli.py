@@ -10,6 +10,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import pytest
 
 from mrcheck.cli import main
 from mrcheck.resources import sample_scene_path
@@ -138,3 +139,48 @@ def test_outputs_get_the_usual_file_permissions(tmp_path):
     mask = os.umask(0)
     os.umask(mask)
     assert (out.stat().st_mode & 0o777) == (0o666 & ~mask)
+
+
+def test_one_side_of_a_view_keeps_its_aspect_ratio(tmp_path):
+    """--width alone scales the view's height too, as it does a camera file's (a 160x768 image
+    was the surprise before)."""
+    from mrcheck.scene import load_scene
+
+    scene = load_scene(SCENE)
+    vp = scene.viewpoints["robot"]
+    w, h = vp.get("width", 1024), vp.get("height", 768)
+    assert (scene.camera("robot", 160).width, scene.camera("robot", 160).height) == (160, round(h * 160 / w))
+    assert scene.camera("robot", None, 90).width == round(w * 90 / h)
+    assert (scene.camera("robot", 100, 50).width, scene.camera("robot", 100, 50).height) == (100, 50)
+    out = tmp_path / "w.png"
+    assert main(["render", SCENE, "--view", "robot", "--width", "160", "-o", str(out)]) == 0
+    assert cv2.imread(str(out)).shape[:2] == (round(h * 160 / w), 160)
+
+
+@pytest.mark.parametrize("args", [
+    ["bench", "--quick", "--json", "/proc/bench.json"],       # before minutes of benchmarking
+    ["demo", "-o", "/proc/demo"],
+])
+def test_unwritable_outputs_fail_before_the_work(capsys, args):
+    assert main(args) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("error: ") and "folder /proc is not writable" in err
+
+
+def test_a_bug_is_one_line_and_its_traceback_is_one_variable_away(tmp_path, capsys, monkeypatch):
+    """Whatever escapes every check is a bug: one line naming it (exit 1), not a traceback;
+    MRCHECK_DEBUG=1 lets the exception through for the developer."""
+    import mrcheck.commands
+
+    def broken(*args, **kwargs):
+        raise ZeroDivisionError("float division by zero")
+
+    monkeypatch.setattr(mrcheck.commands, "render_command", broken)
+    args = ["render", SCENE, "--view", "robot", "-o", str(tmp_path / "x.png")]
+    assert main(args) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("error: internal error")
+    assert "ZeroDivisionError: float division by zero" in err and "MRCHECK_DEBUG=1" in err
+    monkeypatch.setenv("MRCHECK_DEBUG", "1")
+    with pytest.raises(ZeroDivisionError):
+        main(args)

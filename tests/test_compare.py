@@ -131,6 +131,18 @@ def test_compare_unknown_view_is_one_line_error_and_no_output(tmp_path, capsys):
     assert not out.exists()
 
 
+@pytest.mark.parametrize("args, message", [
+    (["--rays", "100000", "-o", "{tmp}/cmp"], "rays must be in [1, 4096]"),
+    (["-o", "/proc/cmp"], "folder /proc is not writable"),
+])
+def test_compare_bad_option_or_unwritable_output_fails_before_rendering(tmp_path, capsys, args, message):
+    args = [a.replace("{tmp}", str(tmp_path)) for a in args]
+    assert main(["compare", str(sample_scene_path()), "--view", "robot", *args]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error:") and message in err[0], err
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_compare_outdir_that_is_a_file_fails_before_rendering(tmp_path, capsys):
     out = tmp_path / "cmp"
     out.write_text("x")

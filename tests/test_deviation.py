@@ -139,6 +139,16 @@ def _bad(tmp_path, kind) -> Path:
         np.savetxt(path, _bunny_points() * 1000.0)
     elif kind == "far":
         np.savetxt(path, _bunny_points() + [1000.0, 0.0, 0.0])
+    elif kind in ("truncated ply", "truncated pcd"):
+        # a binary file cut short: Open3D only prints a warning and returns the cloud, the
+        # unread points left as garbage
+        import open3d as o3d
+
+        path = tmp_path / f"scan.{kind[-3:]}"
+        cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(_bunny_points()))
+        o3d.io.write_point_cloud(str(path), cloud, write_ascii=False)
+        data = path.read_bytes()
+        path.write_bytes(data[:len(data) // 2 + 3])
     return path
 
 
@@ -151,6 +161,8 @@ def _bad(tmp_path, kind) -> Path:
     ("unsupported", "unsupported scan format .las"),
     ("millimetres", "the scan looks like millimetres; pass --units mm"),
     ("far", "m away from the scene: wrong units or not registered"),
+    ("truncated ply", "cannot read scan, corrupt or truncated"),
+    ("truncated pcd", "cannot read scan, corrupt or truncated"),
 ])
 def test_bad_scans(tmp_path, capsys, kind, message):
     out = tmp_path / "out"

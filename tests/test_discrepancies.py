@@ -136,7 +136,10 @@ def test_bad_input_exits_1_with_one_line_and_no_files(sample, tmp_path, capsys):
     cv2.imwrite(str(tmp_path / "small.png"), np.zeros((100, 120, 3), np.uint8))
     shot.write_text(json.dumps({**camera.to_dict(), "photo": "small.png"}))
     assert main(["discrepancies", str(shot), "--scene", str(SAMPLE), "-o", str(out)]) == 1
+    # a tolerance near the image's size would pad arrays to gigabytes (seen: 48 GB at 10000 px)
+    assert main(["discrepancies", str(shot), "--scene", str(SAMPLE), "--tolerance-px", "10000", "-o", str(out)]) == 1
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 3 and all(line.startswith("error: ") for line in err)
+    assert len(err) == 4 and all(line.startswith("error: ") for line in err)
     assert "120x100" in err[2]
+    assert "tolerance must be at most 5% of the photo's shorter side" in err[3] and "shot.json" in err[3]
     assert not out.exists()

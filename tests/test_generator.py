@@ -245,12 +245,18 @@ def test_refuses_to_replace_a_folder_that_is_no_generated_scene(tmp_path):
     assert (precious / "chapter1.tex").read_text() == "..."
 
 
-def test_cli_reports_a_bad_target_in_one_line(tmp_path, capsys):
+@pytest.mark.parametrize("args, message", [
+    (["--target-triangles", "1000", "-o", "{tmp}/x"], "between 50,000"),
+    (["-o", "/proc/x"], "folder /proc is not writable"),     # checked before the generation
+])
+def test_cli_reports_bad_input_in_one_line(tmp_path, capsys, args, message):
     from mrcheck.cli import main
 
-    assert main(["scene", "generate", "--preset", "cell", "--target-triangles", "1000", "-o", str(tmp_path / "x")]) == 1
+    args = [a.replace("{tmp}", str(tmp_path)) for a in args]
+    assert main(["scene", "generate", "--preset", "cell", *args]) == 1
     err = capsys.readouterr().err
-    assert err.startswith("error: ") and err.count("\n") == 1
+    assert err.startswith("error: ") and err.count("\n") == 1 and message in err
+    assert list(tmp_path.iterdir()) == []
 
 
 # -- shared builders -------------------------------------------------------------------------------

@@ -156,6 +156,9 @@ def test_cli_writes_the_ao_contract(ctx, tmp_path, capsys):
     ["--view", "robot", "--camera", "{tmp}/cam.json", "-o", "{tmp}/ref.npy"],           # both
     ["--view", "nowhere", "--width", "32", "--height", "24", "-o", "{tmp}/ref.npy"],     # unknown view
     ["--view", "robot", "--width", "32", "--height", "24", "--falloff", "-1", "-o", "{tmp}/ref.npy"],
+    ["--view", "robot", "--width", "32", "--height", "24", "--seed", "-1", "-o", "{tmp}/ref.npy"],
+    ["--view", "robot", "--width", "32", "--height", "24", "--rays", "100000", "-o", "{tmp}/ref.npy"],   # a typo, hours
+    ["--view", "robot", "--width", "32", "--height", "24", "-o", "/proc/ref.npy"],      # unwritable: before the rays
 ])
 def test_cli_bad_input_is_one_error_line_and_no_file(tmp_path, capsys, args):
     args = [a.replace("{tmp}", str(tmp_path)) for a in args]

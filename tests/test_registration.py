@@ -177,3 +177,14 @@ def test_bad_input_one_line_error_and_no_shot(files, capsys, case):
     err = capsys.readouterr().err.strip()
     assert err.startswith("error:") and "\n" not in err and message in err, err
     assert not (files / "SHOT.json").exists()
+
+
+def test_a_scene_argument_that_is_no_scene_is_one_line(files, capsys):
+    """The shot only names its scene; a photo given by mistake is caught here, not in every
+    later command that renders the shot."""
+    photo = CHARUCO / "choriginal.jpg"
+    assert main(["register", str(photo), "--photo", str(photo), "--intrinsics", str(files / "cam.json"),
+                 "-o", str(files / "SHOT.json"), "--markers", str(files / "map.json")]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {photo}: not a scene") and err.count("\n") == 1
+    assert not (files / "SHOT.json").exists()

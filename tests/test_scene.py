@@ -58,3 +58,22 @@ def test_missing_opengl_is_one_line_naming_what_to_install(monkeypatch):
         gl.create_context()
     message = str(caught.value)
     assert "\n" not in message and "libegl1" in message and "libgl1-mesa-dri" in message
+
+
+@pytest.mark.parametrize("urdf, message", [
+    ('<robot name="r"><link name="a"><visual><geometry><mesh filename="nope.stl"/></geometry></visual></link></robot>',
+     "URDF mesh file(s) not found: nope.stl"),
+    ('<robot name="r"><link name="a"><visual><geometry><mesh/></geometry></visual></link></robot>',
+     "cannot read URDF"),
+])
+def test_a_broken_urdf_is_one_line(tmp_path, capsys, urdf, message):
+    """yourdfpy logs what is wrong and carries on; mrcheck says it in its one error line instead
+    of printing the logger's lines around it."""
+    from mrcheck.cli import main
+
+    path = tmp_path / "robot.urdf"
+    path.write_text(urdf)
+    assert main(["scene", "info", str(path)]) == 1
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.count("\n") == 1, captured.err
+    assert captured.err.startswith(f"error: {path}: {message}")

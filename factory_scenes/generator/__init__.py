@@ -36,6 +36,7 @@ from pathlib import Path
 
 from mrcheck import robots
 from mrcheck.errors import MrcheckError
+from mrcheck.output import check_writable_ancestor
 
 from .budget import solve
 from .detail import Detail
@@ -98,8 +99,11 @@ def generate(preset: str, outdir: Path, seed: int = 0, size_m: tuple[float, floa
     description = (f"{plan.description} {size[0]:g} x {size[1]:g} x {size[2]:g} m, seed {seed}, "
                    f"{solution.triangles:,} triangles as rendered (target {target:,}), level of detail "
                    f"{solution.detail.level}. Z up, placements in metres.")
-    outdir.parent.mkdir(parents=True, exist_ok=True)
-    work = Path(tempfile.mkdtemp(prefix=f".{outdir.name}.", suffix=".partial", dir=outdir.parent))
+    try:
+        outdir.parent.mkdir(parents=True, exist_ok=True)
+        work = Path(tempfile.mkdtemp(prefix=f".{outdir.name}.", suffix=".partial", dir=outdir.parent))
+    except OSError as exc:
+        raise MrcheckError(f"cannot write output ({exc.strerror or exc})", outdir) from None
     umask = os.umask(0)
     os.umask(umask)
     work.chmod(0o777 & ~umask)                 # mkdtemp makes it private; the scene is not
@@ -161,6 +165,7 @@ def _check_outdir(outdir: Path):
     delete someone's home folder)."""
     if outdir.exists() and not outdir.is_dir():
         raise MrcheckError("output exists and is not a folder", outdir)
+    check_writable_ancestor(outdir)    # the scene is built beside it, then renamed into place
     if outdir.is_dir() and any(outdir.iterdir()):
         manifest = outdir / "scene.toml"
         if not manifest.is_file() or not manifest.read_text(errors="replace").startswith(MARKER):

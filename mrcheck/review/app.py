@@ -8,7 +8,9 @@ or the cookie set when the page is opened with ``?token=``), else 401.
 from __future__ import annotations
 
 import contextlib
+import errno
 import hmac
+import socket
 import threading
 from importlib import resources
 from pathlib import Path
@@ -19,6 +21,7 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, PlainTextResponse, Response
 from pydantic import BaseModel, Field
 
+from ..errors import MrcheckError
 from ..renderer import MODES, STUDY_LABELS
 from .renders import INTENSITIES, RenderService
 from .report import markers_csv, report_html
@@ -203,6 +206,23 @@ def is_loopback(host: str) -> bool:
     return host in ("127.0.0.1", "localhost", "::1") or host.startswith("127.")
 
 
+def listen(host: str, port: int) -> socket.socket:
+    """The server's socket, bound and listening (as uvicorn binds it), before the URL is printed
+    and anything is written: a busy or impossible port is a one-line error, and no other program
+    can take the port between this check and the server's start."""
+    sock = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # a restart need not wait out TIME_WAIT
+    try:
+        sock.bind((host, port))
+        sock.listen()
+    except (OSError, OverflowError) as exc:  # OverflowError: a port outside 0..65535
+        sock.close()
+        if getattr(exc, "errno", None) == errno.EADDRINUSE:
+            raise MrcheckError(f"port {port} is in use; pick another with --port") from None
+        raise MrcheckError(f"cannot listen on {host} port {port} ({getattr(exc, 'strerror', None) or exc})") from None
+    return sock
+
+
 def serve(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=None, suggestions=()):
     """``mrcheck review``: open the source, print the URL, run uvicorn until interrupted."""
     import secrets
@@ -217,8 +237,12 @@ def serve(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=No
     suggested = load_suggestions(source, suggestions)
     if token is None and not is_loopback(host):
         token = secrets.token_urlsafe(18)
-    app = create_app(source, db_path=Path(db) if db else None, token=token, suggestions=suggested)
-    url = f"http://{'[' + host + ']' if ':' in host else host}:{port}/" + (f"?token={token}" if token else "")
-    print(f"mrcheck review: {len(source.shots)} shot(s) of {source.label}", flush=True)
-    print(f"open {url}", flush=True)
-    uvicorn.run(app, host=host, port=port, log_level="warning")
+    sock = listen(host, port)  # before create_app writes the database
+    try:
+        app = create_app(source, db_path=Path(db) if db else None, token=token, suggestions=suggested)
+        url = f"http://{'[' + host + ']' if ':' in host else host}:{port}/" + (f"?token={token}" if token else "")
+        print(f"mrcheck review: {len(source.shots)} shot(s) of {source.label}", flush=True)
+        print(f"open {url}", flush=True)
+        uvicorn.Server(uvicorn.Config(app, log_level="warning")).run(sockets=[sock])
+    finally:
+        sock.close()

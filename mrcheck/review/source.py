@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import re
+import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -96,6 +97,14 @@ def from_scene(scene: Path, shots_dir: Path) -> Source:
     return Source(scene, shots, shots_dir, f"{scene} + {shots_dir}")
 
 
+def _is_scene_manifest(path: Path) -> bool:
+    try:
+        data = tomllib.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return False  # load_job says what is wrong with it
+    return "parts" in data and "shots" not in data
+
+
 def open_source(target, shots_dir=None) -> Source:
     """``JOB.toml`` | ``OUTDIR`` (with manifest.json) | ``SCENE`` with ``shots_dir``."""
     target = Path(target)
@@ -108,6 +117,9 @@ def open_source(target, shots_dir=None) -> Source:
             raise MrcheckError("not an export folder (no manifest.json); pass JOB.toml, OUTDIR or SCENE --shots DIR", target)
         source = from_outdir(target)
     elif target.suffix == ".toml" and target.is_file():
+        if _is_scene_manifest(target):  # else load_job would list the manifest's keys as unknown job keys
+            raise MrcheckError("is a scene manifest: give its shots with --shots DIR (registered SHOT.json files), "
+                               "or pass JOB.toml or an export OUTDIR", target)
         source = from_job(target)
     else:
         raise MrcheckError("pass JOB.toml, an export OUTDIR or SCENE --shots DIR", target)

@@ -6,6 +6,8 @@ import sqlite3
 import time
 from pathlib import Path
 
+from ..errors import MrcheckError
+
 CATEGORIES = ("missing", "moved", "extra", "wrong size", "other", "suggested")
 SEVERITIES = (1, 2, 3)
 MAX_NOTE = 2000
@@ -31,12 +33,15 @@ class Store:
 
     def __init__(self, path: Path, source_label: str):
         self.path = Path(path)
-        with self._connect() as db:
-            db.execute("PRAGMA journal_mode=WAL")
-            db.executescript(_SCHEMA)
-            row = db.execute("SELECT id FROM reviews ORDER BY id LIMIT 1").fetchone()
-            self.review = row[0] if row else db.execute("INSERT INTO reviews(source, created) VALUES (?, ?)",
-                                                        (source_label, time.time())).lastrowid
+        try:
+            with self._connect() as db:
+                db.execute("PRAGMA journal_mode=WAL")
+                db.executescript(_SCHEMA)
+                row = db.execute("SELECT id FROM reviews ORDER BY id LIMIT 1").fetchone()
+                self.review = row[0] if row else db.execute("INSERT INTO reviews(source, created) VALUES (?, ?)",
+                                                            (source_label, time.time())).lastrowid
+        except sqlite3.DatabaseError as exc:  # --db in a folder that cannot be written, or a file that is no database
+            raise MrcheckError(f"cannot open the review database ({exc})", self.path) from None
 
     def _connect(self):
         db = sqlite3.connect(self.path, timeout=10, isolation_level=None)  # autocommit: each statement commits

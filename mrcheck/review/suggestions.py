@@ -40,6 +40,8 @@ def load_suggestions(source, specs) -> dict:
     out = {}
     for spec in specs:
         path = Path(spec.partition("=")[2] or spec)
+        if not path.exists():
+            raise MrcheckError("suggestions file not found", path)
         try:
             doc = json.loads(path.read_text())
             suggested = doc["suggested_markers"]

@@ -1,0 +1,99 @@
+"""``mrcheck export`` input validation: an output folder that cannot be made, a scene that does not
+load and a bad or unreachable Dask scheduler are one line ``error: ...``, exit 1, nothing written.
+
+Every case fails before any shot runs, so nothing is rendered here."""
+
+from __future__ import annotations
+
+import json
+import socket
+
+import numpy as np
+import pytest
+
+from mrcheck import export
+from mrcheck.camera import Camera
+from mrcheck.cli import main
+from mrcheck.output import write_image
+from mrcheck.resources import sample_scene_path
+
+
+@pytest.fixture()
+def job(tmp_path):
+    """A valid one-shot job (a given SHOT.json) on the sample cell; ``scene`` is overridable."""
+    camera = Camera.from_look_at((-11.4, -6.2, 1.7), (-5.0, -4.2, 0.9), (0, 0, 1), 60.0, 64, 48)
+    write_image(tmp_path / "photo.png", np.full((48, 64, 3), 128, np.uint8))
+    (tmp_path / "shot.json").write_text(json.dumps({**camera.to_dict(), "photo": "photo.png", "rms": 0.1}))
+
+    def write(scene=str(sample_scene_path())):
+        path = tmp_path / "job.toml"
+        path.write_text(f'scene = "{scene}"\nmodes = ["phong"]\nwidth = 64\nsamples = 4\n[[shots]]\nshot = "shot.json"\n')
+        return path
+
+    return write
+
+
+def _export(capsys, *args):
+    code = main(["export", *map(str, args)])
+    captured = capsys.readouterr()
+    return code, captured.err
+
+
+def _free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.mark.parametrize("where", ["/proc/x", "{tmp}/job.toml/out"])
+def test_output_folder_that_cannot_be_made_is_one_line(where, job, tmp_path, capsys):
+    path = job()
+    out = where.replace("{tmp}", str(tmp_path))
+    code, err = _export(capsys, path, "-o", out)
+    assert code == 1
+    assert err.startswith(f"error: {out}: cannot create or write to the output folder") and err.count("\n") == 1, err
+    assert path.read_text().startswith("scene")  # the job file (a file, not a folder) is untouched
+
+
+BAD_SCENES = {  # problem: (scene file, its content; None: the job's photo)
+    "png": ("photo.png", None),
+    "garbage_mesh": ("scene.glb", b"\x00\x01 not a mesh" * 10),
+    "malformed_manifest": ("scene.toml", b"name = \n[[parts]"),
+    "missing_mesh": ("scene.toml", b'[[parts]]\nmesh = "nowhere.glb"\n'),
+}
+
+
+@pytest.mark.parametrize("problem", sorted(BAD_SCENES))
+def test_scene_that_does_not_load_is_a_bad_job(problem, job, tmp_path, capsys):
+    name, content = BAD_SCENES[problem]
+    if content is not None:
+        (tmp_path / name).write_bytes(content)
+    path = job(name)
+    out = tmp_path / "out"
+    code, err = _export(capsys, path, "-o", out)
+    assert code == 1
+    assert err.startswith(f"error: {path}: scene: ") and err.count("\n") == 1, err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("address", ["notanaddress", "unreachable"])
+def test_bad_scheduler_leaves_no_outdir(address, job, tmp_path, capsys, monkeypatch):
+    pytest.importorskip("distributed")
+    monkeypatch.setattr(export, "SCHEDULER_TIMEOUT", "1s")
+    if address == "unreachable":
+        address = f"tcp://127.0.0.1:{_free_port()}"
+    out = tmp_path / "out"
+    code, err = _export(capsys, job(), "-o", out, "--scheduler", address)
+    assert code == 1
+    assert err.startswith(f"error: cannot connect to the Dask scheduler at {address}") and err.count("\n") == 1, err
+    assert not out.exists()
+
+
+def test_bad_scheduler_keeps_an_existing_outdir(job, tmp_path, capsys):
+    pytest.importorskip("distributed")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "keep.txt").write_text("mine")
+    code, err = _export(capsys, job(), "-o", out, "--scheduler", "notanaddress")
+    assert code == 1 and err.count("\n") == 1
+    assert [p.name for p in out.iterdir()] == ["keep.txt"]

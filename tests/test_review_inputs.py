@@ -1,0 +1,110 @@
+"""``mrcheck review`` input validation: a bad or busy port, a database that cannot be opened or
+is not one, a scene manifest without --shots and a missing suggestions file are one line
+``error: ...``, exit 1, before the URL is printed and before anything is written.
+
+No server is started: uvicorn is replaced by a stub that fails the test if it is reached."""
+
+from __future__ import annotations
+
+import json
+import socket
+
+import numpy as np
+import pytest
+
+pytest.importorskip("fastapi")
+uvicorn = pytest.importorskip("uvicorn")
+
+from mrcheck.camera import Camera  # noqa: E402
+from mrcheck.cli import main  # noqa: E402
+from mrcheck.errors import MrcheckError  # noqa: E402
+from mrcheck.output import write_image  # noqa: E402
+from mrcheck.resources import sample_scene_path  # noqa: E402
+from mrcheck.review.app import listen  # noqa: E402
+
+
+@pytest.fixture(autouse=True)
+def no_server(monkeypatch):
+    def refuse(*args, **kwargs):
+        raise AssertionError("the server must not start for bad input")
+
+    monkeypatch.setattr(uvicorn, "run", refuse)
+    monkeypatch.setattr(uvicorn.Server, "run", refuse)
+
+
+@pytest.fixture()
+def outdir(tmp_path):
+    """An export folder as ``mrcheck export`` leaves it, as far as the review reads it (no renders)."""
+    out = tmp_path / "out"
+    camera = Camera.from_look_at((-11.4, -6.2, 1.7), (-5.0, -4.2, 0.9), (0, 0, 1), 60.0, 64, 48)
+    write_image(out / "shots" / "shot" / "photo.png", np.full((48, 64, 3), 128, np.uint8))
+    (out / "shots" / "shot" / "SHOT.json").write_text(json.dumps({**camera.to_dict(), "photo": "photo.png", "rms": 0.1}))
+    (out / "manifest.json").write_text(json.dumps({"settings": {"scene": str(sample_scene_path())},
+                                                   "shots": [{"name": "shot", "status": "done", "folder": "shots/shot"}]}))
+    return out
+
+
+def _free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _review(capsys, *args):
+    code = main(["review", *map(str, args)])
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+def _files(folder):
+    return sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*"))
+
+
+def test_port_out_of_range(outdir, capsys):
+    before = _files(outdir)
+    code, out, err = _review(capsys, outdir, "--port", 99999)
+    assert code == 1 and out == "" and err.startswith("error: ") and "99999" in err and err.count("\n") == 1, err
+    assert _files(outdir) == before
+    with pytest.raises(MrcheckError, match="port 99999"):  # serve() called directly, without the CLI's check
+        listen("127.0.0.1", 99999)
+
+
+def test_port_in_use_is_reported_before_the_url(outdir, capsys):
+    before = _files(outdir)
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        code, out, err = _review(capsys, outdir, "--port", port)
+    assert code == 1
+    assert err == f"error: port {port} is in use; pick another with --port\n"
+    assert "open http" not in out
+    assert _files(outdir) == before  # no review.sqlite
+
+
+@pytest.mark.parametrize("db", ["/proc/x.sqlite", "{tmp}/no/such/folder/review.sqlite", "{tmp}/photo.png"])
+def test_database_that_cannot_be_opened(db, outdir, tmp_path, capsys):
+    db = db.replace("{tmp}", str(tmp_path))
+    photo = (outdir / "shots" / "shot" / "photo.png").read_bytes()
+    (tmp_path / "photo.png").write_bytes(photo)  # a file that is not a database
+    before = _files(tmp_path)
+    code, out, err = _review(capsys, outdir, "--port", _free_port(), "--db", db)
+    assert code == 1
+    assert err.startswith(f"error: {db}: cannot open the review database (") and err.count("\n") == 1, err
+    assert "open http" not in out
+    assert _files(tmp_path) == before and (tmp_path / "photo.png").read_bytes() == photo
+
+
+def test_scene_manifest_without_shots_says_what_to_pass(capsys):
+    scene = sample_scene_path()
+    code, out, err = _review(capsys, scene, "--port", _free_port())
+    assert code == 1 and err.count("\n") == 1, err
+    assert err.startswith(f"error: {scene}: is a scene manifest") and "--shots DIR" in err and "unknown key" not in err
+
+
+def test_missing_suggestions_file_is_not_found(outdir, tmp_path, capsys):
+    missing = tmp_path / "missing.json"
+    code, out, err = _review(capsys, outdir, "--port", _free_port(), "--suggestions", missing)
+    assert code == 1
+    assert err == f"error: {missing}: suggestions file not found\n"
+    assert not (outdir / "review.sqlite").exists()
