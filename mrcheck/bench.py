@@ -133,6 +133,7 @@ class Figure:
     times_ms: list = field(default_factory=list)
     stats: dict = field(default_factory=dict)   # e.g. triangles drawn, blur size, what a peer timed
     entry: int | None = None   # figures of one entry were timed in turns: run i of each in round i
+    over_fetch_floor: float | None = None   # an AO pass over the floor of its size, samples and scale
 
     def describe(self) -> str:
         """A short label, e.g. ``ao vector 1280x1024 16 samples half``."""
@@ -150,7 +151,7 @@ class Figure:
                 "samples": self.samples, "scale": self.scale, "scene": self.scene, "triangles": self.triangles,
                 "min_ms": min(self.times_ms), "median_ms": self.median_ms, "max_ms": max(self.times_ms),
                 "runs_ms": self.times_ms, "paper_gtx285_ms": self.paper_ms, "stats": self.stats, "unit": "ms",
-                "timed_in_turns_with": self.entry}
+                "timed_in_turns_with": self.entry, "over_fetch_floor": self.over_fetch_floor}
 
 
 @dataclass
@@ -170,16 +171,17 @@ class _FetchFloor:
     if anything makes the floor a little kinder to the texture cache (a floor, not an estimate).
     """
 
-    def __init__(self, ctx: moderngl.Context, samples: int, radius_px: float, seed: int):
-        self.program = load_program(ctx, "ao_fetch_floor", {"AO_SAMPLES": samples})
-        offsets = np.rint(sphere_kernel(samples, seed)[:, :2] * radius_px).astype(np.int32)
+    def __init__(self, ctx: moderngl.Context, samples: int, radius_px: float, seed: int, stride: int = 1):
+        self.program = load_program(ctx, "ao_fetch_floor", {"AO_SAMPLES": samples, "AO_STRIDE": stride})
+        # radius_px at the output resolution; a half-resolution pass's pixels are twice as large
+        offsets = np.rint(sphere_kernel(samples, seed)[:, :2] * radius_px / stride).astype(np.int32)
         self.program["u_offsets"].write(offsets.tobytes())
         self.program["u_depth"].value = 0
         self.ctx = ctx
         self.vao = ctx.vertex_array(self.program, [])
 
     def run(self, target: moderngl.Framebuffer, depth: moderngl.Texture) -> None:
-        self.program["u_size"].value = depth.size
+        self.program["u_size"].value = target.size
         depth.use(0)
         draw_covered(self.ctx, target, self.vao)   # the background skipped as in the AO passes
 
@@ -231,12 +233,20 @@ class _Stage:
     def read_back(self) -> np.ndarray:
         return self.renderer._read_rgb(self.targets)
 
-    def fetch_floor(self, samples: int) -> None:
+    def fetch_floor(self, samples: int, scale: float = 1.0) -> None:
+        """The floor of the AO pass at ``scale``, into the scratch buffer of that resolution (the
+        AO passes write the raw one); at half resolution with the coverage pass the AO pass pays."""
         settings = self.settings(samples)
-        key = (samples, settings.radius_px, settings.seed)
+        stride = 1 if scale == 1.0 else 2
+        key = (samples, settings.radius_px, settings.seed, stride)
         if key not in self._floors:
-            self._floors[key] = _FetchFloor(self.ctx, samples, settings.radius_px, settings.seed)
-        self._floors[key].run(self.targets.ao[1][1], self.targets.gbuffer.depth)
+            self._floors[key] = _FetchFloor(self.ctx, samples, settings.radius_px, settings.seed, stride)
+        if stride == 1:
+            target = self.targets.ao[1][1]
+        else:
+            target = self.targets.half_targets(self.ctx)[1][1]
+            self.renderer._half_coverage(self.targets)
+        self._floors[key].run(target, self.targets.gbuffer.depth)
 
     def release(self) -> None:
         for floor in self._floors.values():
@@ -473,8 +483,9 @@ def _pass_jobs(stage: _Stage, samples_list) -> list[list]:
                 s = stage.settings(samples, scale)
                 group.append((stage, _Job(fig("ao", mode, samples, scale, PAPER_AO_MS.get((samples, scale))),
                                           stage.draw_geometry, lambda m=mode, s=s: stage.ao(m, s))))
-        group.append((stage, _Job(fig("fetch_floor", None, samples, 1.0), stage.draw_geometry,
-                                  lambda n=samples: stage.fetch_floor(n))))
+        for scale in SCALES:
+            group.append((stage, _Job(fig("fetch_floor", None, samples, scale), stage.draw_geometry,
+                                      lambda n=samples, sc=scale: stage.fetch_floor(n, sc))))
         entries.append(group)
 
     for scale in SCALES:
@@ -572,7 +583,7 @@ def _plan(ctx: moderngl.Context, quick: bool, reasons: dict | None = None) -> li
             sample.update(renderer=Renderer(scene, ctx=ctx), camera_for=camera_for, label=label)
         return _Stage(sample["renderer"], sample["camera_for"](size), sample["label"])
 
-    per_size = len(samples_list) * (len(AO_MODES) * len(SCALES) + 1) + len(SCALES) * (len(BLUR_SIZES) + 1)
+    per_size = len(samples_list) * (len(AO_MODES) + 1) * len(SCALES) + len(SCALES) * (len(BLUR_SIZES) + 1)
     for size in sizes:
         sections.append(_Section(lambda size=size: sample_stage(size), lambda st: _pass_jobs(st, samples_list),
                                  per_size, release_after=size == sizes[-1]))
@@ -621,6 +632,15 @@ def _ratio(a: Figure, b: Figure) -> float:
     return a.median_ms / b.median_ms
 
 
+def _floor_ratios(figures) -> None:
+    """Every AO figure over the fetch floor of the same scene, size, sample count and scale,
+    timed in turns with it (:func:`_ratio`); None where no such floor was measured."""
+    floors = {(f.scene, f.width, f.height, f.samples, f.scale): f for f in figures if f.name == "fetch_floor"}
+    for f in figures:
+        floor = floors.get((f.scene, f.width, f.height, f.samples, f.scale)) if f.name == "ao" else None
+        f.over_fetch_floor = None if floor is None else _ratio(f, floor)
+
+
 def _ratios(figures) -> tuple[dict, dict]:
     """The issue's ratios (paired within one run, see :func:`_ratio`), and the first three at
     every sample count."""
@@ -630,7 +650,7 @@ def _ratios(figures) -> tuple[dict, dict]:
         return _find(figures, name="ao", mode=mode, samples=samples, scale=scale, width=w, height=h, **extra)
 
     def floor(samples, triangles):
-        return _find(figures, name="fetch_floor", samples=samples, width=w, height=h, triangles=triangles)
+        return _find(figures, name="fetch_floor", samples=samples, scale=1.0, width=w, height=h, triangles=triangles)
 
     def at(samples):
         vector = ao("vector", samples, triangles=None)
@@ -638,8 +658,8 @@ def _ratios(figures) -> tuple[dict, dict]:
                 "vector_over_fetch_floor": _ratio(vector, floor(samples, None)),
                 "half_over_full": _ratio(ao("vector", samples, 0.5, triangles=None), vector)}
 
-    samples_list = sorted({f.samples for f in figures
-                           if f.name == "fetch_floor" and (f.width, f.height) == PAPER_SIZE and f.triangles is None})
+    samples_list = sorted({f.samples for f in figures if f.name == "fetch_floor" and (f.width, f.height) == PAPER_SIZE
+                           and f.scale == 1.0 and f.triangles is None})
     by_samples = {str(n): at(n) for n in samples_list}
     ratios = dict(by_samples[str(RATIO_SAMPLES)])
     few, many = TRIANGLE_COUNTS
@@ -682,12 +702,14 @@ def _peak_rss_mb() -> float:
 
 
 def _format_table(figures) -> str:
-    header = ("figure", "mode", "scene", "size", "samples", "scale", "min ms", "median ms", "max ms", "GTX285 ms")
+    header = ("figure", "mode", "scene", "size", "samples", "scale", "min ms", "median ms", "max ms", "/ floor",
+              "GTX285 ms")
     rows = [header]
     for f in figures:
         rows.append((f.name, f.mode or "", f.scene, f"{f.width}x{f.height}", str(f.samples or ""),
                      "" if f.scale is None else ("full" if f.scale == 1.0 else "half"),
                      f"{min(f.times_ms):.1f}", f"{f.median_ms:.1f}", f"{max(f.times_ms):.1f}",
+                     "" if f.over_fetch_floor is None else f"{f.over_fetch_floor:.2f}",
                      "" if f.paper_ms is None else f"{f.paper_ms:.1f}"))
     widths = [max(len(r[i]) for r in rows) for i in range(len(header))]
     numeric = range(4, len(header))
@@ -752,6 +774,7 @@ def bench_command(quick: bool, json_path: str | None, repeat: int | None) -> dic
         ctx.release()
 
     ratios, by_samples = _ratios(figures)
+    _floor_ratios(figures)
     report = {"machine": machine, "run": {"quick": quick, "repeat": repeat, "warmup": 1},
               "figures": [f.to_json() for f in figures], "ratios": ratios, "ratios_by_samples": by_samples,
               "targets": TARGETS, "peer_targets": PEER_TARGETS,
@@ -770,6 +793,8 @@ def bench_command(quick: bool, json_path: str | None, repeat: int | None) -> dic
     for f in figures:
         if f.name == "frame" and "png" in f.stats:  # the frames the peer ratios compare, to look at
             print(f"frame {f.mode}: {f.stats['png']}" + (f" ({f.stats['peer']})" if "peer" in f.stats else ""))
+    print("/ floor: an AO pass over the fetch floor of its size, samples and resolution (same depth fetches, "
+          "trivial arithmetic), timed in turns with it.")
     print("GTX285 ms: Scheer & Keutel, Tables 1-2 (their SSAO pass at 1280x1024; 13x13 blur), for comparison.")
     if json_path is not None:
         write_text(json_path, json.dumps(report, indent=2))

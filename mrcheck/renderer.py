@@ -261,13 +261,20 @@ class Renderer:
         # half-res pixel (i, j) is full-res pixel (2i, 2j): K halves exactly (ao_common.glsl)
         half_intrinsics = tuple(v / 2.0 for v in intrinsics)
         raw = targets.half_targets(self.ctx)[0][1]
-        if targets.half_coverage_frame != gb.frame:   # once per G-buffer, for every mode of a frame
+        self._half_coverage(targets)
+        ao.run(raw, gb.depth, gb.normal, half_intrinsics, settings, scale=0.5)
+
+    def _half_coverage(self, targets: _Targets) -> None:
+        """The half-resolution coverage depth (shaders/ao_coverage.glsl) of the current G-buffer,
+        made once per G-buffer frame for every half-resolution pass of that frame."""
+        gb = targets.gbuffer
+        targets.half_targets(self.ctx)
+        if targets.half_coverage_frame != gb.frame:
             self.ctx.enable(moderngl.DEPTH_TEST)
             self.ctx.depth_func = "1"    # always: the coverage pass writes every depth
             self._screen_pass("ao_coverage", targets.half_coverage_fbo, {"u_depth": gb.depth})
             self.ctx.disable(moderngl.DEPTH_TEST)
             targets.half_coverage_frame = gb.frame
-        ao.run(raw, gb.depth, gb.normal, half_intrinsics, settings, scale=0.5)
 
     def _read_ao_full(self, ao_texture, ao: "_AOBuffers", targets: _Targets) -> np.ndarray:
         """(H, W) float32 AO at the output resolution; half-resolution AO is upsampled first."""

@@ -27,8 +27,17 @@ def test_bench_quick_writes_every_figure_and_ratio(tmp_path, capsys):
     for needed in (("ao", "vector", 1.0), ("ao", "vector", 0.5), ("ao", "ssao", 1.0), ("fetch_floor", None, 1.0),
                    ("geometry", None, None), ("blur_9x9", None, 1.0), ("composite", None, 1.0)):
         assert needed in names
+    assert ("fetch_floor", None, 0.5) in names          # the half-resolution pass has its floor too
     for figure in report["figures"]:
         assert 0 < figure["min_ms"] <= figure["median_ms"] <= figure["max_ms"] and figure["unit"] == "ms"
+    # every AO figure of the sample scene is over the floor of its size, samples and scale
+    sample_ao = [f for f in report["figures"] if f["name"] == "ao" and f["scene"].startswith("sample_cell")]
+    assert sample_ao and all(f["over_fetch_floor"] > 0 for f in sample_ao)
+    floor = {(f["width"], f["height"], f["samples"], f["scale"]): f for f in report["figures"] if f["name"] == "fetch_floor"
+             and f["scene"].startswith("sample_cell")}
+    vector = next(f for f in sample_ao if f["mode"] == "vector" and f["scale"] == 1.0 and f["samples"] == 16
+                  and f["width"] == 1280)
+    assert vector["over_fetch_floor"] == pytest.approx(vector["runs_ms"][0] / floor[(1280, 1024, 16, 1.0)]["runs_ms"][0])
     assert report["machine"]["gl_renderer"] and report["peak_rss_mb"] > 0
     printed = capsys.readouterr().out
     assert "vector_over_ssao" in printed and "GTX285" in printed
