@@ -24,6 +24,7 @@ TOML in the layout of the shipped scenes: top-level keys, then ``[[parts]]`` and
 
 from __future__ import annotations
 
+import hashlib
 import json
 import logging
 import math
@@ -141,6 +142,41 @@ def notice_files(path) -> list[Path]:
     return sorted(p for p in path.parent.iterdir() if p.is_file() and p.name.lower().startswith(NOTICE_PREFIXES))
 
 
+def scene_files(path) -> list[Path]:
+    """Every file a scene loads from: a manifest and the files of each part's mesh
+    (:func:`mesh_files`), or a single mesh file and its companions; a folder means its
+    ``scene.toml``, as :func:`mrcheck.scene.load_scene` reads it."""
+    path = Path(os.path.normpath(Path(path).absolute()))
+    if path.is_dir():
+        path = path / "scene.toml"
+    if path.suffix.lower() != ".toml":
+        return mesh_files(path)
+    files = [path]
+    try:
+        parts = read_manifest(path).get("parts", [])
+    except MrcheckError:
+        return files
+    for part in parts if isinstance(parts, list) else []:
+        mesh = part.get("mesh") if isinstance(part, dict) else None
+        if isinstance(mesh, str):
+            files += mesh_files(path.parent / mesh)
+    return list(dict.fromkeys(files))
+
+
+def files_stamp(paths) -> str:
+    """A digest of every file's path, size and modification time: it changes when an input is
+    edited, replaced or touched (as make decides), without reading gigabytes of meshes."""
+    digest = hashlib.sha256()
+    for p in paths:
+        p = Path(p)
+        try:
+            st = p.stat()
+            digest.update(f"{p}\0{st.st_size}\0{st.st_mtime_ns}\n".encode())
+        except OSError:
+            digest.update(f"{p}\0missing\n".encode())
+    return digest.hexdigest()[:16]
+
+
 # -- writing TOML ------------------------------------------------------------------------------------
 def _key(key: str) -> str:
     return key if _BARE_KEY.match(key) else json.dumps(key, ensure_ascii=False)
@@ -187,4 +223,4 @@ def dumps_manifest(data: dict, header: str = "") -> str:
     return "\n".join(lines) + "\n"
 
 
-__all__ = ["read_manifest", "mesh_files", "notice_files", "dumps_manifest", "NOTICE_PREFIXES"]
+__all__ = ["read_manifest", "mesh_files", "notice_files", "scene_files", "files_stamp", "dumps_manifest", "NOTICE_PREFIXES"]
