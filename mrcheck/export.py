@@ -92,6 +92,7 @@ from .output import encode_image, write_bytes, write_text
 from .overlay import STUDY_ORDER, check_alpha, distortion_map, load_shot, overlay_images, read_photo, \
     render_for_photo, study_sheet
 from .renderer import DEFAULT_SAMPLES, MODES, RenderSettings
+from .scenefiles import files_stamp, scene_files
 
 RECORD = "record.json"
 SHOT_FILE = "SHOT.json"
@@ -102,6 +103,11 @@ _TOP_KEYS = {"scene", "modes", "alphas", "intensities", "overlay_intensity", "wi
              "samples", "edges", "intrinsics", "markers", "points", "shots"}
 _SHOT_KEYS = {"name", "shot", "photo", "photos", "intrinsics", "markers", "points"}
 _NAME = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9._-]*")
+_NUM = r"[0-9][0-9.e+-]*"  # a number as _fmt writes it: 1, 0.5, 1e-05
+_AO = "|".join(m for m in MODES if m != "phong")
+# every name the export writes into a shot folder (temp files included): only these are ever removed
+_OUTPUT_NAME = re.compile(rf"(render_phong|render_({_AO})_i{_NUM}|overlay_phong_a{_NUM}|overlay_({_AO})_i{_NUM}_a{_NUM}"
+                          rf"|sheet)\.png|SHOT\.json|record\.json|\..+\.part")
 
 
 # -- the job file -----------------------------------------------------------------------------
@@ -310,14 +316,31 @@ def plan_outputs(job_settings: dict) -> list:
     return outputs
 
 
-def _tasks(job: Job, outdir: Path, write: bool) -> list:
+def _input_files(inputs: dict) -> list:
+    """The files one shot reads besides the scene: its inputs and, for a given SHOT.json, its photo."""
+    files = [inputs[k] for k in ("shot", "photo", "intrinsics", "markers", "points") if k in inputs]
+    if "shot" in inputs:
+        try:
+            files.append(str(load_shot(inputs["shot"])[1].resolve()))
+        except MrcheckError:
+            pass  # the shot fails when it runs, and a failed shot is always run again
+    return files
+
+
+def _tasks(job: Job, outdir: Path, write: bool, scene_paths=None) -> list:
     settings = job.settings()
+    # the inputs' paths are not enough: a moved part, a replaced photo or an edited marker map must
+    # redo the shots that read them, so their sizes and mtimes go into the fingerprint too
+    scene_stamp = files_stamp(scene_paths if scene_paths is not None else scene_files(job.scene))
     tasks = []
     for shot in job.shots:
         inputs = {k: v for k, v in shot.items() if k != "name"}
-        fingerprint = hashlib.sha256(json.dumps({"settings": settings, "inputs": inputs}, sort_keys=True)
-                                     .encode()).hexdigest()[:16]
+        files = _input_files(inputs)
+        stamps = {"scene": scene_stamp, "inputs": files_stamp(files)}
+        fingerprint = hashlib.sha256(json.dumps({"settings": settings, "inputs": inputs, "stamps": stamps},
+                                                sort_keys=True).encode()).hexdigest()[:16]
         tasks.append({"name": shot["name"], "inputs": inputs, "settings": settings, "fingerprint": fingerprint,
+                      "scene_stamp": scene_stamp, "input_files": files,
                       "dir": str(outdir / "shots" / shot["name"]), "write": write})
     return tasks
 
@@ -338,17 +361,19 @@ def finished_record(task: dict) -> dict | None:
 
 
 # -- the work of one shot (runs in a worker) ----------------------------------------------------
-_RENDERERS: dict = {}  # per process: (scene path, mtime) -> Renderer, kept across shots
+_RENDERERS: dict = {}  # per process: (scene path, stamp of its files) -> Renderer, kept across shots
 
 
-def _renderer(scene_path: str, scene=None):
+def _renderer(scene_path: str, scene=None, stamp: str | None = None):
     """This process's Renderer of ``scene_path`` (the scene is loaded once per process; ``scene``:
-    already loaded, by :func:`load_job` when the shots run in this process)."""
+    already loaded, by :func:`load_job` when the shots run in this process). ``stamp``: the
+    job's :func:`files_stamp` of the scene's files; a Dask worker outlives a job, and an edited
+    mesh must not be rendered from its old copy."""
     from .renderer import Renderer
     from .scene import load_scene
 
     path = Path(scene_path)
-    key = (str(path), path.stat().st_mtime_ns if path.exists() else 0)
+    key = (str(path), stamp if stamp is not None else files_stamp(scene_files(path)))
     if key not in _RENDERERS:
         for old in [k for k in _RENDERERS if k[0] == key[0]]:
             _RENDERERS.pop(old).release()
@@ -406,7 +431,7 @@ def _shot_files(task: dict, timings: dict, scene=None) -> tuple[dict, dict]:
     timings["registration"] = time.perf_counter() - t
 
     t = time.perf_counter()
-    renderer = _renderer(settings["scene"], scene)
+    renderer = _renderer(settings["scene"], scene, task.get("scene_stamp"))
     timings["scene"] = time.perf_counter() - t
     modes, default = settings["modes"], settings["overlay_intensity"]
     maps = distortion_map(camera)
@@ -502,6 +527,34 @@ def _prepare_folder(folder: Path) -> None:
             part.unlink(missing_ok=True)
 
 
+def _remove_stale(outdir: Path, tasks: list, keep: set) -> list:
+    """Remove what earlier runs wrote and this job no longer produces: in this job's shot folders,
+    outputs no longer planned (a dropped alpha, intensity or mode); folders of shots no longer in
+    the job, when they hold the export's record.json. Only the export's own file names go, never a
+    file in ``keep`` (what the job reads); a folder is removed once empty. Returns the removed
+    paths, relative to OUTDIR."""
+    planned = {Path(t["dir"]).name: {o["file"] for o in plan_outputs(t["settings"])} | {SHOT_FILE, RECORD}
+               for t in tasks}
+    shots = outdir / "shots"
+    removed = []
+    for folder in sorted(shots.iterdir()) if shots.is_dir() else []:
+        wanted = planned.get(folder.name)
+        if not folder.is_dir() or folder.is_symlink() or (wanted is None and not (folder / RECORD).is_file()):
+            continue  # not a folder the export finished a shot in: maybe not ours
+        # record.json last: a run killed half-way leaves a folder the next run still recognises
+        stale = sorted((f for f in folder.iterdir() if _OUTPUT_NAME.fullmatch(f.name) and f.name not in (wanted or ())
+                        and f.is_file() and f.resolve() not in keep), key=lambda f: f.name == RECORD)
+        for file in stale:
+            file.unlink(missing_ok=True)
+            removed.append(file.relative_to(outdir).as_posix())
+        if wanted is None:
+            try:
+                folder.rmdir()
+            except OSError:
+                pass  # files the export did not write stay, and so does their folder
+    return removed
+
+
 # -- executors ----------------------------------------------------------------------------------
 def _worker_init(gl_threads: int | None) -> None:
     # llvmpipe rasterises with one thread per core; N processes on the same cores share them
@@ -595,7 +648,8 @@ def export_command(job, outdir, workers: int = 1, scheduler: str | None = None, 
         raise MrcheckError("output folder is a file", outdir)
     if workers < 1:
         raise MrcheckError(f"workers must be >= 1, got {workers}")
-    tasks = _tasks(job, outdir, write=scheduler is None)
+    scene_paths = scene_files(job.scene)
+    tasks = _tasks(job, outdir, write=scheduler is None, scene_paths=scene_paths)
 
     entries, to_run = {}, []
     for task in tasks:
@@ -608,18 +662,27 @@ def export_command(job, outdir, workers: int = 1, scheduler: str | None = None, 
     client = _connect(scheduler) if scheduler else None
     try:
         _make_outdir(outdir)
+        reads = {Path(f).resolve() for f in scene_paths} | {Path(f).resolve() for t in tasks for f in t["input_files"]}
+        removed = _remove_stale(outdir, tasks, reads)
         for task in to_run:
             _prepare_folder(Path(task["dir"]))
 
         runner = _run_dask(to_run, client) if client is not None else _run_local(to_run, workers, job.loaded)
+        run_start, finished = time.perf_counter(), 0
+        # disable=None: a bar on a terminal only; a log gets one plain line per shot instead of \r frames
         with tqdm(total=len(tasks), initial=len(tasks) - len(to_run), desc="export", unit="shot", file=sys.stderr,
-                  dynamic_ncols=True) as bar:
+                  dynamic_ncols=True, disable=None) as bar:
             for task, record in runner:
                 folder = Path(task["dir"])
                 if record["status"] == "done" and "files" in record:  # from a cluster: written here
                     record = store_shot(folder, record)
                 entries[task["name"]] = _manifest_entry(record, record["status"], outdir, folder)
                 bar.update(1)
+                finished += 1
+                if bar.disable:
+                    eta = (time.perf_counter() - run_start) / finished * (len(to_run) - finished)
+                    click.echo(f"export: {len(tasks) - len(to_run) + finished}/{len(tasks)} shots, {task['name']} "
+                               f"{record['status']}, ETA {eta:.0f} s", err=True)
                 failed = sum(e["status"] == "failed" for e in entries.values())
                 if failed:
                     bar.set_postfix(failed=failed)
@@ -637,7 +700,7 @@ def export_command(job, outdir, workers: int = 1, scheduler: str | None = None, 
         "summary": {"shots": len(shots), **counts}, "timings_s": {
             "total": round(elapsed, 3),
             "shots_per_minute": round(60.0 * len(ran) / elapsed, 2) if ran and elapsed > 0 else None},
-        "shots": shots,
+        "shots": shots, "removed": removed,
     }
     write_text(outdir / "manifest.json", json.dumps(manifest, indent=2) + "\n")
     write_report(manifest, outdir)
@@ -647,6 +710,9 @@ def export_command(job, outdir, workers: int = 1, scheduler: str | None = None, 
     for entry in shots:
         if entry["status"] == "failed":
             click.echo(f"  failed {entry['name']}: {entry['error']}")
+    if removed:
+        click.echo(f"removed {len(removed)} file(s) of earlier runs that this job no longer produces "
+                   f"(listed in manifest.json)")
     click.echo(f"wrote {outdir / 'manifest.json'} and {outdir / 'report.html'}")
     return 1 if counts["failed"] else 0
 

@@ -19,9 +19,12 @@ Output, SHOT.json: the camera JSON (``width``, ``height``, ``K``, ``dist``, ``R`
     "expected_overlay_error_px": predicted overlay error at the points' depth (1 sigma, RMS
         over the image, first order, from the pose covariance), "warnings": [str, ...]
 
-The pose: RANSAC (``cv2.solvePnPRansac``) over all points of all markers jointly, a refit on the
-inliers (IPPE's two solutions when the points are coplanar, SQPnP otherwise) and
-``cv2.solvePnPRefineLM``; the candidate with the lowest RMS wins.
+The pose: RANSAC (``cv2.solvePnPRansac``, AP3P minimal samples) over all points of all markers
+jointly, a refit on the inliers (IPPE's two solutions when the points are coplanar, SQPnP otherwise)
+and ``cv2.solvePnPRefineLM``; the candidate with the lowest RMS wins. All of it runs in the points'
+own frame (centred on their mean, axes along their principal directions), so the result does not
+depend on where the world frame is: OpenCV's RANSAC works in float32 (useless 1e6 m from the
+origin) and its EPnP fails on coplanar points for about half the orientations of their plane.
 """
 
 from __future__ import annotations
@@ -132,8 +135,22 @@ def _shape(world):
     return np.concatenate([s, np.zeros(3 - s.size)]), vt[-1]
 
 
+def _local_frame(world):
+    """``(c, Q)``: the points' mean and principal axes, a rotation (det +1); ``X_local = Q^T (X - c)``
+    puts coplanar points in z = 0 and keeps coordinates small however far from the origin they are."""
+    c = world.mean(axis=0)
+    _, _, vt = np.linalg.svd(world - c)  # n >= 4 points: vt is 3 x 3
+    Q = vt.T.copy()
+    if np.linalg.det(Q) < 0:
+        Q[:, 2] = -Q[:, 2]
+    return c, Q
+
+
 def solve_pose(camera: Camera, pixels, world, max_error=None) -> Pose:
-    """Robust pose of ``camera`` from 2D-3D pairs: RANSAC, refit on the inliers, LM refinement."""
+    """Robust pose of ``camera`` from 2D-3D pairs: RANSAC, refit on the inliers, LM refinement.
+
+    Solved in the points' local frame (:func:`_local_frame`) and mapped back: the same points in any
+    world frame give the same camera relative to them."""
     pixels = np.ascontiguousarray(pixels, np.float64).reshape(-1, 2)
     world = np.ascontiguousarray(world, np.float64).reshape(-1, 3)
     n = len(world)
@@ -149,15 +166,20 @@ def solve_pose(camera: Camera, pixels, world, max_error=None) -> Pose:
     # automatic threshold: a few pixels, more for big photos (clicks and corners scale with size)
     threshold = float(max_error) if max_error else max(3.0, 0.003 * math.hypot(camera.width, camera.height))
 
+    c, Q = _local_frame(world)
+    world = np.ascontiguousarray((world - c) @ Q)  # from here on the local frame
     candidates = []
     inliers = np.ones(n, bool)
     if n > 4:  # with exactly 4 points every subset fits; there is nothing to vote on
+        # AP3P samples: valid for coplanar points in any orientation (EPnP's are not); the inliers are
+        # RANSAC's, the pose it returns (an EPnP fit on them) is only one more candidate
         ok, rvec, tvec, idx = cv2.solvePnPRansac(world, pixels, camera.K, camera.dist, iterationsCount=1000,
                                                  reprojectionError=threshold, confidence=0.9999,
-                                                 flags=cv2.SOLVEPNP_EPNP)
+                                                 flags=cv2.SOLVEPNP_AP3P)
         if ok and idx is not None and len(idx) >= 4:
             candidates.append((rvec, tvec))
-            inliers = _reprojection_errors(camera, rvec, tvec, pixels, world) < threshold
+            inliers = np.zeros(n, bool)
+            inliers[np.ravel(idx)] = True
     for _ in range(2):  # refit on the inliers, then once more on the inliers of the refit
         if inliers.sum() < 4:
             break
@@ -176,7 +198,9 @@ def solve_pose(camera: Camera, pixels, world, max_error=None) -> Pose:
         raise MrcheckError(f"no consistent pose: fewer than 4 points agree within {threshold:.1f} px "
                            "(check the survey, the ids and the intrinsics, or raise --max-error)")
     rvec, tvec, errors = best
-    return Pose(cv2.Rodrigues(rvec)[0], tvec.ravel(), errors, errors < threshold, threshold)
+    R_local = cv2.Rodrigues(rvec)[0]
+    R = R_local @ Q.T  # X_cam = R_local Q^T (X - c) + t_local
+    return Pose(R, tvec.ravel() - R @ c, errors, errors < threshold, threshold)
 
 
 def _best(camera, candidates, pixels, world, inliers):

@@ -418,9 +418,12 @@ def _part_from_table(path: Path, index: int, table: dict, names: set) -> Part:
         unit_scale(table.get("units"), None)
     except MrcheckError as exc:
         raise MrcheckError(f"{where}: {exc}", path) from None
-    instances = table.get("instances") or [{}]
+    instances = table.get("instances", [{}])   # no key: one copy at the part's own transform
     if not isinstance(instances, list) or not all(isinstance(t, dict) for t in instances):
         raise MrcheckError(f"{where}: instances must be an array of tables", path)
+    if not instances:   # it drew one copy before, silently; a planner who empties it means none
+        raise MrcheckError(f"{where}: instances is empty (no copy placed); remove the part, or leave out "
+                           "'instances' for one copy at the part's transform", path)
     for i, t in enumerate(instances):
         unknown = sorted(set(t) - _INSTANCE_KEYS)
         if unknown:

@@ -131,6 +131,7 @@ CASES = [
     toml_case("toml-duplicate-names", manifest() + manifest().replace("format = 1", ""), "two parts are named"),
     toml_case("toml-unknown-key", manifest("colour = [1, 0, 0]"), "unknown key(s) colour"),
     toml_case("toml-unknown-instance-key", manifest("instances = [{ translte = [0, 1, 0] }]"), "unknown key(s) translte"),
+    toml_case("toml-instances-empty", manifest("instances = []"), "instances is empty"),
     toml_case("toml-scale-negative", manifest("scale = -1.0"), "scale must be positive"),
     toml_case("toml-scale-text", manifest('scale = "big"'), "must be numbers"),
     toml_case("toml-instance-scale-zero", manifest("instances = [{ scale = 0 }]"), "scale must be positive"),
