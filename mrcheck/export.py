@@ -44,7 +44,9 @@ Per shot, under ``OUTDIR/shots/NAME/`` (``{x:g}`` numbers: ``i1``, ``i0.5``, ``a
 * ``sheet.png`` -- the study sheet: D1 | D2 | D3 virtual (top) and over the photo at 50 %
   (bottom), at the overlay intensity (D1-D3 are rendered for it even when not in ``modes``);
 * ``record.json`` -- written last: the outputs with their parameters, the registration, timings
-  and a fingerprint of the shot's inputs and the job's settings.
+  and a fingerprint of the job's settings, the shot's input paths and the size and mtime of every
+  file the shot reads (the scene's manifest, meshes and their companions; the shot's photo,
+  intrinsics, markers or points, its SHOT.json and that shot's photo).
 
 For the job: ``OUTDIR/manifest.json`` (every shot with its status, error, registration error,
 outputs with parameters, timings) and ``OUTDIR/report.html`` (one self-contained file: inline
@@ -54,10 +56,19 @@ registration error, failures last).
 Restart: every file is written atomically (temp + rename) and ``record.json`` last, so a shot is
 finished exactly when its record exists, its fingerprint matches the job and every output it
 lists exists. A rerun skips finished shots (``--force`` redoes them) and retries failed ones; a
-killed run loses only the shots in flight. A bad shot (unreadable photo, no markers, an error
-above the limit) is reported and the others go on; the exit status is 1 when any shot failed.
+shot whose settings or input files changed (edited, replaced or touched) is not finished. A
+killed run loses only the shots in flight. Outputs of earlier runs that the job no longer
+produces are removed before the shots run (listed in the manifest's ``removed``): in the job's
+shot folders, the export's own file names that it no longer plans (a dropped alpha, intensity or
+mode); in ``OUTDIR/shots/``, the export's files in folders of shots no longer in the job that
+hold a ``record.json``, and the folder once empty. Other files, and the job's own inputs, stay.
+A bad shot (unreadable photo, no markers, an error above the limit) is reported and the others
+go on; the exit status is 1 when any shot failed.
 PNGs are deterministic (fixed seeds, no timestamps): the same job gives the same bytes, with any
 number of workers or on a cluster.
+
+Progress goes to stderr: a bar on a terminal, one line per shot (count, name, status, ETA) in a
+pipe or log file.
 
 Execution: ``--workers 1`` runs in this process; ``--workers N`` in N spawned processes
 (``ProcessPoolExecutor``, "spawn": each has its own EGL context and keeps its scene and Renderer
@@ -327,11 +338,11 @@ def _input_files(inputs: dict) -> list:
     return files
 
 
-def _tasks(job: Job, outdir: Path, write: bool, scene_paths=None) -> list:
+def _tasks(job: Job, outdir: Path, write: bool, scene_paths: list) -> list:
     settings = job.settings()
     # the inputs' paths are not enough: a moved part, a replaced photo or an edited marker map must
     # redo the shots that read them, so their sizes and mtimes go into the fingerprint too
-    scene_stamp = files_stamp(scene_paths if scene_paths is not None else scene_files(job.scene))
+    scene_stamp = files_stamp(scene_paths)  # scene_files(job.scene): once per job, it reads every OBJ
     tasks = []
     for shot in job.shots:
         inputs = {k: v for k, v in shot.items() if k != "name"}

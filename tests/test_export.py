@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import re
+import shutil
 import time
 
 import cv2
@@ -228,3 +230,84 @@ def test_bad_job_is_one_line_and_writes_nothing(problem, tmp_path, capsys):
     assert code == 1
     assert err.startswith(f"error: {job}: ") and err.count("\n") == 1, err
     assert not out.exists()
+
+
+# -- reruns after edits, progress in a log, outputs a shrunk job no longer produces --------------------
+@pytest.fixture()
+def small_job(job_dir, tmp_path):
+    """Two tiny shots (cam-0 by markers, a given SHOT.json) on a copy of the sample scene, every
+    input a file of its own, so that a test can edit any of them."""
+    shutil.copytree(sample_scene_path().parent, tmp_path / "scene")
+    for name in ("photos/cam-0.png", "camera.json", "markers.json", "given/given.png"):
+        shutil.copy(job_dir / name, tmp_path)
+    given = json.loads((job_dir / "given" / "given.json").read_text())
+    (tmp_path / "given.json").write_text(json.dumps(dict(given, photo="given.png")))
+
+    def write(alphas="[0.0, 0.5]", shots='[[shots]]\nshot = "given.json"\n'):
+        job = tmp_path / "job.toml"
+        job.write_text(f'scene = "scene/scene.toml"\nmodes = ["phong"]\nalphas = {alphas}\nwidth = 64\nsamples = 4\n'
+                       f'[[shots]]\nphoto = "cam-0.png"\nintrinsics = "camera.json"\nmarkers = "markers.json"\n{shots}')
+        return job
+
+    return write
+
+
+def _touch(path):
+    st = path.stat()  # a second later than now: an mtime the filesystem cannot round back to the old one
+    os.utime(path, ns=(st.st_atime_ns, max(st.st_mtime_ns, time.time_ns()) + 1_000_000_000))
+
+
+def test_rerun_redoes_shots_whose_input_files_changed(small_job, capsys):
+    job = small_job()
+    out = job.parent / "out"
+    assert "2 done" in _export(capsys, job, out)[1]
+    assert "0 done, 2 skipped" in _export(capsys, job, out)[1]
+    sheet = (out / "shots/cam-0/sheet.png").read_bytes()
+    manifest = job.parent / "scene" / "scene.toml"
+    text = manifest.read_text()
+    assert "translate = [-5.8, -2.5, 0.0]" in text  # the conveyor, in front of cam-0
+    manifest.write_text(text.replace("translate = [-5.8, -2.5, 0.0]", "translate = [-5.0, -2.5, 0.0]"))
+    _touch(manifest)
+    assert "2 done, 0 skipped" in _export(capsys, job, out)[1]
+    assert (out / "shots/cam-0/sheet.png").read_bytes() != sheet  # the part moved in the new outputs too
+    for changed, redone in [("scene/meshes/pallet.glb", "2 done, 0 skipped"), ("cam-0.png", "1 done, 1 skipped"),
+                            ("camera.json", "1 done, 1 skipped"), ("markers.json", "1 done, 1 skipped"),
+                            ("given.json", "1 done, 1 skipped"), ("given.png", "1 done, 1 skipped")]:
+        _touch(job.parent / changed)
+        assert redone in _export(capsys, job, out)[1], changed
+    assert "0 done, 2 skipped" in _export(capsys, job, out)[1]
+
+
+def test_progress_in_a_log_is_lines_not_a_bar(small_job, capsys):
+    job = small_job()
+    code, _, err, _ = _export(capsys, job, job.parent / "out")  # captured stderr is not a terminal
+    assert code == 0 and "\r" not in err
+    lines = [line for line in err.splitlines() if line.startswith("export: ")]
+    assert len(lines) == 2 and lines[1].startswith("export: 2/2 shots, ") and lines[1].endswith(", ETA 0 s")
+    assert all(re.fullmatch(r"export: [12]/2 shots, (cam-0|given) done, ETA \d+ s", line) for line in lines), lines
+
+
+def test_outputs_the_job_no_longer_produces_are_removed(small_job, capsys):
+    job = small_job()
+    out = job.parent / "out"
+    _export(capsys, job, out)
+    (out / "shots" / "cam-0" / "notes.txt").write_text("mine")
+    (out / "shots" / "mine").mkdir()  # no record.json: not a shot folder of the export
+    (out / "shots" / "mine" / "sheet.png").write_bytes(b"mine")
+    # alpha 0 dropped; the given shot dropped, but its exported SHOT.json is an input of the new job
+    job = small_job("[0.5]", f'[[shots]]\nname = "again"\nshot = "{out}/shots/given/SHOT.json"\n')
+    code, stdout, _, _ = _export(capsys, job, out)
+    assert code == 0 and "2 done" in stdout and "removed 6 file(s) of earlier runs" in stdout
+    removed = json.loads((out / "manifest.json").read_text())["removed"]
+    assert sorted(removed) == ["shots/cam-0/overlay_phong_a0.png"] + [
+        f"shots/given/{name}" for name in ("overlay_phong_a0.5.png", "overlay_phong_a0.png", "record.json",
+                                           "render_phong.png", "sheet.png")]
+    assert sorted(p.name for p in (out / "shots" / "cam-0").iterdir()) == \
+        ["SHOT.json", "notes.txt", "overlay_phong_a0.5.png", "record.json", "render_phong.png", "sheet.png"]
+    assert [p.name for p in (out / "shots" / "given").iterdir()] == ["SHOT.json"]
+    assert (out / "shots" / "mine" / "sheet.png").read_bytes() == b"mine"
+    assert (out / "shots" / "again" / "record.json").is_file()
+    # an untouched rerun removes nothing more
+    code, stdout, _, _ = _export(capsys, job, out)
+    assert "0 done, 2 skipped" in stdout and "removed" not in stdout
+    assert json.loads((out / "manifest.json").read_text())["removed"] == []
