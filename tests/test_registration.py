@@ -10,6 +10,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from mrcheck.camera import Camera
 from mrcheck.cli import main
@@ -62,6 +63,42 @@ def test_charuco_photo_registers_sub_pixel():
     assert shot["used"][0]["board"] == 0 and shot["used"][0]["corners"] == 24
     assert shot["rejected"] == [] and shot["unknown_ids"] == []
     assert 0.2 < np.linalg.norm(shot["camera_position"]) < 0.8  # a desk photo of a 20 x 28 cm board
+
+
+FAR = [1.0e6, -2.0e6, 3.0e5]  # a factory's survey coordinates: a million metres from the origin
+# board-to-world poses: face-up on the floor (README), and seeded random rotations, near and far
+FACE_UP = np.diag([1.0, -1.0, -1.0])
+BOARD_POSES = ([("face_up", FACE_UP, [0.0, 0.0, 0.0]), ("face_up_far", FACE_UP, FAR)]
+               + [(f"random{k}{'_far' if k % 2 else ''}", R, FAR if k % 2 else [0.0, 0.0, 0.0])
+                  for k, R in enumerate(Rotation.random(10, random_state=20240611).as_matrix())])
+
+
+def _board_map(R, t):
+    board = dict(BOARD_MAP["charuco_boards"][0], pose={"R": np.asarray(R).tolist(), "t": list(t)})
+    return {"charuco_boards": [board]}
+
+
+@pytest.fixture(scope="module")
+def board_frame_shot():
+    return register_markers(read_photo(CHARUCO / "choriginal.jpg"), charuco_camera(), BOARD_MAP)
+
+
+@pytest.mark.parametrize("name, R, t", BOARD_POSES, ids=[p[0] for p in BOARD_POSES])
+def test_charuco_registration_does_not_depend_on_the_board_pose(board_frame_shot, name, R, t):
+    """The same photo of the same board: the camera relative to the board must not change with
+    where the board sits in the world (EPnP RANSAC on the world coordinates failed for about half
+    of the orientations, and far from the origin, where OpenCV's RANSAC rounds them to float32)."""
+    shot = register_markers(read_photo(CHARUCO / "choriginal.jpg"), charuco_camera(), _board_map(R, t))
+    assert shot["rms"] < 0.4
+    assert shot["used"][0]["corners"] == 24 and shot["rejected"] == []
+    # X_board -> X_world = R X_board + t, so the board-frame camera (R0, t0) becomes R0 R^T, centre R c0 + t
+    base, found = Camera.from_dict(board_frame_shot), Camera.from_dict(shot)
+    assert np.linalg.norm(found.center - (R @ base.center + t)) < 1e-3
+    assert np.linalg.norm(np.asarray(shot["camera_position"]) - (R @ base.center + t)) < 1e-3
+    angle = np.degrees(np.linalg.norm(cv2.Rodrigues(found.R @ (base.R @ R.T).T)[0]))
+    assert angle < 0.1
+    assert shot["rms"] == pytest.approx(board_frame_shot["rms"], abs=0.01)
+    assert shot["expected_overlay_error_px"] == pytest.approx(board_frame_shot["expected_overlay_error_px"], abs=0.02)
 
 
 def test_cli_writes_a_shot_that_is_a_camera(files, capsys):
@@ -124,6 +161,31 @@ def test_points_with_outliers_are_rejected_and_pose_recovered():
     assert np.linalg.norm(found.center - truth.center) < 1e-3
     angle = np.degrees(np.linalg.norm(cv2.Rodrigues(found.R @ truth.R.T)[0]))
     assert angle < 0.01
+
+
+PLANES = [(k, offset) for k in range(8) for offset in ([0.0, 0.0, 0.0], FAR)]
+
+
+@pytest.mark.parametrize("k, offset", PLANES, ids=[f"plane{k}{'_far' if o[0] else ''}" for k, o in PLANES])
+def test_coplanar_points_off_the_xy_plane_register(k, offset):
+    """Clicked points on one plane (a wall, a ramp) of any orientation, anywhere in the world:
+    the two mis-clicks are rejected and the pose is exact."""
+    plane = Rotation.random(8, random_state=7).as_matrix()[k]  # columns: two in-plane axes, the normal
+    rng = np.random.default_rng(k)
+    centre = np.array([3.0, 4.0, 2.0]) + offset
+    world = centre + rng.uniform([-2.0, -1.5], [2.0, 1.5], size=(12, 2)) @ plane[:, :2].T
+    truth = Camera.from_look_at(centre + 6.0 * plane[:, 2] + rng.normal(size=3), centre, [0, 0, 1], 60.0, 1920, 1080)
+    truth = Camera(1920, 1080, truth.K, truth.R, truth.t, dist=[0.05, -0.02, 0.001, 0.0005, 0.0])
+    pixels = cv2.projectPoints(world, cv2.Rodrigues(truth.R)[0], truth.t, truth.K, truth.dist)[0].reshape(-1, 2)
+    pixels[[2, 7]] += [[35.0, -20.0], [-50.0, 60.0]]  # two mis-clicks
+    pairs = {"points": [{"pixel": p.tolist(), "world": w.tolist()} for p, w in zip(pixels, world)]}
+    shot = register_points(Camera(1920, 1080, truth.K, dist=truth.dist), pairs)
+    assert sorted(r["index"] for r in shot["rejected"]) == [2, 7] and len(shot["used"]) == 10
+    assert shot["rms"] < 1e-4
+    found = Camera.from_dict(shot)
+    assert np.linalg.norm(found.center - truth.center) < 1e-3
+    assert np.degrees(np.linalg.norm(cv2.Rodrigues(found.R @ truth.R.T)[0])) < 0.01
+    assert np.isfinite(shot["expected_overlay_error_px"])
 
 
 def _points_file(files, world, pixels=None):
