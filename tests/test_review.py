@@ -154,6 +154,89 @@ def test_suggested_markers_of_a_discrepancies_run(outdir, tmp_path):
         load_suggestions(source, [str(tmp_path / "bad.json")])
 
 
+def _box_review(folder, centre):
+    """A review of one 64x48 shot of a 1 m box (a single-mesh scene) at ``centre``: SCENE --shots DIR."""
+    import trimesh
+
+    from mrcheck.camera import Camera
+
+    folder.mkdir(exist_ok=True)
+    trimesh.creation.box(extents=(1, 1, 1), transform=trimesh.transformations.translation_matrix(centre)).export(
+        folder / "box.stl")
+    (folder / "shots").mkdir(exist_ok=True)
+    camera = Camera.from_look_at((4.0, 0.0, 0.5), (0.0, 0.0, 0.0), (0, 0, 1), 60.0, 64, 48)
+    write_image(folder / "shots" / "photo.png", np.full((48, 64, 3), 128, np.uint8))
+    (folder / "shots" / "a.json").write_text(json.dumps({**camera.to_dict(), "photo": "photo.png"}))
+    return open_source(folder / "box.stl", folder / "shots")
+
+
+def test_render_cache_follows_a_changed_scene(tmp_path):
+    """Re-exporting into the same folder with a changed scene must not serve the old render."""
+    def render(source):
+        app = create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache", samples=2)
+        with TestClient(app) as c:
+            r = c.get("/api/shots/a/render.png")
+            assert r.status_code == 200, r.text
+            return r.content
+
+    before = render(_box_review(tmp_path, (0.0, 0.0, 0.0)))
+    assert render(open_source(tmp_path / "box.stl", tmp_path / "shots")) == before  # a restart: the cached file
+    assert len(list((tmp_path / "cache").rglob("render_*.png"))) == 1
+    assert render(_box_review(tmp_path, (0.0, 1.2, 0.0))) != before  # the box moved
+
+
+def test_a_photo_gone_after_start_is_a_json_404(tmp_path):
+    source = _box_review(tmp_path, (0.0, 0.0, 0.0))
+    (tmp_path / "shots" / "photo.png").unlink()
+    with TestClient(create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache")) as c:
+        r = c.get("/api/shots/a/photo.png")
+        assert r.status_code == 404 and "photo not found" in r.json()["error"]
+
+
+@pytest.mark.parametrize("marker_id", [10**23, -10**23, 2**63, 0])
+def test_marker_ids_beyond_sqlite_are_404(client, marker_id):
+    for method in ("patch", "delete"):
+        r = client.request(method, f"/api/markers/{marker_id}", json={"note": "x"})
+        assert r.status_code == 404 and r.json() == {"error": f"no marker {marker_id}"}
+
+
+def test_markers_of_a_shot_the_review_no_longer_has(outdir, tmp_path):
+    """An earlier review of the folder left a marker on shot wall-5, which the export no longer has."""
+    from mrcheck.review.storage import Store
+
+    source = open_source(outdir)
+    orphan = Store(tmp_path / "r.sqlite", source.label).add(
+        {"shot": "wall-5", "x": 10.0, "y": 10.0, "category": "moved", "severity": 2, "note": "old wall"})
+    with TestClient(create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=outdir / ".cache")) as c:
+        r = c.patch(f"/api/markers/{orphan['id']}", json={"x": 50})
+        assert r.status_code == 409 and "wall-5" in r.json()["error"]
+        assert c.patch(f"/api/markers/{orphan['id']}", json={"note": "old wall, gone"}).status_code == 200
+        report = c.get("/api/export/report.html")
+        assert report.status_code == 200 and "old wall, gone" in report.text and "no longer has this shot" in report.text
+        assert "wall-5" in c.get("/api/export/markers.csv").text
+
+
+def test_csv_defuses_spreadsheet_formulas():
+    import csv
+    import io
+
+    from mrcheck.review.report import markers_csv
+
+    notes = ["=HYPERLINK(\"http://x\")", "+1", "-2+3", "@SUM(A1)", "\tx", "fine = ok"]
+    markers = [{"id": i, "shot": "s", "x": 1.0, "y": 2.0, "category": "other", "severity": 1, "note": n,
+                "part": "=cmd", "distance": None, "mode": None, "updated": 0.0} for i, n in enumerate(notes)]
+    rows = list(csv.DictReader(io.StringIO(markers_csv(markers))))
+    assert [r["note"] for r in rows] == ["'" + n for n in notes[:-1]] + ["fine = ok"]
+    assert {r["part"] for r in rows} == {"'=cmd"}
+
+
+def test_unknown_routes_and_methods_have_the_apps_error_shape(client):
+    r = client.get("/api/nope")
+    assert r.status_code == 404 and r.json() == {"error": "Not Found"}
+    r = client.put("/api/markers")
+    assert r.status_code == 405 and r.json() == {"error": "Method Not Allowed"} and "GET" in r.headers["allow"]
+
+
 # -- end to end in a real browser -------------------------------------------------------------
 def _free_port():
     with socket.socket() as s:
@@ -174,6 +257,15 @@ def _start(outdir, db, port):
             time.sleep(0.2)
     proc.kill()
     raise AssertionError(proc.stdout.read().decode())
+
+
+def test_ctrl_c_stops_the_server_quietly(outdir, tmp_path):
+    import signal
+
+    proc = _start(outdir, tmp_path / "r.sqlite", _free_port())
+    proc.send_signal(signal.SIGINT)
+    out, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 0 and b"error" not in out, out
 
 
 @pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="needs Debian's chromium (bootstrap.sh installs it)")

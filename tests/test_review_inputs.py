@@ -108,3 +108,47 @@ def test_missing_suggestions_file_is_not_found(outdir, tmp_path, capsys):
     assert code == 1
     assert err == f"error: {missing}: suggestions file not found\n"
     assert not (outdir / "review.sqlite").exists()
+
+
+@pytest.mark.parametrize("text, problem", [
+    ('{"settings": {"sce', "cannot read the export manifest ("), ("[]", "not an export manifest (no settings.scene)"),
+    ('{"format": 1, "shots": []}', "not an export manifest (no settings.scene)"),
+    ('{"settings": {"scene": "s.toml"}, "shots": [{"status": "done"}]}', "not an export manifest (shots must be")])
+def test_corrupt_export_manifest_is_named(outdir, capsys, text, problem):
+    (outdir / "manifest.json").write_text(text)
+    code, out, err = _review(capsys, outdir, "--port", _free_port())
+    assert code == 1 and err.startswith(f"error: {outdir / 'manifest.json'}: {problem}") and err.count("\n") == 1, err
+
+
+def test_moved_scene_is_reported_before_the_url(outdir, tmp_path, capsys):
+    gone = tmp_path / "moved" / "scene.toml"
+    manifest = json.loads((outdir / "manifest.json").read_text())
+    (outdir / "manifest.json").write_text(json.dumps({**manifest, "settings": {"scene": str(gone)}}))
+    code, out, err = _review(capsys, outdir, "--port", _free_port())
+    assert code == 1 and out == "" and err.startswith(f"error: {gone}: scene not found") and err.count("\n") == 1, err
+    assert not (outdir / "review.sqlite").exists()
+
+
+def test_shot_with_a_missing_photo_is_reported_before_the_url(outdir, tmp_path, capsys):
+    shots = tmp_path / "shots"
+    shots.mkdir()
+    data = json.loads((outdir / "shots" / "shot" / "SHOT.json").read_text())
+    (shots / "a.json").write_text(json.dumps({**data, "photo": "missing.png"}))
+    code, out, err = _review(capsys, sample_scene_path(), "--shots", shots, "--port", _free_port())
+    assert code == 1 and out == "" and err == f"error: {shots / 'missing.png'}: photo of shot 'a' not found\n"
+
+
+def test_suggestions_from_a_photo_of_another_size_are_refused(outdir, tmp_path, capsys):
+    """The review's shot is 64x48; the discrepancies run was made on a 640x480 shot."""
+    big = Camera.from_look_at((-11.4, -6.2, 1.7), (-5.0, -4.2, 0.9), (0, 0, 1), 60.0, 640, 480)
+    (tmp_path / "big.json").write_text(json.dumps({**big.to_dict(), "photo": "big.png"}))
+    suspects = tmp_path / "suspects.json"
+    suspects.write_text(json.dumps({"shot": str(tmp_path / "big.json"), "suggested_markers": [{"x": 30, "y": 20}]}))
+    code, out, err = _review(capsys, outdir, "--port", _free_port(), "--suggestions", f"shot={suspects}")
+    assert code == 1 and err == (f"error: {suspects}: made on a 640x480 shot ({tmp_path / 'big.json'}), "
+                                 "but shot 'shot' is 64x48\n"), err
+    # its shot file gone: a marker outside the image gives it away
+    suspects.write_text(json.dumps({"shot": str(tmp_path / "gone.json"), "suggested_markers": [{"x": 500, "y": 400}]}))
+    code, out, err = _review(capsys, outdir, "--port", _free_port(), "--suggestions", f"shot={suspects}")
+    assert code == 1 and err.startswith(f"error: {suspects}: a suggested marker at (500, 400) lies outside") and err.count("\n") == 1, err
+    assert not (outdir / "review.sqlite").exists()

@@ -20,6 +20,7 @@ from fastapi import FastAPI, HTTPException, Query, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, PlainTextResponse, Response
 from pydantic import BaseModel, Field
+from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from ..errors import MrcheckError
 from ..renderer import MODES, STUDY_LABELS
@@ -30,6 +31,7 @@ from .storage import CATEGORIES, MAX_NOTE, Store
 STATIC = {"index.html": "text/html", "app.js": "text/javascript", "style.css": "text/css"}
 KINDS = ("photo", "render", "edges", "thumb")
 COOKIE = "mrcheck_review_token"
+MAX_ID = 2**63 - 1  # SQLite's INTEGER range; a larger id cannot be bound (OverflowError), nor exist
 
 Category = Literal["missing", "moved", "extra", "wrong size", "other", "suggested"]
 assert set(Category.__args__) == set(CATEGORIES)
@@ -90,9 +92,14 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
         errors = [f"{'.'.join(str(p) for p in e['loc'][1:]) or e['loc'][0]}: {e['msg']}" for e in exc.errors()]
         return JSONResponse({"error": "invalid input", "details": errors}, status_code=422)
 
-    @app.exception_handler(HTTPException)
+    @app.exception_handler(StarletteHTTPException)  # the routing's own 404 / 405 too, not only ours
     async def _http(request, exc):
-        return JSONResponse({"error": exc.detail}, status_code=exc.status_code)
+        return JSONResponse({"error": exc.detail}, status_code=exc.status_code, headers=exc.headers)
+
+    @app.exception_handler(MrcheckError)
+    async def _input_file(request, exc):
+        # a shot's photo or the scene changed on disk after start-up (open_source checked them)
+        return JSONResponse({"error": str(exc)}, status_code=404)
 
     @app.middleware("http")
     async def _token(request: Request, call_next):
@@ -110,6 +117,12 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
         if name not in source.shots:
             raise HTTPException(404, f"no shot named {name!r}")
         return source.shots[name]
+
+    def marker_or_404(marker_id: int) -> dict:
+        current = store.get(marker_id) if 1 <= marker_id <= MAX_ID else None
+        if current is None:
+            raise HTTPException(404, f"no marker {marker_id}")
+        return current
 
     def check_marker_xy(shot, x, y):
         w, h = shot.size
@@ -171,12 +184,13 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
 
     @app.patch("/api/markers/{marker_id}")
     def edit_marker(marker_id: int, patch: MarkerPatch):
-        current = store.get(marker_id)
-        if current is None:
-            raise HTTPException(404, f"no marker {marker_id}")
+        current = marker_or_404(marker_id)
         values = patch.model_dump(exclude_none=True)
         if "x" in values or "y" in values:
-            shot = source.shots[current["shot"]]
+            shot = source.shots.get(current["shot"])
+            if shot is None:  # left in the database by an earlier review of this folder
+                raise HTTPException(409, f"marker {marker_id} is on shot {current['shot']!r}, which this review "
+                                         "no longer has: it can be edited or deleted, not moved")
             x, y = values.get("x", current["x"]), values.get("y", current["y"])
             check_marker_xy(shot, x, y)
             hit = picker().pick(shot.served_camera(), x, y)
@@ -185,7 +199,7 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
 
     @app.delete("/api/markers/{marker_id}")
     def delete_marker(marker_id: int):
-        if not store.delete(marker_id):
+        if not (1 <= marker_id <= MAX_ID and store.delete(marker_id)):
             raise HTTPException(404, f"no marker {marker_id}")
         return {"deleted": marker_id}
 
@@ -243,6 +257,9 @@ def serve(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=No
         url = f"http://{'[' + host + ']' if ':' in host else host}:{port}/" + (f"?token={token}" if token else "")
         print(f"mrcheck review: {len(source.shots)} shot(s) of {source.label}", flush=True)
         print(f"open {url}", flush=True)
-        uvicorn.Server(uvicorn.Config(app, log_level="warning")).run(sockets=[sock])
+        try:
+            uvicorn.Server(uvicorn.Config(app, log_level="warning")).run(sockets=[sock])
+        except KeyboardInterrupt:  # uvicorn re-raises the Ctrl-C it shut down on: the normal way to stop
+            pass
     finally:
         sock.close()

@@ -1,9 +1,13 @@
 """Renders on demand: one background thread owns the EGL context and the scene's Renderer;
-results are cached on disk by (shot, mode, intensity, size), so a seen view is a file read."""
+results are cached on disk by (shot, mode, intensity, size) and a stamp of their inputs (the
+scene's files, the shot's camera and photo), so a seen view is a file read and a re-export into
+the same folder is rendered afresh."""
 
 from __future__ import annotations
 
 import concurrent.futures
+import hashlib
+import json
 import os
 import queue
 import tempfile
@@ -17,6 +21,7 @@ import numpy as np
 from ..overlay import cad_edges, distort_to_photo, distortion_map, overlay_images, padded_camera, read_photo
 from ..renderer import MODES, Renderer, RenderSettings
 from ..scene import load_scene
+from ..scenefiles import files_stamp
 
 INTENSITIES = (0.5, 1.0, 1.5, 2.0)   # the AO slider's four levels
 SAMPLES = 16
@@ -26,6 +31,12 @@ THUMB_WIDTH = 160
 
 def _fmt(x: float) -> str:
     return f"{x:g}"
+
+
+def _shot_stamp(shot) -> str:
+    """The shot's camera and its photo file (path, size, mtime): what a photo or thumbnail is made of."""
+    camera = json.dumps(shot.camera.to_dict(), sort_keys=True)
+    return hashlib.sha256(f"{camera}\0{files_stamp([shot.photo])}".encode()).hexdigest()[:12]
 
 
 def _write_png(path: Path, image: np.ndarray) -> None:
@@ -51,6 +62,8 @@ class RenderService:
         self._lock = threading.Lock()
         self._maps: dict = {}
         self.timings: list = []  # (key, seconds) of every render made
+        # once, at start-up: the renderer loads the scene once too, so a later edit is not served anyway
+        self._stamps = {name: _shot_stamp(shot) for name, shot in source.shots.items()}
         self._thread = threading.Thread(target=self._run, name="mrcheck-review-render", daemon=True)
         self._thread.start()
 
@@ -59,15 +72,17 @@ class RenderService:
         shot = self.source.shots[shot_name]
         w, _ = shot.size
         folder = self.cache / shot_name
+        stamp = self._stamps[shot_name]
+        cad = f"{stamp}_{self.source.scene_stamp}"  # renders and edges depend on the scene too
         if kind == "photo":
-            path = folder / f"photo_w{w}.png"
+            path = folder / f"photo_w{w}_{stamp}.png"
         elif kind == "thumb":
-            path = folder / f"thumb_w{THUMB_WIDTH}.png"
+            path = folder / f"thumb_w{THUMB_WIDTH}_{stamp}.png"
         elif kind == "edges":
-            path = folder / f"edges_w{w}.png"
+            path = folder / f"edges_w{w}_{cad}.png"
         else:
             tag = "phong" if mode == "phong" else f"{mode}_i{_fmt(intensity)}"
-            path = folder / f"render_{tag}_w{w}.png"
+            path = folder / f"render_{tag}_w{w}_{cad}.png"
         if path.is_file():
             return path
         key = (shot_name, kind, mode, intensity, w)

@@ -14,6 +14,7 @@ import numpy as np
 from ..renderer import MODES, STUDY_LABELS
 
 CROP = 96  # half-size of a marker crop, px
+FORMULA = ("=", "+", "-", "@", "\t", "\r")  # a spreadsheet runs a cell starting with these as a formula
 
 
 def _crop(image: np.ndarray, x: float, y: float) -> np.ndarray:
@@ -30,13 +31,19 @@ def _data_url(image: np.ndarray) -> str:
     return "data:image/png;base64," + base64.b64encode(data.tobytes()).decode()
 
 
+def _text(value: str | None) -> str:
+    """A free-text CSV cell, defused against formula injection as OWASP recommends (a leading ')."""
+    value = value or ""
+    return "'" + value if value.startswith(FORMULA) else value
+
+
 def markers_csv(markers: list) -> str:
     out = io.StringIO()
     writer = csv.writer(out)
     writer.writerow(["id", "shot", "x", "y", "category", "severity", "note", "part", "distance_m", "mode", "updated"])
     for m in markers:
         writer.writerow([m["id"], m["shot"], f"{m['x']:.1f}", f"{m['y']:.1f}", m["category"], m["severity"],
-                         m["note"], m["part"] or "", "" if m["distance"] is None else f"{m['distance']:.3f}",
+                         _text(m["note"]), _text(m["part"]), "" if m["distance"] is None else f"{m['distance']:.3f}",
                          m["mode"] or "", time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(m["updated"]))])
     return out.getvalue()
 
@@ -46,8 +53,10 @@ def report_html(source, renders, markers: list, intensity: float = 1.0) -> str:
     e = html.escape
     rows = []
     for m in markers:
-        crops = [("photo", renders.image(m["shot"], "photo"))]
-        crops += [(STUDY_LABELS[mode], renders.image(m["shot"], "render", mode, intensity)) for mode in MODES]
+        crops = []
+        if m["shot"] in source.shots:  # else left by an earlier review of this folder: listed, without crops
+            crops = [("photo", renders.image(m["shot"], "photo"))]
+            crops += [(STUDY_LABELS[mode], renders.image(m["shot"], "render", mode, intensity)) for mode in MODES]
         figures = "".join(f'<figure><img src="{_data_url(_crop(img, m["x"], m["y"]))}" alt="{e(label)}">'
                           f"<figcaption>{e(label)}</figcaption></figure>" for label, img in crops)
         distance = "" if m["distance"] is None else f" at {m['distance']:.2f} m"
@@ -55,7 +64,8 @@ def report_html(source, renders, markers: list, intensity: float = 1.0) -> str:
                     f'(severity {m["severity"]}) -- shot {e(m["shot"])}</h2>'
                     f'<p class="meta">pixel ({m["x"]:.0f}, {m["y"]:.0f}); CAD part: '
                     f'<b>{e(m["part"] or "none")}</b>{distance}</p>'
-                    f'<p class="note">{e(m["note"]) or "<i>no note</i>"}</p><div class="crops">{figures}</div></section>')
+                    f'<p class="note">{e(m["note"]) or "<i>no note</i>"}</p>'
+                    f'<div class="crops">{figures or "<i>no crops: the review no longer has this shot</i>"}</div></section>')
     body = "".join(rows) or "<p>No markers.</p>"
     return f"""<!doctype html><html><head><meta charset="utf-8"><title>mrcheck review</title><style>
 body{{font-family:sans-serif;margin:2em;color:#222}} .marker{{border-top:1px solid #ccc;padding:.5em 0}}

@@ -11,6 +11,7 @@ from pathlib import Path
 from ..camera import Camera
 from ..errors import MrcheckError
 from ..overlay import load_shot
+from ..scenefiles import files_stamp, scene_files
 
 MAX_SIZE = 1280  # renders and photos are served at most this wide (same aspect as the photo)
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,127}")
@@ -42,6 +43,7 @@ class Source:
     shots: dict            # name -> Shot, in display order
     home: Path             # folder for review.sqlite and the render cache
     label: str
+    scene_stamp: str = ""  # files_stamp of the scene's files, set by open_source (keys the render cache)
 
 
 def _shot(name, path) -> Shot:
@@ -57,15 +59,28 @@ def _checked_name(name: str) -> str:
     return name
 
 
+def _read_manifest(path: Path) -> tuple[Path, list]:
+    """The scene and shot entries of an export's manifest.json, or a one-line error naming it."""
+    try:
+        manifest = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise MrcheckError(f"cannot read the export manifest ({exc})", path) from None
+    settings = manifest.get("settings") if isinstance(manifest, dict) else None
+    if not isinstance(settings, dict) or not isinstance(settings.get("scene"), str):
+        raise MrcheckError("not an export manifest (no settings.scene)", path)
+    entries = manifest.get("shots", [])
+    if not isinstance(entries, list) or not all(isinstance(e, dict) and isinstance(e.get("name"), str) for e in entries):
+        raise MrcheckError("not an export manifest (shots must be a list of entries with a name)", path)
+    return Path(settings["scene"]), entries
+
+
 def from_outdir(outdir: Path) -> Source:
-    manifest_path = outdir / "manifest.json"
-    manifest = json.loads(manifest_path.read_text())
-    scene = Path(manifest["settings"]["scene"])
+    scene, entries = _read_manifest(outdir / "manifest.json")
     shots = {}
-    for entry in sorted(manifest.get("shots", []), key=lambda e: (e.get("status") == "failed", e.get("name", ""))):
+    for entry in sorted(entries, key=lambda e: (e.get("status") == "failed", e["name"])):
         if entry.get("status") not in ("done", "skipped"):
             continue
-        name = _checked_name(str(entry["name"]))
+        name = _checked_name(entry["name"])
         path = outdir / entry.get("folder", f"shots/{name}") / "SHOT.json"
         if path.is_file():
             shots[name] = _shot(name, path)
@@ -125,4 +140,23 @@ def open_source(target, shots_dir=None) -> Source:
         raise MrcheckError("pass JOB.toml, an export OUTDIR or SCENE --shots DIR", target)
     if not source.shots:
         raise MrcheckError("no usable shots to review", target)
+    _check_files(source, target)
     return source
+
+
+def _check_files(source: Source, target: Path) -> None:
+    """Every file the server will read exists, checked before the URL is printed: else each
+    render or pick of the shot (or of every shot) would fail only once the planner asks for it.
+    Also stamps the scene's files once, for the render cache."""
+    if not source.scene.exists():
+        named_by = f" (named by {target / 'manifest.json'}; moved since the export?)" if target.is_dir() else ""
+        raise MrcheckError(f"scene not found{named_by}", source.scene)
+    files = scene_files(source.scene)
+    # files[0] is the manifest or mesh itself (a folder's scene.toml may be another *.toml: load_scene says)
+    missing = next((p for p in files[1:] if not p.exists()), None)
+    if missing is not None:
+        raise MrcheckError(f"scene file not found (a mesh of {source.scene})", missing)
+    for shot in source.shots.values():
+        if not Path(shot.photo).is_file():
+            raise MrcheckError(f"photo of shot {shot.name!r} not found", shot.photo)
+    source.scene_stamp = files_stamp(files)

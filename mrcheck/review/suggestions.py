@@ -35,6 +35,23 @@ def _shot_of(source, spec: str, doc: dict, path: Path):
     raise MrcheckError("its photo is not one of the review's shots; pass NAME=FILE", path)
 
 
+def _check_size(shot, doc: dict, suggested: list, path: Path) -> None:
+    """The run's markers are in the native pixels of the shot it was made on: refuse a run on a
+    photo of another size (its markers would land elsewhere, or outside the image)."""
+    w, h = shot.camera.width, shot.camera.height
+    try:
+        made_on, _ = load_shot(doc["shot"])
+    except (KeyError, TypeError, MrcheckError):
+        made_on = None  # moved or deleted since: the markers themselves are all there is to check
+    if made_on is not None and (made_on.width, made_on.height) != (w, h):
+        raise MrcheckError(f"made on a {made_on.width}x{made_on.height} shot ({doc['shot']}), "
+                           f"but shot {shot.name!r} is {w}x{h}", path)
+    for m in suggested:
+        if not (0 <= m["x"] < w and 0 <= m["y"] < h):
+            raise MrcheckError(f"a suggested marker at ({m['x']:g}, {m['y']:g}) lies outside shot {shot.name!r} "
+                               f"({w}x{h}): made on another photo?", path)
+
+
 def load_suggestions(source, specs) -> dict:
     """{shot name: [marker dicts in served pixels]} from ``FILE`` or ``NAME=FILE`` specs."""
     out = {}
@@ -44,16 +61,17 @@ def load_suggestions(source, specs) -> dict:
             raise MrcheckError("suggestions file not found", path)
         try:
             doc = json.loads(path.read_text())
-            suggested = doc["suggested_markers"]
+            suggested = [{**m, "x": float(m["x"]), "y": float(m["y"])} for m in doc["suggested_markers"]]
         except (OSError, ValueError, KeyError, TypeError):
             raise MrcheckError("not a suspects.json of mrcheck discrepancies (no suggested_markers)", path) from None
         shot = _shot_of(source, spec, doc, path)
+        _check_size(shot, doc, suggested, path)
         # the detector worked on the photo's native pixels; the review serves at most MAX_SIZE wide
         sx, sy = shot.size[0] / shot.camera.width, shot.size[1] / shot.camera.height
         for m in suggested:
             guess = m.get("category", "other")
             out.setdefault(shot.name, []).append({
-                "x": float(m["x"]) * sx, "y": float(m["y"]) * sy, "category": CATEGORY,
+                "x": m["x"] * sx, "y": m["y"] * sy, "category": CATEGORY,
                 "severity": int(m.get("severity", 2)), "part": m.get("part"), "distance": None, "mode": None,
                 "note": f"{guess}? {m.get('note', '')}".strip()})
     return out
