@@ -86,6 +86,7 @@ import math
 import multiprocessing
 import os
 import re
+import socket
 import sys
 import tempfile
 import time
@@ -597,6 +598,15 @@ def _connect(address: str):
         from distributed import Client
     except ImportError:
         raise MrcheckError("--scheduler needs Dask distributed: pip install 'mrcheck[cluster]'") from None
+    # Dask retries a refused connection until its timeout (30 s); a plain TCP connect answers a
+    # closed port or an unknown host at once
+    match = re.fullmatch(r"(?:tcp://)?\[?([^\]/]+?)\]?:(\d+)/?", address.strip())
+    if match:
+        try:
+            socket.create_connection((match[1], int(match[2])), timeout=5).close()
+        except (OSError, ValueError) as exc:
+            reason = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
+            raise MrcheckError(f"cannot connect to the Dask scheduler at {address} ({reason})") from None
     try:
         return Client(address, timeout=SCHEDULER_TIMEOUT)
     except (OSError, TimeoutError, ValueError) as exc:

@@ -89,6 +89,20 @@ def test_bad_scheduler_leaves_no_outdir(address, job, tmp_path, capsys, monkeypa
     assert not out.exists()
 
 
+def test_a_refused_scheduler_port_is_reported_at_once(job, tmp_path, capsys):
+    """Dask retries a refused connection for its whole timeout (30 s); a closed port answers a
+    plain TCP connect at once."""
+    pytest.importorskip("distributed")
+    import time
+
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    start = time.perf_counter()
+    code, err = _export(capsys, job(), "-o", tmp_path / "out", "--scheduler", address)
+    assert code == 1 and "Connection refused" in err and err.count("\n") == 1, err
+    assert time.perf_counter() - start < 10.0
+    assert not (tmp_path / "out").exists()
+
+
 def test_bad_scheduler_keeps_an_existing_outdir(job, tmp_path, capsys):
     pytest.importorskip("distributed")
     out = tmp_path / "out"
