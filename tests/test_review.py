@@ -183,6 +183,15 @@ def test_render_cache_follows_a_changed_scene(tmp_path):
     assert render(open_source(tmp_path / "box.stl", tmp_path / "shots")) == before  # a restart: the cached file
     assert len(list((tmp_path / "cache").rglob("render_*.png"))) == 1
     assert render(_box_review(tmp_path, (0.0, 1.2, 0.0))) != before  # the box moved
+    # the old render went at start-up (stale stamps); a vanished shot's folder and the user's
+    # own files in the cache folder are handled as such: ours removed, theirs kept
+    assert len(list((tmp_path / "cache").rglob("render_*.png"))) == 1
+    gone = tmp_path / "cache" / "gone-shot"
+    gone.mkdir()
+    (gone / "render_phong_w64_x_y.png").write_bytes(b"old")
+    (tmp_path / "cache" / "a" / "notes.txt").write_text("mine")
+    render(open_source(tmp_path / "box.stl", tmp_path / "shots"))
+    assert not gone.exists() and (tmp_path / "cache" / "a" / "notes.txt").exists()
 
 
 def test_a_photo_gone_after_start_is_a_json_404(tmp_path):

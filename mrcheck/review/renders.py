@@ -6,6 +6,7 @@ the same folder is rendered afresh."""
 from __future__ import annotations
 
 import concurrent.futures
+import contextlib
 import hashlib
 import json
 import os
@@ -27,6 +28,7 @@ INTENSITIES = (0.5, 1.0, 1.5, 2.0)   # the AO slider's four levels
 SAMPLES = 16
 EDGE_RGB = (255, 0, 255)
 THUMB_WIDTH = 160
+_CACHED_PREFIXES = ("photo_", "thumb_", "edges_", "render_")   # the cache's own file names
 
 
 def _fmt(x: float) -> str:
@@ -64,8 +66,25 @@ class RenderService:
         self.timings: list = []  # (key, seconds) of every render made
         # once, at start-up: the renderer loads the scene once too, so a later edit is not served anyway
         self._stamps = {name: _shot_stamp(shot) for name, shot in source.shots.items()}
+        self._prune()
         self._thread = threading.Thread(target=self._run, name="mrcheck-review-render", daemon=True)
         self._thread.start()
+
+    def _prune(self) -> None:
+        """Remove cached images whose stamps are not the current ones (a re-export, an edited
+        scene) and those of shots the review no longer has: only this service's own file names
+        (photo_, thumb_, edges_, render_ ... .png), in its own cache folder."""
+        if not self.cache.is_dir():
+            return
+        current = {name: (f"_{stamp}.png", f"_{stamp}_{self.source.scene_stamp}.png")
+                   for name, stamp in self._stamps.items()}
+        for folder in (p for p in self.cache.iterdir() if p.is_dir()):
+            suffixes = current.get(folder.name, ())
+            for path in folder.glob("*.png"):
+                if path.name.startswith(_CACHED_PREFIXES) and not path.name.endswith(suffixes):
+                    path.unlink(missing_ok=True)
+            with contextlib.suppress(OSError):   # empty now: the folder of a vanished shot
+                folder.rmdir()
 
     # -- public --------------------------------------------------------------------------
     def file(self, shot_name: str, kind: str, mode: str = "phong", intensity: float = 1.0) -> Path:
