@@ -54,8 +54,9 @@ JPEG thumbnails of the sheets, links to the full images inside OUTDIR, shots sor
 registration error, failures last).
 
 Restart: every file is written atomically (temp + rename) and ``record.json`` last, so a shot is
-finished exactly when its record exists, its fingerprint matches the job and every output it
-lists exists. A rerun skips finished shots (``--force`` redoes them) and retries failed ones; a
+finished exactly when its record exists and says done, its fingerprint matches the job and every
+output it lists exists. A failed shot's folder keeps only a record.json saying so: outputs of
+earlier runs there no longer match its inputs and are removed. A rerun skips finished shots (``--force`` redoes them) and retries failed ones; a
 shot whose settings or input files changed (edited, replaced or touched) is not finished. A
 killed run loses only the shots in flight. Outputs of earlier runs that the job no longer
 produces are removed before the shots run (listed in the manifest's ``removed``): in the job's
@@ -530,6 +531,20 @@ def store_shot(folder, record: dict) -> dict:
     return record
 
 
+def store_failure(folder, record: dict, keep: set = frozenset()) -> None:
+    """A failed shot: what earlier runs wrote into its folder no longer matches its inputs and goes
+    (only the export's own file names, never a file in ``keep``, what the job reads); a
+    record.json saying "failed" marks the folder as the export's, so that a later job without
+    the shot recognises and removes it (a failed record is never "finished": reruns redo it)."""
+    folder = Path(folder)
+    if folder.is_dir():
+        for file in folder.iterdir():
+            if file.is_file() and _OUTPUT_NAME.fullmatch(file.name) and file.resolve() not in keep:
+                file.unlink(missing_ok=True)
+    record = {k: v for k, v in record.items() if k != "files"}
+    write_text(folder / RECORD, json.dumps(record, indent=2) + "\n")
+
+
 def _prepare_folder(folder: Path) -> None:
     """Before a shot runs: its old record goes first (the shot is unfinished until it is written
     again) and temp files of a killed run are removed."""
@@ -697,6 +712,8 @@ def export_command(job, outdir, workers: int = 1, scheduler: str | None = None, 
                 folder = Path(task["dir"])
                 if record["status"] == "done" and "files" in record:  # from a cluster: written here
                     record = store_shot(folder, record)
+                elif record["status"] == "failed":
+                    store_failure(folder, record, reads)
                 entries[task["name"]] = _manifest_entry(record, record["status"], outdir, folder)
                 bar.update(1)
                 finished += 1
@@ -738,4 +755,5 @@ def export_command(job, outdir, workers: int = 1, scheduler: str | None = None, 
     return 1 if counts["failed"] else 0
 
 
-__all__ = ["export_command", "load_job", "run_shot", "plan_outputs", "finished_record", "store_shot", "Job"]
+__all__ = ["export_command", "load_job", "run_shot", "plan_outputs", "finished_record", "store_shot", "store_failure",
+           "Job"]

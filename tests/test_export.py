@@ -121,7 +121,9 @@ def test_six_shots_five_done_one_failed(first_run, capsys):
     assert set(shots) == set(GOOD) | {BROKEN}
     broken = shots[BROKEN]
     assert broken["status"] == "failed" and "cam-4.png" in broken["error"] and "decode" in broken["error"]
-    assert not (out / "shots" / BROKEN / "record.json").exists()
+    # a failed shot's folder holds only its record, which says so (and is never "finished")
+    assert [p.name for p in (out / "shots" / BROKEN).iterdir()] == ["record.json"]
+    assert json.loads((out / "shots" / BROKEN / "record.json").read_text())["status"] == "failed"
     for name in GOOD:
         entry = shots[name]
         assert entry["status"] == "done", entry
@@ -170,7 +172,9 @@ def test_rerun_skips_and_force_redoes_byte_identically(first_run, job_dir, capsy
     assert code == 1  # the broken shot is retried and fails again
     assert "5 skipped" in stdout and "1 failed" in stdout and "failed cam-4" in stdout
     assert json.loads((out / "manifest.json").read_text())["summary"] == {"shots": 6, "done": 0, "skipped": 5, "failed": 1}
-    assert {p: p.stat().st_mtime_ns for p in out.glob("shots/*/*")} == mtimes
+    # nothing of the skipped shots was touched (the retried failure rewrote its record only)
+    assert {p: t for p, t in mtimes.items() if p.parent.name != "cam-4"} == \
+        {p: p.stat().st_mtime_ns for p in out.glob("shots/*/*") if p.parent.name != "cam-4"}
     assert seconds < 3.0
 
     # a shot whose output vanished is redone, the others still skipped
@@ -285,6 +289,27 @@ def test_progress_in_a_log_is_lines_not_a_bar(small_job, capsys):
     lines = [line for line in err.splitlines() if line.startswith("export: ")]
     assert len(lines) == 2 and lines[1].startswith("export: 2/2 shots, ") and lines[1].endswith(", ETA 0 s")
     assert all(re.fullmatch(r"export: [12]/2 shots, (cam-0|given) done, ETA \d+ s", line) for line in lines), lines
+
+
+def test_a_failed_shot_keeps_no_earlier_outputs_and_goes_when_dropped(small_job, capsys):
+    """A shot done once, then failing (its photo replaced by a blank one): the earlier images no
+    longer match its inputs and go, a failed record.json stays; dropped from the job, its
+    folder goes too (before, no record.json was left to recognise it by)."""
+    job = small_job()
+    out = job.parent / "out"
+    assert _export(capsys, job, out)[0] == 0
+    cv2.imwrite(str(job.parent / "cam-0.png"), np.full((240, 320, 3), 128, np.uint8))   # no markers any more
+    code, stdout, _, _ = _export(capsys, job, out)
+    assert code == 1 and "1 failed" in stdout
+    folder = out / "shots" / "cam-0"
+    assert [p.name for p in folder.iterdir()] == ["record.json"]
+    assert json.loads((folder / "record.json").read_text())["status"] == "failed"
+    assert _export(capsys, job, out)[0] == 1                      # a failed record is never finished
+    job = small_job(shots="")                                      # cam-0 stays, given goes ...
+    job.write_text(job.read_text().replace('photo = "cam-0.png"', 'photo = "given.png"'))   # ... cam-0 too
+    job.write_text(job.read_text().replace("[[shots]]\nphoto", '[[shots]]\nname = "other"\nphoto'))
+    _export(capsys, job, out)
+    assert not folder.exists() and not (out / "shots" / "given").exists()
 
 
 def test_outputs_the_job_no_longer_produces_are_removed(small_job, capsys):
