@@ -89,7 +89,6 @@ import os
 import re
 import socket
 import sys
-import tempfile
 import time
 import tomllib
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -101,7 +100,7 @@ import cv2
 
 from .camera import Camera
 from .errors import MrcheckError
-from .output import encode_image, write_bytes, write_text
+from .output import check_writable_ancestor, encode_image, write_bytes, write_text
 from .overlay import STUDY_ORDER, check_alpha, distortion_map, load_shot, overlay_images, read_photo, \
     render_for_photo, study_sheet
 from .renderer import DEFAULT_SAMPLES, MODES, RenderSettings
@@ -537,10 +536,8 @@ def store_failure(folder, record: dict, keep: set = frozenset()) -> None:
     record.json saying "failed" marks the folder as the export's, so that a later job without
     the shot recognises and removes it (a failed record is never "finished": reruns redo it)."""
     folder = Path(folder)
-    if folder.is_dir():
-        for file in folder.iterdir():
-            if file.is_file() and _OUTPUT_NAME.fullmatch(file.name) and file.resolve() not in keep:
-                file.unlink(missing_ok=True)
+    for file in _own_files(folder, keep) if folder.is_dir() else []:
+        file.unlink(missing_ok=True)
     record = {k: v for k, v in record.items() if k != "files"}
     write_text(folder / RECORD, json.dumps(record, indent=2) + "\n")
 
@@ -552,6 +549,12 @@ def _prepare_folder(folder: Path) -> None:
     if folder.is_dir():
         for part in folder.glob(".*.part"):
             part.unlink(missing_ok=True)
+
+
+def _own_files(folder: Path, keep: set) -> list:
+    """The files in ``folder`` with the export's own names (:data:`_OUTPUT_NAME`), except those in
+    ``keep`` (what the job reads): the only files the export ever removes."""
+    return [f for f in folder.iterdir() if _OUTPUT_NAME.fullmatch(f.name) and f.is_file() and f.resolve() not in keep]
 
 
 def _remove_stale(outdir: Path, tasks: list, keep: set) -> list:
@@ -569,8 +572,8 @@ def _remove_stale(outdir: Path, tasks: list, keep: set) -> list:
         if not folder.is_dir() or folder.is_symlink() or (wanted is None and not (folder / RECORD).is_file()):
             continue  # not a folder the export finished a shot in: maybe not ours
         # record.json last: a run killed half-way leaves a folder the next run still recognises
-        stale = sorted((f for f in folder.iterdir() if _OUTPUT_NAME.fullmatch(f.name) and f.name not in (wanted or ())
-                        and f.is_file() and f.resolve() not in keep), key=lambda f: f.name == RECORD)
+        stale = sorted((f for f in _own_files(folder, keep) if f.name not in (wanted or ())),
+                       key=lambda f: f.name == RECORD)
         for file in stale:
             file.unlink(missing_ok=True)
             removed.append(file.relative_to(outdir).as_posix())
@@ -665,10 +668,9 @@ def _make_outdir(outdir: Path) -> None:
     fails now, in one line, not after the first shot's render."""
     try:
         outdir.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryFile(dir=outdir):
-            pass
     except OSError as exc:
         raise MrcheckError(f"cannot create or write to the output folder ({exc.strerror or exc})", outdir) from None
+    check_writable_ancestor(outdir, "output folder", itself=True)
 
 
 def export_command(job, outdir, workers: int = 1, scheduler: str | None = None, force: bool = False) -> int:

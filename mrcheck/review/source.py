@@ -4,14 +4,13 @@ from __future__ import annotations
 
 import json
 import re
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
 from ..camera import Camera
 from ..errors import MrcheckError
 from ..overlay import load_shot
-from ..scenefiles import files_stamp, scene_files
+from ..scenefiles import files_stamp, read_manifest, scene_files
 
 MAX_SIZE = 1280  # renders and photos are served at most this wide (same aspect as the photo)
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,127}")
@@ -114,8 +113,8 @@ def from_scene(scene: Path, shots_dir: Path) -> Source:
 
 def _is_scene_manifest(path: Path) -> bool:
     try:
-        data = tomllib.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        data = read_manifest(path)
+    except MrcheckError:
         return False  # load_job says what is wrong with it
     return "parts" in data and "shots" not in data
 
