@@ -109,8 +109,11 @@ class VtkPeer:
 class Open3DPeer:
     """Open3D's Filament renderer (``OffscreenRenderer``; headless it picks Filament's Vulkan
     backend on Mesa's lavapipe) with ``set_ambient_occlusion(True)`` (Filament's SAO with its
-    default options, no SSCT), anti-aliasing off, ``defaultLit`` grey material and the scene's
-    default lighting. A frame is ``render_to_image()`` (render and read back)."""
+    default options, no SSCT), ``defaultLit`` grey material and the scene's default lighting. The
+    view's other defaults are switched off to match what mrcheck and the VTK peer render: FXAA
+    (``set_antialiasing(False)``), MSAA (``set_sample_count(1)``; Open3D's view asks for 4) and the
+    sun's shadow map (``set_shadowing(False)``). A frame is ``render_to_image()`` (render and read
+    back)."""
 
     name = "open3d"
 
@@ -126,7 +129,10 @@ class Open3DPeer:
         material = rendering.MaterialRecord()
         material.shader = "defaultLit"
         self.renderer.scene.add_geometry("line", mesh, material)
-        self.renderer.scene.view.set_antialiasing(False)
+        view_settings = self.renderer.scene.view
+        view_settings.set_antialiasing(False)
+        view_settings.set_sample_count(1)
+        view_settings.set_shadowing(False)
         self.renderer.setup_camera(float(view["fov_y_deg"]), np.asarray(view["target"], float),
                                    np.asarray(view["eye"], float), np.asarray(view["up"], float))
         self.version = f"Open3D {o3d.__version__} (Filament)"
@@ -139,7 +145,8 @@ class Open3DPeer:
     def settings(self) -> dict:
         return {"ao": "Filament's SAO with its default AmbientOcclusionOptions (radius 0.3 m, AO buffer at half "
                       "resolution, quality LOW, bilateral low-pass filter)", "ambient_occlusion": self._ao,
-                "ssct": False, "antialiasing": False, "msaa_samples": 1, "material": f"defaultLit grey {GREY}",
+                "ssct": False, "antialiasing": False, "msaa_samples": 1, "shadows": False,
+                "material": f"defaultLit grey {GREY}",
                 "lighting": "the OffscreenRenderer scene's default lighting (Filament's post-processing on)"}
 
     def frame(self) -> np.ndarray:

@@ -155,7 +155,7 @@ def scene():
 @scene.command("generate")
 @click.option("--preset", type=click.Choice(["cell", "line", "hall"]), required=True,
               help="cell: one robot cell; line: a production line with cells and racks; hall: a 200 x 80 x 12 m production hall.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Same seed, same files (byte for byte).")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Same seed, same files (byte for byte).")
 @click.option("--size-m", nargs=3, type=float, metavar="L W H", help="Hall length, width and height in metres [default: the preset's].")
 @click.option("--target-triangles", type=int, callback=_positive, metavar="N",
               help="Triangles as rendered (instances counted), 50 k to 200 M: scales detail and repetition [default: the preset's].")

@@ -231,10 +231,11 @@ def load_job(path) -> Job:
     def shared_input(key, value, where):
         file = resolve(value, f"{where}: {key}")
         if (key, file) not in checked:
+            from .calibration import read_camera
             from .markers import load_marker_map
-            from .registration import load_points, read_intrinsics
+            from .registration import load_points
 
-            load = {"intrinsics": read_intrinsics, "markers": load_marker_map, "points": load_points}[key]
+            load = {"intrinsics": read_camera, "markers": load_marker_map, "points": load_points}[key]
             try:
                 load(file)
             except MrcheckError as exc:
@@ -410,14 +411,15 @@ def _registration_summary(shot: dict) -> dict:
 def _register(inputs: dict, max_error) -> tuple[dict, Camera, Path]:
     """The shot dict, its camera and photo path: given, or registered from markers / points."""
     from .markers import load_marker_map
-    from .registration import load_points, read_intrinsics, register_photo
+    from .calibration import read_camera
+    from .registration import load_points, register_photo
 
     if "shot" in inputs:
         camera, photo = load_shot(inputs["shot"])
         shot = json.loads(Path(inputs["shot"]).read_text())
         shot["photo"] = str(photo)
     else:
-        shot = register_photo(Path(inputs["photo"]), read_intrinsics(inputs["intrinsics"]),
+        shot = register_photo(Path(inputs["photo"]), read_camera(inputs["intrinsics"]),
                               marker_map=load_marker_map(inputs["markers"]) if "markers" in inputs else None,
                               points=load_points(inputs["points"]) if "points" in inputs else None)
         camera, photo = Camera.from_dict(shot), Path(shot["photo"])

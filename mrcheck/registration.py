@@ -38,6 +38,7 @@ import click
 import cv2
 import numpy as np
 
+from .calibration import read_camera
 from .camera import Camera
 from .errors import MrcheckError
 from .jsonfile import read_json
@@ -79,11 +80,6 @@ def read_photo(path) -> np.ndarray:
     if image is None:
         raise MrcheckError("cannot decode photo (corrupt or not an image)", path)
     return image
-
-
-def read_intrinsics(path) -> Camera:
-    """The camera of a JSON or OpenCV YAML file; its pose, if any, is ignored (the photo's is solved)."""
-    return Camera.load(path, need_pose=False)
 
 
 def load_points(path) -> list:
@@ -129,44 +125,39 @@ def _reprojection_errors(camera, rvec, tvec, pixels, world) -> np.ndarray:
     return np.linalg.norm(projected.reshape(-1, 2) - pixels, axis=1)
 
 
-def _shape(world):
-    """Singular values of the centred world points and the normal of their best plane."""
-    _, s, vt = np.linalg.svd(world - world.mean(axis=0))
-    return np.concatenate([s, np.zeros(3 - s.size)]), vt[-1]
-
-
-def _local_frame(world):
-    """``(c, Q)``: the points' mean and principal axes, a rotation (det +1); ``X_local = Q^T (X - c)``
-    puts coplanar points in z = 0 and keeps coordinates small however far from the origin they are."""
+def _principal(world):
+    """``(c, s, Q)``: the points' mean, the singular values of the centred points (3, zero-padded)
+    and their principal axes as the columns of a rotation (det +1; the last column is the normal
+    of their best plane). ``X_local = Q^T (X - c)`` puts coplanar points in z = 0 and keeps
+    coordinates small however far from the origin they are."""
     c = world.mean(axis=0)
-    _, _, vt = np.linalg.svd(world - c)  # n >= 4 points: vt is 3 x 3
-    Q = vt.T.copy()
+    _, s, vt = np.linalg.svd(world - c)
+    Q = vt.T.copy()  # n >= 3 points (2-D pixels padded with z = 0): vt is 3 x 3
     if np.linalg.det(Q) < 0:
         Q[:, 2] = -Q[:, 2]
-    return c, Q
+    return c, np.concatenate([s, np.zeros(3 - s.size)]), Q
 
 
 def solve_pose(camera: Camera, pixels, world, max_error=None) -> Pose:
     """Robust pose of ``camera`` from 2D-3D pairs: RANSAC, refit on the inliers, LM refinement.
 
-    Solved in the points' local frame (:func:`_local_frame`) and mapped back: the same points in any
+    Solved in the points' local frame (:func:`_principal`) and mapped back: the same points in any
     world frame give the same camera relative to them."""
     pixels = np.ascontiguousarray(pixels, np.float64).reshape(-1, 2)
     world = np.ascontiguousarray(world, np.float64).reshape(-1, 3)
     n = len(world)
     if n < 4:
         raise MrcheckError(f"need at least 4 usable points for a pose, got {n}")
-    s, _ = _shape(world)
+    c, s, Q = _principal(world)
     if s[0] < 1e-6 or s[1] < 1e-3 * s[0]:
         raise MrcheckError("the world points are collinear (or coincide): the pose is undetermined; "
                            "use points spread over an area")
-    if _shape(np.column_stack([pixels, np.zeros(n)]))[0][1] < 1e-3 * max(camera.width, camera.height):
+    if _principal(np.column_stack([pixels, np.zeros(n)]))[1][1] < 1e-3 * max(camera.width, camera.height):
         raise MrcheckError("the image points are collinear (or coincide): the pose is undetermined")
     planar = s[2] < 1e-3 * s[0]
     # automatic threshold: a few pixels, more for big photos (clicks and corners scale with size)
     threshold = float(max_error) if max_error else max(3.0, 0.003 * math.hypot(camera.width, camera.height))
 
-    c, Q = _local_frame(world)
     world = np.ascontiguousarray((world - c) @ Q)  # from here on the local frame
     candidates = []
     inliers = np.ones(n, bool)
@@ -258,7 +249,8 @@ def _geometry_warnings(camera: Camera, world, pose: Pose, single_marker: bool):
     if single_marker:
         warnings.append("only one marker was used: a pose from a single small target is weak "
                         "away from it (a 20 cm marker at 10 m: ~30 px overlay error); add markers spread over the view")
-    s, normal = _shape(world)
+    _, s, Q = _principal(world)
+    normal = Q[:, 2]
     extent = 2.0 * s[0] / math.sqrt(n)  # ~ the points' spread along their longest direction
     distance = float(np.mean(np.linalg.norm(world @ camera.R.T + camera.t, axis=1)))
     if extent > 0 and distance / extent > _WARN_DISTANCE_RATIO:
@@ -367,7 +359,7 @@ def register_command(scene, photo, intrinsics, markers=None, points=None, max_er
         raise MrcheckError("scene not found", scene)
     if Path(scene).is_file() and Path(scene).suffix.lower() not in (".toml", *MESH_SUFFIXES):
         raise MrcheckError(f"not a scene (a .toml manifest or a mesh: {', '.join(MESH_SUFFIXES)})", scene)
-    camera = read_intrinsics(intrinsics)
+    camera = read_camera(intrinsics)  # its pose, if any, is ignored: the photo's is solved
     shot = register_photo(photo, camera,
                           marker_map=load_marker_map(markers) if markers is not None else None,
                           points=load_points(points) if points is not None else None, max_error=max_error)
@@ -392,4 +384,4 @@ def _print_summary(shot: dict, output) -> None:
 
 
 __all__ = ["register_command", "register_photo", "register_markers", "register_points", "solve_pose", "fit_camera",
-           "expected_overlay_error", "read_photo", "read_intrinsics", "load_points", "Pose"]
+           "expected_overlay_error", "read_photo", "load_points", "Pose"]

@@ -182,5 +182,7 @@ def test_peer_worker_renders_with_ao_on(tmp_path, peer):
     if peer == "vtk":
         assert info["settings"]["kernel_size"] == 32 and info["settings"]["msaa_samples"] == 0
     else:
-        assert info["settings"]["ambient_occlusion"] is True and info["settings"]["antialiasing"] is False
+        settings = info["settings"]
+        assert settings["ambient_occlusion"] is True and settings["antialiasing"] is False
+        assert settings["msaa_samples"] == 1 and settings["shadows"] is False  # what mrcheck renders too
     assert np.isfinite(info["setup_ms"])

@@ -15,7 +15,6 @@ from mrcheck.calibration import read_camera, write_camera
 from mrcheck.camera import Camera
 from mrcheck.cli import main
 from mrcheck.errors import MrcheckError
-from mrcheck.registration import read_intrinsics
 from mrcheck.resources import sample_scene_path
 
 SCENE = str(sample_scene_path())
@@ -144,7 +143,7 @@ def test_yaml_intrinsics_have_no_pose_for_a_render(tmp_path):
     with pytest.raises(MrcheckError, match="no pose"):
         Camera.load(path)
     # the registration takes intrinsics only
-    for camera in (read_intrinsics(path), read_camera(path), Camera.load(path, need_pose=False)):
+    for camera in (read_camera(path), Camera.load(path, need_pose=False)):
         assert camera.fx == 500.0 and camera.dist.size == 5 and np.array_equal(camera.R, np.eye(3))
 
 
