@@ -284,7 +284,7 @@ def calibrate_command(images, board, output, min_views=None, max_view_error=None
     spec = parse_board(board)
     output = check_output_path(output, CAMERA_SUFFIXES, "camera output")
     camera, extra, report = calibrate(images, spec, min_views, max_view_error)
-    write_camera(output, camera, extra)
+    write_camera(output, camera, extra, pose=False)  # a calibration has no pose
     print("\n".join(report))
     print(f"wrote {output}")
 
@@ -294,11 +294,13 @@ def _is_yaml(path: Path) -> bool:
     return path.suffix.lower() in YAML_SUFFIXES
 
 
-def write_camera(path, camera: Camera, extra: dict = None) -> Path:
-    """Camera JSON (camera keys + ``extra``), or OpenCV FileStorage YAML for .yml/.yaml, atomically."""
+def write_camera(path, camera: Camera, extra: dict = None, pose: bool = True) -> Path:
+    """Camera JSON (camera keys + ``extra``), or OpenCV FileStorage YAML for .yml/.yaml, atomically.
+    ``pose=False`` writes intrinsics only (no R, t), which a render refuses rather than standing
+    the camera at the world origin."""
     path, extra = Path(path), dict(extra or {})
     if not _is_yaml(path):
-        text = json.dumps({**camera.to_dict(), **extra}, indent=2) + "\n"
+        text = json.dumps({**camera.to_dict(pose), **extra}, indent=2) + "\n"
         write_text(path, text)
         return path
     fs = cv2.FileStorage(".yml", cv2.FILE_STORAGE_WRITE | cv2.FILE_STORAGE_MEMORY)
@@ -306,8 +308,8 @@ def write_camera(path, camera: Camera, extra: dict = None) -> Path:
     fs.write("image_height", camera.height)
     fs.write("camera_matrix", camera.K)
     fs.write("distortion_coefficients", camera.dist.reshape(-1, 1))  # 5x1, as the chessboard sample
-    if not (np.allclose(camera.R, np.eye(3)) and not camera.t.any()):
-        fs.write("R", camera.R)  # a pose only when there is one: the samples' layout has none
+    if pose:
+        fs.write("R", camera.R)  # the samples' layout (intrinsics only) has none
         fs.write("t", camera.t.reshape(3, 1))
     if "rms" in extra:
         fs.write("avg_reprojection_error", float(extra.pop("rms")))

@@ -188,26 +188,31 @@ class Camera:
     def load(cls, path, need_pose=True) -> "Camera":
         """A camera file: our camera JSON, or OpenCV FileStorage YAML for .yml/.yaml.
 
-        OpenCV's calibration YAML holds intrinsics only; with ``need_pose`` (a render) a YAML
-        without R and t is an error rather than a camera silently standing at the world origin.
+        A calibration (OpenCV's YAML, or ``mrcheck calibrate``'s JSON) holds intrinsics only; with
+        ``need_pose`` (a render) a file without R and t is an error rather than a camera silently
+        standing at the world origin.
         """
         path = Path(path)
-        if path.suffix.lower() not in YAML_SUFFIXES:
-            return cls.from_dict(read_json(path, "camera"), path)
-        from .calibration import read_yaml_camera  # a local import: calibration imports this module
+        if path.suffix.lower() in YAML_SUFFIXES:
+            from .calibration import read_yaml_camera  # a local import: calibration imports this module
 
-        data = read_yaml_camera(path)
+            data, kind = read_yaml_camera(path), "OpenCV YAML camera"
+        else:
+            data, kind = read_json(path, "camera"), "camera JSON"
+        camera = cls.from_dict(data, path)  # the intrinsics checked first
         if need_pose and not ("R" in data and "t" in data):
-            raise MrcheckError("OpenCV YAML camera has intrinsics but no pose (R and t); register a photo with it "
+            raise MrcheckError(f"{kind} has intrinsics but no pose (R and t); register a photo with it "
                                "(mrcheck register --intrinsics) and use the SHOT.json", path)
-        return cls.from_dict(data, path)
+        return camera
 
-    def to_dict(self) -> dict:
+    def to_dict(self, pose: bool = True) -> dict:
+        """The camera JSON's keys; ``pose=False`` for intrinsics only (no R, t: not renderable)."""
         out = {"width": self.width, "height": self.height, "K": self.K.tolist()}
         if self.dist.size:
             out["dist"] = self.dist.tolist()
-        out["R"] = self.R.tolist()
-        out["t"] = self.t.tolist()
+        if pose:
+            out["R"] = self.R.tolist()
+            out["t"] = self.t.tolist()
         return out
 
 

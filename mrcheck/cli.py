@@ -84,8 +84,9 @@ def cli():
               help="headlight: a light just above the camera; sun: a fixed direction from above.")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Seed of the AO kernel and rotation tile (renders are reproducible).")
 @click.option("--lod-px", type=float, default=0.5, show_default=True,
-              help="Level of detail: parts drawn 4+ times use a simplified mesh where its measured error stays "
-                   "below this many pixels; 0 draws every part at full detail.")
+              help="Level of detail: parts drawn 4+ times and single parts of 50 k+ triangles (robots) use a "
+                   "simplified mesh where its measured error stays below this many pixels; 0 draws every part "
+                   "at full detail.")
 @click.option("--units", type=click.Choice(["mm", "cm", "m", "in", "ft"]),
               help="Unit of a single mesh file SCENE (a manifest declares units per part); default: as authored.")
 @click.option("-o", "--output", required=True, metavar="OUT.png", help="Output image (.png, .jpg, .tif).")
@@ -107,6 +108,7 @@ def render(scene, view, camera_path, mode, width, height, samples, radius_px, ra
 
     if radius_px is not None and radius_fraction is not None:
         raise MrcheckError("give --radius-px or --radius-fraction, not both")
+    _warn_unused_options(click.get_current_context(), ["phong", "vector", "ssao"] if mode == "all" else [mode])
     render_command(
         scene=scene, view=view, camera_path=camera_path, mode=mode, width=width, height=height, units=units,
         output=output, output_ao=output_ao,
@@ -116,6 +118,27 @@ def render(scene, view, camera_path, mode, width, height, samples, radius_px, ra
                       intensity=intensity, blur=blur, blur_size=blur_size, ao_scale=float(ao_scale),
                       ao_direct=ao_direct, light=light, seed=seed, lod_px=lod_px),
     )
+
+
+# render options that only some modes read: given for a mode that ignores them, a warning
+_AO_MODES = ("vector", "ssao", "crytek", "hbao", "alchemy")
+_WORLD_RADIUS_MODES = ("ssao", "crytek", "hbao", "alchemy")
+_OPTION_MODES = {
+    "radius_px": ("vector",), "radius_fraction": ("vector",), "min_world_radius": ("vector",),
+    "max_world_radius": ("vector",), "radius_world": _WORLD_RADIUS_MODES, "samples": _AO_MODES,
+    "falloff": _AO_MODES, "intensity": _AO_MODES, "blur": _AO_MODES, "blur_size": _AO_MODES,
+    "ao_scale": _AO_MODES, "ao_direct": _AO_MODES, "seed": _AO_MODES,
+}
+
+
+def _warn_unused_options(ctx: click.Context, modes) -> None:
+    """One warning line per option given on the command line that none of ``modes`` reads."""
+    for param in ctx.command.params:
+        users = _OPTION_MODES.get(param.name)
+        if users and not set(users) & set(modes) and \
+                ctx.get_parameter_source(param.name) == click.core.ParameterSource.COMMANDLINE:
+            click.echo(f"warning: {'/'.join(param.opts[-1:] + param.secondary_opts)} has no effect in mode {'/'.join(modes)} "
+                       f"(it applies to {', '.join(users)})", err=True)
 
 
 @cli.command()
@@ -133,7 +156,7 @@ def demo(outdir, width, height):
 
 
 @cli.command()
-@click.option("--quick", is_flag=True, help="Fewer sizes and repetitions: a few minutes on a 2-core CPU; every ratio is still computed.")
+@click.option("--quick", is_flag=True, help="Fewer sizes and repetitions (about 40 s on a 2-core CPU once the halls are cached, 1.5 min for the full run); every ratio is still computed.")
 @click.option("--json", "json_path", metavar="OUT.json", help="Also write every raw figure and the ratios as JSON.")
 @click.option("--repeat", type=int, default=None, callback=_positive, help="Timed runs per figure after one warm-up [default: 5, --quick: 3].")
 def bench(quick, json_path, repeat):

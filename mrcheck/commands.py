@@ -16,11 +16,14 @@ from .scene import load_scene
 STUDY_ORDER = ("phong", "vector", "ssao")  # D1 | D2 | D3, as in the paper's figure 5
 
 
-def resolve_camera(scene, view, camera_path, width, height) -> Camera:
+def file_camera(view, camera_path, width, height) -> Camera | None:
+    """The camera of ``--camera`` (resized to ``--width``/``--height``), read before the scene
+    loads so that a bad camera file fails at once; None for ``--view``, which needs the scene
+    (``scene.camera(view, width, height)``)."""
     if (view is None) == (camera_path is None):
         raise MrcheckError("give exactly one of --view NAME or --camera CAM.json|CAM.yml")
     if view is not None:
-        return scene.camera(view, width, height)
+        return None
     camera = Camera.load(camera_path)
     if width or height:
         # keep the aspect ratio when only one side is given
@@ -50,9 +53,10 @@ def render_command(scene, view, camera_path, mode, width, height, units, output,
             if path.resolve() == output.resolve():  # one would overwrite the other
                 raise MrcheckError("the image and an AO output are the same file", path)
     settings = RenderSettings(**settings)
-    settings.validated(1)  # option errors before a long scene load (the height only sets radius_px)
+    settings.validated(None)  # option errors before a long scene load
+    camera = file_camera(view, camera_path, width, height)
     loaded = load_scene(scene, units=units, progress=True)
-    camera = resolve_camera(loaded, view, camera_path, width, height)
+    camera = camera or loaded.camera(view, width, height)
     settings.validated(camera.height)  # option errors before the GL context is made
 
     renderer = Renderer(loaded)
@@ -92,4 +96,4 @@ def demo_command(outdir: Path, width=None, height=None):
             renderer.release()
 
 
-__all__ = ["render_command", "demo_command", "resolve_camera"]
+__all__ = ["render_command", "demo_command", "file_camera"]

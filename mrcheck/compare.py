@@ -29,7 +29,6 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .commands import resolve_camera
 from .errors import MrcheckError
 from .metrics import METRIC_NAMES, all_metrics, covered, distance_retention, MetricUndefined
 from .output import check_output_dir, labelled_sheet, write_all_or_none, write_image, write_text
@@ -226,14 +225,15 @@ def compare_command(scene, view, samples, rays, width, height, outdir):
     ``figure.png``, ``metrics.json`` and ``metrics.md`` into ``outdir`` and print their paths."""
     from tqdm import tqdm
 
-    from .reference import MAX_RAYS
+    from .reference import MAX_RAYS, REFERENCE_LOD_PX
 
     outdir = check_output_dir(outdir)
     if not 1 <= rays <= MAX_RAYS:
         raise MrcheckError(f"rays must be in [1, {MAX_RAYS}], got {rays}")
     loaded = load_scene(scene, progress=True)
-    camera = resolve_camera(loaded, view, None, width, height)
-    settings = RenderSettings(samples=samples).validated(camera.height)  # radius_px resolved, options checked
+    camera = loaded.camera(view, width, height)
+    # full detail: the references are ray-traced on the full-detail scene (REFERENCE_LOD_PX)
+    settings = RenderSettings(samples=samples, lod_px=REFERENCE_LOD_PX).validated(camera.height)
     ao_modes = [m for m in MODES if m != "phong"]
 
     renderer = Renderer(loaded)

@@ -10,6 +10,7 @@ class MrcheckError(Exception):
     """A user-facing error: one line, naming the file (when there is one) and the problem."""
 
     def __init__(self, message: str, path=None):
+        self.path = path  # the file the message names, if any (a caller may add its own)
         message = " ".join(str(message).split())  # one line, always
         if path is not None:
             message = f"{path}: {message}"

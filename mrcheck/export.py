@@ -753,7 +753,10 @@ def export_command(job, outdir, workers: int = 1, scheduler: str | None = None, 
         if entry["status"] == "failed":
             click.echo(f"  failed {entry['name']}: {entry['error']}")
     if removed:
-        click.echo(f"removed {len(removed)} file(s) of earlier runs that this job no longer produces "
+        # removed paths are shots/NAME/FILE; a NAME no longer in the job is a dropped shot
+        dropped = {p.split("/")[1] for p in removed} - {entry["name"] for entry in shots}
+        of_shots = f", including the outputs of {len(dropped)} shot(s) no longer in the job" if dropped else ""
+        click.echo(f"removed {len(removed)} file(s) of earlier runs that this job no longer produces{of_shots} "
                    f"(listed in manifest.json)")
     click.echo(f"wrote {outdir / 'manifest.json'} and {outdir / 'report.html'}")
     return 1 if counts["failed"] else 0

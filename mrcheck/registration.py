@@ -54,7 +54,7 @@ _WARN_DISTANCE_RATIO = 15.0  # mean distance / extent of the points
 _WARN_FRONTAL_DEG = 20.0  # coplanar points whose plane faces the camera within this angle
 
 
-def fit_camera(camera: Camera, width: int, height: int, source="photo"):
+def fit_camera(camera: Camera, width: int, height: int, source=None):
     """``camera`` at the photo's size: as is, rescaled (same aspect ratio, with a warning), or an error."""
     if (width, height) == (camera.width, camera.height):
         return camera, []
@@ -338,12 +338,17 @@ def register_photo(photo, camera: Camera, marker_map=None, points=None, max_erro
     :func:`load_points`, or the correspondences JSON), with the absolute ``"photo"`` path.
     ``camera`` holds the intrinsics (rescaled to the photo when needed)."""
     image = read_photo(photo)
-    if marker_map is not None:
-        shot = register_markers(image, camera, marker_map, max_error)
-    else:
-        camera, warnings = fit_camera(camera, image.shape[1], image.shape[0], photo)
-        groups = points if isinstance(points, list) and points and isinstance(points[0], Group) else _parse_points(points)
-        shot = _register(camera, groups, "points", max_error, warnings)
+    try:
+        if marker_map is not None:
+            shot = register_markers(image, camera, marker_map, max_error)
+        else:
+            camera, warnings = fit_camera(camera, image.shape[1], image.shape[0], photo)
+            groups = points if isinstance(points, list) and points and isinstance(points[0], Group) else _parse_points(points)
+            shot = _register(camera, groups, "points", max_error, warnings)
+    except MrcheckError as exc:
+        if exc.path is None:  # "no consistent pose": of which photo
+            raise MrcheckError(str(exc), photo) from None
+        raise
     return {**{k: shot[k] for k in ("width", "height", "K", "dist", "R", "t") if k in shot},
             "photo": str(Path(photo).resolve()), **shot}
 

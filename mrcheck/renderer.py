@@ -64,8 +64,9 @@ class RenderSettings:
     seed: int = 0
     lod_px: float = LOD_PIXELS
 
-    def validated(self, height: int) -> "RenderSettings":
-        """A copy with ``radius_px`` resolved for an image ``height`` pixels high, checked."""
+    def validated(self, height: int | None) -> "RenderSettings":
+        """A copy with ``radius_px`` resolved for an image ``height`` pixels high, checked;
+        ``height=None`` checks the options that do not depend on the image (before it is known)."""
         checks = [
             (self.samples >= 1, f"samples must be >= 1, got {self.samples}"),
             (self.samples <= 512, f"samples must be <= 512, got {self.samples}"),
@@ -88,7 +89,12 @@ class RenderSettings:
         for ok, message in checks:
             if not ok:
                 raise MrcheckError(message)
+        if height is None:
+            return self
         radius_px = self.radius_px if self.radius_px is not None else self.radius_fraction * height
+        if radius_px > height:  # almost every sample would leave the image: a unit mix-up, not a radius
+            raise MrcheckError(f"radius of {radius_px:g} px is larger than the image ({height} px high); "
+                               "the vector radius is on screen (default: 2 % of the height)")
         return replace(self, radius_px=float(radius_px))
 
 

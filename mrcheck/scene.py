@@ -58,7 +58,7 @@ DEFAULT_COLOR = (0.7, 0.7, 0.7)  # linear RGB of parts without a colour
 DEGENERATE_WARNING_SHARE = 0.001  # warn when more than 0.1 % of a mesh's triangles have zero area
 VALIDATION_CHUNK = 1 << 20        # triangles checked per step (bounds the validation's memory)
 
-_TOP_KEYS = {"format", "name", "description", "parts", "viewpoints"}
+MANIFEST_KEYS = {"format", "name", "description", "parts", "viewpoints"}
 _PART_KEYS = {"name", "mesh", "units", "color", "translate", "rotate_deg", "scale", "matrix", "instances", "joints"}
 _INSTANCE_KEYS = {"id", "translate", "rotate_deg", "scale", "matrix"}
 _VIEW_KEYS = {"name", "eye", "target", "up", "fov_y_deg", "width", "height"}
@@ -240,8 +240,12 @@ def read_mesh(path: Path, joints: dict | None = None):
     except MrcheckError:
         raise
     except Exception as exc:  # trimesh and yourdfpy raise many types for corrupt files
-        reason = " ".join(str(exc).split())[:200] or type(exc).__name__
-        raise MrcheckError(f"cannot read mesh ({reason})", path) from None
+        reason = " ".join(str(exc).split())[:200]
+        # a KeyError's text is only the key ('y' for a PLY cut in its vertex list): name the type too
+        reason = f"{type(exc).__name__}: {reason}" if reason and isinstance(exc, (KeyError, IndexError)) else \
+            reason or type(exc).__name__
+        what = "cannot read mesh" if isinstance(exc, OSError) else "cannot read mesh: corrupt, truncated or not a mesh"
+        raise MrcheckError(f"{what} ({reason})", path) from None
     return validate_mesh(vertices, faces, path)
 
 
@@ -361,9 +365,9 @@ def _load_manifest(path: Path, progress: bool) -> Scene:
         raise MrcheckError(f"malformed manifest: {exc}", path) from None
     except (OSError, UnicodeDecodeError) as exc:
         raise MrcheckError(f"cannot read manifest ({exc})", path) from None
-    unknown = sorted(set(data) - _TOP_KEYS)
+    unknown = sorted(set(data) - MANIFEST_KEYS)
     if unknown:  # e.g. [[viewpoint]] for [[viewpoints]]: silently ignoring it would lose the views
-        raise MrcheckError(f"unknown manifest key(s) {', '.join(unknown)} (known: {', '.join(sorted(_TOP_KEYS))})", path)
+        raise MrcheckError(f"unknown manifest key(s) {', '.join(unknown)} (known: {', '.join(sorted(MANIFEST_KEYS))})", path)
     if data.get("format", 1) != 1:
         raise MrcheckError(f"unsupported manifest format {data.get('format')!r} (this mrcheck reads format 1)", path)
     tables = data.get("parts", [])

@@ -1,5 +1,5 @@
 // Vector-based SSAO: Scheer & Keutel, "Screen Space Ambient Occlusion for Virtual and Mixed
-// Reality Factory Planning", section 3, with the corrections of shared/papers/NOTES.md.
+// Reality Factory Planning", section 3, with the corrections of docs/papers_notes.md (NOTES).
 //
 // For each of AO_SAMPLES view-space offsets (NOTES 5): the sample P + offset * r_S is
 // projected to the image; the *visible surface point* O at that pixel is the occluder

@@ -1,6 +1,6 @@
 """The paper's claims about the vector method, measured on unblurred AO buffers, fixed seeds.
 
-Scheer & Keutel section 3 + shared/papers/NOTES.md: no occlusion on a flat plane, occlusion in
+Scheer & Keutel section 3 + docs/papers_notes.md (NOTES): no occlusion on a flat plane, occlusion in
 concave corners, a sampling radius whose projection is the same at every depth, and AO that
 does not fade with distance (standard SSAO's does).
 """
@@ -34,7 +34,7 @@ def test_flat_plane_is_unoccluded_in_vector_mode_and_ssao_is_reported(ctx, recor
     half = render_ao(ctx, scene, camera, "vector", samples=16, ao_scale=0.5)
     assert half[plane].min() >= 0.999
 
-    # Standard SSAO on the same plane: report, do not require (NOTES.md: it is the comparison mode).
+    # Standard SSAO on the same plane: report, do not require (NOTES: it is the comparison mode).
     # Its depth-delta test reads the neighbouring pixel's depth, which on a grazing floor
     # differs from the sample's by more than the bias: false occlusion far away.
     ssao = render_ao(ctx, scene, camera, "ssao", samples=16)
@@ -93,7 +93,7 @@ def test_projected_sampling_radius_is_constant_with_depth(ctx, mode):
         s = distance / 2.0
         scene = scene_of(box((20 * s, 0.1 * s, 20 * s), (0, distance + 0.05 * s, 0)),
                          box((0.6 * s, 0.1 * s, 0.6 * s), (0, distance - 0.05 * s, 0)))
-        # NOTES.md 6: the optional world clamp turns the vector radius back into a world one
+        # NOTES 6: the optional world clamp turns the vector radius back into a world one
         clamp = {"max_world_radius": 0.12} if mode == "vector clamped" else {}
         ao = render_ao(ctx, scene, camera, mode.split()[0], samples=64, radius_px=12, radius_world=0.12, **clamp)
         widths[distance], totals[distance] = _band_width_px(ao, render_depth(ctx, scene, camera), distance)

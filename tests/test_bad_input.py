@@ -103,6 +103,8 @@ CASES = [
     mesh_case("mesh-empty-glb", "empty.glb", b"", "file is empty"),
     mesh_case("mesh-no-faces", "points.obj", obj("0 0 0,1 0 0,0 1 0", ""), "no triangles"),
     mesh_case("mesh-corrupt-glb", "bad.glb", np.random.default_rng(0).bytes(600), "cannot read mesh"),
+    mesh_case("mesh-ply-cut-in-vertices", "cut.ply", NAN_PLY.split("1 nan 0")[0] + "1 0\n",
+              "cannot read mesh: corrupt, truncated or not a mesh"),
     mesh_case("mesh-unknown-suffix", "model.xyz", "1 2 3\n", "unsupported mesh format"),
     mesh_case("mesh-nan-obj", "nan.obj", obj("0 0 0,1 0 0,0 nan 0,0 0 1", "1 2 3,1 2 4"), "NaN"),
     mesh_case("mesh-inf-obj", "inf.obj", obj("0 0 0,1 0 0,0 inf 0", "1 2 3"), "infinite"),

@@ -167,3 +167,31 @@ def test_render_from_yaml_intrinsics_says_no_pose(tmp_path, capsys):
     result = run(capsys, "render", SCENE, "--camera", path, *TINY, "-o", tmp_path / "r.png")
     assert_one_line_error(result, path, "no pose (R and t)")
     assert not (tmp_path / "r.png").exists()
+
+
+@pytest.mark.parametrize("command", ["render", "reference"])
+def test_render_from_json_intrinsics_says_no_pose(tmp_path, capsys, command):
+    """A camera JSON without R and t (what `mrcheck calibrate -o cam.json` writes) stood the camera
+    at the world origin looking along +z; a render now refuses it as it refuses the YAML."""
+    path = tmp_path / "cam.json"
+    write_camera(path, Camera.load(CONVEYOR), pose=False)
+    out = tmp_path / ("r.png" if command == "render" else "r.npy")
+    result = run(capsys, command, SCENE, "--camera", path, *TINY, "-o", out)
+    assert_one_line_error(result, path, "camera JSON has intrinsics but no pose (R and t)")
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("command", ["render", "reference"])
+def test_a_bad_camera_file_fails_before_the_scene_loads(tmp_path, capsys, monkeypatch, command):
+    """The camera file is read first: a typo in it costs no scene load (seconds on a big hall)."""
+    import mrcheck.scene
+
+    def no_load(*args, **kwargs):
+        raise AssertionError("the scene was loaded before the camera file was checked")
+
+    monkeypatch.setattr(mrcheck.scene, "load_scene", no_load)
+    monkeypatch.setattr("mrcheck.commands.load_scene", no_load)
+    path = tmp_path / "cam.json"
+    path.write_text('{"width": 64,')
+    out = tmp_path / ("r.png" if command == "render" else "r.npy")
+    assert_one_line_error(run(capsys, command, SCENE, "--camera", path, *TINY, "-o", out), path, "malformed camera JSON")

@@ -184,3 +184,29 @@ def test_a_bug_is_one_line_and_its_traceback_is_one_variable_away(tmp_path, caps
     monkeypatch.setenv("MRCHECK_DEBUG", "1")
     with pytest.raises(ZeroDivisionError):
         main(args)
+
+
+@pytest.mark.parametrize("mode, options, warned", [
+    ("ssao", ["--radius-px", "5"], ["--radius-px"]),
+    ("vector", ["--radius", "0.5", "--min-world-radius", "0.1"], ["--radius "]),
+    ("phong", ["--samples", "8", "--no-blur"], ["--samples", "--blur/--no-blur"]),
+    ("all", ["--radius-px", "5", "--radius", "0.5"], []),       # D2 reads the one, D3 the other
+    ("vector", ["--samples", "8"], []),
+])
+def test_an_option_no_chosen_mode_reads_is_a_warning(tmp_path, capsys, mode, options, warned):
+    out = tmp_path / "r.png"
+    assert main(["render", SCENE, "--view", "robot", "--mode", mode, *SMALL, *options, "-o", str(out)]) == 0
+    warnings = [line for line in capsys.readouterr().err.splitlines() if line.startswith("warning:")]
+    assert len(warnings) == len(warned), warnings
+    for line, option in zip(warnings, warned):
+        assert line.startswith(f"warning: {option}") and f"no effect in mode {mode}" in line
+    assert out.exists()
+
+
+def test_a_screen_radius_larger_than_the_image_is_refused(tmp_path, capsys):
+    out = tmp_path / "r.png"
+    assert main(["render", SCENE, "--view", "robot", *SMALL, "--radius-px", "121", "-o", str(out)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "radius of 121 px is larger than the image (120 px high)" in err[0]
+    assert not out.exists()
+    assert main(["render", SCENE, "--view", "robot", *SMALL, "--radius-px", "120", "-o", str(out)]) == 0

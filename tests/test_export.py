@@ -323,6 +323,7 @@ def test_outputs_the_job_no_longer_produces_are_removed(small_job, capsys):
     job = small_job("[0.5]", f'[[shots]]\nname = "again"\nshot = "{out}/shots/given/SHOT.json"\n')
     code, stdout, _, _ = _export(capsys, job, out)
     assert code == 0 and "2 done" in stdout and "removed 6 file(s) of earlier runs" in stdout
+    assert "including the outputs of 1 shot(s) no longer in the job" in stdout   # given
     removed = json.loads((out / "manifest.json").read_text())["removed"]
     assert sorted(removed) == ["shots/cam-0/overlay_phong_a0.png"] + [
         f"shots/given/{name}" for name in ("overlay_phong_a0.5.png", "overlay_phong_a0.png", "record.json",

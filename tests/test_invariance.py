@@ -1,6 +1,6 @@
 """Scale and translation invariance, through real mesh files and manifests.
 
-* The vector method's quasi-normalisation (paper section 3, NOTES.md 3) makes its AO the same
+* The vector method's quasi-normalisation (paper section 3, NOTES 3) makes its AO the same
   for a scene in metres, in millimetres declared as such, and in millimetres with the unit
   forgotten (then the camera is in the same raw units), with unchanged parameters.
 * Camera-relative rendering makes a scene 1e6 m from the origin render like one at the origin.

@@ -7,8 +7,8 @@ import pytest
 
 from mrcheck.camera import Camera
 from mrcheck.cli import main
-from mrcheck.reference import reference_ao
-from mrcheck.renderer import Renderer
+from mrcheck.reference import REFERENCE_LOD_PX, reference_ao
+from mrcheck.renderer import Renderer, RenderSettings
 from mrcheck.resources import sample_scene_path
 from mrcheck.scene import load_scene
 
@@ -20,7 +20,7 @@ SCENE = str(sample_scene_path())
 def gbuffer(ctx, scene, camera):
     renderer = Renderer(scene, ctx=ctx)
     try:
-        renderer.render(camera, ["phong"])
+        renderer.render(camera, ["phong"], RenderSettings(lod_px=REFERENCE_LOD_PX))
         return renderer.last_depth(), renderer.last_normals()
     finally:
         renderer.release()

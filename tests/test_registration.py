@@ -238,6 +238,8 @@ def test_bad_input_one_line_error_and_no_shot(files, capsys, case):
     assert run(files, *extra, **spec) == 1
     err = capsys.readouterr().err.strip()
     assert err.startswith("error:") and "\n" not in err and message in err, err
+    if "photo" in spec:  # the message names the photo it is about
+        assert Path(spec["photo"]).name in err, err
     assert not (files / "SHOT.json").exists()
 
 

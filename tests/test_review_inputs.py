@@ -95,8 +95,12 @@ def test_database_that_cannot_be_opened(db, outdir, tmp_path, capsys):
     assert _files(tmp_path) == before and (tmp_path / "photo.png").read_bytes() == photo
 
 
-def test_scene_manifest_without_shots_says_what_to_pass(capsys):
+@pytest.mark.parametrize("kind", ["sample scene", "no parts yet"])
+def test_scene_manifest_without_shots_says_what_to_pass(capsys, tmp_path, kind):
     scene = sample_scene_path()
+    if kind == "no parts yet":  # still a scene manifest, not a job with unknown keys
+        scene = tmp_path / "scene.toml"
+        scene.write_text('format = 1\nname = "hall"\n')
     code, out, err = _review(capsys, scene, "--port", _free_port())
     assert code == 1 and err.count("\n") == 1, err
     assert err.startswith(f"error: {scene}: is a scene manifest") and "--shots DIR" in err and "unknown key" not in err

@@ -2,9 +2,9 @@
 
 The kernel holds ``n`` offsets inside the unit sphere with random directions and lengths that
 grow quadratically with the index, so more samples land near the centre, where occluders
-matter most (NOTES.md 5). Per pixel each offset is reflected on a random plane taken from a
-``NOISE_SIZE`` x ``NOISE_SIZE`` tile (Mittring 2007), which turns banding into high-frequency
-noise that the 4x4-periodic pattern lets the bilateral blur remove.
+matter most (NOTES 5: item 5 of docs/papers_notes.md). Per pixel each offset is reflected on a
+random plane taken from a ``NOISE_SIZE`` x ``NOISE_SIZE`` tile (Mittring 2007), which turns
+banding into high-frequency noise that the 4x4-periodic pattern lets the bilateral blur remove.
 """
 
 from __future__ import annotations

@@ -3,9 +3,9 @@
 
 The sampling radius is given on screen: ``radius_px`` pixels at the output resolution, or a
 fraction of the image height. The shader grows the world radius with depth,
-``r_S = r_px * Z / f_y`` (NOTES.md 1), so its projection is ``r_px`` at every depth; an optional
-clamp bounds the world radius (NOTES.md 6: near the camera a screen-constant radius becomes
-large in the world).
+``r_S = r_px * Z / f_y`` (NOTES 1), so its projection is ``r_px`` at every depth; an optional
+clamp bounds the world radius (NOTES 6: near the camera a screen-constant radius becomes
+large in the world). NOTES n: item n of docs/papers_notes.md.
 """
 
 from __future__ import annotations

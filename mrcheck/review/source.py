@@ -10,6 +10,7 @@ from pathlib import Path
 from ..camera import Camera
 from ..errors import MrcheckError
 from ..overlay import load_shot
+from ..scene import MANIFEST_KEYS
 from ..scenefiles import files_stamp, read_manifest, scene_files
 
 MAX_SIZE = 1280  # renders and photos are served at most this wide (same aspect as the photo)
@@ -116,7 +117,8 @@ def _is_scene_manifest(path: Path) -> bool:
         data = read_manifest(path)
     except MrcheckError:
         return False  # load_job says what is wrong with it
-    return "parts" in data and "shots" not in data
+    # a scene's keys and none of a job's: a manifest without [[parts]] is still a scene (a broken one)
+    return bool(data) and set(data) <= MANIFEST_KEYS
 
 
 def open_source(target, shots_dir=None) -> Source:
