@@ -243,6 +243,11 @@ def test_alpha_zero_is_the_render_and_one_the_photo(shot_files, tmp_path, capsys
     assert main(["render", str(sample_scene_path()), "--camera", str(shot), "--mode", "phong", "-o", str(ref)]) == 0
     assert np.array_equal(cv2.imread(str(out0)), cv2.imread(str(ref)))
     assert np.array_equal(cv2.imread(str(out1))[..., ::-1], photo)
+    # in between, alpha is the photo's weight (README): 0.25 is a quarter photo, three quarters CAD
+    out = tmp_path / "a025.png"
+    assert _run(capsys, shot, "--scene", sample_scene_path(), "--mode", "phong", "--alpha", 0.25, "-o", out)[0] == 0
+    expected = 0.25 * photo.astype(np.float64) + 0.75 * cv2.imread(str(ref))[..., ::-1]
+    assert np.abs(cv2.imread(str(out))[..., ::-1] - expected).max() <= 0.5 + 1e-9
 
 
 def test_mode_all_writes_the_two_row_sheet(shot_files, tmp_path, capsys):

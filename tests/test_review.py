@@ -294,12 +294,15 @@ def test_browser_end_to_end(outdir, tmp_path):
             page.goto(url)
             page.wait_for_selector("body[data-loaded='shot0|phong|1']", timeout=60000)
             viewport = page.locator("#viewport")
+            cad_opacity = "getComputedStyle(document.querySelector('#pane-a .render')).opacity"
             page.fill("#opacity", "0")
             page.dispatch_event("#opacity", "input")
+            assert page.evaluate(cad_opacity) == "0"  # the slider is the CAD's opacity: 0 shows the photo
             a = np.frombuffer(viewport.screenshot(), np.uint8).copy()
             page.evaluate("document.querySelector('#opacity').value = 100")
             page.dispatch_event("#opacity", "input")
-            viewport.screenshot(path="/tmp/review_cad.png")
+            assert page.evaluate(cad_opacity) == "1"
+            viewport.screenshot(path=str(tmp_path / "review_cad.png"))
             b = np.frombuffer(viewport.screenshot(), np.uint8).copy()
             assert a.shape != b.shape or np.any(a != b)
             latency = page.evaluate("""() => new Promise(done => {
@@ -318,11 +321,11 @@ def test_browser_end_to_end(outdir, tmp_path):
             page.click("#ed-save")
             page.wait_for_selector("#marker-list li:has-text('conveyor too short')")
             page.check("#edges")
-            page.screenshot(path="/tmp/review_marker.png")
+            page.screenshot(path=str(tmp_path / "review_marker.png"))
             page.select_option("#view", "swipe")
-            page.screenshot(path="/tmp/review_swipe.png")
+            page.screenshot(path=str(tmp_path / "review_swipe.png"))
             page.select_option("#view", "side")
-            page.screenshot(path="/tmp/review_side.png")
+            page.screenshot(path=str(tmp_path / "review_side.png"))
             page.reload()
             page.wait_for_selector("#marker-list li:has-text('conveyor too short')", timeout=30000)
             # kill the server, start a new one on the same database: the marker is there
