@@ -137,8 +137,9 @@ def _warn_unused_options(ctx: click.Context, modes) -> None:
         users = _OPTION_MODES.get(param.name)
         if users and not set(users) & set(modes) and \
                 ctx.get_parameter_source(param.name) == click.core.ParameterSource.COMMANDLINE:
-            click.echo(f"warning: {'/'.join(param.opts[-1:] + param.secondary_opts)} has no effect in mode {'/'.join(modes)} "
-                       f"(it applies to {', '.join(users)})", err=True)
+            option = "/".join(param.opts[-1:] + param.secondary_opts)  # --blur/--no-blur as one
+            click.echo(f"warning: {option} has no effect in mode {'/'.join(modes)} (it applies to {', '.join(users)})",
+                       err=True)
 
 
 @cli.command()
