@@ -1,4 +1,4 @@
-// Composite: Blinn-Phong with one light (a headlight at the camera or a directional "sun"),
+// Composite: Blinn-Phong with one light (a headlight just above and left of the camera, or a directional "sun"),
 // and an ambient term that the AO modulates (optionally the direct light too). Output: linear
 // colour into an sRGB attachment, which encodes it (mrcheck/gl.py, srgb_texture).
 uniform sampler2D u_depth;
