@@ -108,7 +108,7 @@ def render(scene, view, camera_path, mode, width, height, samples, radius_px, ra
 
     if radius_px is not None and radius_fraction is not None:
         raise MrcheckError("give --radius-px or --radius-fraction, not both")
-    _warn_unused_options(click.get_current_context(), ["phong", "vector", "ssao"] if mode == "all" else [mode])
+    _warn_unused_options(click.get_current_context(), mode)
     render_command(
         scene=scene, view=view, camera_path=camera_path, mode=mode, width=width, height=height, units=units,
         output=output, output_ao=output_ao,
@@ -131,8 +131,10 @@ _OPTION_MODES = {
 }
 
 
-def _warn_unused_options(ctx: click.Context, modes) -> None:
-    """One warning line per option given on the command line that none of ``modes`` reads."""
+def _warn_unused_options(ctx: click.Context, mode: str) -> None:
+    """One warning line per option given on the command line that the chosen ``--mode`` (all:
+    D1, D2, D3) does not read."""
+    modes = ["phong", "vector", "ssao"] if mode == "all" else [mode]
     for param in ctx.command.params:
         users = _OPTION_MODES.get(param.name)
         if users and not set(users) & set(modes) and \
@@ -272,6 +274,7 @@ def overlay(shot, scene_path, mode, alpha, edges, edge_color, intensity, samples
     """Blend the CAD rendered from a registered shot over its photo, lens distortion included."""
     from .overlay import overlay_command
 
+    _warn_unused_options(click.get_current_context(), mode)
     overlay_command(shot=shot, scene=scene_path, mode=mode, alpha=alpha, edges=edges, edge_color=edge_color,
                     intensity=intensity, samples=samples, output=output)
 

@@ -110,6 +110,7 @@ import math
 import tempfile
 from pathlib import Path
 
+import click
 import cv2
 import numpy as np
 
@@ -574,6 +575,9 @@ def _markdown(result: dict, shot) -> str:
                          f"{s['edge_pixels']} | {', '.join(map(str, s['bbox']))} |")
     if rank == 0:
         lines.append("| - | no suspects | | | | | |")
+    checked = len(result["suspects"])
+    lines += ["", f"Checked {checked} part instance(s) in view; {checked - rank} supported as planned."]
+    lines += [f"**Warning:** {w}" for w in result.get("warnings", [])]
     lines += ["", f"Unexplained photo structure: {len(result['regions'])} region(s).", ""]
     for r in result["regions"]:
         lines.append(f"- bbox {', '.join(map(str, r['bbox']))}: {r['edge_pixels']} edge px")
@@ -595,8 +599,14 @@ def discrepancies_command(shot, scene, tolerance_px=None, outdir=None):
     outdir = check_output_dir(outdir)
     loaded = load_scene(scene, progress=True)
     result = detect(loaded, camera, photo, tolerance_px)
+    result["warnings"] = []
+    if not result["suspects"]:  # "no suspects" would read as "all as planned"
+        result["warnings"].append("no CAD part is in view of this shot, so nothing was checked: a wrong pose, "
+                                  "or the shot of another scene?")
+    for warning in result["warnings"]:
+        click.echo(f"warning: {warning}", err=True)
     image = heatmap(photo, result)
-    keys = ("tolerance_px", "threshold", "suspects", "regions", "suggested_markers")
+    keys = ("tolerance_px", "threshold", "warnings", "suspects", "regions", "suggested_markers")
     doc = {"shot": str(Path(shot).resolve()), "scene": str(Path(scene).resolve()), **{k: result[k] for k in keys}}
     paths = [write_image(outdir / "heatmap.png", image),
              write_bytes(outdir / "suspects.json", (json.dumps(doc, indent=2) + "\n").encode()),

@@ -44,7 +44,7 @@ from .errors import MrcheckError
 from .jsonfile import read_json
 from .markers import Group, detect_markers, load_marker_map, parse_marker_map
 from .output import check_output_path, write_text
-from .scene import MESH_SUFFIXES
+from .scene import MESH_SUFFIXES, load_scene
 
 # corner noise assumed when the residuals cannot tell (exact synthetic data, a single marker):
 # subpixel ArUco/ChArUco corners are good to a few tenths of a pixel
@@ -52,6 +52,7 @@ _MIN_SIGMA_PX = 0.3
 _WARN_OVERLAY_PX = 3.0  # predicted overlay error worth a warning
 _WARN_DISTANCE_RATIO = 15.0  # mean distance / extent of the points
 _WARN_FRONTAL_DEG = 20.0  # coplanar points whose plane faces the camera within this angle
+_FAR_MARGIN_M = 5.0  # a camera this far outside the scene (or one scene extent) is suspicious
 
 
 def fit_camera(camera: Camera, width: int, height: int, source=None):
@@ -358,29 +359,48 @@ def register_command(scene, photo, intrinsics, markers=None, points=None, max_er
     output = check_output_path(output, (".json",), "shot")
     if (markers is None) == (points is None):
         raise MrcheckError("give either --markers MAP.json or --points CORR.json (exactly one)")
-    # fail before the work; the scene is only named in the shot (its file is read by the
-    # commands that render), so this checks that it is one
+    # fail before the work: the scene the overlay will need must load, and a quick check first
     if not Path(scene).exists():
         raise MrcheckError("scene not found", scene)
     if Path(scene).is_file() and Path(scene).suffix.lower() not in (".toml", *MESH_SUFFIXES):
         raise MrcheckError(f"not a scene (a .toml manifest or a mesh: {', '.join(MESH_SUFFIXES)})", scene)
     camera = read_camera(intrinsics)  # its pose, if any, is ignored: the photo's is solved
-    shot = register_photo(photo, camera,
-                          marker_map=load_marker_map(markers) if markers is not None else None,
-                          points=load_points(points) if points is not None else None, max_error=max_error)
+    marker_map = load_marker_map(markers) if markers is not None else None
+    pairs = load_points(points) if points is not None else None
+    bounds = load_scene(scene, progress=True).bounds()
+    shot = register_photo(photo, camera, marker_map=marker_map, points=pairs, max_error=max_error)
+    if warning := _far_from_scene(np.asarray(shot["camera_position"]), bounds):
+        shot["warnings"].append(warning)
     text = json.dumps(shot, indent=2)
     write_text(output, text + "\n")
     _print_summary(shot, output)
     return shot
 
 
+def _far_from_scene(position: np.ndarray, bounds: np.ndarray) -> str | None:
+    """A warning when the solved camera stands far outside the scene: the world points (marker
+    map, correspondences) are then in another unit or frame than the scene (mm against m puts
+    the camera 1000 times too far), and every overlay of the shot would show nothing."""
+    extent = float(np.linalg.norm(bounds[1] - bounds[0]))
+    outside = float(np.linalg.norm(np.maximum(bounds[0] - position, 0) + np.maximum(position - bounds[1], 0)))
+    if outside <= max(_FAR_MARGIN_M, extent):
+        return None
+    return (f"the camera stands {outside:.4g} m outside the scene (extent {extent:.3g} m): are the world points "
+            "in the scene's unit and frame (mm against m)?")
+
+
 def _print_summary(shot: dict, output) -> None:
-    def names(entries):
-        return ", ".join(str(e.get("id", e.get("index", f"board {e.get('board')}"))) for e in entries) or "none"
+    def names(entries, errors=False):
+        out = []
+        for e in entries:
+            name = str(e.get("id", e.get("index", f"board {e.get('board')}")))
+            out.append(f"{name} ({e['error_px']:.1f} px)" if errors and "error_px" in e else name)
+        return ", ".join(out) or "none"
 
     x, y, z = shot["camera_position"]
-    click.echo(f"registered {shot['photo']} from {shot['method']}: used {names(shot['used'])}; "
-               f"rejected {names(shot['rejected'])}")
+    which = "points (0-based positions in the points file)" if shot["method"] == "points" else "markers"
+    click.echo(f"registered {shot['photo']} from {which}: used {names(shot['used'])}; "
+               f"rejected {names(shot['rejected'], errors=True)}")
     click.echo(f"  rms {shot['rms']:.3f} px, camera at ({x:.3f}, {y:.3f}, {z:.3f}) m, "
                f"expected overlay error ~{shot['expected_overlay_error_px']:.1f} px")
     for warning in shot["warnings"]:

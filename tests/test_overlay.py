@@ -288,3 +288,15 @@ def test_bad_input_is_one_line_and_no_file(problem, shot_files, tmp_path, capsys
     assert code == 1
     assert err.startswith("error: ") and err.count("\n") == 1, err
     assert not out.exists() and not list(tmp_path.glob("*.part"))
+
+
+def test_ao_options_with_the_phong_mode_warn(shot_files, tmp_path, capsys):
+    """As for render: options the chosen mode does not read are a warning, not silence."""
+    shot, _ = shot_files
+    out = tmp_path / "phong.png"
+    code, err = _run(capsys, shot, "--scene", sample_scene_path(), "--mode", "phong", "--samples", 8,
+                     "--intensity", 2, "-o", out)
+    warnings = [line for line in err.splitlines() if line.startswith("warning:")]
+    assert code == 0 and out.exists()
+    assert [w.split()[1] for w in warnings] == ["--intensity", "--samples"]
+    assert all("has no effect in mode phong" in w for w in warnings)

@@ -92,3 +92,47 @@ def test_overlay_and_the_photo_edges_agree_and_a_moved_pose_is_seen(shot, tmp_pa
     moved_box = _discrepancy(moved_path, tmp_path / "disc_moved")
     assert moved_box["best_shift"][0] - box["best_shift"][0] == pytest.approx(-4, abs=1)   # measured -4
     assert moved_box["support"] < box["support"]                      # measured 0.810 < 0.899
+
+
+def test_world_points_in_millimetres_are_a_warning(tmp_path, capsys):
+    """Clicked corners typed in mm for a scene in metres register just as well (a pose is a pose
+    in any unit), but the camera then stands ~1000x too far: every overlay would be empty."""
+    points = json.loads((BOX / "corners.json").read_text())
+    for p in points["points"]:
+        p["world"] = [1000 * c for c in p["world"]]
+    mm = tmp_path / "corners_mm.json"
+    mm.write_text(json.dumps(points))
+    out = tmp_path / "SHOT.json"
+    assert main(["register", str(SCENE), "--photo", str(PHOTO), "--intrinsics", str(BOX / "canon.json"),
+                 "--points", str(mm), "-o", str(out)]) == 0
+    warnings = json.loads(out.read_text())["warnings"]
+    assert any("outside the scene" in w and "mm against m" in w for w in warnings), warnings
+    assert "outside the scene" in capsys.readouterr().out
+
+
+def test_the_right_units_give_no_such_warning(shot):
+    assert not [w for w in json.loads(shot.read_text())["warnings"] if "outside the scene" in w]
+
+
+def test_the_summary_names_the_rejected_clicks_with_their_errors(tmp_path, capsys):
+    assert main(["register", str(SCENE), "--photo", str(PHOTO), "--intrinsics", str(BOX / "canon.json"),
+                 "--points", str(BOX / "corners.json"), "-o", str(tmp_path / "SHOT.json")]) == 0
+    out = capsys.readouterr().out
+    assert "from points (0-based positions in the points file): used 0, 1, 2, 3, 4; " \
+           "rejected 5 (11.2 px), 6 (21.9 px)" in out
+
+
+def test_a_pose_that_sees_no_part_is_not_reported_as_all_clear(shot, tmp_path, capsys):
+    """With the box behind the camera nothing is checked; "no suspects" alone read as "as planned"."""
+    good = tmp_path / "good"
+    _discrepancy(shot, good)
+    assert "Checked 1 part instance(s) in view; 1 supported as planned." in (good / "suspects.md").read_text()
+    data = json.loads(shot.read_text())
+    behind = tmp_path / "behind.json"
+    behind.write_text(json.dumps(dict(data, t=[0.0, 0.0, -5.0])))
+    capsys.readouterr()
+    assert main(["discrepancies", str(behind), "--scene", str(SCENE), "-o", str(tmp_path / "disc")]) == 0
+    assert "warning: no CAD part is in view of this shot, so nothing was checked" in capsys.readouterr().err
+    doc = json.loads((tmp_path / "disc" / "suspects.json").read_text())
+    assert doc["suspects"] == [] and doc["warnings"] and "nothing was checked" in \
+        (tmp_path / "disc" / "suspects.md").read_text()

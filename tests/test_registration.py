@@ -10,6 +10,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+import trimesh
 from scipy.spatial.transform import Rotation
 
 from mrcheck.camera import Camera
@@ -45,7 +46,10 @@ def apriltag_setup():
 @pytest.fixture
 def files(tmp_path):
     """Paths for a CLI run: scene, intrinsics JSON (of the ChArUco camera), board map, output."""
-    (tmp_path / "scene.obj").write_text("v 0 0 0\n")
+    # the board lies on this slab (register loads the scene and checks the camera is near it)
+    slab = trimesh.creation.box(extents=(0.3, 0.3, 0.01))
+    slab.apply_translation((0.15, 0.15, -0.005))
+    slab.export(tmp_path / "scene.obj")
     (tmp_path / "cam.json").write_text(json.dumps(charuco_camera().to_dict()))
     (tmp_path / "map.json").write_text(json.dumps(BOARD_MAP))
     return tmp_path

@@ -137,8 +137,14 @@ def test_suggested_markers_of_a_discrepancies_run(outdir, tmp_path):
 
     with TestClient(app_with([str(suspects)])) as c:
         markers = c.get("/api/markers", params={"shot": "shot1"}).json()
-        assert [(m["category"], m["x"], m["y"], m["severity"], m["part"]) for m in markers] == [
-            ("suggested", 100.0, 80.5, 3, "workbench"), ("suggested", 200.0, 120.0, 1, None)]
+        assert [(m["category"], m["x"], m["y"], m["severity"]) for m in markers] == [
+            ("suggested", 100.0, 80.5, 3), ("suggested", 200.0, 120.0, 1)]
+        # each gets the CAD part under it and its distance, like a marker the planner places
+        # (before, both stayed empty until the marker was moved)
+        for m, guess in zip(markers, ("workbench", None)):
+            hit = c.get("/api/shots/shot1/pick", params={"x": m["x"], "y": m["y"]}).json()
+            assert (m["part"], m["distance"]) == (hit["instance"] or guess, hit["distance"])
+        assert any(m["distance"] is not None for m in markers)
         assert markers[0]["note"].startswith("moved? workbench") and c.get("/api/markers", params={"shot": "shot0"}).json() == []
         assert "suggested" in c.get("/api/info").json()["categories"]
         kept = c.patch(f"/api/markers/{markers[0]['id']}", json={"category": "moved", "note": "confirmed"}).json()

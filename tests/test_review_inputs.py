@@ -156,3 +156,31 @@ def test_suggestions_from_a_photo_of_another_size_are_refused(outdir, tmp_path, 
     code, out, err = _review(capsys, outdir, "--port", _free_port(), "--suggestions", f"shot={suspects}")
     assert code == 1 and err.startswith(f"error: {suspects}: a suggested marker at (500, 400) lies outside") and err.count("\n") == 1, err
     assert not (outdir / "review.sqlite").exists()
+
+
+@pytest.mark.parametrize("token", ["", "   "])
+def test_an_empty_token_is_refused(outdir, capsys, token):
+    """An empty --token started a server that answered every request, ?token= included, with 401."""
+    before = _files(outdir)
+    code, out, err = _review(capsys, outdir, "--host", "0.0.0.0", "--port", _free_port(), "--token", token)
+    assert code == 1 and err.startswith("error: --token must not be empty") and err.count("\n") == 1
+    assert "open http" not in out and _files(outdir) == before
+
+
+def test_suggestions_for_a_photo_two_shots_share_need_a_name(outdir, tmp_path, capsys):
+    """Two shots of one photo: the suggestions went to the first one silently; now the name is asked for."""
+    import shutil
+
+    shutil.copytree(outdir / "shots" / "shot", outdir / "shots" / "again")
+    manifest = json.loads((outdir / "manifest.json").read_text())
+    manifest["shots"].append({"name": "again", "status": "done", "folder": "shots/again"})
+    (outdir / "manifest.json").write_text(json.dumps(manifest))
+    again = json.loads((outdir / "shots" / "again" / "SHOT.json").read_text())
+    again["photo"] = str(outdir / "shots" / "shot" / "photo.png")    # the same photo file
+    (outdir / "shots" / "again" / "SHOT.json").write_text(json.dumps(again))
+    suspects = tmp_path / "suspects.json"
+    suspects.write_text(json.dumps({"shot": str(outdir / "shots" / "shot" / "SHOT.json"),
+                                    "suggested_markers": [{"x": 30, "y": 20}]}))
+    code, out, err = _review(capsys, outdir, "--port", _free_port(), "--suggestions", suspects)
+    assert code == 1 and err.count("\n") == 1, err
+    assert err.startswith(f"error: {suspects}: its photo is the photo of shots again, shot; pass NAME=FILE")

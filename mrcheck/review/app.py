@@ -65,8 +65,6 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
     into the review's markers once."""
     db_path = Path(db_path or source.home / "review.sqlite")
     store = Store(db_path, source.label)
-    for shot, markers in (suggestions or {}).items():
-        store.import_suggestions(shot, markers)
     renders = RenderService(source, cache_dir or db_path.parent / ".review-cache", samples=samples)
     picker_lock = threading.Lock()
     picker_box: list = []
@@ -78,6 +76,13 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
                 from .pick import Picker
                 picker_box.append(Picker(load_scene(source.scene)))
             return picker_box[0]
+
+    for shot, markers in (suggestions or {}).items():
+        # like a marker the planner places: the CAD part under it and its distance
+        camera = source.shots[shot].served_camera()
+        hits = [picker().pick(camera, m["x"], m["y"]) for m in markers]
+        store.import_suggestions(shot, [{**m, "part": hit["instance"] or m["part"], "distance": hit["distance"]}
+                                        for m, hit in zip(markers, hits)])
 
     @contextlib.asynccontextmanager
     async def lifespan(app):
@@ -247,6 +252,8 @@ def serve(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=No
 
     from .suggestions import load_suggestions
 
+    if token is not None and not token.strip():
+        raise MrcheckError("--token must not be empty (omit it on loopback; elsewhere one is generated)")
     source = open_source(target, shots_dir)
     suggested = load_suggestions(source, suggestions)
     if token is None and not is_loopback(host):
@@ -256,6 +263,9 @@ def serve(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=No
         app = create_app(source, db_path=Path(db) if db else None, token=token, suggestions=suggested)
         url = f"http://{'[' + host + ']' if ':' in host else host}:{port}/" + (f"?token={token}" if token else "")
         print(f"mrcheck review: {len(source.shots)} shot(s) of {source.label}", flush=True)
+        if suggested:
+            print(f"suggestions: {sum(map(len, suggested.values()))} marker(s) on {len(suggested)} shot(s) "
+                  "(category 'suggested'; each imported once per review)", flush=True)
         print(f"open {url}", flush=True)
         try:
             uvicorn.Server(uvicorn.Config(app, log_level="warning")).run(sockets=[sock])

@@ -29,10 +29,12 @@ def _shot_of(source, spec: str, doc: dict, path: Path):
         _, photo = load_shot(doc["shot"])
     except (KeyError, TypeError, MrcheckError):
         raise MrcheckError("cannot open the shot this file was made from; pass NAME=FILE", path) from None
-    for shot in source.shots.values():
-        if Path(shot.photo).resolve() == Path(photo).resolve():
-            return shot
-    raise MrcheckError("its photo is not one of the review's shots; pass NAME=FILE", path)
+    same = [shot for shot in source.shots.values() if Path(shot.photo).resolve() == Path(photo).resolve()]
+    if len(same) > 1:
+        raise MrcheckError(f"its photo is the photo of shots {', '.join(s.name for s in same)}; pass NAME=FILE", path)
+    if not same:
+        raise MrcheckError("its photo is not one of the review's shots; pass NAME=FILE", path)
+    return same[0]
 
 
 def _check_size(shot, doc: dict, suggested: list, path: Path) -> None:
