@@ -245,7 +245,10 @@ def load_job(path) -> Job:
 
     shots, names = [], set()
     for index, entry in enumerate(entries):
-        where = f"shots[{index}]"
+        # the planner counts [[shots]] tables from 1 and knows them by their name or photo
+        label = next((f"{k} = {entry[k]!r}" for k in ("name", "photo", "photos", "shot")
+                      if isinstance(entry, dict) and isinstance(entry.get(k), str)), None)
+        where = f"[[shots]] #{index + 1}" + (f" ({label})" if label else "")
         if not isinstance(entry, dict):
             fail(f"{where} must be a table ([[shots]])")
         unknown = sorted(set(entry) - _SHOT_KEYS)

@@ -234,6 +234,8 @@ def test_bad_job_is_one_line_and_writes_nothing(problem, tmp_path, capsys):
     assert code == 1
     assert err.startswith(f"error: {job}: ") and err.count("\n") == 1, err
     assert not out.exists()
+    if problem == "missing_intrinsics":  # a shot is named as the planner counts and knows it
+        assert "[[shots]] #1 (photo = 'p.jpg')" in err, err
 
 
 # -- reruns after edits, progress in a log, outputs a shrunk job no longer produces --------------------

@@ -98,7 +98,10 @@ def test_marker_crud_and_persistence(client, outdir, tmp_path):
     with TestClient(app2) as other:
         markers = other.get("/api/markers", params={"shot": "shot1"}).json()
         assert [(x["id"], x["note"]) for x in markers] == [(m["id"], "pillar 25 cm off")]
-        assert "pillar 25 cm off" in other.get("/api/export/markers.csv").text
+        exported = other.get("/api/export/markers.csv")
+        assert "pillar 25 cm off" in exported.text
+        # a byte-order mark, so that Excel reads the UTF-8 notes as UTF-8
+        assert exported.content.startswith(b"\xef\xbb\xbfid,shot,") and "charset=utf-8" in exported.headers["content-type"]
         report = other.get("/api/export/report.html").text
         assert "pillar 25 cm off" in report and report.count("data:image/png") == 7  # photo + 6 modes
     assert (tmp_path / "review.sqlite-wal").exists() or (tmp_path / "review.sqlite").stat().st_size > 0
