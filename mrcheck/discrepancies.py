@@ -556,7 +556,35 @@ def heatmap(photo: np.ndarray, result: dict) -> np.ndarray:
     for r in result["regions"]:
         x0, y0, x1, y1 = r["bbox"]
         cv2.rectangle(out, (x0, y0), (x1, y1), (0, 255, 255), 1)
-    return out
+    return np.vstack([out, _legend(out.shape[1])])
+
+
+# colours of the heat map (RGB) and what they mean, drawn as a legend under it
+LEGEND = (((0, 200, 0), "CAD edge found"), ((255, 0, 0), "CAD edge not found"),
+          ((0, 255, 255), "photo edge, no CAD"), ((255, 255, 0), "suspect"))
+
+
+def _legend(width: int) -> np.ndarray:
+    """A dark strip under the photo (its pixel coordinates stay the photo's) naming the colours:
+    one row when the photo is wide enough for legible text, else two or four."""
+    font, thickness = cv2.FONT_HERSHEY_SIMPLEX, 1
+    for per_row in (4, 2, 1):
+        rows = [LEGEND[i:i + per_row] for i in range(0, len(LEGEND), per_row)]
+        need = max(sum(cv2.getTextSize(label, font, 1.0, thickness)[0][0] + 44 for _, label in row) for row in rows)
+        scale = min(0.5, 0.95 * width / need)   # 44 px: swatch and gaps at scale 1
+        if scale >= 0.35:
+            break
+    line = max(10, int(36 * scale))
+    strip = np.full((line * len(rows), width, 3), 32, np.uint8)
+    swatch = max(3, int(16 * scale))
+    for r, row in enumerate(rows):
+        x, y = int(6 * scale) + 2, r * line
+        for colour, label in row:
+            cv2.rectangle(strip, (x, y + (line - swatch) // 2), (x + swatch, y + (line + swatch) // 2), colour, -1)
+            x += swatch + max(2, int(8 * scale))
+            cv2.putText(strip, label, (x, y + int(line * 0.7)), font, scale, (235, 235, 235), thickness, cv2.LINE_AA)
+            x += cv2.getTextSize(label, font, scale, thickness)[0][0] + max(4, int(20 * scale))
+    return strip
 
 
 def _markdown(result: dict, shot) -> str:

@@ -131,7 +131,8 @@ def test_cli_writes_heatmap_suspects_and_markers(ctx, sample, tmp_path):
     out = tmp_path / "out"
     assert main(["discrepancies", str(shot), "--scene", str(SAMPLE), "-o", str(out)]) == 0
     heat = cv2.imread(str(out / "heatmap.png"))
-    assert heat.shape == (H, W, 3)
+    assert heat.shape[1:] == (W, 3) and H + 10 <= heat.shape[0] <= H + 20   # the photo, a legend under it
+    assert (heat[H + 2:] == 32).mean() > 0.5                                   # a dark strip with text
     doc = json.loads((out / "suspects.json").read_text())
     ids = [s["id"] for s in doc["suspects"] if s["suspect"]]
     assert ids and ids[0] == "conveyor"           # seed 2 removed the conveyor: the top suspect
