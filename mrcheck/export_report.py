@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import base64
 import html
+import json
 import math
 from pathlib import Path
 
@@ -41,6 +42,15 @@ def _num(value, digits=3) -> str:
     return "&ndash;" if value is None else f"{value:.{digits}f}"
 
 
+def _job_value(value) -> str:
+    """A setting as the job file writes it (TOML), not as Python prints it; unset = default."""
+    if value is None:
+        return "(default)"
+    if isinstance(value, (bool, int, float, str, list)):
+        return json.dumps(value)
+    return str(value)
+
+
 def render_report(manifest: dict, outdir: Path) -> str:
     e = html.escape
     summary, settings = manifest["summary"], manifest["settings"]
@@ -70,7 +80,7 @@ def render_report(manifest: dict, outdir: Path) -> str:
             body.append('<p class="timings">' + ", ".join(f"{e(k)} {v:.2f} s" for k, v in timings.items()) + "</p>")
         cards.append(f'<section id="shot-{e(name)}"><h2>{e(name)} <small>{e(status)}, registration error '
                      f'{_num(entry.get("registration_error_px"))} px</small></h2>{"".join(body)}</section>')
-    params = ", ".join(f"{e(k)} = {e(str(v))}" for k, v in settings.items())
+    params = ", ".join(f"{e(k)} = {e(_job_value(v))}" for k, v in settings.items())
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>mrcheck export report</title>
 <style>

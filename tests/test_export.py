@@ -157,6 +157,9 @@ def test_six_shots_five_done_one_failed(first_run, capsys):
     positions = [report.index(f'href="#shot-{name}"') for name in order]
     assert positions == sorted(positions)  # the table lists shots by registration error, failures last
     assert report.count("data:image/jpeg;base64,") == 5
+    # the settings as the job file writes them (TOML), not Python's True / None
+    params = re.search(r'<p class="timings">(scene = .*?)</p>', report).group(1)
+    assert re.search(r"edges = (true|false)", params) and not re.search(r"\b(True|False|None)\b", params), params
     for href in re.findall(r'href="([^"#][^"]*)"', report):
         assert not href.startswith(("/", "http")) and ".." not in href and (out / href).is_file()
     assert not list(out.rglob("*.part"))
