@@ -241,6 +241,16 @@ def _vec3(value, name) -> np.ndarray:
     return v
 
 
+def fit_size(own_width, own_height, width=None, height=None) -> tuple[int, int]:
+    """The image size asked for: ``width`` and ``height`` as given, a missing one keeping the
+    aspect ratio of ``own_width`` x ``own_height``, the own size when neither is given."""
+    if width and not height:
+        height = max(1, round(own_height * width / own_width))
+    elif height and not width:
+        width = max(1, round(own_width * height / own_height))
+    return width or own_width, height or own_height
+
+
 def gl_projection(camera: Camera, near: float, far: float) -> np.ndarray:
     """(4, 4) float64 GL projection for OpenCV camera-space points, exactly from K.
 
@@ -262,4 +272,4 @@ def gl_projection(camera: Camera, near: float, far: float) -> np.ndarray:
     return P
 
 
-__all__ = ["Camera", "gl_projection", "YAML_SUFFIXES", "DIST_SIZES"]
+__all__ = ["Camera", "fit_size", "gl_projection", "YAML_SUFFIXES", "DIST_SIZES"]

@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .camera import Camera
+from .camera import Camera, fit_size
 from .errors import MrcheckError
 from .output import (AO_SUFFIXES, IMAGE_SUFFIXES, check_output_dir, check_output_path, labelled_sheet,
                      write_all_or_none, write_ao, write_image)
@@ -25,12 +25,7 @@ def file_camera(view, camera_path, width, height) -> Camera | None:
     if view is not None:
         return None
     camera = Camera.load(camera_path)
-    if width or height:
-        # keep the aspect ratio when only one side is given
-        w = width or max(1, round(camera.width * height / camera.height))
-        h = height or max(1, round(camera.height * width / camera.width))
-        camera = camera.resized(w, h)
-    return camera
+    return camera.resized(*fit_size(camera.width, camera.height, width, height)) if width or height else camera
 
 
 def _ao_paths(output_ao: Path, modes) -> dict:

@@ -48,7 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .camera import Camera
+from .camera import Camera, fit_size
 from .errors import MrcheckError
 
 UNITS = {"mm": 0.001, "cm": 0.01, "m": 1.0, "in": 0.0254, "ft": 0.3048}  # metres per unit
@@ -140,12 +140,7 @@ class Scene:
             raise MrcheckError(f"no viewpoint named {view!r} (the scene has: {known})", self.source)
         vp = self.viewpoints[view]
         try:
-            own_width, own_height = vp.get("width", 1024), vp.get("height", 768)
-            if width and not height:
-                height = max(1, round(own_height * width / own_width))
-            elif height and not width:
-                width = max(1, round(own_width * height / own_height))
-            width, height = width or own_width, height or own_height
+            width, height = fit_size(vp.get("width", 1024), vp.get("height", 768), width, height)
             return Camera.from_look_at(vp["eye"], vp["target"], vp.get("up", (0, 0, 1)), vp.get("fov_y_deg", 60.0), width, height)
         except (MrcheckError, TypeError, ValueError, ZeroDivisionError) as exc:  # TOML gives any type: width = "wide"
             raise MrcheckError(f"viewpoint {view!r}: {exc}", self.source) from None
