@@ -19,17 +19,25 @@ from ..overlay import load_shot
 CATEGORY = "suggested"
 
 
-def _shot_of(source, spec: str, doc: dict, path: Path):
+def _made_on(doc: dict):
+    """The camera and photo of the shot the run was made on, or None when it cannot be opened
+    (moved or deleted since)."""
+    try:
+        return load_shot(doc["shot"])
+    except (KeyError, TypeError, MrcheckError):
+        return None
+
+
+def _shot_of(source, spec: str, made_on, path: Path):
     name, sep, _ = spec.partition("=")
     if sep:
         if name not in source.shots:
             raise MrcheckError(f"no shot named {name!r} in the review (have: {', '.join(source.shots)})", path)
         return source.shots[name]
-    try:
-        _, photo = load_shot(doc["shot"])
-    except (KeyError, TypeError, MrcheckError):
-        raise MrcheckError("cannot open the shot this file was made from; pass NAME=FILE", path) from None
-    same = [shot for shot in source.shots.values() if Path(shot.photo).resolve() == Path(photo).resolve()]
+    if made_on is None:
+        raise MrcheckError("cannot open the shot this file was made from; pass NAME=FILE", path)
+    photo = Path(made_on[1]).resolve()
+    same = [shot for shot in source.shots.values() if Path(shot.photo).resolve() == photo]
     if len(same) > 1:
         raise MrcheckError(f"its photo is the photo of shots {', '.join(s.name for s in same)}; pass NAME=FILE", path)
     if not same:
@@ -37,17 +45,14 @@ def _shot_of(source, spec: str, doc: dict, path: Path):
     return same[0]
 
 
-def _check_size(shot, doc: dict, suggested: list, path: Path) -> None:
+def _check_size(shot, made_on, doc: dict, suggested: list, path: Path) -> None:
     """The run's markers are in the native pixels of the shot it was made on: refuse a run on a
     photo of another size (its markers would land elsewhere, or outside the image)."""
     w, h = shot.camera.width, shot.camera.height
-    try:
-        made_on, _ = load_shot(doc["shot"])
-    except (KeyError, TypeError, MrcheckError):
-        made_on = None  # moved or deleted since: the markers themselves are all there is to check
-    if made_on is not None and (made_on.width, made_on.height) != (w, h):
-        raise MrcheckError(f"made on a {made_on.width}x{made_on.height} shot ({doc['shot']}), "
+    if made_on is not None and (made_on[0].width, made_on[0].height) != (w, h):
+        raise MrcheckError(f"made on a {made_on[0].width}x{made_on[0].height} shot ({doc['shot']}), "
                            f"but shot {shot.name!r} is {w}x{h}", path)
+    # without the shot it was made on, the markers themselves are all there is to check
     for m in suggested:
         if not (0 <= m["x"] < w and 0 <= m["y"] < h):
             raise MrcheckError(f"a suggested marker at ({m['x']:g}, {m['y']:g}) lies outside shot {shot.name!r} "
@@ -66,8 +71,9 @@ def load_suggestions(source, specs) -> dict:
             suggested = [{**m, "x": float(m["x"]), "y": float(m["y"])} for m in doc["suggested_markers"]]
         except (OSError, ValueError, KeyError, TypeError):
             raise MrcheckError("not a suspects.json of mrcheck discrepancies (no suggested_markers)", path) from None
-        shot = _shot_of(source, spec, doc, path)
-        _check_size(shot, doc, suggested, path)
+        made_on = _made_on(doc)   # read once: it names the shot and says which size the markers are in
+        shot = _shot_of(source, spec, made_on, path)
+        _check_size(shot, made_on, doc, suggested, path)
         # the detector worked on the photo's native pixels; the review serves at most MAX_SIZE wide
         sx, sy = shot.size[0] / shot.camera.width, shot.size[1] / shot.camera.height
         for m in suggested:
