@@ -117,7 +117,7 @@ def test_token_required(outdir, tmp_path):
         assert c.get("/api/shots").status_code == 200  # the cookie set by the page
 
 
-def test_suggested_markers_of_a_discrepancies_run(outdir, tmp_path):
+def test_suggested_markers_of_a_discrepancies_run(outdir, tmp_path, monkeypatch):
     """--suggestions: a suspects.json's suggested markers become editable markers of category
     "suggested" on the shot with the same photo; a deleted one does not come back on restart."""
     from mrcheck.errors import MrcheckError
@@ -156,6 +156,14 @@ def test_suggested_markers_of_a_discrepancies_run(outdir, tmp_path):
     with TestClient(app_with([str(suspects), f"shot0={suspects}"])) as c:   # a restart, plus a named shot
         assert [m["note"] for m in c.get("/api/markers", params={"shot": "shot1"}).json()] == ["confirmed"]
         assert len(c.get("/api/markers", params={"shot": "shot0"}).json()) == 2
+
+    def no_picker(scene):
+        raise AssertionError("a restart with nothing new to import loaded the scene for the picker")
+
+    import mrcheck.review.pick
+    monkeypatch.setattr(mrcheck.review.pick, "Picker", no_picker)
+    with TestClient(app_with([str(suspects), f"shot0={suspects}"])) as c:   # nothing new
+        assert len(c.get("/api/markers").json()) == 3
     with pytest.raises(MrcheckError, match="no shot named 'nope'"):
         load_suggestions(source, [f"nope={suspects}"])
     (tmp_path / "bad.json").write_text("{}")

@@ -78,7 +78,11 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
             return picker_box[0]
 
     for shot, markers in (suggestions or {}).items():
-        # like a marker the planner places: the CAD part under it and its distance
+        # like a marker the planner places: the CAD part under it and its distance; only for the
+        # new ones, so that a restart with nothing new does not load the scene for the picker
+        markers = store.pending_suggestions(shot, markers)
+        if not markers:
+            continue
         camera = source.shots[shot].served_camera()
         hits = [picker().pick(camera, m["x"], m["y"]) for m in markers]
         store.import_suggestions(shot, [{**m, "part": hit["instance"] or m["part"], "distance": hit["distance"]}

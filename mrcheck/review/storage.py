@@ -76,6 +76,17 @@ class Store:
             f"INSERT INTO markers(review, {', '.join(keys)}, created, updated) VALUES (?, {', '.join('?' * len(keys))}, ?, ?)",
             (self.review, *[values.get(k) for k in keys], now, now)).lastrowid
 
+    @staticmethod
+    def _suggestion_key(s: dict) -> str:
+        return f"{s['x']:.1f},{s['y']:.1f},{s['note']}"
+
+    def pending_suggestions(self, shot: str, suggestions: list[dict]) -> list[dict]:
+        """The suggestions not imported into this review before: what an import would add."""
+        with self._connect() as db:
+            done = {row[0] for row in db.execute("SELECT key FROM imported WHERE review = ? AND shot = ?",
+                                                 (self.review, shot))}
+        return [s for s in suggestions if self._suggestion_key(s) not in done]
+
     def import_suggestions(self, shot: str, suggestions: list[dict]) -> int:
         """Add the suggestions not imported into this review before (deleted ones stay deleted);
         returns how many were added. One transaction: a suggestion is recorded as imported
@@ -84,9 +95,8 @@ class Store:
         with self._connect() as db:
             db.execute("BEGIN IMMEDIATE")
             for s in suggestions:
-                key = f"{s['x']:.1f},{s['y']:.1f},{s['note']}"
                 if db.execute("INSERT OR IGNORE INTO imported(review, shot, key) VALUES (?, ?, ?)",
-                              (self.review, shot, key)).rowcount:
+                              (self.review, shot, self._suggestion_key(s))).rowcount:
                     self._insert(db, {**s, "shot": shot})
                     added += 1
             db.execute("COMMIT")   # on an exception the connection closes uncommitted: nothing is kept
