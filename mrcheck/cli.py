@@ -121,8 +121,8 @@ def render(scene, view, camera_path, mode, width, height, samples, radius_px, ra
 
 
 # render options that only some modes read: given for a mode that ignores them, a warning
-_AO_MODES = ("vector", "ssao", "crytek", "hbao", "alchemy")
-_WORLD_RADIUS_MODES = ("ssao", "crytek", "hbao", "alchemy")
+_AO_MODES = tuple(m for m in _MODE_CHOICES if m not in ("phong", "all"))
+_WORLD_RADIUS_MODES = tuple(m for m in _AO_MODES if m != "vector")   # ssao and the comparison modes
 _OPTION_MODES = {
     "radius_px": ("vector",), "radius_fraction": ("vector",), "min_world_radius": ("vector",),
     "max_world_radius": ("vector",), "radius_world": _WORLD_RADIUS_MODES, "samples": _AO_MODES,
@@ -134,7 +134,9 @@ _OPTION_MODES = {
 def _warn_unused_options(ctx: click.Context, mode: str) -> None:
     """One warning line per option given on the command line that the chosen ``--mode`` (all:
     D1, D2, D3) does not read."""
-    modes = ["phong", "vector", "ssao"] if mode == "all" else [mode]
+    from .commands import STUDY_ORDER
+
+    modes = STUDY_ORDER if mode == "all" else (mode,)
     for param in ctx.command.params:
         users = _OPTION_MODES.get(param.name)
         if users and not set(users) & set(modes) and \
