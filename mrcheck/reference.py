@@ -126,14 +126,18 @@ def _tangent_frames(n: np.ndarray):
     return T, B
 
 
+def _check_rays(rays) -> None:
+    if isinstance(rays, bool) or int(rays) != rays or not 1 <= rays <= MAX_RAYS:
+        raise MrcheckError(f"rays must be a whole number in [1, {MAX_RAYS}], got {rays!r}")
+
+
 def _validate(camera, depth, normals, rays, radius_mode, radius, falloff):
     H, W = camera.height, camera.width
     if depth.shape != (H, W):
         raise MrcheckError(f"depth has shape {depth.shape}, the camera wants {(H, W)}")
     if normals.shape != (H, W, 3):
         raise MrcheckError(f"normals have shape {normals.shape}, the camera wants {(H, W, 3)}")
-    if isinstance(rays, bool) or int(rays) != rays or not 1 <= rays <= MAX_RAYS:
-        raise MrcheckError(f"rays must be a whole number in [1, {MAX_RAYS}], got {rays!r}")
+    _check_rays(rays)
     if radius_mode not in RADIUS_MODES:
         raise MrcheckError(f"radius mode must be one of {', '.join(RADIUS_MODES)}, got {radius_mode!r}")
     if not (isinstance(radius, (int, float)) and math.isfinite(radius) and radius > 0):
@@ -254,8 +258,7 @@ def reference_command(scene, view, camera_path, width, height, rays, radius_mode
     output = check_output_path(output, AO_SUFFIXES, "reference output")   # fail before the work
     if radius_mode not in RADIUS_MODES:
         raise MrcheckError(f"radius mode must be one of {', '.join(RADIUS_MODES)}, got {radius_mode!r}")
-    if not 1 <= rays <= MAX_RAYS:   # before a long scene load (_validate below checks everything)
-        raise MrcheckError(f"rays must be a whole number in [1, {MAX_RAYS}], got {rays!r}")
+    _check_rays(rays)   # before a long scene load (_validate below checks everything)
     camera = file_camera(view, camera_path, width, height)
     loaded = load_scene(scene, units=units, progress=True)
     camera = camera or loaded.camera(view, width, height)
