@@ -98,7 +98,7 @@ from pathlib import Path
 import click
 import cv2
 
-from .camera import Camera
+from .camera import Camera, fit_size
 from .errors import MrcheckError
 from .output import check_writable_ancestor, encode_image, write_bytes, write_text
 from .overlay import STUDY_ORDER, check_alpha, distortion_map, load_shot, overlay_images, read_photo, \
@@ -411,10 +411,11 @@ def _registration_summary(shot: dict) -> dict:
             "warnings": list(shot.get("warnings") or [])}
 
 
-def _register(inputs: dict, max_error) -> tuple[dict, Camera, Path]:
-    """The shot dict, its camera and photo path: given, or registered from markers / points."""
-    from .markers import load_marker_map
+def _register(inputs: dict, max_error, scene_bounds) -> tuple[dict, Camera, Path]:
+    """The shot dict, its camera and photo path: given, or registered from markers / points
+    (with register's warnings, a camera far outside ``scene_bounds`` among them)."""
     from .calibration import read_camera
+    from .markers import load_marker_map
     from .registration import load_points, register_photo
 
     if "shot" in inputs:
@@ -424,7 +425,8 @@ def _register(inputs: dict, max_error) -> tuple[dict, Camera, Path]:
     else:
         shot = register_photo(Path(inputs["photo"]), read_camera(inputs["intrinsics"]),
                               marker_map=load_marker_map(inputs["markers"]) if "markers" in inputs else None,
-                              points=load_points(inputs["points"]) if "points" in inputs else None)
+                              points=load_points(inputs["points"]) if "points" in inputs else None,
+                              scene_bounds=scene_bounds)
         camera, photo = Camera.from_dict(shot), Path(shot["photo"])
     rms = shot.get("rms")
     if max_error is not None and _number(rms) and rms > max_error:
@@ -437,19 +439,18 @@ def _shot_files(task: dict, timings: dict, scene=None) -> tuple[dict, dict]:
     """Every output of one shot as ``{file name: bytes}`` and the registration summary."""
     settings = task["settings"]
     t = time.perf_counter()
-    shot, camera, photo_path = _register(task["inputs"], settings["max_registration_error_px"])
+    renderer = _renderer(settings["scene"], scene, task.get("scene_stamp"))
+    timings["scene"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    shot, camera, photo_path = _register(task["inputs"], settings["max_registration_error_px"],
+                                         renderer.scene.bounds())
     registration = _registration_summary(shot)
     photo = read_photo(photo_path, camera)
     if settings["width"] and settings["width"] != camera.width:
-        width = settings["width"]
-        height = max(1, round(width * camera.height / camera.width))
-        camera = camera.resized(width, height)
-        photo = cv2.resize(photo, (width, height), interpolation=cv2.INTER_AREA)
+        camera = camera.resized(*fit_size(camera.width, camera.height, settings["width"]))
+        photo = cv2.resize(photo, (camera.width, camera.height), interpolation=cv2.INTER_AREA)
     timings["registration"] = time.perf_counter() - t
-
-    t = time.perf_counter()
-    renderer = _renderer(settings["scene"], scene, task.get("scene_stamp"))
-    timings["scene"] = time.perf_counter() - t
     modes, default = settings["modes"], settings["overlay_intensity"]
     maps = distortion_map(camera)
     images = {}

@@ -333,11 +333,12 @@ def register_points(camera: Camera, pairs, max_error=None) -> dict:
     return _register(camera, _parse_points(pairs), "points", max_error, [])
 
 
-def register_photo(photo, camera: Camera, marker_map=None, points=None, max_error=None) -> dict:
+def register_photo(photo, camera: Camera, marker_map=None, points=None, max_error=None, scene_bounds=None) -> dict:
     """The SHOT.json dict of the photo file ``photo``: registered from ``marker_map`` (a
     :class:`~mrcheck.markers.MarkerMap` or its JSON) or from ``points`` (groups of
     :func:`load_points`, or the correspondences JSON), with the absolute ``"photo"`` path.
-    ``camera`` holds the intrinsics (rescaled to the photo when needed)."""
+    ``camera`` holds the intrinsics (rescaled to the photo when needed). ``scene_bounds``: the
+    (2, 3) bounds of the scene the shot is for; a camera far outside them is a warning."""
     image = read_photo(photo)
     try:
         if marker_map is not None:
@@ -350,6 +351,8 @@ def register_photo(photo, camera: Camera, marker_map=None, points=None, max_erro
         if exc.path is None:  # "no consistent pose": of which photo
             raise MrcheckError(str(exc), photo) from None
         raise
+    if scene_bounds is not None and (warning := _far_from_scene(np.asarray(shot["camera_position"]), scene_bounds)):
+        shot["warnings"].append(warning)
     return {**{k: shot[k] for k in ("width", "height", "K", "dist", "R", "t") if k in shot},
             "photo": str(Path(photo).resolve()), **shot}
 
@@ -368,9 +371,7 @@ def register_command(scene, photo, intrinsics, markers=None, points=None, max_er
     marker_map = load_marker_map(markers) if markers is not None else None
     pairs = load_points(points) if points is not None else None
     bounds = load_scene(scene, progress=True).bounds()
-    shot = register_photo(photo, camera, marker_map=marker_map, points=pairs, max_error=max_error)
-    if warning := _far_from_scene(np.asarray(shot["camera_position"]), bounds):
-        shot["warnings"].append(warning)
+    shot = register_photo(photo, camera, marker_map=marker_map, points=pairs, max_error=max_error, scene_bounds=bounds)
     text = json.dumps(shot, indent=2)
     write_text(output, text + "\n")
     _print_summary(shot, output)

@@ -136,3 +136,18 @@ def test_a_pose_that_sees_no_part_is_not_reported_as_all_clear(shot, tmp_path, c
     doc = json.loads((tmp_path / "disc" / "suspects.json").read_text())
     assert doc["suspects"] == [] and doc["warnings"] and "nothing was checked" in \
         (tmp_path / "disc" / "suspects.md").read_text()
+
+
+def test_the_export_warns_about_millimetre_points_too(tmp_path, capsys):
+    """The far-camera check lives in the registration itself, so a batch export, which registers
+    its photos without `mrcheck register`, gets the same warning in the shot it writes."""
+    points = json.loads((BOX / "corners.json").read_text())
+    for p in points["points"]:
+        p["world"] = [1000 * c for c in p["world"]]
+    (tmp_path / "corners_mm.json").write_text(json.dumps(points))
+    job = tmp_path / "job.toml"
+    job.write_text(f'scene = "{SCENE}"\nmodes = ["phong"]\n[[shots]]\nname = "box"\nphoto = "{PHOTO}"\n'
+                   f'intrinsics = "{BOX / "canon.json"}"\npoints = "corners_mm.json"\n')
+    assert main(["export", str(job), "-o", str(tmp_path / "out")]) == 0
+    warnings = json.loads((tmp_path / "out" / "shots" / "box" / "SHOT.json").read_text())["warnings"]
+    assert any("outside the scene" in w for w in warnings), warnings
