@@ -26,11 +26,25 @@ PHOTO, SCENE = BOX / "resized_IMG_3875.JPG", BOX / "scene.toml"
 GOOD, MISCLICKS = [0, 1, 2, 3, 4], [5, 6]   # corners.json: the last two are 11 and 22 px off
 
 
+def _register(points: Path, out: Path) -> int:
+    return main(["register", str(SCENE), "--photo", str(PHOTO), "--intrinsics", str(BOX / "canon.json"),
+                 "--points", str(points), "-o", str(out)])
+
+
+def _points_in_mm(folder: Path) -> Path:
+    """corners.json with the world points typed in millimetres (the scene is in metres)."""
+    points = json.loads((BOX / "corners.json").read_text())
+    for p in points["points"]:
+        p["world"] = [1000 * c for c in p["world"]]
+    path = folder / "corners_mm.json"
+    path.write_text(json.dumps(points))
+    return path
+
+
 @pytest.fixture(scope="module")
 def shot(tmp_path_factory):
     out = tmp_path_factory.mktemp("box") / "SHOT.json"
-    assert main(["register", str(SCENE), "--photo", str(PHOTO), "--intrinsics", str(BOX / "canon.json"),
-                 "--points", str(BOX / "corners.json"), "-o", str(out)]) == 0
+    assert _register(BOX / "corners.json", out) == 0
     return out
 
 
@@ -97,14 +111,8 @@ def test_overlay_and_the_photo_edges_agree_and_a_moved_pose_is_seen(shot, tmp_pa
 def test_world_points_in_millimetres_are_a_warning(tmp_path, capsys):
     """Clicked corners typed in mm for a scene in metres register just as well (a pose is a pose
     in any unit), but the camera then stands ~1000x too far: every overlay would be empty."""
-    points = json.loads((BOX / "corners.json").read_text())
-    for p in points["points"]:
-        p["world"] = [1000 * c for c in p["world"]]
-    mm = tmp_path / "corners_mm.json"
-    mm.write_text(json.dumps(points))
     out = tmp_path / "SHOT.json"
-    assert main(["register", str(SCENE), "--photo", str(PHOTO), "--intrinsics", str(BOX / "canon.json"),
-                 "--points", str(mm), "-o", str(out)]) == 0
+    assert _register(_points_in_mm(tmp_path), out) == 0
     warnings = json.loads(out.read_text())["warnings"]
     assert any("outside the scene" in w and "mm against m" in w for w in warnings), warnings
     assert "outside the scene" in capsys.readouterr().out
@@ -115,8 +123,7 @@ def test_the_right_units_give_no_such_warning(shot):
 
 
 def test_the_summary_names_the_rejected_clicks_with_their_errors(tmp_path, capsys):
-    assert main(["register", str(SCENE), "--photo", str(PHOTO), "--intrinsics", str(BOX / "canon.json"),
-                 "--points", str(BOX / "corners.json"), "-o", str(tmp_path / "SHOT.json")]) == 0
+    assert _register(BOX / "corners.json", tmp_path / "SHOT.json") == 0
     out = capsys.readouterr().out
     assert "from points (0-based positions in the points file): used 0, 1, 2, 3, 4; " \
            "rejected 5 (11.2 px), 6 (21.9 px)" in out
@@ -141,10 +148,7 @@ def test_a_pose_that_sees_no_part_is_not_reported_as_all_clear(shot, tmp_path, c
 def test_the_export_warns_about_millimetre_points_too(tmp_path, capsys):
     """The far-camera check lives in the registration itself, so a batch export, which registers
     its photos without `mrcheck register`, gets the same warning in the shot it writes."""
-    points = json.loads((BOX / "corners.json").read_text())
-    for p in points["points"]:
-        p["world"] = [1000 * c for c in p["world"]]
-    (tmp_path / "corners_mm.json").write_text(json.dumps(points))
+    _points_in_mm(tmp_path)
     job = tmp_path / "job.toml"
     job.write_text(f'scene = "{SCENE}"\nmodes = ["phong"]\n[[shots]]\nname = "box"\nphoto = "{PHOTO}"\n'
                    f'intrinsics = "{BOX / "canon.json"}"\npoints = "corners_mm.json"\n')
