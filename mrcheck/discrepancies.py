@@ -546,22 +546,23 @@ def heatmap(photo: np.ndarray, result: dict) -> np.ndarray:
     edges cyan and the suspects' boxes yellow."""
     out = blend(photo, result["render"], 0.5)
     cad, sup = result["cad"], result["supported"]
-    out[sup] = (out[sup] * 0.5 + np.array([0, 200, 0]) * 0.5).astype(np.uint8)
-    out[cad & ~sup] = (255, 0, 0)
-    out[result["unexplained"]] = (0, 255, 255)
+    out[sup] = (out[sup] * 0.5 + np.array(FOUND) * 0.5).astype(np.uint8)
+    out[cad & ~sup] = NOT_FOUND
+    out[result["unexplained"]] = UNEXPLAINED
     for s in result["suspects"]:
         if s["suspect"]:
             x0, y0, x1, y1 = s["bbox"]
-            cv2.rectangle(out, (x0, y0), (x1, y1), (255, 255, 0), 1)
+            cv2.rectangle(out, (x0, y0), (x1, y1), SUSPECT, 1)
     for r in result["regions"]:
         x0, y0, x1, y1 = r["bbox"]
-        cv2.rectangle(out, (x0, y0), (x1, y1), (0, 255, 255), 1)
+        cv2.rectangle(out, (x0, y0), (x1, y1), UNEXPLAINED, 1)
     return np.vstack([out, _legend(out.shape[1])])
 
 
 # colours of the heat map (RGB) and what they mean, drawn as a legend under it
-LEGEND = (((0, 200, 0), "CAD edge found"), ((255, 0, 0), "CAD edge not found"),
-          ((0, 255, 255), "photo edge, no CAD"), ((255, 255, 0), "suspect"))
+FOUND, NOT_FOUND, UNEXPLAINED, SUSPECT = (0, 200, 0), (255, 0, 0), (0, 255, 255), (255, 255, 0)
+LEGEND = ((FOUND, "CAD edge found"), (NOT_FOUND, "CAD edge not found"), (UNEXPLAINED, "photo edge, no CAD"),
+          (SUSPECT, "suspect"))
 
 
 def _legend(width: int) -> np.ndarray:
