@@ -36,7 +36,8 @@ marker file) is a one-line ``error: JOB.toml: ...`` before anything is written.
 
 Per shot, under ``OUTDIR/shots/NAME/`` (``{x:g}`` numbers: ``i1``, ``i0.5``, ``a0``):
 
-* ``SHOT.json`` -- the registered shot (a copy when the job gives one);
+* ``SHOT.json`` -- the registered shot (a copy when the job gives one), its photo path relative
+  to this folder (:func:`mrcheck.registration.photo_reference`);
 * ``render_phong.png`` and ``render_MODE_iI.png`` for every AO mode and every intensity: the CAD
   alone in the photo's geometry (lens distortion applied, the photo's size);
 * ``overlay_MODE_aA.png`` for phong and ``overlay_MODE_iI_aA.png`` for every AO mode, every alpha,
@@ -437,6 +438,8 @@ def _register(inputs: dict, max_error, scene_bounds) -> tuple[dict, Camera, Path
 
 def _shot_files(task: dict, timings: dict, scene=None) -> tuple[dict, dict]:
     """Every output of one shot as ``{file name: bytes}`` and the registration summary."""
+    from .registration import photo_reference
+
     settings = task["settings"]
     t = time.perf_counter()
     renderer = _renderer(settings["scene"], scene, task.get("scene_stamp"))
@@ -484,7 +487,8 @@ def _shot_files(task: dict, timings: dict, scene=None) -> tuple[dict, dict]:
         compose_s += time.perf_counter() - t
     t = time.perf_counter()
     files = {name: encode_image(name, image) for name, image in images.items()}
-    files[SHOT_FILE] = (json.dumps(shot, indent=2) + "\n").encode()
+    shot_file = Path(task["dir"]) / SHOT_FILE
+    files[SHOT_FILE] = (json.dumps({**shot, "photo": photo_reference(photo_path, shot_file)}, indent=2) + "\n").encode()
     timings.update(render=render_s, compose=compose_s, encode=time.perf_counter() - t)
     return files, {"registration": registration, "size": [camera.width, camera.height], "photo": str(photo_path)}
 

@@ -11,7 +11,8 @@ Inputs: a calibrated camera (intrinsics; its R, t are ignored) and either a mark
 Output, SHOT.json: the camera JSON (``width``, ``height``, ``K``, ``dist``, ``R``, ``t``, so
 ``mrcheck render --camera SHOT.json`` takes it as is) plus::
 
-    "photo": absolute path of the photo,  "method": "markers" | "points",
+    "photo": the photo's path relative to the SHOT.json's folder (:func:`photo_reference`),
+    "method": "markers" | "points",
     "rms": reprojection RMS on the inliers (px),  "inlier_threshold_px": the RANSAC threshold,
     "used" / "rejected": [{"id": 7, "dictionary": ..., "error_px": worst corner}, {"board": 0, ...,
         "corners": n}, or for points {"index": i, "pixel": .., "world": .., "error_px": ..}],
@@ -31,6 +32,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -372,10 +374,23 @@ def register_command(scene, photo, intrinsics, markers=None, points=None, max_er
     pairs = load_points(points) if points is not None else None
     bounds = load_scene(scene, progress=True).bounds()
     shot = register_photo(photo, camera, marker_map=marker_map, points=pairs, max_error=max_error, scene_bounds=bounds)
-    text = json.dumps(shot, indent=2)
-    write_text(output, text + "\n")
+    write_text(output, json.dumps({**shot, "photo": photo_reference(shot["photo"], output)}, indent=2) + "\n")
     _print_summary(shot, output)
     return shot
+
+
+def photo_reference(photo, shot_file) -> str:
+    """The ``"photo"`` value of a SHOT.json written to ``shot_file``: the photo's path relative
+    to the shot's folder (``overlay.load_shot`` resolves it against that folder), so that a
+    project folder of shots and photos, or an export folder with the photos beside it, can be
+    moved or copied to another machine as a whole; absolute when no relative path exists (a
+    photo on another Windows drive). Pure path arithmetic: an export's Dask worker computes it
+    for a folder on the client."""
+    photo, folder = os.path.realpath(photo), os.path.dirname(os.path.realpath(shot_file))
+    try:
+        return Path(os.path.relpath(photo, folder)).as_posix()
+    except ValueError:
+        return photo
 
 
 def _far_from_scene(position: np.ndarray, bounds: np.ndarray) -> str | None:
@@ -409,5 +424,5 @@ def _print_summary(shot: dict, output) -> None:
     click.echo(f"wrote {output}")
 
 
-__all__ = ["register_command", "register_photo", "register_markers", "register_points", "solve_pose", "fit_camera",
+__all__ = ["register_command", "register_photo", "photo_reference", "register_markers", "register_points", "solve_pose", "fit_camera",
            "expected_overlay_error", "read_photo", "load_points", "Pose"]

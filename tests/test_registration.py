@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 from pathlib import Path
 
 import cv2
@@ -15,6 +16,7 @@ from scipy.spatial.transform import Rotation
 
 from mrcheck.camera import Camera
 from mrcheck.cli import main
+from mrcheck.overlay import load_shot
 from mrcheck.registration import read_photo, register_markers, register_points
 
 DATA = Path(__file__).parent / "data"
@@ -110,10 +112,29 @@ def test_cli_writes_a_shot_that_is_a_camera(files, capsys):
     shot = json.loads((files / "SHOT.json").read_text())
     camera = Camera.load(files / "SHOT.json")  # what `mrcheck render --camera SHOT.json` reads
     assert (camera.width, camera.height) == (640, 480)
-    assert Path(shot["photo"]) == (CHARUCO / "choriginal.jpg").resolve()
+    # the photo relative to the shot's folder, which load_shot resolves
+    assert not Path(shot["photo"]).is_absolute()
+    assert load_shot(files / "SHOT.json")[1].resolve() == (CHARUCO / "choriginal.jpg").resolve()
     assert {"rms", "method", "used", "rejected", "warnings"} <= set(shot)
     out = capsys.readouterr().out
     assert "from markers" in out and "rms" in out and "wrote" in out
+
+
+def test_a_shot_moves_with_its_photo(tmp_path, files):
+    """A project folder (shots/ and photos/) copied elsewhere: its SHOT.json finds the copied
+    photo, not the original (an absolute path would still point at the first folder, or nowhere
+    on another machine)."""
+    project = tmp_path / "project"
+    (project / "photos").mkdir(parents=True)
+    shutil.copy(CHARUCO / "choriginal.jpg", project / "photos" / "p.jpg")
+    assert main(["register", str(files / "scene.obj"), "--photo", str(project / "photos" / "p.jpg"), "--intrinsics",
+                 str(files / "cam.json"), "--markers", str(files / "map.json"), "-o",
+                 str(project / "shots" / "SHOT.json")]) == 0
+    assert json.loads((project / "shots" / "SHOT.json").read_text())["photo"] == "../photos/p.jpg"
+    moved = shutil.copytree(project, tmp_path / "elsewhere")
+    shutil.rmtree(project)
+    camera, photo = load_shot(moved / "shots" / "SHOT.json")
+    assert photo.resolve() == (moved / "photos" / "p.jpg").resolve() and photo.is_file()
 
 
 def test_apriltag_rotation_series_consistent():
