@@ -427,7 +427,7 @@ def _register(inputs: dict, max_error, scene_bounds) -> tuple[dict, Camera, Path
         shot = register_photo(Path(inputs["photo"]), read_camera(inputs["intrinsics"]),
                               marker_map=load_marker_map(inputs["markers"]) if "markers" in inputs else None,
                               points=load_points(inputs["points"]) if "points" in inputs else None,
-                              scene_bounds=scene_bounds)
+                              scene_bounds=scene_bounds, points_file=inputs.get("points"))
         camera, photo = Camera.from_dict(shot), Path(shot["photo"])
     rms = shot.get("rms")
     if max_error is not None and _number(rms) and rms > max_error:

@@ -30,6 +30,7 @@ origin) and its EPnP fails on coplanar points for about half the orientations of
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import os
@@ -55,6 +56,9 @@ _WARN_OVERLAY_PX = 3.0  # predicted overlay error worth a warning
 _WARN_DISTANCE_RATIO = 15.0  # mean distance / extent of the points
 _WARN_FRONTAL_DEG = 20.0  # coplanar points whose plane faces the camera within this angle
 _FAR_MARGIN_M = 5.0  # a camera this far outside the scene (or one scene extent) is suspicious
+# up to this many points (clicks), every 4-point subset is a pose hypothesis (C(12, 4) = 495 AP3P
+# solves, ~10 ms); beyond, RANSAC's consensus alone (markers: many corners, ties are rare)
+_EXHAUSTIVE_MAX = 12
 
 
 def fit_camera(camera: Camera, width: int, height: int, source=None):
@@ -96,6 +100,8 @@ def _parse_points(data, source="correspondences") -> list:
     groups = []
     for i, entry in enumerate(points):
         try:
+            if any(isinstance(v, bool) for v in [*entry["pixel"], *entry["world"]]):
+                raise TypeError("true/false is not a coordinate")
             pixel = np.asarray(entry["pixel"], np.float64)
             world = np.asarray(entry["world"], np.float64)
         except (TypeError, KeyError, ValueError):
@@ -117,6 +123,7 @@ class Pose:
     errors: np.ndarray  # (n,) reprojection error of every point, px
     inliers: np.ndarray  # (n,) bool
     threshold: float
+    rival: tuple | None = None  # (inliers, rms) of another consensus of the same size, if any
 
     @property
     def rms(self) -> float:
@@ -142,7 +149,13 @@ def _principal(world):
 
 
 def solve_pose(camera: Camera, pixels, world, max_error=None) -> Pose:
-    """Robust pose of ``camera`` from 2D-3D pairs: RANSAC, refit on the inliers, LM refinement.
+    """Robust pose of ``camera`` from 2D-3D pairs: hypotheses of the inlier set, each refit and
+    LM-refined; the most inliers win, then the lowest RMS.
+
+    Hypotheses: RANSAC's inliers and, for up to :data:`_EXHAUSTIVE_MAX` points (manual clicks),
+    the inliers of the AP3P pose of every 4-point subset. RANSAC alone keeps the first largest
+    consensus it meets: with clicks, two sets of equal size (the right one, and one of two
+    mis-clicks with good points that happen to agree) are common, and the better fit must win.
 
     Solved in the points' local frame (:func:`_principal`) and mapped back: the same points in any
     world frame give the same camera relative to them."""
@@ -162,18 +175,68 @@ def solve_pose(camera: Camera, pixels, world, max_error=None) -> Pose:
     threshold = float(max_error) if max_error else max(3.0, 0.003 * math.hypot(camera.width, camera.height))
 
     world = np.ascontiguousarray((world - c) @ Q)  # from here on the local frame
-    candidates = []
-    inliers = np.ones(n, bool)
-    if n > 4:  # with exactly 4 points every subset fits; there is nothing to vote on
-        # AP3P samples: valid for coplanar points in any orientation (EPnP's are not); the inliers are
-        # RANSAC's, the pose it returns (an EPnP fit on them) is only one more candidate
-        ok, rvec, tvec, idx = cv2.solvePnPRansac(world, pixels, camera.K, camera.dist, iterationsCount=1000,
-                                                 reprojectionError=threshold, confidence=0.9999,
-                                                 flags=cv2.SOLVEPNP_AP3P)
-        if ok and idx is not None and len(idx) >= 4:
-            candidates.append((rvec, tvec))
-            inliers = np.zeros(n, bool)
-            inliers[np.ravel(idx)] = True
+    fits = [_refit(camera, pixels, world, inliers, seed, planar, threshold)
+            for inliers, seed in _hypotheses(camera, pixels, world, threshold)]
+    fits = sorted((f for f in fits if f is not None), key=lambda f: (-f.inliers.sum(), f.rms))
+    if not fits:
+        raise MrcheckError(f"no consistent pose: fewer than 4 points agree within {threshold:.1f} px "
+                           "(check the survey, the ids and the intrinsics, or raise --max-error)")
+    best = fits[0]
+    # another consensus as large as the one used, on other points: the data cannot tell them apart
+    rival = next((f for f in fits[1:] if f.inliers.sum() == best.inliers.sum()
+                  and (f.inliers != best.inliers).any()), None)
+    R_local = cv2.Rodrigues(best.rvec)[0]
+    R = R_local @ Q.T  # X_cam = R_local Q^T (X - c) + t_local
+    return Pose(R, best.tvec.ravel() - R @ c, best.errors, best.inliers, threshold,
+                rival=None if rival is None else (rival.inliers, rival.rms))
+
+
+@dataclass
+class _Fit:
+    rvec: np.ndarray
+    tvec: np.ndarray
+    errors: np.ndarray
+    inliers: np.ndarray
+
+    @property
+    def rms(self) -> float:
+        return float(np.sqrt(np.mean(self.errors[self.inliers] ** 2)))
+
+
+def _hypotheses(camera, pixels, world, threshold):
+    """(inlier mask, seed poses) to refit: all points when there are 4 (nothing to vote on),
+    RANSAC's consensus, and for few points the consensus of every 4-point subset's pose."""
+    n = len(world)
+    if n == 4:
+        return [(np.ones(n, bool), [])]
+    hypotheses = {}
+    # AP3P samples: valid for coplanar points in any orientation (EPnP's are not); the inliers are
+    # RANSAC's, the pose it returns (an EPnP fit on them) is only one more seed
+    ok, rvec, tvec, idx = cv2.solvePnPRansac(world, pixels, camera.K, camera.dist, iterationsCount=1000,
+                                             reprojectionError=threshold, confidence=0.9999, flags=cv2.SOLVEPNP_AP3P)
+    if ok and idx is not None and len(idx) >= 4:
+        inliers = np.zeros(n, bool)
+        inliers[np.ravel(idx)] = True
+        hypotheses[inliers.tobytes()] = (inliers, [(rvec, tvec)])
+    if n <= _EXHAUSTIVE_MAX:
+        for subset in itertools.combinations(range(n), 4):
+            sub = list(subset)
+            try:
+                ok, rvec, tvec = cv2.solvePnP(world[sub], pixels[sub], camera.K, camera.dist, flags=cv2.SOLVEPNP_AP3P)
+            except cv2.error:
+                continue
+            if not ok:
+                continue
+            inliers = _reprojection_errors(camera, rvec, tvec, pixels, world) < threshold
+            if inliers.sum() >= 4:
+                hypotheses.setdefault(inliers.tobytes(), (inliers, []))[1].append((rvec, tvec))
+    return list(hypotheses.values())
+
+
+def _refit(camera, pixels, world, inliers, seeds, planar, threshold) -> _Fit | None:
+    """The best pose for one consensus: seeds plus an IPPE / SQPnP fit on the inliers, LM-refined;
+    then once more on the inliers of that fit. None when fewer than 4 points agree."""
+    candidates, best = list(seeds), None
     for _ in range(2):  # refit on the inliers, then once more on the inliers of the refit
         if inliers.sum() < 4:
             break
@@ -183,18 +246,14 @@ def solve_pose(camera: Camera, pixels, world, max_error=None) -> Pose:
         except cv2.error:
             count, rvecs, tvecs = 0, [], []
         candidates += list(zip(rvecs, tvecs))[:count]
-        best = _best(camera, candidates, pixels, world, inliers)
-        if best is None:
+        found = _best(camera, candidates, pixels, world, inliers)
+        if found is None:
             break
+        best = found
         inliers = best[2] < threshold
-    best = _best(camera, candidates, pixels, world, inliers) if inliers.sum() >= 4 else None
-    if best is None:
-        raise MrcheckError(f"no consistent pose: fewer than 4 points agree within {threshold:.1f} px "
-                           "(check the survey, the ids and the intrinsics, or raise --max-error)")
-    rvec, tvec, errors = best
-    R_local = cv2.Rodrigues(rvec)[0]
-    R = R_local @ Q.T  # X_cam = R_local Q^T (X - c) + t_local
-    return Pose(R, tvec.ravel() - R @ c, errors, errors < threshold, threshold)
+    if best is None or inliers.sum() < 4:
+        return None
+    return _Fit(best[0], best[1], best[2], inliers)
 
 
 def _best(camera, candidates, pixels, world, inliers):
@@ -303,6 +362,7 @@ def _register(camera: Camera, groups: list, method: str, max_error, warnings: li
     posed = camera.with_pose(pose.R, pose.t)
     if len(groups) < 6 and method == "points":
         warnings.append(f"only {len(groups)} correspondences: outliers cannot be detected (use 6 or more)")
+    warnings += _consensus_warnings(pose, owner, method)
     single = len(used) == 1 and method == "markers" and "id" in used[0]  # a board is many corners
     overlay, more = _geometry_warnings(posed, world[pose.inliers], pose, single)
     shot = posed.to_dict()
@@ -310,6 +370,23 @@ def _register(camera: Camera, groups: list, method: str, max_error, warnings: li
                 used=used, rejected=rejected, camera_position=posed.center.tolist(),
                 expected_overlay_error_px=round(overlay, 2), warnings=warnings + more)
     return shot
+
+
+def _consensus_warnings(pose: Pose, owner: np.ndarray, method: str) -> list:
+    """Warnings when the points that agree barely pin the pose down: only 4 of more (a single
+    spare equation pair checks it), or another set of as many points agrees as well."""
+    what = "points" if method == "points" else "marker corners"
+    n, agree = len(pose.inliers), int(pose.inliers.sum())
+    out = []
+    if agree == 4 and n > 4:
+        out.append(f"only 4 of {n} {what} agree within {pose.threshold:.1f} px: the pose rests on the minimum; "
+                   "add points or check the rejected ones")
+    if pose.rival is not None:
+        inliers, rms = pose.rival
+        which = (f" (0-based {', '.join(str(i) for i in np.unique(owner[inliers]))})" if method == "points" else "")
+        out.append(f"ambiguous: another {int(inliers.sum())} {what}{which} agree as well, with RMS {rms:.2f} px "
+                   f"against {pose.rms:.2f} px for the ones used; check for mis-clicks or add points")
+    return out
 
 
 def register_markers(image: np.ndarray, camera: Camera, marker_map, max_error=None) -> dict:
@@ -324,9 +401,19 @@ def register_markers(image: np.ndarray, camera: Camera, marker_map, max_error=No
         raise MrcheckError(f"no marker of the map was found in the photo{found}")
     if unknown:
         warnings.append(f"markers in the photo but not in the map (ignored): {unknown[:20]}")
-    shot = _register(camera, detection.groups, "markers", max_error, warnings)
+    try:
+        shot = _register(camera, detection.groups, "markers", max_error, warnings)
+    except MrcheckError as exc:   # say what was found: 4 corners of a board is a small or blurred photo
+        raise MrcheckError(f"{exc} (detected: {_detected(detection.groups)})", exc.path) from None
     shot.update(unknown_ids=detection.unknown, unseen_ids=detection.unseen)
     return shot
+
+
+def _detected(groups: list) -> str:
+    """What the detector found, for an error: "board 0: 4 corners, markers 3, 7"."""
+    boards = [f"board {g.label['board']}: {len(g.world)} corners" for g in groups if "board" in g.label]
+    markers = [str(g.label["id"]) for g in groups if "id" in g.label]
+    return ", ".join(boards + ([f"marker{'s' * (len(markers) > 1)} {', '.join(markers)}"] if markers else []))
 
 
 def register_points(camera: Camera, pairs, max_error=None) -> dict:
@@ -335,12 +422,14 @@ def register_points(camera: Camera, pairs, max_error=None) -> dict:
     return _register(camera, _parse_points(pairs), "points", max_error, [])
 
 
-def register_photo(photo, camera: Camera, marker_map=None, points=None, max_error=None, scene_bounds=None) -> dict:
+def register_photo(photo, camera: Camera, marker_map=None, points=None, max_error=None, scene_bounds=None,
+                   points_file=None) -> dict:
     """The SHOT.json dict of the photo file ``photo``: registered from ``marker_map`` (a
     :class:`~mrcheck.markers.MarkerMap` or its JSON) or from ``points`` (groups of
     :func:`load_points`, or the correspondences JSON), with the absolute ``"photo"`` path.
     ``camera`` holds the intrinsics (rescaled to the photo when needed). ``scene_bounds``: the
-    (2, 3) bounds of the scene the shot is for; a camera far outside them is a warning."""
+    (2, 3) bounds of the scene the shot is for; a camera far outside them is a warning.
+    ``points_file``: where ``points`` came from, named by errors about them (else the photo)."""
     image = read_photo(photo)
     try:
         if marker_map is not None:
@@ -348,15 +437,25 @@ def register_photo(photo, camera: Camera, marker_map=None, points=None, max_erro
         else:
             camera, warnings = fit_camera(camera, image.shape[1], image.shape[0], photo)
             groups = points if isinstance(points, list) and points and isinstance(points[0], Group) else _parse_points(points)
+            _check_pixels_inside(groups, image.shape[1], image.shape[0])
             shot = _register(camera, groups, "points", max_error, warnings)
     except MrcheckError as exc:
-        if exc.path is None:  # "no consistent pose": of which photo
-            raise MrcheckError(str(exc), photo) from None
+        if exc.path is None:  # "no consistent pose", "collinear": of which photo or points file
+            raise MrcheckError(str(exc), points_file if marker_map is None and points_file else photo) from None
         raise
     if scene_bounds is not None and (warning := _far_from_scene(np.asarray(shot["camera_position"]), scene_bounds)):
         shot["warnings"].append(warning)
     return {**{k: shot[k] for k in ("width", "height", "K", "dist", "R", "t") if k in shot},
             "photo": str(Path(photo).resolve()), **shot}
+
+
+def _check_pixels_inside(groups: list, width: int, height: int) -> None:
+    """A clicked pixel outside the photo is a typo or a point of another photo: refused, rather
+    than left to RANSAC as one more outlier to out-vote."""
+    for g in groups:
+        u, v = g.pixels[0]
+        if not (-0.5 <= u <= width - 0.5 and -0.5 <= v <= height - 0.5):
+            raise MrcheckError(f"point #{g.label['index']}: pixel ({u:g}, {v:g}) lies outside the {width}x{height} photo")
 
 
 def register_command(scene, photo, intrinsics, markers=None, points=None, max_error=None, output="SHOT.json") -> dict:
@@ -373,7 +472,8 @@ def register_command(scene, photo, intrinsics, markers=None, points=None, max_er
     marker_map = load_marker_map(markers) if markers is not None else None
     pairs = load_points(points) if points is not None else None
     bounds = load_scene(scene, progress=True).bounds()
-    shot = register_photo(photo, camera, marker_map=marker_map, points=pairs, max_error=max_error, scene_bounds=bounds)
+    shot = register_photo(photo, camera, marker_map=marker_map, points=pairs, max_error=max_error, scene_bounds=bounds,
+                          points_file=points)
     write_text(output, json.dumps({**shot, "photo": photo_reference(shot["photo"], output)}, indent=2) + "\n")
     _print_summary(shot, output)
     return shot

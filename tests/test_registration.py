@@ -214,7 +214,7 @@ def test_coplanar_points_off_the_xy_plane_register(k, offset):
 
 
 def _points_file(files, world, pixels=None):
-    pixels = pixels if pixels is not None else [[100.0 + 50 * i, 100.0 + 30 * i * i] for i in range(len(world))]
+    pixels = pixels if pixels is not None else [[100.0 + 50 * i, 100.0 + 10 * i * i] for i in range(len(world))]
     (files / "corr.json").write_text(json.dumps({"points": [{"pixel": p, "world": w} for p, w in zip(pixels, world)]}))
     return str(files / "corr.json")
 
@@ -243,12 +243,26 @@ def _unknown_ids(files):
             "extra": ["--markers", str(files / "tags.json")]}
 
 
+def _small_board(files):
+    """The board photo at half size: the detector finds 4 of its 24 corners (the pose cannot be
+    checked); the error says so instead of only blaming the survey and the intrinsics."""
+    cv2.imwrite(str(files / "small.png"), cv2.resize(cv2.imread(str(CHARUCO / "choriginal.jpg")), (320, 240),
+                                                     interpolation=cv2.INTER_AREA))
+    return {"photo": files / "small.png", "extra": ["--markers", str(files / "map.json"), "--max-error", "20"]}
+
+
 BAD = {
     "three_pairs": (lambda f: {"extra": ["--points", _points_file(f, [[0, 0, 0], [1, 0, 0], [0, 1, 0]])]},
                     "at least 4"),
     "collinear": (lambda f: {"extra": ["--points", _points_file(f, [[i, 2 * i, 0.5 * i] for i in range(6)])]},
-                  "collinear"),
+                  "corr.json: the world points are collinear"),
+    "pixel_outside": (lambda f: {"extra": ["--points", _points_file(f, [[i % 3, i // 3, 0] for i in range(6)],
+                                                                    [[10, 10]] * 5 + [[-5000, 10]])]},
+                      "corr.json: point #5: pixel (-5000, 10) lies outside the 640x480 photo"),
+    "boolean_coordinate": (lambda f: {"extra": ["--points", _points_file(f, [[True, 0, 0]] + [[i, i * i, 0] for i in range(5)])]},
+                           "corr.json: point #0 needs"),
     "corrupt_photo": (_corrupt, "cannot decode photo"),
+    "small_board_photo": (_small_board, "(detected: board 0: 4 corners)"),
     "no_markers": (_blank, "no marker of the map"),
     "unknown_ids_only": (_unknown_ids, "not in the map: [76]"),
     "other_aspect": (_other_aspect, "another aspect ratio"),
