@@ -413,6 +413,13 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         click.echo("error: interrupted", err=True)
         return 130
+    except BrokenPipeError:  # the reader went away (`mrcheck ... | head`): nobody to tell, stop quietly
+        # and point stdout at /dev/null, or Python's flush at exit reports the broken pipe again
+        try:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        except (OSError, ValueError):   # no file descriptor (a captured stdout)
+            pass
+        return EXIT_ERROR
     except Exception as exc:  # a bug, not bad input: still one line; the traceback on request
         if os.environ.get("MRCHECK_DEBUG"):
             raise

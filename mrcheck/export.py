@@ -450,6 +450,9 @@ def _shot_files(task: dict, timings: dict, scene=None) -> tuple[dict, dict]:
                                          renderer.scene.bounds())
     registration = _registration_summary(shot)
     photo = read_photo(photo_path, camera)
+    if settings["width"] and settings["width"] > camera.width:
+        registration["warnings"].append(f"the job's width {settings['width']} is larger than the photo "
+                                        f"({camera.width} px): the photo is upscaled")
     if settings["width"] and settings["width"] != camera.width:
         camera = camera.resized(*fit_size(camera.width, camera.height, settings["width"]))
         photo = cv2.resize(photo, (camera.width, camera.height), interpolation=cv2.INTER_AREA)
@@ -602,12 +605,17 @@ def _worker_init(gl_threads: int | None) -> None:
         os.environ["LP_NUM_THREADS"] = str(gl_threads)
 
 
+def _local_workers(workers: int, shots: int) -> int:
+    """Processes :func:`_run_local` uses: 1 (this one) for one shot or one worker."""
+    return 1 if workers <= 1 or shots <= 1 else min(workers, shots)
+
+
 def _run_local(tasks, workers: int, scene=None):
-    if workers <= 1 or len(tasks) <= 1:
+    workers = _local_workers(workers, len(tasks))
+    if workers == 1:
         for task in tasks:
             yield task, run_shot(task, scene)
         return
-    workers = min(workers, len(tasks))
     threads = max(1, (os.cpu_count() or 1) // workers)
     with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
                              initializer=_worker_init, initargs=(threads,)) as pool:
@@ -618,6 +626,32 @@ def _run_local(tasks, workers: int, scene=None):
                 yield task, future.result()
             except Exception as exc:  # the worker process died (BrokenProcessPool) or could not start
                 yield task, _lost(task, exc)
+
+
+class _Progress:
+    """stderr for the progress bar and lines, which a closed reader cannot stop: with
+    ``mrcheck export ... 2>&1 | head`` the export still finishes and writes its manifest and
+    report (the bar's writes fail with EPIPE and are dropped from then on)."""
+
+    def __init__(self, stream):
+        self.stream, self.closed_reader = stream, False
+
+    def write(self, text: str) -> None:
+        if not self.closed_reader:
+            try:
+                self.stream.write(text)
+            except (BrokenPipeError, ValueError):   # ValueError: the stream itself was closed
+                self.closed_reader = True
+
+    def flush(self) -> None:
+        if not self.closed_reader:
+            try:
+                self.stream.flush()
+            except (BrokenPipeError, ValueError):
+                self.closed_reader = True
+
+    def isatty(self) -> bool:
+        return not self.closed_reader and self.stream.isatty()
 
 
 def _connect(address: str):
@@ -696,6 +730,8 @@ def export_command(job, outdir, workers: int = 1, scheduler: str | None = None, 
         raise MrcheckError("output folder is a file", outdir)
     if workers < 1:
         raise MrcheckError(f"workers must be >= 1, got {workers}")
+    if scheduler and workers != 1:
+        click.echo("warning: --workers is ignored with --scheduler (the cluster's workers run the shots)", err=True)
     scene_paths = scene_files(job.scene)
     tasks = _tasks(job, outdir, write=scheduler is None, scene_paths=scene_paths)
 
@@ -717,8 +753,9 @@ def export_command(job, outdir, workers: int = 1, scheduler: str | None = None, 
 
         runner = _run_dask(to_run, client) if client is not None else _run_local(to_run, workers, job.loaded)
         run_start, finished = time.perf_counter(), 0
+        progress = _Progress(sys.stderr)
         # disable=None: a bar on a terminal only; a log gets one plain line per shot instead of \r frames
-        with tqdm(total=len(tasks), initial=len(tasks) - len(to_run), desc="export", unit="shot", file=sys.stderr,
+        with tqdm(total=len(tasks), initial=len(tasks) - len(to_run), desc="export", unit="shot", file=progress,
                   dynamic_ncols=True, disable=None) as bar:
             for task, record in runner:
                 folder = Path(task["dir"])
@@ -731,8 +768,8 @@ def export_command(job, outdir, workers: int = 1, scheduler: str | None = None, 
                 finished += 1
                 if bar.disable:
                     eta = (time.perf_counter() - run_start) / finished * (len(to_run) - finished)
-                    click.echo(f"export: {len(tasks) - len(to_run) + finished}/{len(tasks)} shots, {task['name']} "
-                               f"{record['status']}, ETA {eta:.0f} s", err=True)
+                    progress.write(f"export: {len(tasks) - len(to_run) + finished}/{len(tasks)} shots, {task['name']} "
+                                   f"{record['status']}, ETA {eta:.0f} s\n")
                 failed = sum(e["status"] == "failed" for e in entries.values())
                 if failed:
                     bar.set_postfix(failed=failed)
@@ -746,7 +783,8 @@ def export_command(job, outdir, workers: int = 1, scheduler: str | None = None, 
     ran = [e for e in shots if e["status"] != "skipped"]
     manifest = {
         "format": 1, "job": str(job.path.resolve()), "outdir": str(outdir), "settings": job.settings(),
-        "executor": f"dask {scheduler}" if scheduler else f"local, {workers} worker(s)",
+        # the processes that ran: never more than the shots to run, and one (this one) for one shot
+        "executor": f"dask {scheduler}" if scheduler else f"local, {_local_workers(workers, len(to_run))} worker(s)",
         "summary": {"shots": len(shots), **counts}, "timings_s": {
             "total": round(elapsed, 3),
             "shots_per_minute": round(60.0 * len(ran) / elapsed, 2) if ran and elapsed > 0 else None},
@@ -760,6 +798,10 @@ def export_command(job, outdir, workers: int = 1, scheduler: str | None = None, 
     for entry in shots:
         if entry["status"] == "failed":
             click.echo(f"  failed {entry['name']}: {entry['error']}")
+    warned = [e["name"] for e in shots if e["status"] == "done" and (e.get("registration") or {}).get("warnings")]
+    if warned:
+        click.echo(f"  {len(warned)} shot(s) with registration warnings ({', '.join(warned[:5])}"
+                   f"{', ...' if len(warned) > 5 else ''}): see report.html")
     if removed:
         # removed paths are shots/NAME/FILE; a NAME no longer in the job is a dropped shot
         dropped = {p.split("/")[1] for p in removed} - {entry["name"] for entry in shots}

@@ -70,6 +70,10 @@ def render_report(manifest: dict, outdir: Path) -> str:
             thumb = _thumbnail(outdir / sheet["path"])
             if thumb:
                 body.append(f'<a href="{e(sheet["path"])}"><img src="{thumb}" alt="study sheet of {e(name)}"></a>')
+        if registration.get("rejected"):
+            rejected = ", ".join(str(r) for r in registration["rejected"])
+            body.append(f'<p class="warning">rejected by the registration ({e(str(registration.get("method")))}): '
+                        f'{e(rejected)}</p>')
         for warning in registration.get("warnings") or []:
             body.append(f'<p class="warning">warning: {e(warning)}</p>')
         links = [f'<a href="{e(o["path"])}">{e(o["file"])}</a>' for o in entry.get("outputs", [])]

@@ -9,10 +9,12 @@ distortion; four are a glob sharing one camera, one is an already registered SHO
 from __future__ import annotations
 
 import hashlib
+import html
 import json
 import os
 import re
 import shutil
+import sys
 import time
 
 import cv2
@@ -287,6 +289,43 @@ def test_rerun_redoes_shots_whose_input_files_changed(small_job, capsys):
         _touch(job.parent / changed)
         assert redone in _export(capsys, job, out)[1], changed
     assert "0 done, 2 skipped" in _export(capsys, job, out)[1]
+
+
+class _ClosedReader:
+    """stderr whose reader went away (``2>&1 | head -1``): every write fails with EPIPE."""
+
+    def write(self, text):
+        raise BrokenPipeError(32, "Broken pipe")
+
+    flush = write
+
+    def isatty(self):
+        return False
+
+
+def test_a_closed_progress_reader_does_not_stop_the_export(small_job, monkeypatch):
+    """The progress lines fail; the shots, the manifest and the report are still written (the
+    export died after the first progress line, with neither)."""
+    job = small_job()
+    monkeypatch.setattr(sys, "stderr", _ClosedReader())
+    assert main(["export", str(job), "-o", str(job.parent / "out")]) == 0
+    manifest = json.loads((job.parent / "out" / "manifest.json").read_text())
+    assert manifest["summary"]["done"] == 2 and (job.parent / "out" / "report.html").is_file()
+
+
+def test_the_manifest_counts_the_processes_that_ran_and_upscaling_is_a_warning(small_job, capsys):
+    """--workers 8 for one shot runs it here: the manifest says 1 worker, not 8. A width above
+    the photo's (320 px) upscales it: a warning in the manifest, the report and the summary."""
+    job = small_job(shots="")
+    job.write_text(job.read_text().replace("width = 64", "width = 400"))
+    code, stdout, _, _ = _export(capsys, job, job.parent / "out", "--workers", 8)
+    assert code == 0
+    manifest = json.loads((job.parent / "out" / "manifest.json").read_text())
+    assert manifest["executor"] == "local, 1 worker(s)"
+    warning = "the job's width 400 is larger than the photo (320 px): the photo is upscaled"
+    assert warning in manifest["shots"][0]["registration"]["warnings"]
+    assert html.escape(warning) in (job.parent / "out" / "report.html").read_text()
+    assert "1 shot(s) with registration warnings (cam-0): see report.html" in stdout
 
 
 def test_progress_in_a_log_is_lines_not_a_bar(small_job, capsys):

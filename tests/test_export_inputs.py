@@ -103,6 +103,12 @@ def test_a_refused_scheduler_port_is_reported_at_once(job, tmp_path, capsys):
     assert not (tmp_path / "out").exists()
 
 
+def test_workers_with_a_scheduler_is_a_warning(job, tmp_path, capsys):
+    code, err = _export(capsys, job(), "-o", tmp_path / "out", "--scheduler", "notanaddress", "--workers", "2")
+    assert code == 1
+    assert err.startswith("warning: --workers is ignored with --scheduler") and err.count("\n") == 2, err
+
+
 def test_bad_scheduler_keeps_an_existing_outdir(job, tmp_path, capsys):
     pytest.importorskip("distributed")
     out = tmp_path / "out"

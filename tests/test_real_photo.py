@@ -176,3 +176,7 @@ def test_the_export_warns_about_millimetre_points_too(tmp_path, capsys):
     assert main(["export", str(job), "-o", str(tmp_path / "out")]) == 0
     warnings = json.loads((tmp_path / "out" / "shots" / "box" / "SHOT.json").read_text())["warnings"]
     assert any("outside the scene" in w for w in warnings), warnings
+    # the report says which clicks the registration rejected (the two mis-clicks), beside the warnings
+    report = (tmp_path / "out" / "report.html").read_text()
+    assert "rejected by the registration (points): 5, 6" in report and "outside the scene" in report
+    assert "1 shot(s) with registration warnings (box): see report.html" in capsys.readouterr().out
