@@ -643,8 +643,17 @@ def discrepancies_command(shot, scene, tolerance_px=None, outdir=None):
     paths = [write_image(outdir / "heatmap.png", image),
              write_bytes(outdir / "suspects.json", (json.dumps(doc, indent=2) + "\n").encode()),
              write_bytes(outdir / "suspects.md", _markdown(result, shot).encode())]
+    print(_summary_line(result))
     for p in paths:
         print(p)
+
+
+def _summary_line(result: dict) -> str:
+    """One line for the console: what was checked and what stands out."""
+    flagged = [s for s in result["suspects"] if s["suspect"]]
+    top = ", ".join(f"{s['id']} {s['score']:.2f}" for s in flagged[:5]) + (", ..." if len(flagged) > 5 else "")
+    return (f"checked {len(result['suspects'])} part instance(s): {len(flagged)} suspect(s)"
+            f"{f' ({top})' if flagged else ''}, {len(result['regions'])} unexplained structure region(s)")
 
 
 # -- evaluation ----------------------------------------------------------------------------

@@ -37,6 +37,7 @@ import math
 import re
 from pathlib import Path
 
+import click
 import cv2
 import numpy as np
 
@@ -280,6 +281,9 @@ def overlay_command(shot, scene, mode="vector", alpha=0.5, edges=False, edge_col
     renderer = Renderer(loaded)
     try:
         renders, edge_mask, offset, maps = render_for_photo(renderer, camera, modes, settings, edges)
+        if not (renderer.last_depth() > 0).any():   # the overlay would be the bare photo
+            click.echo(f"warning: {shot}: no CAD part is in view of this shot (a wrong pose, or the shot of "
+                       "another scene?)", err=True)
     finally:
         renderer.release()
     mixed = overlay_images(photo, renders, camera, alpha, edge_mask, color, offset, maps)

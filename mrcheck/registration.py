@@ -59,6 +59,7 @@ _FAR_MARGIN_M = 5.0  # a camera this far outside the scene (or one scene extent)
 # up to this many points (clicks), every 4-point subset is a pose hypothesis (C(12, 4) = 495 AP3P
 # solves, ~10 ms); beyond, RANSAC's consensus alone (markers: many corners, ties are rare)
 _EXHAUSTIVE_MAX = 12
+_LIST_MAX = 12  # the summary line lists the markers or points used up to this many
 
 
 def fit_camera(camera: Camera, width: int, height: int, source=None):
@@ -515,7 +516,11 @@ def _print_summary(shot: dict, output) -> None:
 
     x, y, z = shot["camera_position"]
     which = "points (0-based positions in the points file)" if shot["method"] == "points" else "markers"
-    click.echo(f"registered {shot['photo']} from {which}: used {names(shot['used'])}; "
+    used = shot["used"]
+    # 54 chessboard corners are a count, not a list (the rejected are always listed)
+    total = f" of {len(used) + len(shot['rejected'])}" if shot["method"] == "points" else ""  # a board can be in both
+    used_text = names(used) if len(used) <= _LIST_MAX else f"{len(used)}{total}"
+    click.echo(f"registered {shot['photo']} from {which}: used {used_text}; "
                f"rejected {names(shot['rejected'], errors=True)}")
     click.echo(f"  rms {shot['rms']:.3f} px, camera at ({x:.3f}, {y:.3f}, {z:.3f}) m, "
                f"expected overlay error ~{shot['expected_overlay_error_px']:.1f} px")

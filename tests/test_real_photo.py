@@ -11,6 +11,7 @@ corners predicted from the others, and where the photo's edges lie against the C
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import cv2
@@ -153,8 +154,11 @@ def test_the_summary_names_the_rejected_clicks_with_their_errors(tmp_path, capsy
 def test_a_pose_that_sees_no_part_is_not_reported_as_all_clear(shot, tmp_path, capsys):
     """With the box behind the camera nothing is checked; "no suspects" alone read as "as planned"."""
     good = tmp_path / "good"
+    capsys.readouterr()
     _discrepancy(shot, good)
     assert "Checked 1 part instance(s) in view; 1 supported as planned." in (good / "suspects.md").read_text()
+    assert re.search(r"^checked 1 part instance\(s\): 0 suspect\(s\), \d+ unexplained structure region\(s\)$",
+                     capsys.readouterr().out, re.M)
     data = json.loads(shot.read_text())
     behind = tmp_path / "behind.json"
     behind.write_text(json.dumps(dict(data, t=[0.0, 0.0, -5.0])))
@@ -164,6 +168,11 @@ def test_a_pose_that_sees_no_part_is_not_reported_as_all_clear(shot, tmp_path, c
     doc = json.loads((tmp_path / "disc" / "suspects.json").read_text())
     assert doc["suspects"] == [] and doc["warnings"] and "nothing was checked" in \
         (tmp_path / "disc" / "suspects.md").read_text()
+    # the overlay of that shot would be the bare photo: it says so too
+    assert main(["overlay", str(behind), "--scene", str(SCENE), "--mode", "phong", "-o", str(tmp_path / "o.png")]) == 0
+    assert f"warning: {behind}: no CAD part is in view of this shot" in capsys.readouterr().err
+    assert main(["overlay", str(shot), "--scene", str(SCENE), "--mode", "phong", "-o", str(tmp_path / "o.png")]) == 0
+    assert "warning" not in capsys.readouterr().err
 
 
 def test_the_export_warns_about_millimetre_points_too(tmp_path, capsys):

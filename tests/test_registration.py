@@ -17,7 +17,7 @@ from scipy.spatial.transform import Rotation
 from mrcheck.camera import Camera
 from mrcheck.cli import main
 from mrcheck.overlay import load_shot
-from mrcheck.registration import read_photo, register_markers, register_points
+from mrcheck.registration import _print_summary, read_photo, register_markers, register_points
 
 DATA = Path(__file__).parent / "data"
 CHARUCO = DATA / "calibration" / "opencv_charuco"
@@ -291,3 +291,13 @@ def test_a_scene_argument_that_is_no_scene_is_one_line(files, capsys):
     err = capsys.readouterr().err
     assert err.startswith(f"error: {photo}: not a scene") and err.count("\n") == 1
     assert not (files / "SHOT.json").exists()
+
+
+def test_the_summary_counts_many_points_instead_of_listing_them(capsys):
+    """54 chessboard corners as clicks: "used 52 of 54", the rejected ones listed."""
+    entry = lambda i, error=0.2: {"index": i, "pixel": [0, 0], "world": [0, 0, 0], "error_px": error}  # noqa: E731
+    shot = {"method": "points", "photo": "p.jpg", "camera_position": [0, 0, 0], "rms": 0.3,
+            "expected_overlay_error_px": 0.5, "warnings": [],
+            "used": [entry(i) for i in range(54) if i not in (7, 40)], "rejected": [entry(7, 9.0), entry(40, 12.5)]}
+    _print_summary(shot, "SHOT.json")
+    assert "used 52 of 54; rejected 7 (9.0 px), 40 (12.5 px)" in capsys.readouterr().out
