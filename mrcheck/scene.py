@@ -448,7 +448,12 @@ def _part_from_table(path: Path, index: int, table: dict, names: set) -> Part:
         ids = [given or f"{name}#{i}" for i, given in enumerate(ids)]
         if len(set(ids)) != len(ids):
             raise MrcheckError(f"{where}: instance ids must be unique", path)
-    vertices, faces = read_mesh(path.parent / table["mesh"], joints)
+    try:
+        vertices, faces = read_mesh(path.parent / table["mesh"], joints)
+    except MrcheckError as exc:   # the mesh is named; say which manifest entry asked for it
+        error = MrcheckError(f"{exc} ({where} of {path})")
+        error.path = exc.path
+        raise error from None
     return make_part(name, path.parent / table["mesh"], vertices, faces, transforms, color, table.get("units"),
                      ids if any(ids) else None)
 

@@ -126,7 +126,7 @@ CASES = [
     toml_case("toml-unit-unknown", manifest().replace('"m"', '"furlong"'), "unknown units 'furlong'"),
     toml_case("toml-unit-not-a-string", manifest().replace('"m"', '["m"]'), "unknown units"),
     case("toml-mesh-missing", {"scene.toml": manifest().replace("box.stl", "meshes/gone.glb")}, "scene.toml",
-         "not found", "gone.glb"),
+         "not found (part 'box' of ", "gone.glb"),    # the manifest entry that asked for it, too
     case("toml-mesh-nan", {"scene.toml": manifest().replace("box.stl", "nan.ply"), "nan.ply": NAN_PLY}, "scene.toml",
          "NaN", "nan.ply"),
     toml_case("toml-mesh-entry-missing", manifest().replace('mesh = "box.stl"', ""), "needs a mesh"),
