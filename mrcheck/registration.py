@@ -405,7 +405,9 @@ def register_markers(image: np.ndarray, camera: Camera, marker_map, max_error=No
     try:
         shot = _register(camera, detection.groups, "markers", max_error, warnings)
     except MrcheckError as exc:   # say what was found: 4 corners of a board is a small or blurred photo
-        raise MrcheckError(f"{exc} (detected: {_detected(detection.groups)})", exc.path) from None
+        order = ("; a map's marker corners go top-left, top-right, bottom-right, bottom-left as seen from the front"
+                 if any("id" in g.label for g in detection.groups) else "")
+        raise MrcheckError(f"{exc} (detected: {_detected(detection.groups)}{order})", exc.path) from None
     shot.update(unknown_ids=detection.unknown, unseen_ids=detection.unseen)
     return shot
 

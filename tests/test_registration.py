@@ -251,6 +251,16 @@ def _small_board(files):
     return {"photo": files / "small.png", "extra": ["--markers", str(files / "map.json"), "--max-error", "20"]}
 
 
+def _corner_order(files):
+    """A map whose marker corners go TL, TR, BL, BR (not OpenCV's TL, TR, BR, BL)."""
+    info = _unknown_ids(files)
+    marker_map = apriltag_setup()[1]
+    corners = marker_map["markers"][0]["corners"]
+    corners[2], corners[3] = corners[3], corners[2]
+    (files / "tags.json").write_text(json.dumps(marker_map))
+    return info
+
+
 BAD = {
     "three_pairs": (lambda f: {"extra": ["--points", _points_file(f, [[0, 0, 0], [1, 0, 0], [0, 1, 0]])]},
                     "at least 4"),
@@ -263,6 +273,7 @@ BAD = {
                            "corr.json: point #0 needs"),
     "corrupt_photo": (_corrupt, "cannot decode photo"),
     "small_board_photo": (_small_board, "(detected: board 0: 4 corners)"),
+    "corner_order": (_corner_order, "(detected: marker 76; a map's marker corners go top-left, top-right, bottom-right"),
     "no_markers": (_blank, "no marker of the map"),
     "unknown_ids_only": (_unknown_ids, "not in the map: [76]"),
     "other_aspect": (_other_aspect, "another aspect ratio"),
