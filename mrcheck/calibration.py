@@ -16,8 +16,8 @@ Conventions:
   OpenCV's calibration samples (``image_width``, ``image_height``, ``camera_matrix``,
   ``distortion_coefficients``, ``avg_reprojection_error``). :func:`read_camera` reads both.
 
-Views where the board is not found and unreadable images are skipped with a warning on
-stderr; outlier views (RMS above ``max_view_error``, by default above
+Views where the board is not found (whatever their size) and unreadable images are skipped with
+a warning on stderr; the views with the board must share one size; outlier views (RMS above ``max_view_error``, by default above
 ``max(3 x median, 1 px)``) are rejected and the camera is calibrated once more without them.
 """
 
@@ -26,6 +26,7 @@ from __future__ import annotations
 import json
 import math
 import sys
+from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -206,27 +207,40 @@ def _warn(name, problem):
 
 
 def detect_views(images, board: Board):
-    """({name: (object points, image points)}, (width, height), skipped names); warns on stderr."""
-    views, skipped, size, size_from = {}, [], None, None
+    """({name: (object points, image points)}, (width, height), skipped names); warns on stderr.
+
+    The size is that of the photos where the board is found: a photo without it is skipped
+    whatever its size (a stray photo in the glob must not fail the calibration).
+    """
+    views, sizes, skipped = {}, {}, []
     for name in images:
         gray = _read_gray(Path(name))
         if gray is None:
             _warn(name, "cannot read image, skipped")
             skipped.append(name)
             continue
-        shape = (gray.shape[1], gray.shape[0])
-        if size is None:
-            size, size_from = shape, name
-        elif shape != size:
-            raise MrcheckError(f"image is {shape[0]}x{shape[1]}, but {size_from} is {size[0]}x{size[1]}; "
-                               "all views must come from one camera at one resolution", name)
         points = board.detect(gray)
         if points is None:
             _warn(name, "board not found")
             skipped.append(name)
         else:
-            views[name] = points
-    return views, size, skipped
+            views[name], sizes[name] = points, (gray.shape[1], gray.shape[0])
+    return views, _common_size(sizes), skipped
+
+
+def _common_size(sizes: dict):
+    """The (width, height) most photos with the board share (a tie: the first one's), or
+    MrcheckError naming the first photo of another size: that one is the odd one out."""
+    if not sizes:
+        return None
+    size, count = Counter(sizes.values()).most_common(1)[0]  # equal counts: in order of first appearance
+    odd = [name for name, shape in sizes.items() if shape != size]
+    if odd:
+        more = f" ({len(odd) - 1} more photos differ)" if len(odd) > 1 else ""
+        width, height = sizes[odd[0]]
+        raise MrcheckError(f"image is {width}x{height}, but {count} of the {len(sizes)} photos with the board are "
+                           f"{size[0]}x{size[1]}{more}; all views must come from one camera at one resolution", odd[0])
+    return size
 
 
 def calibrate(images, board: Board, min_views=None, max_view_error=None):

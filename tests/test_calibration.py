@@ -167,11 +167,25 @@ def test_bad_spec(tmp_path, capsys, spec, problem):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_images_of_different_sizes(tmp_path, capsys):
-    small = tmp_path / "small.jpg"
-    cv2.imwrite(str(small), cv2.resize(cv2.imread(CHESS[0]), (320, 240)))
-    code, _, err = run(capsys, *CHESS[:5], small, "--board", CHESS_SPEC, "-o", tmp_path / "c.json")
-    assert code == 1 and f"error: {small}: image is 320x240" in err
+def test_photo_without_board_of_another_size_is_skipped(tmp_path, capsys):
+    # OpenCV's left.jpg (612x459, books, no board) sorts first in the README's own glob left*.jpg
+    stray = str(DATA / "opencv_chessboard" / "left.jpg")
+    out = tmp_path / "cam.json"
+    code, stdout, err = run(capsys, stray, *CHESS, "--board", CHESS_SPEC, "-o", out)
+    assert code == 0, err
+    assert f"warning: {stray}: board not found" in err and "error" not in err
+    data = json.loads(out.read_text())
+    assert (data["width"], data["height"]) == (640, 480) and data["skipped_views"] == [stray]
+    assert "13 of 14 images used" in stdout
+
+
+def test_odd_size_names_the_odd_photo(tmp_path, capsys):
+    small = tmp_path / "small.jpg"  # a photo with the board, at another size: first, as a glob may sort it
+    cv2.imwrite(str(small), cv2.resize(cv2.imread(CHESS[0]), (320, 240), interpolation=cv2.INTER_AREA))
+    code, _, err = run(capsys, small, *CHESS[:5], "--board", CHESS_SPEC, "-o", tmp_path / "c.json")
+    assert code == 1 and err.count("\n") == 1
+    assert err.startswith(f"error: {small}: image is 320x240, but 5 of the 6 photos with the board are 640x480;")
+    assert not (tmp_path / "c.json").exists()
 
 
 def test_outlier_views_rejected_then_recalibrated(tmp_path, capsys):
