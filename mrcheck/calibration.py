@@ -12,17 +12,19 @@ Conventions:
   points of the kept views, ``per_view_errors`` per view (``calibrateCameraExtended``).
 * A calibrated camera has no pose: R = I, t = 0 (the camera frame is the world frame).
 * Output: our camera JSON (``Camera.load`` reads it; extra keys rms, per_view_errors,
-  rejected_views, std, board), or for ``.yml``/``.yaml`` OpenCV FileStorage in the layout of
-  OpenCV's calibration samples (``image_width``, ``image_height``, ``camera_matrix``,
+  rejected_views, skipped_views, duplicate_views, std, board), or for ``.yml``/``.yaml``
+  OpenCV FileStorage in the layout of OpenCV's calibration samples (``image_width``, ``image_height``, ``camera_matrix``,
   ``distortion_coefficients``, ``avg_reprojection_error``). :func:`read_camera` reads both.
 
 Views where the board is not found (whatever their size) and unreadable images are skipped with
-a warning on stderr; the views with the board must share one size; outlier views (RMS above ``max_view_error``, by default above
+a warning on stderr; the views with the board must share one size; a photo given twice (same
+file or same bytes) is used once; outlier views (RMS above ``max_view_error``, by default above
 ``max(3 x median, 1 px)``) are rejected and the camera is calibrated once more without them.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import sys
@@ -190,16 +192,33 @@ def _calibrate(views: dict, size) -> Calibration:
     return Calibration(names, float(rms), K, dist.reshape(-1), std.reshape(-1), per_view.reshape(-1))
 
 
-def _read_gray(path: Path):
+def _read_image(path: Path):
+    """(the file's bytes, its grey image); either is None when the file cannot be read or decoded.
+    The photo is read once: its bytes tell a duplicate, imdecode applies EXIF rotation as imread."""
     if path.is_dir():
         raise MrcheckError("is a folder, not an image (give the photos themselves, e.g. DIR/*.jpg)", path)
     if not path.is_file():
         raise MrcheckError("image not found", path)
     try:
-        image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
-    except cv2.error:
-        image = None
-    return image
+        data = path.read_bytes()
+        return data, cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_GRAYSCALE)
+    except OSError:
+        return None, None
+    except cv2.error:  # an empty file
+        return data, None
+
+
+def _duplicate(seen: dict, name, path: Path, data):
+    """(first name, how) when this photo came before, as the same file or as the same bytes under
+    another name (a copy); else None, and the photo is recorded in ``seen``."""
+    keys = {"the same file as": path.resolve()}
+    if data is not None:
+        keys["identical to"] = hashlib.sha256(data).digest()
+    for how, key in keys.items():
+        if key in seen:
+            return seen[key], how
+    seen.update(dict.fromkeys(keys.values(), name))
+    return None
 
 
 def _warn(name, problem):
@@ -207,14 +226,22 @@ def _warn(name, problem):
 
 
 def detect_views(images, board: Board):
-    """({name: (object points, image points)}, (width, height), skipped names); warns on stderr.
+    """({name: (object points, image points)}, (width, height), skipped names, duplicate names);
+    warns on stderr.
 
     The size is that of the photos where the board is found: a photo without it is skipped
-    whatever its size (a stray photo in the glob must not fail the calibration).
+    whatever its size (a stray photo in the glob must not fail the calibration). A photo given
+    twice (the same file, or a copy with the same bytes) is used once: twice would weigh its view
+    double and count it as two photos.
     """
-    views, sizes, skipped = {}, {}, []
+    views, sizes, skipped, duplicates, seen = {}, {}, [], [], {}
     for name in images:
-        gray = _read_gray(Path(name))
+        data, gray = _read_image(Path(name))
+        first = _duplicate(seen, name, Path(name), data)
+        if first is not None:
+            _warn(name, f"{first[1]} {first[0]}, used once")
+            duplicates.append(name)
+            continue
         if gray is None:
             _warn(name, "cannot read image, skipped")
             skipped.append(name)
@@ -225,7 +252,7 @@ def detect_views(images, board: Board):
             skipped.append(name)
         else:
             views[name], sizes[name] = points, (gray.shape[1], gray.shape[0])
-    return views, _common_size(sizes), skipped
+    return views, _common_size(sizes), skipped, duplicates
 
 
 def _common_size(sizes: dict):
@@ -249,10 +276,11 @@ def calibrate(images, board: Board, min_views=None, max_view_error=None):
     Returns (camera, extra, report lines); ``extra`` holds the JSON's rms, per_view_errors, ...
     """
     min_views = DEFAULT_MIN_VIEWS if min_views is None else int(min_views)
-    views, size, skipped = detect_views(images, board)
+    views, size, skipped, duplicates = detect_views(images, board)
     if len(views) < min_views:
-        raise MrcheckError(f"board found in only {len(views)} of {len(images)} images, need at least {min_views} "
-                           "(--min-views)")
+        repeats = f" ({len(duplicates)} duplicates not counted)" if duplicates else ""
+        raise MrcheckError(f"board found in only {len(views)} of {len(images) - len(duplicates)} images{repeats}, "
+                           f"need at least {min_views} (--min-views)")
     first = _calibrate(views, size)
     threshold = (max_view_error if max_view_error is not None
                  else max(OUTLIER_FACTOR * float(np.median(first.per_view)), OUTLIER_FLOOR_PX))
@@ -270,6 +298,7 @@ def calibrate(images, board: Board, min_views=None, max_view_error=None):
         "per_view_errors": {n: float(e) for n, e in zip(result.names, result.per_view)},
         "rejected_views": list(rejected),
         "skipped_views": skipped,
+        "duplicate_views": duplicates,
         "std": result.std_dict(),
         "board": board.spec,
     }
@@ -279,9 +308,11 @@ def calibrate(images, board: Board, min_views=None, max_view_error=None):
 def _report(camera, extra, rejected, threshold, n_images) -> list:
     used = extra["per_view_errors"]
     std = extra["std"]
+    # every image given is in exactly one of the four counts
     lines = [f"board {extra['board']}: {len(used)} of {n_images} images used, {len(rejected)} rejected, "
-             f"{len(extra['skipped_views'])} without a board or unreadable"]
+             f"{len(extra['skipped_views'])} without a board or unreadable, {len(extra['duplicate_views'])} duplicates"]
     lines += [f"  not found/skipped: {name}" for name in extra["skipped_views"]]
+    lines += [f"  duplicate, used once: {name}" for name in extra["duplicate_views"]]
     lines += [f"  rejected: {name} ({err:.3f} px > {threshold:.3f} px)" for name, err in rejected.items()]
     lines.append(f"RMS reprojection error: {extra['rms']:.4f} px")
     lines.append("per-view RMS error (px):")

@@ -133,7 +133,40 @@ def test_views_without_board_and_corrupt_files_are_skipped(tmp_path, capsys):
     assert f"warning: {corrupt}: cannot read image, skipped" in err
     data = json.loads(out.read_text())
     assert data["skipped_views"] == [str(noise), str(corrupt)] and len(data["per_view_errors"]) == 6
-    assert "6 of 8 images used" in stdout
+    assert "6 of 8 images used, 0 rejected, 2 without a board or unreadable, 0 duplicates" in stdout
+
+
+def test_duplicate_photos_are_used_once(tmp_path, capsys):
+    copy = tmp_path / "copy_of_left03.jpg"  # the same bytes under another name
+    copy.write_bytes(Path(CHESS[2]).read_bytes())
+    again = str(Path(CHESS[1]).parent / ".." / "opencv_chessboard" / Path(CHESS[1]).name)  # another spelling
+    given = [*CHESS[:6], CHESS[0], again, copy]
+    out = tmp_path / "cam.json"
+    code, stdout, err = run(capsys, *given, "--board", CHESS_SPEC, "-o", out)
+    assert code == 0, err
+    assert f"warning: {CHESS[0]}: the same file as {CHESS[0]}, used once" in err
+    assert f"warning: {again}: the same file as {CHESS[1]}, used once" in err
+    assert f"warning: {copy}: identical to {CHESS[2]}, used once" in err
+    data = json.loads(out.read_text())
+    assert list(data["per_view_errors"]) == CHESS[:6]
+    assert data["duplicate_views"] == [CHESS[0], again, str(copy)]
+    # the counts add up to the images given
+    assert "6 of 9 images used, 0 rejected, 0 without a board or unreadable, 3 duplicates" in stdout
+
+
+def test_duplicates_do_not_count_towards_min_views(tmp_path, capsys):
+    code, _, err = run(capsys, *CHESS[:4], CHESS[0], CHESS[1], "--board", CHESS_SPEC, "-o", tmp_path / "c.json")
+    assert code == 1
+    assert "board found in only 4 of 4 images (2 duplicates not counted), need at least 5" in err
+
+
+def test_charuco_sample_holds_one_photo_twice(tmp_path, capsys):
+    # OpenCV's aruco tutorial ships img_01.jpg again as choriginal.jpg
+    twin = str(DATA / "opencv_charuco" / "choriginal.jpg")
+    out = tmp_path / "cam.json"
+    code, _, err = run(capsys, *CHARUCO, twin, "--board", CHARUCO_SPEC, "--min-views", 4, "-o", out)
+    assert code == 0 and f"warning: {twin}: identical to {CHARUCO[1]}, used once" in err
+    assert len(json.loads(out.read_text())["per_view_errors"]) == 4
 
 
 def test_too_few_views_fails_without_output(tmp_path, capsys):
