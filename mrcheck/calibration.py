@@ -13,8 +13,9 @@ Conventions:
 * A calibrated camera has no pose: R = I, t = 0 (the camera frame is the world frame).
 * Output: our camera JSON (``Camera.load`` reads it; extra keys rms, per_view_errors,
   rejected_views, skipped_views, duplicate_views, std, board), or for ``.yml``/``.yaml``
-  OpenCV FileStorage in the layout of OpenCV's calibration samples (``image_width``, ``image_height``, ``camera_matrix``,
-  ``distortion_coefficients``, ``avg_reprojection_error``). :func:`read_camera` reads both.
+  OpenCV FileStorage in the layout of OpenCV's calibration samples (``image_width``,
+  ``image_height``, ``camera_matrix``, ``distortion_coefficients``, ``avg_reprojection_error``).
+  :func:`read_camera` reads both.
 
 Views where the board is not found (whatever their size) and unreadable images are skipped with
 a warning on stderr; the views with the board must share one size; a photo given twice (same
@@ -40,6 +41,10 @@ from .errors import MrcheckError
 from .output import check_output_path, write_text
 
 DEFAULT_MIN_VIEWS = 5
+# Zhang's method (cv2.calibrateCamera) gets two equations on the intrinsics from each view of a
+# flat board, so three views are the fewest that determine fx, fy, cx, cy; with fewer it fits the
+# photos (a low RMS) with a wrong camera: from OpenCV's left01.jpg alone fx 938 +/- 91 (533 true)
+MIN_VIEWS_FLOOR = 3
 CAMERA_SUFFIXES = (".json",) + YAML_SUFFIXES
 
 # "3 x median" catches a view far worse than its peers; the 1 px floor keeps a set of very
@@ -276,6 +281,10 @@ def calibrate(images, board: Board, min_views=None, max_view_error=None):
     Returns (camera, extra, report lines); ``extra`` holds the JSON's rms, per_view_errors, ...
     """
     min_views = DEFAULT_MIN_VIEWS if min_views is None else int(min_views)
+    if min_views < MIN_VIEWS_FLOOR:
+        raise MrcheckError(f"--min-views must be at least {MIN_VIEWS_FLOOR}, got {min_views}: Zhang's method gets two "
+                           "equations on the camera from each photo of a flat board, so fewer photos leave it "
+                           "undetermined (a low RMS error with a wrong camera)")
     views, size, skipped, duplicates = detect_views(images, board)
     if len(views) < min_views:
         repeats = f" ({len(duplicates)} duplicates not counted)" if duplicates else ""

@@ -177,6 +177,21 @@ def test_too_few_views_fails_without_output(tmp_path, capsys):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("min_views", [-1, 0, 1, 2])
+def test_min_views_below_three_is_refused(tmp_path, capsys, min_views):
+    # one photo "calibrates" with RMS 0.16 px and fx 938 +/- 91 (the camera's is 533): refused
+    code, _, err = run(capsys, CHESS[0], "--board", CHESS_SPEC, "--min-views", min_views, "-o", tmp_path / "c.json")
+    assert code == 1 and err.count("\n") == 1
+    assert err.startswith(f"error: --min-views must be at least 3, got {min_views}: Zhang's method")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_three_views_are_enough(tmp_path, capsys):
+    code, stdout, err = run(capsys, *CHESS[:3], "--board", CHESS_SPEC, "--min-views", 3, "-o", tmp_path / "c.json")
+    assert code == 0, err
+    assert "3 of 3 images used" in stdout
+
+
 def test_wrong_board_finds_nothing(tmp_path, capsys):
     code, _, err = run(capsys, *CHESS[:5], "--board", "chessboard:7x7:0.025", "-o", tmp_path / "c.json")
     # (the sector-based fallback detector can lock onto a 7x7 grid of one photo, never on 5)
