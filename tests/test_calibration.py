@@ -192,6 +192,19 @@ def test_three_views_are_enough(tmp_path, capsys):
     assert "3 of 3 images used" in stdout
 
 
+def test_poorly_determined_camera_is_warned(tmp_path, capsys):
+    # the four ChArUco photos: fx 457.3 +/- 15.8 px (3.5 %), cy +/- 11.4 px
+    out = tmp_path / "cam.json"
+    code, _, err = run(capsys, *CHARUCO, "--board", CHARUCO_SPEC, "--min-views", 4, "-o", out)
+    assert code == 0 and out.is_file()
+    warning = [line for line in err.splitlines() if "poorly determined" in line]
+    assert len(warning) == 1 and warning[0].startswith(f"warning: {out}: fx = 457.3 +/- 15.8 px, ")
+    assert "cy = " in warning[0] and "cx = " not in warning[0]  # cx: +/- 1.2 px, well determined
+    # the 13 chessboard photos: fx +/- 0.08 %, no warning
+    code, _, err = run(capsys, *CHESS, "--board", CHESS_SPEC, "-o", out)
+    assert code == 0 and "poorly determined" not in err
+
+
 def test_wrong_board_finds_nothing(tmp_path, capsys):
     code, _, err = run(capsys, *CHESS[:5], "--board", "chessboard:7x7:0.025", "-o", tmp_path / "c.json")
     # (the sector-based fallback detector can lock onto a 7x7 grid of one photo, never on 5)
