@@ -235,7 +235,9 @@ def _duplicate(seen: dict, name, path: Path, data):
 
 
 def _warn(name, problem):
-    print(f"warning: {name}: {problem}", file=sys.stderr)
+    from tqdm import tqdm
+
+    tqdm.write(f"warning: {name}: {problem}", file=sys.stderr)  # on a line of its own above a progress bar
 
 
 def detect_views(images, board: Board):
@@ -247,24 +249,29 @@ def detect_views(images, board: Board):
     twice (the same file, or a copy with the same bytes) is used once: twice would weigh its view
     double and count it as two photos.
     """
+    from tqdm import tqdm
+
     views, sizes, skipped, duplicates, seen = {}, {}, [], [], {}
-    for name in images:
-        data, gray = _read_image(Path(name))
-        first = _duplicate(seen, name, Path(name), data)
-        if first is not None:
-            _warn(name, f"{first[1]} {first[0]}, used once")
-            duplicates.append(name)
-            continue
-        if gray is None:
-            _warn(name, "cannot read image, skipped")
-            skipped.append(name)
-            continue
-        points = board.detect(gray)
-        if points is None:
-            _warn(name, "board not found")
-            skipped.append(name)
-        else:
-            views[name], sizes[name] = points, (gray.shape[1], gray.shape[0])
+    # a photo takes up to seconds; disable=None: a bar on a terminal only (not in pipes, logs, tests);
+    # the with block erases it (leave=False) on an error too, so the error line starts a clean line
+    with tqdm(images, desc="finding the board", unit="photo", file=sys.stderr, disable=None, leave=False) as bar:
+        for name in bar:
+            data, gray = _read_image(Path(name))
+            first = _duplicate(seen, name, Path(name), data)
+            if first is not None:
+                _warn(name, f"{first[1]} {first[0]}, used once")
+                duplicates.append(name)
+                continue
+            if gray is None:
+                _warn(name, "cannot read image, skipped")
+                skipped.append(name)
+                continue
+            points = board.detect(gray)
+            if points is None:
+                _warn(name, "board not found")
+                skipped.append(name)
+            else:
+                views[name], sizes[name] = points, (gray.shape[1], gray.shape[0])
     return views, _common_size(sizes), skipped, duplicates
 
 

@@ -4,14 +4,17 @@ against plain OpenCV and against the intrinsics OpenCV ships with them."""
 
 from __future__ import annotations
 
+import io
 import json
+import re
+import sys
 from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
 
-from mrcheck.calibration import read_camera, write_camera
+from mrcheck.calibration import detect_views, parse_board, read_camera, write_camera
 from mrcheck.errors import MrcheckError
 from mrcheck.camera import Camera
 from mrcheck.cli import main
@@ -167,6 +170,24 @@ def test_charuco_sample_holds_one_photo_twice(tmp_path, capsys):
     code, _, err = run(capsys, *CHARUCO, twin, "--board", CHARUCO_SPEC, "--min-views", 4, "-o", out)
     assert code == 0 and f"warning: {twin}: identical to {CHARUCO[1]}, used once" in err
     assert len(json.loads(out.read_text())["per_view_errors"]) == 4
+
+
+class _Terminal(io.StringIO):
+    def isatty(self):
+        return True
+
+
+def test_progress_bar_on_a_terminal(tmp_path, monkeypatch):
+    noise = tmp_path / "noise.png"
+    cv2.imwrite(str(noise), np.random.default_rng(0).integers(0, 256, (480, 640), np.uint8))
+    terminal = _Terminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    views = detect_views([*CHESS[:3], noise, CHESS[3]], parse_board(CHESS_SPEC))[0]
+    assert len(views) == 4
+    text = terminal.getvalue()
+    assert "finding the board" in text and "/5 " in text and "photo" in text
+    # the warning is a line of its own, not mixed into the bar's line
+    assert f"warning: {noise}: board not found" in re.split(r"[\r\n]", text)
 
 
 def test_too_few_views_fails_without_output(tmp_path, capsys):
