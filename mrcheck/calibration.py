@@ -20,7 +20,8 @@ Conventions:
 Views where the board is not found (whatever their size) and unreadable images are skipped with
 a warning on stderr; the views with the board must share one size; a photo given twice (same
 file or same bytes) is used once; outlier views (RMS above ``max_view_error``, by default above
-``max(3 x median, 1 px)``) are rejected and the camera is calibrated once more without them.
+``max(3 x median, 1 px)`` of the first calibration) are rejected and the camera is calibrated
+again without them, until every view kept is within the threshold.
 """
 
 from __future__ import annotations
@@ -322,7 +323,7 @@ def _common_size(sizes: dict):
 
 
 def calibrate(images, board: Board, min_views=None, max_view_error=None):
-    """Detect, calibrate, reject outlier views, recalibrate once.
+    """Detect, calibrate, reject outlier views and recalibrate until every kept view is within the threshold.
 
     Returns (camera, extra, report lines); ``extra`` holds the JSON's rms, per_view_errors, ...
     """
@@ -336,17 +337,7 @@ def calibrate(images, board: Board, min_views=None, max_view_error=None):
         repeats = f" ({len(duplicates)} duplicates not counted)" if duplicates else ""
         raise MrcheckError(f"board found in only {len(views)} of {len(images) - len(duplicates)} images{repeats}, "
                            f"need at least {min_views} (--min-views)")
-    first = _calibrate(views, size)
-    threshold = (max_view_error if max_view_error is not None
-                 else max(OUTLIER_FACTOR * float(np.median(first.per_view)), OUTLIER_FLOOR_PX))
-    rejected = {n: float(e) for n, e in zip(first.names, first.per_view) if e > threshold}
-    result = first
-    if rejected:
-        kept = {n: v for n, v in views.items() if n not in rejected}
-        if len(kept) < min_views:
-            raise MrcheckError(f"only {len(kept)} views have an RMS error <= {threshold:.3g} px, need at least "
-                               f"{min_views}; loosen --max-view-error or add views")
-        result = _calibrate(kept, size)
+    result, rejected, threshold = _without_outliers(views, size, min_views, max_view_error)
     camera = Camera(size[0], size[1], result.K, dist=result.dist)
     extra = {
         "rms": result.rms,
@@ -358,6 +349,28 @@ def calibrate(images, board: Board, min_views=None, max_view_error=None):
         "board": board.spec,
     }
     return camera, extra, _report(camera, extra, rejected, threshold, len(images))
+
+
+def _without_outliers(views, size, min_views, max_view_error):
+    """(the calibration on the views within the threshold, {rejected name: its error}, threshold).
+
+    The threshold is set once, from the first calibration. Rejecting views changes the camera and
+    with it the errors of the others, which can then exceed the threshold: the rejection repeats
+    until none does. Each round drops a view or more and fewer than ``min_views`` left is an error,
+    so it ends.
+    """
+    result = _calibrate(views, size)
+    threshold = (max_view_error if max_view_error is not None
+                 else max(OUTLIER_FACTOR * float(np.median(result.per_view)), OUTLIER_FLOOR_PX))
+    rejected = {}
+    while worse := {n: float(e) for n, e in zip(result.names, result.per_view) if e > threshold}:
+        rejected.update(worse)
+        kept = {n: v for n, v in views.items() if n not in rejected}
+        if len(kept) < min_views:
+            raise MrcheckError(f"only {len(kept)} views have an RMS error <= {threshold:.3g} px, need at least "
+                               f"{min_views}; loosen --max-view-error or add views")
+        result = _calibrate(kept, size)
+    return result, rejected, threshold
 
 
 def _report(camera, extra, rejected, threshold, n_images) -> list:
