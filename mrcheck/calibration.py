@@ -33,6 +33,7 @@ import sys
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import cv2
 import numpy as np
@@ -66,6 +67,8 @@ MIN_CHARUCO_CORNERS = 6
 # photo itself: at 4032 x 3024 (a 12 MP phone photo) the search took 2.5 s without a board and
 # missed boards found at 640 x 480 (squares blurred over many pixels); on the copy it takes 0.2 s
 DETECT_LONG_SIDE = 1280
+# photos a wrong board SPEC's near sizes are tried on, at most (some milliseconds a try)
+HINT_PHOTOS = 5
 _SUBPIX_CRITERIA = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.001)  # OpenCV's samples
 # the FileStorage key names OpenCV's samples and tutorials use, the first one is what we write
 _YAML_KEYS = {
@@ -101,18 +104,19 @@ class Board:
             grid = np.mgrid[0:self.cols, 0:self.rows].T.reshape(-1, 2) * self.square
             object.__setattr__(self, "_grid", np.column_stack((grid, np.zeros(len(grid)))).astype(np.float32))
 
-    def detect(self, gray: np.ndarray):
+    def detect(self, gray: np.ndarray, quick: bool = False):
         """(object points (n, 3) float32 metres, image points (n, 2) float32 px), or None.
 
         A photo longer than DETECT_LONG_SIDE px is searched on a copy downscaled to that size, and
-        the corners found there are refined with cornerSubPix in the photo itself.
+        the corners found there are refined with cornerSubPix in the photo itself. ``quick``
+        leaves out the slow fallback detector of a chessboard (about 0.5 s a photo without it).
         """
         scale = max(gray.shape) / DETECT_LONG_SIDE
         if scale <= 1:
-            return self._detect(gray)
+            return self._detect(gray, quick)
         small = cv2.resize(gray, (round(gray.shape[1] / scale), round(gray.shape[0] / scale)),
                            interpolation=cv2.INTER_AREA)
-        found = self._detect(small)
+        found = self._detect(small, quick)
         if found is None:
             return None
         obj, img = found
@@ -125,10 +129,10 @@ class Board:
         img = cv2.cornerSubPix(gray, img.reshape(-1, 1, 2), self._subpix_window(obj, img), (-1, -1), _SUBPIX_CRITERIA)
         return obj, img.reshape(-1, 2)
 
-    def _detect(self, gray):
-        return self._detect_charuco(gray) if self.kind == "charuco" else self._detect_chessboard(gray)
+    def _detect(self, gray, quick):
+        return self._detect_charuco(gray) if self.kind == "charuco" else self._detect_chessboard(gray, quick)
 
-    def _detect_chessboard(self, gray):
+    def _detect_chessboard(self, gray, quick):
         size = (self.cols, self.rows)
         # the classic detector first: it is what OpenCV's calibration sample uses, so results match
         # it; FAST_CHECK only skips images without a board sooner
@@ -137,7 +141,7 @@ class Board:
         if found:
             window = self._subpix_window(self._grid, corners.reshape(-1, 2), most=5)
             corners = cv2.cornerSubPix(gray, corners, window, (-1, -1), _SUBPIX_CRITERIA)
-        else:
+        elif not quick:
             # the sector-based detector copes with blur and strong distortion, and is sub-pixel already
             found, corners = cv2.findChessboardCornersSB(gray, size, flags=cv2.CALIB_CB_ACCURACY)
         if not found:
@@ -272,9 +276,18 @@ def _warn(name, problem):
     tqdm.write(f"warning: {name}: {problem}", file=sys.stderr)  # on a line of its own above a progress bar
 
 
-def detect_views(images, board: Board):
-    """({name: (object points, image points)}, (width, height), skipped names, duplicate names);
-    warns on stderr.
+class Detected(NamedTuple):
+    """What :func:`detect_views` found; every image given is in one of views, skipped, duplicates."""
+
+    views: dict  # {name: (object points, image points)}
+    size: tuple  # (width, height) of the views, None without any
+    skipped: list  # names without the board or unreadable, in the order given
+    duplicates: list  # names of photos given before (the first one is used)
+    without_board: list  # the readable ones among skipped
+
+
+def detect_views(images, board: Board) -> Detected:
+    """The board in each photo; warns on stderr.
 
     The size is that of the photos where the board is found: a photo without it is skipped
     whatever its size (a stray photo in the glob must not fail the calibration). A photo given
@@ -283,7 +296,7 @@ def detect_views(images, board: Board):
     """
     from tqdm import tqdm
 
-    views, sizes, skipped, duplicates, seen = {}, {}, [], [], {}
+    views, sizes, skipped, duplicates, without_board, seen = {}, {}, [], [], [], {}
     # a photo takes up to seconds; disable=None: a bar on a terminal only (not in pipes, logs, tests);
     # the with block erases it (leave=False) on an error too, so the error line starts a clean line
     with tqdm(images, desc="finding the board", unit="photo", file=sys.stderr, disable=None, leave=False) as bar:
@@ -302,9 +315,10 @@ def detect_views(images, board: Board):
             if points is None:
                 _warn(name, "board not found")
                 skipped.append(name)
+                without_board.append(name)
             else:
                 views[name], sizes[name] = points, (gray.shape[1], gray.shape[0])
-    return views, _common_size(sizes), skipped, duplicates
+    return Detected(views, _common_size(sizes), skipped, duplicates, without_board)
 
 
 def _common_size(sizes: dict):
@@ -332,11 +346,17 @@ def calibrate(images, board: Board, min_views=None, max_view_error=None):
         raise MrcheckError(f"--min-views must be at least {MIN_VIEWS_FLOOR}, got {min_views}: Zhang's method gets two "
                            "equations on the camera from each photo of a flat board, so fewer photos leave it "
                            "undetermined (a low RMS error with a wrong camera)")
-    views, size, skipped, duplicates = detect_views(images, board)
+    found = detect_views(images, board)
+    views, size, skipped, duplicates = found.views, found.size, found.skipped, found.duplicates
+    # a board missing from most photos that could be read more likely has a wrong SPEC than bad photos
+    hint = _spec_hint(board, found.without_board) if len(views) < len(found.without_board) else ""
     if len(views) < min_views:
         repeats = f" ({len(duplicates)} duplicates not counted)" if duplicates else ""
         raise MrcheckError(f"board found in only {len(views)} of {len(images) - len(duplicates)} images{repeats}, "
-                           f"need at least {min_views} (--min-views)")
+                           f"need at least {min_views} (--min-views){hint}")
+    if hint:
+        _warn(f"board {board.spec}", f"found in only {len(views)} of {len(views) + len(found.without_board)} readable "
+                                     f"images{hint}")
     result, rejected, threshold = _without_outliers(views, size, min_views, max_view_error)
     camera = Camera(size[0], size[1], result.K, dist=result.dist)
     extra = {
@@ -349,6 +369,35 @@ def calibrate(images, board: Board, min_views=None, max_view_error=None):
         "board": board.spec,
     }
     return camera, extra, _report(camera, extra, rejected, threshold, len(images))
+
+
+def _spec_hint(board: Board, photos) -> str:
+    """"; " + how COLSxROWS counts on this type of board, and a SPEC of a near size that finds the
+    board in one of the first HINT_PHOTOS photos (the usual slips: squares counted for inner
+    corners or the reverse, COLS and ROWS swapped), if one does."""
+    cols, rows = board.cols, board.rows
+    if board.kind == "chessboard":
+        hint = "chessboard COLSxROWS counts the inner corners, where four squares meet (a board of 10x7 squares is 9x6)"
+        # the larger sizes first: a detector can lock onto a part of the board, a smaller size
+        # (the chessboard detectors do not mind COLS and ROWS swapped)
+        near = [(cols, rows - 1), (cols - 1, rows), (cols - 1, rows - 1)]
+    else:
+        hint = ("charuco COLSxROWS counts the squares, across the board as it was made (the way its marker "
+                "ids count up) and then down")
+        near = [(rows, cols), (cols + 1, rows + 1), (rows + 1, cols + 1)]
+    kind, _, rest = board.spec.split(":", 2)
+    candidates = []
+    for size in near:
+        try:
+            candidates.append(parse_board(f"{kind}:{size[0]}x{size[1]}:{rest}"))
+        except MrcheckError:
+            pass  # below the smallest board
+    for photo in photos[:HINT_PHOTOS]:  # the first may be a stray photo without any board
+        gray = _read_image(Path(photo))[1]
+        for candidate in candidates:
+            if candidate.detect(gray, quick=True) is not None:
+                return f"; {hint}; --board {candidate.spec} finds a board in {photo}"
+    return f"; {hint}"
 
 
 def _without_outliers(views, size, min_views, max_view_error):

@@ -274,6 +274,35 @@ def test_wrong_board_finds_nothing(tmp_path, capsys):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_squares_counted_for_inner_corners_hints_the_spec(tmp_path, capsys):
+    # 10x7 counts the squares; the stray left.jpg (no board) comes first and is passed over
+    stray = str(DATA / "opencv_chessboard" / "left.jpg")
+    code, _, err = run(capsys, stray, *CHESS[:5], "--board", "chessboard:10x7:0.025", "-o", tmp_path / "c.json")
+    assert code == 1
+    error = err.splitlines()[-1]
+    assert error.startswith("error: board found in only 0 of 6 images, need at least 5 (--min-views); chessboard "
+                            "COLSxROWS counts the inner corners")
+    assert error.endswith(f"; --board chessboard:9x6:0.025 finds a board in {CHESS[0]}")
+
+
+def test_charuco_size_swapped_hints_the_spec(tmp_path, capsys):
+    code, _, err = run(capsys, *CHARUCO, "--board", "charuco:7x5:0.04:0.02:DICT_6X6_250", "--min-views", 4,
+                       "-o", tmp_path / "c.json")
+    assert code == 1 and "charuco COLSxROWS counts the squares" in err
+    assert err.rstrip().endswith(f"; --board {CHARUCO_SPEC} finds a board in {CHARUCO[0]}")
+
+
+def test_board_in_few_of_the_photos_is_warned(tmp_path, capsys):
+    others = []  # more photos without the board than with it
+    for seed in range(6):
+        others.append(tmp_path / f"other{seed}.png")
+        cv2.imwrite(str(others[-1]), np.random.default_rng(seed).integers(0, 256, (120, 160), np.uint8))
+    code, _, err = run(capsys, *CHESS[:5], *others, "--board", CHESS_SPEC, "-o", tmp_path / "c.json")
+    assert code == 0
+    assert (f"warning: board {CHESS_SPEC}: found in only 5 of 11 readable images; chessboard COLSxROWS counts the "
+            "inner corners") in err
+
+
 @pytest.mark.parametrize("spec, problem", [
     ("checkerboard:9x6:0.025", "unknown board type"),
     ("chessboard:9x6", "expected chessboard:COLSxROWS:SQUARE"),
