@@ -330,7 +330,7 @@ def _common_size(sizes: dict):
     size, count = Counter(sizes.values()).most_common(1)[0]  # equal counts: in order of first appearance
     odd = [name for name, shape in sizes.items() if shape != size]
     if odd:
-        more = f" ({len(odd) - 1} more photos differ)" if len(odd) > 1 else ""
+        more = f" ({len(odd) - 1} more of another size)" if len(odd) > 1 else ""
         width, height = sizes[odd[0]]
         raise MrcheckError(f"image is {width}x{height}, but {count} of the {len(sizes)} photos with the board are "
                            f"{size[0]}x{size[1]}{more}; all views must come from one camera at one resolution", odd[0])
@@ -352,7 +352,7 @@ def calibrate(images, board: Board, min_views=None, max_view_error=None):
     # a board missing from most photos that could be read more likely has a wrong SPEC than bad photos
     hint = _spec_hint(board, found.without_board) if len(views) < len(found.without_board) else ""
     if len(views) < min_views:
-        repeats = f" ({len(duplicates)} duplicates not counted)" if duplicates else ""
+        repeats = f" ({_count(len(duplicates), 'duplicate')} not counted)" if duplicates else ""
         raise MrcheckError(f"board found in only {len(views)} of {len(images) - len(duplicates)} images{repeats}, "
                            f"need at least {min_views} (--min-views){hint}")
     if hint:
@@ -427,8 +427,9 @@ def _report(camera, extra, rejected, threshold, n_images) -> list:
     used = extra["per_view_errors"]
     std = extra["std"]
     # every image given is in exactly one of the four counts
+    skipped, repeats = len(extra["skipped_views"]), _count(len(extra["duplicate_views"]), "duplicate")
     lines = [f"board {extra['board']}: {len(used)} of {n_images} images used, {len(rejected)} rejected, "
-             f"{len(extra['skipped_views'])} without a board or unreadable, {len(extra['duplicate_views'])} duplicates"]
+             f"{skipped} without a board or unreadable, {repeats}"]
     lines += [f"  not found/skipped: {name}" for name in extra["skipped_views"]]
     lines += [f"  duplicate, used once: {name}" for name in extra["duplicate_views"]]
     lines += [f"  rejected: {name} ({err:.3f} px > {threshold:.3f} px)" for name, err in rejected.items()]
@@ -440,6 +441,10 @@ def _report(camera, extra, rejected, threshold, n_images) -> list:
     dist = ", ".join(f"{k}={v:.5g}+/-{s:.2g}" for k, v, s in zip(("k1", "k2", "p1", "p2", "k3"), camera.dist, std["dist"]))
     lines.append(f"dist: {dist}")
     return lines
+
+
+def _count(n, noun) -> str:
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
 
 
 def _poorly_determined(camera, std):

@@ -167,9 +167,10 @@ def test_charuco_sample_holds_one_photo_twice(tmp_path, capsys):
     # OpenCV's aruco tutorial ships img_01.jpg again as choriginal.jpg
     twin = str(DATA / "opencv_charuco" / "choriginal.jpg")
     out = tmp_path / "cam.json"
-    code, _, err = run(capsys, *CHARUCO, twin, "--board", CHARUCO_SPEC, "--min-views", 4, "-o", out)
+    code, stdout, err = run(capsys, *CHARUCO, twin, "--board", CHARUCO_SPEC, "--min-views", 4, "-o", out)
     assert code == 0 and f"warning: {twin}: identical to {CHARUCO[1]}, used once" in err
     assert len(json.loads(out.read_text())["per_view_errors"]) == 4
+    assert "4 of 5 images used, 0 rejected, 0 without a board or unreadable, 1 duplicate\n" in stdout
 
 
 class _Terminal(io.StringIO):
