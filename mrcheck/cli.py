@@ -231,9 +231,12 @@ def scene_info(scene_path, as_json, units):
 @click.option("--board", required=True, metavar="SPEC",
               help="chessboard:COLSxROWS:SQUARE (inner corners, square size in metres) or "
                    "charuco:COLSxROWS:SQUARE:MARKER:DICT (squares, sizes in metres, OpenCV dictionary, e.g. DICT_6X6_250).")
-@click.option("--min-views", type=int, default=None, callback=_positive, help="Fewest usable views to calibrate from [default: 5].")
+@click.option("--min-views", type=int, default=None,
+              help="Fewest usable views to calibrate from, at least 3: Zhang's method needs three photos of a flat "
+                   "board to determine the camera [default: 5].")
 @click.option("--max-view-error", type=float, default=None, callback=_positive, metavar="PX",
-              help="Reject views whose RMS reprojection error exceeds this, then recalibrate [default: automatic].")
+              help="Reject views whose RMS reprojection error exceeds this and recalibrate, until every view kept is "
+                   "within it [default: 3x the median view error of the first calibration, at least 1 px].")
 @click.option("-o", "--output", required=True, metavar="CAM.json",
               help="Camera JSON (K, dist, width, height, rms, per-view errors); .yml/.yaml writes OpenCV FileStorage.")
 def calibrate(images, board, min_views, max_view_error, output):
