@@ -187,6 +187,33 @@ def _box_review(folder, centre):
     return open_source(folder / "box.stl", folder / "shots")
 
 
+BOX = Path(__file__).resolve().parent / "data" / "pose" / "box"
+
+
+def test_review_of_a_job(tmp_path, capsys):
+    """JOB.toml: its shots are registered at start-up as the export registers them (this crashed:
+    export's _register had gained the scene's bounds); skipped shots and registration warnings
+    go to stderr."""
+    points = json.loads((BOX / "corners.json").read_text())
+    for p in points["points"]:  # world points typed in mm for a scene in m: the far-camera warning
+        p["world"] = [1000 * c for c in p["world"]]
+    (tmp_path / "corners_mm.json").write_text(json.dumps(points))
+    job = tmp_path / "job.toml"
+    job.write_text(f'scene = "{BOX / "scene.toml"}"\n[[shots]]\nname = "box"\nphoto = "{BOX / "resized_IMG_3875.JPG"}"\n'
+                   f'intrinsics = "{BOX / "canon.json"}"\npoints = "corners_mm.json"\n'
+                   '[[shots]]\nname = "gone"\nshot = "gone.json"\n')
+    source = open_source(job)
+    out, err = capsys.readouterr()
+    assert list(source.shots) == ["box"] and source.shots["box"].size == (718, 480)
+    assert out == ""
+    assert f"warning: shot gone skipped: {tmp_path / 'gone.json'}: shot file not found\n" in err
+    assert "warning: shot box: " in err and "outside the scene" in err
+    with TestClient(create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache", samples=2)) as c:
+        assert c.get("/api/shots/box/render.png").status_code == 200
+        r = c.post("/api/markers", json={"shot": "box", "x": 300, "y": 250, "category": "other", "severity": 1})
+        assert r.status_code == 201, r.text
+
+
 def test_render_cache_follows_a_changed_scene(tmp_path):
     """Re-exporting into the same folder with a changed scene must not serve the old render."""
     def render(source):

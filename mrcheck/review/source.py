@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import re
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -91,14 +92,17 @@ def from_job(job_path: Path) -> Source:
     from ..export import _register, load_job
 
     job = load_job(job_path)
+    bounds = job.loaded.bounds()   # loaded by load_job: a camera far outside the scene is a warning, as in export
     shots = {}
     for entry in job.shots:
         inputs = {k: v for k, v in entry.items() if k != "name"}
         try:
-            data, camera, photo = _register(inputs, None)
+            data, camera, photo = _register(inputs, None, bounds)
         except MrcheckError as exc:
-            print(f"warning: shot {entry['name']} skipped: {exc}")
+            print(f"warning: shot {entry['name']} skipped: {exc}", file=sys.stderr)
             continue
+        for warning in data["warnings"] if "shot" not in inputs else ():  # registered here, as export would
+            print(f"warning: shot {entry['name']}: {warning}", file=sys.stderr)
         rms = data.get("rms")
         name = _checked_name(entry["name"])
         shots[name] = Shot(name, camera, Path(photo), float(rms) if isinstance(rms, (int, float)) else None)
