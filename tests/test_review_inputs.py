@@ -184,3 +184,30 @@ def test_suggestions_for_a_photo_two_shots_share_need_a_name(outdir, tmp_path, c
     code, out, err = _review(capsys, outdir, "--port", _free_port(), "--suggestions", suspects)
     assert code == 1 and err.count("\n") == 1, err
     assert err.startswith(f"error: {suspects}: its photo is the photo of shots again, shot; pass NAME=FILE")
+
+
+def _shots_folder(outdir, folder):
+    """A folder of one SHOT.json (the export's shot) for ``SCENE --shots DIR``."""
+    folder.mkdir()
+    data = json.loads((outdir / "shots" / "shot" / "SHOT.json").read_text())
+    (folder / "a.json").write_text(json.dumps({**data, "photo": str(outdir / "shots" / "shot" / "photo.png")}))
+    return folder
+
+
+def test_a_scene_that_does_not_load_is_reported_before_the_url(outdir, tmp_path, capsys):
+    """A corrupt mesh started the server; every render, pick and marker then failed with a 404."""
+    shots = _shots_folder(outdir, tmp_path / "shots")
+    (tmp_path / "box.stl").write_text("solid garbage\n")
+    before = _files(tmp_path)
+    code, out, err = _review(capsys, tmp_path / "box.stl", "--shots", shots, "--port", _free_port())
+    assert code == 1 and out == "" and err.startswith(f"error: {tmp_path / 'box.stl'}: ") and err.count("\n") == 1, err
+    assert _files(tmp_path) == before
+
+
+def test_a_job_or_an_export_given_as_scene_says_so(outdir, tmp_path, capsys):
+    shots = _shots_folder(outdir, tmp_path / "shots")
+    job = tmp_path / "job.toml"
+    job.write_text(f'scene = "{sample_scene_path()}"\n[[shots]]\nshot = "{shots / "a.json"}"\n')
+    for target, kind in ((job, "a job file"), (outdir, "an export folder")):
+        code, out, err = _review(capsys, target, "--shots", shots, "--port", _free_port())
+        assert code == 1 and out == "" and err == f"error: {target}: is {kind}, not a scene: review it without --shots\n"

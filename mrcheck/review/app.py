@@ -72,9 +72,8 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
     def picker():
         with picker_lock:
             if not picker_box:
-                from ..scene import load_scene
                 from .pick import Picker
-                picker_box.append(Picker(load_scene(source.scene)))
+                picker_box.append(Picker(source.loaded))
             return picker_box[0]
 
     for shot, markers in (suggestions or {}).items():

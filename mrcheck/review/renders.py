@@ -21,7 +21,6 @@ import numpy as np
 
 from ..overlay import cad_edges, distort_to_photo, distortion_map, overlay_images, padded_camera, read_photo
 from ..renderer import MODES, Renderer, RenderSettings
-from ..scene import load_scene
 from ..scenefiles import files_stamp
 
 INTENSITIES = (0.5, 1.0, 1.5, 2.0)   # the AO slider's four levels
@@ -133,7 +132,7 @@ class RenderService:
                 if not path.is_file():
                     start = time.perf_counter()
                     if key[1] in ("render", "edges") and renderer is None:
-                        renderer = Renderer(load_scene(self.source.scene))
+                        renderer = Renderer(self.source.loaded)
                     self._make(renderer, key, path)
                     self.timings.append((key, time.perf_counter() - start))
                 future.set_result(path)

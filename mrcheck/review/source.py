@@ -11,7 +11,7 @@ from pathlib import Path
 from ..camera import Camera
 from ..errors import MrcheckError
 from ..overlay import load_shot
-from ..scene import MANIFEST_KEYS
+from ..scene import MANIFEST_KEYS, load_scene
 from ..scenefiles import files_stamp, read_manifest, scene_files
 
 MAX_SIZE = 1280  # renders and photos are served at most this wide (same aspect as the photo)
@@ -45,6 +45,7 @@ class Source:
     home: Path             # folder for review.sqlite and the render cache
     label: str
     scene_stamp: str = ""  # files_stamp of the scene's files, set by open_source (keys the render cache)
+    loaded: object = None  # the Scene, loaded once by open_source (the renderer and the picker share it)
 
 
 def _shot(name, path) -> Shot:
@@ -106,7 +107,7 @@ def from_job(job_path: Path) -> Source:
         rms = data.get("rms")
         name = _checked_name(entry["name"])
         shots[name] = Shot(name, camera, Path(photo), float(rms) if isinstance(rms, (int, float)) else None)
-    return Source(Path(job.scene), shots, job_path.resolve().parent, str(job_path))
+    return Source(Path(job.scene), shots, job_path.resolve().parent, str(job_path), loaded=job.loaded)
 
 
 def from_scene(scene: Path, shots_dir: Path) -> Source:
@@ -116,13 +117,26 @@ def from_scene(scene: Path, shots_dir: Path) -> Source:
     return Source(scene, shots, shots_dir, f"{scene} + {shots_dir}")
 
 
-def _is_scene_manifest(path: Path) -> bool:
+def _toml_keys(path: Path) -> set:
     try:
-        data = read_manifest(path)
+        return set(read_manifest(path))
     except MrcheckError:
-        return False  # load_job says what is wrong with it
+        return set()  # load_job or load_scene says what is wrong with it
+
+
+def _is_scene_manifest(path: Path) -> bool:
     # a scene's keys and none of a job's: a manifest without [[parts]] is still a scene (a broken one)
-    return bool(data) and set(data) <= MANIFEST_KEYS
+    keys = _toml_keys(path)
+    return bool(keys) and keys <= MANIFEST_KEYS
+
+
+def _check_scene_target(target: Path) -> None:
+    """SCENE of ``SCENE --shots DIR`` is not a job or an export, which name their scene themselves
+    (else load_scene would list the job's keys as unknown, or miss the export's scene.toml)."""
+    if target.is_dir() and (target / "manifest.json").is_file():
+        raise MrcheckError("is an export folder, not a scene: review it without --shots", target)
+    if target.suffix == ".toml" and target.is_file() and "shots" in _toml_keys(target) - MANIFEST_KEYS:
+        raise MrcheckError("is a job file, not a scene: review it without --shots", target)
 
 
 def open_source(target, shots_dir=None) -> Source:
@@ -131,6 +145,7 @@ def open_source(target, shots_dir=None) -> Source:
     if shots_dir is not None:
         if not Path(shots_dir).is_dir():
             raise MrcheckError("--shots must be a folder of registered SHOT.json files", shots_dir)
+        _check_scene_target(target)
         source = from_scene(target, Path(shots_dir))
     elif target.is_dir():
         if not (target / "manifest.json").is_file():
@@ -150,9 +165,9 @@ def open_source(target, shots_dir=None) -> Source:
 
 
 def _check_files(source: Source, target: Path) -> None:
-    """Every file the server will read exists, checked before the URL is printed: else each
-    render or pick of the shot (or of every shot) would fail only once the planner asks for it.
-    Also stamps the scene's files once, for the render cache."""
+    """Every file the server will read exists, and the scene loads, checked before the URL is
+    printed: else each render or pick of the shot (or of every shot) would fail only once the
+    planner asks for it. Also stamps the scene's files once, for the render cache."""
     if not source.scene.exists():
         named_by = f" (named by {target / 'manifest.json'}; moved since the export?)" if target.is_dir() else ""
         raise MrcheckError(f"scene not found{named_by}", source.scene)
@@ -165,3 +180,5 @@ def _check_files(source: Source, target: Path) -> None:
         if not Path(shot.photo).is_file():
             raise MrcheckError(f"photo of shot {shot.name!r} not found", shot.photo)
     source.scene_stamp = files_stamp(files)
+    if source.loaded is None:
+        source.loaded = load_scene(source.scene, progress=True)
