@@ -3,6 +3,7 @@ end to end in headless Chromium (Playwright driving Debian's /usr/bin/chromium).
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import socket
@@ -246,6 +247,25 @@ def test_a_photo_gone_after_start_is_a_json_404(tmp_path):
         assert r.status_code == 404 and "photo not found" in r.json()["error"]
 
 
+def test_a_photo_replaced_after_start_breaks_its_shot_not_the_report(tmp_path):
+    """The photo replaced by one of another size after start-up: the cached old photo was still
+    served, and the HTML report failed (404) for every shot because of this one."""
+    source = _box_review(tmp_path, (0.0, 0.0, 0.0))
+    with TestClient(create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache", samples=2)) as c:
+        assert c.get("/api/shots/a/photo.png").status_code == 200   # now in the cache
+        assert c.post("/api/markers", json={"shot": "a", "x": 30, "y": 20, "category": "moved", "severity": 2,
+                                            "note": "still listed"}).status_code == 201
+        photo = tmp_path / "shots" / "photo.png"
+        write_image(photo, np.full((24, 32, 3), 90, np.uint8))
+        problem = f"{photo}: photo is 32x24 but the shot was registered at 64x48"
+        for kind in ("photo", "render"):
+            r = c.get(f"/api/shots/a/{kind}.png")
+            assert r.status_code == 500 and r.json() == {"error": problem}, (kind, r.text)
+        report = c.get("/api/export/report.html")
+        assert report.status_code == 200 and "still listed" in report.text and f"no crops: {problem}" in report.text
+        assert "data:image/png" not in report.text
+
+
 @pytest.mark.parametrize("marker_id", [10**23, -10**23, 2**63, 0])
 def test_marker_ids_beyond_sqlite_are_404(client, marker_id):
     for method in ("patch", "delete"):
@@ -321,19 +341,65 @@ def test_ctrl_c_stops_the_server_quietly(outdir, tmp_path):
     assert proc.returncode == 0 and b"error" not in out, out
 
 
-@pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="needs Debian's chromium (bootstrap.sh installs it)")
+needs_chromium = pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="needs Debian's chromium (bootstrap.sh installs it)")
+
+
+def _browser(pw, tmp_path):
+    """Headless Debian chromium driven by Playwright (a persistent profile in ``tmp_path``)."""
+    args = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+            "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+    return pw.chromium.launch_persistent_context(str(tmp_path / "profile"), executable_path=CHROMIUM, args=args,
+                                                 headless=True, viewport={"width": 1280, "height": 720},
+                                                 accept_downloads=True)
+
+
+@contextlib.contextmanager
+def _served(app):
+    """``app`` served by uvicorn in a thread of this process; yields its URL."""
+    import threading
+
+    import uvicorn
+
+    sock = socket.socket()
+    sock.bind(("127.0.0.1", 0))
+    server = uvicorn.Server(uvicorn.Config(app, log_level="warning"))
+    thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
+    thread.start()
+    try:
+        while not server.started:
+            time.sleep(0.05)
+        yield f"http://127.0.0.1:{sock.getsockname()[1]}/"
+    finally:
+        server.should_exit = True
+        thread.join(30)
+        sock.close()
+
+
+@needs_chromium
+def test_the_page_shows_why_a_photo_failed(tmp_path):
+    """A photo replaced by one of another size after start-up: the page said "render failed"."""
+    sync_api = pytest.importorskip("playwright.sync_api")
+    source = _box_review(tmp_path, (0.0, 0.0, 0.0))
+    write_image(tmp_path / "shots" / "photo.png", np.full((24, 32, 3), 90, np.uint8))
+    app = create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache", samples=2)
+    with _served(app) as url, sync_api.sync_playwright() as pw:
+        browser = _browser(pw, tmp_path)
+        page = browser.new_page()
+        page.goto(url)
+        page.wait_for_function("document.querySelector('#status').textContent.includes('failed: ')", timeout=30000)
+        assert "photo is 32x24 but the shot was registered at 64x48" in page.text_content("#status")
+        browser.close()
+
+
+@needs_chromium
 def test_browser_end_to_end(outdir, tmp_path):
     sync_api = pytest.importorskip("playwright.sync_api")
     port, db = _free_port(), tmp_path / "e2e.sqlite"
     url = f"http://127.0.0.1:{port}/"
     proc = _start(outdir, db, port)
-    args = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-            "--disable-background-networking", "--disable-component-update", "--disable-sync"]
     try:
         with sync_api.sync_playwright() as pw:
-            browser = pw.chromium.launch_persistent_context(str(tmp_path / "profile"), executable_path=CHROMIUM,
-                                                            args=args, headless=True, viewport={"width": 1280, "height": 720},
-                                                            accept_downloads=True)
+            browser = _browser(pw, tmp_path)
             page = browser.new_page()
             page.goto(url)
             page.wait_for_selector("body[data-loaded='shot0|phong|1']", timeout=60000)

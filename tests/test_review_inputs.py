@@ -211,3 +211,20 @@ def test_a_job_or_an_export_given_as_scene_says_so(outdir, tmp_path, capsys):
     for target, kind in ((job, "a job file"), (outdir, "an export folder")):
         code, out, err = _review(capsys, target, "--shots", shots, "--port", _free_port())
         assert code == 1 and out == "" and err == f"error: {target}: is {kind}, not a scene: review it without --shots\n"
+
+
+@pytest.mark.parametrize("photo, problem", [
+    (b"garbage\n", "cannot read the photo (not an image OpenCV decodes)"),
+    (np.full((24, 32, 3), 128, np.uint8), "photo is 32x24 but the shot was registered at 64x48")])
+def test_a_photo_that_does_not_fit_its_shot_is_reported_before_the_url(outdir, capsys, photo, problem):
+    """A corrupt photo, or one of another size than its SHOT.json: the server started, and the
+    shot failed only when it was looked at."""
+    path = outdir / "shots" / "shot" / "photo.png"
+    if isinstance(photo, bytes):
+        path.write_bytes(photo)
+    else:
+        write_image(path, photo)
+    before = _files(outdir)
+    code, out, err = _review(capsys, outdir, "--port", _free_port())
+    assert code == 1 and out == "" and err == f"error: {path}: {problem}\n", err
+    assert _files(outdir) == before

@@ -106,8 +106,10 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
 
     @app.exception_handler(MrcheckError)
     async def _input_file(request, exc):
-        # a shot's photo or the scene changed on disk after start-up (open_source checked them)
-        return JSONResponse({"error": str(exc)}, status_code=404)
+        # a shot's photo changed on disk after start-up (open_source checked them): 404 when it is
+        # gone, else a server-side problem (a photo replaced by one of another size), not the client's
+        gone = exc.path is not None and not Path(exc.path).exists()
+        return JSONResponse({"error": str(exc)}, status_code=404 if gone else 500)
 
     @app.middleware("http")
     async def _token(request: Request, call_next):

@@ -56,8 +56,15 @@ function loadRender() {
     status(`${S.info.labels[mode]}, AO ${S.info.intensities[level]}: ${Math.round(performance.now() - t0)} ms`);
     document.body.dataset.loaded = `${S.shot.name}|${mode}|${level}`;
   };
-  img.onerror = () => status(`render failed (${mode})`);
+  img.onerror = () => { if (S.mode === mode && S.level === level) imageFailed(url, `render (${mode})`); };
   img.src = url;
+}
+// an image the server refused: its reason ({"error": ...}, e.g. a photo replaced since start-up)
+// in the status line, not only a broken image
+async function imageFailed(url, what) {
+  const res = await fetch(url).catch(() => null);
+  const data = res ? await res.json().catch(() => ({})) : {};
+  status(`${what} failed: ${data.error || (res ? res.status : "no connection to the server")}`);
 }
 
 // -- shots ---------------------------------------------------------------------------------
@@ -65,7 +72,7 @@ async function selectShot(shot) {
   S.shot = shot; S.selected = null; $("#editor").hidden = true;
   for (const li of $$("#shot-list li")) li.classList.toggle("active", li.dataset.name === shot.name);
   for (const st of $$(".stage")) { st.style.width = shot.width + "px"; st.style.height = shot.height + "px"; }
-  for (const p of $$(".photo")) p.src = imageUrl("photo");
+  for (const p of $$(".photo")) { p.src = imageUrl("photo"); p.onerror = () => imageFailed(p.src, "photo"); }
   for (const e of $$(".edges")) e.src = imageUrl("edges");
   for (const r of $$(".render")) r.removeAttribute("src");
   fit(); loadRender(); await loadMarkers();
