@@ -172,7 +172,7 @@ def test_suggested_markers_of_a_discrepancies_run(outdir, tmp_path, monkeypatch)
         load_suggestions(source, [str(tmp_path / "bad.json")])
 
 
-def _box_review(folder, centre):
+def _box_review(folder, centre, size=(64, 48)):
     """A review of one 64x48 shot of a 1 m box (a single-mesh scene) at ``centre``: SCENE --shots DIR."""
     import trimesh
 
@@ -182,8 +182,8 @@ def _box_review(folder, centre):
     trimesh.creation.box(extents=(1, 1, 1), transform=trimesh.transformations.translation_matrix(centre)).export(
         folder / "box.stl")
     (folder / "shots").mkdir(exist_ok=True)
-    camera = Camera.from_look_at((4.0, 0.0, 0.5), (0.0, 0.0, 0.0), (0, 0, 1), 60.0, 64, 48)
-    write_image(folder / "shots" / "photo.png", np.full((48, 64, 3), 128, np.uint8))
+    camera = Camera.from_look_at((4.0, 0.0, 0.5), (0.0, 0.0, 0.0), (0, 0, 1), 60.0, *size)
+    write_image(folder / "shots" / "photo.png", np.full((size[1], size[0], 3), 128, np.uint8))
     (folder / "shots" / "a.json").write_text(json.dumps({**camera.to_dict(), "photo": "photo.png"}))
     return open_source(folder / "box.stl", folder / "shots")
 
@@ -213,6 +213,62 @@ def test_review_of_a_job(tmp_path, capsys):
         assert c.get("/api/shots/box/render.png").status_code == 200
         r = c.post("/api/markers", json={"shot": "box", "x": 300, "y": 250, "category": "other", "severity": 1})
         assert r.status_code == 201, r.text
+
+
+@pytest.fixture()
+def served_small(monkeypatch):
+    """Images served at most 80 px wide: the 160 px photos of these tests stand for 4000 px ones."""
+    import mrcheck.review.source
+
+    monkeypatch.setattr(mrcheck.review.source, "MAX_SIZE", 80)
+
+
+def test_coordinates_are_the_photos_pixels_when_it_is_served_smaller(tmp_path, served_small):
+    """Markers, picks, suggestions and both exports are in the photo's own pixels (the CSV and the
+    report gave those of the downscaled copy served to the browser, suspects.json the photo's)."""
+    import cv2
+
+    from mrcheck.review.suggestions import load_suggestions
+
+    source = _box_review(tmp_path, (0.0, 0.0, 0.0), size=(160, 120))
+    suspects = tmp_path / "suspects.json"
+    suspects.write_text(json.dumps({"shot": str(tmp_path / "shots" / "a.json"), "suggested_markers": [
+        {"x": 80.0, "y": 60.0, "category": "moved", "severity": 2, "note": "box: 3 % found", "part": "box"}]}))
+    app = create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache", samples=2,
+                     suggestions=load_suggestions(source, [str(suspects)]))
+    with TestClient(app) as c:
+        assert [(s["width"], s["height"]) for s in c.get("/api/shots").json()] == [(160, 120)]
+        photo = cv2.imdecode(np.frombuffer(c.get("/api/shots/a/photo.png").content, np.uint8), cv2.IMREAD_COLOR)
+        assert photo.shape[:2] == (60, 80)   # served downscaled
+        [m] = c.get("/api/markers").json()
+        hit = c.get("/api/shots/a/pick", params={"x": 80, "y": 60}).json()
+        assert (m["x"], m["y"]) == (80.0, 60.0) and hit["instance"] and m["part"] == hit["instance"]
+        assert c.get("/api/shots/a/pick", params={"x": 150, "y": 110}).json()["instance"] is None  # beside the box
+        assert c.post("/api/markers", json={"shot": "a", "x": 150, "y": 110, "category": "other",
+                                            "severity": 1}).status_code == 201
+        assert c.post("/api/markers", json={"shot": "a", "x": 160, "y": 110, "category": "other",
+                                            "severity": 1}).status_code == 422
+        assert ",a,80.0,60.0,suggested," in c.get("/api/export/markers.csv").text
+        report = c.get("/api/export/report.html").text
+        assert "photo pixel (80, 60)" in report and "photo pixel (150, 110)" in report
+
+
+def test_a_database_of_served_pixels_is_upgraded(tmp_path, served_small):
+    """A review.sqlite of before (version 0) has markers in the served pixels: scaled once."""
+    import sqlite3
+
+    from mrcheck.review.storage import _SCHEMA
+
+    source = _box_review(tmp_path, (0.0, 0.0, 0.0), size=(160, 120))
+    with contextlib.closing(sqlite3.connect(tmp_path / "r.sqlite")) as db:
+        db.executescript(_SCHEMA)
+        db.execute("INSERT INTO reviews(source, created) VALUES ('old', 0)")
+        db.execute("INSERT INTO markers(review, shot, x, y, category, severity, created, updated) "
+                   "VALUES (1, 'a', 40, 30.5, 'moved', 2, 0, 0)")
+        db.commit()
+    for _ in range(2):   # once: a restart does not scale again
+        with TestClient(create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache")) as c:
+            assert [(m["x"], m["y"]) for m in c.get("/api/markers").json()] == [(80.0, 61.0)]
 
 
 def test_render_cache_follows_a_changed_scene(tmp_path):
@@ -388,6 +444,25 @@ def test_the_page_shows_why_a_photo_failed(tmp_path):
         page.goto(url)
         page.wait_for_function("document.querySelector('#status').textContent.includes('failed: ')", timeout=30000)
         assert "photo is 32x24 but the shot was registered at 64x48" in page.text_content("#status")
+        browser.close()
+
+
+@needs_chromium
+def test_a_click_places_a_marker_in_the_photos_pixels(tmp_path, served_small):
+    """The page shows the 80 px image served for a 160 px photo: a click in the middle is (80, 60)."""
+    sync_api = pytest.importorskip("playwright.sync_api")
+    app = create_app(_box_review(tmp_path, (0.0, 0.0, 0.0), size=(160, 120)), db_path=tmp_path / "r.sqlite",
+                     cache_dir=tmp_path / "cache", samples=2)
+    with _served(app) as url, sync_api.sync_playwright() as pw:
+        browser = _browser(pw, tmp_path)
+        page = browser.new_page()
+        page.goto(url)
+        page.wait_for_selector("body[data-loaded='a|phong|1']", timeout=30000)
+        box = page.locator("#pane-a").bounding_box()
+        page.mouse.click(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+        page.wait_for_selector("#editor:not([hidden])")
+        [m] = app.state.store.markers()
+        assert abs(m["x"] - 80) < 1 and abs(m["y"] - 60) < 1, m
         browser.close()
 
 

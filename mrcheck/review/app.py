@@ -64,7 +64,8 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
     """``suggestions``: {shot name: markers} (:func:`.suggestions.load_suggestions`), imported
     into the review's markers once."""
     db_path = Path(db_path or source.home / "review.sqlite")
-    store = Store(db_path, source.label)
+    store = Store(db_path, source.label,
+                  served_scales={s.name: s.served_scale() for s in source.shots.values() if s.served_size != s.size})
     renders = RenderService(source, cache_dir or db_path.parent / ".review-cache", samples=samples)
     picker_lock = threading.Lock()
     picker_box: list = []
@@ -82,7 +83,7 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
         markers = store.pending_suggestions(shot, markers)
         if not markers:
             continue
-        camera = source.shots[shot].served_camera()
+        camera = source.shots[shot].camera
         hits = [picker().pick(camera, m["x"], m["y"]) for m in markers]
         store.import_suggestions(shot, [{**m, "part": hit["instance"] or m["part"], "distance": hit["distance"]}
                                         for m, hit in zip(markers, hits)])
@@ -175,7 +176,7 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
     def pick(name: str, x: float = Query(...), y: float = Query(...)):
         shot = shot_or_404(name)
         check_marker_xy(shot, x, y)
-        return picker().pick(shot.served_camera(), x, y)
+        return picker().pick(shot.camera, x, y)
 
     @app.get("/api/markers")
     def list_markers(shot: str | None = None):
@@ -189,7 +190,7 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
         check_marker_xy(shot, marker.x, marker.y)
         if marker.mode is not None and marker.mode not in MODES:
             raise HTTPException(422, f"unknown mode {marker.mode!r}")
-        hit = picker().pick(shot.served_camera(), marker.x, marker.y)
+        hit = picker().pick(shot.camera, marker.x, marker.y)
         return store.add({**marker.model_dump(), "part": hit["instance"], "distance": hit["distance"]})
 
     @app.patch("/api/markers/{marker_id}")
@@ -203,7 +204,7 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
                                          "no longer has: it can be edited or deleted, not moved")
             x, y = values.get("x", current["x"]), values.get("y", current["y"])
             check_marker_xy(shot, x, y)
-            hit = picker().pick(shot.served_camera(), x, y)
+            hit = picker().pick(shot.camera, x, y)
             values.update(part=hit["instance"], distance=hit["distance"])
         return store.update(marker_id, values)
 

@@ -86,7 +86,7 @@ class RenderService:
     # -- public --------------------------------------------------------------------------
     def file(self, shot_name: str, kind: str, mode: str = "phong", intensity: float = 1.0) -> Path:
         shot = self.source.shots[shot_name]
-        w, _ = shot.size
+        w, _ = shot.served_size
         folder = self.cache / shot_name
         # the photo's stamp of now (a stat): a photo replaced since start-up is not served from
         # the cache, but read afresh (and refused, when it no longer fits its shot); the scene's

@@ -73,13 +73,14 @@ def report_html(source, renders, markers: list, intensity: float = 1.0) -> str:
         crops = images[m["shot"]]
         if isinstance(crops, str):
             figures = f"<i>no crops: {e(crops)}</i>"
-        else:
-            figures = "".join(f'<figure><img src="{_data_url(_crop(img, m["x"], m["y"]))}" alt="{e(label)}">'
+        else:  # the marker is in the photo's pixels, the images are the served ones
+            sx, sy = source.shots[m["shot"]].served_scale()
+            figures = "".join(f'<figure><img src="{_data_url(_crop(img, m["x"] * sx, m["y"] * sy))}" alt="{e(label)}">'
                               f"<figcaption>{e(label)}</figcaption></figure>" for label, img in crops)
         distance = "" if m["distance"] is None else f" at {m['distance']:.2f} m"
         rows.append(f'<section class="marker" id="marker-{m["id"]}"><h2>#{m["id"]} {e(m["category"])} '
                     f'(severity {m["severity"]}) -- shot {e(m["shot"])}</h2>'
-                    f'<p class="meta">pixel ({m["x"]:.0f}, {m["y"]:.0f}); CAD part: '
+                    f'<p class="meta">photo pixel ({m["x"]:.0f}, {m["y"]:.0f}); CAD part: '
                     f'<b>{e(m["part"] or "none")}</b>{distance}</p>'
                     f'<p class="note">{e(m["note"]) or "<i>no note</i>"}</p>'
                     f'<div class="crops">{figures}</div></section>')
@@ -89,5 +90,6 @@ body{{font-family:sans-serif;margin:2em;color:#222}} .marker{{border-top:1px sol
 .crops{{display:flex;flex-wrap:wrap;gap:6px}} figure{{margin:0}} figcaption{{font-size:12px;color:#555}}
 .note{{white-space:pre-wrap}} h2{{font-size:1.1em}}</style></head><body>
 <h1>mrcheck review: {e(source.label)}</h1><p>{len(markers)} marker(s), scene {e(str(source.scene))},
-exported {time.strftime('%Y-%m-%d %H:%M:%S')}. Crops: photo and every mode (AO intensity {intensity:g}).</p>
+exported {time.strftime('%Y-%m-%d %H:%M:%S')}. Crops: photo and every mode (AO intensity {intensity:g}).
+Positions are pixels of the original photo (from its top-left corner).</p>
 {body}</body></html>"""

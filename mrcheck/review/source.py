@@ -17,6 +17,9 @@ from ..scene import MANIFEST_KEYS, load_scene
 from ..scenefiles import files_stamp, read_manifest, scene_files
 
 MAX_SIZE = 1280  # renders and photos are served at most this wide (same aspect as the photo)
+# Marker, pick and suggestion coordinates are the photo's native pixels everywhere (database, API,
+# CSV, report), whatever the size the images are served at: a downstream tool, and mrcheck
+# discrepancies, look at the original photo.
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,127}")
 
 
@@ -29,15 +32,24 @@ class Shot:
 
     @property
     def size(self) -> tuple[int, int]:
-        """(width, height) served to the browser."""
-        w, h = self.camera.width, self.camera.height
+        """(width, height) of the photo: the frame of marker coordinates."""
+        return self.camera.width, self.camera.height
+
+    @property
+    def served_size(self) -> tuple[int, int]:
+        """(width, height) of the images served to the browser (it stretches them to ``size``)."""
+        w, h = self.size
         if w <= MAX_SIZE:
             return w, h
         return MAX_SIZE, max(1, round(MAX_SIZE * h / w))
 
+    def served_scale(self) -> tuple[float, float]:
+        """Served image pixels per photo pixel, in x and y."""
+        return self.served_size[0] / self.size[0], self.served_size[1] / self.size[1]
+
     def served_camera(self) -> Camera:
-        w, h = self.size
-        return self.camera if (w, h) == (self.camera.width, self.camera.height) else self.camera.resized(w, h)
+        w, h = self.served_size
+        return self.camera if (w, h) == self.size else self.camera.resized(w, h)
 
 
 @dataclass

@@ -11,6 +11,9 @@ from ..errors import MrcheckError
 CATEGORIES = ("missing", "moved", "extra", "wrong size", "other", "suggested")
 SEVERITIES = (1, 2, 3)
 MAX_NOTE = 2000
+# PRAGMA user_version of the database; 0 (before): marker coordinates in the pixels of the
+# images served (at most 1280 wide); 1: in the photo's native pixels
+VERSION = 1
 _FIELDS = ("id", "shot", "x", "y", "category", "severity", "note", "part", "distance", "mode", "created", "updated")
 
 _SCHEMA = """
@@ -31,15 +34,29 @@ CREATE TABLE IF NOT EXISTS imported (review INTEGER NOT NULL, shot TEXT NOT NULL
 class Store:
     """One SQLite file; a short-lived connection per call (safe from any server thread)."""
 
-    def __init__(self, path: Path, source_label: str):
+    def __init__(self, path: Path, source_label: str, served_scales: dict | None = None):
+        """``served_scales``: {shot name: (sx, sy)} served pixels per photo pixel of the shots
+        served downscaled; a database of version 0 has their markers in served pixels."""
         self.path = Path(path)
         try:
             with self._connect() as db:
+                version = db.execute("PRAGMA user_version").fetchone()[0]
+                if version > VERSION:
+                    raise MrcheckError(f"the review database is of a newer mrcheck (version {version}; "
+                                       f"this one reads up to {VERSION})", self.path)
                 db.execute("PRAGMA journal_mode=WAL")
-                db.executescript(_SCHEMA)
+                db.execute("BEGIN IMMEDIATE")   # the schema, the review and an upgrade: all or nothing
+                for statement in filter(str.strip, _SCHEMA.split(";")):  # executescript would commit first
+                    db.execute(statement)
                 row = db.execute("SELECT id FROM reviews ORDER BY id LIMIT 1").fetchone()
                 self.review = row[0] if row else db.execute("INSERT INTO reviews(source, created) VALUES (?, ?)",
                                                             (source_label, time.time())).lastrowid
+                if version < 1:
+                    for shot, (sx, sy) in (served_scales or {}).items():
+                        db.execute("UPDATE markers SET x = x / ?, y = y / ? WHERE review = ? AND shot = ?",
+                                   (sx, sy, self.review, shot))
+                db.execute(f"PRAGMA user_version = {VERSION}")
+                db.execute("COMMIT")
         except sqlite3.DatabaseError as exc:  # --db in a folder that cannot be written, or a file that is no database
             raise MrcheckError(f"cannot open the review database ({exc})", self.path) from None
 
@@ -76,16 +93,12 @@ class Store:
             f"INSERT INTO markers(review, {', '.join(keys)}, created, updated) VALUES (?, {', '.join('?' * len(keys))}, ?, ?)",
             (self.review, *[values.get(k) for k in keys], now, now)).lastrowid
 
-    @staticmethod
-    def _suggestion_key(s: dict) -> str:
-        return f"{s['x']:.1f},{s['y']:.1f},{s['note']}"
-
     def pending_suggestions(self, shot: str, suggestions: list[dict]) -> list[dict]:
         """The suggestions not imported into this review before: what an import would add."""
         with self._connect() as db:
             done = {row[0] for row in db.execute("SELECT key FROM imported WHERE review = ? AND shot = ?",
                                                  (self.review, shot))}
-        return [s for s in suggestions if self._suggestion_key(s) not in done]
+        return [s for s in suggestions if s["key"] not in done]
 
     def import_suggestions(self, shot: str, suggestions: list[dict]) -> int:
         """Add the suggestions not imported into this review before (deleted ones stay deleted);
@@ -96,7 +109,7 @@ class Store:
             db.execute("BEGIN IMMEDIATE")
             for s in suggestions:
                 if db.execute("INSERT OR IGNORE INTO imported(review, shot, key) VALUES (?, ?, ?)",
-                              (self.review, shot, self._suggestion_key(s))).rowcount:
+                              (self.review, shot, s["key"])).rowcount:
                     self._insert(db, {**s, "shot": shot})
                     added += 1
             db.execute("COMMIT")   # on an exception the connection closes uncommitted: nothing is kept

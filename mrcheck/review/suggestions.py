@@ -60,7 +60,8 @@ def _check_size(shot, made_on, doc: dict, suggested: list, path: Path) -> None:
 
 
 def load_suggestions(source, specs) -> dict:
-    """{shot name: [marker dicts in served pixels]} from ``FILE`` or ``NAME=FILE`` specs."""
+    """{shot name: [marker dicts in the photo's pixels, with their import key]} from ``FILE`` or
+    ``NAME=FILE`` specs."""
     out = {}
     for spec in specs:
         path = Path(spec.partition("=")[2] or spec)
@@ -74,12 +75,15 @@ def load_suggestions(source, specs) -> dict:
         made_on = _made_on(doc)   # read once: it names the shot and says which size the markers are in
         shot = _shot_of(source, spec, made_on, path)
         _check_size(shot, made_on, doc, suggested, path)
-        # the detector worked on the photo's native pixels; the review serves at most MAX_SIZE wide
-        sx, sy = shot.size[0] / shot.camera.width, shot.size[1] / shot.camera.height
+        # the detector worked on the photo's native pixels, as the review's markers are
+        sx, sy = shot.served_scale()
         for m in suggested:
             guess = m.get("category", "other")
+            note = f"{guess}? {m.get('note', '')}".strip()
             out.setdefault(shot.name, []).append({
-                "x": m["x"] * sx, "y": m["y"] * sy, "category": CATEGORY,
+                "x": m["x"], "y": m["y"], "category": CATEGORY,
                 "severity": int(m.get("severity", 2)), "part": m.get("part"), "distance": None, "mode": None,
-                "note": f"{guess}? {m.get('note', '')}".strip()})
+                "note": note,
+                # imported once per review: the key is that of reviews before version 1 (served pixels)
+                "key": f"{m['x'] * sx:.1f},{m['y'] * sy:.1f},{note}"})
     return out
