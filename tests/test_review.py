@@ -467,6 +467,48 @@ def test_a_click_places_a_marker_in_the_photos_pixels(tmp_path, served_small):
 
 
 @needs_chromium
+def test_editing_markers_loses_nothing_and_adds_nothing_by_accident(tmp_path):
+    """A typed note was dropped by a click on the image, which also placed a stray marker; another
+    marker or shot dropped it too; Delete deleted at once."""
+    sync_api = pytest.importorskip("playwright.sync_api")
+    app = create_app(_box_review(tmp_path, (0.0, 0.0, 0.0), size=(160, 120)), db_path=tmp_path / "r.sqlite",
+                     cache_dir=tmp_path / "cache", samples=2)
+    store = app.state.store
+    with _served(app) as url, sync_api.sync_playwright() as pw:
+        browser = _browser(pw, tmp_path)
+        page = browser.new_page()
+        page.goto(url)
+        page.wait_for_selector("body[data-loaded='a|phong|1']", timeout=30000)
+        box = page.locator("#pane-a").bounding_box()
+
+        def click(fx, fy):
+            page.mouse.click(box["x"] + box["width"] * fx, box["y"] + box["height"] * fy)
+
+        click(0.5, 0.5)
+        page.wait_for_selector("#editor:not([hidden])")
+        page.fill("#ed-note", "unsaved note text")
+        click(0.3, 0.3)   # closes the editor, saving the note; no marker
+        page.wait_for_selector("#editor[hidden]", state="attached")
+        page.wait_for_selector("#marker-list li:has-text('unsaved note text')")
+        assert [m["note"] for m in store.markers()] == ["unsaved note text"]
+        click(0.3, 0.3)   # nothing selected: this click places a marker
+        page.wait_for_selector("#marker-list li:nth-child(2)")
+        page.fill("#ed-note", "second")
+        page.click("#marker-list li:nth-child(1)")   # another marker: the typed note is saved first
+        page.wait_for_selector("#marker-list li:has-text('second')")
+        assert page.input_value("#ed-note") == "unsaved note text"
+        assert [m["note"] for m in store.markers()] == ["unsaved note text", "second"]
+        page.once("dialog", lambda dialog: dialog.dismiss())
+        page.click("#ed-delete")
+        assert len(store.markers()) == 2 and page.is_visible("#editor")
+        page.once("dialog", lambda dialog: dialog.accept())
+        page.click("#ed-delete")
+        page.wait_for_selector("#editor[hidden]", state="attached")
+        assert [m["note"] for m in store.markers()] == ["second"]
+        browser.close()
+
+
+@needs_chromium
 def test_browser_end_to_end(outdir, tmp_path):
     sync_api = pytest.importorskip("playwright.sync_api")
     port, db = _free_port(), tmp_path / "e2e.sqlite"
