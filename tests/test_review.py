@@ -84,6 +84,23 @@ def test_bad_input_is_a_clear_4xx(client):
     assert client.patch("/api/markers/999", json={"note": "x"}).status_code == 404
 
 
+def test_wrong_types_and_unknown_fields_are_a_422(client):
+    """PATCH ignored mode and unknown fields (a typo such as "severty" answered 200, nothing
+    changed); a severity true was stored as 1."""
+    base = {"shot": "shot0", "x": 10, "y": 10, "category": "missing", "severity": 2}
+    for bad in ({"severity": True}, {"severity": "2"}, {"severity": 2.0}, {"x": "10"}, {"note": None},
+                {"severty": 3}, {"mode": 1}):
+        r = client.post("/api/markers", json={**base, **bad})
+        assert r.status_code == 422 and "error" in r.json(), (bad, r.text)
+    m = client.post("/api/markers", json={**base, "mode": "vector"}).json()
+    for bad in ({"mode": "bogus"}, {"severty": 3}, {"Note": "x"}, {"note": None}, {"severity": True}, {"x": None}):
+        r = client.patch(f"/api/markers/{m['id']}", json=bad)
+        assert r.status_code == 422 and "error" in r.json(), (bad, r.text)
+    r = client.patch(f"/api/markers/{m['id']}", json={"mode": "ssao", "x": 12})
+    assert r.status_code == 200 and (r.json()["mode"], r.json()["x"], r.json()["note"]) == ("ssao", 12.0, "")
+    client.delete(f"/api/markers/{m['id']}")
+
+
 def test_marker_crud_and_persistence(client, outdir, tmp_path):
     r = client.post("/api/markers", json={"shot": "shot1", "x": 160, "y": 150, "category": "moved", "severity": 3,
                                           "note": "pillar 20 cm off"})

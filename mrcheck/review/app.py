@@ -19,7 +19,7 @@ from typing import Literal
 from fastapi import FastAPI, HTTPException, Query, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, Response
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, ConfigDict, Field
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from ..errors import MrcheckError
@@ -35,24 +35,32 @@ MAX_ID = 2**63 - 1  # SQLite's INTEGER range; a larger id cannot be bound (Overf
 
 Category = Literal["missing", "moved", "extra", "wrong size", "other", "suggested"]
 assert set(Category.__args__) == set(CATEGORIES)
+Mode = Literal[MODES]
+# strict: a field of the wrong type (a severity true or "2", a note null) or an unknown one (a
+# typo such as "severty") is a 422, not converted or ignored; a whole number is still a valid x
+_STRICT = ConfigDict(extra="forbid", strict=True)
 
 
 class MarkerIn(BaseModel):
+    model_config = _STRICT
     shot: str = Field(max_length=128)
     x: float
     y: float
     category: Category
     severity: int = Field(ge=1, le=3)
     note: str = Field(default="", max_length=MAX_NOTE)
-    mode: str | None = Field(default=None, max_length=32)
+    mode: Mode | None = None  # the mode the marker was placed in
 
 
 class MarkerPatch(BaseModel):
-    x: float | None = None
-    y: float | None = None
-    category: Category | None = None
-    severity: int | None = Field(default=None, ge=1, le=3)
-    note: str | None = Field(default=None, max_length=MAX_NOTE)
+    """Only the fields given are changed (the None defaults mean "not given"; null is refused)."""
+    model_config = _STRICT
+    x: float = None
+    y: float = None
+    category: Category = None
+    severity: int = Field(default=None, ge=1, le=3)
+    note: str = Field(default=None, max_length=MAX_NOTE)
+    mode: Mode = None
 
 
 def _static(name: str) -> bytes:
@@ -188,15 +196,13 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
     def add_marker(marker: MarkerIn):
         shot = shot_or_404(marker.shot)
         check_marker_xy(shot, marker.x, marker.y)
-        if marker.mode is not None and marker.mode not in MODES:
-            raise HTTPException(422, f"unknown mode {marker.mode!r}")
         hit = picker().pick(shot.camera, marker.x, marker.y)
         return store.add({**marker.model_dump(), "part": hit["instance"], "distance": hit["distance"]})
 
     @app.patch("/api/markers/{marker_id}")
     def edit_marker(marker_id: int, patch: MarkerPatch):
         current = marker_or_404(marker_id)
-        values = patch.model_dump(exclude_none=True)
+        values = patch.model_dump(exclude_unset=True)
         if "x" in values or "y" in values:
             shot = source.shots.get(current["shot"])
             if shot is None:  # left in the database by an earlier review of this folder
