@@ -312,6 +312,32 @@ def test_render_cache_follows_a_changed_scene(tmp_path):
     assert not gone.exists() and (tmp_path / "cache" / "a" / "notes.txt").exists()
 
 
+@pytest.mark.parametrize("rms", [float("nan"), float("inf")])
+def test_a_registration_error_that_is_no_number_is_n_a(tmp_path, rms):
+    """"rms": NaN in a SHOT.json made the shot list a 500 (invalid JSON): the page never loaded."""
+    _box_review(tmp_path, (0.0, 0.0, 0.0))
+    shot = tmp_path / "shots" / "a.json"
+    shot.write_text(json.dumps({**json.loads(shot.read_text()), "rms": rms}))
+    source = open_source(tmp_path / "box.stl", tmp_path / "shots")
+    with TestClient(create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache")) as c:
+        r = c.get("/api/shots")
+        assert r.status_code == 200 and r.json()[0]["error_px"] is None
+
+
+def test_an_unexpected_error_has_the_apis_error_shape(client, monkeypatch, capsys):
+    """A bug answered a plain-text 500 and printed a traceback."""
+    def boom(*args):
+        raise ZeroDivisionError("division by zero")
+
+    monkeypatch.delenv("MRCHECK_DEBUG", raising=False)
+    monkeypatch.setattr(client.app.state.store, "markers", boom)
+    r = client.get("/api/markers")
+    assert r.status_code == 500 and r.json() == {"error": "internal error, please report it: ZeroDivisionError: division by zero"}
+    err = capsys.readouterr().err
+    assert err == ("error: internal error in GET /api/markers, please report it: ZeroDivisionError: division by zero "
+                   "(MRCHECK_DEBUG=1 shows the traceback)\n"), err
+
+
 def test_a_photo_gone_after_start_is_a_json_404(tmp_path):
     source = _box_review(tmp_path, (0.0, 0.0, 0.0))
     (tmp_path / "shots" / "photo.png").unlink()

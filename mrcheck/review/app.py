@@ -10,8 +10,11 @@ from __future__ import annotations
 import contextlib
 import errno
 import hmac
+import os
 import socket
+import sys
 import threading
+import traceback
 from importlib import resources
 from pathlib import Path
 from typing import Literal
@@ -131,6 +134,19 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
         if request.query_params.get("token"):
             response.set_cookie(COOKIE, token, httponly=True, samesite="strict")
         return response
+
+    @app.middleware("http")   # the outermost: also what the token check might raise
+    async def _unexpected(request: Request, call_next):
+        try:
+            return await call_next(request)
+        except Exception as exc:  # a bug, not bad input: the API's error shape, one line on the console
+            if os.environ.get("MRCHECK_DEBUG"):
+                traceback.print_exc()
+            reason = f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}"
+            print(f"error: internal error in {request.method} {request.url.path}, please report it: {reason}"
+                  + ("" if os.environ.get("MRCHECK_DEBUG") else " (MRCHECK_DEBUG=1 shows the traceback)"),
+                  file=sys.stderr, flush=True)
+            return JSONResponse({"error": f"internal error, please report it: {reason}"}, status_code=500)
 
     def shot_or_404(name: str):
         if name not in source.shots:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import concurrent.futures
 import json
+import math
 import os
 import re
 import sys
@@ -62,11 +63,18 @@ class Source:
     loaded: object = None  # the Scene, loaded once by open_source (the renderer and the picker share it)
 
 
+def _rms(shot: dict) -> float | None:
+    """The registration error of a shot dict, None when absent or not a finite number (a NaN
+    would make the shot list invalid JSON)."""
+    rms = shot.get("rms")
+    ok = isinstance(rms, (int, float)) and not isinstance(rms, bool) and math.isfinite(rms)
+    return float(rms) if ok else None
+
+
 def _shot(name, path) -> Shot:
     camera, photo = load_shot(path)
     data = json.loads(Path(path).read_text())
-    rms = data.get("rms")
-    return Shot(name, camera, photo, float(rms) if isinstance(rms, (int, float)) else None)
+    return Shot(name, camera, photo, _rms(data))
 
 
 def _checked_name(name: str) -> str:
@@ -118,9 +126,8 @@ def from_job(job_path: Path) -> Source:
             continue
         for warning in data["warnings"] if "shot" not in inputs else ():  # registered here, as export would
             print(f"warning: shot {entry['name']}: {warning}", file=sys.stderr)
-        rms = data.get("rms")
         name = _checked_name(entry["name"])
-        shots[name] = Shot(name, camera, Path(photo), float(rms) if isinstance(rms, (int, float)) else None)
+        shots[name] = Shot(name, camera, Path(photo), _rms(data))
     return Source(Path(job.scene), shots, job_path.resolve().parent, str(job_path), loaded=job.loaded)
 
 
