@@ -189,6 +189,40 @@ def test_suggested_markers_of_a_discrepancies_run(outdir, tmp_path, monkeypatch)
         load_suggestions(source, [str(tmp_path / "bad.json")])
 
 
+def test_a_rerun_of_discrepancies_does_not_add_its_parts_again(outdir, tmp_path):
+    """The import key was x, y and the note, whose percentage changes with every run: a re-run
+    (here: other notes, a region's centre 1 px away) added every part again."""
+    from mrcheck.review.storage import Store
+    from mrcheck.review.suggestions import load_suggestions
+
+    source = open_source(outdir)
+    shot_json = outdir / "shots" / "shot1" / "SHOT.json"
+
+    def run(markers):
+        path = tmp_path / f"suspects{len(markers)}.json"
+        path.write_text(json.dumps({"shot": str(shot_json), "suggested_markers": markers}))
+        app = create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=outdir / ".cache",
+                         suggestions=load_suggestions(source, [str(path)]))
+        return app.state.imported
+
+    first = [{"x": 100.0, "y": 80.0, "category": "moved", "note": "workbench: 12 % found", "part": "workbench"},
+             {"x": 200.0, "y": 120.0, "category": "extra", "note": "structure (50 edge px)", "part": None}]
+    assert run(first) == {"shot1": 2}
+    again = [{"x": 104.0, "y": 82.0, "category": "missing", "note": "workbench: 9 % found", "part": "workbench"},
+             {"x": 201.0, "y": 120.0, "category": "extra", "note": "structure (48 edge px)", "part": None},
+             {"x": 50.0, "y": 50.0, "category": "moved", "note": "shelf: 20 % found", "part": "shelf"}]
+    assert run(again) == {"shot1": 1}
+    assert sorted(m["note"] for m in Store(tmp_path / "r.sqlite", source.label).markers()) == [
+        "extra? structure (50 edge px)", "moved? shelf: 20 % found", "moved? workbench: 12 % found"]
+    # a review of before recorded x, y (served pixels) and the note: not imported twice either
+    legacy = Store(tmp_path / "old.sqlite", source.label)
+    legacy.import_suggestions("shot1", [{"shot": "shot1", "x": 1.0, "y": 2.0, "category": "suggested", "severity": 2,
+                                         "note": "moved? shelf: 20 % found", "key": "50.0,50.0,moved? shelf: 20 % found"}])
+    app = create_app(source, db_path=tmp_path / "old.sqlite", cache_dir=outdir / ".cache",
+                     suggestions=load_suggestions(source, [str(tmp_path / "suspects3.json")]))
+    assert app.state.imported == {"shot1": 2}
+
+
 def _box_review(folder, centre, size=(64, 48)):
     """A review of one 64x48 shot of a 1 m box (a single-mesh scene) at ``centre``: SCENE --shots DIR."""
     import trimesh

@@ -228,3 +228,33 @@ def test_a_photo_that_does_not_fit_its_shot_is_reported_before_the_url(outdir, c
     code, out, err = _review(capsys, outdir, "--port", _free_port())
     assert code == 1 and out == "" and err == f"error: {path}: {problem}\n", err
     assert _files(outdir) == before
+
+
+def _suspects(outdir, folder, markers):
+    path = folder / "suspects.json"
+    path.write_text(json.dumps({"shot": str(outdir / "shots" / "shot" / "SHOT.json"), "suggested_markers": markers}))
+    return path
+
+
+@pytest.mark.parametrize("marker, problem", [
+    ({"x": 1, "y": 1, "severity": "high"}, "severity must be 1, 2 or 3, got 'high'"),
+    ({"x": 1, "y": 1, "severity": 9}, "severity must be 1, 2 or 3, got 9"),
+    ({"x": 1, "y": 1, "severity": True}, "severity must be 1, 2 or 3, got True"),
+    ({"x": "1", "y": 1}, "x and y must be numbers (photo pixels), got '1', 1"),
+    ({"x": 1, "y": 1, "note": 5}, "note must be a string, got 5")])
+def test_a_bad_suggested_marker_is_named(outdir, tmp_path, capsys, marker, problem):
+    """A severity "high" was an internal error; 9 was imported, which the page cannot show."""
+    suspects = _suspects(outdir, tmp_path, [{"x": 2, "y": 2}, marker])
+    code, out, err = _review(capsys, outdir, "--port", _free_port(), "--suggestions", suspects)
+    assert code == 1 and err == f"error: {suspects}: suggested marker 2: {problem}\n", err
+    assert not (outdir / "review.sqlite").exists()
+
+
+def test_the_suggestions_count_is_what_was_imported(outdir, tmp_path, capsys, monkeypatch):
+    """Every start printed the file's count, also when nothing was new; the same file twice counted twice."""
+    monkeypatch.setattr(uvicorn.Server, "run", lambda self, sockets=None: None)   # start, print, stop
+    suspects = _suspects(outdir, tmp_path, [{"x": 20, "y": 20, "part": "floor"}, {"x": 40, "y": 30}])
+    for expected in ("2 new marker(s) on 1 shot(s)", "0 new marker(s) on 0 shot(s)"):
+        code, out, err = _review(capsys, outdir, "--port", _free_port(), "--suggestions", suspects,
+                                 "--suggestions", suspects)
+        assert code == 0 and f"suggestions: {expected} " in out, out + err

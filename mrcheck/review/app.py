@@ -30,6 +30,7 @@ from ..renderer import MODES, STUDY_LABELS
 from .renders import INTENSITIES, RenderService
 from .report import markers_csv, report_html
 from .storage import CATEGORIES, MAX_NOTE, Store
+from .suggestions import pending
 
 STATIC = {"index.html": "text/html", "app.js": "text/javascript", "style.css": "text/css"}
 KINDS = ("photo", "render", "edges", "thumb")
@@ -73,7 +74,7 @@ def _static(name: str) -> bytes:
 def create_app(source, db_path: Path | None = None, cache_dir: Path | None = None, token: str | None = None,
                samples: int = 16, suggestions: dict | None = None) -> FastAPI:
     """``suggestions``: {shot name: markers} (:func:`.suggestions.load_suggestions`), imported
-    into the review's markers once."""
+    into the review's markers once; ``app.state.imported``: {shot name: markers added now}."""
     db_path = Path(db_path or source.home / "review.sqlite")
     store = Store(db_path, source.label,
                   served_scales={s.name: s.served_scale() for s in source.shots.values() if s.served_size != s.size})
@@ -88,16 +89,17 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
                 picker_box.append(Picker(source.loaded))
             return picker_box[0]
 
+    imported = {}
     for shot, markers in (suggestions or {}).items():
         # like a marker the planner places: the CAD part under it and its distance; only for the
         # new ones, so that a restart with nothing new does not load the scene for the picker
-        markers = store.pending_suggestions(shot, markers)
+        markers = pending(markers, store.imported_keys(shot), source.shots[shot].size[0])
         if not markers:
             continue
         camera = source.shots[shot].camera
         hits = [picker().pick(camera, m["x"], m["y"]) for m in markers]
-        store.import_suggestions(shot, [{**m, "part": hit["instance"] or m["part"], "distance": hit["distance"]}
-                                        for m, hit in zip(markers, hits)])
+        imported[shot] = store.import_suggestions(
+            shot, [{**m, "part": hit["instance"] or m["part"], "distance": hit["distance"]} for m, hit in zip(markers, hits)])
 
     @contextlib.asynccontextmanager
     async def lifespan(app):
@@ -106,6 +108,7 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
 
     app = FastAPI(title="mrcheck review", docs_url=None, redoc_url=None, openapi_url=None, lifespan=lifespan)
     app.state.source, app.state.store, app.state.renders = source, store, renders
+    app.state.imported = {shot: n for shot, n in imported.items() if n}
 
     @app.exception_handler(RequestValidationError)
     async def _invalid(request, exc):
@@ -279,7 +282,6 @@ def serve(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=No
     import uvicorn
 
     from .source import open_source
-
     from .suggestions import load_suggestions
 
     if token is not None and not token.strip():
@@ -294,8 +296,9 @@ def serve(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=No
         url = f"http://{'[' + host + ']' if ':' in host else host}:{port}/" + (f"?token={token}" if token else "")
         print(f"mrcheck review: {len(source.shots)} shot(s) of {source.label}", flush=True)
         if suggested:
-            print(f"suggestions: {sum(map(len, suggested.values()))} marker(s) on {len(suggested)} shot(s) "
-                  "(category 'suggested'; each imported once per review)", flush=True)
+            added = app.state.imported
+            print(f"suggestions: {sum(added.values())} new marker(s) on {len(added)} shot(s) (category 'suggested'; "
+                  "each part or region is imported once per review)", flush=True)
         print(f"open {url}", flush=True)
         try:
             uvicorn.Server(uvicorn.Config(app, log_level="warning")).run(sockets=[sock])

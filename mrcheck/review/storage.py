@@ -93,16 +93,15 @@ class Store:
             f"INSERT INTO markers(review, {', '.join(keys)}, created, updated) VALUES (?, {', '.join('?' * len(keys))}, ?, ?)",
             (self.review, *[values.get(k) for k in keys], now, now)).lastrowid
 
-    def pending_suggestions(self, shot: str, suggestions: list[dict]) -> list[dict]:
-        """The suggestions not imported into this review before: what an import would add."""
+    def imported_keys(self, shot: str) -> set[str]:
+        """The keys of the suggestions imported into this review's ``shot`` before."""
         with self._connect() as db:
-            done = {row[0] for row in db.execute("SELECT key FROM imported WHERE review = ? AND shot = ?",
+            return {row[0] for row in db.execute("SELECT key FROM imported WHERE review = ? AND shot = ?",
                                                  (self.review, shot))}
-        return [s for s in suggestions if s["key"] not in done]
 
     def import_suggestions(self, shot: str, suggestions: list[dict]) -> int:
-        """Add the suggestions not imported into this review before (deleted ones stay deleted);
-        returns how many were added. One transaction: a suggestion is recorded as imported
+        """Add the suggestions whose ``key`` this review has not imported before (deleted ones
+        stay deleted); returns how many were added. One transaction: a suggestion is recorded as imported
         exactly when its marker is written."""
         added = 0
         with self._connect() as db:
