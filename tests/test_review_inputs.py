@@ -258,3 +258,48 @@ def test_the_suggestions_count_is_what_was_imported(outdir, tmp_path, capsys, mo
         code, out, err = _review(capsys, outdir, "--port", _free_port(), "--suggestions", suspects,
                                  "--suggestions", suspects)
         assert code == 0 and f"suggestions: {expected} " in out, out + err
+
+
+def test_a_shots_folder_skips_what_is_not_a_shot(outdir, tmp_path, capsys):
+    """One stray JSON (the intrinsics, the clicked points, a broken shot) or a non-ASCII file name
+    refused the whole review."""
+    from mrcheck.review.source import open_source
+
+    shots = _shots_folder(outdir, tmp_path / "shots")
+    (shots / "Halle_Süd.json").write_text((shots / "a.json").read_text())
+    (shots / "canon.json").write_text(json.dumps({"width": 64, "height": 48, "K": [[50, 0, 32], [0, 50, 24], [0, 0, 1]]}))
+    (shots / "corners.json").write_text(json.dumps({"points": [{"pixel": [1, 2], "world": [0, 0, 0]}]}))
+    (shots / "broken.json").write_text('{"width": 64,')
+    source = open_source(sample_scene_path(), shots)
+    out, err = capsys.readouterr()
+    assert sorted(source.shots) == ["Halle_S_d", "a"] and out == ""
+    assert err.count("\n") == 3 and all(f"warning: {shots / name}: " in err for name in ("canon.json", "corners.json", "broken.json"))
+    assert f"warning: {shots / 'canon.json'}: shot JSON has no \"photo\" path (skipped: not a usable shot)\n" in err
+
+
+def test_an_export_says_which_shots_it_cannot_review(outdir, capsys):
+    """A done shot whose SHOT.json was deleted vanished without a word; an export whose every shot
+    failed said only "no usable shots"."""
+    import shutil
+
+    from mrcheck.review.source import open_source
+
+    shutil.copytree(outdir / "shots" / "shot", outdir / "shots" / "gone")
+    (outdir / "shots" / "gone" / "SHOT.json").unlink()
+    manifest = json.loads((outdir / "manifest.json").read_text())
+    manifest["shots"].append({"name": "gone", "status": "done", "folder": "shots/gone"})
+    (outdir / "manifest.json").write_text(json.dumps(manifest))
+    assert list(open_source(outdir).shots) == ["shot"]
+    err = capsys.readouterr().err
+    assert err == f"warning: shot gone skipped: {outdir / 'shots' / 'gone' / 'SHOT.json'}: shot file not found\n"
+    manifest["shots"] = [{**e, "status": "failed"} for e in manifest["shots"]]
+    (outdir / "manifest.json").write_text(json.dumps(manifest))
+    code, out, err = _review(capsys, outdir, "--port", _free_port())
+    assert code == 1 and err == (f"error: {outdir}: no usable shots to review: every shot (2) failed in the export; "
+                                 "its report.html says why\n"), err
+
+
+def test_an_empty_shots_folder_is_named(tmp_path, capsys):
+    (tmp_path / "empty").mkdir()
+    code, out, err = _review(capsys, sample_scene_path(), "--shots", tmp_path / "empty", "--port", _free_port())
+    assert code == 1 and err == f"error: {tmp_path / 'empty'}: no usable shots to review: it has no SHOT.json files (*.json)\n"

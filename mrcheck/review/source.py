@@ -21,7 +21,8 @@ MAX_SIZE = 1280  # renders and photos are served at most this wide (same aspect 
 # Marker, pick and suggestion coordinates are the photo's native pixels everywhere (database, API,
 # CSV, report), whatever the size the images are served at: a downstream tool, and mrcheck
 # discrepancies, look at the original photo.
-_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,127}")
+# an export's shot names (never "." or ".."), at most 128 characters: a path segment of the API's URLs
+_NAME = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9._-]{0,127}")
 
 
 @dataclass
@@ -77,10 +78,15 @@ def _shot(name, path) -> Shot:
     return Shot(name, camera, photo, _rms(data))
 
 
-def _checked_name(name: str) -> str:
+def _checked_name(name: str, path) -> str:
     if not _NAME.fullmatch(name):
-        raise MrcheckError(f"shot name {name!r} is not usable (letters, digits, . _ -)")
+        raise MrcheckError(f"shot name {name!r} is not usable (up to 128 letters, digits, . _ -)", path)
     return name
+
+
+def _warn(message: str) -> None:
+    """One shot that cannot be reviewed is a warning, not the end of the review of the others."""
+    print(f"warning: {message}", file=sys.stderr)
 
 
 def _read_manifest(path: Path) -> tuple[Path, list]:
@@ -101,13 +107,19 @@ def _read_manifest(path: Path) -> tuple[Path, list]:
 def from_outdir(outdir: Path) -> Source:
     scene, entries = _read_manifest(outdir / "manifest.json")
     shots = {}
-    for entry in sorted(entries, key=lambda e: (e.get("status") == "failed", e["name"])):
-        if entry.get("status") not in ("done", "skipped"):
+    for entry in sorted(entries, key=lambda e: e["name"]):
+        if entry.get("status") not in ("done", "skipped"):   # failed in the export: its report says why
             continue
-        name = _checked_name(entry["name"])
-        path = outdir / entry.get("folder", f"shots/{name}") / "SHOT.json"
-        if path.is_file():
-            shots[name] = _shot(name, path)
+        try:   # a done shot's SHOT.json deleted or broken since the export
+            name = _checked_name(entry["name"], outdir / "manifest.json")
+            shots[name] = _shot(name, outdir / entry.get("folder", f"shots/{name}") / "SHOT.json")
+        except MrcheckError as exc:
+            _warn(f"shot {entry['name']} skipped: {exc}")
+    if not shots:
+        failed = sum(e.get("status") == "failed" for e in entries)
+        why = (f"every shot ({failed}) failed in the export; its report.html says why" if entries and failed == len(entries)
+               else "the export has no shots" if not entries else "see the warnings above")
+        raise MrcheckError(f"no usable shots to review: {why}", outdir)
     return Source(scene, shots, outdir, str(outdir))
 
 
@@ -122,19 +134,35 @@ def from_job(job_path: Path) -> Source:
         try:
             data, camera, photo = _register(inputs, None, bounds)
         except MrcheckError as exc:
-            print(f"warning: shot {entry['name']} skipped: {exc}", file=sys.stderr)
+            _warn(f"shot {entry['name']} skipped: {exc}")
             continue
         for warning in data["warnings"] if "shot" not in inputs else ():  # registered here, as export would
-            print(f"warning: shot {entry['name']}: {warning}", file=sys.stderr)
-        name = _checked_name(entry["name"])
+            _warn(f"shot {entry['name']}: {warning}")
+        name = _checked_name(entry["name"], job_path)
         shots[name] = Shot(name, camera, Path(photo), _rms(data))
+    if not shots:
+        raise MrcheckError("no usable shots to review: every shot was skipped (see the warnings above)", job_path)
     return Source(Path(job.scene), shots, job_path.resolve().parent, str(job_path), loaded=job.loaded)
 
 
 def from_scene(scene: Path, shots_dir: Path) -> Source:
-    shots = {}
-    for path in sorted(shots_dir.glob("*.json")):
-        shots[_checked_name(path.stem)] = _shot(path.stem, path)
+    """The SHOT.json files of ``shots_dir``, named after their files as export names its shots;
+    the folder's other JSON files (intrinsics, correspondences, a broken shot) are warnings."""
+    from ..export import _safe_name
+
+    files = sorted(shots_dir.glob("*.json"))
+    shots, named = {}, {}
+    for path in files:
+        try:
+            name = _checked_name(_safe_name(path.stem)[:128], path)
+            if name in shots:
+                raise MrcheckError(f"its shot name {name!r} is that of {named[name].name} too", path)
+            shots[name], named[name] = _shot(name, path), path
+        except MrcheckError as exc:
+            _warn(f"{exc} (skipped: not a usable shot)")
+    if not shots:
+        why = f"none of its {len(files)} JSON file(s) is a shot" if files else "it has no SHOT.json files (*.json)"
+        raise MrcheckError(f"no usable shots to review: {why}", shots_dir)
     return Source(scene, shots, shots_dir, f"{scene} + {shots_dir}")
 
 
@@ -179,8 +207,6 @@ def open_source(target, shots_dir=None) -> Source:
         source = from_job(target)
     else:
         raise MrcheckError("pass JOB.toml, an export OUTDIR or SCENE --shots DIR", target)
-    if not source.shots:
-        raise MrcheckError("no usable shots to review", target)
     _check_files(source, target)
     return source
 
