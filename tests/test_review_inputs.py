@@ -303,3 +303,15 @@ def test_an_empty_shots_folder_is_named(tmp_path, capsys):
     (tmp_path / "empty").mkdir()
     code, out, err = _review(capsys, sample_scene_path(), "--shots", tmp_path / "empty", "--port", _free_port())
     assert code == 1 and err == f"error: {tmp_path / 'empty'}: no usable shots to review: it has no SHOT.json files (*.json)\n"
+
+
+def test_a_corrupt_shot_json_is_said_once(tmp_path, capsys):
+    """json's "Invalid control character at" gave "... at at line 1"."""
+    from mrcheck.review.source import open_source
+
+    (tmp_path / "a.json").write_text('{"photo": "a\nb.png"}')
+    with pytest.raises(MrcheckError) as info:
+        open_source(sample_scene_path(), tmp_path)
+    assert f"warning: {tmp_path / 'a.json'}: malformed shot JSON: Invalid control character at line 1 (skipped" \
+        in capsys.readouterr().err
+    assert "at at" not in str(info.value)
