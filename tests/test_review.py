@@ -6,6 +6,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import shutil
 import socket
 import subprocess
 import sys
@@ -212,15 +213,39 @@ def test_a_rerun_of_discrepancies_does_not_add_its_parts_again(outdir, tmp_path)
              {"x": 201.0, "y": 120.0, "category": "extra", "note": "structure (48 edge px)", "part": None},
              {"x": 50.0, "y": 50.0, "category": "moved", "note": "shelf: 20 % found", "part": "shelf"}]
     assert run(again) == {"shot1": 1}
-    assert sorted(m["note"] for m in Store(tmp_path / "r.sqlite", source.label).markers()) == [
+    assert sorted(m["note"] for m in Store(tmp_path / "r.sqlite", source.review_name(tmp_path / "r.sqlite")).markers()) == [
         "extra? structure (50 edge px)", "moved? shelf: 20 % found", "moved? workbench: 12 % found"]
     # a review of before recorded x, y (served pixels) and the note: not imported twice either
-    legacy = Store(tmp_path / "old.sqlite", source.label)
+    legacy = Store(tmp_path / "old.sqlite", source.review_name(tmp_path / "old.sqlite"))
     legacy.import_suggestions("shot1", [{"shot": "shot1", "x": 1.0, "y": 2.0, "category": "suggested", "severity": 2,
                                          "note": "moved? shelf: 20 % found", "key": "50.0,50.0,moved? shelf: 20 % found"}])
     app = create_app(source, db_path=tmp_path / "old.sqlite", cache_dir=outdir / ".cache",
                      suggestions=load_suggestions(source, [str(tmp_path / "suspects3.json")]))
     assert app.state.imported == {"shot1": 2}
+
+
+def test_one_database_keeps_the_reviews_of_two_exports_apart(outdir, tmp_path):
+    """A --db given to two reviews showed the first one's markers in the second (on any shot of
+    the same name, too)."""
+    db = tmp_path / "team.sqlite"
+    reviews = {"cell": open_source(outdir), "box": _box_review(tmp_path / "box", (0.0, 0.0, 0.0))}
+    for name, source in reviews.items():
+        with TestClient(create_app(source, db_path=db, cache_dir=tmp_path / "cache", samples=2)) as c:
+            shot = next(iter(source.shots))
+            assert c.get("/api/markers").json() == []
+            assert c.post("/api/markers", json={"shot": shot, "x": 5, "y": 5, "category": "other", "severity": 1,
+                                                "note": name}).status_code == 201
+    for name, source in reviews.items():
+        app = create_app(source, db_path=db, cache_dir=tmp_path / "cache")
+        assert [m["note"] for m in app.state.store.markers()] == [name]
+    assert (source.review_name(db), app.state.store.others) == ("box/shots", [os.path.relpath(outdir, tmp_path)])
+    # the name is relative to the database: an export moved or copied with its review.sqlite keeps its review
+    shutil.copytree(outdir.parent, tmp_path / "one", ignore=shutil.ignore_patterns(".cache", "*.sqlite*"))
+    with TestClient(create_app(open_source(tmp_path / "one" / "out"), cache_dir=tmp_path / "cache")) as c:
+        c.post("/api/markers", json={"shot": "shot0", "x": 5, "y": 5, "category": "other", "severity": 1, "note": "own db"})
+    shutil.copytree(tmp_path / "one", tmp_path / "two")
+    moved = create_app(open_source(tmp_path / "two" / "out"), cache_dir=tmp_path / "cache").state.store
+    assert [m["note"] for m in moved.markers()] == ["own db"] and moved.others == []
 
 
 def _box_review(folder, centre, size=(64, 48)):
@@ -411,7 +436,7 @@ def test_markers_of_a_shot_the_review_no_longer_has(outdir, tmp_path):
     from mrcheck.review.storage import Store
 
     source = open_source(outdir)
-    orphan = Store(tmp_path / "r.sqlite", source.label).add(
+    orphan = Store(tmp_path / "r.sqlite", source.review_name(tmp_path / "r.sqlite")).add(
         {"shot": "wall-5", "x": 10.0, "y": 10.0, "category": "moved", "severity": 2, "note": "old wall"})
     with TestClient(create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=outdir / ".cache")) as c:
         r = c.patch(f"/api/markers/{orphan['id']}", json={"x": 50})

@@ -315,3 +315,33 @@ def test_a_corrupt_shot_json_is_said_once(tmp_path, capsys):
     assert f"warning: {tmp_path / 'a.json'}: malformed shot JSON: Invalid control character at line 1 (skipped" \
         in capsys.readouterr().err
     assert "at at" not in str(info.value)
+
+
+def test_another_programs_database_is_refused(outdir, tmp_path, capsys):
+    """Its file got the review's tables (and WAL mode) added."""
+    import sqlite3
+
+    other = tmp_path / "other.sqlite"
+    with sqlite3.connect(other) as db:
+        db.execute("CREATE TABLE foo (x)")
+    db.close()
+    before = other.read_bytes()
+    code, out, err = _review(capsys, outdir, "--port", _free_port(), "--db", other)
+    assert code == 1 and err == f"error: {other}: not a review database (it has the table(s) foo): give a new file with --db\n"
+    assert other.read_bytes() == before and "open http" not in out
+
+
+def test_an_empty_db_is_refused(outdir, capsys):
+    """--db "" used the default database silently."""
+    code, out, err = _review(capsys, outdir, "--port", _free_port(), "--db", "")
+    assert code == 1 and err.startswith("error: --db must not be empty") and err.count("\n") == 1
+    assert not (outdir / "review.sqlite").exists()
+
+
+def test_a_database_with_other_reviews_says_so(outdir, tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(uvicorn.Server, "run", lambda self, sockets=None: None)   # start, print, stop
+    db = tmp_path / "team.sqlite"
+    shots = _shots_folder(outdir, tmp_path / "shots")
+    assert _review(capsys, outdir, "--port", _free_port(), "--db", db)[0] == 0
+    code, out, err = _review(capsys, sample_scene_path(), "--shots", shots, "--port", _free_port(), "--db", db)
+    assert code == 0 and f"review database {db}: a new review of shots; its other review(s), kept apart: out\n" in out, out

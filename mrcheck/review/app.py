@@ -76,7 +76,7 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
     """``suggestions``: {shot name: markers} (:func:`.suggestions.load_suggestions`), imported
     into the review's markers once; ``app.state.imported``: {shot name: markers added now}."""
     db_path = Path(db_path or source.home / "review.sqlite")
-    store = Store(db_path, source.label,
+    store = Store(db_path, source.review_name(db_path),
                   served_scales={s.name: s.served_scale() for s in source.shots.values() if s.served_size != s.size})
     renders = RenderService(source, cache_dir or db_path.parent / ".review-cache", samples=samples)
     picker_lock = threading.Lock()
@@ -286,15 +286,21 @@ def serve(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=No
 
     if token is not None and not token.strip():
         raise MrcheckError("--token must not be empty (omit it on loopback; elsewhere one is generated)")
+    if db is not None and not str(db).strip():
+        raise MrcheckError("--db must not be empty (omit it for review.sqlite beside the export, job or shots)")
     source = open_source(target, shots_dir)
     suggested = load_suggestions(source, suggestions)
     if token is None and not is_loopback(host):
         token = secrets.token_urlsafe(18)
     sock = listen(host, port)  # before create_app writes the database
     try:
-        app = create_app(source, db_path=Path(db) if db else None, token=token, suggestions=suggested)
+        app = create_app(source, db_path=None if db is None else Path(db), token=token, suggestions=suggested)
         url = f"http://{'[' + host + ']' if ':' in host else host}:{port}/" + (f"?token={token}" if token else "")
         print(f"mrcheck review: {len(source.shots)} shot(s) of {source.label}", flush=True)
+        store = app.state.store
+        if store.created and store.others:  # a shared --db, or a folder moved away from its database
+            print(f"review database {store.path}: a new review of {source.review_name(store.path)}; its other "
+                  f"review(s), kept apart: {', '.join(store.others)}", flush=True)
         if suggested:
             added = app.state.imported
             print(f"suggestions: {sum(added.values())} new marker(s) on {len(added)} shot(s) (category 'suggested'; "

@@ -62,6 +62,14 @@ class Source:
     label: str
     scene_stamp: str = ""  # files_stamp of the scene's files, set by open_source (keys the render cache)
     loaded: object = None  # the Scene, loaded once by open_source (the renderer and the picker share it)
+    origin: Path | None = None  # the job file, export folder or shots folder reviewed
+
+    def review_name(self, db_path) -> str:
+        """The review's name in the database at ``db_path``: the path of what is reviewed,
+        relative to the database's folder ("." for an export's own review.sqlite), so that a
+        folder moved or copied with its database keeps its review, and one database given to
+        several exports keeps their markers apart."""
+        return Path(os.path.relpath(Path(self.origin).resolve(), Path(db_path).resolve().parent)).as_posix()
 
 
 def _rms(shot: dict) -> float | None:
@@ -120,7 +128,7 @@ def from_outdir(outdir: Path) -> Source:
         why = (f"every shot ({failed}) failed in the export; its report.html says why" if entries and failed == len(entries)
                else "the export has no shots" if not entries else "see the warnings above")
         raise MrcheckError(f"no usable shots to review: {why}", outdir)
-    return Source(scene, shots, outdir, str(outdir))
+    return Source(scene, shots, outdir, str(outdir), origin=outdir)
 
 
 def from_job(job_path: Path) -> Source:
@@ -142,7 +150,7 @@ def from_job(job_path: Path) -> Source:
         shots[name] = Shot(name, camera, Path(photo), _rms(data))
     if not shots:
         raise MrcheckError("no usable shots to review: every shot was skipped (see the warnings above)", job_path)
-    return Source(Path(job.scene), shots, job_path.resolve().parent, str(job_path), loaded=job.loaded)
+    return Source(Path(job.scene), shots, job_path.resolve().parent, str(job_path), loaded=job.loaded, origin=job_path)
 
 
 def from_scene(scene: Path, shots_dir: Path) -> Source:
@@ -163,7 +171,7 @@ def from_scene(scene: Path, shots_dir: Path) -> Source:
     if not shots:
         why = f"none of its {len(files)} JSON file(s) is a shot" if files else "it has no SHOT.json files (*.json)"
         raise MrcheckError(f"no usable shots to review: {why}", shots_dir)
-    return Source(scene, shots, shots_dir, f"{scene} + {shots_dir}")
+    return Source(scene, shots, shots_dir, f"{scene} + {shots_dir}", origin=shots_dir)
 
 
 def _toml_keys(path: Path) -> set:

@@ -12,8 +12,10 @@ CATEGORIES = ("missing", "moved", "extra", "wrong size", "other", "suggested")
 SEVERITIES = (1, 2, 3)
 MAX_NOTE = 2000
 # PRAGMA user_version of the database; 0 (before): marker coordinates in the pixels of the
-# images served (at most 1280 wide); 1: in the photo's native pixels
+# images served (at most 1280 wide), and the first review used whatever was reviewed; 1: native
+# pixels, one review per job, export or shots folder (reviews.source: its path relative to the database)
 VERSION = 1
+TABLES = {"reviews", "markers", "imported", "sqlite_sequence"}   # a database with others is another program's
 _FIELDS = ("id", "shot", "x", "y", "category", "severity", "note", "part", "distance", "mode", "created", "updated")
 
 _SCHEMA = """
@@ -34,13 +36,19 @@ CREATE TABLE IF NOT EXISTS imported (review INTEGER NOT NULL, shot TEXT NOT NULL
 class Store:
     """One SQLite file; a short-lived connection per call (safe from any server thread)."""
 
-    def __init__(self, path: Path, source_label: str, served_scales: dict | None = None):
-        """``served_scales``: {shot name: (sx, sy)} served pixels per photo pixel of the shots
-        served downscaled; a database of version 0 has their markers in served pixels."""
+    def __init__(self, path: Path, review: str, served_scales: dict | None = None):
+        """The review named ``review`` (:meth:`.source.Source.review_name`) in the database at
+        ``path``, created when new; the database's other reviews stay apart (``self.others``).
+        ``served_scales``: {shot name: (sx, sy)} served pixels per photo pixel of the shots served
+        downscaled; a database of version 0 has their markers in served pixels."""
         self.path = Path(path)
         try:
             with self._connect() as db:
                 version = db.execute("PRAGMA user_version").fetchone()[0]
+                foreign = {row[0] for row in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")} - TABLES
+                if foreign:  # checked before anything is written into it (WAL mode, our tables)
+                    raise MrcheckError(f"not a review database (it has the table(s) {', '.join(sorted(foreign))}): "
+                                       "give a new file with --db", self.path)
                 if version > VERSION:
                     raise MrcheckError(f"the review database is of a newer mrcheck (version {version}; "
                                        f"this one reads up to {VERSION})", self.path)
@@ -48,17 +56,30 @@ class Store:
                 db.execute("BEGIN IMMEDIATE")   # the schema, the review and an upgrade: all or nothing
                 for statement in filter(str.strip, _SCHEMA.split(";")):  # executescript would commit first
                     db.execute(statement)
-                row = db.execute("SELECT id FROM reviews ORDER BY id LIMIT 1").fetchone()
-                self.review = row[0] if row else db.execute("INSERT INTO reviews(source, created) VALUES (?, ?)",
-                                                            (source_label, time.time())).lastrowid
+                self.review, self.created = self._review(db, review, version)
                 if version < 1:
                     for shot, (sx, sy) in (served_scales or {}).items():
                         db.execute("UPDATE markers SET x = x / ?, y = y / ? WHERE review = ? AND shot = ?",
                                    (sx, sy, self.review, shot))
                 db.execute(f"PRAGMA user_version = {VERSION}")
                 db.execute("COMMIT")
+                self.others = [row[0] for row in db.execute("SELECT source FROM reviews WHERE id != ? ORDER BY id",
+                                                             (self.review,))]
         except sqlite3.DatabaseError as exc:  # --db in a folder that cannot be written, or a file that is no database
             raise MrcheckError(f"cannot open the review database ({exc})", self.path) from None
+
+    @staticmethod
+    def _review(db, name: str, version: int) -> tuple[int, bool]:
+        """The id of the review ``name`` and whether it is new. A database of version 0 has one
+        review, used by whatever was reviewed with it: the first review to open it adopts it."""
+        row = db.execute("SELECT id FROM reviews WHERE source = ?", (name,)).fetchone()
+        if row is None and version < 1:
+            row = db.execute("SELECT id FROM reviews ORDER BY id LIMIT 1").fetchone()
+            if row is not None:
+                db.execute("UPDATE reviews SET source = ? WHERE id = ?", (name, row[0]))
+        if row is not None:
+            return row[0], False
+        return db.execute("INSERT INTO reviews(source, created) VALUES (?, ?)", (name, time.time())).lastrowid, True
 
     def _connect(self):
         db = sqlite3.connect(self.path, timeout=10, isolation_level=None)  # autocommit: each statement commits
