@@ -345,3 +345,11 @@ def test_a_database_with_other_reviews_says_so(outdir, tmp_path, capsys, monkeyp
     assert _review(capsys, outdir, "--port", _free_port(), "--db", db)[0] == 0
     code, out, err = _review(capsys, sample_scene_path(), "--shots", shots, "--port", _free_port(), "--db", db)
     assert code == 0 and f"review database {db}: a new review of shots; its other review(s), kept apart: out\n" in out, out
+
+
+def test_the_url_for_every_interface_names_the_machine(outdir, capsys, monkeypatch):
+    """--host 0.0.0.0 printed http://0.0.0.0:PORT/, which cannot be sent to a colleague."""
+    monkeypatch.setattr(uvicorn.Server, "run", lambda self, sockets=None: None)   # start, print, stop
+    port = _free_port()
+    code, out, err = _review(capsys, outdir, "--host", "0.0.0.0", "--port", port)
+    assert code == 0 and f"open http://{socket.gethostname()}:{port}/?token=" in out, out

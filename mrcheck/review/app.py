@@ -258,6 +258,14 @@ def is_loopback(host: str) -> bool:
     return host in ("127.0.0.1", "localhost", "::1") or host.startswith("127.")
 
 
+def _url_host(host: str) -> str:
+    """The host part of the printed URL: for an address bound on every interface (0.0.0.0, ::),
+    the machine's name, which a colleague's browser can open."""
+    if host in ("0.0.0.0", "::", ""):
+        return socket.gethostname()
+    return f"[{host}]" if ":" in host else host
+
+
 def listen(host: str, port: int) -> socket.socket:
     """The server's socket, bound and listening (as uvicorn binds it), before the URL is printed
     and anything is written: a busy or impossible port is a one-line error, and no other program
@@ -295,7 +303,7 @@ def serve(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=No
     sock = listen(host, port)  # before create_app writes the database
     try:
         app = create_app(source, db_path=None if db is None else Path(db), token=token, suggestions=suggested)
-        url = f"http://{'[' + host + ']' if ':' in host else host}:{port}/" + (f"?token={token}" if token else "")
+        url = f"http://{_url_host(host)}:{port}/" + (f"?token={token}" if token else "")
         print(f"mrcheck review: {len(source.shots)} shot(s) of {source.label}", flush=True)
         store = app.state.store
         if store.created and store.others:  # a shared --db, or a folder moved away from its database
