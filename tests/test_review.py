@@ -611,6 +611,34 @@ def test_editing_markers_loses_nothing_and_adds_nothing_by_accident(tmp_path):
 
 
 @needs_chromium
+def test_the_page_keeps_long_notes_in_the_sidebar(tmp_path):
+    """A 2000-character note filled the whole sidebar, an unbroken URL overflowed it; the opacity
+    slider stayed in side by side, where it does nothing; /favicon.ico was a 404 on every load."""
+    sync_api = pytest.importorskip("playwright.sync_api")
+    app = create_app(_box_review(tmp_path, (0.0, 0.0, 0.0)), db_path=tmp_path / "r.sqlite",
+                     cache_dir=tmp_path / "cache", samples=2)
+    note = "https://example.com/" + "x" * 400 + " " + "word " * 300
+    app.state.store.add({"shot": "a", "x": 10.0, "y": 10.0, "category": "other", "severity": 1, "note": note})
+    with _served(app) as url, sync_api.sync_playwright() as pw:
+        browser = _browser(pw, tmp_path)
+        page = browser.new_page()
+        missing = []
+        page.on("response", lambda r: missing.append(r.url) if r.status == 404 else None)
+        page.goto(url)
+        page.wait_for_selector("body[data-loaded='a|phong|1']", timeout=30000)
+        item = page.locator("#marker-list li").first
+        assert item.bounding_box()["height"] < 60 and item.get_attribute("title") == note
+        assert page.evaluate("(() => { const s = document.querySelector('#side'); return s.scrollWidth <= s.clientWidth; })()")
+        assert page.is_visible("#opacity")
+        page.select_option("#view", "side")
+        assert not page.is_visible("#opacity")
+        assert missing == []
+        browser.close()
+    with TestClient(app) as c:
+        assert c.get("/favicon.ico").status_code == 204
+
+
+@needs_chromium
 def test_browser_end_to_end(outdir, tmp_path):
     sync_api = pytest.importorskip("playwright.sync_api")
     port, db = _free_port(), tmp_path / "e2e.sqlite"

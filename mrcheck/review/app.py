@@ -171,6 +171,10 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
     def index():
         return HTMLResponse(_static("index.html"))
 
+    @app.get("/favicon.ico")
+    def favicon():  # what every browser asks for: no icon, rather than a 404 in its console on every load
+        return Response(status_code=204)
+
     @app.get("/static/{name}")
     def static(name: str):
         if name not in STATIC:

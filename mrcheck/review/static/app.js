@@ -44,6 +44,7 @@ function applyView() {
   else if (S.view === "swipe") { ra.style.opacity = 1; ra.style.clipPath = `inset(0 0 0 ${S.opacity}%)`; }
   else { ra.style.opacity = 0; pb.style.visibility = "hidden"; rb.style.opacity = 1; }
   $("#opacity").previousSibling.textContent = S.view === "swipe" ? "split " : "CAD opacity ";
+  $("#opacity-label").hidden = S.view === "side";  // side by side shows photo and CAD apart: nothing to blend
   for (const e of $$(".edges")) e.style.display = S.edges ? "block" : "none";
 }
 function loadRender() {
@@ -100,7 +101,7 @@ function drawMarkers() {
   for (const m of S.markers) {
     const li = document.createElement("li");
     li.dataset.id = m.id; li.classList.toggle("selected", S.selected === m.id);
-    li.textContent = `#${m.id} ${m.category} (sev ${m.severity}) ${m.part || "-"}: ${m.note}`;
+    li.textContent = `#${m.id} ${m.category} (sev ${m.severity}) ${m.part || "-"}: ${m.note}`; li.title = m.note;
     li.onclick = () => select(m.id);
     list.appendChild(li);
   }
