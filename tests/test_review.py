@@ -447,6 +447,15 @@ def test_markers_of_a_shot_the_review_no_longer_has(outdir, tmp_path):
         assert "wall-5" in c.get("/api/export/markers.csv").text
 
 
+def test_the_report_says_in_which_mode_a_marker_was_placed(client):
+    m = client.post("/api/markers", json={"shot": "shot0", "x": 20, "y": 20, "category": "moved", "severity": 2,
+                                          "mode": "vector"}).json()
+    report = client.get("/api/export/report.html").text
+    assert "; placed in D2 vector SSAO 20" in report and "last changed" not in report
+    client.patch(f"/api/markers/{m['id']}", json={"note": "later"})
+    assert "last changed 20" in client.get("/api/export/report.html").text
+
+
 def test_csv_defuses_spreadsheet_formulas():
     import csv
     import io

@@ -38,6 +38,10 @@ def _text(value: str | None) -> str:
     return "'" + value if value.startswith(FORMULA) else value
 
 
+def _when(seconds: float) -> str:
+    return time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(seconds))
+
+
 def markers_csv(markers: list) -> str:
     out = io.StringIO()
     writer = csv.writer(out)
@@ -45,7 +49,7 @@ def markers_csv(markers: list) -> str:
     for m in markers:
         writer.writerow([m["id"], m["shot"], f"{m['x']:.1f}", f"{m['y']:.1f}", m["category"], m["severity"],
                          _text(m["note"]), _text(m["part"]), "" if m["distance"] is None else f"{m['distance']:.3f}",
-                         m["mode"] or "", time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(m["updated"]))])
+                         m["mode"] or "", _when(m["updated"])])
     return out.getvalue()
 
 
@@ -78,10 +82,12 @@ def report_html(source, renders, markers: list, intensity: float = 1.0) -> str:
             figures = "".join(f'<figure><img src="{_data_url(_crop(img, m["x"] * sx, m["y"] * sy))}" alt="{e(label)}">'
                               f"<figcaption>{e(label)}</figcaption></figure>" for label, img in crops)
         distance = "" if m["distance"] is None else f" at {m['distance']:.2f} m"
+        placed = f" in {STUDY_LABELS.get(m['mode'], m['mode'])}" if m["mode"] else ""
+        changed = "" if m["updated"] == m["created"] else f", last changed {_when(m['updated'])}"
         rows.append(f'<section class="marker" id="marker-{m["id"]}"><h2>#{m["id"]} {e(m["category"])} '
                     f'(severity {m["severity"]}) -- shot {e(m["shot"])}</h2>'
                     f'<p class="meta">photo pixel ({m["x"]:.0f}, {m["y"]:.0f}); CAD part: '
-                    f'<b>{e(m["part"] or "none")}</b>{distance}</p>'
+                    f'<b>{e(m["part"] or "none")}</b>{distance}; placed{e(placed)} {_when(m["created"])}{changed}</p>'
                     f'<p class="note">{e(m["note"]) or "<i>no note</i>"}</p>'
                     f'<div class="crops">{figures}</div></section>')
     body = "".join(rows) or "<p>No markers.</p>"
@@ -90,6 +96,6 @@ body{{font-family:sans-serif;margin:2em;color:#222}} .marker{{border-top:1px sol
 .crops{{display:flex;flex-wrap:wrap;gap:6px}} figure{{margin:0}} figcaption{{font-size:12px;color:#555}}
 .note{{white-space:pre-wrap}} h2{{font-size:1.1em}}</style></head><body>
 <h1>mrcheck review: {e(source.label)}</h1><p>{len(markers)} marker(s), scene {e(str(source.scene))},
-exported {time.strftime('%Y-%m-%d %H:%M:%S')}. Crops: photo and every mode (AO intensity {intensity:g}).
+exported {_when(time.time())}. Crops: photo and every mode (AO intensity {intensity:g}).
 Positions are pixels of the original photo (from its top-left corner).</p>
 {body}</body></html>"""
