@@ -542,54 +542,52 @@ def _served(app):
         sock.close()
 
 
+@contextlib.contextmanager
+def _box_page(tmp_path, size=(64, 48)):
+    """A box review (:func:`_box_review`) served, and a page in headless chromium: (app, page, url)."""
+    sync_api = pytest.importorskip("playwright.sync_api")
+    app = create_app(_box_review(tmp_path, (0.0, 0.0, 0.0), size=size), db_path=tmp_path / "r.sqlite",
+                     cache_dir=tmp_path / "cache", samples=2)
+    with _served(app) as url, sync_api.sync_playwright() as pw:
+        browser = _browser(pw, tmp_path)
+        yield app, browser.new_page(), url
+        browser.close()
+
+
+def _open(page, url):
+    page.goto(url)
+    page.wait_for_selector("body[data-loaded='a|phong|1']", timeout=30000)
+
+
 @needs_chromium
 def test_the_page_shows_why_a_photo_failed(tmp_path):
     """A photo replaced by one of another size after start-up: the page said "render failed"."""
-    sync_api = pytest.importorskip("playwright.sync_api")
-    source = _box_review(tmp_path, (0.0, 0.0, 0.0))
-    write_image(tmp_path / "shots" / "photo.png", np.full((24, 32, 3), 90, np.uint8))
-    app = create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache", samples=2)
-    with _served(app) as url, sync_api.sync_playwright() as pw:
-        browser = _browser(pw, tmp_path)
-        page = browser.new_page()
+    with _box_page(tmp_path) as (app, page, url):
+        write_image(tmp_path / "shots" / "photo.png", np.full((24, 32, 3), 90, np.uint8))
         page.goto(url)
         page.wait_for_function("document.querySelector('#status').textContent.includes('failed: ')", timeout=30000)
         assert "photo is 32x24 but the shot was registered at 64x48" in page.text_content("#status")
-        browser.close()
 
 
 @needs_chromium
 def test_a_click_places_a_marker_in_the_photos_pixels(tmp_path, served_small):
     """The page shows the 80 px image served for a 160 px photo: a click in the middle is (80, 60)."""
-    sync_api = pytest.importorskip("playwright.sync_api")
-    app = create_app(_box_review(tmp_path, (0.0, 0.0, 0.0), size=(160, 120)), db_path=tmp_path / "r.sqlite",
-                     cache_dir=tmp_path / "cache", samples=2)
-    with _served(app) as url, sync_api.sync_playwright() as pw:
-        browser = _browser(pw, tmp_path)
-        page = browser.new_page()
-        page.goto(url)
-        page.wait_for_selector("body[data-loaded='a|phong|1']", timeout=30000)
+    with _box_page(tmp_path, size=(160, 120)) as (app, page, url):
+        _open(page, url)
         box = page.locator("#pane-a").bounding_box()
         page.mouse.click(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
         page.wait_for_selector("#editor:not([hidden])")
         [m] = app.state.store.markers()
         assert abs(m["x"] - 80) < 1 and abs(m["y"] - 60) < 1, m
-        browser.close()
 
 
 @needs_chromium
 def test_editing_markers_loses_nothing_and_adds_nothing_by_accident(tmp_path):
     """A typed note was dropped by a click on the image, which also placed a stray marker; another
     marker or shot dropped it too; Delete deleted at once."""
-    sync_api = pytest.importorskip("playwright.sync_api")
-    app = create_app(_box_review(tmp_path, (0.0, 0.0, 0.0), size=(160, 120)), db_path=tmp_path / "r.sqlite",
-                     cache_dir=tmp_path / "cache", samples=2)
-    store = app.state.store
-    with _served(app) as url, sync_api.sync_playwright() as pw:
-        browser = _browser(pw, tmp_path)
-        page = browser.new_page()
-        page.goto(url)
-        page.wait_for_selector("body[data-loaded='a|phong|1']", timeout=30000)
+    with _box_page(tmp_path, size=(160, 120)) as (app, page, url):
+        _open(page, url)
+        store = app.state.store
         box = page.locator("#pane-a").bounding_box()
 
         def click(fx, fy):
@@ -616,25 +614,18 @@ def test_editing_markers_loses_nothing_and_adds_nothing_by_accident(tmp_path):
         page.click("#ed-delete")
         page.wait_for_selector("#editor[hidden]", state="attached")
         assert [m["note"] for m in store.markers()] == ["second"]
-        browser.close()
 
 
 @needs_chromium
 def test_the_page_keeps_long_notes_in_the_sidebar(tmp_path):
     """A 2000-character note filled the whole sidebar, an unbroken URL overflowed it; the opacity
     slider stayed in side by side, where it does nothing; /favicon.ico was a 404 on every load."""
-    sync_api = pytest.importorskip("playwright.sync_api")
-    app = create_app(_box_review(tmp_path, (0.0, 0.0, 0.0)), db_path=tmp_path / "r.sqlite",
-                     cache_dir=tmp_path / "cache", samples=2)
     note = "https://example.com/" + "x" * 400 + " " + "word " * 300
-    app.state.store.add({"shot": "a", "x": 10.0, "y": 10.0, "category": "other", "severity": 1, "note": note})
-    with _served(app) as url, sync_api.sync_playwright() as pw:
-        browser = _browser(pw, tmp_path)
-        page = browser.new_page()
+    with _box_page(tmp_path) as (app, page, url):
+        app.state.store.add({"shot": "a", "x": 10.0, "y": 10.0, "category": "other", "severity": 1, "note": note})
         missing = []
         page.on("response", lambda r: missing.append(r.url) if r.status == 404 else None)
-        page.goto(url)
-        page.wait_for_selector("body[data-loaded='a|phong|1']", timeout=30000)
+        _open(page, url)
         item = page.locator("#marker-list li").first
         assert item.bounding_box()["height"] < 60 and item.get_attribute("title") == note
         assert page.evaluate("(() => { const s = document.querySelector('#side'); return s.scrollWidth <= s.clientWidth; })()")
@@ -642,7 +633,6 @@ def test_the_page_keeps_long_notes_in_the_sidebar(tmp_path):
         page.select_option("#view", "side")
         assert not page.is_visible("#opacity")
         assert missing == []
-        browser.close()
     with TestClient(app) as c:
         assert c.get("/favicon.ico").status_code == 204
 
