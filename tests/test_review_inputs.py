@@ -344,7 +344,7 @@ def test_a_database_with_other_reviews_says_so(outdir, tmp_path, capsys, monkeyp
     shots = _shots_folder(outdir, tmp_path / "shots")
     assert _review(capsys, outdir, "--port", _free_port(), "--db", db)[0] == 0
     code, out, err = _review(capsys, sample_scene_path(), "--shots", shots, "--port", _free_port(), "--db", db)
-    assert code == 0 and f"review database {db}: a new review of shots; its other review(s), kept apart: out\n" in out, out
+    assert code == 0 and f"review database {db}: a new review of {shots}; its other review(s), kept apart: {outdir}\n" in out, out
 
 
 def test_the_url_for_every_interface_names_the_machine(outdir, capsys, monkeypatch):

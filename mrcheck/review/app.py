@@ -311,8 +311,9 @@ def serve(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=No
         print(f"mrcheck review: {len(source.shots)} shot(s) of {source.label}", flush=True)
         store = app.state.store
         if store.created and store.others:  # a shared --db, or a folder moved away from its database
-            print(f"review database {store.path}: a new review of {source.review_name(store.path)}; its other "
-                  f"review(s), kept apart: {', '.join(store.others)}", flush=True)
+            where = lambda name: os.path.normpath(store.path.resolve().parent / name)  # noqa: E731 (names are relative)
+            print(f"review database {store.path}: a new review of {where(source.review_name(store.path))}; its other "
+                  f"review(s), kept apart: {', '.join(map(where, store.others))}", flush=True)
         if suggested:
             added = app.state.imported
             print(f"suggestions: {sum(added.values())} new marker(s) on {len(added)} shot(s) (category 'suggested'; "
