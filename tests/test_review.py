@@ -607,6 +607,10 @@ def test_editing_markers_loses_nothing_and_adds_nothing_by_accident(tmp_path):
         page.wait_for_selector("#marker-list li:has-text('second')")
         assert page.input_value("#ed-note") == "unsaved note text"
         assert [m["note"] for m in store.markers()] == ["unsaved note text", "second"]
+        page.fill("#ed-note", "first")
+        page.click("#marker-list li:nth-child(1)")   # the same marker: the editor keeps what was typed
+        page.wait_for_selector("#marker-list li:has-text('first')")
+        assert page.input_value("#ed-note") == "first" and [m["note"] for m in store.markers()] == ["first", "second"]
         page.once("dialog", lambda dialog: dialog.dismiss())
         page.click("#ed-delete")
         assert len(store.markers()) == 2 and page.is_visible("#editor")

@@ -132,7 +132,7 @@ function saveEdits() {  // one save at a time: a field's blur and the click that
   return saving;
 }
 async function select(id) {
-  if (S.selected !== id && !(await saveEdits())) return;
+  if (!(await saveEdits())) return;  // also for the same marker: the editor is refilled from what was saved
   S.selected = id; const m = S.markers.find((k) => k.id === id);
   $("#editor").hidden = !m;
   if (m) {
