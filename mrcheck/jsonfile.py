@@ -19,7 +19,8 @@ def read_json(path, what: str):
     except (OSError, UnicodeDecodeError) as exc:
         raise MrcheckError(f"cannot read {what} file ({exc})", path) from None
     except json.JSONDecodeError as exc:
-        raise MrcheckError(f"malformed {what} JSON: {exc.msg} at line {exc.lineno}", path) from None
+        # some of json's messages end in "at" already ("Invalid control character at")
+        raise MrcheckError(f"malformed {what} JSON: {exc.msg.removesuffix(' at')} at line {exc.lineno}", path) from None
 
 
 __all__ = ["read_json"]

@@ -3,8 +3,10 @@ end to end in headless Chromium (Playwright driving Debian's /usr/bin/chromium).
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import shutil
 import socket
 import subprocess
 import sys
@@ -81,6 +83,23 @@ def test_bad_input_is_a_clear_4xx(client):
     assert client.get("/api/shots/shot0/render.png", params={"mode": "fancy"}).status_code == 422
     assert client.get("/api/shots/shot0/render.png", params={"intensity": 3}).status_code == 422
     assert client.patch("/api/markers/999", json={"note": "x"}).status_code == 404
+
+
+def test_wrong_types_and_unknown_fields_are_a_422(client):
+    """PATCH ignored mode and unknown fields (a typo such as "severty" answered 200, nothing
+    changed); a severity true was stored as 1."""
+    base = {"shot": "shot0", "x": 10, "y": 10, "category": "missing", "severity": 2}
+    for bad in ({"severity": True}, {"severity": "2"}, {"severity": 2.0}, {"x": "10"}, {"note": None},
+                {"severty": 3}, {"mode": 1}):
+        r = client.post("/api/markers", json={**base, **bad})
+        assert r.status_code == 422 and "error" in r.json(), (bad, r.text)
+    m = client.post("/api/markers", json={**base, "mode": "vector"}).json()
+    for bad in ({"mode": "bogus"}, {"severty": 3}, {"Note": "x"}, {"note": None}, {"severity": True}, {"x": None}):
+        r = client.patch(f"/api/markers/{m['id']}", json=bad)
+        assert r.status_code == 422 and "error" in r.json(), (bad, r.text)
+    r = client.patch(f"/api/markers/{m['id']}", json={"mode": "ssao", "x": 12})
+    assert r.status_code == 200 and (r.json()["mode"], r.json()["x"], r.json()["note"]) == ("ssao", 12.0, "")
+    client.delete(f"/api/markers/{m['id']}")
 
 
 def test_marker_crud_and_persistence(client, outdir, tmp_path):
@@ -171,7 +190,65 @@ def test_suggested_markers_of_a_discrepancies_run(outdir, tmp_path, monkeypatch)
         load_suggestions(source, [str(tmp_path / "bad.json")])
 
 
-def _box_review(folder, centre):
+def test_a_rerun_of_discrepancies_does_not_add_its_parts_again(outdir, tmp_path):
+    """The import key was x, y and the note, whose percentage changes with every run: a re-run
+    (here: other notes, a region's centre 1 px away) added every part again."""
+    from mrcheck.review.storage import Store
+    from mrcheck.review.suggestions import load_suggestions
+
+    source = open_source(outdir)
+    shot_json = outdir / "shots" / "shot1" / "SHOT.json"
+
+    def run(markers):
+        path = tmp_path / f"suspects{len(markers)}.json"
+        path.write_text(json.dumps({"shot": str(shot_json), "suggested_markers": markers}))
+        app = create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=outdir / ".cache",
+                         suggestions=load_suggestions(source, [str(path)]))
+        return app.state.imported
+
+    first = [{"x": 100.0, "y": 80.0, "category": "moved", "note": "workbench: 12 % found", "part": "workbench"},
+             {"x": 200.0, "y": 120.0, "category": "extra", "note": "structure (50 edge px)", "part": None}]
+    assert run(first) == {"shot1": 2}
+    again = [{"x": 104.0, "y": 82.0, "category": "missing", "note": "workbench: 9 % found", "part": "workbench"},
+             {"x": 201.0, "y": 120.0, "category": "extra", "note": "structure (48 edge px)", "part": None},
+             {"x": 50.0, "y": 50.0, "category": "moved", "note": "shelf: 20 % found", "part": "shelf"}]
+    assert run(again) == {"shot1": 1}
+    assert sorted(m["note"] for m in Store(tmp_path / "r.sqlite", source.review_name(tmp_path / "r.sqlite")).markers()) == [
+        "extra? structure (50 edge px)", "moved? shelf: 20 % found", "moved? workbench: 12 % found"]
+    # a review of before recorded x, y (served pixels) and the note: not imported twice either
+    legacy = Store(tmp_path / "old.sqlite", source.review_name(tmp_path / "old.sqlite"))
+    legacy.import_suggestions("shot1", [{"shot": "shot1", "x": 1.0, "y": 2.0, "category": "suggested", "severity": 2,
+                                         "note": "moved? shelf: 20 % found", "key": "50.0,50.0,moved? shelf: 20 % found"}])
+    app = create_app(source, db_path=tmp_path / "old.sqlite", cache_dir=outdir / ".cache",
+                     suggestions=load_suggestions(source, [str(tmp_path / "suspects3.json")]))
+    assert app.state.imported == {"shot1": 2}
+
+
+def test_one_database_keeps_the_reviews_of_two_exports_apart(outdir, tmp_path):
+    """A --db given to two reviews showed the first one's markers in the second (on any shot of
+    the same name, too)."""
+    db = tmp_path / "team.sqlite"
+    reviews = {"cell": open_source(outdir), "box": _box_review(tmp_path / "box", (0.0, 0.0, 0.0))}
+    for name, source in reviews.items():
+        with TestClient(create_app(source, db_path=db, cache_dir=tmp_path / "cache", samples=2)) as c:
+            shot = next(iter(source.shots))
+            assert c.get("/api/markers").json() == []
+            assert c.post("/api/markers", json={"shot": shot, "x": 5, "y": 5, "category": "other", "severity": 1,
+                                                "note": name}).status_code == 201
+    for name, source in reviews.items():
+        app = create_app(source, db_path=db, cache_dir=tmp_path / "cache")
+        assert [m["note"] for m in app.state.store.markers()] == [name]
+    assert (source.review_name(db), app.state.store.others) == ("box/shots", [os.path.relpath(outdir, tmp_path)])
+    # the name is relative to the database: an export moved or copied with its review.sqlite keeps its review
+    shutil.copytree(outdir.parent, tmp_path / "one", ignore=shutil.ignore_patterns(".cache", "*.sqlite*"))
+    with TestClient(create_app(open_source(tmp_path / "one" / "out"), cache_dir=tmp_path / "cache")) as c:
+        c.post("/api/markers", json={"shot": "shot0", "x": 5, "y": 5, "category": "other", "severity": 1, "note": "own db"})
+    shutil.copytree(tmp_path / "one", tmp_path / "two")
+    moved = create_app(open_source(tmp_path / "two" / "out"), cache_dir=tmp_path / "cache").state.store
+    assert [m["note"] for m in moved.markers()] == ["own db"] and moved.others == []
+
+
+def _box_review(folder, centre, size=(64, 48)):
     """A review of one 64x48 shot of a 1 m box (a single-mesh scene) at ``centre``: SCENE --shots DIR."""
     import trimesh
 
@@ -181,10 +258,93 @@ def _box_review(folder, centre):
     trimesh.creation.box(extents=(1, 1, 1), transform=trimesh.transformations.translation_matrix(centre)).export(
         folder / "box.stl")
     (folder / "shots").mkdir(exist_ok=True)
-    camera = Camera.from_look_at((4.0, 0.0, 0.5), (0.0, 0.0, 0.0), (0, 0, 1), 60.0, 64, 48)
-    write_image(folder / "shots" / "photo.png", np.full((48, 64, 3), 128, np.uint8))
+    camera = Camera.from_look_at((4.0, 0.0, 0.5), (0.0, 0.0, 0.0), (0, 0, 1), 60.0, *size)
+    write_image(folder / "shots" / "photo.png", np.full((size[1], size[0], 3), 128, np.uint8))
     (folder / "shots" / "a.json").write_text(json.dumps({**camera.to_dict(), "photo": "photo.png"}))
     return open_source(folder / "box.stl", folder / "shots")
+
+
+BOX = Path(__file__).resolve().parent / "data" / "pose" / "box"
+
+
+def test_review_of_a_job(tmp_path, capsys):
+    """JOB.toml: its shots are registered at start-up as the export registers them (this crashed:
+    export's _register had gained the scene's bounds); skipped shots and registration warnings
+    go to stderr."""
+    points = json.loads((BOX / "corners.json").read_text())
+    for p in points["points"]:  # world points typed in mm for a scene in m: the far-camera warning
+        p["world"] = [1000 * c for c in p["world"]]
+    (tmp_path / "corners_mm.json").write_text(json.dumps(points))
+    job = tmp_path / "job.toml"
+    job.write_text(f'scene = "{BOX / "scene.toml"}"\n[[shots]]\nname = "box"\nphoto = "{BOX / "resized_IMG_3875.JPG"}"\n'
+                   f'intrinsics = "{BOX / "canon.json"}"\npoints = "corners_mm.json"\n'
+                   '[[shots]]\nname = "gone"\nshot = "gone.json"\n')
+    source = open_source(job)
+    out, err = capsys.readouterr()
+    assert list(source.shots) == ["box"] and source.shots["box"].size == (718, 480)
+    assert out == ""
+    assert f"warning: shot gone skipped: {tmp_path / 'gone.json'}: shot file not found\n" in err
+    assert "warning: shot box: " in err and "outside the scene" in err
+    with TestClient(create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache", samples=2)) as c:
+        assert c.get("/api/shots/box/render.png").status_code == 200
+        r = c.post("/api/markers", json={"shot": "box", "x": 300, "y": 250, "category": "other", "severity": 1})
+        assert r.status_code == 201, r.text
+
+
+@pytest.fixture()
+def served_small(monkeypatch):
+    """Images served at most 80 px wide: the 160 px photos of these tests stand for 4000 px ones."""
+    import mrcheck.review.source
+
+    monkeypatch.setattr(mrcheck.review.source, "MAX_SIZE", 80)
+
+
+def test_coordinates_are_the_photos_pixels_when_it_is_served_smaller(tmp_path, served_small):
+    """Markers, picks, suggestions and both exports are in the photo's own pixels (the CSV and the
+    report gave those of the downscaled copy served to the browser, suspects.json the photo's)."""
+    import cv2
+
+    from mrcheck.review.suggestions import load_suggestions
+
+    source = _box_review(tmp_path, (0.0, 0.0, 0.0), size=(160, 120))
+    suspects = tmp_path / "suspects.json"
+    suspects.write_text(json.dumps({"shot": str(tmp_path / "shots" / "a.json"), "suggested_markers": [
+        {"x": 80.0, "y": 60.0, "category": "moved", "severity": 2, "note": "box: 3 % found", "part": "box"}]}))
+    app = create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache", samples=2,
+                     suggestions=load_suggestions(source, [str(suspects)]))
+    with TestClient(app) as c:
+        assert [(s["width"], s["height"]) for s in c.get("/api/shots").json()] == [(160, 120)]
+        photo = cv2.imdecode(np.frombuffer(c.get("/api/shots/a/photo.png").content, np.uint8), cv2.IMREAD_COLOR)
+        assert photo.shape[:2] == (60, 80)   # served downscaled
+        [m] = c.get("/api/markers").json()
+        hit = c.get("/api/shots/a/pick", params={"x": 80, "y": 60}).json()
+        assert (m["x"], m["y"]) == (80.0, 60.0) and hit["instance"] and m["part"] == hit["instance"]
+        assert c.get("/api/shots/a/pick", params={"x": 150, "y": 110}).json()["instance"] is None  # beside the box
+        assert c.post("/api/markers", json={"shot": "a", "x": 150, "y": 110, "category": "other",
+                                            "severity": 1}).status_code == 201
+        assert c.post("/api/markers", json={"shot": "a", "x": 160, "y": 110, "category": "other",
+                                            "severity": 1}).status_code == 422
+        assert ",a,80.0,60.0,suggested," in c.get("/api/export/markers.csv").text
+        report = c.get("/api/export/report.html").text
+        assert "photo pixel (80, 60)" in report and "photo pixel (150, 110)" in report
+
+
+def test_a_database_of_served_pixels_is_upgraded(tmp_path, served_small):
+    """A review.sqlite of before (version 0) has markers in the served pixels: scaled once."""
+    import sqlite3
+
+    from mrcheck.review.storage import _SCHEMA
+
+    source = _box_review(tmp_path, (0.0, 0.0, 0.0), size=(160, 120))
+    with contextlib.closing(sqlite3.connect(tmp_path / "r.sqlite")) as db:
+        db.executescript(_SCHEMA)
+        db.execute("INSERT INTO reviews(source, created) VALUES ('old', 0)")
+        db.execute("INSERT INTO markers(review, shot, x, y, category, severity, created, updated) "
+                   "VALUES (1, 'a', 40, 30.5, 'moved', 2, 0, 0)")
+        db.commit()
+    for _ in range(2):   # once: a restart does not scale again
+        with TestClient(create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache")) as c:
+            assert [(m["x"], m["y"]) for m in c.get("/api/markers").json()] == [(80.0, 61.0)]
 
 
 def test_render_cache_follows_a_changed_scene(tmp_path):
@@ -211,12 +371,57 @@ def test_render_cache_follows_a_changed_scene(tmp_path):
     assert not gone.exists() and (tmp_path / "cache" / "a" / "notes.txt").exists()
 
 
+@pytest.mark.parametrize("rms", [float("nan"), float("inf")])
+def test_a_registration_error_that_is_no_number_is_n_a(tmp_path, rms):
+    """"rms": NaN in a SHOT.json made the shot list a 500 (invalid JSON): the page never loaded."""
+    _box_review(tmp_path, (0.0, 0.0, 0.0))
+    shot = tmp_path / "shots" / "a.json"
+    shot.write_text(json.dumps({**json.loads(shot.read_text()), "rms": rms}))
+    source = open_source(tmp_path / "box.stl", tmp_path / "shots")
+    with TestClient(create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache")) as c:
+        r = c.get("/api/shots")
+        assert r.status_code == 200 and r.json()[0]["error_px"] is None
+
+
+def test_an_unexpected_error_has_the_apis_error_shape(client, monkeypatch, capsys):
+    """A bug answered a plain-text 500 and printed a traceback."""
+    def boom(*args):
+        raise ZeroDivisionError("division by zero")
+
+    monkeypatch.delenv("MRCHECK_DEBUG", raising=False)
+    monkeypatch.setattr(client.app.state.store, "markers", boom)
+    r = client.get("/api/markers")
+    assert r.status_code == 500 and r.json() == {"error": "internal error, please report it: ZeroDivisionError: division by zero"}
+    err = capsys.readouterr().err
+    assert err == ("error: internal error in GET /api/markers, please report it: ZeroDivisionError: division by zero "
+                   "(MRCHECK_DEBUG=1 shows the traceback)\n"), err
+
+
 def test_a_photo_gone_after_start_is_a_json_404(tmp_path):
     source = _box_review(tmp_path, (0.0, 0.0, 0.0))
     (tmp_path / "shots" / "photo.png").unlink()
     with TestClient(create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache")) as c:
         r = c.get("/api/shots/a/photo.png")
         assert r.status_code == 404 and "photo not found" in r.json()["error"]
+
+
+def test_a_photo_replaced_after_start_breaks_its_shot_not_the_report(tmp_path):
+    """The photo replaced by one of another size after start-up: the cached old photo was still
+    served, and the HTML report failed (404) for every shot because of this one."""
+    source = _box_review(tmp_path, (0.0, 0.0, 0.0))
+    with TestClient(create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache", samples=2)) as c:
+        assert c.get("/api/shots/a/photo.png").status_code == 200   # now in the cache
+        assert c.post("/api/markers", json={"shot": "a", "x": 30, "y": 20, "category": "moved", "severity": 2,
+                                            "note": "still listed"}).status_code == 201
+        photo = tmp_path / "shots" / "photo.png"
+        write_image(photo, np.full((24, 32, 3), 90, np.uint8))
+        problem = f"{photo}: photo is 32x24 but the shot was registered at 64x48"
+        for kind in ("photo", "render"):
+            r = c.get(f"/api/shots/a/{kind}.png")
+            assert r.status_code == 500 and r.json() == {"error": problem}, (kind, r.text)
+        report = c.get("/api/export/report.html")
+        assert report.status_code == 200 and "still listed" in report.text and f"no crops: {problem}" in report.text
+        assert "data:image/png" not in report.text
 
 
 @pytest.mark.parametrize("marker_id", [10**23, -10**23, 2**63, 0])
@@ -231,7 +436,7 @@ def test_markers_of_a_shot_the_review_no_longer_has(outdir, tmp_path):
     from mrcheck.review.storage import Store
 
     source = open_source(outdir)
-    orphan = Store(tmp_path / "r.sqlite", source.label).add(
+    orphan = Store(tmp_path / "r.sqlite", source.review_name(tmp_path / "r.sqlite")).add(
         {"shot": "wall-5", "x": 10.0, "y": 10.0, "category": "moved", "severity": 2, "note": "old wall"})
     with TestClient(create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=outdir / ".cache")) as c:
         r = c.patch(f"/api/markers/{orphan['id']}", json={"x": 50})
@@ -240,6 +445,15 @@ def test_markers_of_a_shot_the_review_no_longer_has(outdir, tmp_path):
         report = c.get("/api/export/report.html")
         assert report.status_code == 200 and "old wall, gone" in report.text and "no longer has this shot" in report.text
         assert "wall-5" in c.get("/api/export/markers.csv").text
+
+
+def test_the_report_says_in_which_mode_a_marker_was_placed(client):
+    m = client.post("/api/markers", json={"shot": "shot0", "x": 20, "y": 20, "category": "moved", "severity": 2,
+                                          "mode": "vector"}).json()
+    report = client.get("/api/export/report.html").text
+    assert "; placed in D2 vector SSAO 20" in report and "last changed" not in report
+    client.patch(f"/api/markers/{m['id']}", json={"note": "later"})
+    assert "last changed 20" in client.get("/api/export/report.html").text
 
 
 def test_csv_defuses_spreadsheet_formulas():
@@ -294,19 +508,148 @@ def test_ctrl_c_stops_the_server_quietly(outdir, tmp_path):
     assert proc.returncode == 0 and b"error" not in out, out
 
 
-@pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="needs Debian's chromium (bootstrap.sh installs it)")
+needs_chromium = pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="needs Debian's chromium (bootstrap.sh installs it)")
+
+
+def _browser(pw, tmp_path):
+    """Headless Debian chromium driven by Playwright (a persistent profile in ``tmp_path``)."""
+    args = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+            "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+    return pw.chromium.launch_persistent_context(str(tmp_path / "profile"), executable_path=CHROMIUM, args=args,
+                                                 headless=True, viewport={"width": 1280, "height": 720},
+                                                 accept_downloads=True)
+
+
+@contextlib.contextmanager
+def _served(app):
+    """``app`` served by uvicorn in a thread of this process; yields its URL."""
+    import threading
+
+    import uvicorn
+
+    sock = socket.socket()
+    sock.bind(("127.0.0.1", 0))
+    server = uvicorn.Server(uvicorn.Config(app, log_level="warning"))
+    thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
+    thread.start()
+    try:
+        while not server.started:
+            time.sleep(0.05)
+        yield f"http://127.0.0.1:{sock.getsockname()[1]}/"
+    finally:
+        server.should_exit = True
+        thread.join(30)
+        sock.close()
+
+
+@contextlib.contextmanager
+def _box_page(tmp_path, size=(64, 48)):
+    """A box review (:func:`_box_review`) served, and a page in headless chromium: (app, page, url)."""
+    sync_api = pytest.importorskip("playwright.sync_api")
+    app = create_app(_box_review(tmp_path, (0.0, 0.0, 0.0), size=size), db_path=tmp_path / "r.sqlite",
+                     cache_dir=tmp_path / "cache", samples=2)
+    with _served(app) as url, sync_api.sync_playwright() as pw:
+        browser = _browser(pw, tmp_path)
+        yield app, browser.new_page(), url
+        browser.close()
+
+
+def _open(page, url):
+    page.goto(url)
+    page.wait_for_selector("body[data-loaded='a|phong|1']", timeout=30000)
+
+
+@needs_chromium
+def test_the_page_shows_why_a_photo_failed(tmp_path):
+    """A photo replaced by one of another size after start-up: the page said "render failed"."""
+    with _box_page(tmp_path) as (app, page, url):
+        write_image(tmp_path / "shots" / "photo.png", np.full((24, 32, 3), 90, np.uint8))
+        page.goto(url)
+        page.wait_for_function("document.querySelector('#status').textContent.includes('failed: ')", timeout=30000)
+        assert "photo is 32x24 but the shot was registered at 64x48" in page.text_content("#status")
+
+
+@needs_chromium
+def test_a_click_places_a_marker_in_the_photos_pixels(tmp_path, served_small):
+    """The page shows the 80 px image served for a 160 px photo: a click in the middle is (80, 60)."""
+    with _box_page(tmp_path, size=(160, 120)) as (app, page, url):
+        _open(page, url)
+        box = page.locator("#pane-a").bounding_box()
+        page.mouse.click(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+        page.wait_for_selector("#editor:not([hidden])")
+        [m] = app.state.store.markers()
+        assert abs(m["x"] - 80) < 1 and abs(m["y"] - 60) < 1, m
+
+
+@needs_chromium
+def test_editing_markers_loses_nothing_and_adds_nothing_by_accident(tmp_path):
+    """A typed note was dropped by a click on the image, which also placed a stray marker; another
+    marker or shot dropped it too; Delete deleted at once."""
+    with _box_page(tmp_path, size=(160, 120)) as (app, page, url):
+        _open(page, url)
+        store = app.state.store
+        box = page.locator("#pane-a").bounding_box()
+
+        def click(fx, fy):
+            page.mouse.click(box["x"] + box["width"] * fx, box["y"] + box["height"] * fy)
+
+        click(0.5, 0.5)
+        page.wait_for_selector("#editor:not([hidden])")
+        page.fill("#ed-note", "unsaved note text")
+        click(0.3, 0.3)   # closes the editor, saving the note; no marker
+        page.wait_for_selector("#editor[hidden]", state="attached")
+        page.wait_for_selector("#marker-list li:has-text('unsaved note text')")
+        assert [m["note"] for m in store.markers()] == ["unsaved note text"]
+        click(0.3, 0.3)   # nothing selected: this click places a marker
+        page.wait_for_selector("#marker-list li:nth-child(2)")
+        page.fill("#ed-note", "second")
+        page.click("#marker-list li:nth-child(1)")   # another marker: the typed note is saved first
+        page.wait_for_selector("#marker-list li:has-text('second')")
+        assert page.input_value("#ed-note") == "unsaved note text"
+        assert [m["note"] for m in store.markers()] == ["unsaved note text", "second"]
+        page.fill("#ed-note", "first")
+        page.click("#marker-list li:nth-child(1)")   # the same marker: the editor keeps what was typed
+        page.wait_for_selector("#marker-list li:has-text('first')")
+        assert page.input_value("#ed-note") == "first" and [m["note"] for m in store.markers()] == ["first", "second"]
+        page.once("dialog", lambda dialog: dialog.dismiss())
+        page.click("#ed-delete")
+        assert len(store.markers()) == 2 and page.is_visible("#editor")
+        page.once("dialog", lambda dialog: dialog.accept())
+        page.click("#ed-delete")
+        page.wait_for_selector("#editor[hidden]", state="attached")
+        assert [m["note"] for m in store.markers()] == ["second"]
+
+
+@needs_chromium
+def test_the_page_keeps_long_notes_in_the_sidebar(tmp_path):
+    """A 2000-character note filled the whole sidebar, an unbroken URL overflowed it; the opacity
+    slider stayed in side by side, where it does nothing; /favicon.ico was a 404 on every load."""
+    note = "https://example.com/" + "x" * 400 + " " + "word " * 300
+    with _box_page(tmp_path) as (app, page, url):
+        app.state.store.add({"shot": "a", "x": 10.0, "y": 10.0, "category": "other", "severity": 1, "note": note})
+        missing = []
+        page.on("response", lambda r: missing.append(r.url) if r.status == 404 else None)
+        _open(page, url)
+        item = page.locator("#marker-list li").first
+        assert item.bounding_box()["height"] < 60 and item.get_attribute("title") == note
+        assert page.evaluate("(() => { const s = document.querySelector('#side'); return s.scrollWidth <= s.clientWidth; })()")
+        assert page.is_visible("#opacity")
+        page.select_option("#view", "side")
+        assert not page.is_visible("#opacity")
+        assert missing == []
+    with TestClient(app) as c:
+        assert c.get("/favicon.ico").status_code == 204
+
+
+@needs_chromium
 def test_browser_end_to_end(outdir, tmp_path):
     sync_api = pytest.importorskip("playwright.sync_api")
     port, db = _free_port(), tmp_path / "e2e.sqlite"
     url = f"http://127.0.0.1:{port}/"
     proc = _start(outdir, db, port)
-    args = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-            "--disable-background-networking", "--disable-component-update", "--disable-sync"]
     try:
         with sync_api.sync_playwright() as pw:
-            browser = pw.chromium.launch_persistent_context(str(tmp_path / "profile"), executable_path=CHROMIUM,
-                                                            args=args, headless=True, viewport={"width": 1280, "height": 720},
-                                                            accept_downloads=True)
+            browser = _browser(pw, tmp_path)
             page = browser.new_page()
             page.goto(url)
             page.wait_for_selector("body[data-loaded='shot0|phong|1']", timeout=60000)

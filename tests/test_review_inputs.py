@@ -184,3 +184,172 @@ def test_suggestions_for_a_photo_two_shots_share_need_a_name(outdir, tmp_path, c
     code, out, err = _review(capsys, outdir, "--port", _free_port(), "--suggestions", suspects)
     assert code == 1 and err.count("\n") == 1, err
     assert err.startswith(f"error: {suspects}: its photo is the photo of shots again, shot; pass NAME=FILE")
+
+
+def _shots_folder(outdir, folder):
+    """A folder of one SHOT.json (the export's shot) for ``SCENE --shots DIR``."""
+    folder.mkdir()
+    data = json.loads((outdir / "shots" / "shot" / "SHOT.json").read_text())
+    (folder / "a.json").write_text(json.dumps({**data, "photo": str(outdir / "shots" / "shot" / "photo.png")}))
+    return folder
+
+
+def test_a_scene_that_does_not_load_is_reported_before_the_url(outdir, tmp_path, capsys):
+    """A corrupt mesh started the server; every render, pick and marker then failed with a 404."""
+    shots = _shots_folder(outdir, tmp_path / "shots")
+    (tmp_path / "box.stl").write_text("solid garbage\n")
+    before = _files(tmp_path)
+    code, out, err = _review(capsys, tmp_path / "box.stl", "--shots", shots, "--port", _free_port())
+    assert code == 1 and out == "" and err.startswith(f"error: {tmp_path / 'box.stl'}: ") and err.count("\n") == 1, err
+    assert _files(tmp_path) == before
+
+
+def test_a_job_or_an_export_given_as_scene_says_so(outdir, tmp_path, capsys):
+    shots = _shots_folder(outdir, tmp_path / "shots")
+    job = tmp_path / "job.toml"
+    job.write_text(f'scene = "{sample_scene_path()}"\n[[shots]]\nshot = "{shots / "a.json"}"\n')
+    for target, kind in ((job, "a job file"), (outdir, "an export folder")):
+        code, out, err = _review(capsys, target, "--shots", shots, "--port", _free_port())
+        assert code == 1 and out == "" and err == f"error: {target}: is {kind}, not a scene: review it without --shots\n"
+
+
+@pytest.mark.parametrize("photo, problem", [
+    (b"garbage\n", "cannot read the photo (not an image OpenCV decodes)"),
+    (np.full((24, 32, 3), 128, np.uint8), "photo is 32x24 but the shot was registered at 64x48")])
+def test_a_photo_that_does_not_fit_its_shot_is_reported_before_the_url(outdir, capsys, photo, problem):
+    """A corrupt photo, or one of another size than its SHOT.json: the server started, and the
+    shot failed only when it was looked at."""
+    path = outdir / "shots" / "shot" / "photo.png"
+    if isinstance(photo, bytes):
+        path.write_bytes(photo)
+    else:
+        write_image(path, photo)
+    before = _files(outdir)
+    code, out, err = _review(capsys, outdir, "--port", _free_port())
+    assert code == 1 and out == "" and err == f"error: {path}: {problem}\n", err
+    assert _files(outdir) == before
+
+
+def _suspects(outdir, folder, markers):
+    path = folder / "suspects.json"
+    path.write_text(json.dumps({"shot": str(outdir / "shots" / "shot" / "SHOT.json"), "suggested_markers": markers}))
+    return path
+
+
+@pytest.mark.parametrize("marker, problem", [
+    ({"x": 1, "y": 1, "severity": "high"}, "severity must be 1, 2 or 3, got 'high'"),
+    ({"x": 1, "y": 1, "severity": 9}, "severity must be 1, 2 or 3, got 9"),
+    ({"x": 1, "y": 1, "severity": True}, "severity must be 1, 2 or 3, got True"),
+    ({"x": "1", "y": 1}, "x and y must be numbers (photo pixels), got '1', 1"),
+    ({"x": 1, "y": 1, "note": 5}, "note must be a string, got 5")])
+def test_a_bad_suggested_marker_is_named(outdir, tmp_path, capsys, marker, problem):
+    """A severity "high" was an internal error; 9 was imported, which the page cannot show."""
+    suspects = _suspects(outdir, tmp_path, [{"x": 2, "y": 2}, marker])
+    code, out, err = _review(capsys, outdir, "--port", _free_port(), "--suggestions", suspects)
+    assert code == 1 and err == f"error: {suspects}: suggested marker 2: {problem}\n", err
+    assert not (outdir / "review.sqlite").exists()
+
+
+def test_the_suggestions_count_is_what_was_imported(outdir, tmp_path, capsys, monkeypatch):
+    """Every start printed the file's count, also when nothing was new; the same file twice counted twice."""
+    monkeypatch.setattr(uvicorn.Server, "run", lambda self, sockets=None: None)   # start, print, stop
+    suspects = _suspects(outdir, tmp_path, [{"x": 20, "y": 20, "part": "floor"}, {"x": 40, "y": 30}])
+    for expected in ("2 new marker(s) on 1 shot(s)", "0 new marker(s) on 0 shot(s)"):
+        code, out, err = _review(capsys, outdir, "--port", _free_port(), "--suggestions", suspects,
+                                 "--suggestions", suspects)
+        assert code == 0 and f"suggestions: {expected} " in out, out + err
+
+
+def test_a_shots_folder_skips_what_is_not_a_shot(outdir, tmp_path, capsys):
+    """One stray JSON (the intrinsics, the clicked points, a broken shot) or a non-ASCII file name
+    refused the whole review."""
+    from mrcheck.review.source import open_source
+
+    shots = _shots_folder(outdir, tmp_path / "shots")
+    (shots / "Halle_Süd.json").write_text((shots / "a.json").read_text())
+    (shots / "canon.json").write_text(json.dumps({"width": 64, "height": 48, "K": [[50, 0, 32], [0, 50, 24], [0, 0, 1]]}))
+    (shots / "corners.json").write_text(json.dumps({"points": [{"pixel": [1, 2], "world": [0, 0, 0]}]}))
+    (shots / "broken.json").write_text('{"width": 64,')
+    source = open_source(sample_scene_path(), shots)
+    out, err = capsys.readouterr()
+    assert sorted(source.shots) == ["Halle_S_d", "a"] and out == ""
+    assert err.count("\n") == 3 and all(f"warning: {shots / name}: " in err for name in ("canon.json", "corners.json", "broken.json"))
+    assert f"warning: {shots / 'canon.json'}: shot JSON has no \"photo\" path (skipped: not a usable shot)\n" in err
+
+
+def test_an_export_says_which_shots_it_cannot_review(outdir, capsys):
+    """A done shot whose SHOT.json was deleted vanished without a word; an export whose every shot
+    failed said only "no usable shots"."""
+    import shutil
+
+    from mrcheck.review.source import open_source
+
+    shutil.copytree(outdir / "shots" / "shot", outdir / "shots" / "gone")
+    (outdir / "shots" / "gone" / "SHOT.json").unlink()
+    manifest = json.loads((outdir / "manifest.json").read_text())
+    manifest["shots"].append({"name": "gone", "status": "done", "folder": "shots/gone"})
+    (outdir / "manifest.json").write_text(json.dumps(manifest))
+    assert list(open_source(outdir).shots) == ["shot"]
+    err = capsys.readouterr().err
+    assert err == f"warning: shot gone skipped: {outdir / 'shots' / 'gone' / 'SHOT.json'}: shot file not found\n"
+    manifest["shots"] = [{**e, "status": "failed"} for e in manifest["shots"]]
+    (outdir / "manifest.json").write_text(json.dumps(manifest))
+    code, out, err = _review(capsys, outdir, "--port", _free_port())
+    assert code == 1 and err == (f"error: {outdir}: no usable shots to review: every shot (2) failed in the export; "
+                                 "its report.html says why\n"), err
+
+
+def test_an_empty_shots_folder_is_named(tmp_path, capsys):
+    (tmp_path / "empty").mkdir()
+    code, out, err = _review(capsys, sample_scene_path(), "--shots", tmp_path / "empty", "--port", _free_port())
+    assert code == 1 and err == f"error: {tmp_path / 'empty'}: no usable shots to review: it has no SHOT.json files (*.json)\n"
+
+
+def test_a_corrupt_shot_json_is_said_once(tmp_path, capsys):
+    """json's "Invalid control character at" gave "... at at line 1"."""
+    from mrcheck.review.source import open_source
+
+    (tmp_path / "a.json").write_text('{"photo": "a\nb.png"}')
+    with pytest.raises(MrcheckError) as info:
+        open_source(sample_scene_path(), tmp_path)
+    assert f"warning: {tmp_path / 'a.json'}: malformed shot JSON: Invalid control character at line 1 (skipped" \
+        in capsys.readouterr().err
+    assert "at at" not in str(info.value)
+
+
+def test_another_programs_database_is_refused(outdir, tmp_path, capsys):
+    """Its file got the review's tables (and WAL mode) added."""
+    import sqlite3
+
+    other = tmp_path / "other.sqlite"
+    with sqlite3.connect(other) as db:
+        db.execute("CREATE TABLE foo (x)")
+    db.close()
+    before = other.read_bytes()
+    code, out, err = _review(capsys, outdir, "--port", _free_port(), "--db", other)
+    assert code == 1 and err == f"error: {other}: not a review database (it has the table(s) foo): give a new file with --db\n"
+    assert other.read_bytes() == before and "open http" not in out
+
+
+def test_an_empty_db_is_refused(outdir, capsys):
+    """--db "" used the default database silently."""
+    code, out, err = _review(capsys, outdir, "--port", _free_port(), "--db", "")
+    assert code == 1 and err.startswith("error: --db must not be empty") and err.count("\n") == 1
+    assert not (outdir / "review.sqlite").exists()
+
+
+def test_a_database_with_other_reviews_says_so(outdir, tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(uvicorn.Server, "run", lambda self, sockets=None: None)   # start, print, stop
+    db = tmp_path / "team.sqlite"
+    shots = _shots_folder(outdir, tmp_path / "shots")
+    assert _review(capsys, outdir, "--port", _free_port(), "--db", db)[0] == 0
+    code, out, err = _review(capsys, sample_scene_path(), "--shots", shots, "--port", _free_port(), "--db", db)
+    assert code == 0 and f"review database {db}: a new review of {shots}; its other review(s), kept apart: {outdir}\n" in out, out
+
+
+def test_the_url_for_every_interface_names_the_machine(outdir, capsys, monkeypatch):
+    """--host 0.0.0.0 printed http://0.0.0.0:PORT/, which cannot be sent to a colleague."""
+    monkeypatch.setattr(uvicorn.Server, "run", lambda self, sockets=None: None)   # start, print, stop
+    port = _free_port()
+    code, out, err = _review(capsys, outdir, "--host", "0.0.0.0", "--port", port)
+    assert code == 0 and f"open http://{socket.gethostname()}:{port}/?token=" in out, out

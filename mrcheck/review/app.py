@@ -10,8 +10,11 @@ from __future__ import annotations
 import contextlib
 import errno
 import hmac
+import os
 import socket
+import sys
 import threading
+import traceback
 from importlib import resources
 from pathlib import Path
 from typing import Literal
@@ -19,7 +22,7 @@ from typing import Literal
 from fastapi import FastAPI, HTTPException, Query, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, Response
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, ConfigDict, Field
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from ..errors import MrcheckError
@@ -27,6 +30,7 @@ from ..renderer import MODES, STUDY_LABELS
 from .renders import INTENSITIES, RenderService
 from .report import markers_csv, report_html
 from .storage import CATEGORIES, MAX_NOTE, Store
+from .suggestions import pending
 
 STATIC = {"index.html": "text/html", "app.js": "text/javascript", "style.css": "text/css"}
 KINDS = ("photo", "render", "edges", "thumb")
@@ -35,24 +39,32 @@ MAX_ID = 2**63 - 1  # SQLite's INTEGER range; a larger id cannot be bound (Overf
 
 Category = Literal["missing", "moved", "extra", "wrong size", "other", "suggested"]
 assert set(Category.__args__) == set(CATEGORIES)
+Mode = Literal[MODES]
+# strict: a field of the wrong type (a severity true or "2", a note null) or an unknown one (a
+# typo such as "severty") is a 422, not converted or ignored; a whole number is still a valid x
+_STRICT = ConfigDict(extra="forbid", strict=True)
 
 
 class MarkerIn(BaseModel):
+    model_config = _STRICT
     shot: str = Field(max_length=128)
     x: float
     y: float
     category: Category
     severity: int = Field(ge=1, le=3)
     note: str = Field(default="", max_length=MAX_NOTE)
-    mode: str | None = Field(default=None, max_length=32)
+    mode: Mode | None = None  # the mode the marker was placed in
 
 
 class MarkerPatch(BaseModel):
-    x: float | None = None
-    y: float | None = None
-    category: Category | None = None
-    severity: int | None = Field(default=None, ge=1, le=3)
-    note: str | None = Field(default=None, max_length=MAX_NOTE)
+    """Only the fields given are changed (the None defaults mean "not given"; null is refused)."""
+    model_config = _STRICT
+    x: float = None
+    y: float = None
+    category: Category = None
+    severity: int = Field(default=None, ge=1, le=3)
+    note: str = Field(default=None, max_length=MAX_NOTE)
+    mode: Mode = None
 
 
 def _static(name: str) -> bytes:
@@ -62,9 +74,10 @@ def _static(name: str) -> bytes:
 def create_app(source, db_path: Path | None = None, cache_dir: Path | None = None, token: str | None = None,
                samples: int = 16, suggestions: dict | None = None) -> FastAPI:
     """``suggestions``: {shot name: markers} (:func:`.suggestions.load_suggestions`), imported
-    into the review's markers once."""
+    into the review's markers once; ``app.state.imported``: {shot name: markers added now}."""
     db_path = Path(db_path or source.home / "review.sqlite")
-    store = Store(db_path, source.label)
+    store = Store(db_path, source.review_name(db_path),
+                  served_scales={s.name: s.served_scale() for s in source.shots.values() if s.served_size != s.size})
     renders = RenderService(source, cache_dir or db_path.parent / ".review-cache", samples=samples)
     picker_lock = threading.Lock()
     picker_box: list = []
@@ -72,21 +85,21 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
     def picker():
         with picker_lock:
             if not picker_box:
-                from ..scene import load_scene
                 from .pick import Picker
-                picker_box.append(Picker(load_scene(source.scene)))
+                picker_box.append(Picker(source.loaded))
             return picker_box[0]
 
+    imported = {}
     for shot, markers in (suggestions or {}).items():
         # like a marker the planner places: the CAD part under it and its distance; only for the
         # new ones, so that a restart with nothing new does not load the scene for the picker
-        markers = store.pending_suggestions(shot, markers)
+        markers = pending(markers, store.imported_keys(shot), source.shots[shot].size[0])
         if not markers:
             continue
-        camera = source.shots[shot].served_camera()
+        camera = source.shots[shot].camera
         hits = [picker().pick(camera, m["x"], m["y"]) for m in markers]
-        store.import_suggestions(shot, [{**m, "part": hit["instance"] or m["part"], "distance": hit["distance"]}
-                                        for m, hit in zip(markers, hits)])
+        imported[shot] = store.import_suggestions(
+            shot, [{**m, "part": hit["instance"] or m["part"], "distance": hit["distance"]} for m, hit in zip(markers, hits)])
 
     @contextlib.asynccontextmanager
     async def lifespan(app):
@@ -95,6 +108,7 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
 
     app = FastAPI(title="mrcheck review", docs_url=None, redoc_url=None, openapi_url=None, lifespan=lifespan)
     app.state.source, app.state.store, app.state.renders = source, store, renders
+    app.state.imported = {shot: n for shot, n in imported.items() if n}
 
     @app.exception_handler(RequestValidationError)
     async def _invalid(request, exc):
@@ -107,8 +121,10 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
 
     @app.exception_handler(MrcheckError)
     async def _input_file(request, exc):
-        # a shot's photo or the scene changed on disk after start-up (open_source checked them)
-        return JSONResponse({"error": str(exc)}, status_code=404)
+        # a shot's photo changed on disk after start-up (open_source checked them): 404 when it is
+        # gone, else a server-side problem (a photo replaced by one of another size), not the client's
+        gone = exc.path is not None and not Path(exc.path).exists()
+        return JSONResponse({"error": str(exc)}, status_code=404 if gone else 500)
 
     @app.middleware("http")
     async def _token(request: Request, call_next):
@@ -121,6 +137,19 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
         if request.query_params.get("token"):
             response.set_cookie(COOKIE, token, httponly=True, samesite="strict")
         return response
+
+    @app.middleware("http")   # the outermost: also what the token check might raise
+    async def _unexpected(request: Request, call_next):
+        try:
+            return await call_next(request)
+        except Exception as exc:  # a bug, not bad input: the API's error shape, one line on the console
+            if os.environ.get("MRCHECK_DEBUG"):
+                traceback.print_exc()
+            reason = f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}"
+            print(f"error: internal error in {request.method} {request.url.path}, please report it: {reason}"
+                  + ("" if os.environ.get("MRCHECK_DEBUG") else " (MRCHECK_DEBUG=1 shows the traceback)"),
+                  file=sys.stderr, flush=True)
+            return JSONResponse({"error": f"internal error, please report it: {reason}"}, status_code=500)
 
     def shot_or_404(name: str):
         if name not in source.shots:
@@ -141,6 +170,10 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
     @app.get("/", response_class=HTMLResponse)
     def index():
         return HTMLResponse(_static("index.html"))
+
+    @app.get("/favicon.ico")
+    def favicon():  # what every browser asks for: no icon, rather than a 404 in its console on every load
+        return Response(status_code=204)
 
     @app.get("/static/{name}")
     def static(name: str):
@@ -174,7 +207,7 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
     def pick(name: str, x: float = Query(...), y: float = Query(...)):
         shot = shot_or_404(name)
         check_marker_xy(shot, x, y)
-        return picker().pick(shot.served_camera(), x, y)
+        return picker().pick(shot.camera, x, y)
 
     @app.get("/api/markers")
     def list_markers(shot: str | None = None):
@@ -186,15 +219,13 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
     def add_marker(marker: MarkerIn):
         shot = shot_or_404(marker.shot)
         check_marker_xy(shot, marker.x, marker.y)
-        if marker.mode is not None and marker.mode not in MODES:
-            raise HTTPException(422, f"unknown mode {marker.mode!r}")
-        hit = picker().pick(shot.served_camera(), marker.x, marker.y)
+        hit = picker().pick(shot.camera, marker.x, marker.y)
         return store.add({**marker.model_dump(), "part": hit["instance"], "distance": hit["distance"]})
 
     @app.patch("/api/markers/{marker_id}")
     def edit_marker(marker_id: int, patch: MarkerPatch):
         current = marker_or_404(marker_id)
-        values = patch.model_dump(exclude_none=True)
+        values = patch.model_dump(exclude_unset=True)
         if "x" in values or "y" in values:
             shot = source.shots.get(current["shot"])
             if shot is None:  # left in the database by an earlier review of this folder
@@ -202,7 +233,7 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
                                          "no longer has: it can be edited or deleted, not moved")
             x, y = values.get("x", current["x"]), values.get("y", current["y"])
             check_marker_xy(shot, x, y)
-            hit = picker().pick(shot.served_camera(), x, y)
+            hit = picker().pick(shot.camera, x, y)
             values.update(part=hit["instance"], distance=hit["distance"])
         return store.update(marker_id, values)
 
@@ -231,6 +262,14 @@ def is_loopback(host: str) -> bool:
     return host in ("127.0.0.1", "localhost", "::1") or host.startswith("127.")
 
 
+def _url_host(host: str) -> str:
+    """The host part of the printed URL: for an address bound on every interface (0.0.0.0, ::),
+    the machine's name, which a colleague's browser can open."""
+    if host in ("0.0.0.0", "::", ""):
+        return socket.gethostname()
+    return f"[{host}]" if ":" in host else host
+
+
 def listen(host: str, port: int) -> socket.socket:
     """The server's socket, bound and listening (as uvicorn binds it), before the URL is printed
     and anything is written: a busy or impossible port is a one-line error, and no other program
@@ -255,23 +294,30 @@ def serve(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=No
     import uvicorn
 
     from .source import open_source
-
     from .suggestions import load_suggestions
 
     if token is not None and not token.strip():
         raise MrcheckError("--token must not be empty (omit it on loopback; elsewhere one is generated)")
+    if db is not None and not str(db).strip():
+        raise MrcheckError("--db must not be empty (omit it for review.sqlite beside the export, job or shots)")
     source = open_source(target, shots_dir)
     suggested = load_suggestions(source, suggestions)
     if token is None and not is_loopback(host):
         token = secrets.token_urlsafe(18)
     sock = listen(host, port)  # before create_app writes the database
     try:
-        app = create_app(source, db_path=Path(db) if db else None, token=token, suggestions=suggested)
-        url = f"http://{'[' + host + ']' if ':' in host else host}:{port}/" + (f"?token={token}" if token else "")
+        app = create_app(source, db_path=None if db is None else Path(db), token=token, suggestions=suggested)
+        url = f"http://{_url_host(host)}:{port}/" + (f"?token={token}" if token else "")
         print(f"mrcheck review: {len(source.shots)} shot(s) of {source.label}", flush=True)
+        store = app.state.store
+        if store.created and store.others:  # a shared --db, or a folder moved away from its database
+            where = lambda name: os.path.normpath(store.path.resolve().parent / name)  # noqa: E731 (names are relative)
+            print(f"review database {store.path}: a new review of {where(source.review_name(store.path))}; its other "
+                  f"review(s), kept apart: {', '.join(map(where, store.others))}", flush=True)
         if suggested:
-            print(f"suggestions: {sum(map(len, suggested.values()))} marker(s) on {len(suggested)} shot(s) "
-                  "(category 'suggested'; each imported once per review)", flush=True)
+            added = app.state.imported
+            print(f"suggestions: {sum(added.values())} new marker(s) on {len(added)} shot(s) (category 'suggested'; "
+                  "each part or region is imported once per review)", flush=True)
         print(f"open {url}", flush=True)
         try:
             uvicorn.Server(uvicorn.Config(app, log_level="warning")).run(sockets=[sock])

@@ -21,7 +21,6 @@ import numpy as np
 
 from ..overlay import cad_edges, distort_to_photo, distortion_map, overlay_images, padded_camera, read_photo
 from ..renderer import MODES, Renderer, RenderSettings
-from ..scene import load_scene
 from ..scenefiles import files_stamp
 
 INTENSITIES = (0.5, 1.0, 1.5, 2.0)   # the AO slider's four levels
@@ -64,8 +63,6 @@ class RenderService:
         self._lock = threading.Lock()
         self._maps: dict = {}
         self.timings: list = []  # (key, seconds) of every render made
-        # once, at start-up: the renderer loads the scene once too, so a later edit is not served anyway
-        self._stamps = {name: _shot_stamp(shot) for name, shot in source.shots.items()}
         self._prune()
         self._thread = threading.Thread(target=self._run, name="mrcheck-review-render", daemon=True)
         self._thread.start()
@@ -76,8 +73,8 @@ class RenderService:
         (photo_, thumb_, edges_, render_ ... .png), in its own cache folder."""
         if not self.cache.is_dir():
             return
-        current = {name: (f"_{stamp}.png", f"_{stamp}_{self.source.scene_stamp}.png")
-                   for name, stamp in self._stamps.items()}
+        stamps = {name: _shot_stamp(shot) for name, shot in self.source.shots.items()}
+        current = {name: (f"_{stamp}.png", f"_{stamp}_{self.source.scene_stamp}.png") for name, stamp in stamps.items()}
         for folder in (p for p in self.cache.iterdir() if p.is_dir()):
             suffixes = current.get(folder.name, ())
             for path in folder.glob("*.png"):
@@ -89,9 +86,12 @@ class RenderService:
     # -- public --------------------------------------------------------------------------
     def file(self, shot_name: str, kind: str, mode: str = "phong", intensity: float = 1.0) -> Path:
         shot = self.source.shots[shot_name]
-        w, _ = shot.size
+        w, _ = shot.served_size
         folder = self.cache / shot_name
-        stamp = self._stamps[shot_name]
+        # the photo's stamp of now (a stat): a photo replaced since start-up is not served from
+        # the cache, but read afresh (and refused, when it no longer fits its shot); the scene's
+        # stamp is that of start-up, when it was loaded once for the renderer
+        stamp = _shot_stamp(shot)
         cad = f"{stamp}_{self.source.scene_stamp}"  # renders and edges depend on the scene too
         if kind == "photo":
             path = folder / f"photo_w{w}_{stamp}.png"
@@ -133,7 +133,7 @@ class RenderService:
                 if not path.is_file():
                     start = time.perf_counter()
                     if key[1] in ("render", "edges") and renderer is None:
-                        renderer = Renderer(load_scene(self.source.scene))
+                        renderer = Renderer(self.source.loaded)
                     self._make(renderer, key, path)
                     self.timings.append((key, time.perf_counter() - start))
                 future.set_result(path)

@@ -2,19 +2,27 @@
 
 from __future__ import annotations
 
+import concurrent.futures
 import json
+import math
+import os
 import re
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 from ..camera import Camera
 from ..errors import MrcheckError
-from ..overlay import load_shot
-from ..scene import MANIFEST_KEYS
+from ..overlay import load_shot, read_photo
+from ..scene import MANIFEST_KEYS, load_scene
 from ..scenefiles import files_stamp, read_manifest, scene_files
 
 MAX_SIZE = 1280  # renders and photos are served at most this wide (same aspect as the photo)
-_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,127}")
+# Marker, pick and suggestion coordinates are the photo's native pixels everywhere (database, API,
+# CSV, report), whatever the size the images are served at: a downstream tool, and mrcheck
+# discrepancies, look at the original photo.
+# an export's shot names (never "." or ".."), at most 128 characters: a path segment of the API's URLs
+_NAME = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9._-]{0,127}")
 
 
 @dataclass
@@ -26,15 +34,24 @@ class Shot:
 
     @property
     def size(self) -> tuple[int, int]:
-        """(width, height) served to the browser."""
-        w, h = self.camera.width, self.camera.height
+        """(width, height) of the photo: the frame of marker coordinates."""
+        return self.camera.width, self.camera.height
+
+    @property
+    def served_size(self) -> tuple[int, int]:
+        """(width, height) of the images served to the browser (it stretches them to ``size``)."""
+        w, h = self.size
         if w <= MAX_SIZE:
             return w, h
         return MAX_SIZE, max(1, round(MAX_SIZE * h / w))
 
+    def served_scale(self) -> tuple[float, float]:
+        """Served image pixels per photo pixel, in x and y."""
+        return self.served_size[0] / self.size[0], self.served_size[1] / self.size[1]
+
     def served_camera(self) -> Camera:
-        w, h = self.size
-        return self.camera if (w, h) == (self.camera.width, self.camera.height) else self.camera.resized(w, h)
+        w, h = self.served_size
+        return self.camera if (w, h) == self.size else self.camera.resized(w, h)
 
 
 @dataclass
@@ -44,19 +61,40 @@ class Source:
     home: Path             # folder for review.sqlite and the render cache
     label: str
     scene_stamp: str = ""  # files_stamp of the scene's files, set by open_source (keys the render cache)
+    loaded: object = None  # the Scene, loaded once by open_source (the renderer and the picker share it)
+    origin: Path | None = None  # the job file, export folder or shots folder reviewed
+
+    def review_name(self, db_path) -> str:
+        """The review's name in the database at ``db_path``: the path of what is reviewed,
+        relative to the database's folder ("." for an export's own review.sqlite), so that a
+        folder moved or copied with its database keeps its review, and one database given to
+        several exports keeps their markers apart."""
+        return Path(os.path.relpath(Path(self.origin).resolve(), Path(db_path).resolve().parent)).as_posix()
+
+
+def _rms(shot: dict) -> float | None:
+    """The registration error of a shot dict, None when absent or not a finite number (a NaN
+    would make the shot list invalid JSON)."""
+    rms = shot.get("rms")
+    ok = isinstance(rms, (int, float)) and not isinstance(rms, bool) and math.isfinite(rms)
+    return float(rms) if ok else None
 
 
 def _shot(name, path) -> Shot:
     camera, photo = load_shot(path)
     data = json.loads(Path(path).read_text())
-    rms = data.get("rms")
-    return Shot(name, camera, photo, float(rms) if isinstance(rms, (int, float)) else None)
+    return Shot(name, camera, photo, _rms(data))
 
 
-def _checked_name(name: str) -> str:
+def _checked_name(name: str, path) -> str:
     if not _NAME.fullmatch(name):
-        raise MrcheckError(f"shot name {name!r} is not usable (letters, digits, . _ -)")
+        raise MrcheckError(f"shot name {name!r} is not usable (up to 128 letters, digits, . _ -)", path)
     return name
+
+
+def _warn(message: str) -> None:
+    """One shot that cannot be reviewed is a warning, not the end of the review of the others."""
+    print(f"warning: {message}", file=sys.stderr)
 
 
 def _read_manifest(path: Path) -> tuple[Path, list]:
@@ -77,48 +115,85 @@ def _read_manifest(path: Path) -> tuple[Path, list]:
 def from_outdir(outdir: Path) -> Source:
     scene, entries = _read_manifest(outdir / "manifest.json")
     shots = {}
-    for entry in sorted(entries, key=lambda e: (e.get("status") == "failed", e["name"])):
-        if entry.get("status") not in ("done", "skipped"):
+    for entry in sorted(entries, key=lambda e: e["name"]):
+        if entry.get("status") not in ("done", "skipped"):   # failed in the export: its report says why
             continue
-        name = _checked_name(entry["name"])
-        path = outdir / entry.get("folder", f"shots/{name}") / "SHOT.json"
-        if path.is_file():
-            shots[name] = _shot(name, path)
-    return Source(scene, shots, outdir, str(outdir))
+        try:   # a done shot's SHOT.json deleted or broken since the export
+            name = _checked_name(entry["name"], outdir / "manifest.json")
+            shots[name] = _shot(name, outdir / entry.get("folder", f"shots/{name}") / "SHOT.json")
+        except MrcheckError as exc:
+            _warn(f"shot {entry['name']} skipped: {exc}")
+    if not shots:
+        failed = sum(e.get("status") == "failed" for e in entries)
+        why = (f"every shot ({failed}) failed in the export; its report.html says why" if entries and failed == len(entries)
+               else "the export has no shots" if not entries else "see the warnings above")
+        raise MrcheckError(f"no usable shots to review: {why}", outdir)
+    return Source(scene, shots, outdir, str(outdir), origin=outdir)
 
 
 def from_job(job_path: Path) -> Source:
     from ..export import _register, load_job
 
     job = load_job(job_path)
+    bounds = job.loaded.bounds()   # loaded by load_job: a camera far outside the scene is a warning, as in export
     shots = {}
     for entry in job.shots:
         inputs = {k: v for k, v in entry.items() if k != "name"}
         try:
-            data, camera, photo = _register(inputs, None)
+            data, camera, photo = _register(inputs, None, bounds)
         except MrcheckError as exc:
-            print(f"warning: shot {entry['name']} skipped: {exc}")
+            _warn(f"shot {entry['name']} skipped: {exc}")
             continue
-        rms = data.get("rms")
-        name = _checked_name(entry["name"])
-        shots[name] = Shot(name, camera, Path(photo), float(rms) if isinstance(rms, (int, float)) else None)
-    return Source(Path(job.scene), shots, job_path.resolve().parent, str(job_path))
+        for warning in data["warnings"] if "shot" not in inputs else ():  # registered here, as export would
+            _warn(f"shot {entry['name']}: {warning}")
+        name = _checked_name(entry["name"], job_path)
+        shots[name] = Shot(name, camera, Path(photo), _rms(data))
+    if not shots:
+        raise MrcheckError("no usable shots to review: every shot was skipped (see the warnings above)", job_path)
+    return Source(Path(job.scene), shots, job_path.resolve().parent, str(job_path), loaded=job.loaded, origin=job_path)
 
 
 def from_scene(scene: Path, shots_dir: Path) -> Source:
-    shots = {}
-    for path in sorted(shots_dir.glob("*.json")):
-        shots[_checked_name(path.stem)] = _shot(path.stem, path)
-    return Source(scene, shots, shots_dir, f"{scene} + {shots_dir}")
+    """The SHOT.json files of ``shots_dir``, named after their files as export names its shots;
+    the folder's other JSON files (intrinsics, correspondences, a broken shot) are warnings."""
+    from ..export import _safe_name
+
+    files = sorted(shots_dir.glob("*.json"))
+    shots, named = {}, {}
+    for path in files:
+        try:
+            name = _checked_name(_safe_name(path.stem)[:128], path)
+            if name in shots:
+                raise MrcheckError(f"its shot name {name!r} is that of {named[name].name} too", path)
+            shots[name], named[name] = _shot(name, path), path
+        except MrcheckError as exc:
+            _warn(f"{exc} (skipped: not a usable shot)")
+    if not shots:
+        why = f"none of its {len(files)} JSON file(s) is a shot" if files else "it has no SHOT.json files (*.json)"
+        raise MrcheckError(f"no usable shots to review: {why}", shots_dir)
+    return Source(scene, shots, shots_dir, f"{scene} + {shots_dir}", origin=shots_dir)
+
+
+def _toml_keys(path: Path) -> set:
+    try:
+        return set(read_manifest(path))
+    except MrcheckError:
+        return set()  # load_job or load_scene says what is wrong with it
 
 
 def _is_scene_manifest(path: Path) -> bool:
-    try:
-        data = read_manifest(path)
-    except MrcheckError:
-        return False  # load_job says what is wrong with it
     # a scene's keys and none of a job's: a manifest without [[parts]] is still a scene (a broken one)
-    return bool(data) and set(data) <= MANIFEST_KEYS
+    keys = _toml_keys(path)
+    return bool(keys) and keys <= MANIFEST_KEYS
+
+
+def _check_scene_target(target: Path) -> None:
+    """SCENE of ``SCENE --shots DIR`` is not a job or an export, which name their scene themselves
+    (else load_scene would list the job's keys as unknown, or miss the export's scene.toml)."""
+    if target.is_dir() and (target / "manifest.json").is_file():
+        raise MrcheckError("is an export folder, not a scene: review it without --shots", target)
+    if target.suffix == ".toml" and target.is_file() and "shots" in _toml_keys(target) - MANIFEST_KEYS:
+        raise MrcheckError("is a job file, not a scene: review it without --shots", target)
 
 
 def open_source(target, shots_dir=None) -> Source:
@@ -127,6 +202,7 @@ def open_source(target, shots_dir=None) -> Source:
     if shots_dir is not None:
         if not Path(shots_dir).is_dir():
             raise MrcheckError("--shots must be a folder of registered SHOT.json files", shots_dir)
+        _check_scene_target(target)
         source = from_scene(target, Path(shots_dir))
     elif target.is_dir():
         if not (target / "manifest.json").is_file():
@@ -139,16 +215,24 @@ def open_source(target, shots_dir=None) -> Source:
         source = from_job(target)
     else:
         raise MrcheckError("pass JOB.toml, an export OUTDIR or SCENE --shots DIR", target)
-    if not source.shots:
-        raise MrcheckError("no usable shots to review", target)
     _check_files(source, target)
     return source
 
 
+def _check_photos(shots) -> None:
+    """Every photo decodes and has its shot's size (read_photo's one-line errors), read in
+    parallel (OpenCV decodes without the GIL): a few seconds for dozens of 12 MP photos."""
+    def check(shot) -> None:  # the decoded image is not kept: dozens of them would not fit in memory
+        read_photo(Path(shot.photo), shot.camera)
+
+    with concurrent.futures.ThreadPoolExecutor(max_workers=min(8, os.cpu_count() or 1)) as pool:
+        list(pool.map(check, shots))   # raises the error of the first bad photo in shot order
+
+
 def _check_files(source: Source, target: Path) -> None:
-    """Every file the server will read exists, checked before the URL is printed: else each
-    render or pick of the shot (or of every shot) would fail only once the planner asks for it.
-    Also stamps the scene's files once, for the render cache."""
+    """Every file the server will read exists, and the scene loads, checked before the URL is
+    printed: else each render or pick of the shot (or of every shot) would fail only once the
+    planner asks for it. Also stamps the scene's files once, for the render cache."""
     if not source.scene.exists():
         named_by = f" (named by {target / 'manifest.json'}; moved since the export?)" if target.is_dir() else ""
         raise MrcheckError(f"scene not found{named_by}", source.scene)
@@ -160,4 +244,7 @@ def _check_files(source: Source, target: Path) -> None:
     for shot in source.shots.values():
         if not Path(shot.photo).is_file():
             raise MrcheckError(f"photo of shot {shot.name!r} not found", shot.photo)
+    _check_photos(source.shots.values())
     source.scene_stamp = files_stamp(files)
+    if source.loaded is None:
+        source.loaded = load_scene(source.scene, progress=True)

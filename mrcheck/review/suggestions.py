@@ -5,18 +5,23 @@ the shot explicitly) adds each of the run's ``suggested_markers`` to its shot as
 marker of category ``suggested`` whose note carries the detector's guess and score, so the
 planner keeps (re-categorises), moves, edits or deletes it like any other. The shot of a file
 without ``NAME=`` is the review shot with the same photo file. Every suggestion is imported
-once per review: restarting the server does not bring back one the planner deleted.
+once per review: restarting the server does not bring back one the planner deleted, and a
+re-run of ``mrcheck discrepancies`` (other notes, scores, positions) does not add its parts
+again. A suggestion is known by its shot and CAD part (instance), or, for photo structure no
+part explains, by its shot and position: within 2 % of the photo's width of an imported one.
 """
 
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 from ..errors import MrcheckError
 from ..overlay import load_shot
 
 CATEGORY = "suggested"
+REGION_NEAR = 0.02   # a part-less suggestion this close (share of the photo's width) to an imported one is that one
 
 
 def _made_on(doc: dict):
@@ -60,7 +65,8 @@ def _check_size(shot, made_on, doc: dict, suggested: list, path: Path) -> None:
 
 
 def load_suggestions(source, specs) -> dict:
-    """{shot name: [marker dicts in served pixels]} from ``FILE`` or ``NAME=FILE`` specs."""
+    """{shot name: [marker dicts in the photo's pixels, with their import key]} from ``FILE`` or
+    ``NAME=FILE`` specs."""
     out = {}
     for spec in specs:
         path = Path(spec.partition("=")[2] or spec)
@@ -68,18 +74,58 @@ def load_suggestions(source, specs) -> dict:
             raise MrcheckError("suggestions file not found", path)
         try:
             doc = json.loads(path.read_text())
-            suggested = [{**m, "x": float(m["x"]), "y": float(m["y"])} for m in doc["suggested_markers"]]
+            suggested = doc["suggested_markers"]
+            if not isinstance(suggested, list):
+                raise TypeError
         except (OSError, ValueError, KeyError, TypeError):
             raise MrcheckError("not a suspects.json of mrcheck discrepancies (no suggested_markers)", path) from None
+        suggested = [_checked(m, i, path) for i, m in enumerate(suggested)]
         made_on = _made_on(doc)   # read once: it names the shot and says which size the markers are in
         shot = _shot_of(source, spec, made_on, path)
         _check_size(shot, made_on, doc, suggested, path)
-        # the detector worked on the photo's native pixels; the review serves at most MAX_SIZE wide
-        sx, sy = shot.size[0] / shot.camera.width, shot.size[1] / shot.camera.height
+        # the detector worked on the photo's native pixels, as the review's markers are
+        sx, sy = shot.served_scale()
         for m in suggested:
-            guess = m.get("category", "other")
+            note = f"{m['category']}? {m['note']}".strip()
+            key = f"part:{m['part']}" if m["part"] else f"region:{m['x']:.1f},{m['y']:.1f}"
             out.setdefault(shot.name, []).append({
-                "x": m["x"] * sx, "y": m["y"] * sy, "category": CATEGORY,
-                "severity": int(m.get("severity", 2)), "part": m.get("part"), "distance": None, "mode": None,
-                "note": f"{guess}? {m.get('note', '')}".strip()})
+                "x": m["x"], "y": m["y"], "category": CATEGORY, "severity": m["severity"], "part": m["part"],
+                "distance": None, "mode": None, "note": note, "key": key,
+                # what reviews of before (database version 0) recorded: served pixels and the note
+                "legacy_key": f"{m['x'] * sx:.1f},{m['y'] * sy:.1f},{note}"})
     return out
+
+
+def _checked(m, index: int, path: Path) -> dict:
+    """A suggested marker's fields, checked: one line naming the file and the marker (from 1)."""
+    def fail(problem):
+        raise MrcheckError(f"suggested marker {index + 1}: {problem}", path)
+
+    if not isinstance(m, dict):
+        fail("must be an object with x, y")
+    number = lambda v: isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)  # noqa: E731
+    if not (number(m.get("x")) and number(m.get("y"))):
+        fail(f"x and y must be numbers (photo pixels), got {m.get('x')!r}, {m.get('y')!r}")
+    severity = m.get("severity", 2)
+    if severity not in (1, 2, 3) or isinstance(severity, (bool, float)):
+        fail(f"severity must be 1, 2 or 3, got {severity!r}")
+    texts = {k: m.get(k, default) for k, default in (("category", "other"), ("note", ""), ("part", None))}
+    for key, value in texts.items():
+        if not (isinstance(value, str) or (key == "part" and value is None)):
+            fail(f"{key} must be a string, got {value!r}")
+    return {"x": float(m["x"]), "y": float(m["y"]), "severity": severity, **texts}
+
+
+def pending(suggestions: list, imported: set, width: int) -> list:
+    """The suggestions of one shot (``width`` px wide) that are not in ``imported`` (the keys
+    recorded by earlier imports): by part, or by position for photo structure no part explains
+    (a re-run moves a region's centre a little), or by the key of a review of before."""
+    regions = [tuple(map(float, k.removeprefix("region:").split(","))) for k in imported if k.startswith("region:")]
+    near = REGION_NEAR * width
+
+    def seen(s):
+        if s["key"] in imported or s["legacy_key"] in imported:
+            return True
+        return s["key"].startswith("region:") and any(math.hypot(s["x"] - x, s["y"] - y) <= near for x, y in regions)
+
+    return [s for s in suggestions if not seen(s)]

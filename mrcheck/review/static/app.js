@@ -44,6 +44,7 @@ function applyView() {
   else if (S.view === "swipe") { ra.style.opacity = 1; ra.style.clipPath = `inset(0 0 0 ${S.opacity}%)`; }
   else { ra.style.opacity = 0; pb.style.visibility = "hidden"; rb.style.opacity = 1; }
   $("#opacity").previousSibling.textContent = S.view === "swipe" ? "split " : "CAD opacity ";
+  $("#opacity-label").hidden = S.view === "side";  // side by side shows photo and CAD apart: nothing to blend
   for (const e of $$(".edges")) e.style.display = S.edges ? "block" : "none";
 }
 function loadRender() {
@@ -56,16 +57,24 @@ function loadRender() {
     status(`${S.info.labels[mode]}, AO ${S.info.intensities[level]}: ${Math.round(performance.now() - t0)} ms`);
     document.body.dataset.loaded = `${S.shot.name}|${mode}|${level}`;
   };
-  img.onerror = () => status(`render failed (${mode})`);
+  img.onerror = () => { if (S.mode === mode && S.level === level) imageFailed(url, `render (${mode})`); };
   img.src = url;
+}
+// an image the server refused: its reason ({"error": ...}, e.g. a photo replaced since start-up)
+// in the status line, not only a broken image
+async function imageFailed(url, what) {
+  const res = await fetch(url).catch(() => null);
+  const data = res ? await res.json().catch(() => ({})) : {};
+  status(`${what} failed: ${data.error || (res ? res.status : "no connection to the server")}`);
 }
 
 // -- shots ---------------------------------------------------------------------------------
 async function selectShot(shot) {
+  if (!(await saveEdits())) return;
   S.shot = shot; S.selected = null; $("#editor").hidden = true;
   for (const li of $$("#shot-list li")) li.classList.toggle("active", li.dataset.name === shot.name);
   for (const st of $$(".stage")) { st.style.width = shot.width + "px"; st.style.height = shot.height + "px"; }
-  for (const p of $$(".photo")) p.src = imageUrl("photo");
+  for (const p of $$(".photo")) { p.src = imageUrl("photo"); p.onerror = () => imageFailed(p.src, "photo"); }
   for (const e of $$(".edges")) e.src = imageUrl("edges");
   for (const r of $$(".render")) r.removeAttribute("src");
   fit(); loadRender(); await loadMarkers();
@@ -92,13 +101,38 @@ function drawMarkers() {
   for (const m of S.markers) {
     const li = document.createElement("li");
     li.dataset.id = m.id; li.classList.toggle("selected", S.selected === m.id);
-    li.textContent = `#${m.id} ${m.category} (sev ${m.severity}) ${m.part || "-"}: ${m.note}`;
+    li.textContent = `#${m.id} ${m.category} (sev ${m.severity}) ${m.part || "-"}: ${m.note}`; li.title = m.note;
     li.onclick = () => select(m.id);
     list.appendChild(li);
   }
   applyTransform();
 }
-function select(id) {
+// Edits of the selected marker are saved when the planner leaves a field or the marker (another
+// marker, a click on the image, another shot, Close), so typed text is never dropped silently.
+function editorChanges() {
+  const m = S.markers.find((k) => k.id === S.selected);
+  if (!m || $("#editor").hidden) return null;
+  const now = { category: $("#ed-category").value, severity: Number($("#ed-severity").value), note: $("#ed-note").value };
+  const diff = Object.fromEntries(Object.entries(now).filter(([k, v]) => m[k] !== v));
+  return Object.keys(diff).length ? diff : null;
+}
+function replaceMarker(m) { S.markers = S.markers.map((k) => (k.id === m.id ? m : k)); }
+let saving = Promise.resolve(true);
+function saveEdits() {  // one save at a time: a field's blur and the click that caused it do not both PATCH
+  const run = async () => {
+    const diff = editorChanges();
+    if (!diff) return true;
+    try {
+      const m = await api("PATCH", `api/markers/${S.selected}`, diff);
+      replaceMarker(m); drawMarkers(); status(`marker #${m.id} saved`);
+      return true;
+    } catch (e) { return false; }  // api() shows the error; the editor stays open with the text
+  };
+  saving = saving.then(run, run);
+  return saving;
+}
+async function select(id) {
+  if (!(await saveEdits())) return;  // also for the same marker: the editor is refilled from what was saved
   S.selected = id; const m = S.markers.find((k) => k.id === id);
   $("#editor").hidden = !m;
   if (m) {
@@ -110,7 +144,7 @@ function select(id) {
 }
 async function addMarker(x, y) {
   const m = await api("POST", "api/markers", { shot: S.shot.name, x, y, category: "missing", severity: 2, note: "", mode: S.mode });
-  S.markers.push(m); select(m.id); $("#ed-note").focus();
+  S.markers.push(m); await select(m.id); $("#ed-note").focus();
 }
 function dragMarker(ev, m) {
   ev.stopPropagation(); ev.preventDefault();
@@ -124,22 +158,25 @@ function dragMarker(ev, m) {
   };
   const up = async () => {
     window.removeEventListener("mousemove", move); window.removeEventListener("mouseup", up);
-    if (moved) Object.assign(m, await api("PATCH", `api/markers/${m.id}`, { x: m.x, y: m.y }));
+    await saveEdits();  // the selected marker's typed note first: the move's answer would refill the editor
+    if (moved) replaceMarker(await api("PATCH", `api/markers/${m.id}`, { x: m.x, y: m.y }));
     select(m.id);
   };
   window.addEventListener("mousemove", move); window.addEventListener("mouseup", up);
 }
 $("#editor").addEventListener("submit", async (ev) => {
   ev.preventDefault();
-  const m = await api("PATCH", `api/markers/${S.selected}`, { category: $("#ed-category").value,
-    severity: Number($("#ed-severity").value), note: $("#ed-note").value });
-  S.markers = S.markers.map((k) => (k.id === m.id ? m : k)); select(m.id); status(`marker #${m.id} saved`);
+  if (await saveEdits()) status(`marker #${S.selected} saved`);
 });
+for (const field of ["#ed-category", "#ed-severity", "#ed-note"]) $(field).addEventListener("change", saveEdits);
 $("#ed-delete").onclick = async () => {
-  await api("DELETE", `api/markers/${S.selected}`);
-  S.markers = S.markers.filter((k) => k.id !== S.selected); select(null);
+  const id = S.selected;
+  if (!confirm(`Delete marker #${id}? This cannot be undone.`)) return;
+  await api("DELETE", `api/markers/${id}`);
+  S.markers = S.markers.filter((k) => k.id !== id); select(null);
 };
 $("#ed-close").onclick = () => select(null);
+window.addEventListener("beforeunload", (ev) => { if (editorChanges()) { ev.preventDefault(); ev.returnValue = ""; } });
 
 // -- zoom, pan, click, hover (both panes share one transform) ------------------------------
 function toImage(pane, ev) {
@@ -167,6 +204,7 @@ for (const pane of panes) {
     const up = (e) => {
       window.removeEventListener("mousemove", move); window.removeEventListener("mouseup", up);
       if (moved) return;
+      if (S.selected !== null) { select(null); return; }  // the first click closes the editor (saved), the next places a marker
       const p = toImage(pane, e);
       if (p.x >= 0 && p.y >= 0 && p.x < S.shot.width && p.y < S.shot.height) addMarker(p.x, p.y);
     };
