@@ -352,7 +352,8 @@ def export(job, outdir, workers, scheduler, force):
 @click.option("--host", default="127.0.0.1", show_default=True, help="Address to bind; any other than loopback needs a token.")
 @click.option("--port", type=click.IntRange(1, 65535), default=8765, show_default=True, help="Port to listen on.")
 @click.option("--token", metavar="TOKEN", help="Require this token (generated and printed when --host is not loopback).")
-@click.option("--db", metavar="FILE", help="SQLite file of the review [default: review.sqlite next to the job/export].")
+@click.option("--db", metavar="FILE", help="SQLite file of the review's markers [default: review.sqlite in OUTDIR, "
+              "beside JOB.toml, or in DIR for SCENE --shots DIR]; the render cache .review-cache/ goes beside it.")
 @click.option("--suggestions", multiple=True, metavar="[NAME=]SUSPECTS.json",
               help="Import the suggested markers of an `mrcheck discrepancies` run (repeatable; NAME picks the shot).")
 def review(target, shots_dir, host, port, token, db, suggestions):
