@@ -72,6 +72,30 @@ def test_triangles_as_rendered_within_ten_percent(scene_dir, preset, target):
     assert f"{scene.triangle_count:,} triangles as rendered" in manifest(scene_dir(preset, target))["description"]
 
 
+def test_preset_default_target_works_for_seeds_whose_robot_is_heavy(tmp_path, capsys):
+    """Seed 1 of the cell draws a UR5 (96 k of the 150 k default): the level below the target
+    left the racks full and 12 % short, which used to be refused."""
+    out = tmp_path / "c1"
+    generate("cell", out, seed=1, progress=False)
+    scene = load_scene(out / "scene.toml")
+    assert abs(scene.triangle_count - 150_000) <= 15_000, scene.triangle_count
+    assert "pallet" in {p.name for p in scene.parts}         # not met by dropping every pallet
+    assert capsys.readouterr().err == ""
+
+
+def test_missed_default_target_is_a_warning_an_explicit_one_an_error(tmp_path, capsys):
+    # a 300 x 250 m building alone is more than the cell's default 150 k triangles
+    out = tmp_path / "big"
+    generate("cell", out, size_m=(300.0, 250.0, 6.0), progress=False)
+    err = capsys.readouterr().err
+    assert err.startswith("warning: the cell preset's default of 150,000 triangles is out of reach") and err.count("\n") == 1
+    header = (out / "scene.toml").read_text().splitlines()[0]
+    assert "--size-m 300 250 6" in header and "--target-triangles" not in header   # the command that rebuilds it
+    assert "out of reach" in (out / "README.md").read_text()
+    with pytest.raises(MrcheckError, match="cannot build a cell of 150,000 triangles"):
+        generate("cell", tmp_path / "strict", size_m=(300.0, 250.0, 6.0), target_triangles=150_000, progress=False)
+
+
 # -- units -----------------------------------------------------------------------------------------
 def world_vertices(part) -> np.ndarray:
     """(k, n, 3) float64 vertices of every instance in world metres."""

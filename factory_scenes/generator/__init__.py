@@ -30,6 +30,7 @@ from __future__ import annotations
 import operator
 import os
 import shutil
+import sys
 import tempfile
 from dataclasses import replace
 from pathlib import Path
@@ -38,7 +39,7 @@ from mrcheck import robots
 from mrcheck.errors import MrcheckError
 from mrcheck.output import check_writable_ancestor
 
-from .budget import solve
+from .budget import TOLERANCE, solve
 from .detail import Detail
 from .glb import write_glb
 from .manifest import Part, manifest_text, with_units
@@ -65,7 +66,9 @@ def generate(preset: str, outdir: Path, seed: int = 0, size_m: tuple[float, floa
     size_m : (3,) float, optional
         Length (x), width (y), height (z) in metres [default: the preset's].
     target_triangles : int, optional
-        Triangles as rendered, instances counted; met within 10 % [default: the preset's].
+        Triangles as rendered, instances counted; met within 10 %. Without it the preset's
+        default is aimed at as closely as the seed and size allow (a warning when it is missed
+        by more than 10 %).
     units_mix : bool
         Write part meshes in mm, m and inches as CAD exports arrive (declared in the
         manifest), plus ``scene_unit_missing.toml`` in which the machining centre (mm) has
@@ -87,17 +90,27 @@ def generate(preset: str, outdir: Path, seed: int = 0, size_m: tuple[float, floa
     _check_outdir(outdir)
 
     cache = MeshCache()
-    solution = solve(spec, size, seed, target, cache)
+    # the preset's default target is a rough size, not a request: met as closely as this seed
+    # and size allow; an explicit --target-triangles is held to the 10 % promise
+    solution = solve(spec, size, seed, target, cache, strict=target_triangles is not None)
+    loose = abs(solution.triangles - target) > TOLERANCE * target
+    if loose:
+        print(f"warning: the {spec.name} preset's default of {target:,} triangles is out of reach with seed {seed} "
+              f"at this size; built the closest, {solution.triangles:,} (give --target-triangles to ask for a count)",
+              file=sys.stderr)
     plan = solution.plan
     parts = plan.manifest_parts(solution.detail, cache, solution.filled)
     if units_mix:
         categories = plan.categories()
         parts = [_as_exported(p, UNITS_MIX[categories[p.name]]) for p in parts]
 
+    # the command that writes these bytes again; a missed default target is left out, as the
+    # same count given explicitly would be refused
     args = f"--preset {preset} --seed {seed}" + (f" --size-m {' '.join(f'{v:g}' for v in size)}" if size_m else "") \
-        + f" --target-triangles {target}" + (" --units-mix" if units_mix else "")
+        + ("" if loose else f" --target-triangles {target}") + (" --units-mix" if units_mix else "")
+    aim = f"the preset's default target {target:,} is out of reach" if loose else f"target {target:,}"
     description = (f"{plan.description} {size[0]:g} x {size[1]:g} x {size[2]:g} m, seed {seed}, "
-                   f"{solution.triangles:,} triangles as rendered (target {target:,}), level of detail "
+                   f"{solution.triangles:,} triangles as rendered ({aim}), level of detail "
                    f"{solution.detail.level}. Z up, placements in metres.")
     try:
         outdir.parent.mkdir(parents=True, exist_ok=True)
@@ -108,7 +121,7 @@ def generate(preset: str, outdir: Path, seed: int = 0, size_m: tuple[float, floa
     os.umask(umask)
     work.chmod(0o777 & ~umask)                 # mkdtemp makes it private; the scene is not
     try:
-        _write(work, parts, plan, description, args, solution.detail, solution.triangles, target, units_mix, progress)
+        _write(work, parts, plan, description, args, solution.detail, solution.triangles, aim, units_mix, progress)
         _replace(work, outdir)
     except BaseException:
         shutil.rmtree(work, ignore_errors=True)
@@ -179,7 +192,7 @@ def _as_exported(part: Part, unit: str) -> Part:
     return with_units(part, unit) if part.mesh is not None and unit != "m" else part
 
 
-def _write(work: Path, parts: list[Part], plan, description, args, detail: Detail, triangles, target, units_mix, progress):
+def _write(work: Path, parts: list[Part], plan, description, args, detail: Detail, triangles, aim, units_mix, progress):
     from tqdm import tqdm
 
     (work / "meshes").mkdir()
@@ -197,7 +210,7 @@ def _write(work: Path, parts: list[Part], plan, description, args, detail: Detai
         missing = [replace(p, units=None) if p.name == forgotten else p for p in parts]
         (work / "scene_unit_missing.toml").write_text(manifest_text(
             missing, plan.name, f"{description} The part {forgotten!r} (mm) declares no units.", plan.viewpoints, header))
-    (work / "README.md").write_text(_readme(parts, plan, args, detail, triangles, target, units_mix))
+    (work / "README.md").write_text(_readme(parts, plan, args, detail, triangles, aim, units_mix))
 
 
 def _replace(work: Path, outdir: Path):
@@ -211,7 +224,7 @@ def _replace(work: Path, outdir: Path):
         shutil.rmtree(old, ignore_errors=True)
 
 
-def _readme(parts, plan, args, detail, triangles, target, units_mix) -> str:
+def _readme(parts, plan, args, detail, triangles, aim, units_mix) -> str:
     rows = "\n".join(f"| {p.name} | {p.units} | {p.mesh_triangles:,} | {p.copies} | {p.drawn_triangles:,} |" for p in parts)
     views = "\n".join(f"- `{v['name']}`: eye {v['eye']} -> target {v['target']}" for v in plan.viewpoints)
     licences = "\n".join(f"- `robots/{n}/`: see `robots/{n}/SOURCE.md` and the licence file beside it" for n in plan.robots)
@@ -221,7 +234,7 @@ def _readme(parts, plan, args, detail, triangles, target, units_mix) -> str:
     return f"""# {plan.name}: generated factory scene
 
 Generated by `mrcheck scene generate {args}`; do not edit by hand (the same command writes the
-same bytes). Level of detail {detail.level}; **{triangles:,}** triangles as rendered (target {target:,}).
+same bytes). Level of detail {detail.level}; **{triangles:,}** triangles as rendered ({aim}).
 
 {plan.description}
 

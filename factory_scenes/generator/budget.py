@@ -7,7 +7,9 @@ Triangles are counted as rendered (a mesh's triangles times its instances), exac
    lowers the amount until the plan's fixed part (everything but pallets) at the coarsest
    level leaves room for pallets;
 2. tries the levels of detail from the coarsest: at each, pallet places are filled in the
-   plan's seeded order until the total is as close to the target as one pallet allows;
+   plan's seeded order until the total is as close to the target as one pallet allows; the
+   first level whose fixed part alone exceeds the target is tried too when no coarser level
+   came close (a cell whose robot takes most of the target jumps past it between levels);
 3. keeps the level that hits the target (within CLOSE) with a fill share nearest to
    FILL_RANGE (racks neither nearly empty nor full), preferring the finer of equals. Beyond
    the detail table cartons get finer without end, so every target is reachable.
@@ -16,6 +18,7 @@ Triangles are counted as rendered (a mesh's triangles times its instances), exac
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -42,8 +45,13 @@ class Solution:
     triangles: int       # as rendered
 
 
-def solve(preset: Preset, size, seed: int, target: int, cache: MeshCache) -> Solution:
-    """The plan, level and fill whose triangle count is closest to ``target``."""
+def solve(preset: Preset, size, seed: int, target: int, cache: MeshCache, strict: bool = True) -> Solution:
+    """The plan, level and fill whose triangle count is closest to ``target``.
+
+    ``strict``: a target the user asked for, so a miss by more than TOLERANCE is an error;
+    with False (the preset's default target, which nobody asked for) the closest scene is
+    returned however far off, and the caller says so.
+    """
     amount = min(1.0, target / preset.default_target)
     while True:
         plan = plan_scene(preset, size, seed, target, amount)
@@ -54,11 +62,18 @@ def solve(preset: Preset, size, seed: int, target: int, cache: MeshCache) -> Sol
     for level in itertools.count():
         d = detail(level)
         fixed = plan.fixed_triangles(d, cache)
-        if fixed > target and best is not None:
-            break                                   # finer levels only grow the fixed part
+        if fixed > target and best is not None and not best[0][0]:
+            break                                   # a hit already; finer levels only grow the fixed part
         slots = plan.slot_triangles(d, cache)
         totals = fixed + np.concatenate([[0], np.cumsum(slots)])
-        filled = int(np.argmin(np.abs(totals - target)))
+        if fixed > target:
+            # reached only when no coarser level came close (a heavy robot in a small cell): the
+            # first level above the target, with as many pallets as keep it within the promise
+            # (up to FILL_RANGE[0]) rather than none, so the scene still has its pallets
+            within = int(np.searchsorted(totals, (1 + TOLERANCE) * target, side="right"))
+            filled = max(0, min(within - 1, math.ceil(FILL_RANGE[0] * len(slots))))
+        else:
+            filled = int(np.argmin(np.abs(totals - target)))
         share = filled / max(1, len(slots))
         # close to the target first, then racks neither nearly empty nor full
         score = (abs(int(totals[filled]) - target) > CLOSE * target, max(0.0, FILL_RANGE[0] - share, share - FILL_RANGE[1]))
@@ -67,7 +82,7 @@ def solve(preset: Preset, size, seed: int, target: int, cache: MeshCache) -> Sol
         if fixed + FILL_RANGE[0] * slots.sum() > target:
             break                                   # finer levels leave the racks emptier still
     solution = best[1]
-    if abs(solution.triangles - target) > TOLERANCE * target:
+    if strict and abs(solution.triangles - target) > TOLERANCE * target:
         raise MrcheckError(f"cannot build a {preset.name} of {target:,} triangles at this size "
                            f"(closest: {solution.triangles:,}); change --target-triangles or --size-m")
     return solution
