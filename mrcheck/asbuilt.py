@@ -12,6 +12,9 @@ Output folder::
                                meshes and licence files too), in the planned scene's layout, so
                                the folder is self-contained and can be moved anywhere
 
+A new variant in the folder of an earlier one replaces only what that one wrote (its manifest,
+its report and the folders its meshes are in); other files there stay.
+
 ``discrepancies.json``::
 
     {"planned": "/abs/path/of/the/planned/scene.toml",
@@ -78,16 +81,16 @@ import os
 import random
 import shutil
 import sys
-import tempfile
+import tomllib
 from dataclasses import dataclass, field
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 import numpy as np
 
 from .errors import MrcheckError
 from .output import check_writable_ancestor
 from .scene import load_scene, transform_from_table
-from .scenefiles import dumps_manifest, mesh_files, notice_files, read_manifest
+from .scenefiles import dumps_manifest, mesh_files, notice_files, read_manifest, write_generated
 
 __all__ = ["make_asbuilt", "KINDS", "STRUCTURE_WORDS", "SHARE"]
 
@@ -463,51 +466,36 @@ def _check_outdir(outdir: Path, manifest: Path):
         raise MrcheckError("the output folder contains the planned scene, which replacing it would delete", outdir)
     if outdir.exists() and not outdir.is_dir():
         raise MrcheckError("the output is a file, not a folder", outdir)
-    check_writable_ancestor(outdir)    # the variant is built beside it, then renamed into place
+    check_writable_ancestor(outdir)    # fail before the work, not after it
     if outdir.is_dir() and any(outdir.iterdir()) and not (outdir / "discrepancies.json").is_file():
-        # only an earlier as-built variant (or an empty folder) is replaced, never other files
+        # only an earlier as-built variant's files (or an empty folder's nothing) are replaced
         raise MrcheckError("the output folder exists and is not an as-built variant (no discrepancies.json)", outdir)
 
 
-def _write_folder(outdir: Path, fill):
-    """Build the folder in a temp dir beside ``outdir`` with ``fill(tmp)``, then rename it into place."""
-    missing = [p for p in [outdir.parent, *outdir.parent.parents] if not p.exists()]
+def _earlier_entries(outdir: Path) -> set:
+    """Top-level entries an earlier variant in ``outdir`` wrote: its manifest, its report and
+    the first folder (or file) of each mesh path its manifest names. Regenerating replaces
+    these and nothing else there."""
+    names = {"scene.toml", "discrepancies.json"}
     try:
-        outdir.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{outdir.name}.", suffix=".part", dir=outdir.parent))
-    except OSError as exc:
-        raise MrcheckError(f"cannot write output ({exc.strerror})", outdir) from None
-    old = None
-    try:
-        fill(tmp)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o777 & ~umask)  # mkdtemp makes 0700
-        if outdir.exists():
-            old = outdir.with_name(tmp.name[:-len(".part")] + ".old")
-            os.rename(outdir, old)
-        os.rename(tmp, outdir)
-    except BaseException as exc:
-        shutil.rmtree(tmp, ignore_errors=True)
-        if old is not None and not outdir.exists():
-            os.rename(old, outdir)  # put the earlier variant back
-        for folder in missing:  # the parents made for this output, deepest first, if still empty
-            try:
-                folder.rmdir()
-            except OSError:
-                break
-        if isinstance(exc, OSError):
-            raise MrcheckError(f"cannot write output ({exc.strerror or exc})", outdir) from None
-        raise
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
+        parts = tomllib.loads((outdir / "scene.toml").read_text(encoding="utf-8-sig")).get("parts", [])
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return names
+    for part in parts if isinstance(parts, list) else []:
+        mesh = part.get("mesh") if isinstance(part, dict) else None
+        if isinstance(mesh, str) and mesh:
+            first = PurePosixPath(mesh).parts[0]
+            if first not in ("/", "..", "."):     # a variant's paths are relative and inside it
+                names.add(first)
+    return names
 
 
 def make_asbuilt(scene_path, outdir, seed: int = 0) -> list[Path]:
     """Write the as-built variant of the planned manifest ``scene_path`` for ``seed`` into
     ``outdir`` (replacing an earlier variant there); returns [scene.toml, discrepancies.json]."""
     scene = load_scene(Path(scene_path))
-    manifest, outdir = scene.source, Path(outdir)
+    # absolute first: `-o .` and `-o ../here` from inside the folder name the same folder
+    manifest, outdir = scene.source, Path(os.path.abspath(outdir))
     if manifest.suffix.lower() != ".toml":
         raise MrcheckError("an as-built variant is made from a scene manifest (.toml), not a single mesh file", manifest)
     _check_outdir(outdir, manifest)
@@ -549,5 +537,5 @@ def make_asbuilt(scene_path, outdir, seed: int = 0) -> list[Path]:
         (tmp / "scene.toml").write_text(dumps_manifest(out_data, header))
         (tmp / "discrepancies.json").write_text(json.dumps(report, indent=2) + "\n")
 
-    _write_folder(outdir, fill)
+    write_generated(outdir, fill, stale=_earlier_entries(outdir))
     return [outdir / "scene.toml", outdir / "discrepancies.json"]

@@ -177,6 +177,60 @@ def files_stamp(paths) -> str:
     return digest.hexdigest()[:16]
 
 
+# -- writing a generated folder ----------------------------------------------------------------------
+def write_generated(outdir, fill, stale=()) -> None:
+    """Write a generated folder (a scene, an as-built variant) into ``outdir``, replacing only
+    what the command writes: other files there (a planner's photos and notes) stay.
+
+    ``fill(work)`` writes every file into the empty folder ``work``, which lies hidden inside
+    ``outdir`` (so that the moves below never cross a file system); then each top-level entry
+    ``fill`` wrote, and each name of ``stale`` (entries an earlier run wrote and this one may
+    not, such as ``scene_unit_missing.toml``), is moved aside, the new entries are moved in and
+    the old ones deleted last. A failure at any step puts the old entries back, removes what
+    was new (and ``outdir`` and its parents if this call made them), and is raised as
+    MrcheckError when it is an OSError. ``outdir`` itself is never renamed: a shell or another
+    process whose working folder it is keeps working there (``-o .``).
+    """
+    import shutil
+    import tempfile
+
+    outdir = Path(os.path.abspath(outdir))
+    made = [p for p in [outdir, *outdir.parents] if not p.exists()]
+    work = trash = None
+    moved_old, moved_new = [], []
+    try:
+        outdir.mkdir(parents=True, exist_ok=True)
+        work = Path(tempfile.mkdtemp(prefix=".mrcheck-partial-", dir=outdir))
+        fill(work)
+        new = sorted(p.name for p in work.iterdir())
+        trash = Path(tempfile.mkdtemp(prefix=".mrcheck-old-", dir=outdir))
+        for name in sorted(set(new) | set(stale)):
+            if os.path.lexists(outdir / name):
+                os.rename(outdir / name, trash / name)
+                moved_old.append(name)
+        for name in new:
+            os.rename(work / name, outdir / name)
+            moved_new.append(name)
+    except BaseException as exc:
+        for name in moved_new:                         # undo in reverse: the new out, the old back
+            os.rename(outdir / name, work / name)
+        for name in moved_old:
+            os.rename(trash / name, outdir / name)
+        for folder in (work, trash):
+            if folder is not None:
+                shutil.rmtree(folder, ignore_errors=True)
+        for folder in made:                            # the folders made for this output, deepest first
+            try:
+                folder.rmdir()
+            except OSError:
+                break
+        if isinstance(exc, OSError):
+            raise MrcheckError(f"cannot write output ({exc.strerror or exc})", outdir) from None
+        raise
+    shutil.rmtree(work, ignore_errors=True)
+    shutil.rmtree(trash, ignore_errors=True)
+
+
 # -- writing TOML ------------------------------------------------------------------------------------
 def _key(key: str) -> str:
     return key if _BARE_KEY.match(key) else json.dumps(key, ensure_ascii=False)
@@ -223,4 +277,5 @@ def dumps_manifest(data: dict, header: str = "") -> str:
     return "\n".join(lines) + "\n"
 
 
-__all__ = ["read_manifest", "mesh_files", "notice_files", "scene_files", "files_stamp", "dumps_manifest", "NOTICE_PREFIXES"]
+__all__ = ["read_manifest", "mesh_files", "notice_files", "scene_files", "files_stamp", "dumps_manifest", "write_generated",
+           "NOTICE_PREFIXES"]

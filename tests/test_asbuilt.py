@@ -307,14 +307,42 @@ def test_refuses_the_planned_folder_and_folders_of_other_files(tmp_path):
     with pytest.raises(MrcheckError, match="not an as-built variant"):
         make_asbuilt(planned, other, seed=0)
     assert (other / "keep.txt").read_text() == "mine"
-    # an earlier variant is replaced, an empty folder filled
+    # an earlier variant's files are replaced, an empty folder filled; the planner's own files
+    # beside the variant stay
     variant = tmp_path / "variant"
     variant.mkdir()
     make_asbuilt(planned, variant, seed=0)
-    (variant / "stale.txt").write_text("from before")
+    (variant / "notes.txt").write_text("mine")
+    (variant / "photos").mkdir()
+    (variant / "photos" / "a.jpg").write_bytes(b"jpeg")
+    (variant / "meshes" / "stale.glb").write_text("from before")     # inside what the variant writes
     make_asbuilt(planned, variant, seed=1)
-    assert not (variant / "stale.txt").exists() and json.loads((variant / "discrepancies.json").read_text())["seed"] == 1
+    assert json.loads((variant / "discrepancies.json").read_text())["seed"] == 1
+    assert (variant / "notes.txt").read_text() == "mine" and (variant / "photos" / "a.jpg").read_bytes() == b"jpeg"
+    assert not (variant / "meshes" / "stale.glb").exists()
+    assert sorted(p.name for p in variant.iterdir()) == ["discrepancies.json", "meshes", "notes.txt", "photos", "scene.toml"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["notes", "plan", "variant"]  # no temp folders left
+    fresh = tmp_path / "fresh"
+    make_asbuilt(planned, fresh, seed=1)
+    for name in ("scene.toml", "discrepancies.json"):
+        assert (variant / name).read_bytes() == (fresh / name).read_bytes()
+    shutil.rmtree(fresh)
+
+
+def test_output_given_relative_to_a_folder_inside_it(tmp_path, monkeypatch, capsys):
+    """`-o .` and `-o ../variant` from inside the variant: the same folder, written in place."""
+    planned = small_scene(tmp_path / "plan")
+    variant = tmp_path / "variant"
+    make_asbuilt(planned, variant, seed=0)
+    (variant / "notes.txt").write_text("mine")
+    monkeypatch.chdir(variant)
+    for seed, out in ((1, "."), (2, "../variant")):
+        assert main(["scene", "asbuilt", str(planned), "--seed", str(seed), "-o", out]) == 0
+        assert json.loads((variant / "discrepancies.json").read_text())["seed"] == seed
+        assert Path.cwd() == variant and (variant / "notes.txt").read_text() == "mine"
+    capsys.readouterr()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["plan", "variant"]
+    assert not [p for p in variant.iterdir() if p.name.startswith(".")]
 
 
 def test_a_failure_while_writing_leaves_no_output_and_keeps_the_earlier_variant(tmp_path, monkeypatch):

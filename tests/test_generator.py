@@ -236,10 +236,66 @@ def test_failed_generation_leaves_the_old_folder(scene_dir, tmp_path, monkeypatc
         raise OSError("disk full")
 
     monkeypatch.setattr("factory_scenes.generator.write_glb", broken)
-    with pytest.raises(OSError):
+    with pytest.raises(MrcheckError, match="disk full"):
         generate("cell", out, seed=5, target_triangles=50_000, progress=False)
     assert file_hashes(out) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["scene"]      # no partial folder left
+
+
+def test_regenerating_replaces_only_the_generated_files(tmp_path):
+    out = tmp_path / "c"
+    generate("cell", out, target_triangles=50_000, units_mix=True, progress=False)
+    (out / "photos").mkdir()
+    (out / "photos" / "a.jpg").write_bytes(b"jpeg")
+    (out / "notes.txt").write_text("mine")
+    (out / "meshes" / "old.glb").write_text("stale")        # inside what the generator writes
+    generate("cell", out, target_triangles=50_000, progress=False)
+    assert (out / "photos" / "a.jpg").read_bytes() == b"jpeg" and (out / "notes.txt").read_text() == "mine"
+    assert sorted(p.name for p in out.iterdir()) == ["README.md", "meshes", "notes.txt", "photos", "robots", "scene.toml"]
+    fresh = tmp_path / "fresh"
+    generate("cell", fresh, target_triangles=50_000, progress=False)
+    theirs = {k: v for k, v in file_hashes(out).items() if not k.startswith(("photos", "notes"))}
+    assert theirs == file_hashes(fresh)                      # no scene_unit_missing.toml, no old.glb
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c", "fresh"]
+
+
+def test_output_given_relative_to_a_folder_inside_it(tmp_path, monkeypatch, capsys):
+    """`-o .` and `-o ../c` from inside the scene: the same folder, regenerated in place."""
+    from mrcheck.cli import main
+
+    out = tmp_path / "c"
+    generate("cell", out, target_triangles=50_000, progress=False)
+    (out / "notes.txt").write_text("mine")
+    monkeypatch.chdir(out)
+    for seed, target in ((1, "."), (2, "../c")):
+        assert main(["scene", "generate", "--preset", "cell", "--seed", str(seed), "--target-triangles", "50000",
+                     "-o", target]) == 0
+        assert f"--seed {seed} " in (out / "scene.toml").read_text().splitlines()[0]
+        assert Path.cwd() == out and (out / "notes.txt").read_text() == "mine"
+    capsys.readouterr()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c"]
+    assert not [p for p in out.iterdir() if p.name.startswith(".")]
+
+
+def test_failed_regeneration_keeps_the_scene_and_the_other_files(tmp_path, monkeypatch):
+    out = tmp_path / "scene"
+    generate("cell", out, target_triangles=50_000, progress=False)
+    (out / "notes.txt").write_text("mine")
+    before = file_hashes(out)
+    real_rename, renames = __import__("os").rename, []
+
+    def failing_rename(a, b):       # fails moving the second new entry in, after the old ones went aside
+        renames.append(a)
+        if ".mrcheck-partial-" in str(a) and sum(".mrcheck-partial-" in str(r) for r in renames) == 2:
+            raise OSError(28, "No space left on device")
+        return real_rename(a, b)
+
+    monkeypatch.setattr("os.rename", failing_rename)
+    with pytest.raises(MrcheckError, match="No space left"):
+        generate("cell", out, seed=5, target_triangles=50_000, progress=False)
+    monkeypatch.undo()
+    assert file_hashes(out) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["scene"]
 
 
 @pytest.mark.parametrize("kwargs, message", [
