@@ -24,7 +24,8 @@ Manifest (format 1)::
     rotate_deg = [0, 0, 90]        # XYZ Euler degrees about world axes
     scale = 1.0
     instances = [{ translate = [0, 3, 0] }, ...]   # optional, applied after the part transform;
-                                   # an instance may carry id = "column-A3" (else NAME#i)
+                                   # an instance may carry id = "column-A3" (else NAME#i);
+                                   # ids are unique in the whole manifest
     joints = { joint_a1 = 0.5 }    # URDF only, radians (or metres for prismatic joints)
 
     [[viewpoints]]
@@ -386,12 +387,12 @@ def _load_manifest(path: Path, progress: bool) -> Scene:
 
     from tqdm import tqdm
 
-    parts, names = [], set()
+    parts, names, owners = [], set(), {}
     # a with block closes (and, leave=False, erases) the bar on an error too, so the error line
     # starts a clean line; disable=None: no bar when stderr is not a terminal (pipes, logs, tests)
     with tqdm(tables, desc="loading scene", unit="part", disable=None if progress else True, leave=False) as bar:
         for index, table in enumerate(bar):
-            parts.append(_part_from_table(path, index, table, names))
+            parts.append(_part_from_table(path, index, table, names, owners))
 
     scene = Scene(name=data.get("name", path.stem), source=path, parts=parts, viewpoints=viewpoints)
     for view in viewpoints:
@@ -399,8 +400,9 @@ def _load_manifest(path: Path, progress: bool) -> Scene:
     return scene
 
 
-def _part_from_table(path: Path, index: int, table: dict, names: set) -> Part:
-    """The part of one [[parts]] table of the manifest ``path``; ``names`` collects part names."""
+def _part_from_table(path: Path, index: int, table: dict, names: set, owners: dict) -> Part:
+    """The part of one [[parts]] table of the manifest ``path``; ``names`` collects part names,
+    ``owners`` maps every instance id so far to its part's name."""
     where = f"part {table.get('name', index)!r}"
     unknown = sorted(set(table) - _PART_KEYS)
     if unknown:
@@ -444,10 +446,17 @@ def _part_from_table(path: Path, index: int, table: dict, names: set) -> Part:
     if joints is not None and not isinstance(joints, dict):
         raise MrcheckError(f"{where}: joints must be a table of name = value", path)
     ids = [str(t["id"]) if "id" in t else None for t in instances]
-    if any(ids):
-        ids = [given or f"{name}#{i}" for i, given in enumerate(ids)]
-        if len(set(ids)) != len(ids):
-            raise MrcheckError(f"{where}: instance ids must be unique", path)
+    explicit = any(ids)
+    # the ids Part gives (NAME, NAME#i), unless the manifest names them; an id names one object
+    # in the whole scene (as-built variants and reports look changes up by it), so a generated
+    # id that another part's explicit one repeats is as wrong as two explicit ones
+    ids = [given or (name if len(ids) == 1 else f"{name}#{i}") for i, given in enumerate(ids)]
+    for iid in ids:
+        if iid in owners:
+            other = owners[iid]
+            raise MrcheckError(f"instance id {iid!r} is used twice in part {name!r}" if other == name else
+                               f"instance id {iid!r} is used by parts {other!r} and {name!r}", path)
+        owners[iid] = name
     try:
         vertices, faces = read_mesh(path.parent / table["mesh"], joints)
     except MrcheckError as exc:   # the mesh is named; say which manifest entry asked for it
@@ -455,7 +464,7 @@ def _part_from_table(path: Path, index: int, table: dict, names: set) -> Part:
         error.path = exc.path
         raise error from None
     return make_part(name, path.parent / table["mesh"], vertices, faces, transforms, color, table.get("units"),
-                     ids if any(ids) else None)
+                     ids if explicit else None)
 
 
 __all__ = ["Part", "Scene", "UNITS", "load_scene", "read_mesh", "make_part", "transform_from_table"]

@@ -134,6 +134,18 @@ CASES = [
     toml_case("toml-unknown-key", manifest("colour = [1, 0, 0]"), "unknown key(s) colour"),
     toml_case("toml-unknown-instance-key", manifest("instances = [{ translte = [0, 1, 0] }]"), "unknown key(s) translte"),
     toml_case("toml-instances-empty", manifest("instances = []"), "instances is empty"),
+    toml_case("toml-instance-id-twice", manifest('instances = [{ id = "A" }, { id = "A" }]'),
+              "instance id 'A' is used twice in part 'box'"),
+    # ids name one object in the whole scene: across parts, and generated ids (NAME#i) included
+    toml_case("toml-instance-id-two-parts", manifest('instances = [{}, { id = "X" }]') +
+              manifest('instances = [{ id = "X" }]').replace("format = 1", "").replace('"box"', '"post"'),
+              "instance id 'X' is used by parts 'box' and 'post'"),
+    toml_case("toml-instance-id-generated", manifest('instances = [{}, {}]') +
+              manifest('instances = [{ id = "box#1" }]').replace("format = 1", "").replace('"box"', '"post"'),
+              "instance id 'box#1' is used by parts 'box' and 'post'"),
+    toml_case("toml-instance-id-part-name", manifest() +
+              manifest('instances = [{ id = "box" }]').replace("format = 1", "").replace('name = "box"', 'name = "post"'),
+              "instance id 'box' is used by parts 'box' and 'post'"),
     toml_case("toml-scale-negative", manifest("scale = -1.0"), "scale must be positive"),
     toml_case("toml-scale-text", manifest('scale = "big"'), "must be numbers"),
     toml_case("toml-instance-scale-zero", manifest("instances = [{ scale = 0 }]"), "scale must be positive"),
