@@ -26,7 +26,8 @@ Manifest (format 1)::
     instances = [{ translate = [0, 3, 0] }, ...]   # optional, applied after the part transform;
                                    # an instance may carry id = "column-A3" (else NAME#i);
                                    # ids are unique in the whole manifest
-    joints = { joint_a1 = 0.5 }    # URDF only, radians (or metres for prismatic joints)
+    joints = { joint_a1 = 0.5 }    # URDF only, radians (or metres for prismatic joints),
+                                   # finite and within the URDF's limits
 
     [[viewpoints]]
     name = "overview"
@@ -41,6 +42,7 @@ Manifest (format 1)::
 from __future__ import annotations
 
 import logging
+import math
 import sys
 import tomllib
 from dataclasses import dataclass, field
@@ -278,11 +280,41 @@ def _read_urdf(path: Path, joints: dict):
         raise MrcheckError(f"URDF mesh file(s) not found: {', '.join(missing)}", path)
     unknown = sorted(set(joints) - set(robot.actuated_joint_names))
     if unknown:
-        raise MrcheckError(f"unknown joint(s) {', '.join(unknown)} (the robot has: {', '.join(robot.actuated_joint_names)})", path)
+        raise JointError(f"unknown joint(s) {', '.join(unknown)} (the robot {path.name} has: "
+                         f"{', '.join(robot.actuated_joint_names)})")
+    for name, value in joints.items():
+        _check_joint_limits(robot.joint_map[name], float(value), path)
     cfg = [float(joints.get(name, 0.0)) for name in robot.actuated_joint_names]
     robot.update_cfg(np.array(cfg))
     mesh = robot.scene.to_mesh() if hasattr(robot.scene, "to_mesh") else robot.scene.dump(concatenate=True)
     return np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64)
+
+
+class JointError(MrcheckError):
+    """A joint value of a manifest that the robot does not accept: the manifest's entry is
+    wrong, not the URDF, so the manifest reader names itself and the part."""
+
+
+JOINT_LIMIT_SLACK = 1e-6   # rad or m: values written with fewer digits than the URDF's limits
+
+
+def _check_joint_limits(joint, value: float, path: Path):
+    """An error for a value beyond the URDF's limits. An error rather than a warning: the robot
+    cannot take that pose, so the scene would show a robot that is not there, and as-built
+    checks would measure against it; the common cause is a value typed in degrees."""
+    limit = joint.limit
+    if joint.type == "continuous" or limit is None or limit.lower is None or limit.upper is None \
+            or not limit.lower < limit.upper:            # no (or a degenerate) range given: nothing to hold it to
+        return
+    lower, upper = float(limit.lower), float(limit.upper)
+    if lower - JOINT_LIMIT_SLACK <= value <= upper + JOINT_LIMIT_SLACK:
+        return
+    unit = "m" if joint.type == "prismatic" else "rad"
+    hint = ""
+    if joint.type == "revolute" and lower <= math.radians(value) <= upper:
+        hint = f"; degrees? joint values are radians ({value:g} deg = {math.radians(value):.4g} rad)"
+    raise JointError(f"joint {joint.name!r} = {value:g} is outside its limits {lower:.4g} .. {upper:.4g} {unit} "
+                     f"in {path.name}{hint}")
 
 
 def validate_mesh(vertices, faces, path):
@@ -445,6 +477,11 @@ def _part_from_table(path: Path, index: int, table: dict, names: set, owners: di
     joints = table.get("joints")
     if joints is not None and not isinstance(joints, dict):
         raise MrcheckError(f"{where}: joints must be a table of name = value", path)
+    for joint, value in (joints or {}).items():
+        # TOML's true would pass float() as 1 rad, and nan would pose the arm anyhow
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise MrcheckError(f"{where}: joint {joint!r} must be a finite number (radians, or metres for a "
+                               f"prismatic joint), got {value!r}", path)
     ids = [str(t["id"]) if "id" in t else None for t in instances]
     explicit = any(ids)
     # the ids Part gives (NAME, NAME#i), unless the manifest names them; an id names one object
@@ -459,6 +496,8 @@ def _part_from_table(path: Path, index: int, table: dict, names: set, owners: di
         owners[iid] = name
     try:
         vertices, faces = read_mesh(path.parent / table["mesh"], joints)
+    except JointError as exc:     # the manifest's value is wrong: name the manifest and the part
+        raise MrcheckError(f"{where}: {exc}", path) from None
     except MrcheckError as exc:   # the mesh is named; say which manifest entry asked for it
         error = MrcheckError(f"{exc} ({where} of {path})")
         error.path = exc.path

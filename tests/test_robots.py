@@ -86,6 +86,38 @@ def test_sampled_poses_are_seeded_within_limits_and_above_the_base(copies, name)
         assert np.linalg.norm(vertices, axis=1).max() < MAX_DISTANCE[name]
 
 
+@pytest.mark.parametrize("value, message", [
+    ("50.0", "joint 'lbr_iiwa_joint_2' = 50 is outside its limits -2.094 .. 2.094 rad in robot.urdf"),
+    ("90", "= 90 is outside its limits -2.094 .. 2.094 rad in robot.urdf; degrees? joint values are radians "
+           "(90 deg = 1.571 rad)"),
+    ("-2.1", "= -2.1 is outside its limits"),
+    ("nan", "joint 'lbr_iiwa_joint_2' must be a finite number"),
+    ("inf", "must be a finite number"),
+    ("true", "must be a finite number (radians, or metres for a prismatic joint), got True"),
+    ('"a"', "must be a finite number (radians, or metres for a prismatic joint), got 'a'"),
+    ("[1.0]", "must be a finite number"),
+])
+def test_bad_joint_values_are_errors_of_the_manifest(copies, value, message):
+    folder, urdfs = copies
+    manifest = folder / "bad_joint.toml"
+    mesh = urdfs["kuka_iiwa"].relative_to(folder).as_posix()
+    manifest.write_text("format = 1\n" + _part("arm", mesh, {}).replace("joints = {  }", f"joints = {{ lbr_iiwa_joint_2 = {value} }}"))
+    with pytest.raises(MrcheckError) as err:
+        load_scene(manifest)
+    assert str(err.value).startswith(f"{manifest}: part 'arm': ") and message in str(err.value), str(err.value)
+    assert "\n" not in str(err.value)
+
+
+def test_joint_values_at_their_limits_and_unknown_joints(copies):
+    folder, urdfs = copies
+    lo, hi = robots.joint_limits("kuka_iiwa")["lbr_iiwa_joint_2"]
+    assert _load_posed(copies, "kuka_iiwa", {"lbr_iiwa_joint_2": round(hi, 6), "lbr_iiwa_joint_4": round(lo, 6)}).parts
+    manifest = folder / "bad_joint.toml"
+    manifest.write_text("format = 1\n" + _part("arm", urdfs["kuka_iiwa"].relative_to(folder).as_posix(), {"elbow": 0.5}))
+    with pytest.raises(MrcheckError, match=r"part 'arm': unknown joint\(s\) elbow \(the robot robot.urdf has: lbr_iiwa_joint_1,"):
+        load_scene(manifest)
+
+
 def test_robot_mesh_is_the_posed_robot_in_metres():
     pose = robots.sample_joints("ur5", np.random.default_rng(7))
     vertices, faces = robots.robot_mesh("ur5", pose)
