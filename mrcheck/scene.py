@@ -388,7 +388,7 @@ def load_scene(path, units: str | None = None, progress: bool = False) -> Scene:
 
 def _load_manifest(path: Path, progress: bool) -> Scene:
     try:
-        data = tomllib.loads(path.read_text())
+        data = tomllib.loads(path.read_text(encoding="utf-8-sig"))   # -sig: a BOM (Windows Notepad) is no error
     except tomllib.TOMLDecodeError as exc:
         raise MrcheckError(f"malformed manifest: {exc}", path) from None
     except (OSError, UnicodeDecodeError) as exc:

@@ -50,7 +50,7 @@ def read_manifest(path) -> dict:
     """The raw tables of a manifest that :func:`mrcheck.scene.load_scene` has already accepted."""
     path = Path(path)
     try:
-        return tomllib.loads(path.read_text())
+        return tomllib.loads(path.read_text(encoding="utf-8-sig"))   # as mrcheck.scene reads it
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise MrcheckError(f"cannot read manifest ({exc})", path) from None
 

@@ -77,3 +77,14 @@ def test_a_broken_urdf_is_one_line(tmp_path, capsys, urdf, message):
     captured = capsys.readouterr()
     assert captured.out == "" and captured.err.count("\n") == 1, captured.err
     assert captured.err.startswith(f"error: {path}: {message}")
+
+
+def test_a_manifest_with_a_utf8_bom_loads(tmp_path):
+    """Windows Notepad saves UTF-8 with a byte-order mark; CRLF line ends come with it."""
+    from mrcheck.scenefiles import read_manifest
+
+    trimesh.creation.box((1.0, 1.0, 1.0)).export(tmp_path / "box.stl")
+    text = '[[parts]]\r\nname = "box"\r\nmesh = "box.stl"\r\nunits = "m"\r\n'
+    (tmp_path / "scene.toml").write_bytes(b"\xef\xbb\xbf" + text.encode())
+    assert load_scene(tmp_path / "scene.toml").triangle_count == 12
+    assert read_manifest(tmp_path / "scene.toml")["parts"][0]["name"] == "box"   # as `scene asbuilt` reads it
