@@ -328,27 +328,37 @@ class _Planner:
             pool = [i for i in pool if i.id not in self.used]
         return pool
 
-    def plan(self, kinds):
-        for kind in kinds:
-            # parts first, then their instances, both in random order: each part is as likely to
-            # change as any other, however many instances it has (18 fence panels, 1 robot)
-            by_part = {}
-            for inst in self._pool(kind):
-                by_part.setdefault(inst.part, []).append(inst)
-            order = list(by_part)
-            self.rng.shuffle(order)
-            pool = []
-            for name in order:
-                self.rng.shuffle(by_part[name])
-                pool += by_part[name]
-            for inst in pool:
-                change = self._draw(kind, inst)
-                if change is not None:
-                    self._apply(kind, inst, change)
-                    break
-            else:
-                print(f"warning: no free instance fits a {kind!r} change; the variant has one change fewer", file=sys.stderr)
+    def plan(self, kinds, progress: bool = False):
+        from tqdm import tqdm
+
+        # the longest step on a big hall (each draw is checked against thousands of boxes)
+        with tqdm(kinds, desc="choosing changes", unit="change", disable=None if progress else True, leave=False) as bar:
+            for kind in bar:
+                self._plan_one(kind)
         return self.changes
+
+    def _plan_one(self, kind):
+        # parts first, then their instances, both in random order: each part is as likely to
+        # change as any other, however many instances it has (18 fence panels, 1 robot)
+        by_part = {}
+        for inst in self._pool(kind):
+            by_part.setdefault(inst.part, []).append(inst)
+        order = list(by_part)
+        self.rng.shuffle(order)
+        pool = []
+        for name in order:
+            self.rng.shuffle(by_part[name])
+            pool += by_part[name]
+        for inst in pool:
+            change = self._draw(kind, inst)
+            if change is not None:
+                self._apply(kind, inst, change)
+                break
+        else:
+            from tqdm import tqdm
+
+            # through tqdm: a line of its own above the bar, not into it
+            tqdm.write(f"warning: no free instance fits a {kind!r} change; the variant has one change fewer", file=sys.stderr)
 
     def _apply(self, kind, inst, change):
         self._cache = None
@@ -490,10 +500,11 @@ def _earlier_entries(outdir: Path) -> set:
     return names
 
 
-def make_asbuilt(scene_path, outdir, seed: int = 0) -> list[Path]:
+def make_asbuilt(scene_path, outdir, seed: int = 0, progress: bool = True) -> list[Path]:
     """Write the as-built variant of the planned manifest ``scene_path`` for ``seed`` into
-    ``outdir`` (replacing an earlier variant there); returns [scene.toml, discrepancies.json]."""
-    scene = load_scene(Path(scene_path))
+    ``outdir`` (replacing an earlier variant there); returns [scene.toml, discrepancies.json].
+    ``progress``: bars for loading, choosing the changes and copying, on a terminal only."""
+    scene = load_scene(Path(scene_path), progress=progress)
     # absolute first: `-o .` and `-o ../here` from inside the folder name the same folder
     manifest, outdir = scene.source, Path(os.path.abspath(outdir))
     if manifest.suffix.lower() != ".toml":
@@ -512,7 +523,7 @@ def make_asbuilt(scene_path, outdir, seed: int = 0) -> list[Path]:
     region = np.array([floor_boxes[:, 0, :2].min(axis=0), floor_boxes[:, 1, :2].max(axis=0)])
     eyes = [vp["eye"] for vp in scene.viewpoints.values()]
     planner = _Planner(instances, excluded, floor_part, floor_z, region, eyes, seed)
-    changes = planner.plan(_kinds(len(instances), planner.rng))
+    changes = planner.plan(_kinds(len(instances), planner.rng), progress)
     parts, records = _asbuilt_tables(tables, scene, changes)
 
     root, needed = _layout(manifest, tables)
@@ -530,7 +541,9 @@ def make_asbuilt(scene_path, outdir, seed: int = 0) -> list[Path]:
               "discrepancies": records}
 
     def fill(tmp: Path):
-        for source in used:
+        from tqdm import tqdm
+
+        for source in tqdm(used, desc="copying meshes", unit="file", disable=None if progress else True, leave=False):
             target = tmp / source.relative_to(root)
             target.parent.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(source, target)

@@ -449,3 +449,25 @@ instances = [{{ id = "bottom", translate = [5.0, 5.0, 0.0] }}, {{ id = "top", tr
     assert seen.get("panel", {"missing"}) == {"missing"}                # held by its posts: only removed
     assert seen.get("top", set()) <= {"rotated", "missing", "replaced"}  # on the crate below: never moved
     assert "top" in seen and "panel" in seen  # both had their turn: the rules were exercised
+
+
+def test_shows_progress_for_loading_choosing_and_copying(tmp_path, monkeypatch):
+    """Bars (on a terminal: disable=None) for the scene's loading and the variant's own work,
+    which takes seconds on a hall; none with progress=False."""
+    import tqdm
+
+    shown = []
+
+    class Recording(tqdm.tqdm):
+        def __init__(self, *args, **kwargs):
+            if kwargs.get("disable") is None:
+                shown.append(kwargs.get("desc"))
+            super().__init__(*args, **kwargs)
+
+    monkeypatch.setattr(tqdm, "tqdm", Recording)
+    planned = small_scene(tmp_path / "plan")
+    make_asbuilt(planned, tmp_path / "v", seed=0)
+    assert shown == ["loading scene", "choosing changes", "copying meshes"]
+    shown.clear()
+    make_asbuilt(planned, tmp_path / "w", seed=0, progress=False)
+    assert shown == []
