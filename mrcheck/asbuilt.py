@@ -11,6 +11,8 @@ Output folder::
     OUTDIR/...                 copies of every file the meshes need (URDF folders with their
                                meshes and licence files too), in the planned scene's layout, so
                                the folder is self-contained and can be moved anywhere
+    OUTDIR/external/<n>/...    the same for meshes outside the planned scene's folder, one
+                               numbered folder per folder they come from (see :func:`_layout`)
 
 A new variant in the folder of an earlier one replaces only what that one wrote (its manifest,
 its report and the folders its meshes are in); other files there stay.
@@ -455,17 +457,39 @@ def _asbuilt_tables(tables, scene, changes) -> tuple[list, list]:
     return out, records
 
 
-def _layout(manifest: Path, tables) -> tuple[Path, dict]:
-    """The root folder whose layout the copy keeps, and {part mesh string: files to copy}."""
-    needed = {}
+def _layout(manifest: Path, tables) -> dict:
+    """{part mesh string: [(source file, path in OUTDIR)]}, the mesh file first.
+
+    A part whose files all lie in the manifest's folder keeps its path there. Any other (mesh =
+    "../shared/x.glb", "/data/robots/pybullet_data/kuka_iiwa/model.urdf") goes to
+    ``external/<n>/``, n = 1, 2, ... for each folder holding such parts' files (the outermost of
+    nested ones, in path order), laid out as in that folder: a URDF keeps its meshes and its
+    package's licence where its relative paths expect them, and the variant does not mirror
+    the file system from ``/``.
+    """
+    home = Path(os.path.normpath(manifest.parent.absolute()))
+    files, inside = {}, {}
     for table in tables:
         mesh = manifest.parent / table["mesh"]
-        needed[table["mesh"]] = mesh_files(mesh) + notice_files(mesh)
-    # the deepest folder holding the manifest and every file: the manifest's own folder unless
-    # a mesh lives outside it (mesh = "../shared/x.glb")
-    everything = [manifest.parent.absolute(), *(f for files in needed.values() for f in files)]
-    root = Path(os.path.commonpath([os.path.normpath(p) for p in everything]))
-    return root, needed
+        found = mesh_files(mesh)
+        inside[table["mesh"]] = all(home in f.parents for f in found)
+        # a licence above the scene's folder for a part inside it (a robot.urdf beside
+        # scene.toml) would be the licence of whatever project holds the scene: left out
+        notices = [n for n in notice_files(mesh) if not inside[table["mesh"]] or home in n.parents]
+        files[table["mesh"]] = list(dict.fromkeys(found + notices))
+    roots = []
+    for root in sorted({Path(os.path.commonpath([f.parent for f in found])) for mesh, found in files.items()
+                        if not inside[mesh]}, key=lambda p: p.parts):   # a folder before those inside it
+        if not any(r == root or r in root.parents for r in roots):
+            roots.append(root)
+    layout = {}
+    for mesh, found in files.items():
+        if inside[mesh]:
+            layout[mesh] = [(f, f.relative_to(home).as_posix()) for f in found]
+        else:
+            n, root = next((n, r) for n, r in enumerate(roots, 1) if r == found[0].parent or r in found[0].parents)
+            layout[mesh] = [(f, f"external/{n}/{f.relative_to(root).as_posix()}") for f in found]
+    return layout
 
 
 def _check_outdir(outdir: Path, manifest: Path):
@@ -526,10 +550,10 @@ def make_asbuilt(scene_path, outdir, seed: int = 0, progress: bool = True) -> li
     changes = planner.plan(_kinds(len(instances), planner.rng), progress)
     parts, records = _asbuilt_tables(tables, scene, changes)
 
-    root, needed = _layout(manifest, tables)
-    used = sorted({f for table in parts for f in needed[table["mesh"]]})  # not the meshes of dropped parts
+    layout = _layout(manifest, tables)
+    used = sorted({pair for table in parts for pair in layout[table["mesh"]]})  # not the meshes of dropped parts
     for table in parts:
-        table["mesh"] = needed[table["mesh"]][0].relative_to(root).as_posix()
+        table["mesh"] = layout[table["mesh"]][0][1]
     planned = str(manifest.resolve())
     header = (f"As-built variant of {planned}\nmade by `mrcheck scene asbuilt --seed {seed}`: "
               "every change is listed in discrepancies.json.")
@@ -543,8 +567,8 @@ def make_asbuilt(scene_path, outdir, seed: int = 0, progress: bool = True) -> li
     def fill(tmp: Path):
         from tqdm import tqdm
 
-        for source in tqdm(used, desc="copying meshes", unit="file", disable=None if progress else True, leave=False):
-            target = tmp / source.relative_to(root)
+        for source, name in tqdm(used, desc="copying meshes", unit="file", disable=None if progress else True, leave=False):
+            target = tmp / name
             target.parent.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(source, target)
         (tmp / "scene.toml").write_text(dumps_manifest(out_data, header))

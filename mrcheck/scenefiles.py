@@ -10,7 +10,8 @@ may need others to load or to be redistributable:
 - ``.urdf``: every ``<mesh filename>`` and ``<texture filename>`` (resolved the way the loader,
   yourdfpy, resolves them, ``package://`` included), each with its own companions; and, as
   :func:`notice_files`, the licence and source notes beside the URDF (``LICENSE*``,
-  ``SOURCE*`` ...), which must travel with a copied robot model.
+  ``SOURCE*`` ...), or its package's licence one folder up, which must travel with a copied
+  robot model.
 
 ``.glb``, ``.stl``, ``.ply`` and ``.off`` are self-contained. Companions that do not exist
 (a URDF's collision ``.stl`` files are often left out) are skipped: the loader does not read
@@ -39,6 +40,7 @@ from .errors import MrcheckError
 
 # files beside a URDF that carry its licence and provenance (matched case-insensitively)
 NOTICE_PREFIXES = ("license", "licence", "copying", "notice", "source", "authors", "readme")
+LICENCE_PREFIXES = ("license", "licence", "copying", "notice")   # of those, the licence itself
 
 _MTL_MAPS = re.compile(r"^\s*(map_\w+|bump|disp|decal|refl|norm)\s+(.+?)\s*$", re.IGNORECASE)
 _DAE_IMAGE = re.compile(rb"<init_from>\s*([^<]+?)\s*</init_from>")
@@ -135,11 +137,18 @@ def mesh_files(path) -> list[Path]:
 
 
 def notice_files(path) -> list[Path]:
-    """Licence and provenance files beside a URDF (empty for other meshes), sorted."""
+    """Licence and provenance files of a URDF (empty for other meshes), sorted: those beside it
+    and, when there is no licence beside it, the licence files one folder up, where a robot
+    package keeps the one licence of all its models (``pybullet_data/LICENSE.txt`` for
+    ``pybullet_data/kuka_iiwa/model.urdf``, ``pkg/LICENSE`` for ``pkg/urdf/robot.urdf``)."""
     path = Path(os.path.normpath(Path(path).absolute()))
     if path.suffix.lower() != ".urdf" or not path.parent.is_dir():
         return []
-    return sorted(p for p in path.parent.iterdir() if p.is_file() and p.name.lower().startswith(NOTICE_PREFIXES))
+    found = sorted(p for p in path.parent.iterdir() if p.is_file() and p.name.lower().startswith(NOTICE_PREFIXES))
+    if not any(p.name.lower().startswith(LICENCE_PREFIXES) for p in found) and path.parent.parent != path.parent:
+        # only licences up there: a README or SOURCE one folder up describes more than this robot
+        found += sorted(p for p in path.parent.parent.iterdir() if p.is_file() and p.name.lower().startswith(LICENCE_PREFIXES))
+    return found
 
 
 def scene_files(path) -> list[Path]:

@@ -271,16 +271,54 @@ translate = [8.0, -8.0, 0.0]
     (plan / "meshes" / "textures" / "lamp.png").write_bytes(b"\x89PNG fake")
     out = tmp_path / "out"
     make_asbuilt(planned, out, seed=3)
-    # the deepest folder holding everything is tmp_path: its layout is kept
-    assert (out / "plan" / "meshes" / "textures" / "lamp.png").is_file()
-    assert sorted(p.name for p in (out / "shared").iterdir()) == ["bin.gltf", "gltf_buffer_0.bin", "gltf_buffer_1.bin"]
-    assert 'mesh = "../shared/bin.gltf"' not in (out / "scene.toml").read_text()
+    # the scene's own files keep their paths; the outside one goes to external/1/ with its buffers
+    assert (out / "meshes" / "textures" / "lamp.png").is_file()
+    assert sorted(p.name for p in (out / "external" / "1").iterdir()) == ["bin.gltf", "gltf_buffer_0.bin", "gltf_buffer_1.bin"]
+    assert 'mesh = "external/1/bin.gltf"' in (out / "scene.toml").read_text()
     check_variant(planned, out)
     away = tmp_path / "away"
     shutil.copytree(out, away)
     shutil.rmtree(tmp_path / "shared")  # the copy must not reach back to the planned files
     shutil.rmtree(plan / "meshes")
     assert load_scene(away / "scene.toml").triangle_count == load_scene(out / "scene.toml").triangle_count
+
+
+def test_absolute_mesh_paths_go_to_numbered_external_folders_with_their_package_licence(tmp_path):
+    """Meshes named by absolute paths, a robot package whose one licence lies a folder above its
+    URDF (as pybullet_data/LICENSE.txt does): nothing mirrors the file system from /, and the
+    licence travels along, where it was relative to the URDF."""
+    from mrcheck import robots
+
+    package = tmp_path / "data" / "robot_pkg"
+    urdf = robots.copy_robot("kuka_iiwa", package)
+    (urdf.parent / "LICENSE.txt").rename(package / "LICENSE.txt")
+    (package / "README.md").write_text("about the whole package")      # not a licence: stays behind
+    box_file(tmp_path / "elsewhere" / "bin.glb", (0.5, 0.5, 0.5))
+    planned = small_scene(tmp_path / "plan", extra=f"""
+[[parts]]
+name = "arm"
+mesh = "{urdf}"
+units = "m"
+translate = [-7.0, 7.0, 0.0]
+
+[[parts]]
+name = "bin"
+mesh = "{tmp_path / 'elsewhere' / 'bin.glb'}"
+units = "m"
+translate = [-8.0, -8.0, 0.0]
+""")
+    out = tmp_path / "out"
+    make_asbuilt(planned, out, seed=1)
+    text = (out / "scene.toml").read_text()
+    assert 'mesh = "external/1/kuka_iiwa/robot.urdf"' in text and 'mesh = "external/2/bin.glb"' in text
+    assert (out / "external" / "1" / "LICENSE.txt").is_file() and (out / "external" / "1" / "kuka_iiwa" / "SOURCE.md").is_file()
+    assert not (out / "external" / "1" / "README.md").exists()
+    assert sorted(p.name for p in out.iterdir()) == ["discrepancies.json", "external", "meshes", "scene.toml"]
+    check_variant(planned, out)
+    # and an earlier variant with external/ is replaced, external/ included, when its folder is reused
+    (out / "external" / "stale").mkdir()
+    make_asbuilt(planned, out, seed=2)
+    assert not (out / "external" / "stale").exists()
 
 
 def test_a_tiny_scene_gets_one_change(tmp_path):
