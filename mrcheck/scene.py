@@ -23,7 +23,8 @@ Manifest (format 1)::
     translate = [4.0, 2.0, 0.0]    # metres, after unit scaling
     rotate_deg = [0, 0, 90]        # XYZ Euler degrees about world axes
     scale = 1.0
-    instances = [{ translate = [0, 3, 0] }, ...]   # optional, applied after the part transform;
+    instances = [{ translate = [0, 3, 0] }, ...]   # optional, applied after the part transform
+                                   # (so an instance's rotate_deg turns about the world origin);
                                    # an instance may carry id = "column-A3" (else NAME#i);
                                    # ids are unique in the whole manifest
     joints = { joint_a1 = 0.5 }    # URDF only, radians (or metres for prismatic joints),

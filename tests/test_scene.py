@@ -88,3 +88,28 @@ def test_a_manifest_with_a_utf8_bom_loads(tmp_path):
     (tmp_path / "scene.toml").write_bytes(b"\xef\xbb\xbf" + text.encode())
     assert load_scene(tmp_path / "scene.toml").triangle_count == 12
     assert read_manifest(tmp_path / "scene.toml")["parts"][0]["name"] == "box"   # as `scene asbuilt` reads it
+
+
+def test_the_readme_instance_example_does_what_it_says(tmp_path):
+    """The README's manifest example: the first instance at (-5.8, -2.5), C-2 turned in place at
+    (-5.8, 3.5) -- not swung about the origin by a part translate."""
+    import re
+    import tomllib
+    from pathlib import Path
+
+    readme = (Path(__file__).parents[1] / "README.md").read_text()
+    section = readme[readme.index("### Scene manifest (TOML)"):]
+    example = tomllib.loads(re.search(r"```toml\n(.*?)```", section, re.S).group(1))
+    part = next(p for p in example["parts"] if p.get("instances"))
+    trimesh.creation.box((4000.0, 1000.0, 500.0)).export(tmp_path / "conveyor.stl")   # 4 x 1 m in mm, centred
+    part = {**part, "mesh": "conveyor.stl"}
+    lines = [f"{k} = {v!r}".replace("'", '"') for k, v in part.items() if k != "instances"]
+    instances = ", ".join("{ " + ", ".join(f"{k} = {v!r}".replace("'", '"') for k, v in i.items()) + " }"
+                          for i in part["instances"])
+    (tmp_path / "scene.toml").write_text("[[parts]]\n" + "\n".join(lines) + f"\ninstances = [{instances}]\n")
+    loaded = load_scene(tmp_path / "scene.toml").parts[0]
+    assert loaded.instance_ids[1] == "C-2"
+    centres = loaded.instance_bounds().mean(axis=1)
+    assert np.allclose(centres[:, :2], [[-5.8, -2.5], [-5.8, 3.5]], atol=1e-6)
+    sizes = np.ptp(loaded.instance_bounds(), axis=1)
+    assert np.allclose(sizes[:, :2], [[1.0, 4.0], [1.0, 4.0]], atol=1e-6)       # turned 90 and 270 degrees
