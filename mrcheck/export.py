@@ -157,7 +157,7 @@ def load_job(path) -> Job:
         raise MrcheckError(message, path)
 
     try:
-        data = tomllib.loads(path.read_text())
+        data = tomllib.loads(path.read_text(encoding="utf-8-sig"))   # -sig: a BOM (Windows Notepad) is no error
     except FileNotFoundError:
         fail("job file not found")
     except (OSError, UnicodeDecodeError) as exc:

@@ -117,3 +117,11 @@ def test_bad_scheduler_keeps_an_existing_outdir(job, tmp_path, capsys):
     code, err = _export(capsys, job(), "-o", out, "--scheduler", "notanaddress")
     assert code == 1 and err.count("\n") == 1
     assert [p.name for p in out.iterdir()] == ["keep.txt"]
+
+
+def test_a_job_file_with_a_byte_order_mark_is_read(job, tmp_path, capsys):
+    """Windows Notepad saves UTF-8 with a BOM; tomllib calls that an invalid statement."""
+    path = job()
+    path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())
+    code, err = _export(capsys, path, "-o", tmp_path / "out")
+    assert code == 0, err
