@@ -195,3 +195,28 @@ def test_a_bad_camera_file_fails_before_the_scene_loads(tmp_path, capsys, monkey
     path.write_text('{"width": 64,')
     out = tmp_path / ("r.png" if command == "render" else "r.npy")
     assert_one_line_error(run(capsys, command, SCENE, "--camera", path, *TINY, "-o", out), path, "malformed camera JSON")
+
+
+# -- 4. a K the pinhole renderer cannot draw -------------------------------------------------
+@pytest.mark.parametrize("row, col, value, words", [
+    (0, 1, 100.0, "skew K[0][1] = 100"),
+    (1, 0, 5.0, "K[1][0] = 5"),
+    (2, 0, 0.001, "bottom row"),
+    (2, 2, 2.0, "bottom row"),
+])
+def test_a_k_with_skew_or_another_bottom_row_is_refused(tmp_path, capsys, row, col, value, words):
+    """Only fx, fy, cx, cy are drawn: a skewed or unnormalised K rendered as if it were the plain
+    pinhole, an image that does not match the camera, with exit 0."""
+    data = json.loads(CONVEYOR.read_text())
+    data["K"][row][col] = value
+    path = tmp_path / "cam.json"
+    path.write_text(json.dumps(data))
+    for command, out in (("render", "r.png"), ("reference", "r.npy")):
+        result = run(capsys, command, SCENE, "--camera", path, *TINY, "-o", tmp_path / out)
+        assert_one_line_error(result, path, words)
+        assert not (tmp_path / out).exists()
+
+
+def test_a_k_with_rounding_noise_in_its_zeros_is_accepted():
+    K = np.array([[500.0, 1e-12, 319.5], [-1e-12, 500.0, 239.5], [1e-15, 0.0, 1.0 + 1e-15]])
+    assert Camera(640, 480, K).fx == 500.0
