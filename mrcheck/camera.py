@@ -126,6 +126,23 @@ class Camera:
         K[1, 2] = (self.cy + 0.5) * sy - 0.5
         return Camera(width, height, K, self.R, self.t, self.dist)
 
+    def fitted(self, width=None, height=None, source=None) -> "Camera":
+        """The camera at ``--width``/``--height`` (a missing one keeping the aspect ratio), or an
+        error naming ``source`` when both are given in another aspect ratio.
+
+        A calibrated camera has square pixels and one aspect ratio: both sides scaled apart would
+        scale fx and fy apart and squash the image (a round bollard drawn as an ellipse). Up to one
+        pixel of rounding of either side is the same aspect ratio (what one side alone rounds to).
+        """
+        if not (width or height):
+            return self
+        if width and height and abs(width * self.height - height * self.width) > max(self.width, self.height):
+            w, h = fit_size(self.width, self.height, width)
+            raise MrcheckError(f"--width {width} --height {height} is another aspect ratio than the camera's "
+                               f"{self.width}x{self.height} (a calibrated camera has square pixels); give only "
+                               f"--width or --height and the other follows (--width {width}: {w}x{h})", source)
+        return self.resized(*fit_size(self.width, self.height, width, height))
+
     def with_pose(self, R, t) -> "Camera":
         return Camera(self.width, self.height, self.K, R, t, self.dist)
 

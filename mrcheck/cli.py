@@ -59,7 +59,9 @@ def cli():
 @click.option("--mode", type=click.Choice(_MODE_CHOICES), default="vector", show_default=True,
               help="phong = D1 (no AO), vector = D2 (Scheer & Keutel), ssao = D3 (standard SSAO); comparison modes crytek, "
                    "hbao, alchemy (world radius like ssao); all = D1|D2|D3 side by side, labelled.")
-@click.option("--width", type=int, callback=_positive, help="Image width in pixels [default: the view's or camera's].")
+@click.option("--width", type=int, callback=_positive,
+              help="Image width in pixels [default: the view's or camera's]; one side alone keeps the aspect ratio, "
+                   "which a --camera's must keep.")
 @click.option("--height", type=int, callback=_positive, help="Image height in pixels [default: the view's or camera's].")
 @click.option("--samples", type=int, default=16, show_default=True, callback=_positive,
               help="AO samples per pixel (the paper uses 16, 36, 64, 128).")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .camera import Camera, fit_size
+from .camera import Camera
 from .errors import MrcheckError
 from .output import (AO_SUFFIXES, IMAGE_SUFFIXES, check_output_dir, check_output_path, labelled_sheet,
                      write_all_or_none, write_ao, write_image)
@@ -24,8 +24,7 @@ def file_camera(view, camera_path, width, height) -> Camera | None:
         raise MrcheckError("give exactly one of --view NAME or --camera CAM.json|CAM.yml")
     if view is not None:
         return None
-    camera = Camera.load(camera_path)
-    return camera.resized(*fit_size(camera.width, camera.height, width, height)) if width or height else camera
+    return Camera.load(camera_path).fitted(width, height, camera_path)
 
 
 def _ao_paths(output_ao: Path, modes) -> dict:
