@@ -27,6 +27,26 @@ def file_camera(view, camera_path, width, height) -> Camera | None:
     return Camera.load(camera_path).fitted(width, height, camera_path)
 
 
+def warn_units(scene) -> None:
+    """As ``scene info`` does: a manifest part without declared units is taken as authored, and a
+    part in mm read as metres is 1000x too big; a render alone gave no hint of it. (A single mesh
+    file without --units is the ordinary case and is not warned about.)"""
+    if scene.source.suffix.lower() != ".toml":
+        return
+    missing = [p.name for p in scene.parts if p.units is None]
+    if missing:
+        print(f"warning: {scene.source}: {len(missing)} part(s) without declared units, coordinates taken as "
+              f"authored (not metres): {', '.join(missing)}", file=sys.stderr)
+
+
+def warn_if_nothing_in_view(depth, view, camera_path) -> None:
+    """A background-only image (a wrong pose, or a camera kilometres away after a unit mix-up) is
+    otherwise written with exit 0 and looks like a render; overlay and discrepancies warn too."""
+    if not (depth > 0).any():
+        source = camera_path if view is None else f"viewpoint {view!r}"
+        print(f"warning: {source}: no CAD part is in view of this camera (a wrong pose, or units?)", file=sys.stderr)
+
+
 def _ao_paths(output_ao: Path, modes) -> dict:
     ao_modes = [m for m in modes if m != "phong"]
     if len(ao_modes) == 1:
@@ -50,12 +70,14 @@ def render_command(scene, view, camera_path, mode, width, height, units, output,
     settings.validated(None)  # option errors before a long scene load
     camera = file_camera(view, camera_path, width, height)
     loaded = load_scene(scene, units=units, progress=True)
+    warn_units(loaded)
     camera = camera or loaded.camera(view, width, height)
     settings.validated(camera.height)  # option errors before the GL context is made
 
     renderer = Renderer(loaded)
     try:
         results = renderer.render(camera, modes, settings, want_ao=output_ao is not None)
+        warn_if_nothing_in_view(renderer.last_depth(), view, camera_path)
     finally:
         renderer.release()
     if mode == "all":
@@ -90,4 +112,4 @@ def demo_command(outdir: Path, width=None, height=None):
             renderer.release()
 
 
-__all__ = ["render_command", "demo_command", "file_camera"]
+__all__ = ["render_command", "demo_command", "file_camera", "warn_units", "warn_if_nothing_in_view"]

@@ -250,7 +250,7 @@ def reference_ao(scene: Scene, camera: Camera, depth, normals, rays: int, radius
 def reference_command(scene, view, camera_path, width, height, rays, radius_mode, radius_world, radius_px,
                       falloff, seed, units, output):
     """``mrcheck reference``: render the G-buffer, ray-trace the reference AO, write it."""
-    from .commands import file_camera
+    from .commands import file_camera, warn_if_nothing_in_view, warn_units
     from .output import AO_SUFFIXES, check_output_path, write_ao
     from .renderer import DEFAULT_RADIUS_FRACTION, DEFAULT_RADIUS_WORLD, Renderer, RenderSettings
     from .scene import load_scene
@@ -261,6 +261,7 @@ def reference_command(scene, view, camera_path, width, height, rays, radius_mode
     _check_rays(rays)   # before a long scene load (_validate below checks everything)
     camera = file_camera(view, camera_path, width, height)
     loaded = load_scene(scene, units=units, progress=True)
+    warn_units(loaded)
     camera = camera or loaded.camera(view, width, height)
     if radius_mode == "world":
         radius = DEFAULT_RADIUS_WORLD if radius_world is None else radius_world
@@ -275,6 +276,7 @@ def reference_command(scene, view, camera_path, width, height, rays, radius_mode
         depth, normals = renderer.last_depth(), renderer.last_normals()
     finally:
         renderer.release()
+    warn_if_nothing_in_view(depth, view, camera_path)
 
     start = time.perf_counter()
     ao = reference_ao(loaded, camera, depth, normals, rays, radius_mode, radius, falloff, seed, progress=True)

@@ -210,3 +210,43 @@ def test_a_screen_radius_larger_than_the_image_is_refused(tmp_path, capsys):
     assert len(err) == 1 and "radius of 121 px is larger than the image (120 px high)" in err[0]
     assert not out.exists()
     assert main(["render", SCENE, "--view", "robot", *SMALL, "--radius-px", "120", "-o", str(out)]) == 0
+
+
+def _camera_looking_up(tmp_path) -> Path:
+    """The conveyor camera turned to look straight up from 20 m above the cell: nothing in view."""
+    data = json.loads((REPO / "calibration" / "sample_cell_conveyor.json").read_text())
+    data["R"], data["t"] = np.eye(3).tolist(), [0.0, 0.0, -20.0]
+    path = tmp_path / "up.json"
+    path.write_text(json.dumps(data))
+    return path
+
+
+@pytest.mark.parametrize("command, out", [("render", "r.png"), ("reference", "r.npy")])
+def test_a_camera_that_sees_no_part_is_a_warning(tmp_path, capsys, command, out):
+    """A background-only image (a wrong pose, a camera kilometres away after a unit mix-up) was
+    written with exit 0 and nothing said, where overlay and discrepancies warn."""
+    up = _camera_looking_up(tmp_path)
+    extra = ["--rays", "4"] if command == "reference" else ["--mode", "phong"]
+    assert main([command, SCENE, "--camera", str(up), "--width", "64", *extra, "-o", str(tmp_path / out)]) == 0
+    err = capsys.readouterr().err
+    assert f"warning: {up}: no CAD part is in view of this camera (a wrong pose, or units?)" in err.splitlines()
+    assert (tmp_path / out).exists()
+    # a camera that sees the cell says nothing of the kind
+    assert main([command, SCENE, "--view", "robot", "--width", "64", *extra, "-o", str(tmp_path / out)]) == 0
+    assert "warning" not in capsys.readouterr().err
+
+
+def test_render_warns_about_parts_without_declared_units(tmp_path, capsys):
+    """As `scene info` does: a part in mm read as metres is 1000x too big, and the render alone
+    gave no hint of it."""
+    text = Path(SCENE).read_text()
+    first = text.index("units")
+    line_end = text.index("\n", first)
+    (tmp_path / "scene.toml").write_text(text[:first] + "# " + text[first:line_end] + text[line_end:])
+    for path in sample_scene_path().parent.iterdir():
+        if path.name != "scene.toml":
+            (tmp_path / path.name).symlink_to(path)
+    assert main(["render", str(tmp_path / "scene.toml"), "--view", "robot", "--mode", "phong", "--width", "64",
+                 "-o", str(tmp_path / "r.png")]) == 0
+    warnings = [line for line in capsys.readouterr().err.splitlines() if line.startswith("warning:")]
+    assert len(warnings) == 1 and "1 part(s) without declared units" in warnings[0], warnings
