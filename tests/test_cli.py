@@ -250,3 +250,27 @@ def test_render_warns_about_parts_without_declared_units(tmp_path, capsys):
                  "-o", str(tmp_path / "r.png")]) == 0
     warnings = [line for line in capsys.readouterr().err.splitlines() if line.startswith("warning:")]
     assert len(warnings) == 1 and "1 part(s) without declared units" in warnings[0], warnings
+
+
+def test_blur_size_has_a_stated_maximum_checked_before_the_work(tmp_path, capsys, monkeypatch):
+    """--blur-size 100001 failed after the scene load with the GL linker's complaint about
+    uniform components: the kernel's weights are a uniform array."""
+    from mrcheck.blur import MAX_BLUR_SIZE
+
+    out = tmp_path / "r.png"
+    args = ["render", SCENE, "--view", "robot", "--width", "64", "-o", str(out)]
+    assert main([*args, "--blur-size", str(MAX_BLUR_SIZE)]) == 0
+    capsys.readouterr()
+
+    def no_load(*a, **k):
+        raise AssertionError("the scene was loaded before --blur-size was checked")
+
+    monkeypatch.setattr("mrcheck.commands.load_scene", no_load)
+    out.unlink()
+    for size in (MAX_BLUR_SIZE + 2, 100001):
+        assert main([*args, "--blur-size", str(size)]) == 1
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and f"must be odd, 3 to {MAX_BLUR_SIZE}, got {size}" in err[0], err
+    assert not out.exists()
+    assert main(["render", "--help"]) == 0
+    assert f"odd, 3 to {MAX_BLUR_SIZE}" in " ".join(capsys.readouterr().out.split())   # the help states it
