@@ -40,8 +40,9 @@ scales the scan to metres; the scene is loaded as its manifest says.
 Sanity checks (one-line error, nothing written): a missing, empty or unreadable file, an
 unsupported format, no points, NaN/infinite points, a scan whose bounding box is far larger than
 the scene's (wrong units: the unit that would fit is named), a scan whose bounding box does not
-overlap the scene's, or whose median distance to the CAD exceeds twice its own extent (not
-registered, or wrong units).
+overlap the scene's, or whose median distance to the CAD exceeds twice its own extent, or twice
+2 % of the scene's diagonal or 1 cm if more (not registered, or wrong units; a single point or a
+small patch has almost no extent of its own).
 
 Precision: Open3D queries in float32, and a hall may sit 1e6 m from the origin, so the CAD
 triangle soup (:mod:`mrcheck.reference`) and the scan points are both taken relative to the
@@ -71,7 +72,12 @@ SCAN_SUFFIXES = (".ply", ".pcd", ".xyz", ".txt", ".pts")
 QUERY_CHUNK = 1 << 20            # points per closest-point query (~100 MB of results)
 UNIT_RATIO_LIMIT = 20.0          # scan bbox diagonal / scene bbox diagonal beyond which units are wrong
 OVERLAP_MARGIN = 0.05            # bbox overlap test tolerance, as a share of the scene diagonal
-FAR_FACTOR = 2.0                 # median |d| > FAR_FACTOR * scan diagonal: not registered
+FAR_FACTOR = 2.0                 # median |d| > FAR_FACTOR * the size below: not registered
+# the size a scan's median distance is judged against is at least this share of the scene's
+# diagonal, and at least FAR_FLOOR_M: a single point or a small patch has a diagonal near 0, and
+# one real bunny point 1.2 mm off the mesh was refused as "not registered"
+FAR_SCENE_SHARE = 0.02
+FAR_FLOOR_M = 0.01
 IMAGE_SIZE = 1024                # longest side of the orthographic images, pixels
 SPLAT_RADIUS = 1                 # splat half-size in pixels (3x3 squares)
 BACKGROUND = (40, 40, 40)
@@ -406,10 +412,11 @@ def deviation(points: np.ndarray, scene: Scene, scan=None):
     returns ``(d, owner, parts)``. ``scan`` names the file in errors."""
     check_placement(points, scene, scan)
     d, owner = signed_distances(scene, points)
-    diagonal = _diagonal(np.stack([points.min(axis=0), points.max(axis=0)]))
+    size = max(_diagonal(np.stack([points.min(axis=0), points.max(axis=0)])),
+               FAR_SCENE_SHARE * _diagonal(scene.bounds()), FAR_FLOOR_M)
     median = float(np.median(np.abs(d)))
     # a scan in the scene's box but nowhere on its surfaces: as a hall-sized scan of the wrong cell
-    if median > FAR_FACTOR * max(diagonal, 1e-9):
+    if median > FAR_FACTOR * size:
         _far(median, scan)
     return d, owner, part_statistics(scene, d, owner)
 

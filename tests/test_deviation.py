@@ -208,3 +208,24 @@ def test_shot_overlay_with_legend(ctx, asbuilt_scan, tmp_path, capsys):
 def test_shot_errors_come_first(tmp_path, capsys):
     code, _, err = _run(capsys, SCAN, "--scene", MESH, "--shot", tmp_path / "none.json", "-o", tmp_path / "out")
     assert code == 1 and "none.json" in err and not (tmp_path / "out").exists()
+
+
+def test_a_small_scan_close_to_the_scene_is_not_refused_as_unregistered(tmp_path, capsys):
+    """The "not registered" check compared the median |d| with the scan's own diagonal only: one
+    real bunny point 1.2 mm off the mesh (a diagonal of 0) was "0.00122 m away from the scene"."""
+    one = tmp_path / "one.xyz"
+    np.savetxt(one, _bunny_points()[:1])
+    code, _, err = _run(capsys, one, "--scene", MESH, "-o", tmp_path / "out")
+    assert code == 0, err
+    d = np.load(tmp_path / "out" / "deviations.npy")
+    assert d.shape == (1,) and 1.0e-3 < abs(d[0]) < 1.5e-3
+    # a small patch (2 cm across) 10 cm above the sample cell's floor: a deviation, not a lost scan
+    rng = np.random.default_rng(0)
+    patch = np.column_stack((rng.uniform(-0.01, 0.01, (50, 2)) + [3.0, 5.0], np.full(50, 0.10)))
+    scene = load_scene(sample_scene_path())
+    from mrcheck.deviation import signed_distances
+    assert np.median(np.abs(signed_distances(scene, patch)[0])) > 0.06   # > twice its own diagonal
+    np.savetxt(tmp_path / "patch.xyz", patch)
+    code, _, err = _run(capsys, tmp_path / "patch.xyz", "--scene", sample_scene_path(), "-o", tmp_path / "out2")
+    assert code == 0, err
+
