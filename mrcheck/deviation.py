@@ -33,7 +33,8 @@ in front of it), symmetric about 0 and saturating at +-S, S the 95th percentile 
 rounded up to 1, 2 or 5 x 10^k mm; the legend bar gives the scale in mm.
 
 Scan formats: ``.ply`` and ``.pcd`` through ``open3d.io.read_point_cloud``; ``.xyz``, ``.txt``,
-``.pts`` as header-less text ``x y z [...]`` per line. A ``.ply`` without the ``ply`` magic on
+``.pts`` as header-less text ``x y z [...]`` per line (separated by white space, commas or
+semicolons; no decimal commas). A ``.ply`` without the ``ply`` magic on
 its first line is read as text too (the Stanford bunny's range scans are such files). ``--units``
 scales the scan to metres; the scene is loaded as its manifest says.
 
@@ -156,21 +157,34 @@ def _read_cloud(path: Path, fmt: str) -> np.ndarray:
     return np.asarray(cloud.points, np.float64)
 
 
+# values are separated by white space, commas (CloudCompare's ASCII export writes x,y,z) or
+# semicolons; a line with a semicolon is split at semicolons only, so that "1,5;2,5;0,0" (decimal
+# commas) is refused as non-numbers rather than read as the point (1, 5, 2)
+_SEPARATORS = re.compile(r"[\s,]+")
+_SEMICOLONS = re.compile(r"[\s;]+")
+
+
+def _values(line: str) -> list[str]:
+    return [v for v in (_SEMICOLONS if ";" in line else _SEPARATORS).split(line.strip()) if v]
+
+
 def _read_text(path: Path) -> np.ndarray:
-    """Header-less ``x y z [more columns]`` lines. Lines with fewer than three values are skipped
-    with a warning: header-stripped Stanford range scans keep their range-grid lines ("0",
-    "1 17") after the points."""
+    """Header-less ``x y z [more columns]`` lines, separated by white space, commas or semicolons.
+    Lines with fewer than three values are skipped with a warning: header-stripped Stanford range
+    scans keep their range-grid lines ("0", "1 17") after the points."""
     try:
         text = path.read_text(encoding="ascii")
     except UnicodeDecodeError:
         raise MrcheckError("not a text x y z point file (binary content)", path) from None
-    rows = [line.split()[:3] for line in text.splitlines()]
+    rows = [_values(line)[:3] for line in text.splitlines()]
     rows = [r for r in rows if r and not r[0].startswith(("#", "//"))]
     points = [r for r in rows if len(r) == 3]
     try:
         data = np.array(points, np.float64).reshape(-1, 3)   # "nan" parses: caught as NaN below
     except ValueError:
-        raise MrcheckError("not a text x y z point file (a line with non-numbers)", path) from None
+        decimal_comma = any("," in v for r in points for v in r)
+        raise MrcheckError("not a text x y z point file (a line with non-numbers"
+                           + ("; decimal commas are not supported)" if decimal_comma else ")"), path) from None
     if len(points) < len(rows):
         print(f"warning: {path}: skipped {len(rows) - len(points)} lines with fewer than 3 values", file=sys.stderr)
     return data

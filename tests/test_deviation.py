@@ -229,3 +229,21 @@ def test_a_small_scan_close_to_the_scene_is_not_refused_as_unregistered(tmp_path
     code, _, err = _run(capsys, tmp_path / "patch.xyz", "--scene", sample_scene_path(), "-o", tmp_path / "out2")
     assert code == 0, err
 
+
+@pytest.mark.parametrize("separator", [",", ", ", ";"])
+def test_xyz_with_commas_or_semicolons_reads_as_with_spaces(tmp_path, capsys, separator):
+    """x,y,z lines (CloudCompare's ASCII export) were "lines with fewer than 3 values"."""
+    points = _bunny_points()[:2000]
+    path = tmp_path / "comma.xyz"
+    np.savetxt(path, points, delimiter=separator, fmt="%.7g")
+    code, _, err = _run(capsys, path, "--scene", MESH, "-o", tmp_path / "out")
+    assert code == 0, err
+    assert "warning" not in err
+    assert np.load(tmp_path / "out" / "deviations.npy").shape == (2000,)
+
+
+def test_xyz_with_decimal_commas_is_refused_not_misread(tmp_path, capsys):
+    path = tmp_path / "decimal.xyz"
+    path.write_text("".join(f"{x:.4f};{y:.4f};{z:.4f}\n".replace(".", ",") for x, y, z in _bunny_points()[:100]))
+    code, _, err = _run(capsys, path, "--scene", MESH, "-o", tmp_path / "out")
+    assert code == 1 and err.strip().endswith("decimal commas are not supported)"), err
