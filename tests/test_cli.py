@@ -274,3 +274,22 @@ def test_blur_size_has_a_stated_maximum_checked_before_the_work(tmp_path, capsys
     assert not out.exists()
     assert main(["render", "--help"]) == 0
     assert f"odd, 3 to {MAX_BLUR_SIZE}" in " ".join(capsys.readouterr().out.split())   # the help states it
+
+
+@pytest.mark.parametrize("width", [40, 100, 160])
+def test_sheet_labels_fit_their_panels_at_small_widths(width):
+    """At --width 100 the labels ran off their panels ("D2 vector SS", "D3 standard")."""
+    from mrcheck.output import labelled_sheet
+    from mrcheck.renderer import STUDY_LABELS
+
+    h = width * 3 // 4
+    images = [np.zeros((h, width, 3), np.uint8) for _ in range(3)]
+    sheet = labelled_sheet(images, [STUDY_LABELS[m] for m in ("phong", "vector", "ssao")])
+    bar = sheet.shape[0] - h
+    gap = (sheet.shape[1] - 3 * width) // 2
+    for i in range(3):
+        panel = sheet[:bar, i * (width + gap):i * (width + gap) + width]
+        text = np.nonzero((panel > 32).any(axis=(0, 2)))[0]
+        assert text.size and text.max() < width - 2, f"panel {i}: label reaches column {text.max()} of {width}"
+        rows = np.nonzero((panel > 32).any(axis=(1, 2)))[0]
+        assert rows.min() > 0 and rows.max() < bar - 1      # nor cut at the top or bottom of its bar
