@@ -74,8 +74,20 @@ def test_half_resolution_ao_is_close_to_full_resolution(ctx):
     assert np.abs(full - half).mean() < 0.03
 
 
-def test_demo_writes_every_view_and_mode(tmp_path, capsys):
+def test_demo_writes_every_view_and_mode(tmp_path, capsys, monkeypatch):
+    from mrcheck.renderer import Renderer
+
+    rendered = []
+    real = Renderer.render
+
+    def render(self, camera, modes, *args, **kwargs):
+        rendered.append(tuple(modes))
+        return real(self, camera, modes, *args, **kwargs)
+
+    monkeypatch.setattr(Renderer, "render", render)
     assert main(["demo", "-o", str(tmp_path), *SMALL]) == 0
+    # only the modes it writes (it rendered all six, crytek, hbao and alchemy for nothing)
+    assert rendered and set(rendered) == {("phong", "vector", "ssao")}
     printed = capsys.readouterr().out.split()
     names = {Path(p).name for p in printed}
     for view in ("overview", "robot", "conveyor", "cell_aisle", "cell_robot_cell", "cell_overview"):
