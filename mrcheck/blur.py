@@ -13,6 +13,12 @@ import numpy as np
 from .errors import MrcheckError
 from .gl import load_program
 
+# The kernel's one-sided weights are a uniform array of size // 2 + 1 floats. OpenGL 4.5 promises
+# only 1024 fragment uniform components, and a driver may give each array element a whole vec4:
+# 128 elements (size 255) fit even then. llvmpipe links up to 32759 (16384 components); 100001
+# failed to link. A blur that wide is far past any use (the paper's are 9 and 13).
+MAX_BLUR_SIZE = 255
+
 
 def gaussian_weights(size: int) -> np.ndarray:
     """(size // 2 + 1,) float32 one-sided Gaussian weights, centre first (unnormalised)."""
@@ -23,8 +29,8 @@ def gaussian_weights(size: int) -> np.ndarray:
 
 class BilateralBlur:
     def __init__(self, ctx: moderngl.Context, size: int):
-        if size < 3 or size % 2 == 0:
-            raise MrcheckError(f"blur kernel size must be odd and >= 3, got {size}")
+        if size < 3 or size % 2 == 0 or size > MAX_BLUR_SIZE:
+            raise MrcheckError(f"blur kernel size must be odd, 3 to {MAX_BLUR_SIZE}, got {size}")
         self.ctx = ctx
         self.size = size
         self.program = load_program(ctx, "blur_bilateral", {"BLUR_RADIUS": size // 2})
@@ -46,4 +52,4 @@ class BilateralBlur:
         self.vao.release()
 
 
-__all__ = ["BilateralBlur", "gaussian_weights"]
+__all__ = ["BilateralBlur", "gaussian_weights", "MAX_BLUR_SIZE"]

@@ -89,6 +89,7 @@ class Camera:
             raise MrcheckError(f"camera size must be positive, got {self.width}x{self.height}")
         if self.fx <= 0 or self.fy <= 0:
             raise MrcheckError(f"camera focal lengths must be positive, got fx={self.fx}, fy={self.fy}")
+        _check_pinhole(self.K)
         if abs(np.linalg.det(self.R) - 1.0) > 1e-3 or not np.allclose(self.R @ self.R.T, np.eye(3), atol=1e-3):
             raise MrcheckError("camera R is not a rotation matrix (R @ R.T must be I, det(R) = 1)")
 
@@ -124,6 +125,23 @@ class Camera:
         K[0, 2] = (self.cx + 0.5) * sx - 0.5
         K[1, 2] = (self.cy + 0.5) * sy - 0.5
         return Camera(width, height, K, self.R, self.t, self.dist)
+
+    def fitted(self, width=None, height=None, source=None) -> "Camera":
+        """The camera at ``--width``/``--height`` (a missing one keeping the aspect ratio), or an
+        error naming ``source`` when both are given in another aspect ratio.
+
+        A calibrated camera has square pixels and one aspect ratio: both sides scaled apart would
+        scale fx and fy apart and squash the image (a round bollard drawn as an ellipse). Up to one
+        pixel of rounding of either side is the same aspect ratio (what one side alone rounds to).
+        """
+        if not (width or height):
+            return self
+        if width and height and abs(width * self.height - height * self.width) > max(self.width, self.height):
+            w, h = fit_size(self.width, self.height, width)
+            raise MrcheckError(f"--width {width} --height {height} is another aspect ratio than the camera's "
+                               f"{self.width}x{self.height} (a calibrated camera has square pixels); give only "
+                               f"--width or --height and the other follows (--width {width}: {w}x{h})", source)
+        return self.resized(*fit_size(self.width, self.height, width, height))
 
     def with_pose(self, R, t) -> "Camera":
         return Camera(self.width, self.height, self.K, R, t, self.dist)
@@ -214,6 +232,26 @@ class Camera:
             out["R"] = self.R.tolist()
             out["t"] = self.t.tolist()
         return out
+
+
+_PINHOLE = "K must be [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]"
+# the zeros and the 1 of K as written by a tool that computed them: noise up to this is no skew
+_SKEW_TOLERANCE = 1e-6      # of the focal length, pixels: at most a millionth of a pixel per pixel
+_ROW_TOLERANCE = 1e-9
+
+
+def _check_pinhole(K: np.ndarray) -> None:
+    """Only fx, fy, cx, cy are drawn (the projection and every shader): a skewed or unnormalised
+    K would render as the plain pinhole, an image that does not match the camera. Refused rather
+    than normalised: a bottom row other than [0, 0, 1] may be a wrong matrix, not a scaled one."""
+    if abs(K[0, 1]) > _SKEW_TOLERANCE * K[0, 0]:
+        raise MrcheckError(f"camera has skew K[0][1] = {K[0, 1]:g}, which mrcheck does not draw; {_PINHOLE} "
+                           "(recalibrate without skew, as OpenCV's calibrateCamera does)")
+    if abs(K[1, 0]) > _SKEW_TOLERANCE * K[1, 1]:
+        raise MrcheckError(f"camera K[1][0] = {K[1, 0]:g} is not 0; {_PINHOLE}")
+    if np.abs(K[2] - (0.0, 0.0, 1.0)).max() > _ROW_TOLERANCE:
+        raise MrcheckError(f"camera K has bottom row {K[2].tolist()}, not [0, 0, 1]; {_PINHOLE} "
+                           "(divide K by K[2][2] if it is a scaled K)")
 
 
 def _whole(value, name) -> int:

@@ -38,8 +38,10 @@ def _positive(ctx, param, value):
 
 def _odd_kernel(ctx, param, value):
     # checked here, not when the blur is built: that is after loading the scene, and never for phong
-    if value < 3 or value % 2 == 0:
-        raise click.BadParameter(f"must be odd and >= 3, got {value}")
+    from .blur import MAX_BLUR_SIZE   # a uniform array's size: see there
+
+    if value < 3 or value % 2 == 0 or value > MAX_BLUR_SIZE:
+        raise click.BadParameter(f"must be odd, 3 to {MAX_BLUR_SIZE}, got {value}")
     return value
 
 
@@ -59,7 +61,9 @@ def cli():
 @click.option("--mode", type=click.Choice(_MODE_CHOICES), default="vector", show_default=True,
               help="phong = D1 (no AO), vector = D2 (Scheer & Keutel), ssao = D3 (standard SSAO); comparison modes crytek, "
                    "hbao, alchemy (world radius like ssao); all = D1|D2|D3 side by side, labelled.")
-@click.option("--width", type=int, callback=_positive, help="Image width in pixels [default: the view's or camera's].")
+@click.option("--width", type=int, callback=_positive,
+              help="Image width in pixels [default: the view's or camera's]; one side alone keeps the aspect ratio, "
+                   "which a --camera's must keep.")
 @click.option("--height", type=int, callback=_positive, help="Image height in pixels [default: the view's or camera's].")
 @click.option("--samples", type=int, default=16, show_default=True, callback=_positive,
               help="AO samples per pixel (the paper uses 16, 36, 64, 128).")
@@ -76,7 +80,7 @@ def cli():
 @click.option("--intensity", type=float, default=1.0, show_default=True,
               help="AO strength: 0 none, 0.5 weak ... 2 strong (the study stepped four levels, weak to strong).")
 @click.option("--blur/--no-blur", default=True, show_default=True, help="Depth-aware bilateral blur of the AO buffer.")
-@click.option("--blur-size", type=int, default=9, show_default=True, callback=_odd_kernel, help="Blur kernel size, odd (the paper uses 9 and 13).")
+@click.option("--blur-size", type=int, default=9, show_default=True, callback=_odd_kernel, help="Blur kernel size, odd, 3 to 255 (the paper uses 9 and 13).")
 @click.option("--ao-scale", type=click.Choice(["1", "0.5"]), default="1", show_default=True,
               help="AO resolution: 1 full, 0.5 half resolution with depth-aware upsampling (the paper's 'Half Res.').")
 @click.option("--ao-direct", is_flag=True, help="Let AO darken the direct light too (default: the ambient term only).")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .camera import Camera, fit_size
+from .camera import Camera
 from .errors import MrcheckError
 from .output import (AO_SUFFIXES, IMAGE_SUFFIXES, check_output_dir, check_output_path, labelled_sheet,
                      write_all_or_none, write_ao, write_image)
@@ -24,8 +24,27 @@ def file_camera(view, camera_path, width, height) -> Camera | None:
         raise MrcheckError("give exactly one of --view NAME or --camera CAM.json|CAM.yml")
     if view is not None:
         return None
-    camera = Camera.load(camera_path)
-    return camera.resized(*fit_size(camera.width, camera.height, width, height)) if width or height else camera
+    return Camera.load(camera_path).fitted(width, height, camera_path)
+
+
+def warn_units(scene) -> None:
+    """As ``scene info`` does: a manifest part without declared units is taken as authored, and a
+    part in mm read as metres is 1000x too big; a render alone gave no hint of it. (A single mesh
+    file without --units is the ordinary case and is not warned about.)"""
+    if scene.source.suffix.lower() != ".toml":
+        return
+    missing = [p.name for p in scene.parts if p.units is None]
+    if missing:
+        print(f"warning: {scene.source}: {len(missing)} part(s) without declared units, coordinates taken as "
+              f"authored (not metres): {', '.join(missing)}", file=sys.stderr)
+
+
+def warn_if_nothing_in_view(depth, view, camera_path) -> None:
+    """A background-only image (a wrong pose, or a camera kilometres away after a unit mix-up) is
+    otherwise written with exit 0 and looks like a render; overlay and discrepancies warn too."""
+    if not (depth > 0).any():
+        source = camera_path if view is None else f"viewpoint {view!r}"
+        print(f"warning: {source}: no CAD part is in view of this camera (a wrong pose, or units?)", file=sys.stderr)
 
 
 def _ao_paths(output_ao: Path, modes) -> dict:
@@ -51,12 +70,14 @@ def render_command(scene, view, camera_path, mode, width, height, units, output,
     settings.validated(None)  # option errors before a long scene load
     camera = file_camera(view, camera_path, width, height)
     loaded = load_scene(scene, units=units, progress=True)
+    warn_units(loaded)
     camera = camera or loaded.camera(view, width, height)
     settings.validated(camera.height)  # option errors before the GL context is made
 
     renderer = Renderer(loaded)
     try:
         results = renderer.render(camera, modes, settings, want_ao=output_ao is not None)
+        warn_if_nothing_in_view(renderer.last_depth(), view, camera_path)
     finally:
         renderer.release()
     if mode == "all":
@@ -82,7 +103,8 @@ def demo_command(outdir: Path, width=None, height=None):
             # disable=None: a bar on a terminal, nothing in a log or a pipe
             for view in tqdm(sorted(scene.viewpoints), desc=f"rendering {scene.name}", unit="view",
                              file=sys.stderr, disable=None):
-                results = renderer.render(scene.camera(view, width, height), MODES)
+                # only the modes written: the comparison modes would cost three AO passes per view
+                results = renderer.render(scene.camera(view, width, height), STUDY_ORDER)
                 for m in STUDY_ORDER:
                     print(write_image(outdir / f"{prefix}{view}_{m}.png", results[m].image))
                 sheet = labelled_sheet([results[m].image for m in STUDY_ORDER], [STUDY_LABELS[m] for m in STUDY_ORDER])
@@ -91,4 +113,4 @@ def demo_command(outdir: Path, width=None, height=None):
             renderer.release()
 
 
-__all__ = ["render_command", "demo_command", "file_camera"]
+__all__ = ["render_command", "demo_command", "file_camera", "warn_units", "warn_if_nothing_in_view"]

@@ -33,15 +33,17 @@ in front of it), symmetric about 0 and saturating at +-S, S the 95th percentile 
 rounded up to 1, 2 or 5 x 10^k mm; the legend bar gives the scale in mm.
 
 Scan formats: ``.ply`` and ``.pcd`` through ``open3d.io.read_point_cloud``; ``.xyz``, ``.txt``,
-``.pts`` as header-less text ``x y z [...]`` per line. A ``.ply`` without the ``ply`` magic on
+``.pts`` as header-less text ``x y z [...]`` per line (separated by white space, commas or
+semicolons; no decimal commas). A ``.ply`` without the ``ply`` magic on
 its first line is read as text too (the Stanford bunny's range scans are such files). ``--units``
 scales the scan to metres; the scene is loaded as its manifest says.
 
 Sanity checks (one-line error, nothing written): a missing, empty or unreadable file, an
 unsupported format, no points, NaN/infinite points, a scan whose bounding box is far larger than
 the scene's (wrong units: the unit that would fit is named), a scan whose bounding box does not
-overlap the scene's, or whose median distance to the CAD exceeds twice its own extent (not
-registered, or wrong units).
+overlap the scene's, or whose median distance to the CAD exceeds twice its own extent, or twice
+2 % of the scene's diagonal or 1 cm if more (not registered, or wrong units; a single point or a
+small patch has almost no extent of its own).
 
 Precision: Open3D queries in float32, and a hall may sit 1e6 m from the origin, so the CAD
 triangle soup (:mod:`mrcheck.reference`) and the scan points are both taken relative to the
@@ -71,7 +73,12 @@ SCAN_SUFFIXES = (".ply", ".pcd", ".xyz", ".txt", ".pts")
 QUERY_CHUNK = 1 << 20            # points per closest-point query (~100 MB of results)
 UNIT_RATIO_LIMIT = 20.0          # scan bbox diagonal / scene bbox diagonal beyond which units are wrong
 OVERLAP_MARGIN = 0.05            # bbox overlap test tolerance, as a share of the scene diagonal
-FAR_FACTOR = 2.0                 # median |d| > FAR_FACTOR * scan diagonal: not registered
+FAR_FACTOR = 2.0                 # median |d| > FAR_FACTOR * the size below: not registered
+# the size a scan's median distance is judged against is at least this share of the scene's
+# diagonal, and at least FAR_FLOOR_M: a single point or a small patch has a diagonal near 0, and
+# one real bunny point 1.2 mm off the mesh was refused as "not registered"
+FAR_SCENE_SHARE = 0.02
+FAR_FLOOR_M = 0.01
 IMAGE_SIZE = 1024                # longest side of the orthographic images, pixels
 SPLAT_RADIUS = 1                 # splat half-size in pixels (3x3 squares)
 BACKGROUND = (40, 40, 40)
@@ -150,21 +157,34 @@ def _read_cloud(path: Path, fmt: str) -> np.ndarray:
     return np.asarray(cloud.points, np.float64)
 
 
+# values are separated by white space, commas (CloudCompare's ASCII export writes x,y,z) or
+# semicolons; a line with a semicolon is split at semicolons only, so that "1,5;2,5;0,0" (decimal
+# commas) is refused as non-numbers rather than read as the point (1, 5, 2)
+_SEPARATORS = re.compile(r"[\s,]+")
+_SEMICOLONS = re.compile(r"[\s;]+")
+
+
+def _values(line: str) -> list[str]:
+    return [v for v in (_SEMICOLONS if ";" in line else _SEPARATORS).split(line.strip()) if v]
+
+
 def _read_text(path: Path) -> np.ndarray:
-    """Header-less ``x y z [more columns]`` lines. Lines with fewer than three values are skipped
-    with a warning: header-stripped Stanford range scans keep their range-grid lines ("0",
-    "1 17") after the points."""
+    """Header-less ``x y z [more columns]`` lines, separated by white space, commas or semicolons.
+    Lines with fewer than three values are skipped with a warning: header-stripped Stanford range
+    scans keep their range-grid lines ("0", "1 17") after the points."""
     try:
         text = path.read_text(encoding="ascii")
     except UnicodeDecodeError:
         raise MrcheckError("not a text x y z point file (binary content)", path) from None
-    rows = [line.split()[:3] for line in text.splitlines()]
+    rows = [_values(line)[:3] for line in text.splitlines()]
     rows = [r for r in rows if r and not r[0].startswith(("#", "//"))]
     points = [r for r in rows if len(r) == 3]
     try:
         data = np.array(points, np.float64).reshape(-1, 3)   # "nan" parses: caught as NaN below
     except ValueError:
-        raise MrcheckError("not a text x y z point file (a line with non-numbers)", path) from None
+        decimal_comma = any("," in v for r in points for v in r)
+        raise MrcheckError("not a text x y z point file (a line with non-numbers"
+                           + ("; decimal commas are not supported)" if decimal_comma else ")"), path) from None
     if len(points) < len(rows):
         print(f"warning: {path}: skipped {len(rows) - len(points)} lines with fewer than 3 values", file=sys.stderr)
     return data
@@ -406,10 +426,11 @@ def deviation(points: np.ndarray, scene: Scene, scan=None):
     returns ``(d, owner, parts)``. ``scan`` names the file in errors."""
     check_placement(points, scene, scan)
     d, owner = signed_distances(scene, points)
-    diagonal = _diagonal(np.stack([points.min(axis=0), points.max(axis=0)]))
+    size = max(_diagonal(np.stack([points.min(axis=0), points.max(axis=0)])),
+               FAR_SCENE_SHARE * _diagonal(scene.bounds()), FAR_FLOOR_M)
     median = float(np.median(np.abs(d)))
     # a scan in the scene's box but nowhere on its surfaces: as a hall-sized scan of the wrong cell
-    if median > FAR_FACTOR * max(diagonal, 1e-9):
+    if median > FAR_FACTOR * size:
         _far(median, scan)
     return d, owner, part_statistics(scene, d, owner)
 

@@ -35,11 +35,13 @@ from __future__ import annotations
 
 import hashlib
 import os
+import sys
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
 LOD_PIXELS = 0.5
 MIN_TRIANGLES = 64           # fewer: a coarser copy saves less than its extra draw call costs
@@ -77,8 +79,9 @@ def _cache_path(vertices: np.ndarray, faces: np.ndarray) -> Path:
     return cache_dir() / "lod" / f"{key.hexdigest()}.npz"
 
 
-def levels_for(vertices: np.ndarray, faces: np.ndarray) -> list[Level]:
-    """:func:`build_levels` through the on-disk cache (an unwritable cache only costs time)."""
+def levels_for(vertices: np.ndarray, faces: np.ndarray, name: str | None = None) -> list[Level]:
+    """:func:`build_levels` through the on-disk cache (an unwritable cache only costs time);
+    ``name`` (the part's) labels the progress bar of a build."""
     vertices = np.ascontiguousarray(vertices, np.float32)
     faces = np.ascontiguousarray(faces, np.uint32)
     path = _cache_path(vertices, faces)
@@ -87,7 +90,7 @@ def levels_for(vertices: np.ndarray, faces: np.ndarray) -> list[Level]:
             return [Level(data[f"v{i}"], data[f"f{i}"], float(e)) for i, e in enumerate(data["errors"])]
     except (OSError, KeyError, ValueError):
         pass   # not cached yet, or a damaged file: build (and replace it)
-    levels = build_levels(vertices, faces)
+    levels = build_levels(vertices, faces, name)
     arrays = {"errors": np.array([level.error for level in levels])}
     for i, level in enumerate(levels):
         arrays[f"v{i}"], arrays[f"f{i}"] = level.vertices, level.faces
@@ -101,8 +104,9 @@ def levels_for(vertices: np.ndarray, faces: np.ndarray) -> list[Level]:
     return levels
 
 
-def build_levels(vertices: np.ndarray, faces: np.ndarray) -> list[Level]:
-    """The coarser levels of a mesh, finest first (the original itself is not included)."""
+def build_levels(vertices: np.ndarray, faces: np.ndarray, name: str | None = None) -> list[Level]:
+    """The coarser levels of a mesh, finest first (the original itself is not included);
+    ``name`` labels the progress bar."""
     original = _mesh(vertices, faces)
     diagonal = float(np.linalg.norm(np.ptp(np.asarray(vertices, np.float64), axis=0)))
     # Welding exact duplicates lets the decimation collapse across flat-shaded seams; the
@@ -112,18 +116,28 @@ def build_levels(vertices: np.ndarray, faces: np.ndarray) -> list[Level]:
                               np.asarray(vertices, np.float32)[np.asarray(faces)].mean(axis=1)])
     to_original = _distance_query(vertices, faces)
     levels, previous = [], len(faces)
-    while previous // STEP >= 4:
-        coarse = welded.simplify_quadric_decimation(target_number_of_triangles=previous // STEP)
-        coarse.remove_degenerate_triangles()
-        coarse.remove_unreferenced_vertices()
-        count = len(coarse.triangles)
-        if count == 0 or count > previous * MIN_SAVING:
-            break
-        v = np.asarray(coarse.vertices, np.float32)
-        f = np.asarray(coarse.triangles, np.uint32)
-        error = max(float(to_original(v).max()), float(_distance_query(v, f)(samples).max()))
-        levels.append(Level(v, f, error))
-        welded, previous = coarse, count
+    # A robot's chain takes seconds on a first render (then the disk cache has it): a bar, or the
+    # terminal is silent that long after the scene's loading bar (delay: none for the many small
+    # parts that take milliseconds). Counted in triangles removed: each step halves the one before.
+    label = f"{name}, " if name else ""
+    bar = tqdm(total=len(faces), desc=f"building levels of detail ({label}{len(faces):,} triangles)", unit="tri",
+               unit_scale=True, file=sys.stderr, disable=None, leave=False, delay=0.5)
+    try:
+        while previous // STEP >= 4:
+            coarse = welded.simplify_quadric_decimation(target_number_of_triangles=previous // STEP)
+            coarse.remove_degenerate_triangles()
+            coarse.remove_unreferenced_vertices()
+            count = len(coarse.triangles)
+            if count == 0 or count > previous * MIN_SAVING:
+                break
+            v = np.asarray(coarse.vertices, np.float32)
+            f = np.asarray(coarse.triangles, np.uint32)
+            error = max(float(to_original(v).max()), float(_distance_query(v, f)(samples).max()))
+            levels.append(Level(v, f, error))
+            bar.update(previous - count)
+            welded, previous = coarse, count
+    finally:
+        bar.close()
     return levels
 
 

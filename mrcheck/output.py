@@ -140,17 +140,62 @@ def write_all_or_none(writes) -> list[Path]:
     return written
 
 
+_FONT = cv2.FONT_HERSHEY_SIMPLEX
+_MIN_LABEL_SCALE = 0.3   # smaller is unreadable: wrap onto more lines instead
+
+
+def _text_width(text: str, scale: float) -> int:
+    return cv2.getTextSize(text, _FONT, scale, max(1, int(round(scale * 2))))[0][0]
+
+
+def _wrap(label: str, scale: float, width: int) -> list[str]:
+    """``label`` broken at spaces into lines of at most ``width`` pixels at ``scale`` (a word
+    longer than that stays a line of its own)."""
+    lines = []
+    for word in label.split():
+        if lines and _text_width(f"{lines[-1]} {word}", scale) <= width:
+            lines[-1] += f" {word}"
+        else:
+            lines.append(word)
+    return lines or [""]
+
+
 def labelled_sheet(images, labels) -> np.ndarray:
-    """Images side by side, each under a dark bar with its label (the study's D1 | D2 | D3)."""
+    """Images side by side, each under a dark bar with its label (the study's D1 | D2 | D3).
+
+    The label's size follows the image height; a label wider than its panel (small --width)
+    is drawn smaller, and below a readable size wrapped onto more lines, rather than clipped.
+    """
     h = images[0].shape[0]
     bar = max(24, h // 18)
     scale = bar / 40.0
+    x = int(bar * 0.35)
+    room = max(1, min(image.shape[1] for image in images) - 2 * x)   # the narrowest panel's text width
+    fit = min(1.0, *(room / max(1, _text_width(label, scale)) for label in labels)) * scale
+    if fit == scale:   # every label fits: as it always was
+        lines, scale, baselines = [[label] for label in labels], scale, [int(bar * 0.72)]
+    else:
+        if fit >= _MIN_LABEL_SCALE:
+            scale, lines = fit, [[label] for label in labels]
+        else:
+            words = [w for label in labels for w in label.split()]
+            scale = max(0.1, min(_MIN_LABEL_SCALE, *(_MIN_LABEL_SCALE * room / max(1, _text_width(w, _MIN_LABEL_SCALE))
+                                                      for w in words)))
+            lines = [_wrap(label, scale, room) for label in labels]
+        thickness = max(1, int(round(scale * 2)))
+        (_, text_h), base = cv2.getTextSize("Dg", _FONT, scale, thickness)
+        step = text_h + base + max(2, text_h // 2)
+        count = max(len(ls) for ls in lines)
+        bar = max(bar, count * step + step // 2)
+        top = (bar - count * step) // 2 + text_h + max(1, text_h // 4)
+        baselines = [top + i * step for i in range(count)]
+    thickness = max(1, int(round(scale * 2)))
     panels = []
-    for image, label in zip(images, labels):
+    for image, label_lines in zip(images, lines):
         panel = np.full((h + bar, image.shape[1], 3), 32, np.uint8)
         panel[bar:] = image
-        cv2.putText(panel, label, (int(bar * 0.35), int(bar * 0.72)), cv2.FONT_HERSHEY_SIMPLEX, scale,
-                    (240, 240, 240), max(1, int(round(scale * 2))), cv2.LINE_AA)
+        for line, y in zip(label_lines, baselines):
+            cv2.putText(panel, line, (x, y), _FONT, scale, (240, 240, 240), thickness, cv2.LINE_AA)
         panels.append(panel)
     gap = np.full((h + bar, max(2, h // 200), 3), 255, np.uint8)
     out = [panels[0]]

@@ -250,7 +250,7 @@ def reference_ao(scene: Scene, camera: Camera, depth, normals, rays: int, radius
 def reference_command(scene, view, camera_path, width, height, rays, radius_mode, radius_world, radius_px,
                       falloff, seed, units, output):
     """``mrcheck reference``: render the G-buffer, ray-trace the reference AO, write it."""
-    from .commands import file_camera
+    from .commands import file_camera, warn_if_nothing_in_view, warn_units
     from .output import AO_SUFFIXES, check_output_path, write_ao
     from .renderer import DEFAULT_RADIUS_FRACTION, DEFAULT_RADIUS_WORLD, Renderer, RenderSettings
     from .scene import load_scene
@@ -259,13 +259,23 @@ def reference_command(scene, view, camera_path, width, height, rays, radius_mode
     if radius_mode not in RADIUS_MODES:
         raise MrcheckError(f"radius mode must be one of {', '.join(RADIUS_MODES)}, got {radius_mode!r}")
     _check_rays(rays)   # before a long scene load (_validate below checks everything)
+    # as render warns about an option its mode does not read: one radius is used, the other dropped
+    ignored = {"world": ("--radius-px", radius_px, "screen"), "screen": ("--radius", radius_world, "world")}
+    option, value, users = ignored[radius_mode]
+    if value is not None:
+        print(f"warning: {option} has no effect in radius mode {radius_mode} (it applies to {users})", file=sys.stderr)
     camera = file_camera(view, camera_path, width, height)
     loaded = load_scene(scene, units=units, progress=True)
+    warn_units(loaded)
     camera = camera or loaded.camera(view, width, height)
     if radius_mode == "world":
         radius = DEFAULT_RADIUS_WORLD if radius_world is None else radius_world
     else:
         radius = DEFAULT_RADIUS_FRACTION * camera.height if radius_px is None else radius_px
+        # render's rule (RenderSettings.validated): almost every ray would leave the image, a unit mix-up
+        if radius > camera.height:
+            raise MrcheckError(f"radius of {radius:g} px is larger than the image ({camera.height} px high); "
+                               "the screen radius is in pixels (default: 2 % of the height)")
     _validate(camera, np.zeros((camera.height, camera.width), np.float32),
               np.zeros((camera.height, camera.width, 3), np.float32), rays, radius_mode, radius, falloff)
 
@@ -275,6 +285,7 @@ def reference_command(scene, view, camera_path, width, height, rays, radius_mode
         depth, normals = renderer.last_depth(), renderer.last_normals()
     finally:
         renderer.release()
+    warn_if_nothing_in_view(depth, view, camera_path)
 
     start = time.perf_counter()
     ao = reference_ao(loaded, camera, depth, normals, rays, radius_mode, radius, falloff, seed, progress=True)

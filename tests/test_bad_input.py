@@ -213,7 +213,7 @@ CASES = [
     option_case("radius-px-and-fraction", ["--radius-px", "5", "--radius-fraction", "0.1"], "not both"),
     option_case("world-radius-min-above-max", ["--min-world-radius", "5", "--max-world-radius", "1"], "exceeds"),
     option_case("mode-unknown", ["--mode", "raytraced"], "raytraced", "--mode"),
-    option_case("size-too-large", ["--width", "100000", "--height", "10"], "exceeds"),
+    option_case("size-too-large", ["--width", "100000", "--height", "75000"], "exceeds"),  # the camera's 4:3
     # -- outputs ---------------------------------------------------------------------------------
     option_case("output-suffix", ["-o", "out/render.gif"], "must end in", "render.gif"),
     option_case("output-no-suffix", ["-o", "out/render"], "must end in", "out/render"),

@@ -195,3 +195,49 @@ def test_a_bad_camera_file_fails_before_the_scene_loads(tmp_path, capsys, monkey
     path.write_text('{"width": 64,')
     out = tmp_path / ("r.png" if command == "render" else "r.npy")
     assert_one_line_error(run(capsys, command, SCENE, "--camera", path, *TINY, "-o", out), path, "malformed camera JSON")
+
+
+# -- 4. a K the pinhole renderer cannot draw -------------------------------------------------
+@pytest.mark.parametrize("row, col, value, words", [
+    (0, 1, 100.0, "skew K[0][1] = 100"),
+    (1, 0, 5.0, "K[1][0] = 5"),
+    (2, 0, 0.001, "bottom row"),
+    (2, 2, 2.0, "bottom row"),
+])
+def test_a_k_with_skew_or_another_bottom_row_is_refused(tmp_path, capsys, row, col, value, words):
+    """Only fx, fy, cx, cy are drawn: a skewed or unnormalised K rendered as if it were the plain
+    pinhole, an image that does not match the camera, with exit 0."""
+    data = json.loads(CONVEYOR.read_text())
+    data["K"][row][col] = value
+    path = tmp_path / "cam.json"
+    path.write_text(json.dumps(data))
+    for command, out in (("render", "r.png"), ("reference", "r.npy")):
+        result = run(capsys, command, SCENE, "--camera", path, *TINY, "-o", tmp_path / out)
+        assert_one_line_error(result, path, words)
+        assert not (tmp_path / out).exists()
+
+
+def test_a_k_with_rounding_noise_in_its_zeros_is_accepted():
+    K = np.array([[500.0, 1e-12, 319.5], [-1e-12, 500.0, 239.5], [1e-15, 0.0, 1.0 + 1e-15]])
+    assert Camera(640, 480, K).fx == 500.0
+
+
+# -- 5. --width and --height of another aspect ratio than the camera's -------------------------
+@pytest.mark.parametrize("command", ["render", "reference"])
+def test_width_and_height_of_another_aspect_ratio_are_refused_for_a_camera(tmp_path, capsys, command):
+    """fx and fy were scaled apart: a squashed image (a round bollard drawn as an ellipse), exit 0."""
+    out = tmp_path / ("r.png" if command == "render" else "r.npy")
+    result = run(capsys, command, SCENE, "--camera", CONVEYOR, "--width", "64", "--height", "30", "-o", out)
+    assert_one_line_error(result, CONVEYOR, "give only --width or --height")
+    assert "1024x768" in result[2] and "64x48" in result[2]
+    assert not out.exists()
+
+
+def test_width_and_height_within_a_pixel_of_the_aspect_ratio_are_accepted(tmp_path, capsys):
+    # 65x48 and 64x49 are 64x48 up to the rounding of one side (what --width alone rounds too)
+    for size in (("65", "48"), ("64", "49")):
+        out = tmp_path / "r.png"
+        code, _, err = run(capsys, "render", SCENE, "--camera", CONVEYOR, "--mode", "phong",
+                           "--width", size[0], "--height", size[1], "-o", out)
+        assert code == 0, err
+        assert cv2.imread(str(out)).shape[:2] == (int(size[1]), int(size[0]))

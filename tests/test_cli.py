@@ -74,8 +74,20 @@ def test_half_resolution_ao_is_close_to_full_resolution(ctx):
     assert np.abs(full - half).mean() < 0.03
 
 
-def test_demo_writes_every_view_and_mode(tmp_path, capsys):
+def test_demo_writes_every_view_and_mode(tmp_path, capsys, monkeypatch):
+    from mrcheck.renderer import Renderer
+
+    rendered = []
+    real = Renderer.render
+
+    def render(self, camera, modes, *args, **kwargs):
+        rendered.append(tuple(modes))
+        return real(self, camera, modes, *args, **kwargs)
+
+    monkeypatch.setattr(Renderer, "render", render)
     assert main(["demo", "-o", str(tmp_path), *SMALL]) == 0
+    # only the modes it writes (it rendered all six, crytek, hbao and alchemy for nothing)
+    assert rendered and set(rendered) == {("phong", "vector", "ssao")}
     printed = capsys.readouterr().out.split()
     names = {Path(p).name for p in printed}
     for view in ("overview", "robot", "conveyor", "cell_aisle", "cell_robot_cell", "cell_overview"):
@@ -210,3 +222,86 @@ def test_a_screen_radius_larger_than_the_image_is_refused(tmp_path, capsys):
     assert len(err) == 1 and "radius of 121 px is larger than the image (120 px high)" in err[0]
     assert not out.exists()
     assert main(["render", SCENE, "--view", "robot", *SMALL, "--radius-px", "120", "-o", str(out)]) == 0
+
+
+def _camera_looking_up(tmp_path) -> Path:
+    """The conveyor camera turned to look straight up from 20 m above the cell: nothing in view."""
+    data = json.loads((REPO / "calibration" / "sample_cell_conveyor.json").read_text())
+    data["R"], data["t"] = np.eye(3).tolist(), [0.0, 0.0, -20.0]
+    path = tmp_path / "up.json"
+    path.write_text(json.dumps(data))
+    return path
+
+
+@pytest.mark.parametrize("command, out", [("render", "r.png"), ("reference", "r.npy")])
+def test_a_camera_that_sees_no_part_is_a_warning(tmp_path, capsys, command, out):
+    """A background-only image (a wrong pose, a camera kilometres away after a unit mix-up) was
+    written with exit 0 and nothing said, where overlay and discrepancies warn."""
+    up = _camera_looking_up(tmp_path)
+    extra = ["--rays", "4"] if command == "reference" else ["--mode", "phong"]
+    assert main([command, SCENE, "--camera", str(up), "--width", "64", *extra, "-o", str(tmp_path / out)]) == 0
+    err = capsys.readouterr().err
+    assert f"warning: {up}: no CAD part is in view of this camera (a wrong pose, or units?)" in err.splitlines()
+    assert (tmp_path / out).exists()
+    # a camera that sees the cell says nothing of the kind
+    assert main([command, SCENE, "--view", "robot", "--width", "64", *extra, "-o", str(tmp_path / out)]) == 0
+    assert "warning" not in capsys.readouterr().err
+
+
+def test_render_warns_about_parts_without_declared_units(tmp_path, capsys):
+    """As `scene info` does: a part in mm read as metres is 1000x too big, and the render alone
+    gave no hint of it."""
+    text = Path(SCENE).read_text()
+    first = text.index("units")
+    line_end = text.index("\n", first)
+    (tmp_path / "scene.toml").write_text(text[:first] + "# " + text[first:line_end] + text[line_end:])
+    for path in sample_scene_path().parent.iterdir():
+        if path.name != "scene.toml":
+            (tmp_path / path.name).symlink_to(path)
+    assert main(["render", str(tmp_path / "scene.toml"), "--view", "robot", "--mode", "phong", "--width", "64",
+                 "-o", str(tmp_path / "r.png")]) == 0
+    warnings = [line for line in capsys.readouterr().err.splitlines() if line.startswith("warning:")]
+    assert len(warnings) == 1 and "1 part(s) without declared units" in warnings[0], warnings
+
+
+def test_blur_size_has_a_stated_maximum_checked_before_the_work(tmp_path, capsys, monkeypatch):
+    """--blur-size 100001 failed after the scene load with the GL linker's complaint about
+    uniform components: the kernel's weights are a uniform array."""
+    from mrcheck.blur import MAX_BLUR_SIZE
+
+    out = tmp_path / "r.png"
+    args = ["render", SCENE, "--view", "robot", "--width", "64", "-o", str(out)]
+    assert main([*args, "--blur-size", str(MAX_BLUR_SIZE)]) == 0
+    capsys.readouterr()
+
+    def no_load(*a, **k):
+        raise AssertionError("the scene was loaded before --blur-size was checked")
+
+    monkeypatch.setattr("mrcheck.commands.load_scene", no_load)
+    out.unlink()
+    for size in (MAX_BLUR_SIZE + 2, 100001):
+        assert main([*args, "--blur-size", str(size)]) == 1
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and f"must be odd, 3 to {MAX_BLUR_SIZE}, got {size}" in err[0], err
+    assert not out.exists()
+    assert main(["render", "--help"]) == 0
+    assert f"odd, 3 to {MAX_BLUR_SIZE}" in " ".join(capsys.readouterr().out.split())   # the help states it
+
+
+@pytest.mark.parametrize("width", [40, 100, 160])
+def test_sheet_labels_fit_their_panels_at_small_widths(width):
+    """At --width 100 the labels ran off their panels ("D2 vector SS", "D3 standard")."""
+    from mrcheck.output import labelled_sheet
+    from mrcheck.renderer import STUDY_LABELS
+
+    h = width * 3 // 4
+    images = [np.zeros((h, width, 3), np.uint8) for _ in range(3)]
+    sheet = labelled_sheet(images, [STUDY_LABELS[m] for m in ("phong", "vector", "ssao")])
+    bar = sheet.shape[0] - h
+    gap = (sheet.shape[1] - 3 * width) // 2
+    for i in range(3):
+        panel = sheet[:bar, i * (width + gap):i * (width + gap) + width]
+        text = np.nonzero((panel > 32).any(axis=(0, 2)))[0]
+        assert text.size and text.max() < width - 2, f"panel {i}: label reaches column {text.max()} of {width}"
+        rows = np.nonzero((panel > 32).any(axis=(1, 2)))[0]
+        assert rows.min() > 0 and rows.max() < bar - 1      # nor cut at the top or bottom of its bar

@@ -6,6 +6,7 @@ view, so that both what is hidden and what is not are known.
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -265,3 +266,32 @@ def test_levels_are_cached_on_disk_by_content(tmp_path, monkeypatch):
     files[0].write_bytes(b"not an npz")
     rebuilt = lod.levels_for(sphere.vertices, sphere.faces)
     assert [level.error for level in rebuilt] == [level.error for level in built]
+
+
+def test_building_levels_shows_progress_and_loading_them_does_not(tmp_path, monkeypatch):
+    """Building a robot's levels on a first render took 8-12 s with nothing on the terminal after
+    the loading bar: a bar (stderr, terminals only, as mrcheck's others) says what is being built."""
+    bars = []
+
+    class Bar:
+        def __init__(self, **kwargs):
+            self.kwargs, self.n = kwargs, 0
+            bars.append(self)
+
+        def update(self, n):
+            self.n += n
+
+        def close(self):
+            self.closed = True
+
+    monkeypatch.setenv("MRCHECK_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(lod, "tqdm", Bar)
+    sphere = trimesh.creation.icosphere(3, radius=1.0)
+    lod.levels_for(sphere.vertices, sphere.faces, "robot_2")
+    assert len(bars) == 1
+    bar = bars[0]
+    assert bar.kwargs["desc"] == f"building levels of detail (robot_2, {len(sphere.faces):,} triangles)"
+    assert bar.kwargs["disable"] is None and bar.kwargs["file"] is sys.stderr and bar.closed
+    assert 0 < bar.n <= bar.kwargs["total"] == len(sphere.faces)
+    lod.levels_for(sphere.vertices, sphere.faces)   # from the cache: milliseconds, no bar
+    assert len(bars) == 1

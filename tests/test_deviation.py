@@ -208,3 +208,42 @@ def test_shot_overlay_with_legend(ctx, asbuilt_scan, tmp_path, capsys):
 def test_shot_errors_come_first(tmp_path, capsys):
     code, _, err = _run(capsys, SCAN, "--scene", MESH, "--shot", tmp_path / "none.json", "-o", tmp_path / "out")
     assert code == 1 and "none.json" in err and not (tmp_path / "out").exists()
+
+
+def test_a_small_scan_close_to_the_scene_is_not_refused_as_unregistered(tmp_path, capsys):
+    """The "not registered" check compared the median |d| with the scan's own diagonal only: one
+    real bunny point 1.2 mm off the mesh (a diagonal of 0) was "0.00122 m away from the scene"."""
+    one = tmp_path / "one.xyz"
+    np.savetxt(one, _bunny_points()[:1])
+    code, _, err = _run(capsys, one, "--scene", MESH, "-o", tmp_path / "out")
+    assert code == 0, err
+    d = np.load(tmp_path / "out" / "deviations.npy")
+    assert d.shape == (1,) and 1.0e-3 < abs(d[0]) < 1.5e-3
+    # a small patch (2 cm across) 10 cm above the sample cell's floor: a deviation, not a lost scan
+    rng = np.random.default_rng(0)
+    patch = np.column_stack((rng.uniform(-0.01, 0.01, (50, 2)) + [3.0, 5.0], np.full(50, 0.10)))
+    scene = load_scene(sample_scene_path())
+    from mrcheck.deviation import signed_distances
+    assert np.median(np.abs(signed_distances(scene, patch)[0])) > 0.06   # > twice its own diagonal
+    np.savetxt(tmp_path / "patch.xyz", patch)
+    code, _, err = _run(capsys, tmp_path / "patch.xyz", "--scene", sample_scene_path(), "-o", tmp_path / "out2")
+    assert code == 0, err
+
+
+@pytest.mark.parametrize("separator", [",", ", ", ";"])
+def test_xyz_with_commas_or_semicolons_reads_as_with_spaces(tmp_path, capsys, separator):
+    """x,y,z lines (CloudCompare's ASCII export) were "lines with fewer than 3 values"."""
+    points = _bunny_points()[:2000]
+    path = tmp_path / "comma.xyz"
+    np.savetxt(path, points, delimiter=separator, fmt="%.7g")
+    code, _, err = _run(capsys, path, "--scene", MESH, "-o", tmp_path / "out")
+    assert code == 0, err
+    assert "warning" not in err
+    assert np.load(tmp_path / "out" / "deviations.npy").shape == (2000,)
+
+
+def test_xyz_with_decimal_commas_is_refused_not_misread(tmp_path, capsys):
+    path = tmp_path / "decimal.xyz"
+    path.write_text("".join(f"{x:.4f};{y:.4f};{z:.4f}\n".replace(".", ",") for x, y, z in _bunny_points()[:100]))
+    code, _, err = _run(capsys, path, "--scene", MESH, "-o", tmp_path / "out")
+    assert code == 1 and err.strip().endswith("decimal commas are not supported)"), err

@@ -2,6 +2,7 @@
 
 Compared with a tolerance (llvmpipe versions may differ in the last bit); on failure the test
 writes ``tests/_failures/<name>_{actual,golden,diff}.png`` (diff amplified 8x) and says where.
+Each case first removes its own images of an earlier failed run.
 
 Update the goldens after an intended change, then look at them before committing:
 
@@ -59,6 +60,10 @@ def _as_8bit(result, what) -> np.ndarray:
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_golden(renderer, name):
     view, mode, settings, what = CASES[name]
+    # an earlier failed run's images of this case would read as a current failure
+    for stale in FAILURES.glob(f"{name}_*.png"):
+        if stale.stem.rsplit("_", 1)[0] == name:   # overview_vector_*, not overview_vector_sun_*
+            stale.unlink()
     camera = renderer.scene.camera(view, W, H)
     result = renderer.render(camera, [mode], RenderSettings(**settings), want_ao=what == "ao")[mode]
     actual = _as_8bit(result, what)
@@ -88,3 +93,21 @@ def test_golden_comparison_catches_a_change(renderer):
     golden = cv2.imread(str(GOLDEN / "overview_vector.png"))
     diff = np.abs(stronger.astype(np.int16) - golden.astype(np.int16))
     assert diff.mean() / 255.0 > TOLERANCE[0] or (diff > 8).mean() > TOLERANCE[1]
+
+
+def test_a_passing_case_removes_its_stale_failure_images(renderer):
+    """Failure images of an earlier failed run stayed in tests/_failures after later passing runs,
+    where they read as a current failure. Each case clears its own (a -k subset leaves the rest)."""
+    FAILURES.mkdir(exist_ok=True)
+    stale = [FAILURES / f"overview_phong_{suffix}.png" for suffix in ("actual", "golden", "diff")]
+    other = FAILURES / "not_a_case_of_this_run_diff.png"
+    for path in [*stale, other]:
+        path.write_bytes(b"stale")
+    try:
+        test_golden(renderer, "overview_phong")
+        assert not any(path.exists() for path in stale)
+        assert other.exists()
+    finally:
+        other.unlink(missing_ok=True)
+        for path in stale:
+            path.unlink(missing_ok=True)

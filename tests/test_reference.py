@@ -166,3 +166,27 @@ def test_cli_bad_input_is_one_error_line_and_no_file(tmp_path, capsys, args):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error:")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("options, warned", [
+    (["--radius-mode", "world", "--radius-px", "5"], "--radius-px has no effect in radius mode world (it applies to screen)"),
+    (["--radius-mode", "screen", "--radius", "0.5"], "--radius has no effect in radius mode screen (it applies to world)"),
+    (["--radius-mode", "world", "--radius", "0.5"], None),
+    (["--radius-px", "5"], None),
+])
+def test_cli_warns_about_the_radius_its_radius_mode_ignores(tmp_path, capsys, options, warned):
+    """As render warns about an option its mode does not read: the user meant one or the other."""
+    out = tmp_path / "ref.npy"
+    assert main(["reference", SCENE, "--view", "robot", "--width", "32", "--rays", "4", *options, "-o", str(out)]) == 0
+    warnings = [line for line in capsys.readouterr().err.splitlines() if line.startswith("warning:")]
+    assert warnings == ([f"warning: {warned}"] if warned else [])
+
+
+def test_cli_refuses_a_screen_radius_larger_than_the_image(tmp_path, capsys):
+    out = tmp_path / "ref.npy"
+    args = ["reference", SCENE, "--view", "robot", "--width", "64", "--rays", "4", "-o", str(out)]
+    assert main([*args, "--radius-px", "49"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "radius of 49 px is larger than the image (48 px high)" in err[0], err
+    assert not out.exists()
+    assert main([*args, "--radius-px", "48"]) == 0
