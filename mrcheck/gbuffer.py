@@ -148,7 +148,7 @@ class GeometryPass:
 
     def _use_levels(self, gpu: _GpuPart) -> None:
         """Give ``gpu`` its levels of detail (from the disk cache, or built now)."""
-        levels = lod.levels_for(gpu.source.vertices, gpu.source.faces)
+        levels = lod.levels_for(gpu.source.vertices, gpu.source.faces, name=gpu.source.name)
         gpu.levels += [self._upload_mesh(level.vertices, level.faces, len(gpu.transforms)) for level in levels]
         gpu.errors = np.array([0.0] + [level.error for level in levels])
         gpu.lod_pending = False
