@@ -744,20 +744,15 @@ def _format_ratios(ratios: dict, by_samples: dict) -> str:
 
 
 # -- the command ---------------------------------------------------------------------------------
-def bench_command(quick: bool, json_path: str | None, repeat: int | None) -> dict:
-    """Measure, print the table and ratios to stdout, optionally write JSON; returns the report."""
+def _run(quick: bool, repeat: int) -> tuple[list[Figure], dict, dict]:
+    """Measure the plan: the figures, the machine, and the reasons of the peers that did not run."""
     from tqdm import tqdm
 
-    if json_path is not None:
-        json_path = check_output_path(json_path, (".json",), "JSON output")  # fail before minutes of work
-    repeat = repeat or (QUICK_REPEAT if quick else DEFAULT_REPEAT)
-
     ctx = create_context()
-    figures = []
+    figures, reasons = [], {}
     try:
         with made_current(ctx):
             machine = _machine(ctx)
-            reasons = {}
             sections = _plan(ctx, quick, reasons)
             with tqdm(total=sum(s.count for s in sections), desc="bench", unit="figure", file=sys.stderr) as bar:
                 for section in sections:
@@ -772,21 +767,17 @@ def bench_command(quick: bool, json_path: str | None, repeat: int | None) -> dic
                     del stage  # before the next section builds its scene (10 M triangles)
     finally:
         ctx.release()
+    return figures, machine, reasons
 
-    ratios, by_samples = _ratios(figures)
-    _floor_ratios(figures)
-    report = {"machine": machine, "run": {"quick": quick, "repeat": repeat, "warmup": 1},
-              "figures": [f.to_json() for f in figures], "ratios": ratios, "ratios_by_samples": by_samples,
-              "targets": TARGETS, "peer_targets": PEER_TARGETS,
-              "reasons": {PEER_RATIOS[peer]: why for peer, why in reasons.items()},
-              "peak_rss_mb": _peak_rss_mb()}
 
+def _print_report(report: dict, figures: list[Figure]) -> None:
+    machine, ratios = report["machine"], report["ratios"]
     print(_format_table(figures))
     print()
-    print(_format_ratios(ratios, by_samples))
+    print(_format_ratios(ratios, report["ratios_by_samples"]))
     print()
     print(f"machine: {machine['gl_renderer']}, {machine['cpus_usable']} of {machine['cpu_count']} CPUs usable, "
-          f"Python {machine['python']}; {repeat} timed runs per figure after 1 warm-up; "
+          f"Python {machine['python']}; {report['run']['repeat']} timed runs per figure after 1 warm-up; "
           f"peak RSS {report['peak_rss_mb']:.0f} MB")
     for key, why in report["reasons"].items():
         print(f"{key} is null: {why}")
@@ -796,8 +787,28 @@ def bench_command(quick: bool, json_path: str | None, repeat: int | None) -> dic
     print("/ floor: an AO pass over the fetch floor of its size, samples and resolution (same depth fetches, "
           "trivial arithmetic), timed in turns with it.")
     print("GTX285 ms: Scheer & Keutel, Tables 1-2 (their SSAO pass at 1280x1024; 13x13 blur), for comparison.")
+
+
+def bench_command(quick: bool, json_path: str | None, repeat: int | None) -> dict:
+    """Measure, write the JSON if asked, then print the table and ratios; returns the report."""
     if json_path is not None:
+        json_path = check_output_path(json_path, (".json",), "JSON output")  # fail before minutes of work
+    repeat = repeat or (QUICK_REPEAT if quick else DEFAULT_REPEAT)
+
+    figures, machine, reasons = _run(quick, repeat)
+    ratios, by_samples = _ratios(figures)
+    _floor_ratios(figures)
+    report = {"machine": machine, "run": {"quick": quick, "repeat": repeat, "warmup": 1},
+              "figures": [f.to_json() for f in figures], "ratios": ratios, "ratios_by_samples": by_samples,
+              "targets": TARGETS, "peer_targets": PEER_TARGETS,
+              "reasons": {PEER_RATIOS[peer]: why for peer, why in reasons.items()},
+              "peak_rss_mb": _peak_rss_mb()}
+    if json_path is not None:
+        # before printing: a reader that goes away (`mrcheck bench --json X | head`) breaks the
+        # prints, and must not cost the minutes of measurements
         write_text(json_path, json.dumps(report, indent=2))
+    _print_report(report, figures)
+    if json_path is not None:
         print(json_path)
     return report
 

@@ -3,15 +3,42 @@ timings belong to the machine, see the README's performance section)."""
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
+import sys
+import textwrap
 
+import numpy as np
+import pytest
+
+from mrcheck import bench, bench_peers
+from mrcheck.bench_peers import PeerError, PeerWorker
 from mrcheck.cli import main
 
+from .conftest import box, scene_of
 
-def test_bench_quick_writes_every_figure_and_ratio(tmp_path, capsys):
-    out = tmp_path / "bench.json"
-    assert main(["bench", "--quick", "--repeat", "1", "--json", str(out)]) == 0
-    report = json.loads(out.read_text())
+
+@pytest.fixture(scope="module")
+def quick(tmp_path_factory):
+    """One quick run at the tiniest setting (one timed round) for every test of the report:
+    (the JSON it wrote, what it printed)."""
+    out = tmp_path_factory.mktemp("bench") / "bench.json"
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        assert main(["bench", "--quick", "--repeat", "1", "--json", str(out)]) == 0
+    return json.loads(out.read_text()), printed.getvalue()
+
+
+def _figures(report) -> list:
+    """The report's figures as the measuring step returned them."""
+    return [bench.Figure(f["name"], f["mode"], f["width"], f["height"], f["samples"], f["scale"], f["scene"],
+                         f["triangles"], f["paper_gtx285_ms"], list(f["runs_ms"]), f["stats"],
+                         f["timed_in_turns_with"]) for f in report["figures"]]
+
+
+def test_bench_quick_writes_every_figure_and_ratio(quick):
+    report, printed = quick
     assert set(report["ratios"]) >= {"vector_over_ssao", "vector_over_fetch_floor", "half_over_full", "ao_10m_over_1m"}
     assert "geometry_20m_over_1m" in report["ratios"]
     for peer in ("vtk_over_mrcheck_frame", "open3d_over_mrcheck_frame"):  # null only with a reason
@@ -39,22 +66,26 @@ def test_bench_quick_writes_every_figure_and_ratio(tmp_path, capsys):
                   and f["width"] == 1280)
     assert vector["over_fetch_floor"] == pytest.approx(vector["runs_ms"][0] / floor[(1280, 1024, 16, 1.0)]["runs_ms"][0])
     assert report["machine"]["gl_renderer"] and report["peak_rss_mb"] > 0
-    printed = capsys.readouterr().out
     assert "vector_over_ssao" in printed and "GTX285" in printed
 
 
+def test_bench_writes_the_json_before_printing(quick, tmp_path, monkeypatch):
+    """A reader that goes away (`mrcheck bench --json X | head`) costs the printout, not the run."""
+    report, _ = quick
+    figures = _figures(report)
+    monkeypatch.setattr(bench, "_run", lambda quick, repeat: (figures, report["machine"], {}))
+
+    class Closed(io.StringIO):
+        def write(self, text):
+            raise BrokenPipeError("the reader went away")
+
+    out = tmp_path / "new" / "bench.json"
+    with contextlib.redirect_stdout(Closed()):
+        assert main(["bench", "--json", str(out)]) == 1
+    assert json.loads(out.read_text())["figures"] == report["figures"]
+
+
 # -- peers: the report contract, without timing anything heavy ----------------------------------
-import sys  # noqa: E402
-import textwrap  # noqa: E402
-
-import numpy as np  # noqa: E402
-import pytest  # noqa: E402
-
-from mrcheck import bench, bench_peers  # noqa: E402
-from mrcheck.bench_peers import PeerError, PeerWorker  # noqa: E402
-
-from .conftest import box, scene_of  # noqa: E402
-
 VIEW = {"eye": (3.0, -4.0, 3.0), "target": (0.0, 0.0, 0.3), "up": (0.0, 0.0, 1.0), "fov_y_deg": 50.0}
 
 
