@@ -92,6 +92,7 @@ TARGETS = {
 PEER_RATIOS = {"vtk": "vtk_over_mrcheck_frame", "open3d": "open3d_over_mrcheck_frame"}
 PEER_TARGETS = {"vtk_over_mrcheck_frame": 2.0, "open3d_over_mrcheck_frame": 20.0}
 RATIO_SAMPLES = 16
+REASON = "_reason"   # a null ratio's key + REASON: why it is null, next to it in the JSON's ratios
 
 # Synthetic height field: a grid of box-shaped blocks on gently rolling ground, TERRAIN_EXTENT
 # metres square, viewed from above so it covers the whole image (no background pixels that the
@@ -641,9 +642,10 @@ def _floor_ratios(figures) -> None:
         f.over_fetch_floor = None if floor is None else _ratio(f, floor)
 
 
-def _ratios(figures) -> tuple[dict, dict]:
+def _ratios(figures, reasons: dict | None = None) -> tuple[dict, dict]:
     """The issue's ratios (paired within one run, see :func:`_ratio`), and the first three at
-    every sample count."""
+    every sample count. A peer ratio that could not be measured is None, with the peer's reason
+    (``reasons``, by peer) beside it as ``<key>_reason``."""
     w, h = PAPER_SIZE
 
     def ao(mode, samples, scale=1.0, **extra):
@@ -675,8 +677,11 @@ def _ratios(figures) -> tuple[dict, dict]:
     ours_half = _find(figures, name="frame", mode="vector", width=pw, height=ph, samples=PEER_SAMPLES, scale=0.5)
     for peer, key in PEER_RATIOS.items():
         hits = [f for f in figures if f.name == "frame" and f.mode == peer]
-        ratios[key] = _ratio(hits[0], ours) if hits else None
-        ratios[key + "_half_res_ao"] = _ratio(hits[0], ours_half) if hits else None
+        why = None if hits else (reasons or {}).get(peer, f"no {peer} frame was measured")
+        for name, mrcheck_frame in ((key, ours), (key + "_half_res_ao", ours_half)):
+            ratios[name] = _ratio(hits[0], mrcheck_frame) if hits else None
+            if why:
+                ratios[name + REASON] = why
     return ratios, by_samples
 
 
@@ -720,18 +725,22 @@ def _format_table(figures) -> str:
 
 
 def _format_ratios(ratios: dict, by_samples: dict) -> str:
-    width = max(map(len, ratios))
+    width = max(len(name) for name in ratios if not name.endswith(REASON))
     lines = [f"ratios (median of per-round ratios, this run; {RATIO_SAMPLES} samples, {PAPER_SIZE[0]}x{PAPER_SIZE[1]}):"]
     for name, value in ratios.items():
+        if name.endswith(REASON):
+            continue  # printed on its ratio's line
+        why = ratios.get(name + REASON)
         if name in PEER_TARGETS:  # a minimum: mrcheck's frame must be that many times faster
-            verdict = "(not run)" if value is None else ("meets" if value >= PEER_TARGETS[name] else "MISSES")
+            verdict = f"(not run: {why})" if value is None else ("meets" if value >= PEER_TARGETS[name] else "MISSES")
             shown = "  null" if value is None else f"{value:6.3f}"
             lines.append(f"  {name:<{width}}  {shown}   target >= {PEER_TARGETS[name]:.2f}  {verdict}  "
                          f"(peer frame / mrcheck frame, {PEER_SIZE[0]}x{PEER_SIZE[1]}, {PEER_SAMPLES} samples, "
                          f"blur {PEER_BLUR})")
             continue
         if name not in TARGETS:  # measured for information, no target (e.g. the peers at half-resolution AO)
-            lines.append(f"  {name:<{width}}  " + ("  null" if value is None else f"{value:6.3f}") + "   (no target)")
+            lines.append(f"  {name:<{width}}  " + (f"  null   (no target; not run: {why})" if value is None
+                                                   else f"{value:6.3f}   (no target)"))
             continue
         verdict = "meets" if value <= TARGETS[name] else "MISSES"
         lines.append(f"  {name:<{width}}  {value:6.3f}   target <= {TARGETS[name]:.2f}  {verdict}")
@@ -779,8 +788,6 @@ def _print_report(report: dict, figures: list[Figure]) -> None:
     print(f"machine: {machine['gl_renderer']}, {machine['cpus_usable']} of {machine['cpu_count']} CPUs usable, "
           f"Python {machine['python']}; {report['run']['repeat']} timed runs per figure after 1 warm-up; "
           f"peak RSS {report['peak_rss_mb']:.0f} MB")
-    for key, why in report["reasons"].items():
-        print(f"{key} is null: {why}")
     for f in figures:
         if f.name == "frame" and "png" in f.stats:  # the frames the peer ratios compare, to look at
             print(f"frame {f.mode}: {f.stats['png']}" + (f" ({f.stats['peer']})" if "peer" in f.stats else ""))
@@ -796,12 +803,12 @@ def bench_command(quick: bool, json_path: str | None, repeat: int | None) -> dic
     repeat = repeat or (QUICK_REPEAT if quick else DEFAULT_REPEAT)
 
     figures, machine, reasons = _run(quick, repeat)
-    ratios, by_samples = _ratios(figures)
+    ratios, by_samples = _ratios(figures, reasons)
     _floor_ratios(figures)
     report = {"machine": machine, "run": {"quick": quick, "repeat": repeat, "warmup": 1},
               "figures": [f.to_json() for f in figures], "ratios": ratios, "ratios_by_samples": by_samples,
               "targets": TARGETS, "peer_targets": PEER_TARGETS,
-              "reasons": {PEER_RATIOS[peer]: why for peer, why in reasons.items()},
+              "reasons": {key[:-len(REASON)]: why for key, why in ratios.items() if key.endswith(REASON)},
               "peak_rss_mb": _peak_rss_mb()}
     if json_path is not None:
         # before printing: a reader that goes away (`mrcheck bench --json X | head`) breaks the

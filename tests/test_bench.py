@@ -41,10 +41,10 @@ def test_bench_quick_writes_every_figure_and_ratio(quick):
     report, printed = quick
     assert set(report["ratios"]) >= {"vector_over_ssao", "vector_over_fetch_floor", "half_over_full", "ao_10m_over_1m"}
     assert "geometry_20m_over_1m" in report["ratios"]
-    for peer in ("vtk_over_mrcheck_frame", "open3d_over_mrcheck_frame"):  # null only with a reason
-        assert peer in report["ratios"]
-        assert report["ratios"][peer] is not None or isinstance(report["reasons"][peer], str)
-    assert all(value > 0 for value in report["ratios"].values() if value is not None)
+    for key, value in report["ratios"].items():  # null only with its reason beside it
+        if not key.endswith("_reason"):
+            assert value > 0 if value is not None else isinstance(report["ratios"][key + "_reason"], str)
+    assert {"vtk_over_mrcheck_frame", "open3d_over_mrcheck_frame"} <= set(report["ratios"])
     halls = [f for f in report["figures"] if f["name"] == "geometry" and f["stats"].get("generated") == "hall"]
     assert {f["triangles"] for f in halls} >= {1_000_000, 20_000_000}
     assert all(f["stats"]["triangles_drawn"] > 0 for f in halls)
@@ -67,6 +67,22 @@ def test_bench_quick_writes_every_figure_and_ratio(quick):
     assert vector["over_fetch_floor"] == pytest.approx(vector["runs_ms"][0] / floor[(1280, 1024, 16, 1.0)]["runs_ms"][0])
     assert report["machine"]["gl_renderer"] and report["peak_rss_mb"] > 0
     assert "vector_over_ssao" in printed and "GTX285" in printed
+
+
+def test_a_null_ratio_has_its_reason_next_to_it(quick):
+    """A peer that did not run: each of its ratios (the half-resolution one too) is null with
+    the peer's reason beside it in ``ratios``, in the top-level ``reasons`` and printed with it."""
+    report, _ = quick
+    figures = [f for f in _figures(report) if f.mode not in bench_peers.PEERS]
+    ratios, by_samples = bench._ratios(figures, {"vtk": "not installed: pyvista (test)"})
+    for key in bench.PEER_RATIOS.values():
+        for name in (key, key + "_half_res_ao"):
+            assert ratios[name] is None and ratios[name + "_reason"]
+    assert ratios["vtk_over_mrcheck_frame_half_res_ao_reason"] == "not installed: pyvista (test)"
+    assert ratios["open3d_over_mrcheck_frame_reason"] == "no open3d frame was measured"
+    printed = bench._format_ratios(ratios, by_samples).splitlines()
+    assert sum("not installed: pyvista (test)" in line for line in printed) == 2
+    assert all(not line.strip().startswith("vtk_over_mrcheck_frame_reason") for line in printed)
 
 
 def test_bench_writes_the_json_before_printing(quick, tmp_path, monkeypatch):
