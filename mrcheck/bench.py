@@ -623,14 +623,21 @@ def _find(figures, **match) -> Figure:
     return hits[0]
 
 
+def _rounds(a: Figure, b: Figure) -> list[float] | None:
+    """The per-round ratios a / b of two figures timed in turns (one entry), in round order;
+    None for figures timed apart."""
+    if a.entry is not None and a.entry == b.entry and len(a.times_ms) == len(b.times_ms):
+        return [x / y for x, y in zip(a.times_ms, b.times_ms)]
+    return None
+
+
 def _ratio(a: Figure, b: Figure) -> float:
     """a / b. For figures timed in turns (one entry), the median of the per-round ratios: a
     paired estimate, so that the machine speeding up or slowing down during the entry (seen:
     10-20 % within one entry) cannot tilt it, as it can a ratio of two medians taken from
     different rounds. Otherwise the ratio of the medians."""
-    if a.entry is not None and a.entry == b.entry and len(a.times_ms) == len(b.times_ms):
-        return float(np.median(np.asarray(a.times_ms) / np.asarray(b.times_ms)))
-    return a.median_ms / b.median_ms
+    rounds = _rounds(a, b)
+    return float(median(rounds)) if rounds else a.median_ms / b.median_ms
 
 
 def _floor_ratios(figures) -> None:
@@ -642,10 +649,12 @@ def _floor_ratios(figures) -> None:
         f.over_fetch_floor = None if floor is None else _ratio(f, floor)
 
 
-def _ratios(figures, reasons: dict | None = None) -> tuple[dict, dict]:
+def _ratios(figures, reasons: dict | None = None) -> dict:
     """The issue's ratios (paired within one run, see :func:`_ratio`), and the first three at
-    every sample count. A peer ratio that could not be measured is None, with the peer's reason
-    (``reasons``, by peer) beside it as ``<key>_reason``."""
+    every sample count, as the report's ``ratios`` and ``ratios_by_samples``; beside each, its
+    per-round ratios (``ratios_rounds``, ``ratios_by_samples_rounds``: how far one round can
+    stray from the median). A peer ratio that could not be measured is None, with the peer's
+    reason (``reasons``, by peer) beside it as ``<key>_reason``."""
     w, h = PAPER_SIZE
 
     def ao(mode, samples, scale=1.0, **extra):
@@ -656,33 +665,40 @@ def _ratios(figures, reasons: dict | None = None) -> tuple[dict, dict]:
 
     def at(samples):
         vector = ao("vector", samples, triangles=None)
-        return {"vector_over_ssao": _ratio(vector, ao("ssao", samples, triangles=None)),
-                "vector_over_fetch_floor": _ratio(vector, floor(samples, None)),
-                "half_over_full": _ratio(ao("vector", samples, 0.5, triangles=None), vector)}
+        return {"vector_over_ssao": (vector, ao("ssao", samples, triangles=None)),
+                "vector_over_fetch_floor": (vector, floor(samples, None)),
+                "half_over_full": (ao("vector", samples, 0.5, triangles=None), vector)}
 
     samples_list = sorted({f.samples for f in figures if f.name == "fetch_floor" and (f.width, f.height) == PAPER_SIZE
                            and f.scale == 1.0 and f.triangles is None})
     by_samples = {str(n): at(n) for n in samples_list}
-    ratios = dict(by_samples[str(RATIO_SAMPLES)])
+    pairs = dict(by_samples[str(RATIO_SAMPLES)])
     few, many = TRIANGLE_COUNTS
-    ratios["ao_10m_over_1m"] = _ratio(ao("vector", RATIO_SAMPLES, triangles=many), ao("vector", RATIO_SAMPLES, triangles=few))
-    ratios["vector_over_fetch_floor_covered"] = _ratio(ao("vector", RATIO_SAMPLES, triangles=few),
-                                                       floor(RATIO_SAMPLES, few))
+    pairs["ao_10m_over_1m"] = (ao("vector", RATIO_SAMPLES, triangles=many), ao("vector", RATIO_SAMPLES, triangles=few))
+    pairs["vector_over_fetch_floor_covered"] = (ao("vector", RATIO_SAMPLES, triangles=few), floor(RATIO_SAMPLES, few))
 
     halls = {f.triangles: f for f in figures if f.name == "geometry" and f.stats.get("generated") == "hall"}
-    ratios["geometry_20m_over_1m"] = _ratio(halls[20_000_000], halls[1_000_000])
+    pairs["geometry_20m_over_1m"] = (halls[20_000_000], halls[1_000_000])
 
     pw, ph = PEER_SIZE
     ours = _find(figures, name="frame", mode="vector", width=pw, height=ph, samples=PEER_SAMPLES, scale=1.0)
     ours_half = _find(figures, name="frame", mode="vector", width=pw, height=ph, samples=PEER_SAMPLES, scale=0.5)
+    why = {}
     for peer, key in PEER_RATIOS.items():
         hits = [f for f in figures if f.name == "frame" and f.mode == peer]
-        why = None if hits else (reasons or {}).get(peer, f"no {peer} frame was measured")
         for name, mrcheck_frame in ((key, ours), (key + "_half_res_ao", ours_half)):
-            ratios[name] = _ratio(hits[0], mrcheck_frame) if hits else None
-            if why:
-                ratios[name + REASON] = why
-    return ratios, by_samples
+            pairs[name] = (hits[0], mrcheck_frame) if hits else None
+            if not hits:
+                why[name] = (reasons or {}).get(peer, f"no {peer} frame was measured")
+
+    ratios = {}
+    for name, pair in pairs.items():
+        ratios[name] = None if pair is None else _ratio(*pair)
+        if name in why:
+            ratios[name + REASON] = why[name]
+    return {"ratios": ratios, "ratios_rounds": {k: None if p is None else _rounds(*p) for k, p in pairs.items()},
+            "ratios_by_samples": {n: {k: _ratio(*p) for k, p in r.items()} for n, r in by_samples.items()},
+            "ratios_by_samples_rounds": {n: {k: _rounds(*p) for k, p in r.items()} for n, r in by_samples.items()}}
 
 
 def _machine(ctx: moderngl.Context) -> dict:
@@ -724,32 +740,48 @@ def _format_table(figures) -> str:
     return "\n".join(lines)
 
 
-def _format_ratios(ratios: dict, by_samples: dict) -> str:
+def _spread(rounds: list | None) -> str:
+    """How far the rounds of a paired ratio strayed, e.g. ``(rounds 1.18-2.24)``."""
+    if not rounds:
+        return ""
+    if len(rounds) == 1:
+        return "(1 round)"
+    return f"(rounds {min(rounds):.2f}-{max(rounds):.2f})"
+
+
+def _format_ratios(measured: dict, run: dict) -> str:
+    """The ratios against their targets, each with its per-round spread, then by sample count."""
+    ratios, rounds = measured["ratios"], measured["ratios_rounds"]
     width = max(len(name) for name in ratios if not name.endswith(REASON))
+
+    def shown(value, spread):
+        return f"{'null' if value is None else format(value, '.3f'):>6} {spread:<21}"
+
     lines = [f"ratios (median of per-round ratios, this run; {RATIO_SAMPLES} samples, {PAPER_SIZE[0]}x{PAPER_SIZE[1]}):"]
+    if run["quick"]:
+        rounds_run = f"{run['repeat']} round" + ("s" if run["repeat"] != 1 else "")
+        lines.append(f"  --quick: verdicts from {rounds_run} are indicative; targets are judged on full runs")
     for name, value in ratios.items():
         if name.endswith(REASON):
             continue  # printed on its ratio's line
         why = ratios.get(name + REASON)
+        head = f"  {name:<{width}}  {shown(value, _spread(rounds.get(name)))}"
         if name in PEER_TARGETS:  # a minimum: mrcheck's frame must be that many times faster
             verdict = f"(not run: {why})" if value is None else ("meets" if value >= PEER_TARGETS[name] else "MISSES")
-            shown = "  null" if value is None else f"{value:6.3f}"
-            lines.append(f"  {name:<{width}}  {shown}   target >= {PEER_TARGETS[name]:.2f}  {verdict}  "
+            lines.append(f"{head}  target >= {PEER_TARGETS[name]:.2f}  {verdict}  "
                          f"(peer frame / mrcheck frame, {PEER_SIZE[0]}x{PEER_SIZE[1]}, {PEER_SAMPLES} samples, "
                          f"blur {PEER_BLUR})")
-            continue
-        if name not in TARGETS:  # measured for information, no target (e.g. the peers at half-resolution AO)
-            lines.append(f"  {name:<{width}}  " + (f"  null   (no target; not run: {why})" if value is None
-                                                   else f"{value:6.3f}   (no target)"))
-            continue
-        verdict = "meets" if value <= TARGETS[name] else "MISSES"
-        lines.append(f"  {name:<{width}}  {value:6.3f}   target <= {TARGETS[name]:.2f}  {verdict}")
+        elif name not in TARGETS:  # measured for information, no target (e.g. the peers at half-resolution AO)
+            lines.append(f"{head}  (no target" + (f"; not run: {why})" if value is None else ")"))
+        else:
+            verdict = "meets" if value <= TARGETS[name] else "MISSES"
+            lines.append(f"{head}  target <= {TARGETS[name]:.2f}  {verdict}")
     lines.append(f"by samples, sample scene at {PAPER_SIZE[0]}x{PAPER_SIZE[1]}:")
-    lines.append("  samples  vector/ssao  vector/fetch_floor  vector half/full")
-    for n, r in by_samples.items():
-        lines.append(f"  {n:>7}  {r['vector_over_ssao']:11.3f}  {r['vector_over_fetch_floor']:18.3f}  "
-                     f"{r['half_over_full']:16.3f}")
-    return "\n".join(lines)
+    by_samples, by_samples_rounds = measured["ratios_by_samples"], measured["ratios_by_samples_rounds"]
+    for name in next(iter(by_samples.values()), {}):
+        for n, r in by_samples.items():
+            lines.append(f"  {name:<{width}}  {n:>3}  {shown(r[name], _spread(by_samples_rounds[n][name]))}")
+    return "\n".join(line.rstrip() for line in lines)
 
 
 # -- the command ---------------------------------------------------------------------------------
@@ -780,10 +812,10 @@ def _run(quick: bool, repeat: int) -> tuple[list[Figure], dict, dict]:
 
 
 def _print_report(report: dict, figures: list[Figure]) -> None:
-    machine, ratios = report["machine"], report["ratios"]
+    machine = report["machine"]
     print(_format_table(figures))
     print()
-    print(_format_ratios(ratios, report["ratios_by_samples"]))
+    print(_format_ratios(report, report["run"]))
     print()
     print(f"machine: {machine['gl_renderer']}, {machine['cpus_usable']} of {machine['cpu_count']} CPUs usable, "
           f"Python {machine['python']}; {report['run']['repeat']} timed runs per figure after 1 warm-up; "
@@ -803,12 +835,11 @@ def bench_command(quick: bool, json_path: str | None, repeat: int | None) -> dic
     repeat = repeat or (QUICK_REPEAT if quick else DEFAULT_REPEAT)
 
     figures, machine, reasons = _run(quick, repeat)
-    ratios, by_samples = _ratios(figures, reasons)
+    measured = _ratios(figures, reasons)
     _floor_ratios(figures)
     report = {"machine": machine, "run": {"quick": quick, "repeat": repeat, "warmup": 1},
-              "figures": [f.to_json() for f in figures], "ratios": ratios, "ratios_by_samples": by_samples,
-              "targets": TARGETS, "peer_targets": PEER_TARGETS,
-              "reasons": {key[:-len(REASON)]: why for key, why in ratios.items() if key.endswith(REASON)},
+              "figures": [f.to_json() for f in figures], **measured, "targets": TARGETS, "peer_targets": PEER_TARGETS,
+              "reasons": {key[:-len(REASON)]: why for key, why in measured["ratios"].items() if key.endswith(REASON)},
               "peak_rss_mb": _peak_rss_mb()}
     if json_path is not None:
         # before printing: a reader that goes away (`mrcheck bench --json X | head`) breaks the

@@ -74,15 +74,39 @@ def test_a_null_ratio_has_its_reason_next_to_it(quick):
     the peer's reason beside it in ``ratios``, in the top-level ``reasons`` and printed with it."""
     report, _ = quick
     figures = [f for f in _figures(report) if f.mode not in bench_peers.PEERS]
-    ratios, by_samples = bench._ratios(figures, {"vtk": "not installed: pyvista (test)"})
+    measured = bench._ratios(figures, {"vtk": "not installed: pyvista (test)"})
+    ratios = measured["ratios"]
     for key in bench.PEER_RATIOS.values():
         for name in (key, key + "_half_res_ao"):
             assert ratios[name] is None and ratios[name + "_reason"]
     assert ratios["vtk_over_mrcheck_frame_half_res_ao_reason"] == "not installed: pyvista (test)"
     assert ratios["open3d_over_mrcheck_frame_reason"] == "no open3d frame was measured"
-    printed = bench._format_ratios(ratios, by_samples).splitlines()
+    printed = bench._format_ratios(measured, {"quick": False, "repeat": 1}).splitlines()
     assert sum("not installed: pyvista (test)" in line for line in printed) == 2
     assert all(not line.strip().startswith("vtk_over_mrcheck_frame_reason") for line in printed)
+
+
+def test_a_ratio_keeps_its_rounds(quick):
+    """Each paired ratio keeps its per-round ratios, printed as their spread beside it; a quick
+    run says that its verdicts are indicative."""
+    report, printed = quick
+    assert report["ratios_rounds"]["vector_over_ssao"] == [report["ratios"]["vector_over_ssao"]]
+    assert "verdicts from 1 round are indicative" in printed
+    figures = _figures(report)
+    for f in figures:  # three rounds, the vector pass's second twice as slow and its third twice as fast
+        f.times_ms = f.times_ms * 3
+    vector = next(f for f in figures if (f.name, f.mode, f.width, f.samples, f.scale, f.triangles)
+                  == ("ao", "vector", 1280, 16, 1.0, None))
+    vector.times_ms = [vector.times_ms[0], 2 * vector.times_ms[0], 0.5 * vector.times_ms[0]]
+    measured = bench._ratios(figures)
+    r = measured["ratios"]["vector_over_ssao"]
+    assert measured["ratios_rounds"]["vector_over_ssao"] == pytest.approx([r, 2 * r, 0.5 * r])
+    v = measured["ratios_by_samples"]["16"]["half_over_full"]
+    assert measured["ratios_by_samples_rounds"]["16"]["half_over_full"] == pytest.approx([v, v / 2, 2 * v])
+    text = bench._format_ratios(measured, {"quick": True, "repeat": 3})
+    line = next(line for line in text.splitlines() if line.split()[0] == "vector_over_ssao")
+    assert f"{r:.3f} (rounds {0.5 * r:.2f}-{2 * r:.2f})" in line
+    assert "verdicts from 3 rounds are indicative" in text
 
 
 def test_bench_writes_the_json_before_printing(quick, tmp_path, monkeypatch):
