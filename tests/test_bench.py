@@ -109,6 +109,29 @@ def test_a_ratio_keeps_its_rounds(quick):
     assert "verdicts from 3 rounds are indicative" in text
 
 
+def test_vector_over_ssao_is_judged_at_every_sample_count(quick):
+    """The target is "at equal samples": a miss at 64 samples shows, though 16 meets it; the
+    floor and half/full targets are the issue's at 16 samples only, and say so elsewhere."""
+    report, printed = quick
+    assert report["target_samples"] == {"vector_over_ssao": "every", "vector_over_fetch_floor": 16,
+                                        "half_over_full": 16}
+    for n in report["ratios_by_samples"]:
+        assert any(line.split()[:2] == ["vector_over_ssao", n] and "target <= 1.20" in line for line in printed.splitlines())
+    figures = _figures(report)
+    ssao = {(f.samples, f.scale): f for f in figures if f.name == "ao" and f.mode == "ssao" and f.width == 1280}
+    vector = {(f.samples, f.scale): f for f in figures if f.name == "ao" and f.mode == "vector" and f.width == 1280
+              and f.triangles is None}
+    ssao[16, 1.0].times_ms = [vector[16, 1.0].times_ms[0]]       # vector / ssao = 1.0 at 16 samples
+    ssao[64, 1.0].times_ms = [vector[64, 1.0].times_ms[0] / 1.5]  # and 1.5 at 64
+    lines = bench._format_ratios(bench._ratios(figures), report["run"]).splitlines()
+    assert next(line for line in lines if line.split()[0] == "vector_over_ssao").endswith(
+        "meets at 16 samples; MISSES at 64 samples")
+    assert [line.split()[1:3] + [line.split()[-1]] for line in lines if line.split()[0] == "vector_over_ssao"][1:] == \
+        [["16", "1.000", "meets"], ["64", "1.500", "MISSES"]]
+    floor_64 = next(line for line in lines if line.split()[:2] == ["vector_over_fetch_floor", "64"])
+    assert floor_64.endswith("(target at 16 only)")
+
+
 def test_bench_writes_the_json_before_printing(quick, tmp_path, monkeypatch):
     """A reader that goes away (`mrcheck bench --json X | head`) costs the printout, not the run."""
     report, _ = quick
