@@ -22,13 +22,16 @@ levels, which shows that the AO is really on (the AO-off frame is saved next to 
 * ``quit`` -> ``{"frames": n, "min_ms", "median_ms", "max_ms"}``, then the worker exits.
 
 With ``--frames N`` it times N frames after the warm-up by itself and prints the summary line.
-On failure it prints ``{"error": "..."}`` if it still can and exits non-zero. Everything the
-peer's libraries print goes to stderr; stdout carries only the protocol.
+On failure it prints ``{"error": "..."}`` if it still can and exits non-zero; when the peer's
+packages cannot be imported, ``{"error": "not installed: ...", "not_installed": true}`` (a peer
+that is not installed is not a peer that fails). Everything the peer's libraries print goes to
+stderr; stdout carries only the protocol.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import os
 import select
@@ -45,6 +48,7 @@ VTK_KERNEL = 32          # the issue's setting: enable_ssao(kernel_size=32), no 
 GREY = (0.7, 0.7, 0.7)
 START_TIMEOUT_S = 600.0  # set-up of a 1.5 M-triangle mesh plus two frames on a 2-core CPU
 FRAME_TIMEOUT_S = 300.0
+NOT_INSTALLED = "not installed: "   # how the reason of a peer that is not installed begins
 
 
 # -- the peers (run inside the worker) -----------------------------------------------------------
@@ -54,6 +58,7 @@ class VtkPeer:
     reading the RGBA buffer back."""
 
     name = "vtk"
+    packages = ("pyvista", "vtk")
 
     def __init__(self, vertices, faces, view: dict, size):
         if not os.environ.get("DISPLAY"):  # no X server: VTK's wheel renders through EGL
@@ -116,6 +121,7 @@ class Open3DPeer:
     back)."""
 
     name = "open3d"
+    packages = ("open3d",)
 
     def __init__(self, vertices, faces, view: dict, size):
         import open3d as o3d
@@ -207,8 +213,15 @@ def worker(argv=None) -> int:
     parser.add_argument("--frames", type=int, default=0, help="time N frames by itself and exit")
     args = parser.parse_args(argv)
     out = _protocol_stdout()
+    start = time.perf_counter()
     try:
-        start = time.perf_counter()
+        for package in PEER_CLASSES[args.peer].packages:
+            importlib.import_module(package)
+    except Exception as exc:  # noqa: BLE001 -- ImportError, or OSError for a shared library it lacks
+        _send(out, {"error": f"{NOT_INSTALLED}{args.peer} cannot be imported: {type(exc).__name__}: {exc}",
+                    "not_installed": True})
+        return 1
+    try:
         data = np.load(args.mesh)
         view = {k: data[k].tolist() for k in ("eye", "target", "up")}
         view["fov_y_deg"] = float(data["fov_y_deg"])
@@ -270,6 +283,11 @@ class PeerError(RuntimeError):
         super().__init__(" ".join(str(reason).split()))
 
 
+class PeerNotInstalled(PeerError):
+    """A peer whose packages or driver are missing on this machine (its reason begins with
+    NOT_INSTALLED), as against one that is installed and fails: a test may skip the first only."""
+
+
 def failure_reason(exc: BaseException) -> str:
     """The one-line reason a peer gives for any exception from its worker."""
     return str(exc) if isinstance(exc, PeerError) else f"{type(exc).__name__}: {exc}"
@@ -284,14 +302,35 @@ def write_mesh(path: Path, vertices, faces, viewpoint: dict, size) -> Path:
 
 
 def importable(peer: str) -> str | None:
-    """None when the peer's package is installed, else why not (checked without importing it)."""
+    """None when the peer's packages (and for Open3D, a Vulkan driver) are installed, else why
+    not, beginning with NOT_INSTALLED (checked without importing them: the worker imports them,
+    and reports a failed import as not installed too)."""
     from importlib.util import find_spec
 
-    package = {"vtk": "pyvista", "open3d": "open3d"}[peer]
-    if find_spec(package) is None:
-        hint = "pip install 'mrcheck[bench]' or ./bootstrap.sh bench" if peer == "vtk" else "pip install open3d"
-        return f"{package} is not installed ({hint})"
+    for package in PEER_CLASSES[peer].packages:
+        if find_spec(package) is None:
+            hint = "pip install 'mrcheck[bench]' or ./bootstrap.sh bench" if peer == "vtk" else "pip install open3d"
+            return f"{NOT_INSTALLED}{package} ({hint})"
+    if peer == "open3d" and not _vulkan_driver():
+        return (f"{NOT_INSTALLED}a Vulkan driver, which Open3D's headless renderer needs "
+                "(apt-get install libvulkan1 mesa-vulkan-drivers, or ./bootstrap.sh bench)")
     return None
+
+
+def _vulkan_driver() -> bool:
+    """Whether the Vulkan loader and an installable client driver (an ICD manifest) are there,
+    where the loader looks for them on Linux; True elsewhere (not checked)."""
+    if not sys.platform.startswith("linux"):
+        return True
+    import ctypes.util
+
+    if ctypes.util.find_library("vulkan") is None:
+        return False
+    if os.environ.get("VK_ICD_FILENAMES") or os.environ.get("VK_DRIVER_FILES"):
+        return True  # chosen by hand: the loader is told where the driver is
+    data_dirs = os.environ.get("XDG_DATA_DIRS") or "/usr/local/share:/usr/share"
+    folders = ["/etc/vulkan/icd.d", *(Path(d) / "vulkan" / "icd.d" for d in data_dirs.split(":") if d)]
+    return any(Path(folder).is_dir() and any(Path(folder).glob("*.json")) for folder in folders)
 
 
 class PeerWorker:
@@ -322,7 +361,8 @@ class PeerWorker:
         message = self._read(timeout, "starting")
         if not message.get("ready"):
             self.stop()
-            raise PeerError(message.get("error") or f"unexpected answer {message}")
+            error = PeerNotInstalled if message.get("not_installed") else PeerError
+            raise error(message.get("error") or f"unexpected answer {message}")
         self.info = message
         backend = self._backend()
         if backend:
