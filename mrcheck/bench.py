@@ -15,6 +15,8 @@ What is timed (Scheer & Keutel, Tables 1 and 2, benchmarked at 1280x1024):
   inside the same pixel radius, with no arithmetic; an AO pass over its floor is the price of
   the arithmetic on top of the memory traffic;
 * the bilateral blur (9x9 and 13x13) and the composite, each at both AO resolutions;
+* the whole frame of every AO mode at every size, sample count and AO resolution of the AO
+  passes (geometry, AO, the CLI's default 9x9 blur, composite, reading the image back);
 * the geometry pass and the vector AO pass of a synthetic height field of ~1 M and ~10 M
   triangles seen by the same camera: screen-space AO should not care about triangle count;
 * the geometry pass of the generated hall at 1, 10 and 20 M triangles from its ``aisle``
@@ -55,7 +57,7 @@ from .bench_peers import PEERS
 from .camera import Camera
 from .gl import create_context, load_program, made_current
 from .output import check_output_path, write_text
-from .renderer import Renderer, RenderSettings
+from .renderer import DEFAULT_BLUR, Renderer, RenderSettings
 from .resources import sample_scene_path
 from .scene import Scene, load_scene, make_part
 
@@ -118,6 +120,7 @@ HALL_SEED, HALL_VIEW = 0, "aisle"
 LINE_SCENE = ("factory_scenes", "line", "scene.toml")
 PEER_SIZE, PEER_SAMPLES, PEER_BLUR = (1024, 768), 32, 9
 FRAME_SETTINGS = ((PAPER_SIZE, 16, 13), (PEER_SIZE, PEER_SAMPLES, PEER_BLUR))
+FRAME_PASSES = "geometry + ao + blur + composite + read back RGB"
 
 
 # -- figures -------------------------------------------------------------------------------------
@@ -215,9 +218,9 @@ class _Stage:
     def targets(self):
         return self.renderer._targets_for((self.camera.width, self.camera.height))
 
-    def settings(self, samples: int = RATIO_SAMPLES, scale: float = 1.0) -> RenderSettings:
-        """The CLI's defaults at this sample count and AO scale, resolved for this image."""
-        return RenderSettings(samples=samples, ao_scale=scale).validated(self.camera.height)
+    def settings(self, samples: int = RATIO_SAMPLES, scale: float = 1.0, blur: int = DEFAULT_BLUR) -> RenderSettings:
+        """The CLI's defaults at this sample count, AO scale and blur, resolved for this image."""
+        return RenderSettings(samples=samples, ao_scale=scale, blur_size=blur).validated(self.camera.height)
 
     def draw_geometry(self) -> None:
         self.renderer.geometry.draw(self.targets.gbuffer, self.camera)
@@ -236,6 +239,15 @@ class _Stage:
 
     def read_back(self) -> np.ndarray:
         return self.renderer._read_rgb(self.targets)
+
+    def frame(self, mode: str, settings: RenderSettings) -> np.ndarray:
+        """The whole frame as ``mrcheck render`` draws it, ending with reading the image back
+        like the peers' frames: geometry, AO, blur, composite."""
+        self.draw_geometry()
+        self.ao(mode, settings)
+        self.blur(settings.blur_size, settings.ao_scale)
+        self.composite(settings.ao_scale)
+        return self.read_back()
 
     def fetch_floor(self, samples: int, scale: float = 1.0) -> None:
         """The floor of the AO pass at ``scale``, into the scratch buffer of that resolution (the
@@ -424,19 +436,15 @@ def _frame_jobs(group: _LineStages) -> list[list]:
         # full-resolution AO (the peers' ratios); at the peers' setting also half resolution,
         # the paper's option for slow GPUs (its ratios to the peers are reported beside)
         for scale in (1.0, 0.5) if size == PEER_SIZE else (1.0,):
-            settings = stage.settings(samples, scale)
+            settings = stage.settings(samples, scale, blur)
             keep = size == PEER_SIZE and scale == 1.0
 
-            def frame(stage=stage, settings=settings, blur=blur, scale=scale, keep=keep):
-                stage.draw_geometry()
-                stage.ao("vector", settings)
-                stage.blur(blur, scale)
-                stage.composite(scale)
-                rgb = stage.read_back()  # like the peers' frames, which end with reading the image
+            def frame(stage=stage, settings=settings, keep=keep):
+                rgb = stage.frame("vector", settings)
                 if keep:
                     group.last_rgb = rgb
 
-            stats = {"blur": blur, "passes": "geometry + ao + blur + composite + read back RGB"}
+            stats = {"blur": blur, "passes": FRAME_PASSES}
             if keep:
                 stats["png"] = str(group.png)
             figure = Figure("frame", "vector", *size, samples, scale, stage.label, group.triangles, stats=stats)
@@ -471,7 +479,7 @@ def _hall_jobs(group: "_StageGroup") -> list[list]:
 
 # -- the plan ------------------------------------------------------------------------------------
 def _pass_jobs(stage: _Stage, samples_list) -> list[list]:
-    """AO passes, fetch floors, blurs and composites of one stage (items 1-3 of the issue)."""
+    """AO passes, fetch floors, whole frames, blurs and composites of one stage (items 1-3 of the issue)."""
     w, h = stage.camera.width, stage.camera.height
     paper = (w, h) == PAPER_SIZE
 
@@ -491,6 +499,16 @@ def _pass_jobs(stage: _Stage, samples_list) -> list[list]:
             group.append((stage, _Job(fig("fetch_floor", None, samples, scale), stage.draw_geometry,
                                       lambda n=samples, sc=scale: stage.fetch_floor(n, sc))))
         entries.append(group)
+        # the whole frame of every mode at these settings, with the CLI's default blur: in an
+        # entry of its own, so that the AO passes' rounds stay as short as before
+        frames = []
+        for mode in AO_MODES:
+            for scale in SCALES:
+                s = stage.settings(samples, scale)
+                figure = fig("frame", mode, samples, scale)
+                figure.stats = {"blur": s.blur_size, "passes": FRAME_PASSES}
+                frames.append((stage, _Job(figure, lambda: None, lambda m=mode, s=s: stage.frame(m, s))))
+        entries.append(frames)
 
     for scale in SCALES:
         def with_ao(scale=scale):
@@ -587,7 +605,8 @@ def _plan(ctx: moderngl.Context, quick: bool, reasons: dict | None = None) -> li
             sample.update(renderer=Renderer(scene, ctx=ctx), camera_for=camera_for, label=label)
         return _Stage(sample["renderer"], sample["camera_for"](size), sample["label"])
 
-    per_size = len(samples_list) * (len(AO_MODES) + 1) * len(SCALES) + len(SCALES) * (len(BLUR_SIZES) + 1)
+    # per sample count: AO passes, floors and frames; per scale: blurs and composite
+    per_size = len(samples_list) * (2 * len(AO_MODES) + 1) * len(SCALES) + len(SCALES) * (len(BLUR_SIZES) + 1)
     for size in sizes:
         sections.append(_Section(lambda size=size: sample_stage(size), lambda st: _pass_jobs(st, samples_list),
                                  per_size, release_after=size == sizes[-1]))
