@@ -20,7 +20,8 @@ What is timed (Scheer & Keutel, Tables 1 and 2, benchmarked at 1280x1024):
 * the geometry pass and the vector AO pass of a synthetic height field of ~1 M and ~10 M
   triangles seen by the same camera: screen-space AO should not care about triangle count;
 * the geometry pass of the generated hall at 1, 10 and 20 M triangles from its ``aisle``
-  viewpoint, with its culling and level-of-detail statistics (levels prepared before timing);
+  viewpoint at both sizes, with its culling and level-of-detail statistics (levels prepared
+  before timing);
 * the whole frame on the ``line`` scene (full- and, at the peers' size, half-resolution AO).
 
 Peers (``vtk_over_mrcheck_frame``, ``open3d_over_mrcheck_frame``): mrcheck's whole frame on the
@@ -264,10 +265,12 @@ class _Stage:
             self.renderer._half_coverage(self.targets)
         self._floors[key].run(target, self.targets.gbuffer.depth)
 
-    def release(self) -> None:
+    def release(self, renderer: bool = True) -> None:
+        """Free the fetch floors, and the renderer unless another stage still draws with it."""
         for floor in self._floors.values():
             floor.release()
-        self.renderer.release()
+        if renderer:
+            self.renderer.release()
 
 
 # -- scenes --------------------------------------------------------------------------------------
@@ -462,8 +465,9 @@ def _frame_jobs(group: _LineStages) -> list[list]:
 
 
 def _hall_jobs(group: "_StageGroup") -> list[list]:
-    """The geometry pass of every hall, timed in turns; the figure keeps the drawn triangles."""
-    entry = []
+    """The geometry pass of every hall, timed in turns, at each image size; the figure keeps the
+    drawn triangles."""
+    entries = {}
     for stage, triangles in zip(group.stages, group.triangles):
         w, h = stage.camera.width, stage.camera.height
         figure = Figure("geometry", None, w, h, None, None, stage.label, triangles,
@@ -473,8 +477,8 @@ def _hall_jobs(group: "_StageGroup") -> list[list]:
         def draw(stage=stage, figure=figure):
             figure.stats.update(stage.renderer.geometry.draw(stage.targets.gbuffer, stage.camera))
 
-        entry.append((stage, _Job(figure, lambda: None, draw)))
-    return [entry]
+        entries.setdefault((w, h), []).append((stage, _Job(figure, lambda: None, draw)))
+    return list(entries.values())
 
 
 # -- the plan ------------------------------------------------------------------------------------
@@ -571,15 +575,18 @@ def _measure(entry: list, repeat: int) -> list[Figure]:
 
 
 class _StageGroup:
-    """The height-field stages, alive together so that their AO passes can be timed in turns."""
+    """Stages alive together so that their passes can be timed in turns (the height fields, the
+    halls), and the triangle budget of each; stages of one scene at two sizes share a renderer."""
 
     def __init__(self, stages, triangles=TRIANGLE_COUNTS):
         self.stages = stages
         self.triangles = triangles
 
     def release(self) -> None:
+        released = set()
         for stage in self.stages:
-            stage.release()
+            stage.release(renderer=id(stage.renderer) not in released)
+            released.add(id(stage.renderer))
 
 
 @dataclass
@@ -622,15 +629,17 @@ def _plan(ctx: moderngl.Context, quick: bool, reasons: dict | None = None) -> li
 
     hall_triangles = QUICK_HALL_TRIANGLES if quick else HALL_TRIANGLES
 
-    def hall_stages():
-        stages = []
+    def hall_stages():  # at both sizes in a quick run too: a few geometry passes, seconds
+        stages, budgets = [], []
         for triangles in hall_triangles:
             scene = load_scene(hall_scene_path(triangles))
-            stages.append(_Stage(Renderer(scene, ctx=ctx), scene.camera(HALL_VIEW, *PAPER_SIZE),
-                                 f"{scene.name}_{triangles / 1e6:.0f}M:{HALL_VIEW}"))
-        return _StageGroup(stages, hall_triangles)
+            renderer, label = Renderer(scene, ctx=ctx), f"{scene.name}_{triangles / 1e6:.0f}M:{HALL_VIEW}"
+            for size in SIZES:
+                stages.append(_Stage(renderer, scene.camera(HALL_VIEW, *size), label))
+                budgets.append(triangles)
+        return _StageGroup(stages, budgets)
 
-    sections.append(_Section(hall_stages, _hall_jobs, len(hall_triangles)))
+    sections.append(_Section(hall_stages, _hall_jobs, len(hall_triangles) * len(SIZES)))
     reasons = {} if reasons is None else reasons
     sections.append(_Section(lambda: _LineStages(ctx, quick, reasons), _frame_jobs,
                              len(FRAME_SETTINGS) + len(PEERS)))
@@ -699,7 +708,8 @@ def _ratios(figures, reasons: dict | None = None) -> dict:
     pairs["ao_10m_over_1m"] = (ao("vector", RATIO_SAMPLES, triangles=many), ao("vector", RATIO_SAMPLES, triangles=few))
     pairs["vector_over_fetch_floor_covered"] = (ao("vector", RATIO_SAMPLES, triangles=few), floor(RATIO_SAMPLES, few))
 
-    halls = {f.triangles: f for f in figures if f.name == "geometry" and f.stats.get("generated") == "hall"}
+    halls = {f.triangles: f for f in figures if f.name == "geometry" and f.stats.get("generated") == "hall"
+             and (f.width, f.height) == PAPER_SIZE}
     pairs["geometry_20m_over_1m"] = (halls[20_000_000], halls[1_000_000])
 
     pw, ph = PEER_SIZE

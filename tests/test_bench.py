@@ -97,7 +97,7 @@ def test_bench_quick_measures_every_item_of_the_issue(quick):
     """Every figure the issue asks for, in the quick plan: the AO pass and the whole frame of the
     five AO modes and the fetch floor at 1280x1024, 16 and 64 samples, full and half resolution;
     both blurs and the composite at
-    both; the height fields; the halls; the frames; peak memory. A peer that is installed runs."""
+    both; the height fields; the halls at both sizes; the frames; peak memory. A peer that is installed runs."""
     report, printed = quick
     have = Counter((f["name"], f["mode"], _kind(f["scene"]), f["width"], f["height"], f["samples"], f["scale"],
                     f["triangles"]) for f in report["figures"])
@@ -114,7 +114,8 @@ def test_bench_quick_measures_every_item_of_the_issue(quick):
         want |= {("geometry", None, "terrain", 1280, 1024, None, None, triangles),
                  ("ao", "vector", "terrain", 1280, 1024, 16, 1.0, triangles)}
     want.add(("fetch_floor", None, "terrain", 1280, 1024, 16, 1.0, 1_000_000))
-    want |= {("geometry", None, "hall", 1280, 1024, None, None, n) for n in (1_000_000, 20_000_000)}
+    want |= {("geometry", None, "hall", *size, None, None, n) for n in (1_000_000, 20_000_000)
+             for size in ((1280, 1024), (1024, 768))}
     line = _one(report, name="frame", mode="vector", width=1280, kind="line")["triangles"]
     want |= {("frame", "vector", "line", 1280, 1024, 16, 1.0, line), ("frame", "vector", "line", 1024, 768, 32, 1.0, line),
              ("frame", "vector", "line", 1024, 768, 32, 0.5, line)}
