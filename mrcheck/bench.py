@@ -40,7 +40,6 @@ import itertools
 import json
 import os
 import platform
-import resource
 import shutil
 import sys
 import tempfile
@@ -54,7 +53,7 @@ import numpy as np
 
 from .ao.base import draw_covered
 from .ao.kernel import PAPER_SAMPLE_COUNTS, sphere_kernel
-from .bench_peers import PEERS
+from .bench_peers import PEERS, peak_rss_mb, reset_peak_rss
 from .camera import Camera
 from .gl import create_context, load_program, made_current
 from .output import check_output_path, write_text
@@ -142,6 +141,7 @@ class Figure:
     stats: dict = field(default_factory=dict)   # e.g. triangles drawn, blur size, what a peer timed
     entry: int | None = None   # figures of one entry were timed in turns: run i of each in round i
     over_fetch_floor: float | None = None   # an AO pass over the floor of its size, samples and scale
+    peak_rss_mb: float | None = None   # peak resident memory while its entry was timed, MiB
 
     def describe(self) -> str:
         """A short label, e.g. ``ao vector 1280x1024 16 samples half``."""
@@ -159,7 +159,8 @@ class Figure:
                 "samples": self.samples, "scale": self.scale, "scene": self.scene, "triangles": self.triangles,
                 "min_ms": min(self.times_ms), "median_ms": self.median_ms, "max_ms": max(self.times_ms),
                 "runs_ms": self.times_ms, "paper_gtx285_ms": self.paper_ms, "stats": self.stats, "unit": "ms",
-                "timed_in_turns_with": self.entry, "over_fetch_floor": self.over_fetch_floor}
+                "timed_in_turns_with": self.entry, "over_fetch_floor": self.over_fetch_floor,
+                "peak_rss_mb": self.peak_rss_mb}
 
 
 @dataclass
@@ -364,6 +365,10 @@ class _PeerStage:
         self.failed = None
         self.renderer = self
 
+    @property
+    def peak_rss_mb(self) -> float | None:
+        return self.worker.peak_rss_mb
+
     def _timed(self, work) -> float:
         from .bench_peers import failure_reason
 
@@ -554,12 +559,42 @@ def _triangle_jobs(group: "_StageGroup") -> list[list]:
 _ENTRIES = itertools.count()
 
 
-def _measure(entry: list, repeat: int) -> list[Figure]:
+class _PeakMemory:
+    """The bench process's peak resident memory per entry (reset before it, read after) and
+    over the whole run. A reset lowers ``ru_maxrss`` too, so the whole run's peak is the largest
+    reading, one taken before every reset included (scenes load between entries)."""
+
+    def __init__(self):
+        self.whole_mb = peak_rss_mb()
+        self.per_entry = True   # False once a reset failed: a figure's peak is then since the start
+
+    def start(self) -> None:
+        self.whole_mb = max(self.whole_mb, peak_rss_mb())
+        self.per_entry = reset_peak_rss() and self.per_entry
+
+    def stop(self) -> float:
+        peak = peak_rss_mb()
+        self.whole_mb = max(self.whole_mb, peak)
+        return peak
+
+    def report(self) -> dict:
+        self.stop()
+        how = ("the bench process's peak during the figure's entry (VmHWM, reset through /proc/self/clear_refs "
+               "before each entry)" if self.per_entry else
+               "the bench process's peak since it started (ru_maxrss: /proc/self/clear_refs could not be written)")
+        return {"peak_rss_mb": self.whole_mb,
+                "peak_rss_per_figure": how + "; a peer's: its worker's peak over its frames, reset before each"}
+
+
+def _measure(entry: list, repeat: int, memory: _PeakMemory | None = None) -> list[Figure]:
     """Time the jobs of one entry in turns: each job's setup and warm-up, then ``repeat`` rounds
     of one run of every job. A ratio must hold within 10 %, about the drift of this machine over
     a minute; taken in turns, the drift falls on both sides of the ratio alike. The G-buffer
     and AO buffers a job's setup leaves persist because the jobs of one entry on one stage
-    write different targets (full/half resolution, AO/floor), or live in different renderers."""
+    write different targets (full/half resolution, AO/floor), or live in different renderers.
+    Every figure gets the peak resident memory of the entry (a peer's, its worker's own)."""
+    memory = memory or _PeakMemory()
+    memory.start()
     tag = next(_ENTRIES)
     for stage, job in entry:
         job.figure.entry = tag
@@ -571,6 +606,9 @@ def _measure(entry: list, repeat: int) -> list[Figure]:
             with made_current(stage.ctx):
                 job.setup()
                 job.figure.times_ms.append(stage.renderer._timed(job.work))
+    peak = memory.stop()
+    for stage, job in entry:
+        job.figure.peak_rss_mb = getattr(stage, "peak_rss_mb", None) or peak  # a peer's worker reports its own
     return [job.figure for stage, job in entry if getattr(stage, "failed", None) is None]  # a failed peer: none
 
 
@@ -749,21 +787,17 @@ def _machine(ctx: moderngl.Context) -> dict:
             "platform": platform.platform(), "numpy": np.__version__, "moderngl": moderngl.__version__}
 
 
-def _peak_rss_mb() -> float:
-    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    return rss / 2**20 if sys.platform == "darwin" else rss / 1024.0  # bytes on macOS, KiB on Linux
-
-
 def _format_table(figures) -> str:
     header = ("figure", "mode", "scene", "size", "samples", "scale", "min ms", "median ms", "max ms", "/ floor",
-              "GTX285 ms")
+              "GTX285 ms", "peak MB")
     rows = [header]
     for f in figures:
         rows.append((f.name, f.mode or "", f.scene, f"{f.width}x{f.height}", str(f.samples or ""),
                      "" if f.scale is None else ("full" if f.scale == 1.0 else "half"),
                      f"{min(f.times_ms):.1f}", f"{f.median_ms:.1f}", f"{max(f.times_ms):.1f}",
                      "" if f.over_fetch_floor is None else f"{f.over_fetch_floor:.2f}",
-                     "" if f.paper_ms is None else f"{f.paper_ms:.1f}"))
+                     "" if f.paper_ms is None else f"{f.paper_ms:.1f}",
+                     "" if f.peak_rss_mb is None else f"{f.peak_rss_mb:.0f}"))
     widths = [max(len(r[i]) for r in rows) for i in range(len(header))]
     numeric = range(4, len(header))
     lines = ["  ".join(c.rjust(wd) if i in numeric else c.ljust(wd) for i, (c, wd) in enumerate(zip(r, widths)))
@@ -826,12 +860,13 @@ def _format_ratios(measured: dict, run: dict) -> str:
 
 
 # -- the command ---------------------------------------------------------------------------------
-def _run(quick: bool, repeat: int) -> tuple[list[Figure], dict, dict]:
-    """Measure the plan: the figures, the machine, and the reasons of the peers that did not run."""
+def _run(quick: bool, repeat: int) -> tuple[list[Figure], dict, dict, dict]:
+    """Measure the plan: the figures, the machine, the reasons of the peers that did not run,
+    and the peak memory of the whole run (with how the figures' peaks were taken)."""
     from tqdm import tqdm
 
     ctx = create_context()
-    figures, reasons = [], {}
+    figures, reasons, memory = [], {}, _PeakMemory()
     try:
         with made_current(ctx):
             machine = _machine(ctx)
@@ -840,7 +875,7 @@ def _run(quick: bool, repeat: int) -> tuple[list[Figure], dict, dict]:
                 for section in sections:
                     stage = section.make_stage()
                     for entry in section.jobs(stage):
-                        measured = _measure(entry, repeat)
+                        measured = _measure(entry, repeat, memory)
                         figures.extend(measured)
                         bar.set_postfix_str(measured[-1].describe())
                         bar.update(len(measured))
@@ -849,7 +884,7 @@ def _run(quick: bool, repeat: int) -> tuple[list[Figure], dict, dict]:
                     del stage  # before the next section builds its scene (10 M triangles)
     finally:
         ctx.release()
-    return figures, machine, reasons
+    return figures, machine, reasons, memory.report()
 
 
 def _print_report(report: dict, figures: list[Figure]) -> None:
@@ -860,12 +895,13 @@ def _print_report(report: dict, figures: list[Figure]) -> None:
     print()
     print(f"machine: {machine['gl_renderer']}, {machine['cpus_usable']} of {machine['cpu_count']} CPUs usable, "
           f"Python {machine['python']}; {report['run']['repeat']} timed runs per figure after 1 warm-up; "
-          f"peak RSS {report['peak_rss_mb']:.0f} MB")
+          f"peak RSS {report['peak_rss_mb']:.0f} MB over the whole run")
     for f in figures:
         if f.name == "frame" and "png" in f.stats:  # the frames the peer ratios compare, to look at
             print(f"frame {f.mode}: {f.stats['png']}" + (f" ({f.stats['peer']})" if "peer" in f.stats else ""))
     print("/ floor: an AO pass over the fetch floor of its size, samples and resolution (same depth fetches, "
           "trivial arithmetic), timed in turns with it.")
+    print(f"peak MB: {report['peak_rss_per_figure']}.")
     print("GTX285 ms: Scheer & Keutel, Tables 1-2 (their SSAO pass at 1280x1024; 13x13 blur), for comparison.")
 
 
@@ -875,7 +911,7 @@ def bench_command(quick: bool, json_path: str | None, repeat: int | None) -> dic
         json_path = check_output_path(json_path, (".json",), "JSON output")  # fail before minutes of work
     repeat = repeat or (QUICK_REPEAT if quick else DEFAULT_REPEAT)
 
-    figures, machine, reasons = _run(quick, repeat)
+    figures, machine, reasons, memory = _run(quick, repeat)
     measured = _ratios(figures, reasons)
     _floor_ratios(figures)
     report = {"machine": machine, "run": {"quick": quick, "repeat": repeat, "warmup": 1},
@@ -883,7 +919,7 @@ def bench_command(quick: bool, json_path: str | None, repeat: int | None) -> dic
               "target_samples": {name: "every" if name in EVERY_SAMPLE_COUNT else RATIO_SAMPLES
                                  for name in measured["ratios_by_samples"].get(str(RATIO_SAMPLES), {})},
               "reasons": {key[:-len(REASON)]: why for key, why in measured["ratios"].items() if key.endswith(REASON)},
-              "peak_rss_mb": _peak_rss_mb()}
+              **memory}
     if json_path is not None:
         # before printing: a reader that goes away (`mrcheck bench --json X | head`) breaks the
         # prints, and must not cost the minutes of measurements

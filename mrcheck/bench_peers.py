@@ -12,14 +12,16 @@ both sides of a ratio alike. ::
 
 The worker sets the peer up, renders one frame with the peer's AO off and one with it on (the
 warm-up; saved to ``--png``), and prints one JSON line: ``{"ready": true, "peer", "version",
-"settings", "png", "ao_effect", "setup_ms"}`` -- ``ao_effect`` is the mean difference between the
+"settings", "png", "ao_effect", "setup_ms", "setup_peak_rss_mb"}`` -- ``ao_effect`` is the mean difference between the
 AO-on and AO-off frames in 8-bit levels and the share of pixels the AO darkened by more than 2
 levels, which shows that the AO is really on (the AO-off frame is saved next to ``--png`` as
 ``*_ao_off.png``). Then per request line:
 
-* ``frame`` -> ``{"ms": T}``: one frame, render plus read-back of the image (the read-back
-  finishes the peer's GPU work), timed inside the worker;
-* ``quit`` -> ``{"frames": n, "min_ms", "median_ms", "max_ms"}``, then the worker exits.
+* ``frame`` -> ``{"ms": T, "peak_rss_mb": M}``: one frame, render plus read-back of the image
+  (the read-back finishes the peer's GPU work), timed inside the worker, and the worker's peak
+  resident memory during it (:func:`peak_rss_mb`, reset before the frame where it can be);
+* ``quit`` -> ``{"frames": n, "min_ms", "median_ms", "max_ms", "peak_rss_mb"}``, then the worker
+  exits.
 
 With ``--frames N`` it times N frames after the warm-up by itself and prints the summary line.
 On failure it prints ``{"error": "..."}`` if it still can and exits non-zero; when the peer's
@@ -34,6 +36,7 @@ import argparse
 import importlib
 import json
 import os
+import resource
 import select
 import subprocess
 import sys
@@ -49,6 +52,33 @@ GREY = (0.7, 0.7, 0.7)
 START_TIMEOUT_S = 600.0  # set-up of a 1.5 M-triangle mesh plus two frames on a 2-core CPU
 FRAME_TIMEOUT_S = 300.0
 NOT_INSTALLED = "not installed: "   # how the reason of a peer that is not installed begins
+
+
+# -- peak memory (the bench's process and the workers alike) -------------------------------------
+def reset_peak_rss() -> bool:
+    """Lower this process's peak resident memory (VmHWM) to what it holds now, so that the next
+    :func:`peak_rss_mb` is the peak since this call (Linux: "5" into /proc/self/clear_refs). It
+    lowers what ``ru_maxrss`` reports too. False where it cannot: the peak is then since start."""
+    try:
+        with open("/proc/self/clear_refs", "w") as clear_refs:
+            clear_refs.write("5")
+        return True
+    except OSError:
+        return False
+
+
+def peak_rss_mb() -> float:
+    """This process's peak resident memory in MiB since the last :func:`reset_peak_rss` (VmHWM),
+    or since it started (``ru_maxrss``) where /proc/self/status is not there."""
+    try:
+        with open("/proc/self/status") as status:
+            for line in status:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024.0  # kB
+    except OSError:
+        pass
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return rss / 2**20 if sys.platform == "darwin" else rss / 1024.0  # bytes on macOS, KiB on Linux
 
 
 # -- the peers (run inside the worker) -----------------------------------------------------------
@@ -187,10 +217,11 @@ def _send(out, message: dict) -> None:
     out.flush()
 
 
-def _summary(times: list) -> dict:
+def _summary(times: list, peaks: list) -> dict:
     if not times:
         return {"frames": 0}
-    return {"frames": len(times), "min_ms": min(times), "median_ms": median(times), "max_ms": max(times)}
+    return {"frames": len(times), "min_ms": min(times), "median_ms": median(times), "max_ms": max(times),
+            "peak_rss_mb": max(peaks)}
 
 
 def _save_png(path: str, rgb: np.ndarray) -> None:
@@ -237,26 +268,28 @@ def worker(argv=None) -> int:
         _flush_c_stdio()  # what the peer's libraries printed, before the parent reads it
         _send(out, {"ready": True, "peer": args.peer, "version": peer.version, "settings": peer.settings(),
                     "size": list(size), "png": args.png, "png_ao_off": png_off, "ao_effect": _ao_effect(off, on),
-                    "setup_ms": (time.perf_counter() - start) * 1000.0})
+                    "setup_ms": (time.perf_counter() - start) * 1000.0, "setup_peak_rss_mb": peak_rss_mb()})
     except Exception as exc:  # noqa: BLE001 -- the parent gets the reason as one line
         _send(out, {"error": f"{type(exc).__name__}: {exc}"})
         return 1
-    times = []
+    times, peaks = [], []
     if args.frames:
         for _ in range(args.frames):
             times.append(_timed(peer))
-        _send(out, _summary(times))
+            peaks.append(peak_rss_mb())
+        _send(out, _summary(times, peaks))
         _exit_now()
     for line in sys.stdin:
         command = line.strip()
         if command == "frame":
             times.append(_timed(peer))
-            _send(out, {"ms": times[-1]})
+            peaks.append(peak_rss_mb())
+            _send(out, {"ms": times[-1], "peak_rss_mb": peaks[-1]})
         elif command == "quit":
             break
         elif command:
             _send(out, {"error": f"unknown request {command!r}"})
-    _send(out, _summary(times))
+    _send(out, _summary(times, peaks))
     _exit_now()
 
 
@@ -270,6 +303,7 @@ def _exit_now() -> None:
 
 
 def _timed(peer) -> float:
+    reset_peak_rss()  # the peak of this frame, as the bench measures its own per entry
     start = time.perf_counter()
     peer.frame()
     return (time.perf_counter() - start) * 1000.0
@@ -344,6 +378,7 @@ class PeerWorker:
                                    "--mesh", str(mesh), "--png", str(png)]
         self.log_path = Path(log) if log else self.png.with_suffix(".log")
         self.info: dict = {}
+        self.peak_rss_mb: float | None = None   # the worker's largest peak over the frames it rendered
         self.proc: subprocess.Popen | None = None
         self._buffer = b""
 
@@ -385,6 +420,8 @@ class PeerWorker:
         if "ms" not in message:
             self.stop()
             raise PeerError(message.get("error") or f"unexpected answer {message}")
+        if message.get("peak_rss_mb") is not None:
+            self.peak_rss_mb = max(self.peak_rss_mb or 0.0, float(message["peak_rss_mb"]))
         return float(message["ms"])
 
     def stop(self, timeout: float = 30.0) -> dict:

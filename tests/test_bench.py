@@ -35,7 +35,7 @@ def _figures(report) -> list:
     """The report's figures as the measuring step returned them."""
     return [bench.Figure(f["name"], f["mode"], f["width"], f["height"], f["samples"], f["scale"], f["scene"],
                          f["triangles"], f["paper_gtx285_ms"], list(f["runs_ms"]), f["stats"],
-                         f["timed_in_turns_with"]) for f in report["figures"]]
+                         f["timed_in_turns_with"], peak_rss_mb=f["peak_rss_mb"]) for f in report["figures"]]
 
 
 def _kind(scene: str) -> str:
@@ -130,6 +130,9 @@ def test_bench_quick_measures_every_item_of_the_issue(quick):
     halls = [f for f in report["figures"] if f["name"] == "geometry" and _kind(f["scene"]) == "hall"]
     assert all(f["stats"]["generated"] == "hall" and f["stats"]["triangles_drawn"] > 0 for f in halls)
     assert report["machine"]["gl_renderer"] and report["peak_rss_mb"] > 100  # numpy, GL, a 20 M-triangle hall
+    for f in report["figures"]:  # each figure's peak memory, the bench's or a peer worker's own
+        assert 50 < f["peak_rss_mb"] and (f["mode"] in bench_peers.PEERS or f["peak_rss_mb"] <= report["peak_rss_mb"])
+    assert report["peak_rss_per_figure"] and "peak MB" in printed.splitlines()[0]
     assert "vector_over_ssao" in printed and "GTX285" in printed
 
 
@@ -217,11 +220,23 @@ def test_vector_over_ssao_is_judged_at_every_sample_count(quick):
     assert floor_64.endswith("(target at 16 only)")
 
 
+def test_peak_memory_is_reset_before_an_entry():
+    """The peak after a reset is that of what follows, not of what came before it."""
+    before = np.ones(200 * 2**20, np.uint8)  # 200 MiB touched, then freed
+    high = bench_peers.peak_rss_mb()
+    del before
+    if not bench_peers.reset_peak_rss():
+        pytest.skip("/proc/self/clear_refs cannot be written here")
+    assert bench_peers.peak_rss_mb() < high - 150
+    after = np.ones(100 * 2**20, np.uint8)
+    assert bench_peers.peak_rss_mb() > high - 150 and after.any()
+
+
 def test_bench_writes_the_json_before_printing(quick, tmp_path, monkeypatch):
     """A reader that goes away (`mrcheck bench --json X | head`) costs the printout, not the run."""
     report, _ = quick
     figures = _figures(report)
-    monkeypatch.setattr(bench, "_run", lambda quick, repeat: (figures, report["machine"], {}))
+    monkeypatch.setattr(bench, "_run", lambda quick, repeat: (figures, report["machine"], {}, {"peak_rss_mb": 1.0}))
 
     class Closed(io.StringIO):
         def write(self, text):
@@ -375,6 +390,7 @@ def test_peer_worker_renders_with_ao_on(tmp_path, peer):
     finally:
         summary = worker.stop()
     assert summary["frames"] == 2 and summary["min_ms"] <= summary["median_ms"] <= summary["max_ms"]
+    assert summary["peak_rss_mb"] == worker.peak_rss_mb > 50 and info["setup_peak_rss_mb"] > 50  # its own memory
     assert info["size"] == [160, 120] and info["version"]
     assert (tmp_path / f"{peer}.png").stat().st_size > 0 and (tmp_path / f"{peer}_ao_off.png").exists()
     assert info["ao_effect"]["mean_abs_levels"] > 0  # AO on changes the frame
