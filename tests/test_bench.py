@@ -117,6 +117,10 @@ def test_bench_quick_measures_every_item_of_the_issue(quick):
     want |= {("geometry", None, "hall", *size, None, None, n) for n in (1_000_000, 20_000_000)
              for size in ((1280, 1024), (1024, 768))}
     line = _one(report, name="frame", mode="vector", width=1280, kind="line")["triangles"]
+    assert 1.45e6 < line < 1.55e6  # not the issue's 1 M triangles, and labelled as what it is:
+    assert all(f["scene"].startswith("line_1.5M:") for f in report["figures"] if _kind(f["scene"]) == "line")
+    assert f"{line:,} triangles (the issue names a 1 M-triangle line scene)" in printed
+    assert bench.Figure("frame", "vector", 1024, 768, 32, 1.0, "line", line).describe().endswith(" 1.5M triangles")
     want |= {("frame", "vector", "line", 1280, 1024, 16, 1.0, line), ("frame", "vector", "line", 1024, 768, 32, 1.0, line),
              ("frame", "vector", "line", 1024, 768, 32, 0.5, line)}
     for peer in bench_peers.PEERS:
