@@ -140,6 +140,18 @@ def test_bench_quick_measures_every_item_of_the_issue(quick):
     assert "vector_over_ssao" in printed and "GTX285" in printed
 
 
+def test_the_papers_column_is_beside_its_own_method_only(quick):
+    """Scheer & Keutel timed their vector method alone (Tables 1 and 2, GTX 285, 1280x1024)."""
+    report, _ = quick
+    paper = {(f["name"], f["mode"], _kind(f["scene"]), f["width"], f["samples"], f["scale"]): f["paper_gtx285_ms"]
+             for f in report["figures"] if f["paper_gtx285_ms"] is not None}
+    assert paper == {("ao", "vector", "sample", 1280, 16, 1.0): 12.4, ("ao", "vector", "sample", 1280, 16, 0.5): 1.6,
+                     ("ao", "vector", "sample", 1280, 64, 1.0): 47.0, ("ao", "vector", "sample", 1280, 64, 0.5): 6.1,
+                     ("blur_9x9", None, "sample", 1280, None, 1.0): 2.8,
+                     ("blur_13x13", None, "sample", 1280, None, 1.0): 3.6,
+                     ("frame", "vector", "line", 1280, 16, 1.0): 19.6}  # 16 samples, 13x13 blur: Table 2
+
+
 def test_bench_quick_timings_are_plausible(quick):
     """Positive, in milliseconds and not absurdly small: a pass that is not waited for (no
     ctx.finish()) would take microseconds."""
