@@ -38,6 +38,7 @@ height field stands in when the sample cell is missing, and the output says so).
 
 from __future__ import annotations
 
+import hashlib
 import itertools
 import json
 import os
@@ -335,13 +336,27 @@ def _sample_scene() -> tuple[Scene, Callable[[tuple], Camera], str]:
     return scene, terrain_camera, scene.name
 
 
+def _generator_digest() -> str:
+    """A hash of the hall generator's source and of the robots module whose arms it places: the
+    halls are cached by it, so that a changed generator is benchmarked on halls it made."""
+    import factory_scenes.generator as generator
+
+    from . import robots
+
+    digest = hashlib.sha256()
+    for path in sorted(Path(generator.__file__).parent.glob("*.py")) + [Path(robots.__file__)]:
+        digest.update(path.name.encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()[:12]
+
+
 def hall_scene_path(triangles: int, seed: int = HALL_SEED) -> Path:
-    """scene.toml of the generated hall at ``triangles``, generated once per (budget, seed) into
-    ``<tmp>/mrcheck-bench/`` (a finished scene is moved into place whole, so a crash leaves none)."""
+    """scene.toml of the generated hall at ``triangles``, generated once per (budget, seed,
+    generator source) into ``<tmp>/mrcheck-bench/`` (a finished scene is moved into place whole,
+    so a crash leaves none)."""
     from factory_scenes.generator import generate
 
     cache = Path(tempfile.gettempdir()) / "mrcheck-bench"
-    final = cache / f"hall_{triangles}_seed{seed}"
+    final = cache / f"hall_{triangles}_seed{seed}_{_generator_digest()}"
     if not (final / "scene.toml").exists():
         cache.mkdir(parents=True, exist_ok=True)
         work = Path(tempfile.mkdtemp(prefix=final.name + ".", dir=cache))
@@ -403,12 +418,19 @@ class _PeerStage:
         self.worker.stop()
 
 
+def peer_folder() -> Path:
+    """Where the peers' frames, their AO-off frames and logs and mrcheck's frame go: one folder
+    under the temporary directory, its files replaced by each run (not a new folder per run)."""
+    return Path(tempfile.gettempdir()) / "mrcheck-bench-peers"
+
+
 def _start_peers(ctx, scene: Scene, viewpoint: dict, reasons: dict, workdir: Path) -> list:
     """The peers whose workers start and render (one at a time, so neither set-up competes with
     the other); a peer that cannot gets its one-line reason in ``reasons``."""
-    from .bench_peers import PeerWorker, failure_reason, importable, write_mesh
+    from .bench_peers import PeerWorker, ao_off_png, failure_reason, importable, write_mesh
 
-    mesh = write_mesh(workdir / "line_mesh.npz", *flattened_mesh(scene), viewpoint, PEER_SIZE)
+    # the mesh is this run's own file (the folder is shared by every run), gone once loaded
+    mesh = write_mesh(workdir / f"line_mesh.{os.getpid()}.npz", *flattened_mesh(scene), viewpoint, PEER_SIZE)
     peers = []
     try:
         for name in PEERS:
@@ -416,6 +438,8 @@ def _start_peers(ctx, scene: Scene, viewpoint: dict, reasons: dict, workdir: Pat
                 reasons[name] = why
                 continue
             worker = PeerWorker(name, mesh, workdir / f"{name}.png")
+            for stale in (worker.png, ao_off_png(worker.png), worker.log_path):
+                stale.unlink(missing_ok=True)  # a previous run's, which a failing peer would leave
             try:
                 worker.start().wait_ready()
                 peers.append(_PeerStage(ctx, worker, reasons))
@@ -438,8 +462,10 @@ class _LineStages:
         label = f"{scene.name}_{_millions(self.triangles)}:{view}"  # 1.5M: not the issue's 1 M, said so
         self.stages = [_Stage(renderer, scene.camera(view, *size), label) for size, _, _ in FRAME_SETTINGS]
         # the peers' frames and mrcheck's at their setting, kept to look at (see the README)
-        self.workdir = Path(tempfile.mkdtemp(prefix="mrcheck-bench-peers-"))
+        self.workdir = peer_folder()
+        self.workdir.mkdir(parents=True, exist_ok=True)
         self.png = self.workdir / "mrcheck.png"
+        self.png.unlink(missing_ok=True)  # written again at the end of this run
         self.last_rgb = None
         with made_current(ctx):  # nothing the workers do touches this process's context, but be sure
             self.peers = _start_peers(ctx, scene, scene.viewpoints[view], reasons, self.workdir)

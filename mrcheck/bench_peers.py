@@ -231,6 +231,11 @@ def _save_png(path: str, rgb: np.ndarray) -> None:
         raise OSError(f"could not write {path}")
 
 
+def ao_off_png(png) -> Path:
+    """Where the worker saves its AO-off frame, beside ``png``."""
+    return Path(png).with_name(Path(png).stem + "_ao_off.png")
+
+
 def _ao_effect(off: np.ndarray, on: np.ndarray) -> dict:
     diff = off.astype(np.int16).mean(axis=2) - on.astype(np.int16).mean(axis=2)
     return {"mean_abs_levels": float(np.abs(diff).mean()), "darkened_share": float((diff > 2).mean())}
@@ -263,7 +268,7 @@ def worker(argv=None) -> int:
         peer.set_ao(True)
         on = peer.frame()  # the warm-up of the timed setting
         _save_png(args.png, on)
-        png_off = str(Path(args.png).with_name(Path(args.png).stem + "_ao_off.png"))
+        png_off = str(ao_off_png(args.png))
         _save_png(png_off, off)
         _flush_c_stdio()  # what the peer's libraries printed, before the parent reads it
         _send(out, {"ready": True, "peer": args.peer, "version": peer.version, "settings": peer.settings(),

@@ -7,8 +7,10 @@ import contextlib
 import io
 import json
 import sys
+import tempfile
 import textwrap
 from collections import Counter
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -137,6 +139,8 @@ def test_bench_quick_measures_every_item_of_the_issue(quick):
     for f in report["figures"]:  # each figure's peak memory, the bench's or a peer worker's own
         assert 50 < f["peak_rss_mb"] and (f["mode"] in bench_peers.PEERS or f["peak_rss_mb"] <= report["peak_rss_mb"])
     assert report["peak_rss_per_figure"] and "peak MB" in printed.splitlines()[0]
+    pngs = [Path(f["stats"]["png"]) for f in report["figures"] if "png" in f["stats"]]
+    assert pngs and all(png.parent == bench.peer_folder() and png.exists() for png in pngs)  # one folder, reused
     assert "vector_over_ssao" in printed and "GTX285" in printed
 
 
@@ -234,6 +238,34 @@ def test_vector_over_ssao_is_judged_at_every_sample_count(quick):
         [["16", "1.000", "meets"], ["64", "1.500", "MISSES"]]
     floor_64 = next(line for line in lines if line.split()[:2] == ["vector_over_fetch_floor", "64"])
     assert floor_64.endswith("(target at 16 only)")
+
+
+def test_the_hall_cache_is_keyed_by_the_generators_source(tmp_path, monkeypatch):
+    """A changed generator makes its halls anew, in a folder of their own; the same one reuses them."""
+    import factory_scenes.generator as generator
+
+    made = []
+
+    def generate(preset, outdir, seed=0, target_triangles=None, progress=True):
+        outdir.mkdir(parents=True)
+        made.append(outdir)
+        (outdir / "scene.toml").write_text(f"# hall {len(made)}\n")
+        return outdir / "scene.toml"
+
+    monkeypatch.setattr(generator, "generate", generate)
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    first = bench.hall_scene_path(1000)
+    assert bench.hall_scene_path(1000) == first and len(made) == 1
+    assert first.parent.name == f"hall_1000_seed0_{bench._generator_digest()}"
+    source = tmp_path / "generator"
+    source.mkdir()
+    (source / "__init__.py").write_text("PRESETS = {}\n")
+    monkeypatch.setattr(generator, "__file__", str(source / "__init__.py"))
+    before = bench._generator_digest()
+    (source / "layout.py").write_text("AISLE_M = 3.5\n")  # the generator changes
+    assert bench._generator_digest() != before
+    second = bench.hall_scene_path(1000)
+    assert second != first and len(made) == 2 and second.read_text() == "# hall 2\n" and first.exists()
 
 
 def test_peak_memory_is_reset_before_an_entry():
