@@ -481,14 +481,18 @@ class _LineStages:
         self.stages[0].release()  # the renderer the stages share
 
 
+def _frame_scales(size) -> tuple:
+    """The AO scales of the line scene's frame at ``size``: at the peers' size half resolution
+    too, the paper's option for slow GPUs (its ratios to the peers are reported beside)."""
+    return (1.0, 0.5) if tuple(size) == PEER_SIZE else (1.0,)
+
+
 def _frame_jobs(group: _LineStages) -> list[list]:
     """mrcheck's whole frame at each setting; at the peers' setting timed in turns with them."""
     entries = []
     for stage, (size, samples, blur) in zip(group.stages, FRAME_SETTINGS):
         entry = []
-        # full-resolution AO (the peers' ratios); at the peers' setting also half resolution,
-        # the paper's option for slow GPUs (its ratios to the peers are reported beside)
-        for scale in (1.0, 0.5) if size == PEER_SIZE else (1.0,):
+        for scale in _frame_scales(size):  # full-resolution AO: the peers' ratios
             settings = stage.settings(samples, scale, blur)
             keep = size == PEER_SIZE and scale == 1.0
 
@@ -727,7 +731,7 @@ def _plan(ctx: moderngl.Context, quick: bool, reasons: dict | None = None) -> li
     sections.append(_Section(hall_stages, _hall_jobs, len(hall_triangles) * len(SIZES)))
     reasons = {} if reasons is None else reasons
     sections.append(_Section(lambda: _LineStages(ctx, quick, reasons), _frame_jobs,
-                             len(FRAME_SETTINGS) + len(PEERS)))
+                             sum(len(_frame_scales(size)) for size, _, _ in FRAME_SETTINGS) + len(PEERS)))
     return sections
 
 
@@ -921,11 +925,14 @@ def _run(quick: bool, repeat: int) -> tuple[list[Figure], dict, dict, dict]:
             with tqdm(total=sum(s.count for s in sections), desc="bench", unit="figure", file=sys.stderr) as bar:
                 for section in sections:
                     stage = section.make_stage()
-                    for entry in section.jobs(stage):
+                    entries = section.jobs(stage)
+                    bar.total += sum(map(len, entries)) - section.count  # a peer that did not start: no job
+                    bar.refresh()
+                    for entry in entries:
                         measured = _measure(entry, repeat, memory)
                         figures.extend(measured)
                         bar.set_postfix_str(measured[-1].describe())
-                        bar.update(len(measured))
+                        bar.update(len(entry))  # a peer that failed mid-run was still timed up to then
                     if section.release_after:
                         stage.release()
                     del stage  # before the next section builds its scene (10 M triangles)

@@ -144,6 +144,16 @@ def test_bench_quick_measures_every_item_of_the_issue(quick):
     assert "vector_over_ssao" in printed and "GTX285" in printed
 
 
+def test_the_progress_total_is_the_figures_measured(quick):
+    """The plan's count is what a run measures: 64 figures quick, 204 in a full run (2 sizes x
+    (4 sample counts x 22 + 6) on the sample cell, 5 on the height fields, 3 halls at 2 sizes,
+    3 line-scene frames and 2 peers)."""
+    report, _ = quick
+    not_run = sum(report["ratios"][f"{peer}_over_mrcheck_frame"] is None for peer in bench_peers.PEERS)
+    assert sum(section.count for section in bench._plan(None, quick=True)) == len(report["figures"]) + not_run == 64
+    assert sum(section.count for section in bench._plan(None, quick=False)) == 204
+
+
 def test_the_papers_column_is_beside_its_own_method_only(quick):
     """Scheer & Keutel timed their vector method alone (Tables 1 and 2, GTX 285, 1280x1024)."""
     report, _ = quick
