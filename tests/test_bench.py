@@ -4,6 +4,7 @@ timings belong to the machine, see the README's performance section)."""
 from __future__ import annotations
 
 import contextlib
+import inspect
 import io
 import json
 import sys
@@ -276,6 +277,11 @@ def test_the_hall_cache_is_keyed_by_the_generators_source(tmp_path, monkeypatch)
     assert bench._generator_digest() != before
     second = bench.hall_scene_path(1000)
     assert second != first and len(made) == 2 and second.read_text() == "# hall 2\n" and first.exists()
+
+
+def test_a_hung_peer_holds_the_bench_up_two_minutes_at_most():
+    assert inspect.signature(PeerWorker.wait_ready).parameters["timeout"].default == bench_peers.START_TIMEOUT_S <= 120
+    assert inspect.signature(PeerWorker.frame).parameters["timeout"].default == bench_peers.FRAME_TIMEOUT_S <= 60
 
 
 def test_peak_memory_is_reset_before_an_entry():
