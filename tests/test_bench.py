@@ -279,6 +279,14 @@ def test_the_hall_cache_is_keyed_by_the_generators_source(tmp_path, monkeypatch)
     assert second != first and len(made) == 2 and second.read_text() == "# hall 2\n" and first.exists()
 
 
+def test_the_stand_in_for_a_missing_sample_cell_has_a_label_of_its_own(tmp_path, monkeypatch):
+    """Else its AO passes would be divided by the height-field section's floor (same label)."""
+    monkeypatch.setattr(bench, "sample_scene_path", lambda: tmp_path / "missing.toml")
+    scene, camera_for, label = bench._sample_scene()
+    assert label != scene.name == bench.terrain_scene(bench.TRIANGLE_COUNTS[0]).name
+    assert camera_for((1280, 1024)).width == 1280
+
+
 def test_a_hung_peer_holds_the_bench_up_two_minutes_at_most():
     assert inspect.signature(PeerWorker.wait_ready).parameters["timeout"].default == bench_peers.START_TIMEOUT_S <= 120
     assert inspect.signature(PeerWorker.frame).parameters["timeout"].default == bench_peers.FRAME_TIMEOUT_S <= 60
