@@ -292,6 +292,15 @@ def test_a_hung_peer_holds_the_bench_up_two_minutes_at_most():
     assert inspect.signature(PeerWorker.frame).parameters["timeout"].default == bench_peers.FRAME_TIMEOUT_S <= 60
 
 
+def test_bench_help_says_what_quick_leaves_out_and_where_files_go(capsys):
+    assert main(["bench", "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    for said in ("1024x768 figures", "36- and 128-sample counts", "10 M-triangle hall", "3 rounds instead of 5",
+                 "missing folders are created, an existing file is replaced", "mrcheck-bench/",
+                 "mrcheck-bench-peers/", "replaced by each run"):
+        assert said in text
+
+
 def test_peak_memory_is_reset_before_an_entry():
     """The peak after a reset is that of what follows, not of what came before it."""
     before = np.ones(200 * 2**20, np.uint8)  # 200 MiB touched, then freed
