@@ -244,7 +244,7 @@ def test_vector_over_ssao_is_judged_at_every_sample_count(quick):
     ssao[64, 1.0].times_ms = [vector[64, 1.0].times_ms[0] / 1.5]  # and 1.5 at 64
     lines = bench._format_ratios(bench._ratios(figures), report["run"]).splitlines()
     assert next(line for line in lines if line.split()[0] == "vector_over_ssao").endswith(
-        "meets at 16 samples; MISSES at 64 samples")
+        "meets at 16; MISSES at 64 samples")
     assert [line.split()[1:3] + [line.split()[-1]] for line in lines if line.split()[0] == "vector_over_ssao"][1:] == \
         [["16", "1.000", "meets"], ["64", "1.500", "MISSES"]]
     floor_64 = next(line for line in lines if line.split()[:2] == ["vector_over_fetch_floor", "64"])
