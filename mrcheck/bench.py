@@ -3,14 +3,16 @@
 Every figure is measured in the run that prints it, never written down: one warm-up draw, then
 ``repeat`` timed draws through :meth:`Renderer._timed` (``ctx.finish()`` before and after, so a
 figure is the GL work of that pass, including llvmpipe's rasterisation threads). Reported:
-min / median / max in milliseconds. Ratios are paired: figures compared are timed in turns, one
+min / median / max in milliseconds, and the peak resident memory while the figure was timed
+(:class:`_PeakMemory`). Ratios are paired: figures compared are timed in turns, one
 run of each per round, and a ratio is the median of the per-round ratios (:func:`_ratio`).
 
 What is timed (Scheer & Keutel, Tables 1 and 2, benchmarked at 1280x1024):
 
-* the AO pass of ``vector`` (D2) and ``ssao`` (D3) per sample count, at full resolution and at
-  half resolution (``ao_scale=0.5``: the G-buffer downsample plus the half-size AO draw; the
-  depth-aware upsampling is fused into the composite, so it shows up in the half-res composite);
+* the AO pass of every mode (``vector`` D2, ``ssao`` D3, and ``crytek``, ``hbao``, ``alchemy``)
+  per sample count, at full resolution and at half resolution (``ao_scale=0.5``: the G-buffer
+  downsample plus the half-size AO draw; the depth-aware upsampling is fused into the
+  composite, so it shows up in the half-res composite);
 * the *fetch floor* (``shaders/ao_fetch_floor.glsl``): the same number of depth fetches per pixel
   inside the same pixel radius, with no arithmetic; an AO pass over its floor is the price of
   the arithmetic on top of the memory traffic;
@@ -32,7 +34,7 @@ AO on the same flattened mesh and viewpoint, each peer in a worker process of it
 (:mod:`mrcheck.bench_peers`) that renders one frame per request, so the three frames are timed in
 turns. A peer that is not installed or fails gives a null ratio and a one-line reason.
 
-Scene for the first three: the embedded sample cell from its ``overview`` viewpoint (a synthetic
+Scene for the first four: the embedded sample cell from its ``overview`` viewpoint (a synthetic
 height field stands in when the sample cell is missing, and the output says so).
 """
 
@@ -514,6 +516,7 @@ def _frame_jobs(group: _LineStages) -> list[list]:
                 figure = Figure("frame", peer.worker.peer, *size, None, None, stage.label, group.triangles,
                                 stats={"peer": info["version"], "settings": info["settings"], "png": info["png"],
                                        "ao_effect": info["ao_effect"], "setup_ms": info["setup_ms"],
+                                       "setup_peak_rss_mb": info.get("setup_peak_rss_mb"),
                                        "timed": "render + read back RGB(A), inside the peer's worker process"})
                 entry.append((peer, _Job(figure, lambda: None, lambda: None)))
         entries.append(entry)

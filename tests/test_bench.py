@@ -139,6 +139,7 @@ def test_bench_quick_measures_every_item_of_the_issue(quick):
     assert report["machine"]["gl_renderer"] and report["peak_rss_mb"] > 100  # numpy, GL, a 20 M-triangle hall
     for f in report["figures"]:  # each figure's peak memory, the bench's or a peer worker's own
         assert 50 < f["peak_rss_mb"] and (f["mode"] in bench_peers.PEERS or f["peak_rss_mb"] <= report["peak_rss_mb"])
+        assert f["mode"] not in bench_peers.PEERS or f["stats"]["setup_peak_rss_mb"] > 50  # the peer's set-up
     assert report["peak_rss_per_figure"] and "peak MB" in printed.splitlines()[0]
     pngs = [Path(f["stats"]["png"]) for f in report["figures"] if "png" in f["stats"]]
     assert pngs and all(png.parent == bench.peer_folder() and png.exists() for png in pngs)  # one folder, reused
