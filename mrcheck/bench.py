@@ -636,7 +636,7 @@ class _PeakMemory:
         self.stop()
         how = ("the bench process's peak during the figure's entry (VmHWM, reset through /proc/self/clear_refs "
                "before each entry)" if self.per_entry else
-               "the bench process's peak since it started (ru_maxrss: /proc/self/clear_refs could not be written)")
+               "the bench process's peak since it started (never reset: /proc/self/clear_refs could not be written)")
         return {"peak_rss_mb": self.whole_mb,
                 "peak_rss_per_figure": how + "; a peer's: its worker's peak over its frames, reset before each"}
 
@@ -663,7 +663,7 @@ def _measure(entry: list, repeat: int, memory: _PeakMemory | None = None) -> lis
                 job.figure.times_ms.append(stage.renderer._timed(job.work))
     peak = memory.stop()
     for stage, job in entry:
-        job.figure.peak_rss_mb = getattr(stage, "peak_rss_mb", None) or peak  # a peer's worker reports its own
+        job.figure.peak_rss_mb = getattr(stage, "peak_rss_mb", peak)  # a peer's worker reports its own
     return [job.figure for stage, job in entry if getattr(stage, "failed", None) is None]  # a failed peer: none
 
 
