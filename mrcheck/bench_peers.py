@@ -12,10 +12,10 @@ both sides of a ratio alike. ::
 
 The worker sets the peer up, renders one frame with the peer's AO off and one with it on (the
 warm-up; saved to ``--png``), and prints one JSON line: ``{"ready": true, "peer", "version",
-"settings", "png", "ao_effect", "setup_ms", "setup_peak_rss_mb"}`` -- ``ao_effect`` is the mean difference between the
-AO-on and AO-off frames in 8-bit levels and the share of pixels the AO darkened by more than 2
-levels, which shows that the AO is really on (the AO-off frame is saved next to ``--png`` as
-``*_ao_off.png``). Then per request line:
+"settings", "png", "ao_effect", "setup_ms", "setup_peak_rss_mb"}`` -- ``ao_effect`` is the mean
+difference between the AO-on and AO-off frames in 8-bit levels and the share of pixels the AO
+darkened by more than 2 levels, which shows that the AO is really on (the AO-off frame is saved
+next to ``--png`` as ``*_ao_off.png``). Then per request line:
 
 * ``frame`` -> ``{"ms": T, "peak_rss_mb": M}``: one frame, render plus read-back of the image
   (the read-back finishes the peer's GPU work), timed inside the worker, and the worker's peak
