@@ -12,25 +12,31 @@ both sides of a ratio alike. ::
 
 The worker sets the peer up, renders one frame with the peer's AO off and one with it on (the
 warm-up; saved to ``--png``), and prints one JSON line: ``{"ready": true, "peer", "version",
-"settings", "png", "ao_effect", "setup_ms"}`` -- ``ao_effect`` is the mean difference between the
-AO-on and AO-off frames in 8-bit levels and the share of pixels the AO darkened by more than 2
-levels, which shows that the AO is really on (the AO-off frame is saved next to ``--png`` as
-``*_ao_off.png``). Then per request line:
+"settings", "png", "ao_effect", "setup_ms", "setup_peak_rss_mb"}`` -- ``ao_effect`` is the mean
+difference between the AO-on and AO-off frames in 8-bit levels and the share of pixels the AO
+darkened by more than 2 levels, which shows that the AO is really on (the AO-off frame is saved
+next to ``--png`` as ``*_ao_off.png``). Then per request line:
 
-* ``frame`` -> ``{"ms": T}``: one frame, render plus read-back of the image (the read-back
-  finishes the peer's GPU work), timed inside the worker;
-* ``quit`` -> ``{"frames": n, "min_ms", "median_ms", "max_ms"}``, then the worker exits.
+* ``frame`` -> ``{"ms": T, "peak_rss_mb": M}``: one frame, render plus read-back of the image
+  (the read-back finishes the peer's GPU work), timed inside the worker, and the worker's peak
+  resident memory during it (:func:`peak_rss_mb`, reset before the frame where it can be);
+* ``quit`` -> ``{"frames": n, "min_ms", "median_ms", "max_ms", "peak_rss_mb"}``, then the worker
+  exits.
 
 With ``--frames N`` it times N frames after the warm-up by itself and prints the summary line.
-On failure it prints ``{"error": "..."}`` if it still can and exits non-zero. Everything the
-peer's libraries print goes to stderr; stdout carries only the protocol.
+On failure it prints ``{"error": "..."}`` if it still can and exits non-zero; when the peer's
+packages cannot be imported, ``{"error": "not installed: ...", "not_installed": true}`` (a peer
+that is not installed is not a peer that fails). Everything the peer's libraries print goes to
+stderr; stdout carries only the protocol.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import os
+import resource
 import select
 import subprocess
 import sys
@@ -43,8 +49,39 @@ import numpy as np
 PEERS = ("vtk", "open3d")
 VTK_KERNEL = 32          # the issue's setting: enable_ssao(kernel_size=32), no MSAA
 GREY = (0.7, 0.7, 0.7)
-START_TIMEOUT_S = 600.0  # set-up of a 1.5 M-triangle mesh plus two frames on a 2-core CPU
-FRAME_TIMEOUT_S = 300.0
+# A hung peer must not hold the bench up for long (--quick takes a minute or two), and a slow one
+# must still be timed. Set-up of the 1.5 M-triangle line mesh plus its two first frames took
+# 2-5 s on this project's 2-core machine, busy or not; a frame 0.2-2 s (Open3D's on a busy one).
+START_TIMEOUT_S = 120.0  # some 25x the slowest set-up seen
+FRAME_TIMEOUT_S = 60.0   # some 30x the slowest frame seen
+NOT_INSTALLED = "not installed: "   # how the reason of a peer that is not installed begins
+
+
+# -- peak memory (the bench's process and the workers alike) -------------------------------------
+def reset_peak_rss() -> bool:
+    """Lower this process's peak resident memory (VmHWM) to what it holds now, so that the next
+    :func:`peak_rss_mb` is the peak since this call (Linux: "5" into /proc/self/clear_refs). It
+    lowers what ``ru_maxrss`` reports too. False where it cannot: the peak is then since start."""
+    try:
+        with open("/proc/self/clear_refs", "w") as clear_refs:
+            clear_refs.write("5")
+        return True
+    except OSError:
+        return False
+
+
+def peak_rss_mb() -> float:
+    """This process's peak resident memory in MiB since the last :func:`reset_peak_rss` (VmHWM),
+    or since it started (``ru_maxrss``) where /proc/self/status is not there."""
+    try:
+        with open("/proc/self/status") as status:
+            for line in status:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024.0  # kB
+    except OSError:
+        pass
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return rss / 2**20 if sys.platform == "darwin" else rss / 1024.0  # bytes on macOS, KiB on Linux
 
 
 # -- the peers (run inside the worker) -----------------------------------------------------------
@@ -54,6 +91,7 @@ class VtkPeer:
     reading the RGBA buffer back."""
 
     name = "vtk"
+    packages = ("pyvista", "vtk")
 
     def __init__(self, vertices, faces, view: dict, size):
         if not os.environ.get("DISPLAY"):  # no X server: VTK's wheel renders through EGL
@@ -116,6 +154,7 @@ class Open3DPeer:
     back)."""
 
     name = "open3d"
+    packages = ("open3d",)
 
     def __init__(self, vertices, faces, view: dict, size):
         import open3d as o3d
@@ -181,10 +220,11 @@ def _send(out, message: dict) -> None:
     out.flush()
 
 
-def _summary(times: list) -> dict:
+def _summary(times: list, peaks: list) -> dict:
     if not times:
         return {"frames": 0}
-    return {"frames": len(times), "min_ms": min(times), "median_ms": median(times), "max_ms": max(times)}
+    return {"frames": len(times), "min_ms": min(times), "median_ms": median(times), "max_ms": max(times),
+            "peak_rss_mb": max(peaks)}
 
 
 def _save_png(path: str, rgb: np.ndarray) -> None:
@@ -192,6 +232,11 @@ def _save_png(path: str, rgb: np.ndarray) -> None:
 
     if not cv2.imwrite(path, np.ascontiguousarray(rgb[..., ::-1])):
         raise OSError(f"could not write {path}")
+
+
+def ao_off_png(png) -> Path:
+    """Where the worker saves its AO-off frame, beside ``png``."""
+    return Path(png).with_name(Path(png).stem + "_ao_off.png")
 
 
 def _ao_effect(off: np.ndarray, on: np.ndarray) -> dict:
@@ -207,8 +252,15 @@ def worker(argv=None) -> int:
     parser.add_argument("--frames", type=int, default=0, help="time N frames by itself and exit")
     args = parser.parse_args(argv)
     out = _protocol_stdout()
+    start = time.perf_counter()
     try:
-        start = time.perf_counter()
+        for package in PEER_CLASSES[args.peer].packages:
+            importlib.import_module(package)
+    except Exception as exc:  # noqa: BLE001 -- ImportError, or OSError for a shared library it lacks
+        _send(out, {"error": f"{NOT_INSTALLED}{args.peer} cannot be imported: {type(exc).__name__}: {exc}",
+                    "not_installed": True})
+        return 1
+    try:
         data = np.load(args.mesh)
         view = {k: data[k].tolist() for k in ("eye", "target", "up")}
         view["fov_y_deg"] = float(data["fov_y_deg"])
@@ -219,31 +271,33 @@ def worker(argv=None) -> int:
         peer.set_ao(True)
         on = peer.frame()  # the warm-up of the timed setting
         _save_png(args.png, on)
-        png_off = str(Path(args.png).with_name(Path(args.png).stem + "_ao_off.png"))
+        png_off = str(ao_off_png(args.png))
         _save_png(png_off, off)
         _flush_c_stdio()  # what the peer's libraries printed, before the parent reads it
         _send(out, {"ready": True, "peer": args.peer, "version": peer.version, "settings": peer.settings(),
                     "size": list(size), "png": args.png, "png_ao_off": png_off, "ao_effect": _ao_effect(off, on),
-                    "setup_ms": (time.perf_counter() - start) * 1000.0})
+                    "setup_ms": (time.perf_counter() - start) * 1000.0, "setup_peak_rss_mb": peak_rss_mb()})
     except Exception as exc:  # noqa: BLE001 -- the parent gets the reason as one line
         _send(out, {"error": f"{type(exc).__name__}: {exc}"})
         return 1
-    times = []
+    times, peaks = [], []
     if args.frames:
         for _ in range(args.frames):
             times.append(_timed(peer))
-        _send(out, _summary(times))
+            peaks.append(peak_rss_mb())
+        _send(out, _summary(times, peaks))
         _exit_now()
     for line in sys.stdin:
         command = line.strip()
         if command == "frame":
             times.append(_timed(peer))
-            _send(out, {"ms": times[-1]})
+            peaks.append(peak_rss_mb())
+            _send(out, {"ms": times[-1], "peak_rss_mb": peaks[-1]})
         elif command == "quit":
             break
         elif command:
             _send(out, {"error": f"unknown request {command!r}"})
-    _send(out, _summary(times))
+    _send(out, _summary(times, peaks))
     _exit_now()
 
 
@@ -257,6 +311,7 @@ def _exit_now() -> None:
 
 
 def _timed(peer) -> float:
+    reset_peak_rss()  # the peak of this frame, as the bench measures its own per entry
     start = time.perf_counter()
     peer.frame()
     return (time.perf_counter() - start) * 1000.0
@@ -268,6 +323,11 @@ class PeerError(RuntimeError):
 
     def __init__(self, reason: str):
         super().__init__(" ".join(str(reason).split()))
+
+
+class PeerNotInstalled(PeerError):
+    """A peer whose packages or driver are missing on this machine (its reason begins with
+    NOT_INSTALLED), as against one that is installed and fails: a test may skip the first only."""
 
 
 def failure_reason(exc: BaseException) -> str:
@@ -284,14 +344,35 @@ def write_mesh(path: Path, vertices, faces, viewpoint: dict, size) -> Path:
 
 
 def importable(peer: str) -> str | None:
-    """None when the peer's package is installed, else why not (checked without importing it)."""
+    """None when the peer's packages (and for Open3D, a Vulkan driver) are installed, else why
+    not, beginning with NOT_INSTALLED (checked without importing them: the worker imports them,
+    and reports a failed import as not installed too)."""
     from importlib.util import find_spec
 
-    package = {"vtk": "pyvista", "open3d": "open3d"}[peer]
-    if find_spec(package) is None:
-        hint = "pip install 'mrcheck[bench]' or ./bootstrap.sh bench" if peer == "vtk" else "pip install open3d"
-        return f"{package} is not installed ({hint})"
+    for package in PEER_CLASSES[peer].packages:
+        if find_spec(package) is None:
+            hint = "pip install 'mrcheck[bench]' or ./bootstrap.sh bench" if peer == "vtk" else "pip install open3d"
+            return f"{NOT_INSTALLED}{package} ({hint})"
+    if peer == "open3d" and not _vulkan_driver():
+        return (f"{NOT_INSTALLED}a Vulkan driver, which Open3D's headless renderer needs "
+                "(apt-get install libvulkan1 mesa-vulkan-drivers, or ./bootstrap.sh bench)")
     return None
+
+
+def _vulkan_driver() -> bool:
+    """Whether the Vulkan loader and an installable client driver (an ICD manifest) are there,
+    where the loader looks for them on Linux; True elsewhere (not checked)."""
+    if not sys.platform.startswith("linux"):
+        return True
+    import ctypes.util
+
+    if ctypes.util.find_library("vulkan") is None:
+        return False
+    if os.environ.get("VK_ICD_FILENAMES") or os.environ.get("VK_DRIVER_FILES"):
+        return True  # chosen by hand: the loader is told where the driver is
+    data_dirs = os.environ.get("XDG_DATA_DIRS") or "/usr/local/share:/usr/share"
+    folders = ["/etc/vulkan/icd.d", *(Path(d) / "vulkan" / "icd.d" for d in data_dirs.split(":") if d)]
+    return any(Path(folder).is_dir() and any(Path(folder).glob("*.json")) for folder in folders)
 
 
 class PeerWorker:
@@ -305,6 +386,7 @@ class PeerWorker:
                                    "--mesh", str(mesh), "--png", str(png)]
         self.log_path = Path(log) if log else self.png.with_suffix(".log")
         self.info: dict = {}
+        self.peak_rss_mb: float | None = None   # the worker's largest peak over the frames it rendered
         self.proc: subprocess.Popen | None = None
         self._buffer = b""
 
@@ -322,7 +404,8 @@ class PeerWorker:
         message = self._read(timeout, "starting")
         if not message.get("ready"):
             self.stop()
-            raise PeerError(message.get("error") or f"unexpected answer {message}")
+            error = PeerNotInstalled if message.get("not_installed") else PeerError
+            raise error(message.get("error") or f"unexpected answer {message}")
         self.info = message
         backend = self._backend()
         if backend:
@@ -345,6 +428,8 @@ class PeerWorker:
         if "ms" not in message:
             self.stop()
             raise PeerError(message.get("error") or f"unexpected answer {message}")
+        if message.get("peak_rss_mb") is not None:
+            self.peak_rss_mb = max(self.peak_rss_mb or 0.0, float(message["peak_rss_mb"]))
         return float(message["ms"])
 
     def stop(self, timeout: float = 30.0) -> dict:

@@ -165,15 +165,27 @@ def demo(outdir, width, height):
 
 
 @cli.command()
-@click.option("--quick", is_flag=True, help="Fewer sizes and repetitions (about 40 s on a 2-core CPU once the halls are cached, 1.5 min for the full run); every ratio is still computed.")
-@click.option("--json", "json_path", metavar="OUT.json", help="Also write every raw figure and the ratios as JSON.")
+@click.option("--quick", is_flag=True,
+              help="Leave out the sample cell's 1024x768 figures (AO passes, frames, blurs, composites), the 36- and "
+                   "128-sample counts and the 10 M-triangle hall, and time 3 rounds instead of 5; every ratio is still "
+                   "computed, its verdict indicative.")
+@click.option("--json", "json_path", metavar="OUT.json",
+              help="Also write every raw figure (with its peak memory) and the ratios (with their per-round ratios) as "
+                   "JSON, before the table is printed; missing folders are created, an existing file is replaced.")
 @click.option("--repeat", type=int, default=None, callback=_positive, help="Timed runs per figure after one warm-up [default: 5, --quick: 3].")
 def bench(quick, json_path, repeat):
-    """Measure the AO passes on this machine: vector vs ssao, the fetch floor, half vs full
-    resolution, and AO time at 1 M vs 10 M triangles; the geometry pass of the generated hall
-    at 1, 10 and 20 M triangles; the whole frame against VTK's SSAO and Open3D's renderer with
-    AO when they can run (./bootstrap.sh bench installs them). Prints a table of what it
-    measured and the issue's ratios, each against its target."""
+    """Measure the AO passes on this machine: every AO mode at full and half resolution, over
+    the fetch floor, and its whole frame; the blurs and the composite; AO time at 1 M vs 10 M
+    triangles; the geometry pass of the generated hall at 1, 10 and 20 M triangles at both
+    sizes; the whole frame on the 1.5 M-triangle line scene against VTK's SSAO and Open3D's
+    renderer with AO when they can run (./bootstrap.sh bench installs them). Prints a table of
+    what it measured, with each figure's peak memory, and the issue's ratios with their spread
+    over the rounds, each against its target.
+
+    The generated halls are cached in the temporary directory ($TMPDIR, else /tmp) under
+    mrcheck-bench/ (about 50 MB, made again when the generator changes); the peers' frames, their
+    AO-off frames and logs and mrcheck's frame go to mrcheck-bench-peers/ beside it, replaced by
+    each run."""
     from .bench import bench_command
 
     bench_command(quick=quick, json_path=json_path, repeat=repeat)
