@@ -21,6 +21,7 @@ pytest.importorskip("fastapi")
 from fastapi.testclient import TestClient  # noqa: E402
 
 from mrcheck.cli import main  # noqa: E402
+from mrcheck.errors import MrcheckError  # noqa: E402
 from mrcheck.output import write_image  # noqa: E402
 from mrcheck.resources import sample_scene_path  # noqa: E402
 from mrcheck.review.app import create_app  # noqa: E402
@@ -139,7 +140,6 @@ def test_token_required(outdir, tmp_path):
 def test_suggested_markers_of_a_discrepancies_run(outdir, tmp_path, monkeypatch):
     """--suggestions: a suspects.json's suggested markers become editable markers of category
     "suggested" on the shot with the same photo; a deleted one does not come back on restart."""
-    from mrcheck.errors import MrcheckError
     from mrcheck.review.suggestions import load_suggestions
 
     source = open_source(outdir)
@@ -567,6 +567,26 @@ def test_the_page_shows_why_a_photo_failed(tmp_path):
         page.goto(url)
         page.wait_for_function("document.querySelector('#status').textContent.includes('failed: ')", timeout=30000)
         assert "photo is 32x24 but the shot was registered at 64x48" in page.text_content("#status")
+
+
+@needs_chromium
+def test_the_page_says_why_an_export_failed(tmp_path, monkeypatch):
+    """The export links were plain downloads: a failed report ended as "canceled" in the
+    browser's download list, with no reason on the page."""
+    import mrcheck.review.app as review_app
+
+    def broken(*args):
+        raise MrcheckError("no space left on the device")
+
+    monkeypatch.setattr(review_app, "report_html", broken)
+    with _box_page(tmp_path) as (app, page, url):
+        _open(page, url)
+        page.click("#export-html")
+        page.wait_for_function("document.querySelector('#status').textContent.includes('failed: ')", timeout=30000)
+        assert "Export report (HTML) failed: no space left on the device" in page.text_content("#status")
+        with page.expect_download() as info:          # the CSV still downloads, under its own name
+            page.click("#export-csv")
+        assert info.value.suggested_filename == "markers.csv"
 
 
 @needs_chromium

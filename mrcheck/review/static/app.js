@@ -63,9 +63,25 @@ function loadRender() {
 // an image the server refused: its reason ({"error": ...}, e.g. a photo replaced since start-up)
 // in the status line, not only a broken image
 async function imageFailed(url, what) {
-  const res = await fetch(url).catch(() => null);
+  failed(what, await fetch(url).catch(() => null));
+}
+async function failed(what, res) {
   const data = res ? await res.json().catch(() => ({})) : {};
   status(`${what} failed: ${data.error || (res ? res.status : "no connection to the server")}`);
+}
+
+// exports are fetched here, then saved: a plain download link that fails ends silently in the
+// browser's download list, and the planner never learns why
+async function exportFile(link) {
+  const what = link.textContent;
+  status(`${what}...`);
+  const res = await fetch(link.getAttribute("href")).catch(() => null);
+  if (!res || !res.ok) return failed(what, res);
+  const url = URL.createObjectURL(await res.blob());
+  const save = Object.assign(document.createElement("a"), { href: url, download: link.getAttribute("href").split("/").pop() });
+  document.body.appendChild(save); save.click(); save.remove();
+  setTimeout(() => URL.revokeObjectURL(url), 60000);
+  status(`${what}: saved`);
 }
 
 // -- shots ---------------------------------------------------------------------------------
@@ -259,6 +275,7 @@ async function start() {
     li.onclick = () => selectShot(shot);
     $("#shot-list").appendChild(li);
   }
+  for (const link of $$("#exports a")) link.onclick = (e) => { e.preventDefault(); exportFile(link); };
   applyView();
   const wanted = new URLSearchParams(location.search).get("shot");
   await selectShot(S.shots.find((s) => s.name === wanted) || S.shots[0]);
