@@ -16,7 +16,7 @@ from pathlib import Path
 
 import click
 
-from .errors import MrcheckError
+from .errors import MrcheckError, bug_reason
 
 EXIT_ERROR = 1
 
@@ -443,8 +443,7 @@ def main(argv=None) -> int:
     except Exception as exc:  # a bug, not bad input: still one line; the traceback on request
         if os.environ.get("MRCHECK_DEBUG"):
             raise
-        reason = " ".join(str(exc).split())[:300]
-        click.echo(f"error: internal error, please report it: {type(exc).__name__}: {reason} "
+        click.echo(f"error: internal error, please report it: {bug_reason(exc)} "
                    "(MRCHECK_DEBUG=1 shows the traceback)", err=True)
         return EXIT_ERROR
     # a command may return its own exit status (export: 1 when any shot failed)

@@ -17,4 +17,10 @@ class MrcheckError(Exception):
         super().__init__(message)
 
 
-__all__ = ["MrcheckError"]
+def bug_reason(exc: BaseException) -> str:
+    """An unexpected exception (a bug, not bad input) as one line for "internal error, please
+    report it: ...": its type and at most 300 characters of its message."""
+    return f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}"
+
+
+__all__ = ["MrcheckError", "bug_reason"]

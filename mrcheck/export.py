@@ -84,7 +84,6 @@ from __future__ import annotations
 import glob
 import hashlib
 import json
-import math
 import multiprocessing
 import os
 import re
@@ -101,6 +100,7 @@ import cv2
 
 from .camera import Camera, fit_size
 from .errors import MrcheckError
+from .jsonfile import is_number
 from .output import check_writable_ancestor, encode_image, write_bytes, write_text
 from .overlay import STUDY_ORDER, check_alpha, distortion_map, load_shot, overlay_images, read_photo, \
     render_for_photo, study_sheet
@@ -143,10 +143,6 @@ class Job:
         return {"scene": str(self.scene), "modes": self.modes, "alphas": self.alphas, "intensities": self.intensities,
                 "overlay_intensity": self.overlay_intensity, "width": self.width,
                 "max_registration_error_px": self.max_error, "samples": self.samples, "edges": self.edges}
-
-
-def _number(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def load_job(path) -> Job:
@@ -196,7 +192,7 @@ def load_job(path) -> Job:
 
     def numbers(key, default, check, what):
         values = data.get(key, default)
-        if not isinstance(values, list) or not values or not all(_number(v) for v in values):
+        if not isinstance(values, list) or not values or not all(is_number(v) for v in values):
             fail(f"{key} must be a non-empty list of numbers")
         for v in values:
             if not check(v):
@@ -208,13 +204,13 @@ def load_job(path) -> Job:
         check_alpha(a)
     intensities = numbers("intensities", [1.0], lambda i: i >= 0.0, "negative (AO strength must be >= 0)")
     overlay_intensity = data.get("overlay_intensity", 1.0 if 1.0 in intensities else intensities[len(intensities) // 2])
-    if not _number(overlay_intensity) or float(overlay_intensity) not in intensities:
+    if not is_number(overlay_intensity) or float(overlay_intensity) not in intensities:
         fail(f"overlay_intensity {overlay_intensity!r} must be one of the intensities {intensities}")
     width = data.get("width")
     if width is not None and not (isinstance(width, int) and not isinstance(width, bool) and 16 <= width <= 16384):
         fail(f"width must be a whole number of pixels, 16..16384, got {width!r}")
     max_error = data.get("max_registration_error_px")
-    if max_error is not None and not (_number(max_error) and max_error > 0):
+    if max_error is not None and not (is_number(max_error) and max_error > 0):
         fail(f"max_registration_error_px must be a positive number, got {max_error!r}")
     samples = data.get("samples", DEFAULT_SAMPLES)
     if not (isinstance(samples, int) and not isinstance(samples, bool) and 1 <= samples <= 512):
@@ -430,7 +426,7 @@ def _register(inputs: dict, max_error, scene_bounds) -> tuple[dict, Camera, Path
                               scene_bounds=scene_bounds, points_file=inputs.get("points"))
         camera, photo = Camera.from_dict(shot), Path(shot["photo"])
     rms = shot.get("rms")
-    if max_error is not None and _number(rms) and rms > max_error:
+    if max_error is not None and is_number(rms) and rms > max_error:
         raise _ShotFailed(f"registration error {rms:.3f} px is above the job's limit of {max_error:g} px",
                           _registration_summary(shot))
     return shot, camera, photo

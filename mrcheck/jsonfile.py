@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 from .errors import MrcheckError
@@ -23,4 +24,10 @@ def read_json(path, what: str):
         raise MrcheckError(f"malformed {what} JSON: {exc.msg.removesuffix(' at')} at line {exc.lineno}", path) from None
 
 
-__all__ = ["read_json"]
+def is_number(value) -> bool:
+    """A finite JSON number: not true/false (Python's bools are ints), not NaN or inf (Python's
+    json reads them, and they make an output invalid JSON)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+__all__ = ["read_json", "is_number"]

@@ -584,9 +584,9 @@ def test_the_page_says_why_an_export_failed(tmp_path, monkeypatch):
         page.click("#export-html")
         page.wait_for_function("document.querySelector('#status').textContent.includes('failed: ')", timeout=30000)
         assert "Export report (HTML) failed: no space left on the device" in page.text_content("#status")
-        with page.expect_download() as info:          # the CSV still downloads, under its own name
+        with page.expect_download() as info:          # the CSV still downloads, under the server's name
             page.click("#export-csv")
-        assert info.value.suggested_filename == "markers.csv"
+        assert info.value.suggested_filename == "review.csv"
 
 
 @needs_chromium

@@ -25,7 +25,7 @@ from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, Response
 from pydantic import BaseModel, ConfigDict, Field
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-from ..errors import MrcheckError
+from ..errors import MrcheckError, bug_reason
 from ..renderer import MODES, STUDY_LABELS
 from .renders import INTENSITIES, RenderService
 from .report import markers_csv, report_html
@@ -89,17 +89,21 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
                 picker_box.append(Picker(source.loaded))
             return picker_box[0]
 
+    def cad_under(shot, x, y) -> dict:
+        """What a marker at photo pixel (x, y) of ``shot`` stores of the CAD: its part instance and distance."""
+        hit = picker().pick(shot.camera, x, y)
+        return {"part": hit["instance"], "distance": hit["distance"]}
+
     imported = {}
-    for shot, markers in (suggestions or {}).items():
+    for name, markers in (suggestions or {}).items():
         # like a marker the planner places: the CAD part under it and its distance; only for the
         # new ones, so that a restart with nothing new does not load the scene for the picker
-        markers = pending(markers, store.imported_keys(shot), source.shots[shot].size[0])
-        if not markers:
-            continue
-        camera = source.shots[shot].camera
-        hits = [picker().pick(camera, m["x"], m["y"]) for m in markers]
-        imported[shot] = store.import_suggestions(
-            shot, [{**m, "part": hit["instance"] or m["part"], "distance": hit["distance"]} for m, hit in zip(markers, hits)])
+        shot = source.shots[name]
+        markers = pending(markers, store.imported_keys(name), shot.size[0])
+        cads = [cad_under(shot, m["x"], m["y"]) for m in markers]
+        if added := store.import_suggestions(name, [{**m, **cad, "part": cad["part"] or m["part"]}
+                                                    for m, cad in zip(markers, cads)]):
+            imported[name] = added
 
     @contextlib.asynccontextmanager
     async def lifespan(app):
@@ -108,7 +112,7 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
 
     app = FastAPI(title="mrcheck review", docs_url=None, redoc_url=None, openapi_url=None, lifespan=lifespan)
     app.state.source, app.state.store, app.state.renders = source, store, renders
-    app.state.imported = {shot: n for shot, n in imported.items() if n}
+    app.state.imported = imported   # shot -> suggestions added at this start
 
     @app.exception_handler(RequestValidationError)
     async def _invalid(request, exc):
@@ -145,7 +149,7 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
         except Exception as exc:  # a bug, not bad input: the API's error shape, one line on the console
             if os.environ.get("MRCHECK_DEBUG"):
                 traceback.print_exc()
-            reason = f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}"
+            reason = bug_reason(exc)
             print(f"error: internal error in {request.method} {request.url.path}, please report it: {reason}"
                   + ("" if os.environ.get("MRCHECK_DEBUG") else " (MRCHECK_DEBUG=1 shows the traceback)"),
                   file=sys.stderr, flush=True)
@@ -219,8 +223,7 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
     def add_marker(marker: MarkerIn):
         shot = shot_or_404(marker.shot)
         check_marker_xy(shot, marker.x, marker.y)
-        hit = picker().pick(shot.camera, marker.x, marker.y)
-        return store.add({**marker.model_dump(), "part": hit["instance"], "distance": hit["distance"]})
+        return store.add({**marker.model_dump(), **cad_under(shot, marker.x, marker.y)})
 
     @app.patch("/api/markers/{marker_id}")
     def edit_marker(marker_id: int, patch: MarkerPatch):
@@ -233,8 +236,7 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
                                          "no longer has: it can be edited or deleted, not moved")
             x, y = values.get("x", current["x"]), values.get("y", current["y"])
             check_marker_xy(shot, x, y)
-            hit = picker().pick(shot.camera, x, y)
-            values.update(part=hit["instance"], distance=hit["distance"])
+            values.update(cad_under(shot, x, y))
         return store.update(marker_id, values)
 
     @app.delete("/api/markers/{marker_id}")
@@ -312,7 +314,7 @@ def serve(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=No
         store = app.state.store
         if store.created and store.others:  # a shared --db, or a folder moved away from its database
             where = lambda name: os.path.normpath(store.path.resolve().parent / name)  # noqa: E731 (names are relative)
-            print(f"review database {store.path}: a new review of {where(source.review_name(store.path))}; its other "
+            print(f"review database {store.path}: a new review of {Path(source.origin).resolve()}; its other "
                   f"review(s), kept apart: {', '.join(map(where, store.others))}", flush=True)
         if suggested:
             added = app.state.imported

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import concurrent.futures
 import json
-import math
 import os
 import re
 import sys
@@ -13,6 +12,7 @@ from pathlib import Path
 
 from ..camera import Camera
 from ..errors import MrcheckError
+from ..jsonfile import is_number
 from ..overlay import load_shot, read_photo
 from ..scene import MANIFEST_KEYS, load_scene
 from ..scenefiles import files_stamp, read_manifest, scene_files
@@ -76,8 +76,7 @@ def _rms(shot: dict) -> float | None:
     """The registration error of a shot dict, None when absent or not a finite number (a NaN
     would make the shot list invalid JSON)."""
     rms = shot.get("rms")
-    ok = isinstance(rms, (int, float)) and not isinstance(rms, bool) and math.isfinite(rms)
-    return float(rms) if ok else None
+    return float(rms) if is_number(rms) else None
 
 
 def _shot(name, path) -> Shot:
@@ -192,7 +191,7 @@ def _check_scene_target(target: Path) -> None:
     (else load_scene would list the job's keys as unknown, or miss the export's scene.toml)."""
     if target.is_dir() and (target / "manifest.json").is_file():
         raise MrcheckError("is an export folder, not a scene: review it without --shots", target)
-    if target.suffix == ".toml" and target.is_file() and "shots" in _toml_keys(target) - MANIFEST_KEYS:
+    if target.suffix == ".toml" and target.is_file() and "shots" in _toml_keys(target):
         raise MrcheckError("is a job file, not a scene: review it without --shots", target)
 
 

@@ -18,7 +18,9 @@ import math
 from pathlib import Path
 
 from ..errors import MrcheckError
+from ..jsonfile import is_number
 from ..overlay import load_shot
+from .storage import SEVERITIES
 
 CATEGORY = "suggested"
 REGION_NEAR = 0.02   # a part-less suggestion this close (share of the photo's width) to an imported one is that one
@@ -103,11 +105,10 @@ def _checked(m, index: int, path: Path) -> dict:
 
     if not isinstance(m, dict):
         fail("must be an object with x, y")
-    number = lambda v: isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)  # noqa: E731
-    if not (number(m.get("x")) and number(m.get("y"))):
+    if not (is_number(m.get("x")) and is_number(m.get("y"))):
         fail(f"x and y must be numbers (photo pixels), got {m.get('x')!r}, {m.get('y')!r}")
     severity = m.get("severity", 2)
-    if severity not in (1, 2, 3) or isinstance(severity, (bool, float)):
+    if severity not in SEVERITIES or isinstance(severity, (bool, float)):
         fail(f"severity must be 1, 2 or 3, got {severity!r}")
     texts = {k: m.get(k, default) for k, default in (("category", "other"), ("note", ""), ("part", None))}
     for key, value in texts.items():

@@ -77,8 +77,10 @@ async function exportFile(link) {
   status(`${what}...`);
   const res = await fetch(link.getAttribute("href")).catch(() => null);
   if (!res || !res.ok) return failed(what, res);
+  // the server names the file (review.html, review.csv), as it did when the link downloaded it
+  const named = /filename="([^"]+)"/.exec(res.headers.get("Content-Disposition") || "");
   const url = URL.createObjectURL(await res.blob());
-  const save = Object.assign(document.createElement("a"), { href: url, download: link.getAttribute("href").split("/").pop() });
+  const save = Object.assign(document.createElement("a"), { href: url, download: named ? named[1] : "" });
   document.body.appendChild(save); save.click(); save.remove();
   setTimeout(() => URL.revokeObjectURL(url), 60000);
   status(`${what}: saved`);
