@@ -83,7 +83,6 @@ import os
 import random
 import shutil
 import sys
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 
@@ -512,8 +511,8 @@ def _earlier_entries(outdir: Path) -> set:
     these and nothing else there."""
     names = {"scene.toml", "discrepancies.json"}
     try:
-        parts = tomllib.loads((outdir / "scene.toml").read_text(encoding="utf-8-sig")).get("parts", [])
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        parts = read_manifest(outdir / "scene.toml").get("parts", [])
+    except MrcheckError:   # missing or unreadable: only the two fixed names are the variant's
         return names
     for part in parts if isinstance(parts, list) else []:
         mesh = part.get("mesh") if isinstance(part, dict) else None

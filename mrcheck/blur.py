@@ -20,6 +20,14 @@ from .gl import load_program
 MAX_BLUR_SIZE = 255
 
 
+def blur_size_problem(size: int) -> str | None:
+    """What is wrong with a blur kernel size, or None: the one rule of the CLI option,
+    RenderSettings (checked before a scene loads) and BilateralBlur."""
+    if size < 3 or size % 2 == 0 or size > MAX_BLUR_SIZE:
+        return f"must be odd, 3 to {MAX_BLUR_SIZE}, got {size}"
+    return None
+
+
 def gaussian_weights(size: int) -> np.ndarray:
     """(size // 2 + 1,) float32 one-sided Gaussian weights, centre first (unnormalised)."""
     radius = size // 2
@@ -29,8 +37,8 @@ def gaussian_weights(size: int) -> np.ndarray:
 
 class BilateralBlur:
     def __init__(self, ctx: moderngl.Context, size: int):
-        if size < 3 or size % 2 == 0 or size > MAX_BLUR_SIZE:
-            raise MrcheckError(f"blur kernel size must be odd, 3 to {MAX_BLUR_SIZE}, got {size}")
+        if problem := blur_size_problem(size):
+            raise MrcheckError(f"blur kernel size {problem}")
         self.ctx = ctx
         self.size = size
         self.program = load_program(ctx, "blur_bilateral", {"BLUR_RADIUS": size // 2})
@@ -52,4 +60,4 @@ class BilateralBlur:
         self.vao.release()
 
 
-__all__ = ["BilateralBlur", "gaussian_weights", "MAX_BLUR_SIZE"]
+__all__ = ["blur_size_problem", "BilateralBlur", "gaussian_weights", "MAX_BLUR_SIZE"]

@@ -38,10 +38,10 @@ def _positive(ctx, param, value):
 
 def _odd_kernel(ctx, param, value):
     # checked here, not when the blur is built: that is after loading the scene, and never for phong
-    from .blur import MAX_BLUR_SIZE   # a uniform array's size: see there
+    from .blur import blur_size_problem   # the maximum is a uniform array's size: see there
 
-    if value < 3 or value % 2 == 0 or value > MAX_BLUR_SIZE:
-        raise click.BadParameter(f"must be odd, 3 to {MAX_BLUR_SIZE}, got {value}")
+    if problem := blur_size_problem(value):
+        raise click.BadParameter(problem)
     return value
 
 

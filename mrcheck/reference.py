@@ -252,7 +252,7 @@ def reference_command(scene, view, camera_path, width, height, rays, radius_mode
     """``mrcheck reference``: render the G-buffer, ray-trace the reference AO, write it."""
     from .commands import file_camera, warn_if_nothing_in_view, warn_units
     from .output import AO_SUFFIXES, check_output_path, write_ao
-    from .renderer import DEFAULT_RADIUS_FRACTION, DEFAULT_RADIUS_WORLD, Renderer, RenderSettings
+    from .renderer import DEFAULT_RADIUS_FRACTION, DEFAULT_RADIUS_WORLD, Renderer, RenderSettings, check_screen_radius
     from .scene import load_scene
 
     output = check_output_path(output, AO_SUFFIXES, "reference output")   # fail before the work
@@ -272,10 +272,7 @@ def reference_command(scene, view, camera_path, width, height, rays, radius_mode
         radius = DEFAULT_RADIUS_WORLD if radius_world is None else radius_world
     else:
         radius = DEFAULT_RADIUS_FRACTION * camera.height if radius_px is None else radius_px
-        # render's rule (RenderSettings.validated): almost every ray would leave the image, a unit mix-up
-        if radius > camera.height:
-            raise MrcheckError(f"radius of {radius:g} px is larger than the image ({camera.height} px high); "
-                               "the screen radius is in pixels (default: 2 % of the height)")
+        check_screen_radius(radius, camera.height, "the screen radius is in pixels")   # render's rule
     _validate(camera, np.zeros((camera.height, camera.width), np.float32),
               np.zeros((camera.height, camera.width, 3), np.float32), rays, radius_mode, radius, falloff)
 

@@ -16,7 +16,7 @@ import moderngl
 import numpy as np
 
 from .ao import AO_METHODS
-from .blur import BilateralBlur
+from .blur import BilateralBlur, blur_size_problem
 from .camera import Camera
 from .composite import LIGHTS, Composite
 from .errors import MrcheckError
@@ -67,6 +67,7 @@ class RenderSettings:
     def validated(self, height: int | None) -> "RenderSettings":
         """A copy with ``radius_px`` resolved for an image ``height`` pixels high, checked;
         ``height=None`` checks the options that do not depend on the image (before it is known)."""
+        blur_problem = blur_size_problem(self.blur_size)
         checks = [
             (self.samples >= 1, f"samples must be >= 1, got {self.samples}"),
             (self.samples <= 512, f"samples must be <= 512, got {self.samples}"),
@@ -78,7 +79,7 @@ class RenderSettings:
             (0 <= self.intensity < math.inf, f"intensity must be >= 0 and finite, got {self.intensity}"),
             (self.seed >= 0, f"seed must be >= 0, got {self.seed}"),
             (self.ao_scale in (0.5, 1.0), f"ao scale must be 1.0 or 0.5, got {self.ao_scale}"),
-            (self.blur_size >= 3 and self.blur_size % 2 == 1, f"blur size must be odd and >= 3, got {self.blur_size}"),
+            (blur_problem is None, f"blur size {blur_problem}"),
             (self.light in LIGHTS, f"light must be one of {', '.join(LIGHTS)}, got {self.light!r}"),
             (self.min_world_radius is None or self.min_world_radius >= 0, "minimum world radius must be >= 0"),
             (0 <= self.lod_px <= 4, f"level-of-detail error must be in [0, 4] pixels, got {self.lod_px}"),
@@ -92,10 +93,16 @@ class RenderSettings:
         if height is None:
             return self
         radius_px = self.radius_px if self.radius_px is not None else self.radius_fraction * height
-        if radius_px > height:  # almost every sample would leave the image: a unit mix-up, not a radius
-            raise MrcheckError(f"radius of {radius_px:g} px is larger than the image ({height} px high); "
-                               "the vector radius is on screen (default: 2 % of the height)")
+        check_screen_radius(radius_px, height, "the vector radius is on screen")
         return replace(self, radius_px=float(radius_px))
+
+
+def check_screen_radius(radius_px: float, height: int, what: str) -> None:
+    """A screen radius larger than the image (``what`` says which radius, for the message):
+    almost every sample or ray would leave the image, a unit mix-up rather than a radius."""
+    if radius_px > height:
+        raise MrcheckError(f"radius of {radius_px:g} px is larger than the image ({height} px high); "
+                           f"{what} (default: 2 % of the height)")
 
 
 @dataclass
@@ -339,4 +346,4 @@ class Renderer:
         return rgba[..., :3].copy()
 
 
-__all__ = ["Renderer", "RenderSettings", "RenderResult", "MODES", "STUDY_LABELS"]
+__all__ = ["Renderer", "RenderSettings", "RenderResult", "MODES", "STUDY_LABELS", "check_screen_radius"]
