@@ -27,6 +27,16 @@ def file_camera(view, camera_path, width, height) -> Camera | None:
     return Camera.load(camera_path).fitted(width, height, camera_path)
 
 
+def scene_and_camera(scene, units, view, camera_path, width, height):
+    """(the loaded scene, the camera) of ``render`` and ``reference``: a camera file is read
+    first (a bad one fails before a long scene load), then the scene (with the units warning),
+    then a ``--view`` camera, which needs the scene."""
+    camera = file_camera(view, camera_path, width, height)
+    loaded = load_scene(scene, units=units, progress=True)
+    warn_units(loaded)
+    return loaded, camera or loaded.camera(view, width, height)
+
+
 def warn_units(scene) -> None:
     """As ``scene info`` does: a manifest part without declared units is taken as authored, and a
     part in mm read as metres is 1000x too big; a render alone gave no hint of it. (A single mesh
@@ -39,12 +49,13 @@ def warn_units(scene) -> None:
               f"authored (not metres): {', '.join(missing)}", file=sys.stderr)
 
 
-def warn_if_nothing_in_view(depth, view, camera_path) -> None:
+def warn_if_nothing_in_view(depth, view, camera_path, subject="camera", hint="a wrong pose, or units?") -> None:
     """A background-only image (a wrong pose, or a camera kilometres away after a unit mix-up) is
-    otherwise written with exit 0 and looks like a render; overlay and discrepancies warn too."""
+    otherwise written with exit 0 and looks like a render (render, reference; overlay with
+    ``subject`` "shot"); discrepancies warns in its own report."""
     if not (depth > 0).any():
         source = camera_path if view is None else f"viewpoint {view!r}"
-        print(f"warning: {source}: no CAD part is in view of this camera (a wrong pose, or units?)", file=sys.stderr)
+        print(f"warning: {source}: no CAD part is in view of this {subject} ({hint})", file=sys.stderr)
 
 
 def _ao_paths(output_ao: Path, modes) -> dict:
@@ -68,10 +79,7 @@ def render_command(scene, view, camera_path, mode, width, height, units, output,
                 raise MrcheckError("the image and an AO output are the same file", path)
     settings = RenderSettings(**settings)
     settings.validated(None)  # option errors before a long scene load
-    camera = file_camera(view, camera_path, width, height)
-    loaded = load_scene(scene, units=units, progress=True)
-    warn_units(loaded)
-    camera = camera or loaded.camera(view, width, height)
+    loaded, camera = scene_and_camera(scene, units, view, camera_path, width, height)
     settings.validated(camera.height)  # option errors before the GL context is made
 
     renderer = Renderer(loaded)
@@ -113,4 +121,4 @@ def demo_command(outdir: Path, width=None, height=None):
             renderer.release()
 
 
-__all__ = ["render_command", "demo_command", "file_camera", "warn_units", "warn_if_nothing_in_view"]
+__all__ = ["render_command", "demo_command", "file_camera", "scene_and_camera", "warn_units", "warn_if_nothing_in_view"]

@@ -98,7 +98,7 @@ from pathlib import Path
 import click
 import cv2
 
-from .camera import Camera, fit_size
+from .camera import Camera
 from .errors import MrcheckError
 from .jsonfile import is_number
 from .output import check_writable_ancestor, encode_image, write_bytes, write_text
@@ -450,7 +450,7 @@ def _shot_files(task: dict, timings: dict, scene=None) -> tuple[dict, dict]:
         registration["warnings"].append(f"the job's width {settings['width']} is larger than the photo "
                                         f"({camera.width} px): the photo is upscaled")
     if settings["width"] and settings["width"] != camera.width:
-        camera = camera.resized(*fit_size(camera.width, camera.height, settings["width"]))
+        camera = camera.fitted(settings["width"])
         photo = cv2.resize(photo, (camera.width, camera.height), interpolation=cv2.INTER_AREA)
     timings["registration"] = time.perf_counter() - t
     modes, default = settings["modes"], settings["overlay_intensity"]

@@ -37,11 +37,11 @@ import math
 import re
 from pathlib import Path
 
-import click
 import cv2
 import numpy as np
 
 from .camera import Camera
+from .commands import warn_if_nothing_in_view
 from .errors import MrcheckError
 from .jsonfile import read_json
 from .output import IMAGE_SUFFIXES, check_output_path, labelled_sheet, write_image
@@ -281,9 +281,8 @@ def overlay_command(shot, scene, mode="vector", alpha=0.5, edges=False, edge_col
     renderer = Renderer(loaded)
     try:
         renders, edge_mask, offset, maps = render_for_photo(renderer, camera, modes, settings, edges)
-        if not (renderer.last_depth() > 0).any():   # the overlay would be the bare photo
-            click.echo(f"warning: {shot}: no CAD part is in view of this shot (a wrong pose, or the shot of "
-                       "another scene?)", err=True)
+        # the overlay would be the bare photo
+        warn_if_nothing_in_view(renderer.last_depth(), None, shot, "shot", "a wrong pose, or the shot of another scene?")
     finally:
         renderer.release()
     mixed = overlay_images(photo, renders, camera, alpha, edge_mask, color, offset, maps)

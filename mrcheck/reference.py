@@ -250,10 +250,9 @@ def reference_ao(scene: Scene, camera: Camera, depth, normals, rays: int, radius
 def reference_command(scene, view, camera_path, width, height, rays, radius_mode, radius_world, radius_px,
                       falloff, seed, units, output):
     """``mrcheck reference``: render the G-buffer, ray-trace the reference AO, write it."""
-    from .commands import file_camera, warn_if_nothing_in_view, warn_units
+    from .commands import scene_and_camera, warn_if_nothing_in_view
     from .output import AO_SUFFIXES, check_output_path, write_ao
     from .renderer import DEFAULT_RADIUS_FRACTION, DEFAULT_RADIUS_WORLD, Renderer, RenderSettings, check_screen_radius
-    from .scene import load_scene
 
     output = check_output_path(output, AO_SUFFIXES, "reference output")   # fail before the work
     if radius_mode not in RADIUS_MODES:
@@ -264,10 +263,7 @@ def reference_command(scene, view, camera_path, width, height, rays, radius_mode
     option, value, users = ignored[radius_mode]
     if value is not None:
         print(f"warning: {option} has no effect in radius mode {radius_mode} (it applies to {users})", file=sys.stderr)
-    camera = file_camera(view, camera_path, width, height)
-    loaded = load_scene(scene, units=units, progress=True)
-    warn_units(loaded)
-    camera = camera or loaded.camera(view, width, height)
+    loaded, camera = scene_and_camera(scene, units, view, camera_path, width, height)
     if radius_mode == "world":
         radius = DEFAULT_RADIUS_WORLD if radius_world is None else radius_world
     else:
