@@ -165,6 +165,13 @@ class _Targets:
             self.half = [self._ao_target(ctx, self.half_size, self.half_coverage) for _ in range(3)]
         return self.half
 
+    def release(self) -> None:
+        self.gbuffer.release()
+        ao = self.ao + (self.half or [])
+        half = [self.half_coverage_fbo, self.half_coverage] if self.half is not None else []
+        for obj in [fbo for _, fbo in ao] + [texture for texture, _ in ao] + half + [self.color_fbo, self.color]:
+            obj.release()
+
     def ao_buffers(self, ctx, scale: float) -> "_AOBuffers":
         """The AO buffers (raw, scratch, blurred) of the AO resolution."""
         if scale == 1.0:
@@ -258,6 +265,9 @@ class Renderer:
             for p in self._ao_passes.values():
                 p.release()
             self.geometry.release()
+            if self._targets is not None:
+                self._targets.release()
+                self._targets = None
         if self._owns_ctx:
             self.ctx.release()
 
@@ -317,6 +327,8 @@ class Renderer:
     # -- helpers ---------------------------------------------------------------------------
     def _targets_for(self, size) -> _Targets:
         if self._targets is None or self._targets.size != tuple(size):
+            if self._targets is not None:   # another size: the old targets would stay allocated (a
+                self._targets.release()     # review server renders photos of many sizes)
             self._targets = _Targets(self.ctx, size)
         return self._targets
 

@@ -125,3 +125,17 @@ def test_half_resolution_coverage_follows_the_geometry(sample, ctx):
     for mode in ("vector", "ssao"):
         np.testing.assert_array_equal(after[mode].ao, fresh[mode].ao)
         assert (after[mode].ao < 0.9).mean() > 0.01     # AO was computed, not skipped
+
+
+def test_a_new_image_size_frees_the_old_render_targets(ctx):
+    """The review server renders photos of many sizes with one renderer: each size's G-buffer
+    and AO targets stayed allocated when the next size replaced them."""
+    scene = load_scene(sample_scene_path())
+    renderer = Renderer(scene, ctx=ctx)
+    renderer.render(scene.camera("robot", 64, 48), ["vector"], RenderSettings(samples=4, ao_scale=0.5))
+    old = renderer._targets
+    renderer.render(scene.camera("robot", 80, 60), ["vector"], RenderSettings(samples=4))
+    freed = [old.color, old.gbuffer.depth, old.ao[0][0], old.half[0][0], old.half_coverage]
+    assert all(type(t.mglo).__name__ == "InvalidObject" for t in freed)
+    assert type(renderer._targets.color.mglo).__name__ == "Texture"
+    renderer.release()
