@@ -181,15 +181,12 @@ def joint_limits(name) -> dict[str, tuple[float, float]]:
         URDF's actuated-joint order. Continuous joints and joints without a limit get
         ``(-pi, pi)``: every orientation once.
     """
+    from .scene import urdf_joint_range
+
     urdf = _kinematics(_check_name(name))  # checked first: the cache needs a hashable name
     limits = {}
     for joint_name in urdf.actuated_joint_names:
-        joint = urdf.joint_map[joint_name]
-        lim = joint.limit
-        if joint.type == "continuous" or lim is None or lim.lower is None or lim.upper is None:
-            limits[joint_name] = (-math.pi, math.pi)
-        else:
-            limits[joint_name] = (float(lim.lower), float(lim.upper))
+        limits[joint_name] = urdf_joint_range(urdf.joint_map[joint_name]) or (-math.pi, math.pi)
     return limits
 
 

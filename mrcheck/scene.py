@@ -68,6 +68,11 @@ _INSTANCE_KEYS = {"id", "translate", "rotate_deg", "scale", "matrix"}
 _VIEW_KEYS = {"name", "eye", "target", "up", "fov_y_deg", "width", "height"}
 
 
+def default_instance_ids(name: str, count: int) -> list[str]:
+    """The ids of a part's instances the manifest does not name: NAME for one, else NAME#i."""
+    return [name] if count == 1 else [f"{name}#{i}" for i in range(count)]
+
+
 @dataclass
 class Part:
     """One mesh and the transforms it is drawn at.
@@ -97,8 +102,7 @@ class Part:
 
     def __post_init__(self):
         if not self.instance_ids:
-            k = len(self.transforms)
-            self.instance_ids = [self.name] if k == 1 else [f"{self.name}#{i}" for i in range(k)]
+            self.instance_ids = default_instance_ids(self.name, len(self.transforms))
 
     @property
     def triangle_count(self) -> int:
@@ -299,15 +303,23 @@ class JointError(MrcheckError):
 JOINT_LIMIT_SLACK = 1e-6   # rad or m: values written with fewer digits than the URDF's limits
 
 
+def urdf_joint_range(joint) -> tuple[float, float] | None:
+    """(lower, upper) of a URDF joint's limit, None for a continuous joint or one without a
+    limit (robots.joint_limits samples those over a full turn; a manifest value is not held to one)."""
+    limit = joint.limit
+    if joint.type == "continuous" or limit is None or limit.lower is None or limit.upper is None:
+        return None
+    return float(limit.lower), float(limit.upper)
+
+
 def _check_joint_limits(joint, value: float, path: Path):
     """An error for a value beyond the URDF's limits. An error rather than a warning: the robot
     cannot take that pose, so the scene would show a robot that is not there, and as-built
     checks would measure against it; the common cause is a value typed in degrees."""
-    limit = joint.limit
-    if joint.type == "continuous" or limit is None or limit.lower is None or limit.upper is None \
-            or not limit.lower < limit.upper:            # no (or a degenerate) range given: nothing to hold it to
+    limits = urdf_joint_range(joint)
+    if limits is None or not limits[0] < limits[1]:    # no (or a degenerate) range given: nothing to hold it to
         return
-    lower, upper = float(limit.lower), float(limit.upper)
+    lower, upper = limits
     if lower - JOINT_LIMIT_SLACK <= value <= upper + JOINT_LIMIT_SLACK:
         return
     unit = "m" if joint.type == "prismatic" else "rad"
@@ -483,12 +495,11 @@ def _part_from_table(path: Path, index: int, table: dict, names: set, owners: di
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise MrcheckError(f"{where}: joint {joint!r} must be a finite number (radians, or metres for a "
                                f"prismatic joint), got {value!r}", path)
-    ids = [str(t["id"]) if "id" in t else None for t in instances]
-    explicit = any(ids)
     # the ids Part gives (NAME, NAME#i), unless the manifest names them; an id names one object
     # in the whole scene (as-built variants and reports look changes up by it), so a generated
     # id that another part's explicit one repeats is as wrong as two explicit ones
-    ids = [given or (name if len(ids) == 1 else f"{name}#{i}") for i, given in enumerate(ids)]
+    ids = [(str(t["id"]) if "id" in t else "") or default
+           for t, default in zip(instances, default_instance_ids(name, len(instances)))]
     for iid in ids:
         if iid in owners:
             other = owners[iid]
@@ -503,8 +514,7 @@ def _part_from_table(path: Path, index: int, table: dict, names: set, owners: di
         error = MrcheckError(f"{exc} ({where} of {path})")
         error.path = exc.path
         raise error from None
-    return make_part(name, path.parent / table["mesh"], vertices, faces, transforms, color, table.get("units"),
-                     ids if explicit else None)
+    return make_part(name, path.parent / table["mesh"], vertices, faces, transforms, color, table.get("units"), ids)
 
 
 __all__ = ["Part", "Scene", "UNITS", "load_scene", "read_mesh", "make_part", "transform_from_table"]
