@@ -195,8 +195,10 @@ def _diagonal(bounds) -> float:
     return float(np.linalg.norm(bounds[1] - bounds[0]))
 
 
-def check_placement(points: np.ndarray, scene: Scene, path) -> None:
-    """Wrong units or a scan far from the scene, from the bounding boxes alone (cheap, first)."""
+def check_placement(points: np.ndarray, scene: Scene, path) -> tuple[float, float]:
+    """Wrong units or a scan far from the scene, from the bounding boxes alone (cheap, first);
+    returns the diagonals of the scan's and the scene's boxes (metres), which the later
+    "not registered" check also needs."""
     scan_box = np.stack([points.min(axis=0), points.max(axis=0)])
     scene_box = scene.bounds()
     scan_diag, scene_diag = _diagonal(scan_box), max(_diagonal(scene_box), 1e-9)
@@ -210,6 +212,7 @@ def check_placement(points: np.ndarray, scene: Scene, path) -> None:
     gap = np.maximum(0.0, np.maximum(scene_box[0] - margin - scan_box[1], scan_box[0] - scene_box[1] - margin))
     if np.any(gap > 0.0):
         _far(float(np.linalg.norm(np.maximum(0.0, np.maximum(scene_box[0] - scan_box[1], scan_box[0] - scene_box[1])))), path)
+    return scan_diag, scene_diag
 
 
 _UNIT_WORDS = {"mm": "millimetres", "cm": "centimetres", "in": "inches", "ft": "feet", "m": "metres"}
@@ -424,10 +427,9 @@ def _npy_bytes(array: np.ndarray) -> bytes:
 def deviation(points: np.ndarray, scene: Scene, scan=None):
     """Check scan points (metres, :func:`read_scan`) against a loaded scene and measure them;
     returns ``(d, owner, parts)``. ``scan`` names the file in errors."""
-    check_placement(points, scene, scan)
+    scan_diag, scene_diag = check_placement(points, scene, scan)
     d, owner = signed_distances(scene, points)
-    size = max(_diagonal(np.stack([points.min(axis=0), points.max(axis=0)])),
-               FAR_SCENE_SHARE * _diagonal(scene.bounds()), FAR_FLOOR_M)
+    size = max(scan_diag, FAR_SCENE_SHARE * scene_diag, FAR_FLOOR_M)
     median = float(np.median(np.abs(d)))
     # a scan in the scene's box but nowhere on its surfaces: as a hall-sized scan of the wrong cell
     if median > FAR_FACTOR * size:
