@@ -98,8 +98,11 @@ def generate(preset: str, outdir: Path, seed: int = 0, size_m: tuple[float, floa
     cache = MeshCache()
     # the preset's default target is a rough size, not a request: met as closely as this seed
     # and size allow; an explicit --target-triangles is held to the 10 % promise
-    solution = solve(spec, size, seed, target, cache, strict=target_triangles is not None)
+    solution = solve(spec, size, seed, target, cache)
     loose = abs(solution.triangles - target) > TOLERANCE * target
+    if loose and target_triangles is not None:
+        raise MrcheckError(f"cannot build a {spec.name} of {target:,} triangles at this size "
+                           f"(closest: {solution.triangles:,}); change --target-triangles or --size-m")
     if loose:
         print(f"warning: the {spec.name} preset's default of {target:,} triangles is out of reach with seed {seed} "
               f"at this size; built the closest, {solution.triangles:,} (give --target-triangles to ask for a count)",
