@@ -144,8 +144,12 @@ _FONT = cv2.FONT_HERSHEY_SIMPLEX
 _MIN_LABEL_SCALE = 0.3   # smaller is unreadable: wrap onto more lines instead
 
 
+def _thickness(scale: float) -> int:
+    return max(1, int(round(scale * 2)))
+
+
 def _text_width(text: str, scale: float) -> int:
-    return cv2.getTextSize(text, _FONT, scale, max(1, int(round(scale * 2))))[0][0]
+    return cv2.getTextSize(text, _FONT, scale, _thickness(scale))[0][0]
 
 
 def _wrap(label: str, scale: float, width: int) -> list[str]:
@@ -172,24 +176,22 @@ def labelled_sheet(images, labels) -> np.ndarray:
     x = int(bar * 0.35)
     room = max(1, min(image.shape[1] for image in images) - 2 * x)   # the narrowest panel's text width
     fit = min(1.0, *(room / max(1, _text_width(label, scale)) for label in labels)) * scale
-    if fit == scale:   # every label fits: as it always was
-        lines, scale, baselines = [[label] for label in labels], scale, [int(bar * 0.72)]
-    else:
+    lines, baselines = [[label] for label in labels], [int(bar * 0.72)]   # every label fits: as it always was
+    if fit < scale:
         if fit >= _MIN_LABEL_SCALE:
-            scale, lines = fit, [[label] for label in labels]
+            scale = fit
         else:
             words = [w for label in labels for w in label.split()]
             scale = max(0.1, min(_MIN_LABEL_SCALE, *(_MIN_LABEL_SCALE * room / max(1, _text_width(w, _MIN_LABEL_SCALE))
                                                       for w in words)))
             lines = [_wrap(label, scale, room) for label in labels]
-        thickness = max(1, int(round(scale * 2)))
-        (_, text_h), base = cv2.getTextSize("Dg", _FONT, scale, thickness)
+        (_, text_h), base = cv2.getTextSize("Dg", _FONT, scale, _thickness(scale))
         step = text_h + base + max(2, text_h // 2)
         count = max(len(ls) for ls in lines)
         bar = max(bar, count * step + step // 2)
         top = (bar - count * step) // 2 + text_h + max(1, text_h // 4)
         baselines = [top + i * step for i in range(count)]
-    thickness = max(1, int(round(scale * 2)))
+    thickness = _thickness(scale)
     panels = []
     for image, label_lines in zip(images, lines):
         panel = np.full((h + bar, image.shape[1], 3), 32, np.uint8)
