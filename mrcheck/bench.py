@@ -288,12 +288,12 @@ class _Stage:
             self.renderer._half_coverage(self.targets)
         self._floors[key].run(target, self.targets.gbuffer.depth)
 
-    def release(self, renderer: bool = True) -> None:
-        """Free the fetch floors, and the renderer unless another stage still draws with it."""
+    def release(self) -> None:
+        """Free the fetch floors and the renderer (which stages of one scene may share: a second
+        release of it does nothing)."""
         for floor in self._floors.values():
             floor.release()
-        if renderer:
-            self.renderer.release()
+        self.renderer.release()
 
 
 # -- scenes --------------------------------------------------------------------------------------
@@ -441,7 +441,7 @@ def _start_peers(ctx, scene: Scene, viewpoint: dict, reasons: dict, workdir: Pat
                 reasons[name] = why
                 continue
             worker = PeerWorker(name, mesh, workdir / f"{name}.png")
-            for stale in (worker.png, ao_off_png(worker.png), worker.log_path):
+            for stale in (worker.png, ao_off_png(worker.png)):   # (the log is rewritten by start)
                 stale.unlink(missing_ok=True)  # a previous run's, which a failing peer would leave
             try:
                 worker.start().wait_ready()
@@ -552,27 +552,22 @@ def _pass_jobs(stage: _Stage, samples_list) -> list[list]:
     entries = []
     for samples in samples_list:
         # everything a ratio compares at this sample count is timed in turns (see _measure)
-        group = []
+        # the whole frame of every mode at these settings, with the CLI's default blur: in an
+        # entry of its own, so that the AO passes' rounds stay as short as before
+        group, frames = [], []
         for mode in AO_MODES:
             for scale in SCALES:
                 s = stage.settings(samples, scale)
                 paper_ms = PAPER_AO_MS.get((samples, scale)) if mode == PAPER_MODE else None
                 group.append((stage, _Job(fig("ao", mode, samples, scale, paper_ms),
                                           stage.draw_geometry, lambda m=mode, s=s: stage.ao(m, s))))
-        for scale in SCALES:
-            group.append((stage, _Job(fig("fetch_floor", None, samples, scale), stage.draw_geometry,
-                                      lambda n=samples, sc=scale: stage.fetch_floor(n, sc))))
-        entries.append(group)
-        # the whole frame of every mode at these settings, with the CLI's default blur: in an
-        # entry of its own, so that the AO passes' rounds stay as short as before
-        frames = []
-        for mode in AO_MODES:
-            for scale in SCALES:
-                s = stage.settings(samples, scale)
                 figure = fig("frame", mode, samples, scale, _paper_frame_ms(mode, (w, h), samples, scale, s.blur_size))
                 figure.stats = {"blur": s.blur_size, "passes": FRAME_PASSES}
                 frames.append((stage, _Job(figure, lambda: None, lambda m=mode, s=s: stage.frame(m, s))))
-        entries.append(frames)
+        for scale in SCALES:
+            group.append((stage, _Job(fig("fetch_floor", None, samples, scale), stage.draw_geometry,
+                                      lambda n=samples, sc=scale: stage.fetch_floor(n, sc))))
+        entries += [group, frames]
 
     for scale in SCALES:
         def with_ao(scale=scale):
@@ -676,10 +671,8 @@ class _StageGroup:
         self.triangles = triangles
 
     def release(self) -> None:
-        released = set()
         for stage in self.stages:
-            stage.release(renderer=id(stage.renderer) not in released)
-            released.add(id(stage.renderer))
+            stage.release()
 
 
 @dataclass
@@ -755,13 +748,17 @@ def _rounds(a: Figure, b: Figure) -> list[float] | None:
     return None
 
 
-def _ratio(a: Figure, b: Figure) -> float:
-    """a / b. For figures timed in turns (one entry), the median of the per-round ratios: a
-    paired estimate, so that the machine speeding up or slowing down during the entry (seen:
-    10-20 % within one entry) cannot tilt it, as it can a ratio of two medians taken from
-    different rounds. Otherwise the ratio of the medians."""
+def _paired(a: Figure, b: Figure) -> tuple[float, list[float] | None]:
+    """(a / b, its per-round ratios). For figures timed in turns (one entry), the median of the
+    per-round ratios: a paired estimate, so that the machine speeding up or slowing down during
+    the entry (seen: 10-20 % within one entry) cannot tilt it, as it can a ratio of two medians
+    taken from different rounds. Otherwise the ratio of the medians (and no rounds)."""
     rounds = _rounds(a, b)
-    return float(median(rounds)) if rounds else a.median_ms / b.median_ms
+    return (float(median(rounds)) if rounds else a.median_ms / b.median_ms), rounds
+
+
+def _ratio(a: Figure, b: Figure) -> float:
+    return _paired(a, b)[0]
 
 
 def _floor_ratios(figures) -> None:
@@ -816,14 +813,16 @@ def _ratios(figures, reasons: dict | None = None) -> dict:
             if not hits:
                 why[name] = (reasons or {}).get(peer, f"no {peer} frame was measured")
 
-    ratios = {}
+    ratios, rounds = {}, {}
     for name, pair in pairs.items():
-        ratios[name] = None if pair is None else _ratio(*pair)
+        ratios[name], rounds[name] = (None, None) if pair is None else _paired(*pair)
         if name in why:
             ratios[name + REASON] = why[name]
-    return {"ratios": ratios, "ratios_rounds": {k: None if p is None else _rounds(*p) for k, p in pairs.items()},
-            "ratios_by_samples": {n: {k: _ratio(*p) for k, p in r.items()} for n, r in by_samples.items()},
-            "ratios_by_samples_rounds": {n: {k: _rounds(*p) for k, p in r.items()} for n, r in by_samples.items()}}
+    paired = {n: {k: _paired(*p) for k, p in r.items()} for n, r in by_samples.items()}
+    return {"ratios": ratios, "ratios_rounds": rounds,
+            "ratios_by_samples": {n: {k: v[0] for k, v in r.items()} for n, r in paired.items()},
+            "ratios_by_samples_rounds": {n: {k: v[1] for k, v in r.items()} for n, r in paired.items()},
+            "reasons": why}
 
 
 def _machine(ctx: moderngl.Context) -> dict:
@@ -982,7 +981,6 @@ def bench_command(quick: bool, json_path: str | None, repeat: int | None) -> dic
               "figures": [f.to_json() for f in figures], **measured, "targets": TARGETS, "peer_targets": PEER_TARGETS,
               "target_samples": {name: "every" if name in EVERY_SAMPLE_COUNT else RATIO_SAMPLES
                                  for name in measured["ratios_by_samples"].get(str(RATIO_SAMPLES), {})},
-              "reasons": {key[:-len(REASON)]: why for key, why in measured["ratios"].items() if key.endswith(REASON)},
               **memory}
     if json_path is not None:
         # before printing: a reader that goes away (`mrcheck bench --json X | head`) breaks the

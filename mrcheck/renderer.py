@@ -260,16 +260,19 @@ class Renderer:
         return normal[..., :3].astype(np.float32)
 
     def release(self) -> None:
-        """Free the GPU resources; the context too when this renderer created it."""
+        """Free the GPU resources; the context too when this renderer created it. A second call
+        does nothing (moderngl skips released objects; the bench's stages share renderers)."""
         with made_current(self.ctx):
             for p in self._ao_passes.values():
                 p.release()
+            self._ao_passes.clear()
             self.geometry.release()
             if self._targets is not None:
                 self._targets.release()
                 self._targets = None
         if self._owns_ctx:
             self.ctx.release()
+            self._owns_ctx = False
 
     # -- Rendering passes ------------------------------------------------------------------
     def _ao_pass(self, mode: str, camera: Camera, settings: RenderSettings, targets: _Targets) -> None:
