@@ -632,19 +632,18 @@ class _Progress:
     def __init__(self, stream):
         self.stream, self.closed_reader = stream, False
 
-    def write(self, text: str) -> None:
+    def _try(self, call) -> None:
         if not self.closed_reader:
             try:
-                self.stream.write(text)
+                call()
             except (BrokenPipeError, ValueError):   # ValueError: the stream itself was closed
                 self.closed_reader = True
 
+    def write(self, text: str) -> None:
+        self._try(lambda: self.stream.write(text))
+
     def flush(self) -> None:
-        if not self.closed_reader:
-            try:
-                self.stream.flush()
-            except (BrokenPipeError, ValueError):
-                self.closed_reader = True
+        self._try(self.stream.flush)
 
     def isatty(self) -> bool:
         return not self.closed_reader and self.stream.isatty()

@@ -128,7 +128,11 @@ class Pose:
 
     @property
     def rms(self) -> float:
-        return float(np.sqrt(np.mean(self.errors[self.inliers] ** 2)))
+        return _inlier_rms(self.errors, self.inliers)
+
+
+def _inlier_rms(errors: np.ndarray, inliers: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(errors[inliers] ** 2)))
 
 
 def _reprojection_errors(camera, rvec, tvec, pixels, world) -> np.ndarray:
@@ -201,7 +205,7 @@ class _Fit:
 
     @property
     def rms(self) -> float:
-        return float(np.sqrt(np.mean(self.errors[self.inliers] ** 2)))
+        return _inlier_rms(self.errors, self.inliers)
 
 
 def _hypotheses(camera, pixels, world, threshold):
