@@ -26,6 +26,7 @@ again without them, until every view kept is within the threshold.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import math
@@ -231,15 +232,38 @@ class Calibration:
 
 
 def _calibrate(views: dict, size) -> Calibration:
+    """Bit-reproducible: the same photos give the same bytes in any order and on any machine load.
+
+    OpenCV 5's solver (SchurLMSolver in modules/calib/src/calibration.cpp) computes each view's
+    Jacobian in a parallel_for_ (JAccumulator) and adds its share of the normal equations (U, ea)
+    and of the error into shared sums under a mutex, in whatever order the threads get there;
+    floating-point addition is not associative, and some 30 Levenberg-Marquardt steps carry the
+    difference up to the 10th digit of fx. One OpenCV thread adds the views in a fixed order, and
+    that order is the views' own corners (not the order the photos were given in).
+    """
     names = list(views)
+    order = sorted(names, key=lambda n: (views[n][1].tobytes(), views[n][0].tobytes()))
     try:
-        rms, K, dist, _, _, std, _, per_view = cv2.calibrateCameraExtended(
-            [views[n][0] for n in names], [views[n][1] for n in names], size, None, None)
+        with _one_opencv_thread():
+            rms, K, dist, _, _, std, _, per_view = cv2.calibrateCameraExtended(
+                [views[n][0] for n in order], [views[n][1] for n in order], size, None, None)
     except cv2.error as exc:
         raise MrcheckError(f"calibration failed ({exc.err})") from None
     if not (np.all(np.isfinite(K)) and np.all(np.isfinite(dist)) and math.isfinite(rms)):
         raise MrcheckError("calibration failed (non-finite result); use more views at varied angles")
-    return Calibration(names, float(rms), K, dist.reshape(-1), std.reshape(-1), per_view.reshape(-1))
+    error = dict(zip(order, per_view.reshape(-1)))
+    return Calibration(names, float(rms), K, dist.reshape(-1), std.reshape(-1), np.array([error[n] for n in names]))
+
+
+@contextlib.contextmanager
+def _one_opencv_thread():
+    """OpenCV's parallel_for_ on one thread (process-wide) while the block runs, then as before."""
+    before = cv2.getNumThreads()
+    cv2.setNumThreads(1)
+    try:
+        yield
+    finally:
+        cv2.setNumThreads(before)
 
 
 def _read_image(path: Path):
