@@ -77,18 +77,26 @@ Execution: ``--workers 1`` runs in this process; ``--workers N`` in N spawned pr
 across shots, see :func:`_renderer`); ``--scheduler ADDRESS`` sends :func:`run_shot` to a Dask
 distributed cluster, whose workers read the scene and photos from the (absolute) paths of the job
 and return the encoded files, which this process writes into OUTDIR.
+Killed (``kill -9``), the export takes its local workers with it (:func:`_exit_with_parent`): none
+goes on writing into OUTDIR beside a rerun. A cluster's workers are the cluster's and stay; they
+never write into OUTDIR, and the scheduler releases the shots of a client that is gone (one
+already running finishes on its worker, and its result is dropped).
 """
 
 from __future__ import annotations
 
+import ctypes
 import glob
 import hashlib
 import json
 import multiprocessing
+import multiprocessing.connection
 import os
 import re
+import signal
 import socket
 import sys
+import threading
 import time
 import tomllib
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -111,6 +119,7 @@ RECORD = "record.json"
 SHOT_FILE = "SHOT.json"
 SHEET = "sheet.png"
 SHEET_ALPHA = 0.5
+_PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
 SCHEDULER_TIMEOUT = "30s"  # how long to try reaching --scheduler before giving up
 _TOP_KEYS = {"scene", "modes", "alphas", "intensities", "overlay_intensity", "width", "max_registration_error_px",
              "samples", "edges", "intrinsics", "markers", "points", "shots"}
@@ -596,9 +605,35 @@ def _remove_stale(outdir: Path, tasks: list, keep: set) -> list:
 
 # -- executors ----------------------------------------------------------------------------------
 def _worker_init(gl_threads: int | None) -> None:
+    _exit_with_parent()
     # llvmpipe rasterises with one thread per core; N processes on the same cores share them
     if gl_threads and "LP_NUM_THREADS" not in os.environ:
         os.environ["LP_NUM_THREADS"] = str(gl_threads)
+
+
+def _exit_with_parent() -> None:
+    """End this worker when the export that spawned it dies (``kill -9``, OOM killer). Otherwise it
+    finishes the shots already queued to it, writing into OUTDIR while a rerun works there, and
+    then waits for more forever.
+
+    Linux: the kernel's parent-death signal, at once, even in a long GL call that holds the GIL.
+    It is sent when the *thread* that started this process ends; ProcessPoolExecutor starts its
+    workers in the thread that submits the shots, which holds the pool until it is shut down.
+    Everywhere, and for a parent already gone before prctl: multiprocessing's parent sentinel, a
+    pipe from the parent that reads end-of-file once the parent has exited, watched by a thread.
+    """
+    parent = multiprocessing.parent_process()
+    if parent is None:  # not started by multiprocessing: no parent to follow
+        return
+    if sys.platform.startswith("linux"):
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    threading.Thread(target=_exit_on_eof, args=(parent.sentinel,), name="mrcheck-parent-watch", daemon=True).start()
+
+
+def _exit_on_eof(sentinel) -> None:
+    multiprocessing.connection.wait([sentinel])
+    os._exit(1)  # no cleanup: every file is written atomically, a rerun removes the temp files
 
 
 def _local_workers(workers: int, shots: int) -> int:
