@@ -36,6 +36,15 @@ def _positive(ctx, param, value):
     return value
 
 
+def _size(ctx, param, value):
+    from .review.guard import parse_size
+
+    try:
+        return parse_size(value)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc)) from None
+
+
 def _odd_kernel(ctx, param, value):
     # checked here, not when the blur is built: that is after loading the scene, and never for phong
     from .blur import blur_size_problem   # the maximum is a uniform array's size: see there
@@ -365,19 +374,24 @@ def export(job, outdir, workers, scheduler, force):
 @cli.command()
 @click.argument("target", metavar="(JOB.toml | OUTDIR | SCENE)")
 @click.option("--shots", "shots_dir", metavar="DIR", help="With SCENE: a folder of registered SHOT.json files.")
-@click.option("--host", default="127.0.0.1", show_default=True, help="Address to bind; any other than loopback needs a token.")
+@click.option("--host", default="127.0.0.1", show_default=True,
+              help="Address to bind; any other than loopback needs a token. Requests must name this server in their "
+                   "Host header (localhost, the address; on 0.0.0.0 also the machine's name), else 403.")
 @click.option("--port", type=click.IntRange(1, 65535), default=8765, show_default=True, help="Port to listen on.")
 @click.option("--token", metavar="TOKEN", help="Require this token (generated and printed when --host is not loopback).")
 @click.option("--db", metavar="FILE", help="SQLite file of the review's markers [default: review.sqlite in OUTDIR, "
               "beside JOB.toml, or in DIR for SCENE --shots DIR]; the render cache .review-cache/ goes beside it.")
 @click.option("--suggestions", multiple=True, metavar="[NAME=]SUSPECTS.json",
               help="Import the suggested markers of an `mrcheck discrepancies` run (repeatable; NAME picks the shot).")
-def review(target, shots_dir, host, port, token, db, suggestions):
+@click.option("--max-body", default="1MiB", show_default=True, metavar="SIZE", callback=_size,
+              help="Refuse request bodies larger than this (413), e.g. 256KiB; at least 64KiB.")
+def review(target, shots_dir, host, port, token, db, suggestions, max_body):
     """Review shots in the browser: photo and CAD blended, modes, zoom, discrepancy markers with a
     category, severity and note, the CAD part under the cursor; exports an HTML report and CSV."""
     from .review.app import serve
 
-    serve(target, shots_dir=shots_dir, host=host, port=port, token=token, db=db, suggestions=suggestions)
+    serve(target, shots_dir=shots_dir, host=host, port=port, token=token, db=db, suggestions=suggestions,
+          max_body=max_body)
 
 
 @cli.command()

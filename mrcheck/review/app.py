@@ -1,8 +1,10 @@
 """The review web app: FastAPI routes over a Source, a Store, a RenderService and a Picker.
 
 Files are served by shot name + kind only (never by a client-given path); static files from a
-fixed table. With a token, every request needs it (query ``token``, header ``X-Review-Token``
-or the cookie set when the page is opened with ``?token=``), else 401.
+fixed table. Before anything else, a request must name this server in its Host header (else 403)
+and its body must be within the limit (else 413), see :mod:`.guard`. With a token, every request
+needs it (query ``token``, header ``X-Review-Token`` or the cookie set when the page is opened
+with ``?token=``), else 401.
 """
 
 from __future__ import annotations
@@ -27,6 +29,8 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from ..errors import MrcheckError, bug_reason
 from ..renderer import MODES, STUDY_LABELS
+from .guard import ALL_INTERFACES, MAX_BODY, MIN_MAX_BODY, RequestCheck, format_size, host_names, is_loopback, \
+    too_large
 from .renders import INTENSITIES, RenderService
 from .report import markers_csv, report_html
 from .storage import CATEGORIES, MAX_NOTE, Store
@@ -72,9 +76,13 @@ def _static(name: str) -> bytes:
 
 
 def create_app(source, db_path: Path | None = None, cache_dir: Path | None = None, token: str | None = None,
-               samples: int = 16, suggestions: dict | None = None) -> FastAPI:
+               samples: int = 16, suggestions: dict | None = None, host: str | None = None,
+               max_body: int = MAX_BODY) -> FastAPI:
     """``suggestions``: {shot name: markers} (:func:`.suggestions.load_suggestions`), imported
-    into the review's markers once; ``app.state.imported``: {shot name: markers added now}."""
+    into the review's markers once; ``app.state.imported``: {shot name: markers added now}.
+    ``host``: the address the server is bound to, whose names alone a request's Host header may
+    give (:func:`.guard.host_names`); None checks no Host (an app not on a socket, as in tests).
+    ``max_body``: the largest request body, in bytes."""
     db_path = Path(db_path or source.home / "review.sqlite")
     store = Store(db_path, source.review_name(db_path),
                   served_scales={s.name: s.served_scale() for s in source.shots.values() if s.served_size != s.size})
@@ -121,7 +129,9 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
 
     @app.exception_handler(StarletteHTTPException)  # the routing's own 404 / 405 too, not only ours
     async def _http(request, exc):
-        return JSONResponse({"error": exc.detail}, status_code=exc.status_code, headers=exc.headers)
+        # the body limit's own "Content Too Large" names neither the limit nor the option
+        detail = too_large(max_body) if exc.status_code == 413 else exc.detail
+        return JSONResponse({"error": detail}, status_code=exc.status_code, headers=exc.headers)
 
     @app.exception_handler(MrcheckError)
     async def _input_file(request, exc):
@@ -154,6 +164,9 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
                   + ("" if os.environ.get("MRCHECK_DEBUG") else " (MRCHECK_DEBUG=1 shows the traceback)"),
                   file=sys.stderr, flush=True)
             return JSONResponse({"error": f"internal error, please report it: {reason}"}, status_code=500)
+
+    # added last, so outermost: before the token check
+    app.add_middleware(RequestCheck, hosts=None if host is None else host_names(host), max_body=max_body)
 
     def shot_or_404(name: str):
         if name not in source.shots:
@@ -260,14 +273,10 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
     return app
 
 
-def is_loopback(host: str) -> bool:
-    return host in ("127.0.0.1", "localhost", "::1") or host.startswith("127.")
-
-
 def _url_host(host: str) -> str:
     """The host part of the printed URL: for an address bound on every interface (0.0.0.0, ::),
     the machine's name, which a colleague's browser can open."""
-    if host in ("0.0.0.0", "::", ""):
+    if host in ALL_INTERFACES:
         return socket.gethostname()
     return f"[{host}]" if ":" in host else host
 
@@ -289,7 +298,7 @@ def listen(host: str, port: int) -> socket.socket:
     return sock
 
 
-def serve(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=None, suggestions=()):
+def serve(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=None, suggestions=(), max_body=MAX_BODY):
     """``mrcheck review``: open the source, print the URL, run uvicorn until interrupted."""
     import secrets
 
@@ -302,13 +311,17 @@ def serve(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=No
         raise MrcheckError("--token must not be empty (omit it on loopback; elsewhere one is generated)")
     if db is not None and not str(db).strip():
         raise MrcheckError("--db must not be empty (omit it for review.sqlite beside the export, job or shots)")
+    if max_body < MIN_MAX_BODY:
+        raise MrcheckError(f"--max-body must be at least {format_size(MIN_MAX_BODY)}: a marker with a long note "
+                           "takes up to 26 kB")
     source = open_source(target, shots_dir)
     suggested = load_suggestions(source, suggestions)
     if token is None and not is_loopback(host):
         token = secrets.token_urlsafe(18)
     sock = listen(host, port)  # before create_app writes the database
     try:
-        app = create_app(source, db_path=None if db is None else Path(db), token=token, suggestions=suggested)
+        app = create_app(source, db_path=None if db is None else Path(db), token=token, suggestions=suggested,
+                         host=host, max_body=max_body)
         url = f"http://{_url_host(host)}:{port}/" + (f"?token={token}" if token else "")
         print(f"mrcheck review: {len(source.shots)} shot(s) of {source.label}", flush=True)
         store = app.state.store
