@@ -369,17 +369,21 @@ def _proper(tri: np.ndarray) -> np.ndarray:
     extent: a mesh that also holds an element 1e12 m away made every metre-sized triangle of it
     zero-area under (extent * 1e-9) ** 2 = 4e6 m^2, and dropped them.
     """
-    edges = tri[:, [1, 2, 0]] - tri
-    doubled_area = np.linalg.norm(np.cross(edges[:, 0], -edges[:, 2]), axis=1)
-    longest = np.linalg.norm(edges, axis=2).max(axis=1)
-    return doubled_area > (DEGENERATE_RATIO * longest) ** 2
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    ab, bc, ca = b - a, c - b, a - c
+    cross = np.cross(ab, -ca)
+    # squared throughout: no square roots over millions of triangles
+    doubled_area_sq = np.einsum("ij,ij->i", cross, cross)
+    longest_sq = np.maximum(np.maximum(np.einsum("ij,ij->i", ab, ab), np.einsum("ij,ij->i", bc, bc)),
+                            np.einsum("ij,ij->i", ca, ca))
+    return doubled_area_sq > DEGENERATE_RATIO ** 4 * longest_sq ** 2
 
 
 # -- float32 local coordinates -------------------------------------------------------------------
 FLOAT32_STEP = 2.0 ** -24   # float32 rounds to this share of a coordinate's magnitude (at most)
 FLOAT32_SHARE = 1e-3        # local coordinates may round a vertex by this share of a small triangle
 SMALL_TRIANGLE = 5          # "a small triangle": this percentile of the triangles' longest edges
-SIZE_SAMPLE = 1 << 16       # make_part judges a mesh on at most this many triangles (a fixed stride)
+SIZE_SAMPLE = 1 << 14       # make_part judges a mesh on at most this many triangles (a fixed stride)
 
 
 def longest_edges(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -430,7 +434,7 @@ def _stored(local: np.ndarray, faces: np.ndarray) -> np.ndarray:
     its small triangles: a mesh holding a factory at map coordinates and a stray element at the
     origin has its centre halfway, 2.5e6 m from both, where float32 steps 0.25 m. The consumers
     then work in float64 and the geometry pass draws it in :func:`float32_tiles`."""
-    sample = faces[::max(1, len(faces) // SIZE_SAMPLE)]
+    sample = faces[::max(1, -(-len(faces) // SIZE_SAMPLE))]   # a stride rounded up: at most SIZE_SAMPLE
     if not len(sample) or float32_holds(float(np.abs(local).max()), longest_edges(local, sample)):
         return local.astype(np.float32)
     return local
