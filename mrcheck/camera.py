@@ -289,23 +289,28 @@ def fit_size(own_width, own_height, width=None, height=None) -> tuple[int, int]:
     return width or own_width, height or own_height
 
 
-def gl_projection(camera: Camera, near: float, far: float) -> np.ndarray:
-    """(4, 4) float64 GL projection for OpenCV camera-space points, exactly from K.
+def gl_projection(camera: Camera, near: float) -> np.ndarray:
+    """(4, 4) float64 GL projection for OpenCV camera-space points, exactly from K: reversed-Z
+    with an infinite far plane.
 
     Maps camera point (x, y, z) to clip space so that window x = u + 0.5 and window y = v + 0.5
-    (image row 0 in framebuffer row 0), with z in [near, far] to NDC [-1, 1]. The principal point
-    may be anywhere (off-centre, even outside the image).
+    (image row 0 in framebuffer row 0), and to window depth ``near / z`` under
+    ``glClipControl(GL_LOWER_LEFT, GL_ZERO_TO_ONE)`` (:func:`mrcheck.gl.create_context`): 1 at
+    the near plane, towards 0 (the cleared background) at infinity. Clip z is the constant
+    ``near`` and clip w is z, so there is no far plane to choose and nothing in the matrix rounds
+    with distance; a float32 depth buffer then holds ``near / z`` with the same relative
+    precision (24 bits) at every distance (Reed, "Depth precision visualized", 2015). The
+    principal point may be anywhere (off-centre, even outside the image).
     """
-    if not 0.0 < near < far:
-        raise MrcheckError(f"invalid depth range near={near}, far={far}")
+    if not 0.0 < near < math.inf:
+        raise MrcheckError(f"invalid near plane {near}")
     W, H = camera.width, camera.height
     P = np.zeros((4, 4))
     P[0, 0] = 2.0 * camera.fx / W
     P[0, 2] = 2.0 * (camera.cx + 0.5) / W - 1.0
     P[1, 1] = 2.0 * camera.fy / H
     P[1, 2] = 2.0 * (camera.cy + 0.5) / H - 1.0
-    P[2, 2] = (far + near) / (far - near)
-    P[2, 3] = -2.0 * far * near / (far - near)
+    P[2, 3] = near
     P[3, 2] = 1.0
     return P
 

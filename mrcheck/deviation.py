@@ -47,7 +47,8 @@ small patch has almost no extent of its own).
 
 Precision: Open3D queries in float32, and a hall may sit 1e6 m from the origin, so the CAD
 triangle soup (:mod:`mrcheck.reference`) and the scan points are both taken relative to the
-scene's bounding-box centre in float64 before they become float32.
+scan's bounding-box centre in float64 before they become float32 (the scene's centre would
+lie halfway to a stray element far away).
 """
 
 from __future__ import annotations
@@ -233,8 +234,10 @@ def signed_distances(scene: Scene, points: np.ndarray):
 
     from .reference import _raycasting_scene, triangle_owners
 
-    bounds = scene.bounds()
-    origin = (bounds[0] + bounds[1]) / 2.0
+    # the scan's centre, not the scene's: one stray element far off (an IFC export's, at the
+    # origin of a model at map coordinates) moves the scene's centre, and float32 there rounds
+    # the CAD near the scan to metres
+    origin = (points.min(axis=0) + points.max(axis=0)) / 2.0
     rc = _raycasting_scene(scene, origin)
     if rc is None:
         raise MrcheckError("the scene has no triangles to measure against", scene.source)

@@ -8,10 +8,11 @@ name       format    content
 depth      R32F      linear camera-space z (metres for parts with units); 0 = background
 normal     RGBA16F   xyz: camera-space unit normal, facing the camera
 albedo     RGBA8     rgb: part colour (linear); a: 1 front face, 0 back face
-zbuffer    D32F      reversed-Z hardware depth (see :func:`mrcheck.gl._enable_reversed_z`)
+zbuffer    D32F      reversed-Z hardware depth near / z, infinite far plane (:func:`near_plane`)
 =========  ========  ==============================================================
 
-Each part is one vertex/index buffer, drawn instanced with per-instance model-view matrices
+Each part is one vertex/index buffer (a float64 part, :func:`mrcheck.scene.float32_tiles`, a
+few), drawn instanced with per-instance model-view matrices
 that are computed in float64 (view @ world) and cast to float32 only afterwards. Instances
 outside the view frustum or hidden behind the big near occluders are skipped
 (:mod:`mrcheck.culling`, exact), and parts are drawn front to back so that early depth testing
@@ -29,9 +30,11 @@ from . import culling, lod
 from .camera import Camera, gl_projection
 from .errors import MrcheckError
 from .gl import flush, float_depth_texture, load_program
-from .scene import Scene
+from .scene import Scene, float32_tiles
 
 FLUSH_TRIANGLES = 20_000  # see GeometryPass._submit
+NEAR_SHARE = 0.5          # the near plane at half the nearest box in view (see near_plane)
+NEAR_FLOOR = 2.0 ** -60   # ... or at this share of the farthest one, with the camera inside a box
 
 
 @dataclass
@@ -88,7 +91,10 @@ class _GpuMesh:
 
 @dataclass
 class _GpuPart:
-    source: object             # the scene's Part (its mesh, for building levels of detail)
+    """A part's mesh on the GPU, or one piece of it (:func:`mrcheck.scene.float32_tiles`)."""
+    name: str                  # the scene part's (labels a level-of-detail build)
+    vertices: np.ndarray       # (n, 3) float32 local (the piece's own centre), for levels of detail
+    faces: np.ndarray          # (m, 3) uint32
     levels: list               # [_GpuMesh]: 0 = the part's own mesh, then coarser ones
     errors: np.ndarray         # (len(levels),) measured error of each level, part units (0 first)
     lod_pending: bool          # levels to be loaded or built on first need (mrcheck.lod.eligible)
@@ -114,7 +120,7 @@ class GeometryPass:
         self.ctx = ctx
         self.scene = scene
         self.program = load_program(ctx, "gbuffer")
-        self.parts = [self._upload(part) for part in scene.parts]
+        self.parts = [gpu for part in scene.parts for gpu in self._upload(part)]
         self.boxes = culling.Boxes(self.parts)
         self.hiz = culling.HiZ(ctx)
         self.occlusion_culling = True
@@ -138,17 +144,34 @@ class GeometryPass:
         )
         return _GpuMesh(vbo, ibo, instances, vao, len(faces), int(closed.sum()))
 
-    def _upload(self, part) -> _GpuPart:
-        mesh = self._upload_mesh(part.vertices, part.faces, len(part.transforms))
-        lo, hi = part.local_bounds()
+    def _upload(self, part) -> list[_GpuPart]:
+        """The part as one mesh, or a float64 part (:attr:`mrcheck.scene.Part.vertices`) in
+        pieces that float32 holds around their own centres, each moved there by its transforms."""
+        if part.vertices.dtype == np.float32:
+            return [self._upload_piece(part, part.vertices, part.faces, part.transforms)]
+        pieces = []
+        for group in float32_tiles(part.vertices, part.faces):
+            used, faces = np.unique(part.faces[group], return_inverse=True)
+            vertices = part.vertices[used]
+            centre = np.eye(4)
+            centre[:3, 3] = (vertices.min(axis=0) + vertices.max(axis=0)) / 2.0
+            local = (vertices - centre[:3, 3]).astype(np.float32)       # subtracted in float64
+            pieces.append(self._upload_piece(part, local, faces.reshape(-1, 3).astype(np.uint32),
+                                             part.transforms @ centre))
+        return pieces
+
+    def _upload_piece(self, part, vertices, faces, transforms) -> _GpuPart:
+        mesh = self._upload_mesh(vertices, faces, len(transforms))
+        lo, hi = vertices.min(axis=0).astype(np.float64), vertices.max(axis=0).astype(np.float64)
         corners = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-        scales = np.linalg.norm(part.transforms[:, :3, :3], ord=2, axis=(1, 2))
-        pending = lod.eligible(len(part.faces), len(part.transforms))
-        return _GpuPart(part, [mesh], np.zeros(1), pending, part.color, part.transforms, scales, corners)
+        scales = np.linalg.norm(transforms[:, :3, :3], ord=2, axis=(1, 2))
+        pending = lod.eligible(len(faces), len(transforms))
+        return _GpuPart(part.name, vertices, faces, [mesh], np.zeros(1), pending, part.color, transforms, scales,
+                        corners)
 
     def _use_levels(self, gpu: _GpuPart) -> None:
         """Give ``gpu`` its levels of detail (from the disk cache, or built now)."""
-        levels = lod.levels_for(gpu.source.vertices, gpu.source.faces, name=gpu.source.name)
+        levels = lod.levels_for(gpu.vertices, gpu.faces, name=gpu.name)
         gpu.levels += [self._upload_mesh(level.vertices, level.faces, len(gpu.transforms)) for level in levels]
         gpu.errors = np.array([0.0] + [level.error for level in levels])
         gpu.lod_pending = False
@@ -164,16 +187,8 @@ class GeometryPass:
     def draw(self, gbuffer: GBuffer, camera: Camera) -> dict:
         """Render the scene into ``gbuffer``; returns stats (near, far, what was drawn and culled)."""
         batches = culling.frustum(self.boxes, camera)
-        far = max((float(b.z_far.max()) for b in batches), default=1.0)
-        nearest = min((float(b.z_near.min()) for b in batches), default=far)
-        # Reversed-Z float depth keeps relative precision at any distance, so near only has to
-        # be in front of every visible surface; a camera inside a part's bounds (a hall's walls)
-        # falls back to a near plane 1e-6 of the far distance.
-        near = nearest * 0.5 if nearest > 0 else far * 1e-6
-        near = max(near, far * 1e-6)
-        far = far * 1.01 + near
-
-        P = _reversed_z(gl_projection(camera, near, far), near, far)
+        near, far = near_plane(batches)
+        P = gl_projection(camera, near)
         self.program["u_projection"].write(P.T.astype(np.float32).tobytes())
 
         gbuffer.fbo.use()
@@ -307,12 +322,27 @@ def _triangles(items) -> int:
     return int(sum(item.triangles if isinstance(item, _Draw) else item.part.triangles * len(item) for item in items))
 
 
-def _reversed_z(P: np.ndarray, near: float, far: float) -> np.ndarray:
-    """Swap the z row of a [-1, 1] projection for reversed-Z in [0, 1]: z=near -> 1, z=far -> 0."""
-    R = P.copy()
-    R[2, 2] = -near / (far - near)
-    R[2, 3] = near * far / (far - near)
-    return R
+def near_plane(batches) -> tuple[float, float]:
+    """(near, far): the near plane for the instances in view, and their farthest box depth.
+
+    The projection has no far plane (:func:`mrcheck.camera.gl_projection`): depth ``near / z``
+    in a float32 buffer resolves z to the same relative precision at any distance, so nothing
+    far away (a stray element at the origin of a model at map coordinates, 5e6 m off) takes
+    precision from what is near. ``near`` only decides what is clipped: half the nearest box
+    depth when every box in view lies wholly in front of the camera. A camera inside some box
+    (a hall's walls, a floor reaching under it) may have that part's surface arbitrarily close;
+    then ``near`` is ``far * NEAR_FLOOR``, which clips nothing a camera can see (for a farthest
+    part at 1e12 m, what is nearer than 1 micrometre) and keeps ``near / z`` a normal float32
+    (>= 2**-126) for every z in view: llvmpipe flushes smaller ones to 0, the background
+    (measured: a near plane at 2**-128 of the farthest part lost 19 % of a hall's pixels).
+    ``far`` is reported only, in the geometry pass's stats.
+    """
+    far = max((float(b.z_far.max()) for b in batches), default=1.0)
+    front = [b.z_near[b.z_near > 0] for b in batches]
+    nearest = min((float(z.min()) for z in front if z.size), default=far)
+    inside = any(bool((b.z_near <= 0).any()) for b in batches)
+    near = min(NEAR_SHARE * nearest, far * NEAR_FLOOR) if inside else NEAR_SHARE * nearest
+    return near, far
 
 
 def check_camera_outside(geometry: GeometryPass, gbuffer: GBuffer, camera: Camera, source) -> None:
@@ -336,4 +366,4 @@ def check_camera_outside(geometry: GeometryPass, gbuffer: GBuffer, camera: Camer
         )
 
 
-__all__ = ["GBuffer", "GeometryPass", "check_camera_outside"]
+__all__ = ["GBuffer", "GeometryPass", "check_camera_outside", "near_plane"]

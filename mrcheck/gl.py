@@ -120,10 +120,12 @@ def flush() -> None:
 def _enable_reversed_z(ctx: moderngl.Context) -> None:
     """Depth in [0, 1] instead of [-1, 1] (glClipControl), for reversed-Z.
 
-    Reversed-Z with a 32-bit float depth buffer stores depth = near/z-ish, whose float exponent
-    keeps the *relative* precision constant from centimetres to kilometres: a factory hall seen
-    from 1.7 m eye height with geometry 300 m away needs no careful near plane. Without
-    ZERO_TO_ONE the [-1, 1] -> [0, 1] remap would throw that precision away.
+    Reversed-Z with an infinite far plane (:func:`mrcheck.camera.gl_projection`) and a 32-bit
+    float depth buffer stores depth = near / z, whose float exponent keeps the *relative*
+    precision constant from millimetres to 1e12 m: nothing far away, however far, takes
+    precision from what is near (:func:`mrcheck.gbuffer.near_plane`). Without ZERO_TO_ONE the
+    [-1, 1] -> [0, 1] remap (z * 0.5 + 0.5) would round away the small values that carry the far
+    depths (float32's spacing next to 0.5 is 2**-25).
     """
     _gl().clip_control(_GL_LOWER_LEFT, _GL_ZERO_TO_ONE)
 

@@ -8,7 +8,9 @@ Precision for large extents: each mesh is re-centred on its own bounding-box cen
 before its vertices are stored as float32, and the offset goes into the part's float64 world
 transform. The renderer multiplies view @ world in float64 and casts to float32 only then, so
 float32 only ever holds coordinates relative to the camera (a hall 1e6 m from the origin
-renders exactly like one at the origin).
+renders exactly like one at the origin). A mesh that float32 cannot hold around one centre (a
+factory at map coordinates with a stray element at the origin in the same file) stays float64,
+and the renderer draws it in pieces with centres of their own (:func:`float32_tiles`).
 
 Manifest (format 1)::
 
@@ -79,9 +81,10 @@ class Part:
 
     Attributes
     ----------
-    vertices : (n, 3) float32
+    vertices : (n, 3) float32, or float64
         Vertex positions relative to the mesh's own bounding-box centre, already in metres for
-        a part with declared units.
+        a part with declared units. float64 only for a mesh that float32 would round (one with
+        an element far from the rest, see :func:`float32_tiles`).
     faces : (m, 3) uint32
     transforms : (k, 4, 4) float64
         Local -> world, one per instance.
@@ -110,7 +113,7 @@ class Part:
 
     def local_bounds(self) -> np.ndarray:
         """(2, 3) float64 bounds of ``vertices`` (computed once: the vertices never change, and
-        the renderer asks every frame; min/max of float32 are exact, no float64 copy needed)."""
+        the renderer asks every frame; min/max are exact, no float64 copy of float32 needed)."""
         if self._bounds is None:
             self._bounds = np.stack([self.vertices.min(axis=0), self.vertices.max(axis=0)]).astype(np.float64)
         return self._bounds
@@ -340,12 +343,9 @@ def validate_mesh(vertices, faces, path):
         raise MrcheckError(f"mesh has {bad} vertices with NaN or infinite coordinates", path)
     if faces.min() < 0 or faces.max() >= len(vertices):
         raise MrcheckError("mesh has triangles that index missing vertices", path)
-    extent = float(np.ptp(vertices, axis=0).max())
     good = np.empty(len(faces), bool)
     for start in range(0, len(faces), VALIDATION_CHUNK):  # chunks: no float64 copy of all triangles
-        tri = vertices[faces[start:start + VALIDATION_CHUNK]]
-        doubled_area = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-        good[start:start + VALIDATION_CHUNK] = doubled_area > (extent * 1e-9) ** 2
+        good[start:start + VALIDATION_CHUNK] = _proper(vertices[faces[start:start + VALIDATION_CHUNK]])
     if not good.any():
         raise MrcheckError(f"mesh has only degenerate (zero-area) triangles ({len(faces)} of them)", path)
     if not good.all():
@@ -357,12 +357,97 @@ def validate_mesh(vertices, faces, path):
     return vertices, faces
 
 
+DEGENERATE_RATIO = 1e-9   # see _proper
+
+
+def _proper(tri: np.ndarray) -> np.ndarray:
+    """(m,) bool: the triangles (m, 3, 3) float64 that have an area, judged by their own size.
+
+    Twice the area is the longest edge L times the height h on it; a triangle with
+    ``2 * area <= (DEGENERATE_RATIO * L) ** 2`` (h at most 1e-18 L: below float64's resolution
+    of its own edges) has none. Measured against the triangle's own edge, not the mesh's
+    extent: a mesh that also holds an element 1e12 m away made every metre-sized triangle of it
+    zero-area under (extent * 1e-9) ** 2 = 4e6 m^2, and dropped them.
+    """
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    ab, bc, ca = b - a, c - b, a - c
+    cross = np.cross(ab, -ca)
+    # squared throughout: no square roots over millions of triangles
+    doubled_area_sq = np.einsum("ij,ij->i", cross, cross)
+    longest_sq = np.maximum(np.maximum(np.einsum("ij,ij->i", ab, ab), np.einsum("ij,ij->i", bc, bc)),
+                            np.einsum("ij,ij->i", ca, ca))
+    return doubled_area_sq > DEGENERATE_RATIO ** 4 * longest_sq ** 2
+
+
+# -- float32 local coordinates -------------------------------------------------------------------
+FLOAT32_STEP = 2.0 ** -24   # float32 rounds to this share of a coordinate's magnitude (at most)
+FLOAT32_SHARE = 1e-3        # local coordinates may round a vertex by this share of a small triangle
+SMALL_TRIANGLE = 5          # "a small triangle": this percentile of the triangles' longest edges
+SIZE_SAMPLE = 1 << 14       # make_part judges a mesh on at most this many triangles (a fixed stride)
+
+
+def longest_edges(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(m,) float64 longest edge of each triangle."""
+    tri = np.asarray(vertices, np.float64)[faces]
+    return np.linalg.norm(tri[:, [1, 2, 0]] - tri, axis=2).max(axis=1)
+
+
+def float32_holds(radius: float, longest: np.ndarray) -> bool:
+    """Whether float32 coordinates up to ``radius`` from their origin keep triangles with these
+    longest edges: rounding by at most FLOAT32_SHARE of a small one (the shipped meshes: at most
+    5e-5 of theirs). Triangles of one point have no size to keep."""
+    sized = longest[longest > 0]
+    return not sized.size or radius * FLOAT32_STEP <= FLOAT32_SHARE * float(np.percentile(sized, SMALL_TRIANGLE))
+
+
+def float32_tiles(vertices: np.ndarray, faces: np.ndarray) -> list[np.ndarray]:
+    """The triangles of a float64 mesh in groups that float32 holds relative to each group's own
+    bounding-box centre (:func:`float32_holds`), as arrays of face indices, in a fixed order.
+
+    A group that does not hold is cut in two at the middle of its triangles' centroids along the
+    axis where they spread most, so that a far element parts from the rest in one cut (the
+    factory at 5e6 m from its stray element at the origin) and a huge triangle from the small
+    ones beside it after a few. A single triangle always holds.
+    """
+    longest = longest_edges(vertices, faces)
+    centroids = np.asarray(vertices, np.float64)[faces].mean(axis=1)
+    tiles, todo = [], [np.arange(len(faces))]
+    while todo:
+        group = todo.pop()
+        used = vertices[faces[group]].reshape(-1, 3)
+        lo, hi = used.min(axis=0), used.max(axis=0)
+        if float32_holds(float(np.abs(used - (lo + hi) / 2.0).max()), longest[group]):
+            tiles.append(group)
+            continue
+        c = centroids[group]
+        axis = int(np.argmax(np.ptp(c, axis=0)))
+        if np.ptp(c[:, axis]) > 0:
+            left = c[:, axis] <= (c[:, axis].min() + c[:, axis].max()) / 2.0
+        else:   # every centroid in one point: halves (both non-empty, as a single triangle holds)
+            left = np.arange(len(group)) < len(group) // 2
+        todo += [group[~left], group[left]]
+    return sorted(tiles, key=lambda group: int(group[0]))
+
+
+def _stored(local: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """``local`` as float32, or kept float64 when float32 would round it beyond FLOAT32_SHARE of
+    its small triangles: a mesh holding a factory at map coordinates and a stray element at the
+    origin has its centre halfway, 2.5e6 m from both, where float32 steps 0.25 m. The consumers
+    then work in float64 and the geometry pass draws it in :func:`float32_tiles`."""
+    sample = faces[::max(1, -(-len(faces) // SIZE_SAMPLE))]   # a stride rounded up: at most SIZE_SAMPLE
+    if not len(sample) or float32_holds(float(np.abs(local).max()), longest_edges(local, sample)):
+        return local.astype(np.float32)
+    return local
+
+
 def make_part(name, source, vertices, faces, transforms, color=None, units=None, instance_ids=None) -> Part:
-    """A :class:`Part` from float64 geometry: re-centred, scaled to metres, stored as float32."""
+    """A :class:`Part` from float64 geometry: re-centred, scaled to metres, stored as float32
+    (float64 where float32 would not hold it, see :func:`_stored`)."""
     scale = unit_scale(units, source)
     lo, hi = vertices.min(axis=0), vertices.max(axis=0)
     centre = (lo + hi) / 2.0
-    local = ((vertices - centre) * scale).astype(np.float32)
+    faces = np.asarray(faces)
+    local = _stored((vertices - centre) * scale, faces)
     to_world = np.eye(4)
     to_world[:3, 3] = centre * scale
     transforms = np.asarray(transforms, np.float64).reshape(-1, 4, 4) @ to_world
@@ -517,4 +602,4 @@ def _part_from_table(path: Path, index: int, table: dict, names: set, owners: di
     return make_part(name, path.parent / table["mesh"], vertices, faces, transforms, color, table.get("units"), ids)
 
 
-__all__ = ["Part", "Scene", "UNITS", "load_scene", "read_mesh", "make_part", "transform_from_table"]
+__all__ = ["Part", "Scene", "UNITS", "float32_tiles", "load_scene", "read_mesh", "make_part", "transform_from_table"]
