@@ -89,7 +89,7 @@ from pathlib import Path, PurePosixPath
 import numpy as np
 
 from .errors import MrcheckError
-from .output import check_writable_ancestor
+from .output import check_not_inputs, check_writable_ancestor
 from .scene import load_scene, transform_from_table
 from .scenefiles import dumps_manifest, mesh_files, notice_files, read_manifest, write_generated
 
@@ -535,6 +535,13 @@ def make_asbuilt(scene_path, outdir, seed: int = 0, progress: bool = True) -> li
     _check_outdir(outdir, manifest)
     data = read_manifest(manifest)
     tables = data["parts"]
+    layout = _layout(manifest, tables)
+    # every top-level entry written or replaced in OUTDIR (its meshes/, external/ ...) goes as a whole
+    stale = _earlier_entries(outdir)
+    entries = stale | {PurePosixPath(name).parts[0] for files in layout.values() for _, name in files}
+    check_not_inputs([], [("the planned scene", manifest),
+                          *((f"a file of part mesh {mesh}", [f for f, _ in files]) for mesh, files in layout.items())],
+                     folders=[outdir / name for name in sorted(entries)])
 
     instances = _instances(scene, tables)
     excluded = _excluded(scene)
@@ -549,7 +556,6 @@ def make_asbuilt(scene_path, outdir, seed: int = 0, progress: bool = True) -> li
     changes = planner.plan(_kinds(len(instances), planner.rng), progress)
     parts, records = _asbuilt_tables(tables, scene, changes)
 
-    layout = _layout(manifest, tables)
     used = sorted({pair for table in parts for pair in layout[table["mesh"]]})  # not the meshes of dropped parts
     for table in parts:
         table["mesh"] = layout[table["mesh"]][0][1]
@@ -573,5 +579,5 @@ def make_asbuilt(scene_path, outdir, seed: int = 0, progress: bool = True) -> li
         (tmp / "scene.toml").write_text(dumps_manifest(out_data, header))
         (tmp / "discrepancies.json").write_text(json.dumps(report, indent=2) + "\n")
 
-    write_generated(outdir, fill, stale=_earlier_entries(outdir))
+    write_generated(outdir, fill, stale=stale)
     return [outdir / "scene.toml", outdir / "discrepancies.json"]

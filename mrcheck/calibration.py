@@ -41,7 +41,7 @@ import numpy as np
 
 from .camera import YAML_SUFFIXES, Camera
 from .errors import MrcheckError
-from .output import check_output_path, write_text
+from .output import check_not_inputs, check_output_path, write_text
 
 DEFAULT_MIN_VIEWS = 5
 # Zhang's method (cv2.calibrateCamera) gets two equations on the intrinsics from each view of a
@@ -487,6 +487,7 @@ def calibrate_command(images, board, output, min_views=None, max_view_error=None
     """The ``mrcheck calibrate`` command: everything checked before the work, output written last."""
     spec = parse_board(board)
     output = check_output_path(output, CAMERA_SUFFIXES, "camera output")
+    check_not_inputs([output], [("an image", images)])   # a glob of a folder takes in its old camera file too
     camera, extra, report = calibrate(images, spec, min_views, max_view_error)
     write_camera(output, camera, extra, pose=False)  # a calibration has no pose
     print("\n".join(report))

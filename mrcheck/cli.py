@@ -29,9 +29,24 @@ def _mode_choices() -> list[str]:
 _MODE_CHOICES = _mode_choices()
 
 
+class _Finite(click.ParamType):
+    """click's float without nan and inf, which its FLOAT accepts: every float option of every
+    command is this type, so that no check written as a comparison (``x >= 0``, ``x <= 1``) lets
+    a NaN through or takes an infinite radius."""
+    name = "float"
+
+    def convert(self, value, param, ctx):
+        number = click.FLOAT.convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value} is not a finite number", param, ctx)
+        return number
+
+
+FINITE = _Finite()
+
+
 def _positive(ctx, param, value):
-    # "not > 0" so that nan fails too (click's float type accepts "nan" and "inf")
-    if value is not None and not (value > 0 and math.isfinite(value)):
+    if value is not None and not value > 0:
         raise click.BadParameter(f"must be positive, got {value}")
     return value
 
@@ -76,17 +91,17 @@ def cli():
 @click.option("--height", type=int, callback=_positive, help="Image height in pixels [default: the view's or camera's].")
 @click.option("--samples", type=int, default=16, show_default=True, callback=_positive,
               help="AO samples per pixel (the paper uses 16, 36, 64, 128).")
-@click.option("--radius-px", type=float, callback=_positive,
+@click.option("--radius-px", type=FINITE, callback=_positive,
               help="vector: sampling radius on screen, pixels at the output resolution [default: 2% of the image height].")
-@click.option("--radius-fraction", type=float, callback=_positive,
+@click.option("--radius-fraction", type=FINITE, callback=_positive,
               help="vector: sampling radius as a fraction of the image height, instead of --radius-px [default: 0.02].")
-@click.option("--radius", "radius_world", type=float, default=0.2, show_default=True, callback=_positive,
+@click.option("--radius", "radius_world", type=FINITE, default=0.2, show_default=True, callback=_positive,
               help="ssao: constant world radius in scene units (metres for parts with declared units).")
-@click.option("--min-world-radius", type=float, help="vector: clamp the world sampling radius from below (scene units).")
-@click.option("--max-world-radius", type=float, help="vector: clamp the world sampling radius from above (scene units).")
-@click.option("--falloff", type=float, default=1.0, show_default=True,
+@click.option("--min-world-radius", type=FINITE, help="vector: clamp the world sampling radius from below (scene units).")
+@click.option("--max-world-radius", type=FINITE, help="vector: clamp the world sampling radius from above (scene units).")
+@click.option("--falloff", type=FINITE, default=1.0, show_default=True,
               help="c, the attenuation of o = cos / (1 + c (|v|/r)^2); larger = occlusion falls off faster with distance.")
-@click.option("--intensity", type=float, default=1.0, show_default=True,
+@click.option("--intensity", type=FINITE, default=1.0, show_default=True,
               help="AO strength: 0 none, 0.5 weak ... 2 strong (the study stepped four levels, weak to strong).")
 @click.option("--blur/--no-blur", default=True, show_default=True, help="Depth-aware bilateral blur of the AO buffer.")
 @click.option("--blur-size", type=int, default=9, show_default=True, callback=_odd_kernel, help="Blur kernel size, odd, 3 to 255 (the paper uses 9 and 13).")
@@ -96,7 +111,7 @@ def cli():
 @click.option("--light", type=click.Choice(["headlight", "sun"]), default="headlight", show_default=True,
               help="headlight: a light just above the camera; sun: a fixed direction from above.")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Seed of the AO kernel and rotation tile (renders are reproducible).")
-@click.option("--lod-px", type=float, default=0.5, show_default=True,
+@click.option("--lod-px", type=FINITE, default=0.5, show_default=True,
               help="Level of detail: parts drawn 4+ times and single parts of 50 k+ triangles (robots) use a "
                    "simplified mesh where its measured error stays below this many pixels; 0 draws every part "
                    "at full detail.")
@@ -209,7 +224,7 @@ def scene():
 @click.option("--preset", type=click.Choice(["cell", "line", "hall"]), required=True,
               help="cell: one robot cell; line: a production line with cells and racks; hall: a 200 x 80 x 12 m production hall.")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Same seed, same files (byte for byte).")
-@click.option("--size-m", nargs=3, type=float, metavar="L W H", help="Hall length, width and height in metres [default: the preset's].")
+@click.option("--size-m", nargs=3, type=FINITE, metavar="L W H", help="Hall length, width and height in metres [default: the preset's].")
 @click.option("--target-triangles", type=int, callback=_positive, metavar="N",
               help="Triangles as rendered (instances counted), 50 k to 200 M: scales detail and repetition [default: the preset's].")
 @click.option("--units-mix", is_flag=True,
@@ -259,7 +274,7 @@ def scene_info(scene_path, as_json, units):
 @click.option("--min-views", type=int, default=None,
               help="Fewest usable views to calibrate from, at least 3: Zhang's method needs three photos of a flat "
                    "board to determine the camera [default: 5].")
-@click.option("--max-view-error", type=float, default=None, callback=_positive, metavar="PX",
+@click.option("--max-view-error", type=FINITE, default=None, callback=_positive, metavar="PX",
               help="Reject views whose RMS reprojection error exceeds this and recalibrate, until every view kept is "
                    "within it [default: 3x the median view error of the first calibration, at least 1 px].")
 @click.option("-o", "--output", required=True, metavar="CAM.json",
@@ -278,7 +293,7 @@ def calibrate(images, board, min_views, max_view_error, output):
 @click.option("--intrinsics", required=True, metavar="CAM.json", help="Calibrated camera (JSON, or OpenCV YAML).")
 @click.option("--markers", metavar="MAP.json", help="Marker map: surveyed world corners of ArUco/AprilTag markers and ChArUco boards.")
 @click.option("--points", metavar="CORR.json", help="Manual correspondences: pixel <-> world point pairs (>= 4).")
-@click.option("--max-error", type=float, default=None, callback=_positive, metavar="PX",
+@click.option("--max-error", type=FINITE, default=None, callback=_positive, metavar="PX",
               help="RANSAC inlier threshold in pixels [default: automatic].")
 @click.option("-o", "--output", required=True, metavar="SHOT.json", help="The registered shot (camera JSON + photo, rms, method, ids used/rejected).")
 def register(scene_path, photo, intrinsics, markers, points, max_error, output):
@@ -294,10 +309,10 @@ def register(scene_path, photo, intrinsics, markers, points, max_error, output):
 @click.option("--scene", "scene_path", required=True, metavar="SCENE", help="The planned scene (manifest or mesh).")
 @click.option("--mode", type=click.Choice(_MODE_CHOICES), default="vector", show_default=True,
               help="Shading of the CAD; all = the study's sheet: D1, D2, D3, each virtual and with the photo.")
-@click.option("--alpha", type=float, default=0.5, show_default=True, help="Photo opacity, 0 (CAD only) .. 1 (photo only).")
+@click.option("--alpha", type=FINITE, default=0.5, show_default=True, help="Photo opacity, 0 (CAD only) .. 1 (photo only).")
 @click.option("--edges", is_flag=True, help="Draw CAD silhouette and crease edges over the photo.")
 @click.option("--edge-color", default="ff00ff", show_default=True, metavar="RRGGBB", help="Colour of the CAD edges.")
-@click.option("--intensity", type=float, default=1.0, show_default=True, help="AO strength (0 none ... 2 strong).")
+@click.option("--intensity", type=FINITE, default=1.0, show_default=True, help="AO strength (0 none ... 2 strong).")
 @click.option("--samples", type=int, default=16, show_default=True, callback=_positive, help="AO samples per pixel.")
 @click.option("-o", "--output", required=True, metavar="OUT.png", help="Output image.")
 def overlay(shot, scene_path, mode, alpha, edges, edge_color, intensity, samples, output):
@@ -320,9 +335,9 @@ def overlay(shot, scene_path, mode, alpha, edges, edge_color, intensity, samples
 @click.option("--radius-mode", type=click.Choice(["world", "screen"]), default="screen", show_default=True,
               help="world: a constant world radius (for ssao and the other world-radius modes); "
                    "screen: the vector method's per-pixel r_S = r_px * Z / f_y.")
-@click.option("--radius", "radius_world", type=float, default=None, callback=_positive, help="World radius (scene units) [default: 0.2].")
-@click.option("--radius-px", type=float, default=None, callback=_positive, help="Screen radius in pixels [default: 2% of the image height].")
-@click.option("--falloff", type=float, default=1.0, show_default=True, help="c of the attenuation 1 / (1 + c (d/r)^2), as in the render modes.")
+@click.option("--radius", "radius_world", type=FINITE, default=None, callback=_positive, help="World radius (scene units) [default: 0.2].")
+@click.option("--radius-px", type=FINITE, default=None, callback=_positive, help="Screen radius in pixels [default: 2% of the image height].")
+@click.option("--falloff", type=FINITE, default=1.0, show_default=True, help="c of the attenuation 1 / (1 + c (d/r)^2), as in the render modes.")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Seed of the ray directions.")
 @click.option("--units", type=click.Choice(["mm", "cm", "m", "in", "ft"]), help="Unit of a single mesh file SCENE.")
 @click.option("-o", "--output", required=True, metavar="REF.npy", help="Reference AO: .npy float32 (H, W), or 16-bit .png (as --output-ao).")
@@ -397,7 +412,7 @@ def review(target, shots_dir, host, port, token, db, suggestions, max_body):
 @cli.command()
 @click.argument("shot", metavar="SHOT.json")
 @click.option("--scene", "scene_path", required=True, metavar="SCENE", help="The planned scene.")
-@click.option("--tolerance-px", type=float, default=None, callback=_positive,
+@click.option("--tolerance-px", type=FINITE, default=None, callback=_positive,
               help="How far (px) a photo edge may lie from a CAD edge and still support it [default: automatic].")
 @click.option("-o", "--output", "outdir", required=True, metavar="OUTDIR",
               help="Folder for heatmap.png, suspects.json (ranked parts, for the review tool) and suspects.md.")

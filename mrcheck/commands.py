@@ -7,11 +7,12 @@ from pathlib import Path
 
 from .camera import Camera
 from .errors import MrcheckError
-from .output import (AO_SUFFIXES, IMAGE_SUFFIXES, check_output_dir, check_output_path, labelled_sheet,
-                     write_all_or_none, write_ao, write_image)
+from .output import (AO_SUFFIXES, IMAGE_SUFFIXES, check_not_inputs, check_output_dir, check_output_path,
+                     labelled_sheet, write_all_or_none, write_ao, write_image)
 from .renderer import MODES, STUDY_LABELS, Renderer, RenderSettings
 from .resources import factory_scenes_dir, sample_scene_path
 from .scene import load_scene
+from .scenefiles import scene_files
 
 STUDY_ORDER = ("phong", "vector", "ssao")  # D1 | D2 | D3, as in the paper's figure 5
 
@@ -77,6 +78,7 @@ def render_command(scene, view, camera_path, mode, width, height, units, output,
         for path in ao_paths.values():
             if path.resolve() == output.resolve():  # one would overwrite the other
                 raise MrcheckError("the image and an AO output are the same file", path)
+    check_not_inputs([output, *ao_paths.values()], [("the scene", scene_files(scene)), ("--camera", camera_path)])
     settings = RenderSettings(**settings)
     settings.validated(None)  # option errors before a long scene load
     loaded, camera = scene_and_camera(scene, units, view, camera_path, width, height)

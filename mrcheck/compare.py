@@ -31,9 +31,10 @@ import numpy as np
 
 from .errors import MrcheckError
 from .metrics import METRIC_NAMES, all_metrics, covered, distance_retention, MetricUndefined
-from .output import check_output_dir, labelled_sheet, write_all_or_none, write_image, write_text
+from .output import check_not_inputs, check_output_dir, labelled_sheet, write_all_or_none, write_image, write_text
 from .renderer import MODES, STUDY_LABELS, Renderer, RenderSettings
 from .scene import load_scene
+from .scenefiles import scene_files
 
 ERROR_SCALE = 0.5                            # the error map saturates at |ao - reference| = 0.5
 NEGATIVE_RGB = np.array([33, 84, 200.0])     # ao darker than the reference (invented occlusion)
@@ -228,6 +229,7 @@ def compare_command(scene, view, samples, rays, width, height, outdir):
     from .reference import MAX_RAYS, REFERENCE_LOD_PX
 
     outdir = check_output_dir(outdir)
+    check_not_inputs([outdir / name for name in (FIGURE_NAME, JSON_NAME, MD_NAME)], [("the scene", scene_files(scene))])
     if not 1 <= rays <= MAX_RAYS:
         raise MrcheckError(f"rays must be in [1, {MAX_RAYS}], got {rays}")
     loaded = load_scene(scene, progress=True)

@@ -67,10 +67,15 @@ import cv2
 import numpy as np
 
 from .errors import MrcheckError
-from .output import check_output_dir, write_bytes, write_image
+from .output import check_not_inputs, check_output_dir, write_bytes, write_image
 from .scene import UNITS, Scene, unit_scale
+from .scenefiles import scene_files
 
 SCAN_SUFFIXES = (".ply", ".pcd", ".xyz", ".txt", ".pts")
+# the files written into OUTDIR (module docstring); the last two with --shot only
+DEVIATIONS, PARTS_JSON, PARTS_MD = "deviations.npy", "parts.json", "parts.md"
+VIEW_IMAGES = {"top": "deviation_top.png", "side": "deviation_side.png"}
+SHOT_IMAGES = {"deviation_render.png": 0.0, "deviation_overlay.png": 0.5}   # name: the photo's alpha
 QUERY_CHUNK = 1 << 20            # points per closest-point query (~100 MB of results)
 UNIT_RATIO_LIMIT = 20.0          # scan bbox diagonal / scene bbox diagonal beyond which units are wrong
 OVERLAP_MARGIN = 0.05            # bbox overlap test tolerance, as a share of the scene diagonal
@@ -159,14 +164,37 @@ def _read_cloud(path: Path, fmt: str) -> np.ndarray:
 
 
 # values are separated by white space, commas (CloudCompare's ASCII export writes x,y,z) or
-# semicolons; a line with a semicolon is split at semicolons only, so that "1,5;2,5;0,0" (decimal
-# commas) is refused as non-numbers rather than read as the point (1, 5, 2)
-_SEPARATORS = re.compile(r"[\s,]+")
+# semicolons. Decimal commas are told apart by counting fields: "1,25 2,50 0,10" is three
+# white-space fields with a comma inside each, which "1,2,3" and "1, 2, 3" never are (split at
+# both, it was the six numbers 1, 25, 2, 50, 0, 10 and the point (1, 25, 2)). A line with a
+# semicolon is split at semicolons only, so that "1,5;2,5;0,0" is refused, not read as (1, 5, 2).
 _SEMICOLONS = re.compile(r"[\s;]+")
+_COMMENTS = ("#", "//")
 
 
-def _values(line: str) -> list[str]:
-    return [v for v in (_SEMICOLONS if ";" in line else _SEPARATORS).split(line.strip()) if v]
+def _values(line: str) -> list[str] | None:
+    """The values of one line, or None for a line with decimal commas."""
+    if ";" in line:
+        return [v for v in _SEMICOLONS.split(line.strip()) if v]
+    if "," not in line:
+        return line.split()
+    fields = [f.strip() for f in line.split(",")]
+    if any(len(f.split()) > 1 for f in fields):   # white space inside a comma-separated field
+        return None
+    return [f for f in fields if f]
+
+
+def _text_problem(lines) -> str:
+    """Why the first bad one of ``(line number, line)`` is not ``x y z``: decimal commas or non-numbers."""
+    for number, line in lines:
+        values = _values(line)
+        if values is None or any("," in v for v in values[:3]):
+            return f"line {number} {line.strip()[:60]!r}: decimal commas are not supported"
+        try:
+            [float(v) for v in values[:3]]
+        except ValueError:
+            return f"line {number} {line.strip()[:60]!r}: not numbers"
+    return "a line with non-numbers"
 
 
 def _read_text(path: Path) -> np.ndarray:
@@ -177,15 +205,16 @@ def _read_text(path: Path) -> np.ndarray:
         text = path.read_text(encoding="ascii")
     except UnicodeDecodeError:
         raise MrcheckError("not a text x y z point file (binary content)", path) from None
-    rows = [_values(line)[:3] for line in text.splitlines()]
-    rows = [r for r in rows if r and not r[0].startswith(("#", "//"))]
-    points = [r for r in rows if len(r) == 3]
+    lines = [(n, line) for n, line in enumerate(text.splitlines(), 1)
+             if line.strip() and not line.lstrip().startswith(_COMMENTS)]
+    rows = [_values(line) for _, line in lines]
+    points = [r[:3] for r in rows if r is not None and len(r) >= 3]
     try:
+        if None in rows:
+            raise ValueError("decimal commas")
         data = np.array(points, np.float64).reshape(-1, 3)   # "nan" parses: caught as NaN below
     except ValueError:
-        decimal_comma = any("," in v for r in points for v in r)
-        raise MrcheckError("not a text x y z point file (a line with non-numbers"
-                           + ("; decimal commas are not supported)" if decimal_comma else ")"), path) from None
+        raise MrcheckError(f"not a text x y z point file ({_text_problem(lines)})", path) from None
     if len(points) < len(rows):
         print(f"warning: {path}: skipped {len(rows) - len(points)} lines with fewer than 3 values", file=sys.stderr)
     return data
@@ -396,7 +425,7 @@ def shot_images(scene: Scene, camera, photo, points, colours, scale_mm) -> dict:
         renderer.release()
     uv, depth, index = project_to_shot(points, camera)
     out = {}
-    for name, alpha in (("deviation_render.png", 0.0), ("deviation_overlay.png", 0.5)):
+    for name, alpha in SHOT_IMAGES.items():
         base = overlay_images(photo, renders, camera, alpha, None, offset=offset, maps=maps)["phong"]
         out[name] = add_legend(splat(base.copy(), uv, depth, colours[index]), scale_mm)
     return out
@@ -446,9 +475,13 @@ def deviation_command(scan, scene, shot=None, units=None, outdir="deviation"):
     from .scene import load_scene
 
     outdir = check_output_dir(outdir)
-    camera = photo = None
+    camera = photo = photo_path = None
     if shot is not None:
         camera, photo_path = load_shot(shot)
+    names = [DEVIATIONS, PARTS_JSON, PARTS_MD, *VIEW_IMAGES.values(), *(SHOT_IMAGES if shot is not None else ())]
+    check_not_inputs([outdir / name for name in names], [("the scan", scan), ("--shot", shot),
+                                                         ("the shot's photo", photo_path), ("the scene", scene_files(scene))])
+    if shot is not None:
         photo = read_photo(photo_path, camera)
     points = read_scan(scan, units)          # the scan's own errors before the slow scene load
     loaded = load_scene(scene, progress=True)
@@ -456,8 +489,7 @@ def deviation_command(scan, scene, shot=None, units=None, outdir="deviation"):
 
     scale_mm = colour_scale_mm(d)
     colours = diverging_colours(d, scale_mm / 1000.0)
-    images = {f"deviation_{view}.png": add_legend(orthographic_image(points, colours, view), scale_mm)
-              for view in ("top", "side")}
+    images = {name: add_legend(orthographic_image(points, colours, view), scale_mm) for view, name in VIEW_IMAGES.items()}
     if camera is not None:
         images.update(shot_images(loaded, camera, photo, points, colours, scale_mm))
     a = np.abs(d)
@@ -467,9 +499,9 @@ def deviation_command(scan, scene, shot=None, units=None, outdir="deviation"):
               "sign": "sign of (point - closest point) . closest triangle normal; > 0 in front of the CAD surface",
               "colour_scale_mm": scale_mm, "parts": parts}
 
-    write_bytes(outdir / "deviations.npy", _npy_bytes(d.astype(np.float32)))
-    write_bytes(outdir / "parts.json", (json.dumps(report, indent=2) + "\n").encode())
-    write_bytes(outdir / "parts.md", parts_markdown(report).encode())
+    write_bytes(outdir / DEVIATIONS, _npy_bytes(d.astype(np.float32)))
+    write_bytes(outdir / PARTS_JSON, (json.dumps(report, indent=2) + "\n").encode())
+    write_bytes(outdir / PARTS_MD, parts_markdown(report).encode())
     for name, image in images.items():
         write_image(outdir / name, image)
     print(outdir)

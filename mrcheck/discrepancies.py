@@ -121,13 +121,15 @@ from .overlay import blend, cad_edges, distort_to_photo, distortion_map, load_sh
 from .reference import _raycasting_scene, triangle_owners
 from .renderer import Renderer, RenderSettings
 from .scene import Scene, load_scene
-from .output import check_output_dir, write_bytes, write_image
+from .scenefiles import scene_files
+from .output import check_not_inputs, check_output_dir, write_bytes, write_image
 
 __all__ = ["object_ids", "photo_edges", "outline_normals", "oriented_support", "shifted_support", "cad_edge_owner",
            "planned_view", "detect", "heatmap", "discrepancies_command",
            "evaluate", "synthetic_photo", "silhouettes", "default_tolerance", "SCORE_THRESHOLD", "MIN_EDGE_PIXELS", "MIN_REGION_PIXELS",
            "SAMPLE_CELL_FAR_VIEWS", "behind_ids", "discriminative_outlines"]
 
+HEATMAP, SUSPECTS_JSON, SUSPECTS_MD = "heatmap.png", "suspects.json", "suspects.md"   # written into OUTDIR
 SCORE_THRESHOLD = 0.55    # swept on the evaluation's development seeds 0-9 (recall against false suspects)
 MIN_EDGE_PIXELS = 20      # fewer visible edge pixels is too little evidence either way
 MIN_REGION_PIXELS = 25    # unexplained photo edge pixels a region needs to be reported
@@ -627,8 +629,10 @@ def discrepancies_command(shot, scene, tolerance_px=None, outdir=None):
     if tolerance_px is not None and tolerance_px > limit:
         raise MrcheckError(f"tolerance must be at most {MAX_TOLERANCE_SHARE:.0%} of the photo's shorter side "
                            f"({limit:g} px for {camera.width}x{camera.height}), got {tolerance_px:g}", shot)
-    photo = read_photo(photo_path, camera)      # missing, unreadable or wrong-size photo: exit 1
     outdir = check_output_dir(outdir)
+    check_not_inputs([outdir / name for name in (HEATMAP, SUSPECTS_JSON, SUSPECTS_MD)],
+                     [("the shot", shot), ("the shot's photo", photo_path), ("the scene", scene_files(scene))])
+    photo = read_photo(photo_path, camera)      # missing, unreadable or wrong-size photo: exit 1
     loaded = load_scene(scene, progress=True)
     result = detect(loaded, camera, photo, tolerance_px)
     result["warnings"] = []
@@ -640,9 +644,9 @@ def discrepancies_command(shot, scene, tolerance_px=None, outdir=None):
     image = heatmap(photo, result)
     keys = ("tolerance_px", "threshold", "warnings", "suspects", "regions", "suggested_markers")
     doc = {"shot": str(Path(shot).resolve()), "scene": str(Path(scene).resolve()), **{k: result[k] for k in keys}}
-    paths = [write_image(outdir / "heatmap.png", image),
-             write_bytes(outdir / "suspects.json", (json.dumps(doc, indent=2) + "\n").encode()),
-             write_bytes(outdir / "suspects.md", _markdown(result, shot).encode())]
+    paths = [write_image(outdir / HEATMAP, image),
+             write_bytes(outdir / SUSPECTS_JSON, (json.dumps(doc, indent=2) + "\n").encode()),
+             write_bytes(outdir / SUSPECTS_MD, _markdown(result, shot).encode())]
     print(_summary_line(result))
     for p in paths:
         print(p)

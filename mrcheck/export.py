@@ -108,8 +108,9 @@ import cv2
 
 from .camera import Camera
 from .errors import MrcheckError
-from .jsonfile import is_number
-from .output import check_writable_ancestor, encode_image, write_bytes, write_text
+from .export_report import REPORT, write_report
+from .jsonfile import is_number, number_problem
+from .output import check_not_inputs, check_writable_ancestor, encode_image, write_bytes, write_text
 from .overlay import STUDY_ORDER, check_alpha, distortion_map, load_shot, overlay_images, read_photo, \
     render_for_photo, study_sheet
 from .renderer import DEFAULT_SAMPLES, MODES, RenderSettings
@@ -117,6 +118,7 @@ from .scenefiles import files_stamp, scene_files
 
 RECORD = "record.json"
 SHOT_FILE = "SHOT.json"
+MANIFEST = "manifest.json"   # the job's, in OUTDIR (and export_report.REPORT)
 SHEET = "sheet.png"
 SHEET_ALPHA = 0.5
 _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
@@ -199,28 +201,31 @@ def load_job(path) -> Job:
         fail(f"unknown mode(s) {', '.join(map(repr, bad))} (use {', '.join(MODES)})")
     modes = list(dict.fromkeys(modes))
 
+    def number(key, value, check, what) -> float:
+        """``value`` when it is a finite number that passes ``check``; else "KEY: what is wrong"."""
+        if problem := number_problem(value) or (None if check(value) else f"{value} is {what}"):
+            fail(f"{key}: {problem}")
+        return float(value)
+
     def numbers(key, default, check, what):
         values = data.get(key, default)
-        if not isinstance(values, list) or not values or not all(is_number(v) for v in values):
+        if not isinstance(values, list) or not values:
             fail(f"{key} must be a non-empty list of numbers")
-        for v in values:
-            if not check(v):
-                fail(f"{key}: {v} is {what}")
-        return [float(v) for v in dict.fromkeys(values)]
+        return list(dict.fromkeys(number(key, v, check, what) for v in values))
 
     alphas = numbers("alphas", [SHEET_ALPHA], lambda a: 0.0 <= a <= 1.0, "outside 0..1 (the photo's opacity)")
     for a in alphas:
         check_alpha(a)
     intensities = numbers("intensities", [1.0], lambda i: i >= 0.0, "negative (AO strength must be >= 0)")
     overlay_intensity = data.get("overlay_intensity", 1.0 if 1.0 in intensities else intensities[len(intensities) // 2])
-    if not is_number(overlay_intensity) or float(overlay_intensity) not in intensities:
-        fail(f"overlay_intensity {overlay_intensity!r} must be one of the intensities {intensities}")
+    overlay_intensity = number("overlay_intensity", overlay_intensity, lambda i: i in intensities,
+                               f"not one of the intensities {intensities}")
     width = data.get("width")
     if width is not None and not (isinstance(width, int) and not isinstance(width, bool) and 16 <= width <= 16384):
         fail(f"width must be a whole number of pixels, 16..16384, got {width!r}")
     max_error = data.get("max_registration_error_px")
-    if max_error is not None and not (is_number(max_error) and max_error > 0):
-        fail(f"max_registration_error_px must be a positive number, got {max_error!r}")
+    if max_error is not None:
+        max_error = number("max_registration_error_px", max_error, lambda e: e > 0, "not positive")
     samples = data.get("samples", DEFAULT_SAMPLES)
     if not (isinstance(samples, int) and not isinstance(samples, bool) and 1 <= samples <= 512):
         fail(f"samples must be a whole number 1..512, got {samples!r}")
@@ -304,8 +309,7 @@ def load_job(path) -> Job:
                 fail(f"{where}: shot name {shot['name']!r} used twice (give each shot its own name)")
             names.add(shot["name"])
         shots += planned
-    return Job(path, scene, modes, alphas, intensities, float(overlay_intensity), width,
-               None if max_error is None else float(max_error), samples, edges, shots, loaded)
+    return Job(path, scene, modes, alphas, intensities, overlay_intensity, width, max_error, samples, edges, shots, loaded)
 
 
 def _safe_name(stem: str) -> str:
@@ -428,6 +432,8 @@ def _register(inputs: dict, max_error, scene_bounds) -> tuple[dict, Camera, Path
         camera, photo = load_shot(inputs["shot"])
         shot = json.loads(Path(inputs["shot"]).read_text())
         shot["photo"] = str(photo)
+        if not is_number(shot.get("rms", 0.0)):   # unknown, as the review shows it: NaN is no JSON for the outputs
+            shot["rms"] = None
     else:
         shot = register_photo(Path(inputs["photo"]), read_camera(inputs["intrinsics"]),
                               marker_map=load_marker_map(inputs["markers"]) if "markers" in inputs else None,
@@ -569,6 +575,11 @@ def _prepare_folder(folder: Path) -> None:
             part.unlink(missing_ok=True)
 
 
+def _own_names(task: dict) -> list:
+    """The names of every file the export writes into ``task``'s shot folder."""
+    return [*(o["file"] for o in plan_outputs(task["settings"])), SHOT_FILE, RECORD]
+
+
 def _own_files(folder: Path, keep: set) -> list:
     """The files in ``folder`` with the export's own names (:data:`_OUTPUT_NAME`), except those in
     ``keep`` (what the job reads): the only files the export ever removes."""
@@ -581,8 +592,7 @@ def _remove_stale(outdir: Path, tasks: list, keep: set) -> list:
     the job, when they hold the export's record.json. Only the export's own file names go, never a
     file in ``keep`` (what the job reads); a folder is removed once empty. Returns the removed
     paths, relative to OUTDIR."""
-    planned = {Path(t["dir"]).name: {o["file"] for o in plan_outputs(t["settings"])} | {SHOT_FILE, RECORD}
-               for t in tasks}
+    planned = {Path(t["dir"]).name: set(_own_names(t)) for t in tasks}
     shots = outdir / "shots"
     removed = []
     for folder in sorted(shots.iterdir()) if shots.is_dir() else []:
@@ -751,8 +761,6 @@ def export_command(job, outdir, workers: int = 1, scheduler: str | None = None, 
     """``mrcheck export``: returns the exit status (0 every shot done or skipped, 1 any failed)."""
     from tqdm import tqdm
 
-    from .export_report import write_report
-
     started = time.perf_counter()
     job = load_job(job)
     outdir = Path(outdir).resolve()
@@ -764,6 +772,9 @@ def export_command(job, outdir, workers: int = 1, scheduler: str | None = None, 
         click.echo("warning: --workers is ignored with --scheduler (the cluster's workers run the shots)", err=True)
     scene_paths = scene_files(job.scene)
     tasks = _tasks(job, outdir, write=scheduler is None, scene_paths=scene_paths)
+    check_not_inputs([outdir / MANIFEST, outdir / REPORT, *(Path(t["dir"]) / name for t in tasks for name in _own_names(t))],
+                     [("the job", job.path), ("the scene", scene_paths),
+                      *((f"an input of shot {t['name']}", t["input_files"]) for t in tasks)])
 
     entries, to_run = {}, []
     for task in tasks:
@@ -820,7 +831,7 @@ def export_command(job, outdir, workers: int = 1, scheduler: str | None = None, 
             "shots_per_minute": round(60.0 * len(ran) / elapsed, 2) if ran and elapsed > 0 else None},
         "shots": shots, "removed": removed,
     }
-    write_text(outdir / "manifest.json", json.dumps(manifest, indent=2) + "\n")
+    write_text(outdir / MANIFEST, json.dumps(manifest, indent=2) + "\n")
     write_report(manifest, outdir)
 
     click.echo(f"export: {len(shots)} shots: {counts['done']} done, {counts['skipped']} skipped, "
@@ -838,7 +849,7 @@ def export_command(job, outdir, workers: int = 1, scheduler: str | None = None, 
         of_shots = f", including the outputs of {len(dropped)} shot(s) no longer in the job" if dropped else ""
         click.echo(f"removed {len(removed)} file(s) of earlier runs that this job no longer produces{of_shots} "
                    f"(listed in manifest.json)")
-    click.echo(f"wrote {outdir / 'manifest.json'} and {outdir / 'report.html'}")
+    click.echo(f"wrote {outdir / MANIFEST} and {outdir / REPORT}")
     return 1 if counts["failed"] else 0
 
 

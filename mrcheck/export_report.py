@@ -18,6 +18,7 @@ import cv2
 from .output import write_text
 
 THUMB_WIDTH = 480
+REPORT = "report.html"   # in OUTDIR
 
 
 def _thumbnail(path: Path) -> str | None:
@@ -111,7 +112,7 @@ section {{ margin: 1.5em 0; }} img {{ max-width: 100%; border: 1px solid #ccc; }
 def write_report(manifest: dict, outdir) -> Path:
     outdir = Path(outdir)
     text = render_report(manifest, outdir)
-    path = outdir / "report.html"
+    path = outdir / REPORT
     write_text(path, text)
     return path
 

@@ -24,10 +24,21 @@ def read_json(path, what: str):
         raise MrcheckError(f"malformed {what} JSON: {exc.msg.removesuffix(' at')} at line {exc.lineno}", path) from None
 
 
+def number_problem(value) -> str | None:
+    """Why a parsed JSON or TOML value is not a finite number ("nan is not a finite number",
+    "'2' is not a number"), or None when it is one: for messages naming the file, the key and
+    this (``job.toml: alphas: nan is not a finite number``)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return f"{value!r} is not a number"
+    if not math.isfinite(value):
+        return f"{value} is not a finite number"
+    return None
+
+
 def is_number(value) -> bool:
     """A finite JSON number: not true/false (Python's bools are ints), not NaN or inf (Python's
     json reads them, and they make an output invalid JSON)."""
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
-__all__ = ["read_json", "is_number"]
+__all__ = ["read_json", "is_number", "number_problem"]

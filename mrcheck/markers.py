@@ -31,7 +31,7 @@ import cv2
 import numpy as np
 
 from .errors import MrcheckError
-from .jsonfile import read_json
+from .jsonfile import number_problem, read_json
 
 
 def dictionary(name, source=None) -> cv2.aruco.Dictionary:
@@ -183,7 +183,10 @@ def _parse_board(k, entry, default_dictionary, source) -> Board:
             or not all(isinstance(s, int) and not isinstance(s, bool) and s >= 2 for s in squares)):
         raise MrcheckError(f"{where}: 'squares' must be [columns, rows], whole numbers >= 2", source)
     square, marker = entry.get("square"), entry.get("marker")
-    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0 for v in (square, marker)) or marker >= square:
+    for key, value in (("square", square), ("marker", marker)):
+        if problem := number_problem(value):   # an infinite square passed "marker < square"
+            raise MrcheckError(f"{where}: {key}: {problem}", source)
+    if not 0 < marker < square:
         raise MrcheckError(f"{where}: need 0 < marker < square (metres), got marker={marker!r}, square={square!r}", source)
     pose = entry.get("pose")
     if not isinstance(pose, dict):

@@ -57,6 +57,50 @@ def check_writable_ancestor(path: Path, what: str = "output", itself: bool = Fal
         raise MrcheckError(f"cannot write {what}: folder {parent} is not writable ({exc.strerror or exc})", path) from None
 
 
+def check_not_inputs(outputs, inputs, folders=()) -> None:
+    """Refuse, before any work, an output that is one of the command's inputs: the rename of
+    :func:`_atomic_write` would replace the input by the result (``register ... --points
+    corr.json -o corr.json`` lost the correspondences).
+
+    Parameters
+    ----------
+    outputs : paths of the files the command writes (for an output folder: each file it writes
+        there, so that ``-o DIR`` is refused only when DIR/heatmap.png is the photo, say).
+    inputs : ``(what, paths)`` pairs, ``what`` naming the input's role in the message
+        ("--points", "the scene"); ``paths`` one path or a list of them, None for none.
+    folders : folders the command replaces or empties as a whole (an as-built variant's
+        ``meshes/``): an input inside one is refused too.
+
+    The same file is the same inode (``os.path.samefile``: through a symlink, a hard link or
+    another spelling of the path); an output or input that does not exist is never the same.
+    """
+    named = {}   # (device, inode) -> (what, path), in the order given
+    listed = []  # (what, path) of every input, for the folders
+    for what, paths in inputs:
+        for path in [paths] if isinstance(paths, (str, os.PathLike)) else (paths or ()):
+            listed.append((what, path))
+            try:
+                st = os.stat(path)
+            except (OSError, ValueError):   # missing: the command says so when it reads it
+                continue
+            named.setdefault((st.st_dev, st.st_ino), (what, path))
+    for output in outputs:
+        try:
+            st = os.stat(output)
+        except (OSError, ValueError):
+            continue
+        if (st.st_dev, st.st_ino) in named:
+            what, path = named[st.st_dev, st.st_ino]
+            raise MrcheckError(f"the output would overwrite the input {path} ({what}); write it elsewhere", output)
+    for folder in folders:
+        # both spellings: a link inside the folder goes with it, and so does a file reached through a link
+        roots = {Path(os.path.abspath(folder)), Path(os.path.realpath(folder))}
+        for what, path in listed:
+            if any(p.is_relative_to(r) for p in (Path(os.path.abspath(path)), Path(os.path.realpath(path))) for r in roots):
+                raise MrcheckError(f"the output would replace {folder}, which holds the input {path} ({what}); "
+                                   "write it elsewhere", folder)
+
+
 def _current_umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
@@ -206,4 +250,5 @@ def labelled_sheet(images, labels) -> np.ndarray:
     return np.hstack(out)
 
 
-__all__ = ["write_image", "write_bytes", "encode_image", "write_ao", "labelled_sheet", "check_output_path", "check_output_dir", "check_writable_ancestor", "IMAGE_SUFFIXES", "AO_SUFFIXES"]
+__all__ = ["write_image", "write_bytes", "encode_image", "write_ao", "labelled_sheet", "check_output_path", "check_output_dir",
+           "check_writable_ancestor", "check_not_inputs", "IMAGE_SUFFIXES", "AO_SUFFIXES"]

@@ -44,9 +44,10 @@ from .camera import Camera
 from .commands import warn_if_nothing_in_view
 from .errors import MrcheckError
 from .jsonfile import read_json
-from .output import IMAGE_SUFFIXES, check_output_path, labelled_sheet, write_image
+from .output import IMAGE_SUFFIXES, check_not_inputs, check_output_path, labelled_sheet, write_image
 from .renderer import STUDY_LABELS, Renderer, RenderSettings
 from .scene import load_scene
+from .scenefiles import scene_files
 
 STUDY_ORDER = ("phong", "vector", "ssao")  # D1 | D2 | D3, as in commands.py and the paper
 DEFAULT_EDGE_COLOR = (255, 0, 255)
@@ -271,10 +272,9 @@ def overlay_command(shot, scene, mode="vector", alpha=0.5, edges=False, edge_col
     color = parse_edge_color(edge_color)
     settings = RenderSettings(samples=samples, intensity=intensity)
     camera, photo_path = load_shot(shot)
+    check_not_inputs([output], [("the shot", shot), ("the shot's photo", photo_path), ("the scene", scene_files(scene))])
     settings.validated(camera.height)  # option errors before the scene is loaded
     photo = read_photo(photo_path, camera)
-    if output.resolve() == photo_path.resolve():
-        raise MrcheckError("the output would overwrite the photo", output)
 
     modes = list(STUDY_ORDER) if mode == "all" else [mode]
     loaded = load_scene(scene, progress=True)

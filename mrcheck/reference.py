@@ -251,10 +251,12 @@ def reference_command(scene, view, camera_path, width, height, rays, radius_mode
                       falloff, seed, units, output):
     """``mrcheck reference``: render the G-buffer, ray-trace the reference AO, write it."""
     from .commands import scene_and_camera, warn_if_nothing_in_view
-    from .output import AO_SUFFIXES, check_output_path, write_ao
+    from .output import AO_SUFFIXES, check_not_inputs, check_output_path, write_ao
     from .renderer import DEFAULT_RADIUS_FRACTION, DEFAULT_RADIUS_WORLD, Renderer, RenderSettings, check_screen_radius
+    from .scenefiles import scene_files
 
     output = check_output_path(output, AO_SUFFIXES, "reference output")   # fail before the work
+    check_not_inputs([output], [("the scene", scene_files(scene)), ("--camera", camera_path)])
     if radius_mode not in RADIUS_MODES:
         raise MrcheckError(f"radius mode must be one of {', '.join(RADIUS_MODES)}, got {radius_mode!r}")
     _check_rays(rays)   # before a long scene load (_validate below checks everything)

@@ -46,8 +46,9 @@ from .camera import Camera
 from .errors import MrcheckError
 from .jsonfile import read_json
 from .markers import Group, detect_markers, load_marker_map, parse_marker_map
-from .output import check_output_path, write_text
+from .output import check_not_inputs, check_output_path, write_text
 from .scene import MESH_SUFFIXES, load_scene
+from .scenefiles import scene_files
 
 # corner noise assumed when the residuals cannot tell (exact synthetic data, a single marker):
 # subpixel ArUco/ChArUco corners are good to a few tenths of a pixel
@@ -470,6 +471,8 @@ def register_command(scene, photo, intrinsics, markers=None, points=None, max_er
     output = check_output_path(output, (".json",), "shot")
     if (markers is None) == (points is None):
         raise MrcheckError("give either --markers MAP.json or --points CORR.json (exactly one)")
+    check_not_inputs([output], [("--photo", photo), ("--intrinsics", intrinsics), ("--markers", markers),
+                                ("--points", points), ("the scene", scene_files(scene))])
     # fail before the work: the scene the overlay will need must load, and a quick check first
     if not Path(scene).exists():
         raise MrcheckError("scene not found", scene)

@@ -71,19 +71,23 @@ class RenderSettings:
         checks = [
             (self.samples >= 1, f"samples must be >= 1, got {self.samples}"),
             (self.samples <= 512, f"samples must be <= 512, got {self.samples}"),
-            (self.radius_px is None or self.radius_px > 0, f"radius in pixels must be positive, got {self.radius_px}"),
+            # comparisons that nan fails: "not >= 0" would let it through; and an infinite radius
+            # or falloff makes every pixel 0 (background included)
+            (self.radius_px is None or 0 < self.radius_px < math.inf,
+             f"radius in pixels must be positive and finite, got {self.radius_px}"),
             (0 < self.radius_fraction < 1, f"radius fraction must be in (0, 1), got {self.radius_fraction}"),
-            (self.radius_world > 0, f"world radius must be positive, got {self.radius_world}"),
-            # "not >= 0" lets nan through, and inf makes every pixel 0 (background included)
+            (0 < self.radius_world < math.inf, f"world radius must be positive and finite, got {self.radius_world}"),
             (0 <= self.falloff < math.inf, f"falloff must be >= 0 and finite, got {self.falloff}"),
             (0 <= self.intensity < math.inf, f"intensity must be >= 0 and finite, got {self.intensity}"),
             (self.seed >= 0, f"seed must be >= 0, got {self.seed}"),
             (self.ao_scale in (0.5, 1.0), f"ao scale must be 1.0 or 0.5, got {self.ao_scale}"),
             (blur_problem is None, f"blur size {blur_problem}"),
             (self.light in LIGHTS, f"light must be one of {', '.join(LIGHTS)}, got {self.light!r}"),
-            (self.min_world_radius is None or self.min_world_radius >= 0, "minimum world radius must be >= 0"),
+            (self.min_world_radius is None or 0 <= self.min_world_radius < math.inf,
+             f"minimum world radius must be >= 0 and finite, got {self.min_world_radius}"),
             (0 <= self.lod_px <= 4, f"level-of-detail error must be in [0, 4] pixels, got {self.lod_px}"),
-            (self.max_world_radius is None or self.max_world_radius > 0, "maximum world radius must be > 0"),
+            (self.max_world_radius is None or 0 < self.max_world_radius < math.inf,
+             f"maximum world radius must be > 0 and finite, got {self.max_world_radius}"),
             (None in (self.min_world_radius, self.max_world_radius) or self.min_world_radius <= self.max_world_radius,
              f"minimum world radius {self.min_world_radius} exceeds the maximum {self.max_world_radius}"),
         ]

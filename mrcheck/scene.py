@@ -177,14 +177,18 @@ def transform_from_table(table: dict, where: str) -> np.ndarray:
             M = np.array(table["matrix"], dtype=np.float64)
             if M.shape != (4, 4):
                 raise MrcheckError(f"{where}: matrix must be 4x4")
+            if not np.all(np.isfinite(M)):
+                raise MrcheckError(f"{where}: matrix has NaN or infinite values")
             A = M[:3, :3]
-            if np.all(np.isfinite(M)) and not np.allclose(M[3], (0, 0, 0, 1)):
+            if not np.allclose(M[3], (0, 0, 0, 1)):
                 raise MrcheckError(f"{where}: matrix bottom row must be [0, 0, 0, 1] (an affine transform)")
             # a singular matrix flattens the part, and its normals (inverse transpose) would be NaN
-            if np.all(np.isfinite(M)) and not abs(np.linalg.det(A)) > 1e-12 * np.linalg.norm(A) ** 3:
+            if not abs(np.linalg.det(A)) > 1e-12 * np.linalg.norm(A) ** 3:
                 raise MrcheckError(f"{where}: matrix is singular")
         else:
             scale = float(table.get("scale", 1.0))
+            if not math.isfinite(scale):
+                raise MrcheckError(f"{where}: scale: {scale} is not a finite number")
             if not scale > 0:
                 raise MrcheckError(f"{where}: scale must be positive, got {scale}")
             M[:3, :3] = _rotation_xyz(_vector(table.get("rotate_deg", (0, 0, 0)), f"{where} rotate_deg")) * scale

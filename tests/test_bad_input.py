@@ -204,7 +204,7 @@ CASES = [
     option_case("blur-size-even", ["--blur-size", "4"], "odd", "--blur-size"),
     option_case("blur-size-one-phong", ["--mode", "phong", "--blur-size", "1"], "odd", "--blur-size"),
     option_case("radius-px-negative", ["--radius-px", "-1"], "positive", "--radius-px"),
-    option_case("radius-px-nan", ["--radius-px", "nan"], "positive", "--radius-px"),
+    option_case("radius-px-nan", ["--radius-px", "nan"], "nan is not a finite number", "--radius-px"),
     option_case("radius-fraction-above-one", ["--radius-fraction", "2"], "radius fraction"),
     option_case("falloff-negative", ["--falloff", "-1"], "falloff"),
     option_case("intensity-negative", ["--intensity", "-1"], "intensity"),

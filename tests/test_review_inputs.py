@@ -240,7 +240,7 @@ def _suspects(outdir, folder, markers):
     ({"x": 1, "y": 1, "severity": "high"}, "severity must be 1, 2 or 3, got 'high'"),
     ({"x": 1, "y": 1, "severity": 9}, "severity must be 1, 2 or 3, got 9"),
     ({"x": 1, "y": 1, "severity": True}, "severity must be 1, 2 or 3, got True"),
-    ({"x": "1", "y": 1}, "x and y must be numbers (photo pixels), got '1', 1"),
+    ({"x": "1", "y": 1}, "x (photo pixels): '1' is not a number"),
     ({"x": 1, "y": 1, "note": 5}, "note must be a string, got 5")])
 def test_a_bad_suggested_marker_is_named(outdir, tmp_path, capsys, marker, problem):
     """A severity "high" was an internal error; 9 was imported, which the page cannot show."""

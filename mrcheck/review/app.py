@@ -28,6 +28,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from ..errors import MrcheckError, bug_reason
+from ..output import check_not_inputs
 from ..renderer import MODES, STUDY_LABELS
 from .guard import ALL_INTERFACES, MAX_BODY, MIN_MAX_BODY, RequestCheck, format_size, host_names, is_loopback, \
     too_large
@@ -39,6 +40,7 @@ from .suggestions import pending
 STATIC = {"index.html": "text/html", "app.js": "text/javascript", "style.css": "text/css"}
 KINDS = ("photo", "render", "edges", "thumb")
 COOKIE = "mrcheck_review_token"
+DATABASE, CACHE = "review.sqlite", ".review-cache"   # the defaults: in the source's home, the cache beside the database
 MAX_ID = 2**63 - 1  # SQLite's INTEGER range; a larger id cannot be bound (OverflowError), nor exist
 
 Category = Literal["missing", "moved", "extra", "wrong size", "other", "suggested"]
@@ -75,6 +77,11 @@ def _static(name: str) -> bytes:
     return resources.files("mrcheck.review").joinpath("static", name).read_bytes()
 
 
+def database_path(source, db_path=None) -> Path:
+    """The review database: ``--db``, else review.sqlite in the source's home."""
+    return Path(db_path or source.home / DATABASE)
+
+
 def create_app(source, db_path: Path | None = None, cache_dir: Path | None = None, token: str | None = None,
                samples: int = 16, suggestions: dict | None = None, host: str | None = None,
                max_body: int = MAX_BODY) -> FastAPI:
@@ -83,10 +90,10 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
     ``host``: the address the server is bound to, whose names alone a request's Host header may
     give (:func:`.guard.host_names`); None checks no Host (an app not on a socket, as in tests).
     ``max_body``: the largest request body, in bytes."""
-    db_path = Path(db_path or source.home / "review.sqlite")
+    db_path = database_path(source, db_path)
     store = Store(db_path, source.review_name(db_path),
                   served_scales={s.name: s.served_scale() for s in source.shots.values() if s.served_size != s.size})
-    renders = RenderService(source, cache_dir or db_path.parent / ".review-cache", samples=samples)
+    renders = RenderService(source, cache_dir or db_path.parent / CACHE, samples=samples)
     picker_lock = threading.Lock()
     picker_box: list = []
 
@@ -305,7 +312,7 @@ def serve(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=No
     import uvicorn
 
     from .source import open_source
-    from .suggestions import load_suggestions
+    from .suggestions import load_suggestions, suggestions_file
 
     if token is not None and not token.strip():
         raise MrcheckError("--token must not be empty (omit it on loopback; elsewhere one is generated)")
@@ -316,12 +323,17 @@ def serve(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=No
                            "takes up to 26 kB")
     source = open_source(target, shots_dir)
     suggested = load_suggestions(source, suggestions)
+    database = database_path(source, db)
+    # SQLite writes the database and its -wal, -shm and -journal files; the cache prunes its own folder
+    check_not_inputs([Path(f"{database}{suffix}") for suffix in ("", "-wal", "-shm", "-journal")],
+                     [*source.inputs(), ("--suggestions", [suggestions_file(s) for s in suggestions])],
+                     folders=[database.parent / CACHE])
     if token is None and not is_loopback(host):
         token = secrets.token_urlsafe(18)
     sock = listen(host, port)  # before create_app writes the database
     try:
-        app = create_app(source, db_path=None if db is None else Path(db), token=token, suggestions=suggested,
-                         host=host, max_body=max_body)
+        app = create_app(source, db_path=database, token=token, suggestions=suggested, host=host,
+                         max_body=max_body)
         url = f"http://{_url_host(host)}:{port}/" + (f"?token={token}" if token else "")
         print(f"mrcheck review: {len(source.shots)} shot(s) of {source.label}", flush=True)
         store = app.state.store

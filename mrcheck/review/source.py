@@ -7,7 +7,7 @@ import json
 import os
 import re
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..camera import Camera
@@ -63,6 +63,12 @@ class Source:
     scene_stamp: str = ""  # files_stamp of the scene's files, set by open_source (keys the render cache)
     loaded: object = None  # the Scene, loaded once by open_source (the renderer and the picker share it)
     origin: Path | None = None  # the job file, export folder or shots folder reviewed
+    files: list = field(default_factory=list)  # the files read to find the shots (job, manifest, SHOT.json, ...)
+
+    def inputs(self) -> list:
+        """``(what, paths)`` of every file the review reads (:func:`mrcheck.output.check_not_inputs`)."""
+        return [("a file of the review", self.files), ("a photo", [s.photo for s in self.shots.values()]),
+                ("the scene", scene_files(self.scene))]
 
     def review_name(self, db_path) -> str:
         """The review's name in the database at ``db_path``: the path of what is reviewed,
@@ -113,13 +119,14 @@ def _read_manifest(path: Path) -> tuple[Path, list]:
 
 def from_outdir(outdir: Path) -> Source:
     scene, entries = _read_manifest(outdir / "manifest.json")
-    shots = {}
+    shots, files = {}, [outdir / "manifest.json"]
     for entry in sorted(entries, key=lambda e: e["name"]):
         if entry.get("status") not in ("done", "skipped"):   # failed in the export: its report says why
             continue
         try:   # a done shot's SHOT.json deleted or broken since the export
             name = _checked_name(entry["name"], outdir / "manifest.json")
-            shots[name] = _shot(name, outdir / entry.get("folder", f"shots/{name}") / "SHOT.json")
+            files.append(outdir / entry.get("folder", f"shots/{name}") / "SHOT.json")
+            shots[name] = _shot(name, files[-1])
         except MrcheckError as exc:
             _warn(f"shot {entry['name']} skipped: {exc}")
     if not shots:
@@ -127,17 +134,18 @@ def from_outdir(outdir: Path) -> Source:
         why = (f"every shot ({failed}) failed in the export; its report.html says why" if entries and failed == len(entries)
                else "the export has no shots" if not entries else "see the warnings above")
         raise MrcheckError(f"no usable shots to review: {why}", outdir)
-    return Source(scene, shots, outdir, str(outdir), origin=outdir)
+    return Source(scene, shots, outdir, str(outdir), origin=outdir, files=files)
 
 
 def from_job(job_path: Path) -> Source:
-    from ..export import _register, load_job
+    from ..export import _input_files, _register, load_job
 
     job = load_job(job_path)
     bounds = job.loaded.bounds()   # loaded by load_job: a camera far outside the scene is a warning, as in export
-    shots = {}
+    shots, files = {}, [job_path]
     for entry in job.shots:
         inputs = {k: v for k, v in entry.items() if k != "name"}
+        files += _input_files(inputs)
         try:
             data, camera, photo = _register(inputs, None, bounds)
         except MrcheckError as exc:
@@ -149,7 +157,8 @@ def from_job(job_path: Path) -> Source:
         shots[name] = Shot(name, camera, Path(photo), _rms(data))
     if not shots:
         raise MrcheckError("no usable shots to review: every shot was skipped (see the warnings above)", job_path)
-    return Source(Path(job.scene), shots, job_path.resolve().parent, str(job_path), loaded=job.loaded, origin=job_path)
+    return Source(Path(job.scene), shots, job_path.resolve().parent, str(job_path), loaded=job.loaded, origin=job_path,
+                  files=files)
 
 
 def from_scene(scene: Path, shots_dir: Path) -> Source:
@@ -170,7 +179,7 @@ def from_scene(scene: Path, shots_dir: Path) -> Source:
     if not shots:
         why = f"none of its {len(files)} JSON file(s) is a shot" if files else "it has no SHOT.json files (*.json)"
         raise MrcheckError(f"no usable shots to review: {why}", shots_dir)
-    return Source(scene, shots, shots_dir, f"{scene} + {shots_dir}", origin=shots_dir)
+    return Source(scene, shots, shots_dir, f"{scene} + {shots_dir}", origin=shots_dir, files=files)
 
 
 def _toml_keys(path: Path) -> set:

@@ -18,7 +18,7 @@ import math
 from pathlib import Path
 
 from ..errors import MrcheckError
-from ..jsonfile import is_number
+from ..jsonfile import number_problem
 from ..overlay import load_shot
 from .storage import SEVERITIES
 
@@ -66,12 +66,17 @@ def _check_size(shot, made_on, doc: dict, suggested: list, path: Path) -> None:
                                f"({w}x{h}): made on another photo?", path)
 
 
+def suggestions_file(spec: str) -> Path:
+    """The file of a ``FILE`` or ``NAME=FILE`` spec."""
+    return Path(spec.partition("=")[2] or spec)
+
+
 def load_suggestions(source, specs) -> dict:
     """{shot name: [marker dicts in the photo's pixels, with their import key]} from ``FILE`` or
     ``NAME=FILE`` specs."""
     out = {}
     for spec in specs:
-        path = Path(spec.partition("=")[2] or spec)
+        path = suggestions_file(spec)
         if not path.exists():
             raise MrcheckError("suggestions file not found", path)
         try:
@@ -105,8 +110,9 @@ def _checked(m, index: int, path: Path) -> dict:
 
     if not isinstance(m, dict):
         fail("must be an object with x, y")
-    if not (is_number(m.get("x")) and is_number(m.get("y"))):
-        fail(f"x and y must be numbers (photo pixels), got {m.get('x')!r}, {m.get('y')!r}")
+    for key in ("x", "y"):
+        if problem := number_problem(m.get(key)):
+            fail(f"{key} (photo pixels): {problem}")
     severity = m.get("severity", 2)
     if severity not in SEVERITIES or isinstance(severity, (bool, float)):
         fail(f"severity must be 1, 2 or 3, got {severity!r}")
