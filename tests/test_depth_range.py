@@ -4,7 +4,10 @@ A part 3e7 m away used to set the near plane to 1e-6 of the farthest distance (3
 clipped everything nearer: one flat colour and "no CAD part is in view", exit 0. The depth buffer
 is now reversed-Z float with an infinite far plane, so nothing far away changes what is near.
 Every case is compared with the same near geometry rendered alone (or at the origin): the far
-parts must change nothing that the camera sees in front of them.
+parts must change nothing that the camera sees in front of them. The same holds for what works
+on the scene in float32 elsewhere (ray-traced reference, discrepancy ids, review pick,
+deviation), and for a far element in the SAME mesh as the near ones (one file of a whole model),
+which float32 around the mesh's one centre would round to metres.
 """
 
 from __future__ import annotations
@@ -214,6 +217,23 @@ def test_reference_ao_of_the_far_scene(ctx, how):
         results.append(reference_ao(scene, LOOK, depth, normals, 16, "world", 0.5))
     assert (results[1] < 0.9).mean() > 0.01
     assert np.abs(results[0] - results[1]).max() < 1e-6
+
+
+@pytest.mark.parametrize("how", HOWS)
+def test_discrepancies_ids_and_overlay_edges_of_the_far_scene(ctx, how):
+    """The discrepancy check's per-pixel instances (a ray cast) and the overlay's CAD edges
+    (from the render's depth) see the near cell as if it were alone."""
+    from mrcheck.discrepancies import object_ids
+    from mrcheck.overlay import cad_edges
+
+    (ids, depth, _), (ids_alone, depth_alone, _) = (object_ids(Scene("t", "t", p), LOOK)
+                                                    for p in _with_far(how, FAR * VIEW_DIR))
+    assert (ids_alone >= 0).mean() > 0.05
+    assert np.array_equal(ids, ids_alone)
+    np.testing.assert_allclose(depth, depth_alone, rtol=1e-5)
+    edges, edges_alone = (cad_edges(_render(ctx, p, LOOK, ["phong"])[1], LOOK.fx)
+                          for p in _with_far(how, FAR * VIEW_DIR))
+    assert edges_alone.sum() > 100 and np.array_equal(edges, edges_alone)
 
 
 @pytest.mark.parametrize("how", HOWS)
