@@ -61,7 +61,7 @@ from .ao.kernel import PAPER_SAMPLE_COUNTS, sphere_kernel
 from .bench_peers import PEERS, peak_rss_mb, reset_peak_rss
 from .camera import Camera
 from .gl import create_context, load_program, made_current
-from .output import check_output_path, write_text
+from .output import check_output_path, write_image, write_text
 from .renderer import DEFAULT_BLUR, Renderer, RenderSettings
 from .resources import sample_scene_path
 from .scene import Scene, load_scene, make_part
@@ -478,9 +478,7 @@ class _LineStages:
         for peer in self.peers:
             peer.release()
         if self.last_rgb is not None:
-            import cv2
-
-            cv2.imwrite(str(self.png), np.ascontiguousarray(self.last_rgb[..., ::-1]))  # image rows top-down
+            write_image(self.png, self.last_rgb)  # image rows top-down
         self.stages[0].release()  # the renderer the stages share
 
 

@@ -228,10 +228,9 @@ def _summary(times: list, peaks: list) -> dict:
 
 
 def _save_png(path: str, rgb: np.ndarray) -> None:
-    import cv2
+    from .output import write_image
 
-    if not cv2.imwrite(path, np.ascontiguousarray(rgb[..., ::-1])):
-        raise OSError(f"could not write {path}")
+    write_image(path, rgb)
 
 
 def ao_off_png(png) -> Path:

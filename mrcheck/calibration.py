@@ -30,6 +30,7 @@ import contextlib
 import hashlib
 import json
 import math
+import os
 import sys
 from collections import Counter
 from dataclasses import dataclass
@@ -40,7 +41,9 @@ import cv2
 import numpy as np
 
 from .camera import YAML_SUFFIXES, Camera
-from .errors import MrcheckError
+from .errors import MrcheckError, display
+from .imageio import decode_image
+from .inputs import check_input, read_input, read_input_text, real_path
 from .output import check_not_inputs, check_output_path, write_text
 
 DEFAULT_MIN_VIEWS = 5
@@ -267,25 +270,29 @@ def _one_opencv_thread():
 
 
 def _read_image(path: Path):
-    """(the file's bytes, its grey image); either is None when the file cannot be read or decoded.
-    The photo is read once: its bytes tell a duplicate, imdecode applies EXIF rotation as imread."""
+    """(the file's bytes, its grey image, the problem): the image None when the file cannot be
+    read or decoded, and the problem says why ("image is empty (0 bytes)"); the bytes None
+    when it cannot be read. A missing file or a folder is an error (a mistyped argument): a
+    photo that cannot be used is skipped. The photo is read once: its bytes tell a duplicate,
+    imdecode applies EXIF rotation as imread."""
     if path.is_dir():
         raise MrcheckError("is a folder, not an image (give the photos themselves, e.g. DIR/*.jpg)", path)
-    if not path.is_file():
+    if not os.path.lexists(path):
         raise MrcheckError("image not found", path)
     try:
-        data = path.read_bytes()
-        return data, cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_GRAYSCALE)
-    except OSError:
-        return None, None
-    except cv2.error:  # e.g. an empty file
-        return data, None
+        data = read_input(path, "image")
+    except MrcheckError as exc:   # a symlink loop, a broken link, permission, a FIFO, empty
+        return None, None, exc.problem
+    try:
+        return data, decode_image(data, path, "image", grey=True), None
+    except MrcheckError as exc:
+        return data, None, exc.problem
 
 
 def _duplicate(seen: dict, name, path: Path, data):
     """(first name, how) when this photo came before, as the same file or as the same bytes under
     another name (a copy); else None, and the photo is recorded in ``seen``."""
-    keys = {"the same file as": path.resolve()}
+    keys = {"the same file as": real_path(path)}
     if data is not None:
         keys["identical to"] = hashlib.sha256(data).digest()
     for how, key in keys.items():
@@ -309,6 +316,7 @@ class Detected(NamedTuple):
     skipped: list  # names without the board or unreadable, in the order given
     duplicates: list  # names of photos given before (the first one is used)
     without_board: list  # the readable ones among skipped
+    unreadable: dict  # the others among skipped: {name: why it cannot be used}
 
 
 def detect_views(images, board: Board) -> Detected:
@@ -321,20 +329,21 @@ def detect_views(images, board: Board) -> Detected:
     """
     from tqdm import tqdm
 
-    views, sizes, skipped, duplicates, without_board, seen = {}, {}, [], [], [], {}
+    views, sizes, skipped, duplicates, without_board, unreadable, seen = {}, {}, [], [], [], {}, {}
     # a photo takes up to seconds; disable=None: a bar on a terminal only (not in pipes, logs, tests);
     # the with block erases it (leave=False) on an error too, so the error line starts a clean line
     with tqdm(images, desc="finding the board", unit="photo", file=sys.stderr, disable=None, leave=False) as bar:
         for name in bar:
-            data, gray = _read_image(Path(name))
+            data, gray, problem = _read_image(Path(name))
             first = _duplicate(seen, name, Path(name), data)
             if first is not None:
                 _warn(name, f"{first[1]} {first[0]}, used once")
                 duplicates.append(name)
                 continue
             if gray is None:
-                _warn(name, "cannot read image, skipped")
+                _warn(name, f"{problem}, skipped")
                 skipped.append(name)
+                unreadable[name] = problem
                 continue
             points = board.detect(gray)
             if points is None:
@@ -343,7 +352,7 @@ def detect_views(images, board: Board) -> Detected:
                 without_board.append(name)
             else:
                 views[name], sizes[name] = points, (gray.shape[1], gray.shape[0])
-    return Detected(views, _common_size(sizes), skipped, duplicates, without_board)
+    return Detected(views, _common_size(sizes), skipped, duplicates, without_board, unreadable)
 
 
 def _common_size(sizes: dict):
@@ -378,7 +387,7 @@ def calibrate(images, board: Board, min_views=None, max_view_error=None):
     if len(views) < min_views:
         repeats = f" ({_count(len(duplicates), 'duplicate')} not counted)" if duplicates else ""
         raise MrcheckError(f"board found in only {len(views)} of {len(images) - len(duplicates)} images{repeats}, "
-                           f"need at least {min_views} (--min-views){hint}")
+                           f"need at least {min_views} (--min-views){_unreadable(found.unreadable)}{hint}")
     if hint:
         _warn(f"board {board.spec}", f"found in only {len(views)} of {len(views) + len(found.without_board)} readable "
                                      f"images{hint}")
@@ -394,6 +403,19 @@ def calibrate(images, board: Board, min_views=None, max_view_error=None):
         "board": board.spec,
     }
     return camera, extra, _report(camera, extra, rejected, threshold, len(images))
+
+
+def _unreadable(problems: dict, listed: int = 5) -> str:
+    """"; 5 images cannot be used (image is empty (0 bytes): a.jpg, b.jpg, ...)": the photos that
+    could not be read, grouped by their problem, at most ``listed`` names per problem."""
+    if not problems:
+        return ""
+    groups: dict = {}
+    for name, problem in problems.items():
+        groups.setdefault(problem, []).append(display(name))
+    parts = [f"{problem}: {', '.join(names[:listed])}" + (f" and {len(names) - listed} more" if len(names) > listed else "")
+             for problem, names in groups.items()]
+    return f"; {_count(len(problems), 'image')} cannot be used ({'; '.join(parts)})"
 
 
 def _spec_hint(board: Board, photos) -> str:
@@ -526,7 +548,9 @@ def write_camera(path, camera: Camera, extra: dict = None, pose: bool = True) ->
         fs.write("per_view_reprojection_errors", np.array(list(errors.values()), np.float64).reshape(-1, 1))
         _write_strings(fs, "views", errors)  # file names cannot be FileStorage keys, hence a list
     for key, value in extra.items():
-        if isinstance(value, str) or (isinstance(value, (int, float)) and not isinstance(value, bool)):
+        if isinstance(value, str):
+            fs.write(key, display(value))
+        elif isinstance(value, (int, float)) and not isinstance(value, bool):
             fs.write(key, value)
         elif isinstance(value, list) and all(isinstance(v, str) for v in value):
             _write_strings(fs, key, value)
@@ -539,9 +563,10 @@ def write_camera(path, camera: Camera, extra: dict = None, pose: bool = True) ->
 
 
 def _write_strings(fs, key, values):
+    # display(): OpenCV takes strings as UTF-8 and crashes on a file name that is not valid UTF-8
     fs.startWriteStruct(key, cv2.FileNode_SEQ)
     for value in values:
-        fs.write("", str(value))
+        fs.write("", display(value))
     fs.endWriteStruct()
 
 
@@ -557,12 +582,12 @@ def read_yaml_camera(path: Path) -> dict:
     from a posed camera by that.
     """
     path = Path(path)
-    if not path.is_file():
-        raise MrcheckError("camera file not found", path)
-    if path.stat().st_size == 0:
+    if check_input(path, "camera file").st_size == 0:
         raise MrcheckError("cannot read OpenCV YAML camera: the file is empty", path)
+    # parsed from memory: FileStorage given the name crashes on one that is not valid UTF-8
+    text = read_input_text(path, "OpenCV YAML camera")
     try:
-        fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+        fs = cv2.FileStorage(text, cv2.FILE_STORAGE_READ | cv2.FILE_STORAGE_MEMORY)
         try:
             if not fs.isOpened():
                 raise MrcheckError("cannot read OpenCV YAML camera", path)

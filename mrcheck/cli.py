@@ -16,7 +16,7 @@ from pathlib import Path
 
 import click
 
-from .errors import MrcheckError, bug_reason
+from .errors import DISPLAY_ERRORS, MrcheckError, bug_reason
 
 EXIT_ERROR = 1
 
@@ -438,7 +438,18 @@ def deviation(scan, scene_path, shot, units, outdir):
     deviation_command(scan=scan, scene=scene_path, shot=shot, units=units, outdir=outdir)
 
 
+def _name_safe_streams() -> None:
+    """File names that are not valid UTF-8 (surrogate escapes) print without UnicodeEncodeError:
+    on stdout as their original bytes, as ls and find print them to a pipe (a printed output
+    path stays usable by a script); on stderr, where a person reads them, as ``\\xNN``
+    (:func:`mrcheck.errors.display`)."""
+    for stream, errors in ((sys.stdout, "surrogateescape"), (sys.stderr, DISPLAY_ERRORS)):
+        if hasattr(stream, "reconfigure"):   # a TextIOWrapper (not a test's StringIO)
+            stream.reconfigure(errors=errors)
+
+
 def main(argv=None) -> int:
+    _name_safe_streams()
     try:
         result = cli.main(args=argv, prog_name="mrcheck", standalone_mode=False)
     except MrcheckError as exc:

@@ -53,21 +53,20 @@ lie halfway to a stray element far away).
 
 from __future__ import annotations
 
-import contextlib
 import io
 import json
 import math
-import os
 import re
 import sys
-import tempfile
 from pathlib import Path
 
 import cv2
 import numpy as np
 
 from .errors import MrcheckError
-from .output import check_not_inputs, check_output_dir, write_bytes, write_image
+from .inputs import check_input
+from .output import check_not_inputs, check_output_dir, write_all_or_none, write_bytes, write_image, write_text
+from .quiet import native_output
 from .scene import UNITS, Scene, unit_scale
 from .scenefiles import scene_files
 
@@ -102,14 +101,11 @@ def _is_ply_binary_or_header(path: Path) -> bool:
 def read_scan(path, units: str | None = None) -> np.ndarray:
     """(N, 3) float64 scan points in metres; every bad-input case raises :class:`MrcheckError`."""
     path = Path(path)
-    if not path.exists():
-        raise MrcheckError("scan file not found", path)
-    if path.is_dir():
-        raise MrcheckError("scan path is a folder, not a file", path)
+    size = check_input(path, "scan file").st_size
     suffix = path.suffix.lower()
     if suffix not in SCAN_SUFFIXES:
         raise MrcheckError(f"unsupported scan format {suffix or '(none)'} (use {', '.join(SCAN_SUFFIXES)})", path)
-    if path.stat().st_size == 0:
+    if size == 0:
         raise MrcheckError("scan file is empty (no points)", path)
     scale = unit_scale(units, path)
     try:
@@ -135,31 +131,16 @@ def read_scan(path, units: str | None = None) -> np.ndarray:
 def _read_cloud(path: Path, fmt: str) -> np.ndarray:
     """Points of a .ply / .pcd through Open3D, which reports a corrupt or truncated file only by
     printing (RPly's "Error reading 'x' of 'vertex' number 20125", then "Read PLY failed") and
-    returns the cloud anyway, the unread points left as garbage: its output is captured at the
-    file-descriptor level (it is C++) and a failure becomes the error."""
+    returns the cloud anyway, the unread points left as garbage: its output is captured (RPly's C
+    library writes to the file descriptors, Open3D's warnings go through Python's sys.stdout) and
+    a failure becomes the error."""
     import open3d as o3d
 
-    printed = io.StringIO()    # Open3D's own warnings go through Python's sys.stdout
-    with tempfile.TemporaryFile() as log, contextlib.redirect_stdout(printed), contextlib.redirect_stderr(printed):
-        sys.__stdout__.flush()
-        sys.__stderr__.flush()
-        saved = [os.dup(1), os.dup(2)]
-        try:
-            os.dup2(log.fileno(), 1)     # RPly's C library writes to the file descriptors
-            os.dup2(log.fileno(), 2)
-            cloud = o3d.io.read_point_cloud(str(path), format=fmt, remove_nan_points=False,
-                                            remove_infinite_points=False)
-        finally:
-            os.dup2(saved[0], 1)
-            os.dup2(saved[1], 2)
-            for fd in saved:
-                os.close(fd)
-        log.seek(0)
-        messages = log.read().decode(errors="replace") + printed.getvalue()
-    failed = [line for line in messages.splitlines() if "failed" in line.lower() or "error" in line.lower()]
+    with native_output(fds=(1, 2), python=True) as messages:
+        cloud = o3d.io.read_point_cloud(str(path), format=fmt, remove_nan_points=False, remove_infinite_points=False)
+    failed = [line for line in messages if "failed" in line.lower() or "error" in line.lower()]
     if failed:
-        reason = re.sub(r"\x1b\[[0-9;]*m", "", failed[0]).strip()   # Open3D colours its warnings
-        raise MrcheckError(f"cannot read scan, corrupt or truncated ({reason})", path)
+        raise MrcheckError(f"cannot read scan, corrupt or truncated ({failed[0]})", path)
     return np.asarray(cloud.points, np.float64)
 
 
@@ -499,11 +480,11 @@ def deviation_command(scan, scene, shot=None, units=None, outdir="deviation"):
               "sign": "sign of (point - closest point) . closest triangle normal; > 0 in front of the CAD surface",
               "colour_scale_mm": scale_mm, "parts": parts}
 
-    write_bytes(outdir / DEVIATIONS, _npy_bytes(d.astype(np.float32)))
-    write_bytes(outdir / PARTS_JSON, (json.dumps(report, indent=2) + "\n").encode())
-    write_bytes(outdir / PARTS_MD, parts_markdown(report).encode())
-    for name, image in images.items():
-        write_image(outdir / name, image)
+    # all or none: a deviations.npy without its parts.json would pass for a complete result
+    write_all_or_none([lambda: write_bytes(outdir / DEVIATIONS, _npy_bytes(d.astype(np.float32))),
+                       lambda: write_text(outdir / PARTS_JSON, json.dumps(report, indent=2) + "\n"),
+                       lambda: write_text(outdir / PARTS_MD, parts_markdown(report)),
+                       *(lambda name=name, image=image: write_image(outdir / name, image) for name, image in images.items())])
     print(outdir)
     print(f"deviation: {len(d)} points, median |d| {report['median_abs'] * 1000:.3f} mm, "
           f"p95 {report['p95_abs'] * 1000:.3f} mm; top: {parts[0]['id']}", file=sys.stderr)

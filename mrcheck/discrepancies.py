@@ -122,7 +122,7 @@ from .reference import _raycasting_scene, triangle_owners
 from .renderer import Renderer, RenderSettings
 from .scene import Scene, load_scene
 from .scenefiles import scene_files
-from .output import check_not_inputs, check_output_dir, write_bytes, write_image
+from .output import check_not_inputs, check_output_dir, write_all_or_none, write_image, write_text
 
 __all__ = ["object_ids", "photo_edges", "outline_normals", "oriented_support", "shifted_support", "cad_edge_owner",
            "planned_view", "detect", "heatmap", "discrepancies_command",
@@ -644,9 +644,9 @@ def discrepancies_command(shot, scene, tolerance_px=None, outdir=None):
     image = heatmap(photo, result)
     keys = ("tolerance_px", "threshold", "warnings", "suspects", "regions", "suggested_markers")
     doc = {"shot": str(Path(shot).resolve()), "scene": str(Path(scene).resolve()), **{k: result[k] for k in keys}}
-    paths = [write_image(outdir / HEATMAP, image),
-             write_bytes(outdir / SUSPECTS_JSON, (json.dumps(doc, indent=2) + "\n").encode()),
-             write_bytes(outdir / SUSPECTS_MD, _markdown(result, shot).encode())]
+    paths = write_all_or_none([lambda: write_image(outdir / HEATMAP, image),
+                               lambda: write_text(outdir / SUSPECTS_JSON, json.dumps(doc, indent=2) + "\n"),
+                               lambda: write_text(outdir / SUSPECTS_MD, _markdown(result, shot))])
     print(_summary_line(result))
     for p in paths:
         print(p)

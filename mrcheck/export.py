@@ -109,8 +109,10 @@ import cv2
 from .camera import Camera
 from .errors import MrcheckError
 from .export_report import REPORT, write_report
-from .jsonfile import is_number, number_problem
-from .output import check_not_inputs, check_writable_ancestor, encode_image, write_bytes, write_text
+from .imageio import encode_image
+from .inputs import read_input_text, real_path
+from .jsonfile import is_number, number_problem, read_json
+from .output import check_not_inputs, check_writable_ancestor, write_bytes, write_text
 from .overlay import STUDY_ORDER, check_alpha, distortion_map, load_shot, overlay_images, read_photo, \
     render_for_photo, study_sheet
 from .renderer import DEFAULT_SAMPLES, MODES, RenderSettings
@@ -163,20 +165,17 @@ def load_job(path) -> Job:
     def fail(message):
         raise MrcheckError(message, path)
 
+    text = read_input_text(path, "job file", encoding="utf-8-sig")   # -sig: a BOM (Windows Notepad) is no error
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8-sig"))   # -sig: a BOM (Windows Notepad) is no error
-    except FileNotFoundError:
-        fail("job file not found")
-    except (OSError, UnicodeDecodeError) as exc:
-        fail(f"cannot read job file ({exc})")
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         fail(f"malformed job TOML: {exc}")
-    base = path.resolve().parent
+    base = real_path(path).parent
 
     def resolve(value, where):
         if not isinstance(value, str) or not value:
             fail(f"{where} must be a path (a non-empty string)")
-        return (base / value).resolve() if not Path(value).is_absolute() else Path(value)
+        return real_path(base / value) if not Path(value).is_absolute() else Path(value)
 
     unknown = sorted(set(data) - _TOP_KEYS)
     if unknown:
@@ -184,7 +183,7 @@ def load_job(path) -> Job:
     if "scene" not in data:
         fail('no scene: give scene = "path/to/scene.toml"')
     scene = resolve(data["scene"], "scene")
-    if not scene.exists():
+    if not os.path.lexists(scene):
         fail(f"scene not found: {scene}")
     from .scene import load_scene
 
@@ -299,8 +298,10 @@ def load_job(path) -> Job:
                 pattern = entry["photos"]
                 if not isinstance(pattern, str) or not pattern:
                     fail(f"{where}: photos must be a glob pattern (a string)")
-                files = sorted(Path(p).resolve() for p in glob.glob(os.path.join(str(base), pattern), recursive=True)
-                               if Path(p).is_file())
+                # not only the readable files: a photo that cannot be read (a symlink loop, a broken
+                # link) is a shot that fails and says why, not one silently left out
+                files = sorted(real_path(p) for p in glob.glob(os.path.join(str(base), pattern), recursive=True)
+                               if not os.path.isdir(p))
                 if not files:
                     fail(f"{where}: photos {pattern!r} matches no file")
                 planned = [{"name": _safe_name(f.stem), "photo": str(f), **common} for f in files]
@@ -347,7 +348,7 @@ def _input_files(inputs: dict) -> list:
     files = [inputs[k] for k in ("shot", "photo", "intrinsics", "markers", "points") if k in inputs]
     if "shot" in inputs:
         try:
-            files.append(str(load_shot(inputs["shot"])[1].resolve()))
+            files.append(str(real_path(load_shot(inputs["shot"])[1])))
         except MrcheckError:
             pass  # the shot fails when it runs, and a failed shot is always run again
     return files
@@ -430,7 +431,7 @@ def _register(inputs: dict, max_error, scene_bounds) -> tuple[dict, Camera, Path
 
     if "shot" in inputs:
         camera, photo = load_shot(inputs["shot"])
-        shot = json.loads(Path(inputs["shot"]).read_text())
+        shot = read_json(inputs["shot"], "shot")
         shot["photo"] = str(photo)
         if not is_number(shot.get("rms", 0.0)):   # unknown, as the review shows it: NaN is no JSON for the outputs
             shot["rms"] = None
@@ -583,7 +584,7 @@ def _own_names(task: dict) -> list:
 def _own_files(folder: Path, keep: set) -> list:
     """The files in ``folder`` with the export's own names (:data:`_OUTPUT_NAME`), except those in
     ``keep`` (what the job reads): the only files the export ever removes."""
-    return [f for f in folder.iterdir() if _OUTPUT_NAME.fullmatch(f.name) and f.is_file() and f.resolve() not in keep]
+    return [f for f in folder.iterdir() if _OUTPUT_NAME.fullmatch(f.name) and f.is_file() and real_path(f) not in keep]
 
 
 def _remove_stale(outdir: Path, tasks: list, keep: set) -> list:
@@ -763,7 +764,7 @@ def export_command(job, outdir, workers: int = 1, scheduler: str | None = None, 
 
     started = time.perf_counter()
     job = load_job(job)
-    outdir = Path(outdir).resolve()
+    outdir = real_path(outdir)
     if outdir.exists() and not outdir.is_dir():
         raise MrcheckError("output folder is a file", outdir)
     if workers < 1:
@@ -787,7 +788,7 @@ def export_command(job, outdir, workers: int = 1, scheduler: str | None = None, 
     client = _connect(scheduler) if scheduler else None
     try:
         _make_outdir(outdir)
-        reads = {Path(f).resolve() for f in scene_paths} | {Path(f).resolve() for t in tasks for f in t["input_files"]}
+        reads = {real_path(f) for f in scene_paths} | {real_path(f) for t in tasks for f in t["input_files"]}
         removed = _remove_stale(outdir, tasks, reads)
         for task in to_run:
             _prepare_folder(Path(task["dir"]))

@@ -15,6 +15,8 @@ from pathlib import Path
 
 import cv2
 
+from .errors import MrcheckError
+from .imageio import encode_image, read_image
 from .output import write_text
 
 THUMB_WIDTH = 480
@@ -22,14 +24,14 @@ REPORT = "report.html"   # in OUTDIR
 
 
 def _thumbnail(path: Path) -> str | None:
-    image = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    if image is None:
+    try:
+        image = read_image(path, "sheet")
+    except MrcheckError:   # removed or damaged since the shot was written: the report goes without it
         return None
     if image.shape[1] > THUMB_WIDTH:
         height = max(1, round(image.shape[0] * THUMB_WIDTH / image.shape[1]))
         image = cv2.resize(image, (THUMB_WIDTH, height), interpolation=cv2.INTER_AREA)
-    ok, data = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 80])
-    return "data:image/jpeg;base64," + base64.b64encode(data.tobytes()).decode() if ok else None
+    return "data:image/jpeg;base64," + base64.b64encode(encode_image(".jpg", image, quality=80)).decode()
 
 
 def sort_key(entry: dict):

@@ -7,18 +7,17 @@ import math
 from pathlib import Path
 
 from .errors import MrcheckError
+from .inputs import read_input_text
 
 
 def read_json(path, what: str):
     """The parsed JSON of ``path``; ``what`` names the file's role in errors ("camera",
-    "marker map"): "camera file not found", "malformed camera JSON: ... at line 3"."""
+    "marker map"): "camera file not found", "malformed camera JSON: ... at line 3"; the path's
+    own problems as :func:`mrcheck.inputs.read_input_text` says them ("symlink loop", "empty")."""
     path = Path(path)
+    text = read_input_text(path, f"{what} file")
     try:
-        return json.loads(path.read_text())
-    except FileNotFoundError:
-        raise MrcheckError(f"{what} file not found", path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise MrcheckError(f"cannot read {what} file ({exc})", path) from None
+        return json.loads(text)
     except json.JSONDecodeError as exc:
         # some of json's messages end in "at" already ("Invalid control character at")
         raise MrcheckError(f"malformed {what} JSON: {exc.msg.removesuffix(' at')} at line {exc.lineno}", path) from None

@@ -11,7 +11,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .errors import MrcheckError
+from .errors import MrcheckError, display
+from .imageio import encode_image
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff")
 AO_SUFFIXES = (".npy", ".png")
@@ -129,17 +130,6 @@ def _atomic_write(path: Path, write) -> None:
         raise
 
 
-def encode_image(path, rgb: np.ndarray) -> bytes:
-    """The file bytes of (H, W, 3) uint8 RGB (or (H, W) grey) in the format of ``path``'s suffix
-    (PNG carries no timestamp: the same pixels give the same bytes)."""
-    path = Path(path)
-    data = rgb[..., ::-1] if rgb.ndim == 3 else rgb  # OpenCV wants BGR
-    ok, encoded = cv2.imencode(path.suffix.lower(), np.ascontiguousarray(data))
-    if not ok:
-        raise MrcheckError("could not encode the image", path)
-    return encoded.tobytes()
-
-
 def write_bytes(path, data: bytes) -> Path:
     """Write ``data`` to ``path`` atomically (temp file + rename)."""
     path = Path(path)
@@ -148,13 +138,18 @@ def write_bytes(path, data: bytes) -> Path:
 
 
 def write_text(path, text: str) -> Path:
-    """Write ``text`` (UTF-8) to ``path`` atomically (temp file + rename)."""
-    return write_bytes(path, text.encode())
+    """Write ``text`` (UTF-8) to ``path`` atomically (temp file + rename). A file name in it
+    that is not valid UTF-8 is written as :func:`mrcheck.errors.display` shows it
+    (``Halle_S\\xfcd.png``): the file stays valid UTF-8. JSON needs no such care: ``json.dumps``
+    writes ASCII, such a name's bytes as ``\\udcNN`` escapes, which Python reads back as the
+    same name."""
+    return write_bytes(path, display(text).encode())
 
 
-def write_image(path, rgb: np.ndarray) -> Path:
-    """Write (H, W, 3) uint8 RGB (or (H, W) uint8/uint16 grey) to PNG/JPEG/TIFF, atomically."""
-    return write_bytes(path, encode_image(path, rgb))
+def write_image(path, image: np.ndarray) -> Path:
+    """Write (H, W, 3) uint8 RGB, (H, W, 4) RGBA or (H, W) uint8/uint16 grey to PNG/JPEG/TIFF,
+    atomically (:func:`mrcheck.imageio.encode_image`)."""
+    return write_bytes(path, encode_image(path, image))
 
 
 def write_ao(path, ao: np.ndarray) -> Path:
@@ -250,5 +245,6 @@ def labelled_sheet(images, labels) -> np.ndarray:
     return np.hstack(out)
 
 
-__all__ = ["write_image", "write_bytes", "encode_image", "write_ao", "labelled_sheet", "check_output_path", "check_output_dir",
-           "check_writable_ancestor", "check_not_inputs", "IMAGE_SUFFIXES", "AO_SUFFIXES"]
+__all__ = ["write_image", "write_bytes", "write_text", "encode_image", "write_ao", "labelled_sheet", "check_output_path",
+           "check_output_dir", "check_writable_ancestor", "check_not_inputs", "write_all_or_none", "IMAGE_SUFFIXES",
+           "AO_SUFFIXES"]

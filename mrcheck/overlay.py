@@ -43,6 +43,7 @@ import numpy as np
 from .camera import Camera
 from .commands import warn_if_nothing_in_view
 from .errors import MrcheckError
+from .imageio import read_image
 from .jsonfile import read_json
 from .output import IMAGE_SUFFIXES, check_not_inputs, check_output_path, labelled_sheet, write_image
 from .renderer import STUDY_LABELS, Renderer, RenderSettings
@@ -236,15 +237,11 @@ def load_shot(path) -> tuple[Camera, Path]:
 
 def read_photo(path: Path, camera: Camera) -> np.ndarray:
     """(H, W, 3) uint8 RGB of the photo, checked against the shot's image size."""
-    if not path.is_file():
-        raise MrcheckError("photo not found", path)
-    bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    if bgr is None:
-        raise MrcheckError("cannot read the photo (not an image OpenCV decodes)", path)
-    h, w = bgr.shape[:2]
+    rgb = read_image(path, "photo")
+    h, w = rgb.shape[:2]
     if (w, h) != (camera.width, camera.height):
         raise MrcheckError(f"photo is {w}x{h} but the shot was registered at {camera.width}x{camera.height}", path)
-    return np.ascontiguousarray(bgr[..., ::-1])
+    return rgb
 
 
 def render_for_photo(renderer: Renderer, camera: Camera, modes, settings: RenderSettings, want_edges: bool,

@@ -44,6 +44,8 @@ import numpy as np
 from .calibration import read_camera
 from .camera import Camera
 from .errors import MrcheckError
+from .imageio import read_image
+from .inputs import check_input
 from .jsonfile import read_json
 from .markers import Group, detect_markers, load_marker_map, parse_marker_map
 from .output import check_not_inputs, check_output_path, write_text
@@ -78,17 +80,7 @@ def fit_camera(camera: Camera, width: int, height: int, source=None):
 
 def read_photo(path) -> np.ndarray:
     """The photo as (H, W) uint8 grey, or a one-line error."""
-    path = Path(path)
-    try:
-        data = np.fromfile(path, np.uint8)  # imdecode, unlike imread, handles any path and says nothing
-    except FileNotFoundError:
-        raise MrcheckError("photo not found", path) from None
-    except (OSError, ValueError) as exc:
-        raise MrcheckError(f"cannot read photo ({exc})", path) from None
-    image = cv2.imdecode(data, cv2.IMREAD_GRAYSCALE) if data.size else None
-    if image is None:
-        raise MrcheckError("cannot decode photo (corrupt or not an image)", path)
-    return image
+    return read_image(path, "photo", grey=True)
 
 
 def load_points(path) -> list:
@@ -474,8 +466,7 @@ def register_command(scene, photo, intrinsics, markers=None, points=None, max_er
     check_not_inputs([output], [("--photo", photo), ("--intrinsics", intrinsics), ("--markers", markers),
                                 ("--points", points), ("the scene", scene_files(scene))])
     # fail before the work: the scene the overlay will need must load, and a quick check first
-    if not Path(scene).exists():
-        raise MrcheckError("scene not found", scene)
+    check_input(scene, "scene", folder_ok=True)
     if Path(scene).is_file() and Path(scene).suffix.lower() not in (".toml", *MESH_SUFFIXES):
         raise MrcheckError(f"not a scene (a .toml manifest or a mesh: {', '.join(MESH_SUFFIXES)})", scene)
     camera = read_camera(intrinsics)  # its pose, if any, is ignored: the photo's is solved

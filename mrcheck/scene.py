@@ -44,9 +44,12 @@ Manifest (format 1)::
 
 from __future__ import annotations
 
+import io
 import logging
 import math
+import os
 import sys
+import tempfile
 import tomllib
 from dataclasses import dataclass, field
 from functools import partial
@@ -56,6 +59,7 @@ import numpy as np
 
 from .camera import Camera, fit_size
 from .errors import MrcheckError
+from .inputs import check_input, read_input_text
 
 UNITS = {"mm": 0.001, "cm": 0.01, "m": 1.0, "in": 0.0254, "ft": 0.3048}  # metres per unit
 MESH_SUFFIXES = (".glb", ".gltf", ".obj", ".stl", ".ply", ".off", ".urdf")
@@ -227,11 +231,7 @@ def read_mesh(path: Path, joints: dict | None = None):
     carry a few.
     """
     path = Path(path)
-    if not path.exists():
-        raise MrcheckError("mesh file not found", path)
-    if path.is_dir():
-        raise MrcheckError("mesh path is a folder, not a file", path)
-    if path.stat().st_size == 0:  # the readers' own errors for this are cryptic (index out of bounds)
+    if check_input(path, "mesh file").st_size == 0:  # the readers' own errors for this are cryptic (index out of bounds)
         raise MrcheckError("mesh file is empty", path)
     suffix = path.suffix.lower()
     if suffix not in MESH_SUFFIXES:
@@ -244,8 +244,13 @@ def read_mesh(path: Path, joints: dict | None = None):
         else:
             import trimesh
 
-            # process=False: no vertex merging; a 10 M-triangle export loads in seconds, not minutes
-            mesh = trimesh.load(path, force="mesh", process=False)
+            # process=False: no vertex merging; a 10 M-triangle export loads in seconds, not minutes.
+            # An open file, not the name: trimesh names the mesh's scene node after the file and
+            # hashes that name as UTF-8, which one that is not valid UTF-8 has not; the resolver
+            # finds an OBJ's materials and a glTF's buffers beside it, as trimesh.load(path) does
+            with open(path, "rb") as handle:
+                mesh = trimesh.load(handle, file_type=suffix[1:], force="mesh", process=False,
+                                    resolver=trimesh.resolvers.FilePathResolver(path))
             vertices, faces = np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64)
     except MrcheckError:
         raise
@@ -268,6 +273,28 @@ class _Collect(logging.Handler):
         self.messages.append(" ".join(record.getMessage().split()))
 
 
+def _utf8(name: str) -> bool:
+    try:
+        name.encode("utf-8")
+    except UnicodeEncodeError:   # a file name that is not valid UTF-8 (surrogate escapes)
+        return False
+    return True
+
+
+def _ascii_aliases(folder: str, handler):
+    """``handler`` (URDF mesh reference -> path) giving, for a path that is not valid UTF-8, a
+    symlink to it in ``folder`` instead: lxml, which parses the URDF, and trimesh, which loads
+    its meshes, take file names as UTF-8 only."""
+    def aliased(fname: str) -> str:
+        found = handler(fname)
+        if _utf8(found) or not os.path.isfile(found):
+            return found
+        alias = os.path.join(folder, f"mesh{len(os.listdir(folder))}{os.path.splitext(found)[1]}")
+        os.symlink(os.path.abspath(found), alias)
+        return alias
+    return aliased
+
+
 def _read_urdf(path: Path, joints: dict):
     import yourdfpy
 
@@ -278,9 +305,12 @@ def _read_urdf(path: Path, joints: dict):
     logger.addHandler(collect)
     propagate, logger.propagate = logger.propagate, False
     try:
-        robot = yourdfpy.URDF.load(
-            str(path), filename_handler=handler, build_collision_scene_graph=False, load_collision_meshes=False
-        )
+        with tempfile.TemporaryDirectory(prefix="mrcheck-urdf-") as aliases:
+            # the URDF's bytes when its name is not UTF-8 (lxml encodes a file object's name too)
+            robot = yourdfpy.URDF.load(
+                str(path) if _utf8(str(path)) else io.BytesIO(path.read_bytes()),
+                filename_handler=_ascii_aliases(aliases, handler), build_collision_scene_graph=False,
+                load_collision_meshes=False)
     except Exception as exc:
         reason = "; ".join(collect.messages[:1] + [" ".join(str(exc).split()) or type(exc).__name__])
         raise MrcheckError(f"cannot read URDF ({reason[:200]})", path) from None
@@ -471,8 +501,7 @@ def make_part(name, source, vertices, faces, transforms, color=None, units=None,
 def load_scene(path, units: str | None = None, progress: bool = False) -> Scene:
     """A manifest (``.toml``) or any single mesh file (then ``units`` says its unit)."""
     path = Path(path)
-    if not path.exists():
-        raise MrcheckError("scene file not found", path)
+    check_input(path, "scene file", folder_ok=True)
     if path.is_dir():
         candidates = [path / "scene.toml", *sorted(path.glob("*.toml"))]
         manifest = next((c for c in candidates if c.exists()), None)
@@ -489,12 +518,11 @@ def load_scene(path, units: str | None = None, progress: bool = False) -> Scene:
 
 
 def _load_manifest(path: Path, progress: bool) -> Scene:
+    text = read_input_text(path, "manifest", encoding="utf-8-sig")   # -sig: a BOM (Windows Notepad) is no error
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8-sig"))   # -sig: a BOM (Windows Notepad) is no error
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise MrcheckError(f"malformed manifest: {exc}", path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise MrcheckError(f"cannot read manifest ({exc})", path) from None
     unknown = sorted(set(data) - MANIFEST_KEYS)
     if unknown:  # e.g. [[viewpoint]] for [[viewpoints]]: silently ignoring it would lose the views
         raise MrcheckError(f"unknown manifest key(s) {', '.join(unknown)} (known: {', '.join(sorted(MANIFEST_KEYS))})", path)

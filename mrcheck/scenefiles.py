@@ -36,7 +36,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 from urllib.parse import unquote
 
-from .errors import MrcheckError
+from .errors import MrcheckError, display
 
 # files beside a URDF that carry its licence and provenance (matched case-insensitively)
 NOTICE_PREFIXES = ("license", "licence", "copying", "notice", "source", "authors", "readme")
@@ -177,12 +177,12 @@ def files_stamp(paths) -> str:
     edited, replaced or touched (as make decides), without reading gigabytes of meshes."""
     digest = hashlib.sha256()
     for p in paths:
-        p = Path(p)
+        name = os.fsencode(Path(p))   # the name's bytes: one that is not valid UTF-8 has no UTF-8 encoding
         try:
-            st = p.stat()
-            digest.update(f"{p}\0{st.st_size}\0{st.st_mtime_ns}\n".encode())
+            st = os.stat(p)
+            digest.update(b"%s\0%d\0%d\n" % (name, st.st_size, st.st_mtime_ns))
         except OSError:
-            digest.update(f"{p}\0missing\n".encode())
+            digest.update(b"%s\0missing\n" % name)
     return digest.hexdigest()[:16]
 
 
@@ -241,8 +241,15 @@ def write_generated(outdir, fill, stale=()) -> None:
 
 
 # -- writing TOML ------------------------------------------------------------------------------------
+def _string(text: str) -> str:
+    """A TOML basic string: JSON's string escapes (\\" \\\\ \\n \\t \\uXXXX) are exactly TOML's.
+    TOML is UTF-8 and cannot hold a file name's undecodable bytes (surrogate escapes, which
+    JSON would write as \\udcNN and TOML refuses): they are written as display() shows them."""
+    return json.dumps(display(text), ensure_ascii=False)
+
+
 def _key(key: str) -> str:
-    return key if _BARE_KEY.match(key) else json.dumps(key, ensure_ascii=False)
+    return key if _BARE_KEY.match(key) else _string(key)
 
 
 def _value(value) -> str:
@@ -256,8 +263,7 @@ def _value(value) -> str:
             return "nan"
         return repr(value)  # shortest round-trip form; 'inf', '-inf' and '1e-05' are TOML too
     if isinstance(value, str):
-        # JSON string escapes (\" \\ \n \t \uXXXX) are exactly TOML basic-string escapes
-        return json.dumps(value, ensure_ascii=False)
+        return _string(value)
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(_value(v) for v in value) + "]"
     if isinstance(value, dict):
@@ -277,7 +283,7 @@ def _table_lines(table: dict) -> list[str]:
 
 def dumps_manifest(data: dict, header: str = "") -> str:
     """``data`` as manifest TOML; ``header`` becomes leading ``#`` comment lines."""
-    lines = [f"# {line}".rstrip() for line in header.splitlines()]
+    lines = [f"# {line}".rstrip() for line in display(header).splitlines()]
     arrays = {k: v for k, v in data.items() if isinstance(v, list) and v and all(isinstance(t, dict) for t in v)}
     lines += _table_lines({k: v for k, v in data.items() if k not in arrays})
     for key, tables in arrays.items():

@@ -133,7 +133,7 @@ def test_views_without_board_and_corrupt_files_are_skipped(tmp_path, capsys):
     code, stdout, err = run(capsys, *CHESS[:6], noise, corrupt, "--board", CHESS_SPEC, "-o", out)
     assert code == 0
     assert f"warning: {noise}: board not found" in err
-    assert f"warning: {corrupt}: cannot read image, skipped" in err
+    assert f"warning: {corrupt}: cannot read image: truncated JPEG (the file ends before the image does" in err
     data = json.loads(out.read_text())
     assert data["skipped_views"] == [str(noise), str(corrupt)] and len(data["per_view_errors"]) == 6
     assert "6 of 8 images used, 0 rejected, 2 without a board or unreadable, 0 duplicates" in stdout

@@ -271,7 +271,7 @@ BAD = {
                       "corr.json: point #5: pixel (-5000, 10) lies outside the 640x480 photo"),
     "boolean_coordinate": (lambda f: {"extra": ["--points", _points_file(f, [[True, 0, 0]] + [[i, i * i, 0] for i in range(5)])]},
                            "corr.json: point #0 needs"),
-    "corrupt_photo": (_corrupt, "cannot decode photo"),
+    "corrupt_photo": (_corrupt, "cannot read photo: truncated JPEG"),
     "small_board_photo": (_small_board, "(detected: board 0: 4 corners)"),
     "corner_order": (_corner_order, "(detected: marker 76; a map's marker corners go top-left, top-right, bottom-right"),
     "no_markers": (_blank, "no marker of the map"),

@@ -214,7 +214,7 @@ def test_a_job_or_an_export_given_as_scene_says_so(outdir, tmp_path, capsys):
 
 
 @pytest.mark.parametrize("photo, problem", [
-    (b"garbage\n", "cannot read the photo (not an image OpenCV decodes)"),
+    (b"garbage\n", "cannot read photo: a text file, not an image"),
     (np.full((24, 32, 3), 128, np.uint8), "photo is 32x24 but the shot was registered at 64x48")])
 def test_a_photo_that_does_not_fit_its_shot_is_reported_before_the_url(outdir, capsys, photo, problem):
     """A corrupt photo, or one of another size than its SHOT.json: the server started, and the

@@ -9,9 +9,7 @@ import concurrent.futures
 import contextlib
 import hashlib
 import json
-import os
 import queue
-import tempfile
 import threading
 import time
 from pathlib import Path
@@ -19,6 +17,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from ..imageio import read_image
+from ..output import write_image
 from ..overlay import cad_edges, distort_to_photo, distortion_map, overlay_images, padded_camera, read_photo
 from ..renderer import MODES, Renderer, RenderSettings
 from ..scenefiles import files_stamp
@@ -42,13 +42,7 @@ def _shot_stamp(shot) -> str:
 
 def _write_png(path: Path, image: np.ndarray) -> None:
     """Atomic PNG (RGB or RGBA array)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    code = cv2.COLOR_RGBA2BGRA if image.ndim == 3 and image.shape[2] == 4 else cv2.COLOR_RGB2BGR
-    ok, data = cv2.imencode(".png", cv2.cvtColor(image, code))
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-    with os.fdopen(fd, "wb") as handle:
-        handle.write(data.tobytes())
-    os.replace(tmp, path)
+    write_image(path, image)
 
 
 class RenderService:
@@ -115,8 +109,7 @@ class RenderService:
         return path
 
     def image(self, shot_name, kind, mode="phong", intensity=1.0) -> np.ndarray:
-        bgr = cv2.imread(str(self.file(shot_name, kind, mode, intensity)), cv2.IMREAD_COLOR)
-        return np.ascontiguousarray(bgr[..., ::-1])
+        return read_image(self.file(shot_name, kind, mode, intensity), "cached render")
 
     def close(self):
         self._queue.put(None)

@@ -11,7 +11,8 @@ import time
 import cv2
 import numpy as np
 
-from ..errors import MrcheckError
+from ..errors import MrcheckError, display
+from ..imageio import encode_image
 from ..renderer import MODES, STUDY_LABELS
 
 CROP = 96  # half-size of a marker crop, px
@@ -28,8 +29,7 @@ def _crop(image: np.ndarray, x: float, y: float) -> np.ndarray:
 
 
 def _data_url(image: np.ndarray) -> str:
-    ok, data = cv2.imencode(".png", cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
-    return "data:image/png;base64," + base64.b64encode(data.tobytes()).decode()
+    return "data:image/png;base64," + base64.b64encode(encode_image(".png", image)).decode()
 
 
 def _text(value: str | None) -> str:
@@ -95,7 +95,7 @@ def report_html(source, renders, markers: list, intensity: float = 1.0) -> str:
 body{{font-family:sans-serif;margin:2em;color:#222}} .marker{{border-top:1px solid #ccc;padding:.5em 0}}
 .crops{{display:flex;flex-wrap:wrap;gap:6px}} figure{{margin:0}} figcaption{{font-size:12px;color:#555}}
 .note{{white-space:pre-wrap}} h2{{font-size:1.1em}}</style></head><body>
-<h1>mrcheck review: {e(source.label)}</h1><p>{len(markers)} marker(s), scene {e(str(source.scene))},
+<h1>mrcheck review: {e(source.label)}</h1><p>{len(markers)} marker(s), scene {e(display(source.scene))},
 exported {_when(time.time())}. Crops: photo and every mode (AO intensity {intensity:g}).
 Positions are pixels of the original photo (from its top-left corner).</p>
 {body}</body></html>"""

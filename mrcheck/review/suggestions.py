@@ -13,12 +13,12 @@ part explains, by its shot and position: within 2 % of the photo's width of an i
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
 from ..errors import MrcheckError
-from ..jsonfile import number_problem
+from ..inputs import real_path
+from ..jsonfile import number_problem, read_json
 from ..overlay import load_shot
 from .storage import SEVERITIES
 
@@ -43,8 +43,8 @@ def _shot_of(source, spec: str, made_on, path: Path):
         return source.shots[name]
     if made_on is None:
         raise MrcheckError("cannot open the shot this file was made from; pass NAME=FILE", path)
-    photo = Path(made_on[1]).resolve()
-    same = [shot for shot in source.shots.values() if Path(shot.photo).resolve() == photo]
+    photo = real_path(made_on[1])
+    same = [shot for shot in source.shots.values() if real_path(shot.photo) == photo]
     if len(same) > 1:
         raise MrcheckError(f"its photo is the photo of shots {', '.join(s.name for s in same)}; pass NAME=FILE", path)
     if not same:
@@ -77,14 +77,12 @@ def load_suggestions(source, specs) -> dict:
     out = {}
     for spec in specs:
         path = suggestions_file(spec)
-        if not path.exists():
-            raise MrcheckError("suggestions file not found", path)
+        doc = read_json(path, "suggestions")   # not found, a symlink loop, empty, malformed: says which
         try:
-            doc = json.loads(path.read_text())
             suggested = doc["suggested_markers"]
             if not isinstance(suggested, list):
                 raise TypeError
-        except (OSError, ValueError, KeyError, TypeError):
+        except (KeyError, TypeError):
             raise MrcheckError("not a suspects.json of mrcheck discrepancies (no suggested_markers)", path) from None
         suggested = [_checked(m, i, path) for i, m in enumerate(suggested)]
         made_on = _made_on(doc)   # read once: it names the shot and says which size the markers are in
