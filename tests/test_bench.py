@@ -180,7 +180,10 @@ def test_bench_quick_timings_are_plausible(quick):
         if f["name"] == "frame" and _kind(f["scene"]) == "sample":
             ao = _one(report, name="ao", kind="sample", mode=f["mode"], width=f["width"], samples=f["samples"],
                       scale=f["scale"])
-            assert f["median_ms"] > ao["median_ms"], (f, ao)
+            # the fastest rounds, with a margin: the figures are timed at different moments, and a
+            # loaded machine (other processes) slowed one AO pass to 3x its frame; a frame that does
+            # not wait for its AO pass (no ctx.finish()) would still be far below this
+            assert f["min_ms"] > 0.8 * ao["min_ms"], (f, ao)
     line = {(f["width"], f["scale"]): f["median_ms"] for f in report["figures"] if f["name"] == "frame"
             and f["mode"] == "vector" and _kind(f["scene"]) == "line"}
     assert line[1024, 0.5] < line[1024, 1.0]  # the half-resolution AO frame does less work
@@ -309,9 +312,12 @@ def test_peak_memory_is_reset_before_an_entry():
     del before
     if not bench_peers.reset_peak_rss():
         pytest.skip("/proc/self/clear_refs cannot be written here")
-    assert bench_peers.peak_rss_mb() < high - 150
+    floor = bench_peers.peak_rss_mb()   # the peak now is what the process holds now
+    assert floor < high - 150
     after = np.ones(100 * 2**20, np.uint8)
-    assert bench_peers.peak_rss_mb() > high - 150 and after.any()
+    # measured from the reset, not from ``high``: an earlier test may have left a higher peak than
+    # this one made, and the process may hold less than it did then
+    assert bench_peers.peak_rss_mb() > floor + 90 and after.any()
 
 
 def test_bench_writes_the_json_before_printing(quick, tmp_path, monkeypatch):
