@@ -38,10 +38,26 @@ if __package__ in (None, ""):            # run as a script: make the factory_sce
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 # the part builders and the writers are shared with the scene generator
-from factory_scenes.generator.equipment import (PEDESTAL_TOP, bollard, control_cabinet, fence_layout, fence_panel,
-                                                fence_post, machining_centre, robot_pedestal, roller_conveyor,
-                                                workbench)
-from factory_scenes.generator.geometry import Z_TO_X, box_between, combine, i_profile, transformed, translation
+from factory_scenes.generator.equipment import (
+    PEDESTAL_TOP,
+    bollard,
+    control_cabinet,
+    fence_layout,
+    fence_panel,
+    fence_post,
+    machining_centre,
+    robot_pedestal,
+    roller_conveyor,
+    workbench,
+)
+from factory_scenes.generator.geometry import (
+    Z_TO_X,
+    box_between,
+    combine,
+    i_profile,
+    transformed,
+    translation,
+)
 from factory_scenes.generator.glb import write_glb
 from factory_scenes.generator.manifest import Part, manifest_text, place
 from factory_scenes.generator.storage import PALLET_HEIGHT, carton_stack, eur_pallet

@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from mrcheck.camera import Camera
 from mrcheck.cli import main
+from mrcheck.core.camera import Camera
 
 W, H = 64, 48
 CHESS = sorted((Path(__file__).parent / "data" / "calibration" / "opencv_chessboard").glob("left0[1-6].jpg"))
@@ -126,12 +126,12 @@ class WouldServe(Exception):
 def no_serving(monkeypatch):
     """``mrcheck review`` stops where it would start serving: a case that should fail before
     does not block the test run, and one that should start up says so."""
-    import mrcheck.review.app
+    import mrcheck.apps.review.app
 
     def listen(host, port):
         raise WouldServe()
 
-    monkeypatch.setattr(mrcheck.review.app, "listen", listen)
+    monkeypatch.setattr(mrcheck.apps.review.app, "listen", listen)
 
 
 @pytest.fixture

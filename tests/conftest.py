@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from mrcheck.gl import create_context
-from mrcheck.renderer import Renderer, RenderSettings
-from mrcheck.scene import Scene, make_part
+from mrcheck.render.gl import create_context
+from mrcheck.render.renderer import Renderer, RenderSettings
+from mrcheck.scene.model import Scene, make_part
 
 
 @pytest.fixture(scope="session", autouse=True)

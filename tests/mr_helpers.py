@@ -5,10 +5,10 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from mrcheck.camera import Camera
-from mrcheck.overlay import distort_to_photo, render_for_photo
-from mrcheck.renderer import Renderer, RenderSettings
-from mrcheck.scene import make_part
+from mrcheck.core.camera import Camera
+from mrcheck.mr.overlay import distort_to_photo, render_for_photo
+from mrcheck.render.renderer import Renderer, RenderSettings
+from mrcheck.scene.model import make_part
 
 from .conftest import box
 

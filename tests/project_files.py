@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from mrcheck.camera import Camera
 from mrcheck.cli import main
-from mrcheck.output import write_image
+from mrcheck.core.camera import Camera
+from mrcheck.core.output import write_image
 
 W, H = 64, 48
 VIEW = 'eye = [3, 2, 1.5]\ntarget = [0, 0, 0]\nwidth = 64\nheight = 48'

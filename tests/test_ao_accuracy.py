@@ -3,7 +3,7 @@
 tests/test_ao_properties.py checks the paper's qualitative claims (flat plane open, crease dark,
 screen-constant radius); tests/test_golden.py catches any change of the images. Neither says
 whether the numbers are right. Here the unblurred vector AO is compared with
-:func:`mrcheck.reference.reference_ao` (cosine-weighted rays, ``radius_mode="screen"``, the same
+:func:`mrcheck.eval.reference.reference_ao` (cosine-weighted rays, ``radius_mode="screen"``, the same
 ``r_S = r_px * Z / f_y`` per pixel) on the G-buffer of the very same render, drawn at full detail
 (``REFERENCE_LOD_PX``), and a few exact invariances of the definition are checked.
 
@@ -22,9 +22,9 @@ import cv2
 import numpy as np
 import pytest
 
-from mrcheck.camera import Camera
-from mrcheck.reference import REFERENCE_LOD_PX, reference_ao
-from mrcheck.renderer import Renderer, RenderSettings
+from mrcheck.core.camera import Camera
+from mrcheck.eval.reference import REFERENCE_LOD_PX, reference_ao
+from mrcheck.render.renderer import Renderer, RenderSettings
 
 from .conftest import box, scene_of
 

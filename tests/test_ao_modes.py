@@ -7,11 +7,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mrcheck.ao import AO_METHODS
-from mrcheck.camera import Camera
-from mrcheck.renderer import MODES, Renderer, RenderSettings
-from mrcheck.resources import sample_scene_path
-from mrcheck.scene import load_scene
+from mrcheck.core.camera import Camera
+from mrcheck.core.resources import sample_scene_path
+from mrcheck.render.ao import AO_METHODS
+from mrcheck.render.renderer import MODES, Renderer, RenderSettings
+from mrcheck.scene.model import load_scene
 
 from .conftest import box, render_ao, render_depth, scene_of
 

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from mrcheck.camera import Camera
-from mrcheck.renderer import DEFAULT_RADIUS_FRACTION
+from mrcheck.core.camera import Camera
+from mrcheck.render.renderer import DEFAULT_RADIUS_FRACTION
 
 from .conftest import box, render_ao, render_depth, scene_of
 

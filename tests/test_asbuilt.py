@@ -13,12 +13,12 @@ import numpy as np
 import pytest
 import trimesh
 
-from mrcheck import asbuilt
-from mrcheck.asbuilt import KINDS, make_asbuilt
 from mrcheck.cli import main
-from mrcheck.errors import MrcheckError
-from mrcheck.resources import sample_scene_path
-from mrcheck.scene import load_scene
+from mrcheck.core.errors import MrcheckError
+from mrcheck.core.resources import sample_scene_path
+from mrcheck.scene import asbuilt
+from mrcheck.scene.asbuilt import KINDS, make_asbuilt
+from mrcheck.scene.model import load_scene
 
 SAMPLE = sample_scene_path()
 TOL = 1e-6          # of values the variant computes (written with 9 decimals)
@@ -287,7 +287,7 @@ def test_absolute_mesh_paths_go_to_numbered_external_folders_with_their_package_
     """Meshes named by absolute paths, a robot package whose one licence lies a folder above its
     URDF (as pybullet_data/LICENSE.txt does): nothing mirrors the file system from /, and the
     licence travels along, where it was relative to the URDF."""
-    from mrcheck import robots
+    from mrcheck.scene import robots
 
     package = tmp_path / "data" / "robot_pkg"
     urdf = robots.copy_robot("kuka_iiwa", package)

@@ -18,9 +18,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from mrcheck.camera import Camera
 from mrcheck.cli import main
-from mrcheck.errors import MrcheckError
+from mrcheck.core.camera import Camera
+from mrcheck.core.errors import MrcheckError
 
 W, H = 64, 48
 SIZE = ["--width", str(W), "--height", str(H)]
@@ -310,12 +310,12 @@ def test_good_input_renders(folder, capsys, files, args, warning):
 
 def test_failed_image_write_removes_ao_files(folder, capsys, monkeypatch):
     """All outputs or none: when the image cannot be written after the AO files were, the AO files go."""
-    import mrcheck.commands
+    import mrcheck.render.views
 
     def full_disk(path, image):
         raise MrcheckError("cannot write output (No space left on device)", path)
 
-    monkeypatch.setattr(mrcheck.commands, "write_image", full_disk)
+    monkeypatch.setattr(mrcheck.render.views, "write_image", full_disk)
     rc = main(["render", *BOX, "--mode", "all", "-o", OUT, "--output-ao", OUT_AO])
     captured = capsys.readouterr()
     check_error(rc, captured.err, captured.out, "No space left", "render.png")

@@ -17,9 +17,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mrcheck import bench, bench_peers
-from mrcheck.bench_peers import PeerError, PeerNotInstalled, PeerWorker
 from mrcheck.cli import main
+from mrcheck.eval.bench import peers as bench_peers
+from mrcheck.eval.bench import run as bench
+from mrcheck.eval.bench.peers import PeerError, PeerNotInstalled, PeerWorker
 
 from .conftest import box, scene_of
 

@@ -16,10 +16,10 @@ import moderngl
 import numpy as np
 import pytest
 
-from mrcheck.blur import BilateralBlur
-from mrcheck.camera import Camera
-from mrcheck.composite import Composite
-from mrcheck.gl import load_program, made_current
+from mrcheck.core.camera import Camera
+from mrcheck.render.blur import BilateralBlur
+from mrcheck.render.composite import Composite
+from mrcheck.render.gl import load_program, made_current
 
 from .conftest import box, render_ao, scene_of
 

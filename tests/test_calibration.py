@@ -14,10 +14,11 @@ import cv2
 import numpy as np
 import pytest
 
-from mrcheck.calibration import detect_views, parse_board, read_camera, write_camera
-from mrcheck.errors import MrcheckError
-from mrcheck.camera import Camera
 from mrcheck.cli import main
+from mrcheck.core.camera import Camera
+from mrcheck.core.camerafiles import read_camera, write_camera
+from mrcheck.core.errors import MrcheckError
+from mrcheck.mr.calibration import detect_views, parse_board
 
 DATA = Path(__file__).parent / "data" / "calibration"
 CHESS = sorted(str(p) for p in (DATA / "opencv_chessboard").glob("left[0-9]*.jpg"))

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from mrcheck.camera import Camera
-from mrcheck.errors import MrcheckError
+from mrcheck.core.camera import Camera
+from mrcheck.core.errors import MrcheckError
 
 from .conftest import box, render_depth, scene_of
 

@@ -11,11 +11,11 @@ import cv2
 import numpy as np
 import pytest
 
-from mrcheck.calibration import read_camera, write_camera
-from mrcheck.camera import Camera
 from mrcheck.cli import main
-from mrcheck.errors import MrcheckError
-from mrcheck.resources import sample_scene_path
+from mrcheck.core.camera import Camera
+from mrcheck.core.camerafiles import read_camera, write_camera
+from mrcheck.core.errors import MrcheckError
+from mrcheck.core.resources import sample_scene_path
 
 SCENE = str(sample_scene_path())
 CONVEYOR = Path(__file__).resolve().parents[1] / "calibration" / "sample_cell_conveyor.json"  # posed, in SCENE
@@ -184,13 +184,13 @@ def test_render_from_json_intrinsics_says_no_pose(tmp_path, capsys, command):
 @pytest.mark.parametrize("command", ["render", "reference"])
 def test_a_bad_camera_file_fails_before_the_scene_loads(tmp_path, capsys, monkeypatch, command):
     """The camera file is read first: a typo in it costs no scene load (seconds on a big hall)."""
-    import mrcheck.scene
+    import mrcheck.scene.model
 
     def no_load(*args, **kwargs):
         raise AssertionError("the scene was loaded before the camera file was checked")
 
-    monkeypatch.setattr(mrcheck.scene, "load_scene", no_load)
-    monkeypatch.setattr("mrcheck.commands.load_scene", no_load)
+    monkeypatch.setattr(mrcheck.scene.model, "load_scene", no_load)
+    monkeypatch.setattr("mrcheck.render.views.load_scene", no_load)
     path = tmp_path / "cam.json"
     path.write_text('{"width": 64,')
     out = tmp_path / ("r.png" if command == "render" else "r.npy")

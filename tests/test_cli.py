@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from mrcheck.cli import main
-from mrcheck.resources import sample_scene_path
+from mrcheck.core.resources import sample_scene_path
 
 SCENE = str(sample_scene_path())
 SMALL = ["--width", "160", "--height", "120"]
@@ -52,7 +52,7 @@ def test_output_ao_png_is_16_bit_and_all_mode_writes_one_per_ao_mode(tmp_path):
 
 def test_background_is_unoccluded_and_camera_json_works(tmp_path):
     # a camera looking into the sky over the cell: mostly background
-    from mrcheck.camera import Camera
+    from mrcheck.core.camera import Camera
 
     cam = Camera.from_look_at((0, -30, 2), (0, 0, 30), (0, 0, 1), 40, 64, 48)
     cam_path = tmp_path / "sky.json"
@@ -64,8 +64,8 @@ def test_background_is_unoccluded_and_camera_json_works(tmp_path):
 
 
 def test_half_resolution_ao_is_close_to_full_resolution(ctx):
-    from mrcheck.renderer import Renderer, RenderSettings
-    from mrcheck.scene import load_scene
+    from mrcheck.render.renderer import Renderer, RenderSettings
+    from mrcheck.scene.model import load_scene
 
     renderer = Renderer(load_scene(SCENE), ctx=ctx)
     camera = renderer.scene.camera("robot", 320, 240)
@@ -75,7 +75,7 @@ def test_half_resolution_ao_is_close_to_full_resolution(ctx):
 
 
 def test_demo_writes_every_view_and_mode(tmp_path, capsys, monkeypatch):
-    from mrcheck.renderer import Renderer
+    from mrcheck.render.renderer import Renderer
 
     rendered = []
     real = Renderer.render
@@ -116,7 +116,7 @@ def test_wheel_carries_shaders_and_sample_scene_and_renders_installed(tmp_path):
     assert "factory_scenes/sample_cell/robots/kuka_iiwa/LICENSE.txt" in names
     subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target", str(site), str(wheel)],
                    check=True, capture_output=True)
-    code = ("import sys; sys.path.insert(0, sys.argv[1]); import mrcheck.resources as r, mrcheck.cli as c;"
+    code = ("import sys; sys.path.insert(0, sys.argv[1]); import mrcheck.core.resources as r, mrcheck.cli as c;"
             "assert r.shader_dir().is_relative_to(sys.argv[1]), r.shader_dir();"
             "sys.exit(c.main(['demo', '-o', sys.argv[2], '--width', '64', '--height', '48']))")
     run = subprocess.run([sys.executable, "-c", code, str(site), str(tmp_path / "demo")], cwd=tmp_path,
@@ -128,8 +128,8 @@ def test_wheel_carries_shaders_and_sample_scene_and_renders_installed(tmp_path):
 def test_two_renderers_interleaved_give_the_same_images(ctx):
     # moderngl draws on whatever context is current; creating a second context makes that one
     # current. Each Renderer must make its own current, or the first one draws into the second.
-    from mrcheck.renderer import Renderer, RenderSettings
-    from mrcheck.scene import load_scene
+    from mrcheck.render.renderer import Renderer, RenderSettings
+    from mrcheck.scene.model import load_scene
 
     scene = load_scene(SCENE)
     first = Renderer(scene, ctx=ctx)
@@ -156,7 +156,7 @@ def test_outputs_get_the_usual_file_permissions(tmp_path):
 def test_one_side_of_a_view_keeps_its_aspect_ratio(tmp_path):
     """--width alone scales the view's height too, as it does a camera file's (a 160x768 image
     was the surprise before)."""
-    from mrcheck.scene import load_scene
+    from mrcheck.scene.model import load_scene
 
     scene = load_scene(SCENE)
     vp = scene.viewpoints["robot"]
@@ -182,12 +182,12 @@ def test_unwritable_outputs_fail_before_the_work(capsys, args):
 def test_a_bug_is_one_line_and_its_traceback_is_one_variable_away(tmp_path, capsys, monkeypatch):
     """Whatever escapes every check is a bug: one line naming it (exit 1), not a traceback;
     MRCHECK_DEBUG=1 lets the exception through for the developer."""
-    import mrcheck.commands
+    import mrcheck.render.views
 
     def broken(*args, **kwargs):
         raise ZeroDivisionError("float division by zero")
 
-    monkeypatch.setattr(mrcheck.commands, "render_command", broken)
+    monkeypatch.setattr(mrcheck.render.views, "render_command", broken)
     args = ["render", SCENE, "--view", "robot", "-o", str(tmp_path / "x.png")]
     assert main(args) == 1
     err = capsys.readouterr().err
@@ -267,7 +267,7 @@ def test_render_warns_about_parts_without_declared_units(tmp_path, capsys):
 def test_blur_size_has_a_stated_maximum_checked_before_the_work(tmp_path, capsys, monkeypatch):
     """--blur-size 100001 failed after the scene load with the GL linker's complaint about
     uniform components: the kernel's weights are a uniform array."""
-    from mrcheck.blur import MAX_BLUR_SIZE
+    from mrcheck.render.blur import MAX_BLUR_SIZE
 
     out = tmp_path / "r.png"
     args = ["render", SCENE, "--view", "robot", "--width", "64", "-o", str(out)]
@@ -277,7 +277,7 @@ def test_blur_size_has_a_stated_maximum_checked_before_the_work(tmp_path, capsys
     def no_load(*a, **k):
         raise AssertionError("the scene was loaded before --blur-size was checked")
 
-    monkeypatch.setattr("mrcheck.commands.load_scene", no_load)
+    monkeypatch.setattr("mrcheck.render.views.load_scene", no_load)
     out.unlink()
     for size in (MAX_BLUR_SIZE + 2, 100001):
         assert main([*args, "--blur-size", str(size)]) == 1
@@ -291,8 +291,8 @@ def test_blur_size_has_a_stated_maximum_checked_before_the_work(tmp_path, capsys
 @pytest.mark.parametrize("width", [40, 100, 160])
 def test_sheet_labels_fit_their_panels_at_small_widths(width):
     """At --width 100 the labels ran off their panels ("D2 vector SS", "D3 standard")."""
-    from mrcheck.output import labelled_sheet
-    from mrcheck.renderer import STUDY_LABELS
+    from mrcheck.core.output import labelled_sheet
+    from mrcheck.render.renderer import STUDY_LABELS
 
     h = width * 3 // 4
     images = [np.zeros((h, width, 3), np.uint8) for _ in range(3)]

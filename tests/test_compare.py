@@ -1,4 +1,4 @@
-"""``mrcheck compare`` and :mod:`mrcheck.metrics`: hand-computed metric values, the complete
+"""``mrcheck compare`` and :mod:`mrcheck.eval.metrics`: hand-computed metric values, the complete
 outputs of a small comparison on the sample scene, and bad input leaving no output."""
 
 from __future__ import annotations
@@ -10,11 +10,11 @@ import cv2
 import numpy as np
 import pytest
 
-from mrcheck import metrics
 from mrcheck.cli import main
-from mrcheck.compare import _strip_height
-from mrcheck.renderer import MODES
-from mrcheck.resources import sample_scene_path
+from mrcheck.core.resources import sample_scene_path
+from mrcheck.eval import metrics
+from mrcheck.eval.compare import _strip_height
+from mrcheck.render.renderer import MODES
 
 AO_MODES = [m for m in MODES if m != "phong"]
 METRIC_KEYS = {"mae", "rmse", "ssim", "false_occlusion", "distance_retention", "ms", "reference"}

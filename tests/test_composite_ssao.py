@@ -22,10 +22,10 @@ import numpy as np
 import pytest
 import trimesh
 
-from mrcheck.camera import Camera
-from mrcheck.composite import Composite
-from mrcheck.gl import made_current, srgb_texture
-from mrcheck.renderer import Renderer, RenderSettings
+from mrcheck.core.camera import Camera
+from mrcheck.render.composite import Composite
+from mrcheck.render.gl import made_current, srgb_texture
+from mrcheck.render.renderer import Renderer, RenderSettings
 
 from .conftest import box, render_ao, render_depth, scene_of
 

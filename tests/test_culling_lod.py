@@ -13,13 +13,13 @@ import numpy as np
 import pytest
 import trimesh
 
-from mrcheck import culling, lod
-from mrcheck.camera import Camera
-from mrcheck.gbuffer import GBuffer
-from mrcheck.gl import made_current
-from mrcheck.renderer import Renderer, RenderSettings
-from mrcheck.resources import factory_scenes_dir
-from mrcheck.scene import Scene, load_scene, make_part
+from mrcheck.core.camera import Camera
+from mrcheck.core.resources import factory_scenes_dir
+from mrcheck.render import culling, lod
+from mrcheck.render.gbuffer import GBuffer
+from mrcheck.render.gl import made_current
+from mrcheck.render.renderer import Renderer, RenderSettings
+from mrcheck.scene.model import Scene, load_scene, make_part
 
 W, H = 320, 240
 
@@ -245,7 +245,7 @@ def test_which_parts_get_levels_depends_on_the_scene_alone():
 
 
 def test_lod_setting_is_validated():
-    from mrcheck.errors import MrcheckError
+    from mrcheck.core.errors import MrcheckError
 
     with pytest.raises(MrcheckError, match="level-of-detail"):
         RenderSettings(lod_px=-1).validated(240)

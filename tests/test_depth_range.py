@@ -19,12 +19,12 @@ import numpy as np
 import pytest
 import trimesh
 
-from mrcheck.camera import Camera
 from mrcheck.cli import main
-from mrcheck.gl import made_current
-from mrcheck.reference import REFERENCE_LOD_PX, reference_ao
-from mrcheck.renderer import Renderer, RenderSettings
-from mrcheck.scene import Scene, load_scene, make_part
+from mrcheck.core.camera import Camera
+from mrcheck.eval.reference import REFERENCE_LOD_PX, reference_ao
+from mrcheck.render.gl import made_current
+from mrcheck.render.renderer import Renderer, RenderSettings
+from mrcheck.scene.model import Scene, load_scene, make_part
 
 from .conftest import box
 
@@ -223,8 +223,8 @@ def test_reference_ao_of_the_far_scene(ctx, how):
 def test_discrepancies_ids_and_overlay_edges_of_the_far_scene(ctx, how):
     """The discrepancy check's per-pixel instances (a ray cast) and the overlay's CAD edges
     (from the render's depth) see the near cell as if it were alone."""
-    from mrcheck.discrepancies import object_ids
-    from mrcheck.overlay import cad_edges
+    from mrcheck.apps.discrepancies.detector import object_ids
+    from mrcheck.mr.overlay import cad_edges
 
     (ids, depth, _), (ids_alone, depth_alone, _) = (object_ids(Scene("t", "t", p), LOOK)
                                                     for p in _with_far(how, FAR * VIEW_DIR))
@@ -239,7 +239,7 @@ def test_discrepancies_ids_and_overlay_edges_of_the_far_scene(ctx, how):
 @pytest.mark.parametrize("how", HOWS)
 @pytest.mark.parametrize("far", [FAR, OFF_GRID])
 def test_review_pick_of_the_far_scene(far, how):
-    from mrcheck.review.pick import Picker
+    from mrcheck.apps.review.pick import Picker
 
     camera = Camera.from_look_at((0.3, -5.37, 0.2), (0.3, 0.0, 0.2), (0, 0, 1), 60, W, H)
     with_far, near_only = (Picker(Scene("t", "t", parts)) for parts in _with_far(how, (0, far, 0)))
@@ -255,7 +255,7 @@ def test_review_pick_of_the_far_scene(far, how):
 
 @pytest.mark.parametrize("how", HOWS)
 def test_deviation_of_a_scan_near_the_origin_with_a_part_far_away(how):
-    from mrcheck.deviation import signed_distances
+    from mrcheck.apps.deviation import signed_distances
 
     # scan points on the box's faces and 5 cm above its top face
     rng = np.random.default_rng(0)
@@ -271,8 +271,8 @@ def test_deviation_of_a_scan_near_the_origin_with_a_part_far_away(how):
 
 # -- which meshes float32 holds -----------------------------------------------------------------
 def test_ordinary_meshes_stay_float32_in_one_piece(ctx):
-    from mrcheck.gbuffer import GeometryPass
-    from mrcheck.resources import sample_scene_path
+    from mrcheck.core.resources import sample_scene_path
+    from mrcheck.render.gbuffer import GeometryPass
 
     scene = load_scene(sample_scene_path())
     assert all(p.vertices.dtype == np.float32 for p in scene.parts)
@@ -285,8 +285,8 @@ def test_ordinary_meshes_stay_float32_in_one_piece(ctx):
 
 
 def test_a_model_with_a_stray_element_is_drawn_in_few_pieces_that_float32_holds(ctx):
-    from mrcheck.gbuffer import GeometryPass
-    from mrcheck.scene import float32_holds, float32_tiles, longest_edges
+    from mrcheck.render.gbuffer import GeometryPass
+    from mrcheck.scene.model import float32_holds, float32_tiles, longest_edges
 
     [part] = [_merged("model", _hall(HALL_AT) + [_part("stray", box((1, 1, 1), (0, 0, 0)))])]
     assert part.vertices.dtype == np.float64

@@ -16,10 +16,10 @@ import open3d as o3d
 import pytest
 import trimesh
 
-from mrcheck.asbuilt import make_asbuilt
 from mrcheck.cli import main
-from mrcheck.resources import sample_scene_path
-from mrcheck.scene import load_scene
+from mrcheck.core.resources import sample_scene_path
+from mrcheck.scene.asbuilt import make_asbuilt
+from mrcheck.scene.model import load_scene
 
 from .mr_helpers import _camera, _photo
 
@@ -223,7 +223,7 @@ def test_a_small_scan_close_to_the_scene_is_not_refused_as_unregistered(tmp_path
     rng = np.random.default_rng(0)
     patch = np.column_stack((rng.uniform(-0.01, 0.01, (50, 2)) + [3.0, 5.0], np.full(50, 0.10)))
     scene = load_scene(sample_scene_path())
-    from mrcheck.deviation import signed_distances
+    from mrcheck.apps.deviation import signed_distances
     assert np.median(np.abs(signed_distances(scene, patch)[0])) > 0.06   # > twice its own diagonal
     np.savetxt(tmp_path / "patch.xyz", patch)
     code, _, err = _run(capsys, tmp_path / "patch.xyz", "--scene", sample_scene_path(), "-o", tmp_path / "out2")

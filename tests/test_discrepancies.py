@@ -1,5 +1,5 @@
 """``mrcheck discrepancies``: object ids, suspects, heat map, and precision / recall measured on
-as-built variants of the sample cell (protocol: :mod:`mrcheck.discrepancies`)."""
+as-built variants of the sample cell (protocol: :mod:`mrcheck.apps.discrepancies.detector`)."""
 
 from __future__ import annotations
 
@@ -9,13 +9,22 @@ import cv2
 import numpy as np
 import pytest
 
-from mrcheck.camera import Camera
+from mrcheck.apps.discrepancies.detector import (
+    DISCRIMINATIVE_FLOOR,
+    DISCRIMINATIVE_THRESHOLD,
+    SAMPLE_CELL_FAR_VIEWS,
+    SCORE_THRESHOLD,
+    behind_ids,
+    detect,
+    evaluate,
+    object_ids,
+    synthetic_photo,
+)
 from mrcheck.cli import main
-from mrcheck.discrepancies import (DISCRIMINATIVE_FLOOR, DISCRIMINATIVE_THRESHOLD, SAMPLE_CELL_FAR_VIEWS, SCORE_THRESHOLD,
-                                   behind_ids, detect, evaluate, object_ids, synthetic_photo)
-from mrcheck.renderer import Renderer
-from mrcheck.resources import sample_scene_path
-from mrcheck.scene import load_scene
+from mrcheck.core.camera import Camera
+from mrcheck.core.resources import sample_scene_path
+from mrcheck.render.renderer import Renderer
+from mrcheck.scene.model import load_scene
 
 SAMPLE = sample_scene_path()
 W, H = 400, 300
@@ -122,7 +131,7 @@ def _shot(tmp_path, scene, camera, photo):
 
 
 def test_cli_writes_heatmap_suspects_and_markers(ctx, sample, tmp_path):
-    from mrcheck.asbuilt import make_asbuilt
+    from mrcheck.scene.asbuilt import make_asbuilt
 
     make_asbuilt(SAMPLE, tmp_path / "built", seed=2)
     built = load_scene(tmp_path / "built" / "scene.toml")

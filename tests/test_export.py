@@ -22,10 +22,10 @@ import numpy as np
 import pytest
 
 from mrcheck.cli import main
-from mrcheck.output import write_image
-from mrcheck.registration import register_photo
-from mrcheck.resources import sample_scene_path
-from mrcheck.scene import Scene, load_scene
+from mrcheck.core.output import write_image
+from mrcheck.core.resources import sample_scene_path
+from mrcheck.mr.registration import register_photo
+from mrcheck.scene.model import Scene, load_scene
 
 from .mr_helpers import _camera, _marker_parts, _photo
 

@@ -11,11 +11,11 @@ import socket
 import numpy as np
 import pytest
 
-from mrcheck import export
-from mrcheck.camera import Camera
+from mrcheck.apps.export import run as export
 from mrcheck.cli import main
-from mrcheck.output import write_image
-from mrcheck.resources import sample_scene_path
+from mrcheck.core.camera import Camera
+from mrcheck.core.output import write_image
+from mrcheck.core.resources import sample_scene_path
 
 
 @pytest.fixture()

@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 
 from mrcheck.cli import main
-from mrcheck.resources import sample_scene_path
+from mrcheck.core.resources import sample_scene_path
 
 from .mr_helpers import _camera
 

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mrcheck.resources import sample_scene_path
+from mrcheck.core.resources import sample_scene_path
 
 from .bad_files import check_one_error, command, run, write_workspace
 
@@ -91,14 +91,14 @@ def test_calibrate_names_the_views(ws, capfd, suffix):
     else:   # OpenCV's YAML is UTF-8 text: the names as messages show them
         text = written.read_bytes().decode("utf-8")
         assert f"{SHOWN}view0.jpg" in text.replace("\\\\", "\\")
-        from mrcheck.calibration import read_camera
+        from mrcheck.core.camerafiles import read_camera
 
         assert read_camera(written).width == 640
 
 
 def test_a_yaml_camera_of_such_a_name_is_read(ws, capfd):
-    from mrcheck.calibration import write_camera
-    from mrcheck.camera import Camera
+    from mrcheck.core.camera import Camera
+    from mrcheck.core.camerafiles import write_camera
 
     cam = Camera.load(ws["camera"])
     write_camera(f"{PREFIX}cam.yml", cam)
@@ -151,8 +151,8 @@ def test_scene_asbuilt_of_a_manifest_with_such_a_name(tmp_path, capfd, monkeypat
 def test_review_serves_shots_of_such_names(ws, tmp_path):
     from fastapi.testclient import TestClient
 
-    from mrcheck.review.app import create_app
-    from mrcheck.review.source import open_source
+    from mrcheck.apps.review.app import create_app
+    from mrcheck.apps.review.source import open_source
 
     source = open_source(ws["mesh"], ws["shots"])
     assert f"{SHOWN}shots" in source.label

@@ -21,9 +21,10 @@ from factory_scenes.generator import generate
 from factory_scenes.generator import glb as glb_module
 from factory_scenes.generator.equipment import PEDESTAL_TOP
 from factory_scenes.generator.glb import CREASE_ANGLE_DEG, crease_split
-from mrcheck.errors import MrcheckError
-from mrcheck.renderer import Renderer
-from mrcheck.scene import UNITS, load_scene
+from mrcheck.core.errors import MrcheckError
+from mrcheck.render.renderer import Renderer
+from mrcheck.scene.model import UNITS, load_scene
+
 
 @pytest.fixture(scope="module")
 def scene_dir(tmp_path_factory):

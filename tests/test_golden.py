@@ -18,9 +18,9 @@ import cv2
 import numpy as np
 import pytest
 
-from mrcheck.renderer import Renderer, RenderSettings
-from mrcheck.resources import sample_scene_path
-from mrcheck.scene import load_scene
+from mrcheck.core.resources import sample_scene_path
+from mrcheck.render.renderer import Renderer, RenderSettings
+from mrcheck.scene.model import load_scene
 
 GOLDEN = Path(__file__).parent / "golden"
 FAILURES = Path(__file__).parent / "_failures"

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from mrcheck.camera import Camera
-from mrcheck.renderer import Renderer, RenderSettings
-from mrcheck.scene import load_scene
+from mrcheck.core.camera import Camera
+from mrcheck.render.renderer import Renderer, RenderSettings
+from mrcheck.scene.model import load_scene
 
 W, H = 256, 192
 SETTINGS = RenderSettings(samples=16, blur=False, radius_px=8.0)
@@ -119,7 +119,7 @@ def _terrain(n: int):
 
 
 def test_ten_million_triangles_far_from_the_origin_render_like_at_the_origin(ctx):
-    from mrcheck.scene import Scene, make_part
+    from mrcheck.scene.model import Scene, make_part
 
     vertices, faces = _terrain(2237)  # 10.0 M triangles
     assert len(faces) >= 10_000_000

@@ -21,10 +21,20 @@ import numpy as np
 import pytest
 
 from mrcheck.cli import main
-from mrcheck.resources import sample_scene_path
+from mrcheck.core.resources import sample_scene_path
 
-from .project_files import (camera, correspondences, intrinsics, job, manifest, marker_map, project,  # noqa: F401
-                            run_refused, shot, write_files)
+from .project_files import (  # noqa: F401
+    camera,
+    correspondences,
+    intrinsics,
+    job,
+    manifest,
+    marker_map,
+    project,
+    run_refused,
+    shot,
+    write_files,
+)
 
 NAN, INF = float("nan"), float("inf")
 BAD = (NAN, INF, -INF)

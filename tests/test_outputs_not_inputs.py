@@ -17,8 +17,18 @@ import trimesh
 
 from mrcheck.cli import main
 
-from .project_files import (PHOTO, Link, camera, correspondences, job, manifest, project,  # noqa: F401 (a fixture)
-                            run_refused, shot, write_files)
+from .project_files import (  # noqa: F401 (a fixture)
+    PHOTO,
+    Link,
+    camera,
+    correspondences,
+    job,
+    manifest,
+    project,
+    run_refused,
+    shot,
+    write_files,
+)
 
 # OpenCV's chessboard samples (tests/data/calibration): a calibration that succeeds
 BOARD_PHOTOS = sorted(str(p) for p in (Path(__file__).parent / "data/calibration/opencv_chessboard").glob("left[0-9]*.jpg"))

@@ -13,13 +13,18 @@ import cv2
 import numpy as np
 import pytest
 
-from mrcheck.camera import Camera
 from mrcheck.cli import main
-from mrcheck.overlay import (cad_edges, distortion_map, overlay_images, padded_camera,
-                             render_for_photo)
-from mrcheck.renderer import Renderer, RenderSettings
-from mrcheck.resources import sample_scene_path
-from mrcheck.scene import Scene, load_scene
+from mrcheck.core.camera import Camera
+from mrcheck.core.resources import sample_scene_path
+from mrcheck.mr.overlay import (
+    cad_edges,
+    distortion_map,
+    overlay_images,
+    padded_camera,
+    render_for_photo,
+)
+from mrcheck.render.renderer import Renderer, RenderSettings
+from mrcheck.scene.model import Scene, load_scene
 
 from .conftest import box, scene_of
 from .mr_helpers import DICTIONARY, _camera, _marker_parts, _photo
@@ -200,7 +205,7 @@ def test_marker_round_trip_with_plain_opencv(marker_shot):
 
 
 def test_marker_round_trip_with_register_markers(marker_shot):
-    registration = pytest.importorskip("mrcheck.registration")
+    registration = pytest.importorskip("mrcheck.mr.registration")
     scene, truth, photo, marker_map = marker_shot
     intrinsics = truth.with_pose(np.eye(3), np.zeros(3))  # registration must not see the true pose
     shot = registration.register_markers(np.ascontiguousarray(photo[..., ::-1]), intrinsics, marker_map)  # BGR, as imread

@@ -18,9 +18,9 @@ import cv2
 import numpy as np
 import pytest
 
-from mrcheck.camera import Camera
 from mrcheck.cli import main
-from mrcheck.registration import solve_pose
+from mrcheck.core.camera import Camera
+from mrcheck.mr.registration import solve_pose
 
 BOX = Path(__file__).resolve().parent / "data" / "pose" / "box"
 PHOTO, SCENE = BOX / "resized_IMG_3875.JPG", BOX / "scene.toml"

@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mrcheck.camera import Camera
 from mrcheck.cli import main
-from mrcheck.reference import REFERENCE_LOD_PX, reference_ao
-from mrcheck.renderer import Renderer, RenderSettings
-from mrcheck.resources import sample_scene_path
-from mrcheck.scene import load_scene
+from mrcheck.core.camera import Camera
+from mrcheck.core.resources import sample_scene_path
+from mrcheck.eval.reference import REFERENCE_LOD_PX, reference_ao
+from mrcheck.render.renderer import Renderer, RenderSettings
+from mrcheck.scene.model import load_scene
 
 from .conftest import box, scene_of
 

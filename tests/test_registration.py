@@ -14,10 +14,15 @@ import pytest
 import trimesh
 from scipy.spatial.transform import Rotation
 
-from mrcheck.camera import Camera
 from mrcheck.cli import main
-from mrcheck.overlay import load_shot
-from mrcheck.registration import _print_summary, read_photo, register_markers, register_points
+from mrcheck.core.camera import Camera
+from mrcheck.mr.overlay import load_shot
+from mrcheck.mr.registration import (
+    _print_summary,
+    read_photo,
+    register_markers,
+    register_points,
+)
 
 DATA = Path(__file__).parent / "data"
 CHARUCO = DATA / "calibration" / "opencv_charuco"

@@ -20,13 +20,13 @@ import pytest
 pytest.importorskip("fastapi")
 from fastapi.testclient import TestClient  # noqa: E402
 
+from mrcheck.apps.review.app import create_app  # noqa: E402
+from mrcheck.apps.review.source import open_source  # noqa: E402
 from mrcheck.cli import main  # noqa: E402
-from mrcheck.errors import MrcheckError  # noqa: E402
-from mrcheck.output import write_image  # noqa: E402
-from mrcheck.resources import sample_scene_path  # noqa: E402
-from mrcheck.review.app import create_app  # noqa: E402
-from mrcheck.review.source import open_source  # noqa: E402
-from mrcheck.scene import load_scene  # noqa: E402
+from mrcheck.core.errors import MrcheckError  # noqa: E402
+from mrcheck.core.output import write_image  # noqa: E402
+from mrcheck.core.resources import sample_scene_path  # noqa: E402
+from mrcheck.scene.model import load_scene  # noqa: E402
 
 from .mr_helpers import _camera, _photo  # noqa: E402
 
@@ -140,7 +140,7 @@ def test_token_required(outdir, tmp_path):
 def test_suggested_markers_of_a_discrepancies_run(outdir, tmp_path, monkeypatch):
     """--suggestions: a suspects.json's suggested markers become editable markers of category
     "suggested" on the shot with the same photo; a deleted one does not come back on restart."""
-    from mrcheck.review.suggestions import load_suggestions
+    from mrcheck.apps.review.suggestions import load_suggestions
 
     source = open_source(outdir)
     manifest = json.loads((outdir / "manifest.json").read_text())
@@ -179,8 +179,8 @@ def test_suggested_markers_of_a_discrepancies_run(outdir, tmp_path, monkeypatch)
     def no_picker(scene):
         raise AssertionError("a restart with nothing new to import loaded the scene for the picker")
 
-    import mrcheck.review.pick
-    monkeypatch.setattr(mrcheck.review.pick, "Picker", no_picker)
+    import mrcheck.apps.review.pick
+    monkeypatch.setattr(mrcheck.apps.review.pick, "Picker", no_picker)
     with TestClient(app_with([str(suspects), f"shot0={suspects}"])) as c:   # nothing new
         assert len(c.get("/api/markers").json()) == 3
     with pytest.raises(MrcheckError, match="no shot named 'nope'"):
@@ -193,8 +193,8 @@ def test_suggested_markers_of_a_discrepancies_run(outdir, tmp_path, monkeypatch)
 def test_a_rerun_of_discrepancies_does_not_add_its_parts_again(outdir, tmp_path):
     """The import key was x, y and the note, whose percentage changes with every run: a re-run
     (here: other notes, a region's centre 1 px away) added every part again."""
-    from mrcheck.review.storage import Store
-    from mrcheck.review.suggestions import load_suggestions
+    from mrcheck.apps.review.storage import Store
+    from mrcheck.apps.review.suggestions import load_suggestions
 
     source = open_source(outdir)
     shot_json = outdir / "shots" / "shot1" / "SHOT.json"
@@ -252,7 +252,7 @@ def _box_review(folder, centre, size=(64, 48)):
     """A review of one 64x48 shot of a 1 m box (a single-mesh scene) at ``centre``: SCENE --shots DIR."""
     import trimesh
 
-    from mrcheck.camera import Camera
+    from mrcheck.core.camera import Camera
 
     folder.mkdir(exist_ok=True)
     trimesh.creation.box(extents=(1, 1, 1), transform=trimesh.transformations.translation_matrix(centre)).export(
@@ -294,9 +294,9 @@ def test_review_of_a_job(tmp_path, capsys):
 @pytest.fixture()
 def served_small(monkeypatch):
     """Images served at most 80 px wide: the 160 px photos of these tests stand for 4000 px ones."""
-    import mrcheck.review.source
+    import mrcheck.apps.review.source
 
-    monkeypatch.setattr(mrcheck.review.source, "MAX_SIZE", 80)
+    monkeypatch.setattr(mrcheck.apps.review.source, "MAX_SIZE", 80)
 
 
 def test_coordinates_are_the_photos_pixels_when_it_is_served_smaller(tmp_path, served_small):
@@ -304,7 +304,7 @@ def test_coordinates_are_the_photos_pixels_when_it_is_served_smaller(tmp_path, s
     report gave those of the downscaled copy served to the browser, suspects.json the photo's)."""
     import cv2
 
-    from mrcheck.review.suggestions import load_suggestions
+    from mrcheck.apps.review.suggestions import load_suggestions
 
     source = _box_review(tmp_path, (0.0, 0.0, 0.0), size=(160, 120))
     suspects = tmp_path / "suspects.json"
@@ -333,7 +333,7 @@ def test_a_database_of_served_pixels_is_upgraded(tmp_path, served_small):
     """A review.sqlite of before (version 0) has markers in the served pixels: scaled once."""
     import sqlite3
 
-    from mrcheck.review.storage import _SCHEMA
+    from mrcheck.apps.review.storage import _SCHEMA
 
     source = _box_review(tmp_path, (0.0, 0.0, 0.0), size=(160, 120))
     with contextlib.closing(sqlite3.connect(tmp_path / "r.sqlite")) as db:
@@ -433,7 +433,7 @@ def test_marker_ids_beyond_sqlite_are_404(client, marker_id):
 
 def test_markers_of_a_shot_the_review_no_longer_has(outdir, tmp_path):
     """An earlier review of the folder left a marker on shot wall-5, which the export no longer has."""
-    from mrcheck.review.storage import Store
+    from mrcheck.apps.review.storage import Store
 
     source = open_source(outdir)
     orphan = Store(tmp_path / "r.sqlite", source.review_name(tmp_path / "r.sqlite")).add(
@@ -460,7 +460,7 @@ def test_csv_defuses_spreadsheet_formulas():
     import csv
     import io
 
-    from mrcheck.review.report import markers_csv
+    from mrcheck.apps.review.report import markers_csv
 
     notes = ["=HYPERLINK(\"http://x\")", "+1", "-2+3", "@SUM(A1)", "\tx", "fine = ok"]
     markers = [{"id": i, "shot": "s", "x": 1.0, "y": 2.0, "category": "other", "severity": 1, "note": n,
@@ -573,7 +573,7 @@ def test_the_page_shows_why_a_photo_failed(tmp_path):
 def test_the_page_says_why_an_export_failed(tmp_path, monkeypatch):
     """The export links were plain downloads: a failed report ended as "canceled" in the
     browser's download list, with no reason on the page."""
-    import mrcheck.review.app as review_app
+    import mrcheck.apps.review.app as review_app
 
     def broken(*args):
         raise MrcheckError("no space left on the device")

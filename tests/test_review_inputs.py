@@ -15,12 +15,12 @@ import pytest
 pytest.importorskip("fastapi")
 uvicorn = pytest.importorskip("uvicorn")
 
-from mrcheck.camera import Camera  # noqa: E402
+from mrcheck.apps.review.app import listen  # noqa: E402
 from mrcheck.cli import main  # noqa: E402
-from mrcheck.errors import MrcheckError  # noqa: E402
-from mrcheck.output import write_image  # noqa: E402
-from mrcheck.resources import sample_scene_path  # noqa: E402
-from mrcheck.review.app import listen  # noqa: E402
+from mrcheck.core.camera import Camera  # noqa: E402
+from mrcheck.core.errors import MrcheckError  # noqa: E402
+from mrcheck.core.output import write_image  # noqa: E402
+from mrcheck.core.resources import sample_scene_path  # noqa: E402
 
 
 @pytest.fixture(autouse=True)
@@ -263,7 +263,7 @@ def test_the_suggestions_count_is_what_was_imported(outdir, tmp_path, capsys, mo
 def test_a_shots_folder_skips_what_is_not_a_shot(outdir, tmp_path, capsys):
     """One stray JSON (the intrinsics, the clicked points, a broken shot) or a non-ASCII file name
     refused the whole review."""
-    from mrcheck.review.source import open_source
+    from mrcheck.apps.review.source import open_source
 
     shots = _shots_folder(outdir, tmp_path / "shots")
     (shots / "Halle_Süd.json").write_text((shots / "a.json").read_text())
@@ -282,7 +282,7 @@ def test_an_export_says_which_shots_it_cannot_review(outdir, capsys):
     failed said only "no usable shots"."""
     import shutil
 
-    from mrcheck.review.source import open_source
+    from mrcheck.apps.review.source import open_source
 
     shutil.copytree(outdir / "shots" / "shot", outdir / "shots" / "gone")
     (outdir / "shots" / "gone" / "SHOT.json").unlink()
@@ -307,7 +307,7 @@ def test_an_empty_shots_folder_is_named(tmp_path, capsys):
 
 def test_a_corrupt_shot_json_is_said_once(tmp_path, capsys):
     """json's "Invalid control character at" gave "... at at line 1"."""
-    from mrcheck.review.source import open_source
+    from mrcheck.apps.review.source import open_source
 
     (tmp_path / "a.json").write_text('{"photo": "a\nb.png"}')
     with pytest.raises(MrcheckError) as info:

@@ -21,9 +21,9 @@ import pytest
 pytest.importorskip("fastapi")
 from fastapi.testclient import TestClient  # noqa: E402
 
+from mrcheck.apps.review.app import create_app  # noqa: E402
+from mrcheck.apps.review.guard import MAX_BODY, MIN_MAX_BODY, is_loopback, parse_size  # noqa: E402
 from mrcheck.cli import main  # noqa: E402
-from mrcheck.review.app import create_app  # noqa: E402
-from mrcheck.review.guard import MAX_BODY, MIN_MAX_BODY, is_loopback, parse_size  # noqa: E402
 
 from .test_review import _box_review, _free_port  # noqa: E402
 

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 import trimesh
 
-from mrcheck import robots
-from mrcheck.camera import Camera
-from mrcheck.errors import MrcheckError
-from mrcheck.renderer import Renderer
-from mrcheck.scene import load_scene
+from mrcheck.core.camera import Camera
+from mrcheck.core.errors import MrcheckError
+from mrcheck.render.renderer import Renderer
+from mrcheck.scene import robots
+from mrcheck.scene.model import load_scene
 
 # Size at the zero pose, metres, from the makers' data sheets (ranges allow for covers and
 # cable connectors): (axis, low, high) of the scene bounds' maximum, and the largest distance

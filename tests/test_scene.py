@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 import trimesh
 
-from mrcheck import gl
-from mrcheck.errors import MrcheckError
-from mrcheck.resources import sample_scene_path
-from mrcheck.scene import UNITS, load_scene
+from mrcheck.core.errors import MrcheckError
+from mrcheck.core.resources import sample_scene_path
+from mrcheck.render import gl
+from mrcheck.scene.model import UNITS, load_scene
 
 
 @pytest.mark.parametrize("suffix", [".glb", ".gltf", ".obj", ".stl", ".ply", ".off"])
@@ -81,7 +81,7 @@ def test_a_broken_urdf_is_one_line(tmp_path, capsys, urdf, message):
 
 def test_a_manifest_with_a_utf8_bom_loads(tmp_path):
     """Windows Notepad saves UTF-8 with a byte-order mark; CRLF line ends come with it."""
-    from mrcheck.scenefiles import read_manifest
+    from mrcheck.scene.manifest import read_manifest
 
     trimesh.creation.box((1.0, 1.0, 1.0)).export(tmp_path / "box.stl")
     text = '[[parts]]\r\nname = "box"\r\nmesh = "box.stl"\r\nunits = "m"\r\n'

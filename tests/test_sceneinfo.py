@@ -12,9 +12,9 @@ import pytest
 import trimesh
 
 from mrcheck.cli import main
-from mrcheck.resources import sample_scene_path
-from mrcheck.scene import load_scene
-from mrcheck.sceneinfo import describe, format_info
+from mrcheck.core.resources import sample_scene_path
+from mrcheck.scene.info import describe, format_info
+from mrcheck.scene.model import load_scene
 
 SAMPLE = sample_scene_path()
 KEYS = {"scene", "source", "triangles", "unique_triangles", "bounds_m", "parts", "viewpoints", "units_declared",
@@ -127,6 +127,6 @@ def test_cli_missing_scene_is_one_error_line(tmp_path, capsys):
 
 
 def test_describe_needs_no_gl():
-    code = ("import sys; from mrcheck.sceneinfo import describe; from mrcheck.resources import sample_scene_path; "
+    code = ("import sys; from mrcheck.scene.info import describe; from mrcheck.core.resources import sample_scene_path; "
             "describe(sample_scene_path()); assert 'moderngl' not in sys.modules, 'GL imported'")
     subprocess.run([sys.executable, "-c", code], check=True, timeout=60)

@@ -18,7 +18,16 @@ from pathlib import Path
 
 import pytest
 
-from .bad_files import check_one_error, command, fifo, files_under, no_serving, run, time_limit, write_workspace  # noqa: F401
+from .bad_files import (  # noqa: F401
+    check_one_error,
+    command,
+    fifo,
+    files_under,
+    no_serving,
+    run,
+    time_limit,
+    write_workspace,
+)
 
 PROBLEMS = {
     "loop": "symlink loop",

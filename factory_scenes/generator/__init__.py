@@ -18,11 +18,11 @@ Output folder::
                                instance with a stable id (column-A03, rack-2-bay-017, ...)
     scene_unit_missing.toml    with --units-mix only: the same scene, one mm part without units
     meshes/NAME.glb            one file per unique part mesh, crease-angle normals
-    robots/NAME/               URDF robots copied by mrcheck.robots.copy_robot, with licences
+    robots/NAME/               URDF robots copied by mrcheck.scene.robots.copy_robot, with licences
     README.md                  what is in it: parts, units, triangles, viewpoints, licences
 
 The same arguments give byte-identical files. The files are built in a hidden folder inside
-``outdir`` and moved into place at the end (:func:`mrcheck.scenefiles.write_generated`), so a
+``outdir`` and moved into place at the end (:func:`mrcheck.scene.manifest.write_generated`), so a
 failure leaves the old scene (or none) as it was; regenerating replaces only the entries above
 and leaves other files in the folder (photos, notes) alone.
 """
@@ -35,10 +35,10 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-from mrcheck import robots
-from mrcheck.errors import MrcheckError
-from mrcheck.output import check_writable_ancestor
-from mrcheck.scenefiles import write_generated
+from mrcheck.core.errors import MrcheckError
+from mrcheck.core.output import check_writable_ancestor
+from mrcheck.scene import robots
+from mrcheck.scene.manifest import write_generated
 
 from .budget import TOLERANCE, solve
 from .detail import Detail

@@ -1,6 +1,6 @@
 """The robots of the generated cells: which model, which pose, what it costs in triangles.
 
-A thin layer over :mod:`mrcheck.robots` (the URDF models, their licences and pose sampling):
+A thin layer over :mod:`mrcheck.scene.robots` (the URDF models, their licences and pose sampling):
 choosing a model by the seed within a triangle allowance and drawing poses that stay inside
 the cell's fence. Robot meshes are in metres with the base origin at the foot of the base.
 """
@@ -11,7 +11,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from mrcheck import robots
+from mrcheck.scene import robots
 
 ROBOT_COLORS = {                 # linear RGB, the makers' paint
     "kuka_iiwa": (0.85, 0.85, 0.82),
@@ -41,7 +41,7 @@ def choose_robot(rng: np.random.Generator, max_triangles: float) -> str:
 
 
 def working_pose(name: str, rng: np.random.Generator, reach: float) -> dict[str, float]:
-    """A pose from :func:`mrcheck.robots.sample_joints` that stays within ``reach`` metres of
+    """A pose from :func:`mrcheck.scene.robots.sample_joints` that stays within ``reach`` metres of
     the robot's vertical axis (inside the fence) and lifts the arm at least MIN_TOP above the
     base (sample_joints also allows an arm stretched flat over the pedestal, which looks like a
     robot lying down); after POSE_TRIES draws, the draw that came closest."""

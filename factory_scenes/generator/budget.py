@@ -1,7 +1,7 @@
 """Meeting a triangle target: how much content, which level of detail, how many pallets.
 
 Triangles are counted as rendered (a mesh's triangles times its instances), exactly as
-``mrcheck.scene.Scene.triangle_count`` counts them after loading. The solver
+``mrcheck.scene.model.Scene.triangle_count`` counts them after loading. The solver
 
 1. plans the preset at ``amount`` = target / the preset's default target (at most 1), and
    lowers the amount until the plan's fixed part (everything but pallets) at the coarsest

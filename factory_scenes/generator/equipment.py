@@ -14,7 +14,14 @@ import numpy as np
 import trimesh
 
 from .detail import SAMPLE_DETAIL, Detail
-from .geometry import anchor_bolt, bolt_pattern, box_at, box_between, combine, cylinder_between
+from .geometry import (
+    anchor_bolt,
+    bolt_pattern,
+    box_at,
+    box_between,
+    combine,
+    cylinder_between,
+)
 
 FENCE_HEIGHT = 2.2          # m, post height of the guard fence (ISO 14120 asks >= 1.4 m; 2.2 is common)
 PEDESTAL_TOP = 0.70         # m, top of the sample cell's robot pedestal

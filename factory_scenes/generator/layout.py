@@ -25,17 +25,52 @@ import numpy as np
 import trimesh
 
 from . import arms
-from .equipment import (FENCE_HEIGHT, PEDESTAL_TOP, assembly_press, bollard, control_cabinet, fence_layout,
-                        fence_panel, fence_post, machining_centre, robot_pedestal, roller_conveyor, workbench)
+from .equipment import (
+    FENCE_HEIGHT,
+    PEDESTAL_TOP,
+    assembly_press,
+    bollard,
+    control_cabinet,
+    fence_layout,
+    fence_panel,
+    fence_post,
+    machining_centre,
+    robot_pedestal,
+    roller_conveyor,
+    workbench,
+)
 from .geometry import box_between
 from .manifest import place
 from .plan import LOAD_WEIGHTS, PartPlan, Plan, Slot
 from .presets import COLORS, Preset
 from .services import cable_tray, high_bay_light, pipe_run
-from .storage import RACK_BAY_PITCH, RACK_DEPTH, RACK_SLOTS, rack_beams, rack_frame, rack_guard
-from .structure import (DECK_DEPTH, PURLIN_DEPTH, RAIL_HEIGHT, RUNWAY_DEPTH, WALL_THICKNESS, bridge_crane,
-                        crane_runway, floor_marking, floor_slab, mezzanine, pit, purlins, roof_deck, roof_truss,
-                        stair_run, steel_column, wall_module)
+from .storage import (
+    RACK_BAY_PITCH,
+    RACK_DEPTH,
+    RACK_SLOTS,
+    rack_beams,
+    rack_frame,
+    rack_guard,
+)
+from .structure import (
+    DECK_DEPTH,
+    PURLIN_DEPTH,
+    RAIL_HEIGHT,
+    RUNWAY_DEPTH,
+    WALL_THICKNESS,
+    bridge_crane,
+    crane_runway,
+    floor_marking,
+    floor_slab,
+    mezzanine,
+    pit,
+    purlins,
+    roof_deck,
+    roof_truss,
+    stair_run,
+    steel_column,
+    wall_module,
+)
 
 AISLE_WIDTH = 4.0            # m, main forklift aisle
 LINE_BAND = 10.5             # m, across-hall room one production line needs (cells, machines, gangway)

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import trimesh
 
-from mrcheck.scene import UNITS
+from mrcheck.scene.model import UNITS
 
 
 @dataclass

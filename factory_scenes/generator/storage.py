@@ -12,7 +12,16 @@ import numpy as np
 import trimesh
 
 from .detail import SAMPLE_DETAIL, Detail
-from .geometry import anchor_bolt, bar_between, box_between, combine, grid_box, rotation_z, transformed, translation
+from .geometry import (
+    anchor_bolt,
+    bar_between,
+    box_between,
+    combine,
+    grid_box,
+    rotation_z,
+    transformed,
+    translation,
+)
 
 PALLET_HEIGHT = 0.144       # m, EUR pallet (EN 13698-1)
 CARTON_SIZE = 0.38          # m, edge of a carton in plan

@@ -12,8 +12,19 @@ import numpy as np
 import trimesh
 
 from .detail import SAMPLE_DETAIL, Detail
-from .geometry import (Z_TO_X, Z_TO_Y, bar_between, bolt_pattern, box_between, combine, cylinder_between,
-                       i_profile, rect_minus, transformed, translation)
+from .geometry import (
+    Z_TO_X,
+    Z_TO_Y,
+    bar_between,
+    bolt_pattern,
+    box_between,
+    combine,
+    cylinder_between,
+    i_profile,
+    rect_minus,
+    transformed,
+    translation,
+)
 
 SLAB_THICKNESS = 0.3        # m, industrial floor slab
 WALL_THICKNESS = 0.12       # m, sandwich panel cladding (outside of the interior face y = 0)

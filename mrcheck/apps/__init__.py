@@ -1,0 +1,1 @@
+"""What a planner runs: batch export, the review tool, discrepancies, deviation."""

@@ -1,0 +1,1 @@
+"""``mrcheck discrepancies``: CAD parts the photo disagrees with."""

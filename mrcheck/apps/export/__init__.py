@@ -1,0 +1,1 @@
+"""``mrcheck export``: batch overlays for a whole job."""

@@ -1,0 +1,160 @@
+"""Reviews and markers in SQLite (WAL): every change is committed before it is acknowledged."""
+
+from __future__ import annotations
+
+import sqlite3
+import time
+from pathlib import Path
+
+from mrcheck.core.errors import MrcheckError
+
+CATEGORIES = ("missing", "moved", "extra", "wrong size", "other", "suggested")
+SEVERITIES = (1, 2, 3)
+MAX_NOTE = 2000
+# PRAGMA user_version of the database; 0 (before): marker coordinates in the pixels of the
+# images served (at most 1280 wide), and the first review used whatever was reviewed; 1: native
+# pixels, one review per job, export or shots folder (reviews.source: its path relative to the database)
+VERSION = 1
+TABLES = {"reviews", "markers", "imported", "sqlite_sequence"}   # a database with others is another program's
+_FIELDS = ("id", "shot", "x", "y", "category", "severity", "note", "part", "distance", "mode", "created", "updated")
+
+_SCHEMA = """
+CREATE TABLE IF NOT EXISTS reviews (id INTEGER PRIMARY KEY, source TEXT NOT NULL, created REAL NOT NULL);
+CREATE TABLE IF NOT EXISTS markers (
+    id INTEGER PRIMARY KEY AUTOINCREMENT,
+    review INTEGER NOT NULL REFERENCES reviews(id),
+    shot TEXT NOT NULL, x REAL NOT NULL, y REAL NOT NULL,
+    category TEXT NOT NULL, severity INTEGER NOT NULL, note TEXT NOT NULL DEFAULT '',
+    part TEXT, distance REAL, mode TEXT,
+    created REAL NOT NULL, updated REAL NOT NULL);
+CREATE INDEX IF NOT EXISTS markers_shot ON markers(review, shot);
+CREATE TABLE IF NOT EXISTS imported (review INTEGER NOT NULL, shot TEXT NOT NULL, key TEXT NOT NULL,
+    PRIMARY KEY (review, shot, key));
+"""
+
+
+class Store:
+    """One SQLite file; a short-lived connection per call (safe from any server thread)."""
+
+    def __init__(self, path: Path, review: str, served_scales: dict | None = None):
+        """The review named ``review`` (:meth:`.source.Source.review_name`) in the database at
+        ``path``, created when new; the database's other reviews stay apart (``self.others``).
+        ``served_scales``: {shot name: (sx, sy)} served pixels per photo pixel of the shots served
+        downscaled; a database of version 0 has their markers in served pixels."""
+        self.path = Path(path)
+        try:
+            with self._connect() as db:
+                version = db.execute("PRAGMA user_version").fetchone()[0]
+                foreign = {row[0] for row in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")} - TABLES
+                if foreign:  # checked before anything is written into it (WAL mode, our tables)
+                    raise MrcheckError(f"not a review database (it has the table(s) {', '.join(sorted(foreign))}): "
+                                       "give a new file with --db", self.path)
+                if version > VERSION:
+                    raise MrcheckError(f"the review database is of a newer mrcheck (version {version}; "
+                                       f"this one reads up to {VERSION})", self.path)
+                db.execute("PRAGMA journal_mode=WAL")
+                db.execute("BEGIN IMMEDIATE")   # the schema, the review and an upgrade: all or nothing
+                for statement in filter(str.strip, _SCHEMA.split(";")):  # executescript would commit first
+                    db.execute(statement)
+                self.review, self.created = self._review(db, review, version)
+                if version < 1:
+                    for shot, (sx, sy) in (served_scales or {}).items():
+                        db.execute("UPDATE markers SET x = x / ?, y = y / ? WHERE review = ? AND shot = ?",
+                                   (sx, sy, self.review, shot))
+                db.execute(f"PRAGMA user_version = {VERSION}")
+                db.execute("COMMIT")
+                self.others = [row[0] for row in db.execute("SELECT source FROM reviews WHERE id != ? ORDER BY id",
+                                                             (self.review,))]
+        except sqlite3.DatabaseError as exc:  # --db in a folder that cannot be written, or a file that is no database
+            raise MrcheckError(f"cannot open the review database ({exc})", self.path) from None
+
+    @staticmethod
+    def _review(db, name: str, version: int) -> tuple[int, bool]:
+        """The id of the review ``name`` and whether it is new. A database of version 0 has one
+        review, used by whatever was reviewed with it: the first review to open it adopts it."""
+        row = db.execute("SELECT id FROM reviews WHERE source = ?", (name,)).fetchone()
+        if row is None and version < 1:
+            row = db.execute("SELECT id FROM reviews ORDER BY id LIMIT 1").fetchone()
+            if row is not None:
+                db.execute("UPDATE reviews SET source = ? WHERE id = ?", (name, row[0]))
+        if row is not None:
+            return row[0], False
+        return db.execute("INSERT INTO reviews(source, created) VALUES (?, ?)", (name, time.time())).lastrowid, True
+
+    def _connect(self):
+        db = sqlite3.connect(self.path, timeout=10, isolation_level=None)  # autocommit: each statement commits
+        db.execute("PRAGMA synchronous=FULL")
+        db.row_factory = sqlite3.Row
+        return _Closing(db)
+
+    def markers(self, shot: str | None = None) -> list[dict]:
+        with self._connect() as db:
+            sql = f"SELECT {', '.join(_FIELDS)} FROM markers WHERE review = ?"
+            args = [self.review]
+            if shot is not None:
+                sql += " AND shot = ?"
+                args.append(shot)
+            return [dict(r) for r in db.execute(sql + " ORDER BY id", args)]
+
+    def get(self, marker_id: int) -> dict | None:
+        with self._connect() as db:
+            row = db.execute(f"SELECT {', '.join(_FIELDS)} FROM markers WHERE review = ? AND id = ?",
+                             (self.review, marker_id)).fetchone()
+            return dict(row) if row else None
+
+    def add(self, values: dict) -> dict:
+        with self._connect() as db:
+            marker_id = self._insert(db, values)
+        return self.get(marker_id)
+
+    def _insert(self, db, values: dict) -> int:
+        now = time.time()
+        keys = ("shot", "x", "y", "category", "severity", "note", "part", "distance", "mode")
+        return db.execute(
+            f"INSERT INTO markers(review, {', '.join(keys)}, created, updated) VALUES (?, {', '.join('?' * len(keys))}, ?, ?)",
+            (self.review, *[values.get(k) for k in keys], now, now)).lastrowid
+
+    def imported_keys(self, shot: str) -> set[str]:
+        """The keys of the suggestions imported into this review's ``shot`` before."""
+        with self._connect() as db:
+            return {row[0] for row in db.execute("SELECT key FROM imported WHERE review = ? AND shot = ?",
+                                                 (self.review, shot))}
+
+    def import_suggestions(self, shot: str, suggestions: list[dict]) -> int:
+        """Add the suggestions whose ``key`` this review has not imported before (deleted ones
+        stay deleted); returns how many were added. One transaction: a suggestion is recorded as imported
+        exactly when its marker is written."""
+        added = 0
+        with self._connect() as db:
+            db.execute("BEGIN IMMEDIATE")
+            for s in suggestions:
+                if db.execute("INSERT OR IGNORE INTO imported(review, shot, key) VALUES (?, ?, ?)",
+                              (self.review, shot, s["key"])).rowcount:
+                    self._insert(db, {**s, "shot": shot})
+                    added += 1
+            db.execute("COMMIT")   # on an exception the connection closes uncommitted: nothing is kept
+        return added
+
+    def update(self, marker_id: int, values: dict) -> dict | None:
+        allowed = {k: v for k, v in values.items() if k in ("x", "y", "category", "severity", "note", "part", "distance", "mode")}
+        if allowed:
+            sets = ", ".join(f"{k} = ?" for k in allowed)
+            with self._connect() as db:
+                db.execute(f"UPDATE markers SET {sets}, updated = ? WHERE review = ? AND id = ?",
+                           (*allowed.values(), time.time(), self.review, marker_id))
+        return self.get(marker_id)
+
+    def delete(self, marker_id: int) -> bool:
+        with self._connect() as db:
+            return db.execute("DELETE FROM markers WHERE review = ? AND id = ?", (self.review, marker_id)).rowcount > 0
+
+
+class _Closing:
+    def __init__(self, db):
+        self.db = db
+
+    def __enter__(self):
+        return self.db
+
+    def __exit__(self, *exc):
+        self.db.close()

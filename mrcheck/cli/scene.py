@@ -1,0 +1,62 @@
+"""``mrcheck scene generate | asbuilt | info``."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import click
+
+from mrcheck.cli.group import cli
+from mrcheck.cli.options import FINITE, positive
+
+
+@cli.group()
+def scene():
+    """Factory scenes: generate procedural halls, make as-built variants, inspect a scene."""
+
+
+@scene.command("generate")
+@click.option("--preset", type=click.Choice(["cell", "line", "hall"]), required=True,
+              help="cell: one robot cell; line: a production line with cells and racks; hall: a 200 x 80 x 12 m production hall.")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Same seed, same files (byte for byte).")
+@click.option("--size-m", nargs=3, type=FINITE, metavar="L W H", help="Hall length, width and height in metres [default: the preset's].")
+@click.option("--target-triangles", type=int, callback=positive, metavar="N",
+              help="Triangles as rendered (instances counted), 50 k to 200 M: scales detail and repetition [default: the preset's].")
+@click.option("--units-mix", is_flag=True,
+              help="Write parts in mm, m and inches as CAD exports arrive (declared in the manifest), plus a variant "
+                   "scene_unit_missing.toml in which one part's unit is not declared.")
+@click.option("-o", "--output", "outdir", required=True, metavar="DIR", help="Folder for scene.toml and its meshes (replaced).")
+def scene_generate(preset, seed, size_m, target_triangles, units_mix, outdir):
+    """Write a procedural factory scene: a manifest plus GLB meshes, with real robots from their URDFs."""
+    from factory_scenes.generator import generate
+
+    manifest = generate(preset, Path(outdir), seed=seed, size_m=size_m, target_triangles=target_triangles,
+                        units_mix=units_mix, progress=True)
+    print(manifest)
+
+
+@scene.command("asbuilt")
+@click.argument("scene_path", metavar="SCENE")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Which perturbations (same seed, same variant).")
+@click.option("-o", "--output", "outdir", required=True, metavar="DIR", help="Folder for the as-built scene and discrepancies.json.")
+def scene_asbuilt(scene_path, seed, outdir):
+    """Write a perturbed copy of a planned scene (objects moved, rotated, missing, added, replaced by
+    another size) and discrepancies.json listing every change: ground truth for discrepancy checks."""
+    from mrcheck.scene.asbuilt import make_asbuilt
+
+    for path in make_asbuilt(Path(scene_path), Path(outdir), seed=seed):
+        print(path)
+
+
+@scene.command("info")
+@click.argument("scene_path", metavar="SCENE")
+@click.option("--json", "as_json", is_flag=True, help="Machine-readable: triangles, unique_triangles, bounds_m, parts, viewpoints.")
+@click.option("--units", type=click.Choice(["mm", "cm", "m", "in", "ft"]), help="Unit of a single mesh file SCENE.")
+def scene_info(scene_path, as_json, units):
+    """What a planner checks before rendering a CAD export: parts, units, instances, unique and
+    instanced triangle counts, bounds in metres, viewpoints."""
+    from mrcheck.scene.info import describe, format_info
+
+    info = describe(Path(scene_path), units=units)
+    print(json.dumps(info, indent=2) if as_json else format_info(info))

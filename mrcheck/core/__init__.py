@@ -1,0 +1,1 @@
+"""Foundations every layer uses: errors, JSON, atomic output, images, resources, cameras and their files."""

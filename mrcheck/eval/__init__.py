@@ -1,0 +1,1 @@
+"""Judging the rendering: ray-traced reference, compare, metrics, bench."""

@@ -1,0 +1,1 @@
+"""``mrcheck bench``: timings of every pass, the peers (VTK, Open3D)."""

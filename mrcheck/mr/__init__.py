@@ -1,0 +1,1 @@
+"""Mixed reality: calibration, markers, registration, lens geometry, photo overlay."""

@@ -1,0 +1,1 @@
+"""Rendering: settings, GL context, G-buffer, culling, LOD, the AO passes (ao/), blur, composite."""

@@ -1,0 +1,135 @@
+"""What the CLI commands do, as plain functions (testable without click)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from mrcheck.core.camera import Camera
+from mrcheck.core.errors import MrcheckError
+from mrcheck.core.output import (
+    AO_SUFFIXES,
+    IMAGE_SUFFIXES,
+    check_not_inputs,
+    check_output_dir,
+    check_output_path,
+    labelled_sheet,
+    write_all_or_none,
+    write_ao,
+    write_image,
+)
+from mrcheck.core.resources import factory_scenes_dir, sample_scene_path
+from mrcheck.render.renderer import MODES, STUDY_LABELS, Renderer, RenderSettings
+from mrcheck.scene.manifest import scene_files
+from mrcheck.scene.model import load_scene
+
+STUDY_ORDER = ("phong", "vector", "ssao")  # D1 | D2 | D3, as in the paper's figure 5
+
+
+def file_camera(view, camera_path, width, height) -> Camera | None:
+    """The camera of ``--camera`` (resized to ``--width``/``--height``), read before the scene
+    loads so that a bad camera file fails at once; None for ``--view``, which needs the scene
+    (``scene.camera(view, width, height)``)."""
+    if (view is None) == (camera_path is None):
+        raise MrcheckError("give exactly one of --view NAME or --camera CAM.json|CAM.yml")
+    if view is not None:
+        return None
+    return Camera.load(camera_path).fitted(width, height, camera_path)
+
+
+def scene_and_camera(scene, units, view, camera_path, width, height):
+    """(the loaded scene, the camera) of ``render`` and ``reference``: a camera file is read
+    first (a bad one fails before a long scene load), then the scene (with the units warning),
+    then a ``--view`` camera, which needs the scene."""
+    camera = file_camera(view, camera_path, width, height)
+    loaded = load_scene(scene, units=units, progress=True)
+    warn_units(loaded)
+    return loaded, camera or loaded.camera(view, width, height)
+
+
+def warn_units(scene) -> None:
+    """As ``scene info`` does: a manifest part without declared units is taken as authored, and a
+    part in mm read as metres is 1000x too big; a render alone gave no hint of it. (A single mesh
+    file without --units is the ordinary case and is not warned about.)"""
+    if scene.source.suffix.lower() != ".toml":
+        return
+    missing = [p.name for p in scene.parts if p.units is None]
+    if missing:
+        print(f"warning: {scene.source}: {len(missing)} part(s) without declared units, coordinates taken as "
+              f"authored (not metres): {', '.join(missing)}", file=sys.stderr)
+
+
+def warn_if_nothing_in_view(depth, view, camera_path, subject="camera", hint="a wrong pose, or units?") -> None:
+    """A background-only image (a wrong pose, or a camera kilometres away after a unit mix-up) is
+    otherwise written with exit 0 and looks like a render (render, reference; overlay with
+    ``subject`` "shot"); discrepancies warns in its own report."""
+    if not (depth > 0).any():
+        source = camera_path if view is None else f"viewpoint {view!r}"
+        print(f"warning: {source}: no CAD part is in view of this {subject} ({hint})", file=sys.stderr)
+
+
+def _ao_paths(output_ao: Path, modes) -> dict:
+    ao_modes = [m for m in modes if m != "phong"]
+    if len(ao_modes) == 1:
+        return {ao_modes[0]: output_ao}
+    return {m: output_ao.with_name(f"{output_ao.stem}_{m}{output_ao.suffix}") for m in ao_modes}
+
+
+def render_command(scene, view, camera_path, mode, width, height, units, output, output_ao, settings: dict):
+    output = check_output_path(output, IMAGE_SUFFIXES)
+    modes = list(STUDY_ORDER) if mode == "all" else [mode]
+    ao_paths = {}
+    if output_ao is not None:
+        output_ao = check_output_path(output_ao, AO_SUFFIXES, "AO output")
+        if mode == "phong":
+            raise MrcheckError(f"--output-ao needs an AO mode ({', '.join(m for m in MODES if m != 'phong')} or all), not phong")
+        ao_paths = {m: check_output_path(p, AO_SUFFIXES, "AO output") for m, p in _ao_paths(output_ao, modes).items()}
+        for path in ao_paths.values():
+            if path.resolve() == output.resolve():  # one would overwrite the other
+                raise MrcheckError("the image and an AO output are the same file", path)
+    check_not_inputs([output, *ao_paths.values()], [("the scene", scene_files(scene)), ("--camera", camera_path)])
+    settings = RenderSettings(**settings)
+    settings.validated(None)  # option errors before a long scene load
+    loaded, camera = scene_and_camera(scene, units, view, camera_path, width, height)
+    settings.validated(camera.height)  # option errors before the GL context is made
+
+    renderer = Renderer(loaded)
+    try:
+        results = renderer.render(camera, modes, settings, want_ao=output_ao is not None)
+        warn_if_nothing_in_view(renderer.last_depth(), view, camera_path)
+    finally:
+        renderer.release()
+    if mode == "all":
+        image = labelled_sheet([results[m].image for m in modes], [STUDY_LABELS[m] for m in modes])
+    else:
+        image = results[mode].image
+    writes = [lambda m=m, path=path: write_ao(path, results[m].ao) for m, path in ao_paths.items()]
+    for path in write_all_or_none([*writes, lambda: write_image(output, image)]):
+        print(path)
+
+
+def demo_command(outdir: Path, width=None, height=None):
+    """Render the embedded scenes from each of their viewpoints in D1, D2, D3: the sample cell
+    as ``VIEW_MODE.png`` and the generator's shipped cell as ``cell_VIEW_MODE.png``."""
+    from tqdm import tqdm
+
+    outdir = check_output_dir(Path(outdir).resolve())
+    scenes = [("", sample_scene_path()), ("cell_", factory_scenes_dir() / "cell" / "scene.toml")]
+    for prefix, manifest in scenes:
+        scene = load_scene(manifest, progress=True)
+        renderer = Renderer(scene)
+        try:
+            # disable=None: a bar on a terminal, nothing in a log or a pipe
+            for view in tqdm(sorted(scene.viewpoints), desc=f"rendering {scene.name}", unit="view",
+                             file=sys.stderr, disable=None):
+                # only the modes written: the comparison modes would cost three AO passes per view
+                results = renderer.render(scene.camera(view, width, height), STUDY_ORDER)
+                for m in STUDY_ORDER:
+                    print(write_image(outdir / f"{prefix}{view}_{m}.png", results[m].image))
+                sheet = labelled_sheet([results[m].image for m in STUDY_ORDER], [STUDY_LABELS[m] for m in STUDY_ORDER])
+                print(write_image(outdir / f"{prefix}{view}_study.png", sheet))
+        finally:
+            renderer.release()
+
+
+__all__ = ["render_command", "demo_command", "file_camera", "scene_and_camera", "warn_units", "warn_if_nothing_in_view"]

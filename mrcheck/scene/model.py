@@ -1,0 +1,637 @@
+"""Scenes: a TOML manifest (or one mesh file) -> parts with float64 world transforms.
+
+A part is one mesh drawn at one or more transforms (instances). World units are metres for
+parts that declare ``units``; a part without ``units`` keeps its coordinates as authored, which
+is what a CAD export with a forgotten unit looks like.
+
+Precision for large extents: each mesh is re-centred on its own bounding-box centre in float64
+before its vertices are stored as float32, and the offset goes into the part's float64 world
+transform. The renderer multiplies view @ world in float64 and casts to float32 only then, so
+float32 only ever holds coordinates relative to the camera (a hall 1e6 m from the origin
+renders exactly like one at the origin). A mesh that float32 cannot hold around one centre (a
+factory at map coordinates with a stray element at the origin in the same file) stays float64,
+and the renderer draws it in pieces with centres of their own (:func:`float32_tiles`).
+
+Manifest (format 1)::
+
+    format = 1
+    name = "sample_cell"
+
+    [[parts]]
+    name = "conveyor"
+    mesh = "meshes/conveyor.glb"   # relative to the manifest; glb/gltf/obj/stl/ply/off/urdf
+    units = "mm"                   # mm, cm, m, in, ft; omitted: coordinates as authored
+    color = [0.3, 0.3, 0.35]       # optional linear RGB 0..1
+    translate = [4.0, 2.0, 0.0]    # metres, after unit scaling
+    rotate_deg = [0, 0, 90]        # XYZ Euler degrees about world axes
+    scale = 1.0
+    instances = [{ translate = [0, 3, 0] }, ...]   # optional, applied after the part transform
+                                   # (so an instance's rotate_deg turns about the world origin);
+                                   # an instance may carry id = "column-A3" (else NAME#i);
+                                   # ids are unique in the whole manifest
+    joints = { joint_a1 = 0.5 }    # URDF only, radians (or metres for prismatic joints),
+                                   # finite and within the URDF's limits
+
+    [[viewpoints]]
+    name = "overview"
+    eye = [x, y, z]
+    target = [x, y, z]
+    up = [0, 0, 1]
+    fov_y_deg = 60
+    width = 1024
+    height = 768
+"""
+
+from __future__ import annotations
+
+import io
+import logging
+import math
+import os
+import sys
+import tempfile
+import tomllib
+from dataclasses import dataclass, field
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+
+from mrcheck.core.camera import Camera, fit_size
+from mrcheck.core.errors import MrcheckError
+from mrcheck.core.inputs import check_input, read_input_text
+
+UNITS = {"mm": 0.001, "cm": 0.01, "m": 1.0, "in": 0.0254, "ft": 0.3048}  # metres per unit
+MESH_SUFFIXES = (".glb", ".gltf", ".obj", ".stl", ".ply", ".off", ".urdf")
+DEFAULT_COLOR = (0.7, 0.7, 0.7)  # linear RGB of parts without a colour
+
+DEGENERATE_WARNING_SHARE = 0.001  # warn when more than 0.1 % of a mesh's triangles have zero area
+VALIDATION_CHUNK = 1 << 20        # triangles checked per step (bounds the validation's memory)
+
+MANIFEST_KEYS = {"format", "name", "description", "parts", "viewpoints"}
+_PART_KEYS = {"name", "mesh", "units", "color", "translate", "rotate_deg", "scale", "matrix", "instances", "joints"}
+_INSTANCE_KEYS = {"id", "translate", "rotate_deg", "scale", "matrix"}
+_VIEW_KEYS = {"name", "eye", "target", "up", "fov_y_deg", "width", "height"}
+
+
+def default_instance_ids(name: str, count: int) -> list[str]:
+    """The ids of a part's instances the manifest does not name: NAME for one, else NAME#i."""
+    return [name] if count == 1 else [f"{name}#{i}" for i in range(count)]
+
+
+@dataclass
+class Part:
+    """One mesh and the transforms it is drawn at.
+
+    Attributes
+    ----------
+    vertices : (n, 3) float32, or float64
+        Vertex positions relative to the mesh's own bounding-box centre, already in metres for
+        a part with declared units. float64 only for a mesh that float32 would round (one with
+        an element far from the rest, see :func:`float32_tiles`).
+    faces : (m, 3) uint32
+    transforms : (k, 4, 4) float64
+        Local -> world, one per instance.
+    instance_ids : list of str
+        One per instance: the manifest's ``id``, else ``NAME`` for a single instance and
+        ``NAME#i`` for instance i (what as-built discrepancy lists refer to).
+    """
+
+    name: str
+    source: Path
+    vertices: np.ndarray
+    faces: np.ndarray
+    transforms: np.ndarray
+    color: tuple = DEFAULT_COLOR
+    units: str | None = None
+    instance_ids: list = field(default_factory=list)
+    _bounds: np.ndarray | None = field(default=None, repr=False, compare=False)
+
+    def __post_init__(self):
+        if not self.instance_ids:
+            self.instance_ids = default_instance_ids(self.name, len(self.transforms))
+
+    @property
+    def triangle_count(self) -> int:
+        return int(len(self.faces))
+
+    def local_bounds(self) -> np.ndarray:
+        """(2, 3) float64 bounds of ``vertices`` (computed once: the vertices never change, and
+        the renderer asks every frame; min/max are exact, no float64 copy of float32 needed)."""
+        if self._bounds is None:
+            self._bounds = np.stack([self.vertices.min(axis=0), self.vertices.max(axis=0)]).astype(np.float64)
+        return self._bounds
+
+    def instance_bounds(self) -> np.ndarray:
+        """(k, 2, 3) float64 world-space axis-aligned bounds of every instance."""
+        lo, hi = self.local_bounds()
+        corners = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        world = np.einsum("kij,cj->kci", self.transforms, corners)[..., :3]
+        return np.stack([world.min(axis=1), world.max(axis=1)], axis=1)
+
+
+@dataclass
+class Scene:
+    name: str
+    source: Path
+    parts: list[Part]
+    viewpoints: dict = field(default_factory=dict)
+
+    @property
+    def triangle_count(self) -> int:
+        """Triangles as rendered (instances counted)."""
+        return sum(p.triangle_count * len(p.transforms) for p in self.parts)
+
+    def bounds(self) -> np.ndarray:
+        """(2, 3) float64 world bounds of everything."""
+        boxes = np.concatenate([p.instance_bounds() for p in self.parts])
+        return np.stack([boxes[:, 0].min(axis=0), boxes[:, 1].max(axis=0)])
+
+    def camera(self, view: str, width: int | None = None, height: int | None = None) -> Camera:
+        """The camera of a named viewpoint, at its own size unless one is given; given one side
+        only, the other keeps the viewpoint's aspect ratio (as a resized camera file does)."""
+        if view not in self.viewpoints:
+            known = ", ".join(sorted(self.viewpoints)) or "none"
+            raise MrcheckError(f"no viewpoint named {view!r} (the scene has: {known})", self.source)
+        vp = self.viewpoints[view]
+        try:
+            width, height = fit_size(vp.get("width", 1024), vp.get("height", 768), width, height)
+            return Camera.from_look_at(vp["eye"], vp["target"], vp.get("up", (0, 0, 1)), vp.get("fov_y_deg", 60.0), width, height)
+        except (MrcheckError, TypeError, ValueError, ZeroDivisionError) as exc:  # TOML gives any type: width = "wide"
+            raise MrcheckError(f"viewpoint {view!r}: {exc}", self.source) from None
+
+
+# -- transforms ------------------------------------------------------------------------------------
+def _rotation_xyz(degrees) -> np.ndarray:
+    rx, ry, rz = np.radians(degrees)
+    cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
+    Rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    Ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    Rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return Rz @ Ry @ Rx  # about world x first, then y, then z
+
+
+def transform_from_table(table: dict, where: str) -> np.ndarray:
+    """(4, 4) float64 from ``translate`` / ``rotate_deg`` / ``scale`` or a full ``matrix``."""
+    M = np.eye(4)
+    try:
+        if "matrix" in table:
+            if any(k in table for k in ("translate", "rotate_deg", "scale")):
+                raise MrcheckError(f"{where}: give either matrix or translate/rotate_deg/scale, not both")
+            M = np.array(table["matrix"], dtype=np.float64)
+            if M.shape != (4, 4):
+                raise MrcheckError(f"{where}: matrix must be 4x4")
+            if not np.all(np.isfinite(M)):
+                raise MrcheckError(f"{where}: matrix has NaN or infinite values")
+            A = M[:3, :3]
+            if not np.allclose(M[3], (0, 0, 0, 1)):
+                raise MrcheckError(f"{where}: matrix bottom row must be [0, 0, 0, 1] (an affine transform)")
+            # a singular matrix flattens the part, and its normals (inverse transpose) would be NaN
+            if not abs(np.linalg.det(A)) > 1e-12 * np.linalg.norm(A) ** 3:
+                raise MrcheckError(f"{where}: matrix is singular")
+        else:
+            scale = float(table.get("scale", 1.0))
+            if not math.isfinite(scale):
+                raise MrcheckError(f"{where}: scale: {scale} is not a finite number")
+            if not scale > 0:
+                raise MrcheckError(f"{where}: scale must be positive, got {scale}")
+            M[:3, :3] = _rotation_xyz(_vector(table.get("rotate_deg", (0, 0, 0)), f"{where} rotate_deg")) * scale
+            M[:3, 3] = _vector(table.get("translate", (0, 0, 0)), f"{where} translate")
+    except (TypeError, ValueError):
+        raise MrcheckError(f"{where}: transform values must be numbers") from None
+    if not np.all(np.isfinite(M)):
+        raise MrcheckError(f"{where}: transform has NaN or infinite values")
+    return M
+
+
+def _vector(value, where: str) -> np.ndarray:
+    try:
+        v = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise MrcheckError(f"{where} must be three numbers") from None
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise MrcheckError(f"{where} must be three finite numbers, got {value!r}")
+    return v
+
+
+def unit_scale(units, where) -> float:
+    if units is None:
+        return 1.0
+    if not isinstance(units, str) or units not in UNITS:  # a TOML list is not hashable
+        raise MrcheckError(f"unknown units {units!r} (use one of {', '.join(UNITS)})", where)
+    return UNITS[units]
+
+
+# -- mesh files ------------------------------------------------------------------------------------
+def read_mesh(path: Path, joints: dict | None = None):
+    """(vertices (n, 3) float64, faces (m, 3) int64) of a mesh file or a posed URDF, validated.
+
+    NaN/infinite coordinates and meshes with no proper triangle are errors; degenerate
+    (zero-area) triangles among good ones are dropped with a warning, as CAD exports often
+    carry a few.
+    """
+    path = Path(path)
+    if check_input(path, "mesh file").st_size == 0:  # the readers' own errors for this are cryptic (index out of bounds)
+        raise MrcheckError("mesh file is empty", path)
+    suffix = path.suffix.lower()
+    if suffix not in MESH_SUFFIXES:
+        raise MrcheckError(f"unsupported mesh format {suffix or '(none)'} (use {', '.join(MESH_SUFFIXES)})", path)
+    if joints and suffix != ".urdf":
+        raise MrcheckError("joints are only meaningful for a URDF part", path)
+    try:
+        if suffix == ".urdf":
+            vertices, faces = _read_urdf(path, joints or {})
+        else:
+            import trimesh
+
+            # process=False: no vertex merging; a 10 M-triangle export loads in seconds, not minutes.
+            # An open file, not the name: trimesh names the mesh's scene node after the file and
+            # hashes that name as UTF-8, which one that is not valid UTF-8 has not; the resolver
+            # finds an OBJ's materials and a glTF's buffers beside it, as trimesh.load(path) does
+            with open(path, "rb") as handle:
+                mesh = trimesh.load(handle, file_type=suffix[1:], force="mesh", process=False,
+                                    resolver=trimesh.resolvers.FilePathResolver(path))
+            vertices, faces = np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64)
+    except MrcheckError:
+        raise
+    except Exception as exc:  # trimesh and yourdfpy raise many types for corrupt files
+        reason = " ".join(str(exc).split())[:200]
+        # a KeyError's text is only the key ('y' for a PLY cut in its vertex list): name the type too
+        reason = f"{type(exc).__name__}: {reason}" if reason and isinstance(exc, (KeyError, IndexError)) else \
+            reason or type(exc).__name__
+        what = "cannot read mesh" if isinstance(exc, OSError) else "cannot read mesh: corrupt, truncated or not a mesh"
+        raise MrcheckError(f"{what} ({reason})", path) from None
+    return validate_mesh(vertices, faces, path)
+
+
+class _Collect(logging.Handler):
+    def __init__(self):
+        super().__init__(logging.DEBUG)
+        self.messages = []
+
+    def emit(self, record):
+        self.messages.append(" ".join(record.getMessage().split()))
+
+
+def _utf8(name: str) -> bool:
+    try:
+        name.encode("utf-8")
+    except UnicodeEncodeError:   # a file name that is not valid UTF-8 (surrogate escapes)
+        return False
+    return True
+
+
+def _ascii_aliases(folder: str, handler):
+    """``handler`` (URDF mesh reference -> path) giving, for a path that is not valid UTF-8, a
+    symlink to it in ``folder`` instead: lxml, which parses the URDF, and trimesh, which loads
+    its meshes, take file names as UTF-8 only."""
+    def aliased(fname: str) -> str:
+        found = handler(fname)
+        if _utf8(found) or not os.path.isfile(found):
+            return found
+        alias = os.path.join(folder, f"mesh{len(os.listdir(folder))}{os.path.splitext(found)[1]}")
+        os.symlink(os.path.abspath(found), alias)
+        return alias
+    return aliased
+
+
+def _read_urdf(path: Path, joints: dict):
+    import yourdfpy
+
+    # yourdfpy logs what goes wrong (malformed XML, a mesh file it cannot find) and carries on;
+    # its messages are kept for the one-line error instead of being printed around it
+    handler = partial(yourdfpy.filename_handler_magic, dir=str(path.parent))
+    logger, collect = logging.getLogger("yourdfpy"), _Collect()
+    logger.addHandler(collect)
+    propagate, logger.propagate = logger.propagate, False
+    try:
+        with tempfile.TemporaryDirectory(prefix="mrcheck-urdf-") as aliases:
+            # the URDF's bytes when its name is not UTF-8 (lxml encodes a file object's name too)
+            robot = yourdfpy.URDF.load(
+                str(path) if _utf8(str(path)) else io.BytesIO(path.read_bytes()),
+                filename_handler=_ascii_aliases(aliases, handler), build_collision_scene_graph=False,
+                load_collision_meshes=False)
+    except Exception as exc:
+        reason = "; ".join(collect.messages[:1] + [" ".join(str(exc).split()) or type(exc).__name__])
+        raise MrcheckError(f"cannot read URDF ({reason[:200]})", path) from None
+    finally:
+        logger.removeHandler(collect)
+        logger.propagate = propagate
+    missing = [m[len("Can't find "):] for m in collect.messages if m.startswith("Can't find ")]
+    if missing:
+        raise MrcheckError(f"URDF mesh file(s) not found: {', '.join(missing)}", path)
+    unknown = sorted(set(joints) - set(robot.actuated_joint_names))
+    if unknown:
+        raise JointError(f"unknown joint(s) {', '.join(unknown)} (the robot {path.name} has: "
+                         f"{', '.join(robot.actuated_joint_names)})")
+    for name, value in joints.items():
+        _check_joint_limits(robot.joint_map[name], float(value), path)
+    cfg = [float(joints.get(name, 0.0)) for name in robot.actuated_joint_names]
+    robot.update_cfg(np.array(cfg))
+    mesh = robot.scene.to_mesh() if hasattr(robot.scene, "to_mesh") else robot.scene.dump(concatenate=True)
+    return np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64)
+
+
+class JointError(MrcheckError):
+    """A joint value of a manifest that the robot does not accept: the manifest's entry is
+    wrong, not the URDF, so the manifest reader names itself and the part."""
+
+
+JOINT_LIMIT_SLACK = 1e-6   # rad or m: values written with fewer digits than the URDF's limits
+
+
+def urdf_joint_range(joint) -> tuple[float, float] | None:
+    """(lower, upper) of a URDF joint's limit, None for a continuous joint or one without a
+    limit (robots.joint_limits samples those over a full turn; a manifest value is not held to one)."""
+    limit = joint.limit
+    if joint.type == "continuous" or limit is None or limit.lower is None or limit.upper is None:
+        return None
+    return float(limit.lower), float(limit.upper)
+
+
+def _check_joint_limits(joint, value: float, path: Path):
+    """An error for a value beyond the URDF's limits. An error rather than a warning: the robot
+    cannot take that pose, so the scene would show a robot that is not there, and as-built
+    checks would measure against it; the common cause is a value typed in degrees."""
+    limits = urdf_joint_range(joint)
+    if limits is None or not limits[0] < limits[1]:    # no (or a degenerate) range given: nothing to hold it to
+        return
+    lower, upper = limits
+    if lower - JOINT_LIMIT_SLACK <= value <= upper + JOINT_LIMIT_SLACK:
+        return
+    unit = "m" if joint.type == "prismatic" else "rad"
+    hint = ""
+    if joint.type == "revolute" and lower <= math.radians(value) <= upper:
+        hint = f"; degrees? joint values are radians ({value:g} deg = {math.radians(value):.4g} rad)"
+    raise JointError(f"joint {joint.name!r} = {value:g} is outside its limits {lower:.4g} .. {upper:.4g} {unit} "
+                     f"in {path.name}{hint}")
+
+
+def validate_mesh(vertices, faces, path):
+    vertices = np.asarray(vertices, np.float64).reshape(-1, 3)
+    faces = np.asarray(faces, np.int64).reshape(-1, 3)
+    if len(faces) == 0 or len(vertices) == 0:
+        raise MrcheckError("mesh has no triangles", path)
+    if not np.all(np.isfinite(vertices)):
+        bad = int((~np.isfinite(vertices)).any(axis=1).sum())
+        raise MrcheckError(f"mesh has {bad} vertices with NaN or infinite coordinates", path)
+    if faces.min() < 0 or faces.max() >= len(vertices):
+        raise MrcheckError("mesh has triangles that index missing vertices", path)
+    good = np.empty(len(faces), bool)
+    for start in range(0, len(faces), VALIDATION_CHUNK):  # chunks: no float64 copy of all triangles
+        good[start:start + VALIDATION_CHUNK] = _proper(vertices[faces[start:start + VALIDATION_CHUNK]])
+    if not good.any():
+        raise MrcheckError(f"mesh has only degenerate (zero-area) triangles ({len(faces)} of them)", path)
+    if not good.all():
+        # a handful is normal in CAD and scan meshes (the KUKA model has one); more says the
+        # export or its unit is broken, which the user should hear about
+        if (~good).mean() > DEGENERATE_WARNING_SHARE:
+            print(f"warning: {path}: dropped {int((~good).sum())} degenerate triangles of {len(faces)}", file=sys.stderr)
+        faces = faces[good]
+    return vertices, faces
+
+
+DEGENERATE_RATIO = 1e-9   # see _proper
+
+
+def _proper(tri: np.ndarray) -> np.ndarray:
+    """(m,) bool: the triangles (m, 3, 3) float64 that have an area, judged by their own size.
+
+    Twice the area is the longest edge L times the height h on it; a triangle with
+    ``2 * area <= (DEGENERATE_RATIO * L) ** 2`` (h at most 1e-18 L: below float64's resolution
+    of its own edges) has none. Measured against the triangle's own edge, not the mesh's
+    extent: a mesh that also holds an element 1e12 m away made every metre-sized triangle of it
+    zero-area under (extent * 1e-9) ** 2 = 4e6 m^2, and dropped them.
+    """
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    ab, bc, ca = b - a, c - b, a - c
+    cross = np.cross(ab, -ca)
+    # squared throughout: no square roots over millions of triangles
+    doubled_area_sq = np.einsum("ij,ij->i", cross, cross)
+    longest_sq = np.maximum(np.maximum(np.einsum("ij,ij->i", ab, ab), np.einsum("ij,ij->i", bc, bc)),
+                            np.einsum("ij,ij->i", ca, ca))
+    return doubled_area_sq > DEGENERATE_RATIO ** 4 * longest_sq ** 2
+
+
+# -- float32 local coordinates -------------------------------------------------------------------
+FLOAT32_STEP = 2.0 ** -24   # float32 rounds to this share of a coordinate's magnitude (at most)
+FLOAT32_SHARE = 1e-3        # local coordinates may round a vertex by this share of a small triangle
+SMALL_TRIANGLE = 5          # "a small triangle": this percentile of the triangles' longest edges
+SIZE_SAMPLE = 1 << 14       # make_part judges a mesh on at most this many triangles (a fixed stride)
+
+
+def longest_edges(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(m,) float64 longest edge of each triangle."""
+    tri = np.asarray(vertices, np.float64)[faces]
+    return np.linalg.norm(tri[:, [1, 2, 0]] - tri, axis=2).max(axis=1)
+
+
+def float32_holds(radius: float, longest: np.ndarray) -> bool:
+    """Whether float32 coordinates up to ``radius`` from their origin keep triangles with these
+    longest edges: rounding by at most FLOAT32_SHARE of a small one (the shipped meshes: at most
+    5e-5 of theirs). Triangles of one point have no size to keep."""
+    sized = longest[longest > 0]
+    return not sized.size or radius * FLOAT32_STEP <= FLOAT32_SHARE * float(np.percentile(sized, SMALL_TRIANGLE))
+
+
+def float32_tiles(vertices: np.ndarray, faces: np.ndarray) -> list[np.ndarray]:
+    """The triangles of a float64 mesh in groups that float32 holds relative to each group's own
+    bounding-box centre (:func:`float32_holds`), as arrays of face indices, in a fixed order.
+
+    A group that does not hold is cut in two at the middle of its triangles' centroids along the
+    axis where they spread most, so that a far element parts from the rest in one cut (the
+    factory at 5e6 m from its stray element at the origin) and a huge triangle from the small
+    ones beside it after a few. A single triangle always holds.
+    """
+    longest = longest_edges(vertices, faces)
+    centroids = np.asarray(vertices, np.float64)[faces].mean(axis=1)
+    tiles, todo = [], [np.arange(len(faces))]
+    while todo:
+        group = todo.pop()
+        used = vertices[faces[group]].reshape(-1, 3)
+        lo, hi = used.min(axis=0), used.max(axis=0)
+        if float32_holds(float(np.abs(used - (lo + hi) / 2.0).max()), longest[group]):
+            tiles.append(group)
+            continue
+        c = centroids[group]
+        axis = int(np.argmax(np.ptp(c, axis=0)))
+        if np.ptp(c[:, axis]) > 0:
+            left = c[:, axis] <= (c[:, axis].min() + c[:, axis].max()) / 2.0
+        else:   # every centroid in one point: halves (both non-empty, as a single triangle holds)
+            left = np.arange(len(group)) < len(group) // 2
+        todo += [group[~left], group[left]]
+    return sorted(tiles, key=lambda group: int(group[0]))
+
+
+def _stored(local: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """``local`` as float32, or kept float64 when float32 would round it beyond FLOAT32_SHARE of
+    its small triangles: a mesh holding a factory at map coordinates and a stray element at the
+    origin has its centre halfway, 2.5e6 m from both, where float32 steps 0.25 m. The consumers
+    then work in float64 and the geometry pass draws it in :func:`float32_tiles`."""
+    sample = faces[::max(1, -(-len(faces) // SIZE_SAMPLE))]   # a stride rounded up: at most SIZE_SAMPLE
+    if not len(sample) or float32_holds(float(np.abs(local).max()), longest_edges(local, sample)):
+        return local.astype(np.float32)
+    return local
+
+
+def make_part(name, source, vertices, faces, transforms, color=None, units=None, instance_ids=None) -> Part:
+    """A :class:`Part` from float64 geometry: re-centred, scaled to metres, stored as float32
+    (float64 where float32 would not hold it, see :func:`_stored`)."""
+    scale = unit_scale(units, source)
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    centre = (lo + hi) / 2.0
+    faces = np.asarray(faces)
+    local = _stored((vertices - centre) * scale, faces)
+    to_world = np.eye(4)
+    to_world[:3, 3] = centre * scale
+    transforms = np.asarray(transforms, np.float64).reshape(-1, 4, 4) @ to_world
+    return Part(
+        name=name,
+        source=Path(source),
+        vertices=local,
+        faces=faces.astype(np.uint32),
+        transforms=transforms,
+        color=tuple(float(c) for c in (color if color is not None else DEFAULT_COLOR)),
+        units=units,
+        instance_ids=list(instance_ids or []),
+    )
+
+
+# -- loading ------------------------------------------------------------------------------------
+def load_scene(path, units: str | None = None, progress: bool = False) -> Scene:
+    """A manifest (``.toml``) or any single mesh file (then ``units`` says its unit)."""
+    path = Path(path)
+    check_input(path, "scene file", folder_ok=True)
+    if path.is_dir():
+        candidates = [path / "scene.toml", *sorted(path.glob("*.toml"))]
+        manifest = next((c for c in candidates if c.exists()), None)
+        if manifest is None:
+            raise MrcheckError("folder has no scene manifest (scene.toml)", path)
+        path = manifest
+    if path.suffix.lower() == ".toml":
+        if units is not None:
+            raise MrcheckError("--units applies to a single mesh file; a manifest declares units per part", path)
+        return _load_manifest(path, progress)
+    vertices, faces = read_mesh(path)
+    part = make_part(path.stem, path, vertices, faces, np.eye(4), units=units)
+    return Scene(name=path.stem, source=path, parts=[part])
+
+
+def _load_manifest(path: Path, progress: bool) -> Scene:
+    text = read_input_text(path, "manifest", encoding="utf-8-sig")   # -sig: a BOM (Windows Notepad) is no error
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise MrcheckError(f"malformed manifest: {exc}", path) from None
+    unknown = sorted(set(data) - MANIFEST_KEYS)
+    if unknown:  # e.g. [[viewpoint]] for [[viewpoints]]: silently ignoring it would lose the views
+        raise MrcheckError(f"unknown manifest key(s) {', '.join(unknown)} (known: {', '.join(sorted(MANIFEST_KEYS))})", path)
+    if data.get("format", 1) != 1:
+        raise MrcheckError(f"unsupported manifest format {data.get('format')!r} (this mrcheck reads format 1)", path)
+    tables = data.get("parts", [])
+    if not isinstance(tables, list) or not all(isinstance(t, dict) for t in tables):
+        raise MrcheckError("manifest 'parts' must be an array of tables ([[parts]])", path)
+    if not tables:
+        raise MrcheckError("scene is empty (no [[parts]])", path)
+
+    viewpoints = {}
+    views = data.get("viewpoints", [])
+    if not isinstance(views, list) or not all(isinstance(t, dict) for t in views):
+        raise MrcheckError("manifest 'viewpoints' must be an array of tables ([[viewpoints]])", path)
+    for table in views:
+        name = table.get("name")
+        unknown = sorted(set(table) - _VIEW_KEYS)
+        if not isinstance(name, str) or not name or unknown or "eye" not in table or "target" not in table:
+            raise MrcheckError(f"viewpoint {name!r} needs name, eye and target (unknown keys: {unknown or 'none'})", path)
+        if name in viewpoints:
+            raise MrcheckError(f"two viewpoints are named {name!r}", path)
+        viewpoints[name] = table
+
+    from tqdm import tqdm
+
+    parts, names, owners = [], set(), {}
+    # a with block closes (and, leave=False, erases) the bar on an error too, so the error line
+    # starts a clean line; disable=None: no bar when stderr is not a terminal (pipes, logs, tests)
+    with tqdm(tables, desc="loading scene", unit="part", disable=None if progress else True, leave=False) as bar:
+        for index, table in enumerate(bar):
+            parts.append(_part_from_table(path, index, table, names, owners))
+
+    scene = Scene(name=data.get("name", path.stem), source=path, parts=parts, viewpoints=viewpoints)
+    for view in viewpoints:
+        scene.camera(view)  # validate every viewpoint once, at load time
+    return scene
+
+
+def _part_from_table(path: Path, index: int, table: dict, names: set, owners: dict) -> Part:
+    """The part of one [[parts]] table of the manifest ``path``; ``names`` collects part names,
+    ``owners`` maps every instance id so far to its part's name."""
+    where = f"part {table.get('name', index)!r}"
+    unknown = sorted(set(table) - _PART_KEYS)
+    if unknown:
+        raise MrcheckError(f"{where}: unknown key(s) {', '.join(unknown)}", path)
+    name = table.get("name", f"part{index}")
+    if not isinstance(name, str):
+        raise MrcheckError(f"{where}: name must be a string", path)
+    if name in names:
+        raise MrcheckError(f"two parts are named {name!r}", path)
+    names.add(name)
+    if not isinstance(table.get("mesh"), str):
+        raise MrcheckError(f"{where}: needs a mesh = \"file\" entry", path)
+    try:
+        unit_scale(table.get("units"), None)
+    except MrcheckError as exc:
+        raise MrcheckError(f"{where}: {exc}", path) from None
+    instances = table.get("instances", [{}])   # no key: one copy at the part's own transform
+    if not isinstance(instances, list) or not all(isinstance(t, dict) for t in instances):
+        raise MrcheckError(f"{where}: instances must be an array of tables", path)
+    if not instances:   # it drew one copy before, silently; a planner who empties it means none
+        raise MrcheckError(f"{where}: instances is empty (no copy placed); remove the part, or leave out "
+                           "'instances' for one copy at the part's transform", path)
+    for i, t in enumerate(instances):
+        unknown = sorted(set(t) - _INSTANCE_KEYS)
+        if unknown:
+            raise MrcheckError(f"{where} instance {i}: unknown key(s) {', '.join(unknown)}", path)
+    try:
+        base = transform_from_table(table, where)
+        transforms = [transform_from_table(t, f"{where} instance {i}") @ base for i, t in enumerate(instances)]
+    except MrcheckError as exc:
+        raise MrcheckError(str(exc), path) from None
+    color = table.get("color")
+    if color is not None:
+        try:
+            color = np.asarray(color, dtype=np.float64)
+        except (TypeError, ValueError):
+            color = None  # reported just below, like a colour out of range
+        if color is None or color.shape != (3,) or not np.all((color >= 0) & (color <= 1)):
+            raise MrcheckError(f"{where}: color must be three numbers in 0..1, got {table['color']!r}", path)
+    joints = table.get("joints")
+    if joints is not None and not isinstance(joints, dict):
+        raise MrcheckError(f"{where}: joints must be a table of name = value", path)
+    for joint, value in (joints or {}).items():
+        # TOML's true would pass float() as 1 rad, and nan would pose the arm anyhow
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise MrcheckError(f"{where}: joint {joint!r} must be a finite number (radians, or metres for a "
+                               f"prismatic joint), got {value!r}", path)
+    # the ids Part gives (NAME, NAME#i), unless the manifest names them; an id names one object
+    # in the whole scene (as-built variants and reports look changes up by it), so a generated
+    # id that another part's explicit one repeats is as wrong as two explicit ones
+    ids = [(str(t["id"]) if "id" in t else "") or default
+           for t, default in zip(instances, default_instance_ids(name, len(instances)))]
+    for iid in ids:
+        if iid in owners:
+            other = owners[iid]
+            raise MrcheckError(f"instance id {iid!r} is used twice in part {name!r}" if other == name else
+                               f"instance id {iid!r} is used by parts {other!r} and {name!r}", path)
+        owners[iid] = name
+    try:
+        vertices, faces = read_mesh(path.parent / table["mesh"], joints)
+    except JointError as exc:     # the manifest's value is wrong: name the manifest and the part
+        raise MrcheckError(f"{where}: {exc}", path) from None
+    except MrcheckError as exc:   # the mesh is named; say which manifest entry asked for it
+        error = MrcheckError(f"{exc} ({where} of {path})")
+        error.path = exc.path
+        raise error from None
+    return make_part(name, path.parent / table["mesh"], vertices, faces, transforms, color, table.get("units"), ids)
+
+
+__all__ = ["Part", "Scene", "UNITS", "float32_tiles", "load_scene", "read_mesh", "make_part", "transform_from_table"]
