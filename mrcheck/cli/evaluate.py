@@ -33,7 +33,44 @@ def bench(quick, json_path, repeat):
     each run."""
     from mrcheck.eval.bench.run import bench_command
 
-    bench_command(quick=quick, json_path=json_path, repeat=repeat)
+    result = bench_command(quick=quick, json_path=json_path, repeat=repeat, hall=_hall_generator(),
+                           progress=_progress_bar())
+    click.echo(result.text)
+    if result.json_path is not None:
+        click.echo(result.json_path)
+
+
+def _hall_generator():
+    """The bench's halls come from the factory_scenes generator, which only the CLI imports."""
+    from pathlib import Path
+
+    import factory_scenes.generator as generator
+
+    from mrcheck.eval.bench.scenes import HallGenerator
+
+    return HallGenerator(generator.generate, Path(generator.__file__).parent)
+
+
+def _progress_bar():
+    """The bench's progress as a tqdm bar on stderr: (figures measured, planned, the last one)."""
+    import sys
+
+    from tqdm import tqdm
+
+    bar = None
+
+    def progress(done: int, total: int, label: str) -> None:
+        nonlocal bar
+        if bar is None:
+            bar = tqdm(total=total, desc="bench", unit="figure", file=sys.stderr)
+        bar.total = total
+        if label:
+            bar.set_postfix_str(label, refresh=False)
+        bar.update(done - bar.n)
+        if done >= total:
+            bar.close()
+
+    return progress
 
 
 @cli.command()

@@ -86,7 +86,11 @@ class FramePasses:
         self.renderer = renderer
         self.camera = camera
         self.ctx = renderer.ctx
-        self.targets = renderer._targets_for((camera.width, camera.height))
+
+    @property
+    def targets(self) -> RenderTargets:
+        """The renderer's targets of this camera's size (made again if another size came between)."""
+        return self.renderer._targets_for((self.camera.width, self.camera.height))
 
     def timed(self, work) -> float:
         """Milliseconds of the GL work of ``work()`` on this context (:func:`mrcheck.render.gl.timed_ms`)."""
