@@ -213,19 +213,19 @@ def report_text(report: dict, figures: list[Figure]) -> str:
     machine = report["machine"]
     lines = [format_table(figures), "", format_ratios(report, report["run"]), ""]
     lines.append(f"machine: {machine['gl_renderer']}, {machine['cpus_usable']} of {machine['cpu_count']} CPUs usable, "
-          f"Python {machine['python']}; {report['run']['repeat']} timed runs per figure after 1 warm-up; "
-          f"peak RSS {report['peak_rss_mb']:.0f} MB over the whole run")
+                 f"Python {machine['python']}; {report['run']['repeat']} timed runs per figure after 1 warm-up; "
+                 f"peak RSS {report['peak_rss_mb']:.0f} MB over the whole run")
     for f in figures:
         if f.name == "frame" and "png" in f.stats:  # the frames the peer ratios compare, to look at
             lines.append(f"frame {f.mode}: {f.stats['png']}" + (f" ({f.stats['peer']})" if "peer" in f.stats else ""))
     for scene, triangles in {f.scene: f.triangles for f in figures if f.name == "frame" and f.triangles}.items():
         lines.append(f"{scene}: the line scene the project ships, {triangles:,} triangles (the issue names a 1 M-triangle "
-              "line scene)")
+                     "line scene)")
     lines.append("/ floor: an AO pass over the fetch floor of its size, samples and resolution (same depth fetches, "
-          "trivial arithmetic), timed in turns with it.")
+                 "trivial arithmetic), timed in turns with it.")
     lines.append(f"peak MB: {report['peak_rss_per_figure']}.")
     lines.append("GTX285 ms: Scheer & Keutel's own method (vector) on a GTX 285 at 1280x1024, Table 1 (AO pass) and "
-          "Table 2 (blur; whole frame at 16 samples with 13x13, 36 with 9x9), on their scene, for comparison.")
+                 "Table 2 (blur; whole frame at 16 samples with 13x13, 36 with 9x9), on their scene, for comparison.")
     return "\n".join(lines)
 
 
