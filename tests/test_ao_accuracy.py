@@ -39,8 +39,8 @@ def _render(ctx, scene, camera, **settings):
                                  "lod_px": REFERENCE_LOD_PX, **settings})
     renderer = Renderer(scene, ctx=ctx)
     try:
-        ao = renderer.render(camera, ["vector"], settings, want_ao=True)["vector"].ao
-        return ao, renderer.last_depth(), renderer.last_normals()
+        frame = renderer.render(camera, ["vector"], settings, want_ao=True, want_normals=True)
+        return frame["vector"].ao, frame.depth, frame.normals
     finally:
         renderer.release()
 

@@ -16,7 +16,7 @@ import trimesh
 from mrcheck.core.camera import Camera
 from mrcheck.core.resources import factory_scenes_dir
 from mrcheck.render import culling, lod
-from mrcheck.render.gbuffer import GBuffer
+from mrcheck.render.gbuffer import FLUSH_TRIANGLES, DrawOptions, GBuffer
 from mrcheck.render.gl import made_current
 from mrcheck.render.renderer import Renderer, RenderSettings
 from mrcheck.scene.model import Scene, load_scene, make_part
@@ -48,15 +48,14 @@ def _scene(sphere_subdivisions=2) -> tuple[Scene, Camera]:
 
 
 def _draw(renderer: Renderer, camera: Camera, occlusion: bool, lod_px: float, prepare: bool = True,
-          backface: bool = True, size=(W, H)):
+          backface: bool = True, size=(W, H), flush_triangles: int = FLUSH_TRIANGLES):
     with made_current(renderer.ctx):
         if prepare:
             renderer.geometry.prepare_levels()
         gbuffer = GBuffer.create(renderer.ctx, size)
-        renderer.geometry.occlusion_culling = occlusion
-        renderer.geometry.backface_culling = backface
-        renderer.geometry.lod_px = lod_px
-        stats = renderer.geometry.draw(gbuffer, camera)
+        options = DrawOptions(lod_px=lod_px, occlusion_culling=occlusion, backface_culling=backface,
+                              flush_triangles=flush_triangles)
+        stats = renderer.geometry.draw(gbuffer, camera, options)
         depth = gbuffer.read_depth().copy()
         gbuffer.release()
     return stats, depth
@@ -155,10 +154,9 @@ def test_flushing_between_draws_changes_no_pixel():
     scene, camera = _closed_scene()
     renderer = Renderer(scene)
     try:
-        renderer.geometry.flush_triangles = 0
-        _, depth_one_go = _draw(renderer, camera, occlusion=False, lod_px=0.0)
-        renderer.geometry.flush_triangles = 1    # glFlush after every draw
-        _, depth_flushed = _draw(renderer, camera, occlusion=False, lod_px=0.0)
+        _, depth_one_go = _draw(renderer, camera, occlusion=False, lod_px=0.0, flush_triangles=0)
+        # glFlush after every draw
+        _, depth_flushed = _draw(renderer, camera, occlusion=False, lod_px=0.0, flush_triangles=1)
     finally:
         renderer.release()
     np.testing.assert_array_equal(depth_flushed, depth_one_go)

@@ -45,8 +45,7 @@ def test_object_ids_match_the_render_silhouette(ctx, sample):
     camera = _camera(sample, k1=0.0)
     ids, depth, labels = object_ids(sample, camera)
     renderer = Renderer(sample, ctx=ctx)
-    renderer.render(camera, ["phong"])
-    gl_depth = renderer.last_depth()
+    gl_depth = renderer.render(camera, ["phong"]).depth
     renderer.release()
     agree = np.mean((ids >= 0) == (gl_depth > 0))
     assert agree > 0.99

@@ -10,12 +10,13 @@ from __future__ import annotations
 
 import os
 import sys
+import warnings
 
 import click
 
 from mrcheck.cli import apps, evaluate, mr, render, scene  # noqa: F401  (they add their commands)
 from mrcheck.cli.group import cli
-from mrcheck.core.errors import DISPLAY_ERRORS, MrcheckError, bug_reason
+from mrcheck.core.errors import DISPLAY_ERRORS, MrcheckError, MrcheckWarning, bug_reason
 
 EXIT_ERROR = 1
 
@@ -30,8 +31,29 @@ def _name_safe_streams() -> None:
             stream.reconfigure(errors=errors)
 
 
+def _warning_lines(others):
+    """``warnings.showwarning`` for a command: a warning of mrcheck's code (:class:`MrcheckWarning`)
+    as the one line ``warning: ...`` on stderr; another library's as ``others`` shows it."""
+
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        if issubclass(category, MrcheckWarning):
+            click.echo(f"warning: {message}", err=True)
+        else:
+            others(message, category, filename, lineno, file, line)
+
+    return show
+
+
 def main(argv=None) -> int:
     _name_safe_streams()
+    with warnings.catch_warnings():
+        # every warning of this command, each time (the default filter shows one once per process)
+        warnings.simplefilter("always", MrcheckWarning)
+        warnings.showwarning = _warning_lines(warnings.showwarning)
+        return _main(argv)
+
+
+def _main(argv) -> int:
     try:
         result = cli.main(args=argv, prog_name="mrcheck", standalone_mode=False)
     except MrcheckError as exc:

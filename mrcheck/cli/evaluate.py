@@ -6,6 +6,7 @@ import click
 
 from mrcheck.cli.group import cli
 from mrcheck.cli.options import FINITE, positive
+from mrcheck.render import settings as defaults
 
 
 @cli.command()
@@ -32,7 +33,44 @@ def bench(quick, json_path, repeat):
     each run."""
     from mrcheck.eval.bench.run import bench_command
 
-    bench_command(quick=quick, json_path=json_path, repeat=repeat)
+    result = bench_command(quick=quick, json_path=json_path, repeat=repeat, hall=_hall_generator(),
+                           progress=_progress_bar())
+    click.echo(result.text)
+    if result.json_path is not None:
+        click.echo(result.json_path)
+
+
+def _hall_generator():
+    """The bench's halls come from the factory_scenes generator, which only the CLI imports."""
+    from pathlib import Path
+
+    import factory_scenes.generator as generator
+
+    from mrcheck.eval.bench.scenes import HallGenerator
+
+    return HallGenerator(generator.generate, Path(generator.__file__).parent)
+
+
+def _progress_bar():
+    """The bench's progress as a tqdm bar on stderr: (figures measured, planned, the last one)."""
+    import sys
+
+    from tqdm import tqdm
+
+    bar = None
+
+    def progress(done: int, total: int, label: str) -> None:
+        nonlocal bar
+        if bar is None:
+            bar = tqdm(total=total, desc="bench", unit="figure", file=sys.stderr)
+        bar.total = total
+        if label:
+            bar.set_postfix_str(label, refresh=False)
+        bar.update(done - bar.n)
+        if done >= total:
+            bar.close()
+
+    return progress
 
 
 @cli.command()
@@ -46,9 +84,9 @@ def bench(quick, json_path, repeat):
 @click.option("--radius-mode", type=click.Choice(["world", "screen"]), default="screen", show_default=True,
               help="world: a constant world radius (for ssao and the other world-radius modes); "
                    "screen: the vector method's per-pixel r_S = r_px * Z / f_y.")
-@click.option("--radius", "radius_world", type=FINITE, default=None, callback=positive, help="World radius (scene units) [default: 0.2].")
-@click.option("--radius-px", type=FINITE, default=None, callback=positive, help="Screen radius in pixels [default: 2% of the image height].")
-@click.option("--falloff", type=FINITE, default=1.0, show_default=True, help="c of the attenuation 1 / (1 + c (d/r)^2), as in the render modes.")
+@click.option("--radius", "radius_world", type=FINITE, default=None, callback=positive, help=f"World radius (scene units) [default: {defaults.DEFAULT_RADIUS_WORLD}].")
+@click.option("--radius-px", type=FINITE, default=None, callback=positive, help=f"Screen radius in pixels [default: {defaults.DEFAULT_RADIUS_FRACTION:.0%} of the image height].")
+@click.option("--falloff", type=FINITE, default=defaults.DEFAULT_FALLOFF, show_default=True, help="c of the attenuation 1 / (1 + c (d/r)^2), as in the render modes.")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Seed of the ray directions.")
 @click.option("--units", type=click.Choice(["mm", "cm", "m", "in", "ft"]), help="Unit of a single mesh file SCENE.")
 @click.option("-o", "--output", required=True, metavar="REF.npy", help="Reference AO: .npy float32 (H, W), or 16-bit .png (as --output-ao).")
@@ -66,7 +104,7 @@ def reference(scene_path, view, camera_path, width, height, rays, radius_mode, r
 @cli.command()
 @click.argument("scene_path", metavar="SCENE")
 @click.option("--view", required=True, metavar="NAME", help="Named viewpoint of the scene manifest.")
-@click.option("--samples", type=int, default=16, show_default=True, callback=positive, help="AO samples per pixel for every mode.")
+@click.option("--samples", type=int, default=defaults.DEFAULT_SAMPLES, show_default=True, callback=positive, help="AO samples per pixel for every mode.")
 @click.option("--rays", type=int, default=256, show_default=True, callback=positive, help="Reference rays per pixel.")
 @click.option("--width", type=int, callback=positive, help="Image width [default: the view's].")
 @click.option("--height", type=int, callback=positive, help="Image height [default: the view's].")

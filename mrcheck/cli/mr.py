@@ -6,6 +6,7 @@ import click
 
 from mrcheck.cli.group import cli
 from mrcheck.cli.options import FINITE, MODE_CHOICES, positive, warn_unused_options
+from mrcheck.render import settings as defaults
 
 
 @cli.command()
@@ -54,8 +55,8 @@ def register(scene_path, photo, intrinsics, markers, points, max_error, output):
 @click.option("--alpha", type=FINITE, default=0.5, show_default=True, help="Photo opacity, 0 (CAD only) .. 1 (photo only).")
 @click.option("--edges", is_flag=True, help="Draw CAD silhouette and crease edges over the photo.")
 @click.option("--edge-color", default="ff00ff", show_default=True, metavar="RRGGBB", help="Colour of the CAD edges.")
-@click.option("--intensity", type=FINITE, default=1.0, show_default=True, help="AO strength (0 none ... 2 strong).")
-@click.option("--samples", type=int, default=16, show_default=True, callback=positive, help="AO samples per pixel.")
+@click.option("--intensity", type=FINITE, default=defaults.DEFAULT_INTENSITY, show_default=True, help="AO strength (0 none ... 2 strong).")
+@click.option("--samples", type=int, default=defaults.DEFAULT_SAMPLES, show_default=True, callback=positive, help="AO samples per pixel.")
 @click.option("-o", "--output", required=True, metavar="OUT.png", help="Output image.")
 def overlay(shot, scene_path, mode, alpha, edges, edge_color, intensity, samples, output):
     """Blend the CAD rendered from a registered shot over its photo, lens distortion included."""

@@ -72,4 +72,9 @@ def bug_reason(exc: BaseException) -> str:
     return display(f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}")
 
 
-__all__ = ["MrcheckError", "bug_reason", "display", "os_reason", "DISPLAY_ERRORS"]
+class MrcheckWarning(UserWarning):
+    """Something the user should know that does not stop the work (a camera that sees no part,
+    parts without units): raised with ``warnings.warn``, shown by the CLI as ``warning: ...``."""
+
+
+__all__ = ["MrcheckError", "MrcheckWarning", "bug_reason", "display", "os_reason", "DISPLAY_ERRORS"]

@@ -255,8 +255,8 @@ def compare_command(scene, view, samples, rays, width, height, outdir):
 
     renderer = Renderer(loaded)
     try:
-        phong = renderer.render(camera, ["phong"], settings)["phong"].image
-        depth, normals = renderer.last_depth(), renderer.last_normals()
+        frame = renderer.render(camera, ["phong"], settings, want_normals=True)
+        phong, depth, normals = frame["phong"].image, frame.depth, frame.normals
         mask = covered(depth)
         references, rows = {}, []
         # disable=None: a bar on a terminal, nothing in a log or a pipe

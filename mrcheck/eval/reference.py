@@ -155,9 +155,9 @@ def reference_ao(scene: Scene, camera: Camera, depth, normals, rays: int, radius
     ----------
     scene : the scene that was rendered (all parts and instances are occluders).
     camera : the camera of the render.
-    depth : (H, W) camera-space z of the G-buffer, 0 = background (``Renderer.last_depth`` of a render
+    depth : (H, W) camera-space z of the G-buffer, 0 = background (``Frame.depth`` of a render
         at ``lod_px=REFERENCE_LOD_PX``).
-    normals : (H, W, 3) camera-space normals, OpenCV axes (``Renderer.last_normals``).
+    normals : (H, W, 3) camera-space normals, OpenCV axes (``Frame.normals``, ``want_normals=True``).
     rays : N, cosine-weighted rays per pixel.
     radius_mode : "world": ``r = radius`` in scene units; "screen": ``radius`` is in pixels and
         ``r = radius * Z / f_y`` per pixel.
@@ -287,8 +287,8 @@ def reference_command(scene, view, camera_path, width, height, rays, radius_mode
 
     renderer = Renderer(loaded)
     try:
-        renderer.render(camera, ["phong"], RenderSettings(lod_px=REFERENCE_LOD_PX))
-        depth, normals = renderer.last_depth(), renderer.last_normals()
+        frame = renderer.render(camera, ["phong"], RenderSettings(lod_px=REFERENCE_LOD_PX), want_normals=True)
+        depth, normals = frame.depth, frame.normals
     finally:
         renderer.release()
     warn_if_nothing_in_view(depth, view, camera_path)

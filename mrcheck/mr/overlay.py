@@ -250,6 +250,17 @@ def read_photo(path: Path, camera: Camera) -> np.ndarray:
     return rgb
 
 
+def photo_frame(renderer: Renderer, camera: Camera, modes, settings: RenderSettings, maps=None):
+    """The ideal render (a :class:`mrcheck.render.renderer.Frame`: images, depth) covering the
+    photo's distorted frame. Returns ``(frame, render_camera, offset, maps)``."""
+    if maps is None:
+        maps = distortion_map(camera)
+    render_camera, offset = padded_camera(camera, maps)
+    # the AO radius stays that of the photo's height, not of the padded render's
+    settings = settings.validated(camera.height)
+    return renderer.render(render_camera, modes, settings), render_camera, offset, maps
+
+
 def render_for_photo(renderer: Renderer, camera: Camera, modes, settings: RenderSettings, want_edges: bool,
                      maps=None):
     """Ideal renders covering the photo's distorted frame.
@@ -257,14 +268,9 @@ def render_for_photo(renderer: Renderer, camera: Camera, modes, settings: Render
     ``maps``: the :func:`distortion_map` of ``camera`` when already computed (several renders
     of one shot). Returns ``(renders, edges, offset, maps)``, ready for :func:`overlay_images`.
     """
-    if maps is None:
-        maps = distortion_map(camera)
-    render_camera, offset = padded_camera(camera, maps)
-    # the AO radius stays that of the photo's height, not of the padded render's
-    settings = settings.validated(camera.height)
-    results = renderer.render(render_camera, modes, settings)
-    edges = cad_edges(renderer.last_depth(), render_camera.fx) if want_edges else None
-    return {m: results[m].image for m in modes}, edges, offset, maps
+    frame, render_camera, offset, maps = photo_frame(renderer, camera, modes, settings, maps)
+    edges = cad_edges(frame.depth, render_camera.fx) if want_edges else None
+    return {m: frame[m].image for m in modes}, edges, offset, maps
 
 
 def overlay_command(shot, scene, mode="vector", alpha=0.5, edges=False, edge_color="ff00ff",
@@ -283,9 +289,11 @@ def overlay_command(shot, scene, mode="vector", alpha=0.5, edges=False, edge_col
     loaded = load_scene(scene, progress=True)
     renderer = Renderer(loaded)
     try:
-        renders, edge_mask, offset, maps = render_for_photo(renderer, camera, modes, settings, edges)
+        frame, render_camera, offset, maps = photo_frame(renderer, camera, modes, settings)
+        renders = {m: frame[m].image for m in modes}
+        edge_mask = cad_edges(frame.depth, render_camera.fx) if edges else None
         # the overlay would be the bare photo
-        warn_if_nothing_in_view(renderer.last_depth(), None, shot, "shot", "a wrong pose, or the shot of another scene?")
+        warn_if_nothing_in_view(frame.depth, None, shot, "shot", "a wrong pose, or the shot of another scene?")
     finally:
         renderer.release()
     mixed = overlay_images(photo, renders, camera, alpha, edge_mask, color, offset, maps)
@@ -307,7 +315,7 @@ def study_sheet(virtual: dict, mixed: dict, alpha: float) -> np.ndarray:
 
 
 __all__ = [
-    "overlay_command", "overlay_images", "render_for_photo", "distortion_map", "padded_camera",
+    "overlay_command", "overlay_images", "render_for_photo", "photo_frame", "distortion_map", "padded_camera",
     "distort_to_photo", "cad_edges", "blend", "draw_edges", "parse_edge_color", "check_alpha",
     "load_shot", "read_photo", "study_sheet", "CREASE_THRESHOLD",
 ]

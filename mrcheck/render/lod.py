@@ -43,7 +43,9 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-LOD_PIXELS = 0.5
+from mrcheck.render.settings import DEFAULT_LOD_PX
+
+LOD_PIXELS = DEFAULT_LOD_PX  # the default allowed error, pixels (mrcheck.render.settings)
 MIN_TRIANGLES = 64           # fewer: a coarser copy saves less than its extra draw call costs
 MAX_TRIANGLES = 1_000_000    # more: building the chain takes seconds; drawn as it is
 STEP = 2                     # each level about 1/STEP of the triangles of the one before

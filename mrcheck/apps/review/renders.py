@@ -170,7 +170,7 @@ class RenderService:
         settings = RenderSettings(samples=self.samples, intensity=intensity, seed=0).validated(camera.height)
         results = renderer.render(render_camera, [mode], settings)
         if kind == "edges":
-            mask = cad_edges(renderer.last_depth(), render_camera.fx).astype(np.float32)
+            mask = cad_edges(results.depth, render_camera.fx).astype(np.float32)
             cover = np.minimum(distort_to_photo(mask, maps, offset, photo.shape[:2]) * 2.0, 1.0)
             rgba = np.zeros(photo.shape[:2] + (4,), np.uint8)
             rgba[..., :3] = EDGE_RGB
