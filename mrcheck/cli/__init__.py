@@ -15,6 +15,7 @@ import click
 
 from mrcheck.cli import apps, evaluate, mr, render, scene  # noqa: F401  (they add their commands)
 from mrcheck.cli.group import cli
+from mrcheck.cli.messages import warning_lines
 from mrcheck.core.errors import DISPLAY_ERRORS, MrcheckError, bug_reason
 
 EXIT_ERROR = 1
@@ -33,7 +34,8 @@ def _name_safe_streams() -> None:
 def main(argv=None) -> int:
     _name_safe_streams()
     try:
-        result = cli.main(args=argv, prog_name="mrcheck", standalone_mode=False)
+        with warning_lines():   # the code's warnings as "warning: ..." lines on stderr
+            result = cli.main(args=argv, prog_name="mrcheck", standalone_mode=False)
     except MrcheckError as exc:
         click.echo(f"error: {exc}", err=True)
         return EXIT_ERROR

@@ -5,6 +5,7 @@ from __future__ import annotations
 import click
 
 from mrcheck.cli.group import cli
+from mrcheck.cli.messages import echo_lines, progress_bar, warning_line
 from mrcheck.cli.options import FINITE, MODE_CHOICES, positive, warn_unused_options
 
 
@@ -25,8 +26,12 @@ def calibrate(images, board, min_views, max_view_error, output):
     """Calibrate a camera from photos of a chessboard or ChArUco board (cv2.calibrateCamera)."""
     from mrcheck.mr.calibration import calibrate_command
 
-    calibrate_command(images=list(images), board=board, output=output, min_views=min_views,
-                      max_view_error=max_view_error)
+    done = calibrate_command(images=list(images), board=board, output=output, min_views=min_views,
+                             max_view_error=max_view_error, progress=progress_bar)
+    print("\n".join(done.report))
+    if done.warning:
+        warning_line(done.warning)
+    print(f"wrote {done.output}")
 
 
 @cli.command()
@@ -42,8 +47,9 @@ def register(scene_path, photo, intrinsics, markers, points, max_error, output):
     """Find the camera pose of a photo in the factory, from markers or clicked correspondences."""
     from mrcheck.mr.registration import register_command
 
-    register_command(scene=scene_path, photo=photo, intrinsics=intrinsics, markers=markers, points=points,
-                     max_error=max_error, output=output)
+    done = register_command(scene=scene_path, photo=photo, intrinsics=intrinsics, markers=markers, points=points,
+                            max_error=max_error, output=output)
+    echo_lines(done.summary())
 
 
 @cli.command()
@@ -59,8 +65,10 @@ def register(scene_path, photo, intrinsics, markers, points, max_error, output):
 @click.option("-o", "--output", required=True, metavar="OUT.png", help="Output image.")
 def overlay(shot, scene_path, mode, alpha, edges, edge_color, intensity, samples, output):
     """Blend the CAD rendered from a registered shot over its photo, lens distortion included."""
-    from mrcheck.mr.overlay import overlay_command
+    from mrcheck.core.output import write_image
+    from mrcheck.mr.shot import overlay_shot
 
     warn_unused_options(click.get_current_context(), mode)
-    overlay_command(shot=shot, scene=scene_path, mode=mode, alpha=alpha, edges=edges, edge_color=edge_color,
-                    intensity=intensity, samples=samples, output=output)
+    image = overlay_shot(shot=shot, scene=scene_path, mode=mode, alpha=alpha, edges=edges, edge_color=edge_color,
+                         intensity=intensity, samples=samples, output=output)
+    print(write_image(output, image))

@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 from mrcheck.core.camera import Camera
+from mrcheck.core.camerafiles import load_camera
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.output import (
     AO_SUFFIXES,
@@ -34,7 +35,7 @@ def file_camera(view, camera_path, width, height) -> Camera | None:
         raise MrcheckError("give exactly one of --view NAME or --camera CAM.json|CAM.yml")
     if view is not None:
         return None
-    return Camera.load(camera_path).fitted(width, height, camera_path)
+    return load_camera(camera_path).fitted(width, height, camera_path)
 
 
 def scene_and_camera(scene, units, view, camera_path, width, height):
