@@ -23,7 +23,15 @@ from mrcheck.cli.options import FINITE, MODE_CHOICES, positive, warn_unused_opti
 @click.option("-o", "--output", required=True, metavar="CAM.json",
               help="Camera JSON (K, dist, width, height, rms, per-view errors); .yml/.yaml writes OpenCV FileStorage.")
 def calibrate(images, board, min_views, max_view_error, output):
-    """Calibrate a camera from photos of a chessboard or ChArUco board (cv2.calibrateCamera)."""
+    """Calibrate a camera from chessboard or ChArUco board photos.
+
+    Zhang's method (cv2.calibrateCamera) on every photo the board is found in; outlier views
+    are rejected and the camera calibrated again without them.
+
+    \b
+    Example:
+      mrcheck calibrate photos/*.jpg --board chessboard:9x6:0.025 -o camera.json
+    """
     from mrcheck.mr.calibration import calibrate_command
 
     done = calibrate_command(images=list(images), board=board, output=output, min_views=min_views,
@@ -44,7 +52,15 @@ def calibrate(images, board, min_views, max_view_error, output):
               help="RANSAC inlier threshold in pixels [default: automatic].")
 @click.option("-o", "--output", required=True, metavar="SHOT.json", help="The registered shot (camera JSON + photo, rms, method, ids used/rejected).")
 def register(scene_path, photo, intrinsics, markers, points, max_error, output):
-    """Find the camera pose of a photo in the factory, from markers or clicked correspondences."""
+    """Find a photo's camera pose from markers or clicked points.
+
+    The pose of the calibrated camera in the factory, from surveyed markers (--markers) or
+    clicked pixel <-> world correspondences (--points); writes SHOT.json.
+
+    \b
+    Example:
+      mrcheck register hall/scene.toml --photo p1.jpg --intrinsics camera.json --markers map.json -o p1.json
+    """
     from mrcheck.mr.registration import register_command
 
     done = register_command(scene=scene_path, photo=photo, intrinsics=intrinsics, markers=markers, points=points,
@@ -64,7 +80,15 @@ def register(scene_path, photo, intrinsics, markers, points, max_error, output):
 @click.option("--samples", type=int, default=16, show_default=True, callback=positive, help="AO samples per pixel.")
 @click.option("-o", "--output", required=True, metavar="OUT.png", help="Output image.")
 def overlay(shot, scene_path, mode, alpha, edges, edge_color, intensity, samples, output):
-    """Blend the CAD rendered from a registered shot over its photo, lens distortion included."""
+    """Blend the CAD rendered from a registered shot over its photo.
+
+    The planned CAD rendered from the shot's camera, distorted like its lens, blended over the
+    photo; --mode all writes the study's sheet (D1, D2, D3, each virtual and over the photo).
+
+    \b
+    Example:
+      mrcheck overlay p1.json --scene hall/scene.toml --mode vector --alpha 0.4 --edges -o p1_overlay.png
+    """
     from mrcheck.core.output import write_image
     from mrcheck.mr.shot import overlay_shot
 

@@ -43,7 +43,8 @@ from mrcheck.core.output import check_not_inputs, check_output_path, write_text
 from mrcheck.mr.markers import Group, detect_markers, load_marker_map, parse_marker_map
 from mrcheck.mr.pose import Pose, expected_overlay_error, principal_axes, reprojection_errors, solve_pose
 from mrcheck.scene.manifest import scene_files
-from mrcheck.scene.model import MESH_SUFFIXES, load_scene
+from mrcheck.scene.meshes import MESH_SUFFIXES
+from mrcheck.scene.model import load_scene
 
 # corner noise assumed when the residuals cannot tell (exact synthetic data, a single marker):
 # subpixel ArUco/ChArUco corners are good to a few tenths of a pixel
