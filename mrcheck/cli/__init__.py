@@ -1,4 +1,9 @@
-"""The ``mrcheck`` command line. Commands only; the work lives in the modules.
+"""The ``mrcheck`` command line. Commands only; the work lives in the layers below.
+
+One module per command group (``render``, ``scene``, ``mr``, ``apps``, ``evaluate``), sharing
+``group`` (the click group and its help conventions), ``options`` (option types and checks) and
+``messages`` (warnings as ``warning: ...`` lines, progress bars). A command parses its options,
+calls one function of a lower layer and prints what it returns. Public API: :func:`main`.
 
 Exit status: 0 on success; 1 with a one-line ``error: ...`` on stderr when the input is bad
 (file, option value, scene), when ``export`` finished but some shots failed, or on an internal
