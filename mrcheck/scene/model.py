@@ -397,33 +397,9 @@ def _part_from_table(path: Path, index: int, table: dict, names: set, owners: di
         transforms = [transform_from_table(t, f"{where} instance {i}") @ base for i, t in enumerate(instances)]
     except MrcheckError as exc:
         raise MrcheckError(str(exc), path) from None
-    color = table.get("color")
-    if color is not None:
-        try:
-            color = np.asarray(color, dtype=np.float64)
-        except (TypeError, ValueError):
-            color = None  # reported just below, like a colour out of range
-        if color is None or color.shape != (3,) or not np.all((color >= 0) & (color <= 1)):
-            raise MrcheckError(f"{where}: color must be three numbers in 0..1, got {table['color']!r}", path)
-    joints = table.get("joints")
-    if joints is not None and not isinstance(joints, dict):
-        raise MrcheckError(f"{where}: joints must be a table of name = value", path)
-    for joint, value in (joints or {}).items():
-        # TOML's true would pass float() as 1 rad, and nan would pose the arm anyhow
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise MrcheckError(f"{where}: joint {joint!r} must be a finite number (radians, or metres for a "
-                               f"prismatic joint), got {value!r}", path)
-    # the ids Part gives (NAME, NAME#i), unless the manifest names them; an id names one object
-    # in the whole scene (as-built variants and reports look changes up by it), so a generated
-    # id that another part's explicit one repeats is as wrong as two explicit ones
-    ids = [(str(t["id"]) if "id" in t else "") or default
-           for t, default in zip(instances, default_instance_ids(name, len(instances)))]
-    for iid in ids:
-        if iid in owners:
-            other = owners[iid]
-            raise MrcheckError(f"instance id {iid!r} is used twice in part {name!r}" if other == name else
-                               f"instance id {iid!r} is used by parts {other!r} and {name!r}", path)
-        owners[iid] = name
+    color = _part_color(table, where, path)
+    joints = _part_joints(table, where, path)
+    ids = _instance_ids(name, instances, owners, path)
     try:
         vertices, faces = read_mesh(path.parent / table["mesh"], joints)
     except JointError as exc:     # the manifest's value is wrong: name the manifest and the part
@@ -433,6 +409,49 @@ def _part_from_table(path: Path, index: int, table: dict, names: set, owners: di
         error.path = exc.path
         raise error from None
     return make_part(name, path.parent / table["mesh"], vertices, faces, transforms, color, table.get("units"), ids)
+
+
+def _part_color(table: dict, where: str, path: Path):
+    """The part's ``color`` as three floats in 0..1, or None when it has none."""
+    color = table.get("color")
+    if color is not None:
+        try:
+            color = np.asarray(color, dtype=np.float64)
+        except (TypeError, ValueError):
+            color = None  # reported just below, like a colour out of range
+        if color is None or color.shape != (3,) or not np.all((color >= 0) & (color <= 1)):
+            raise MrcheckError(f"{where}: color must be three numbers in 0..1, got {table['color']!r}", path)
+    return color
+
+
+def _part_joints(table: dict, where: str, path: Path):
+    """The part's ``joints`` table (None when it has none), each value a finite number."""
+    joints = table.get("joints")
+    if joints is not None and not isinstance(joints, dict):
+        raise MrcheckError(f"{where}: joints must be a table of name = value", path)
+    for joint, value in (joints or {}).items():
+        # TOML's true would pass float() as 1 rad, and nan would pose the arm anyhow
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise MrcheckError(f"{where}: joint {joint!r} must be a finite number (radians, or metres for a "
+                               f"prismatic joint), got {value!r}", path)
+    return joints
+
+
+def _instance_ids(name: str, instances: list, owners: dict, path: Path) -> list[str]:
+    """The ids of the part ``name``'s instances; ``owners`` (id -> part name) collects them.
+
+    The ids Part gives (NAME, NAME#i), unless the manifest names them; an id names one object
+    in the whole scene (as-built variants and reports look changes up by it), so a generated
+    id that another part's explicit one repeats is as wrong as two explicit ones."""
+    ids = [(str(t["id"]) if "id" in t else "") or default
+           for t, default in zip(instances, default_instance_ids(name, len(instances)))]
+    for iid in ids:
+        if iid in owners:
+            other = owners[iid]
+            raise MrcheckError(f"instance id {iid!r} is used twice in part {name!r}" if other == name else
+                               f"instance id {iid!r} is used by parts {other!r} and {name!r}", path)
+        owners[iid] = name
+    return ids
 
 
 __all__ = ["Part", "Scene", "UNITS", "float32_tiles", "load_scene", "make_part", "transform_from_table"]
