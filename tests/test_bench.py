@@ -24,9 +24,9 @@ from mrcheck.eval.bench import peer_client as bench_client
 from mrcheck.eval.bench import peers as bench_peers
 from mrcheck.eval.bench import plan as bench_plan
 from mrcheck.eval.bench import report as bench_report
+from mrcheck.eval.bench import run as bench
 from mrcheck.eval.bench import scenes as bench_scenes
 from mrcheck.eval.bench import timing as bench_timing
-from mrcheck.eval.bench import run as bench
 from mrcheck.eval.bench.peer_client import PeerError, PeerNotInstalled, PeerWorker
 
 from .conftest import box, scene_of

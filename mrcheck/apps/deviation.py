@@ -403,7 +403,8 @@ def project_to_shot(points: np.ndarray, camera):
 
 def shot_images(scene: Scene, camera, photo, points, colours, scale_mm) -> dict:
     """The scan splatted over the shot's CAD render and over the photo + CAD overlay."""
-    from mrcheck.mr.overlay import overlay_images, render_for_photo
+    from mrcheck.mr.overlay import overlay_images
+    from mrcheck.mr.shot import render_for_photo
     from mrcheck.render.renderer import Renderer, RenderSettings
 
     renderer = Renderer(scene)
@@ -459,7 +460,7 @@ def deviation(points: np.ndarray, scene: Scene, scan=None):
 
 def deviation_command(scan, scene, shot=None, units=None, outdir="deviation"):
     """``mrcheck deviation``: check everything, compute, then write every output atomically."""
-    from mrcheck.mr.overlay import load_shot, read_photo
+    from mrcheck.core.camerafiles import load_shot, read_photo
     from mrcheck.scene.model import load_scene
 
     outdir = check_output_dir(outdir)

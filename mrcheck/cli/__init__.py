@@ -1,4 +1,9 @@
-"""The ``mrcheck`` command line. Commands only; the work lives in the modules.
+"""The ``mrcheck`` command line. Commands only; the work lives in the layers below.
+
+One module per command group (``render``, ``scene``, ``mr``, ``apps``, ``evaluate``), sharing
+``group`` (the click group and its help conventions), ``options`` (option types and checks) and
+``messages`` (warnings as ``warning: ...`` lines, progress bars). A command parses its options,
+calls one function of a lower layer and prints what it returns. Public API: :func:`main`.
 
 Exit status: 0 on success; 1 with a one-line ``error: ...`` on stderr when the input is bad
 (file, option value, scene), when ``export`` finished but some shots failed, or on an internal
@@ -10,13 +15,13 @@ from __future__ import annotations
 
 import os
 import sys
-import warnings
 
 import click
 
 from mrcheck.cli import apps, evaluate, mr, render, scene  # noqa: F401  (they add their commands)
 from mrcheck.cli.group import cli
-from mrcheck.core.errors import DISPLAY_ERRORS, MrcheckError, MrcheckWarning, bug_reason
+from mrcheck.cli.messages import warning_lines
+from mrcheck.core.errors import DISPLAY_ERRORS, MrcheckError, bug_reason
 
 EXIT_ERROR = 1
 
@@ -31,31 +36,11 @@ def _name_safe_streams() -> None:
             stream.reconfigure(errors=errors)
 
 
-def _warning_lines(others):
-    """``warnings.showwarning`` for a command: a warning of mrcheck's code (:class:`MrcheckWarning`)
-    as the one line ``warning: ...`` on stderr; another library's as ``others`` shows it."""
-
-    def show(message, category, filename, lineno, file=None, line=None) -> None:
-        if issubclass(category, MrcheckWarning):
-            click.echo(f"warning: {message}", err=True)
-        else:
-            others(message, category, filename, lineno, file, line)
-
-    return show
-
-
 def main(argv=None) -> int:
     _name_safe_streams()
-    with warnings.catch_warnings():
-        # every warning of this command, each time (the default filter shows one once per process)
-        warnings.simplefilter("always", MrcheckWarning)
-        warnings.showwarning = _warning_lines(warnings.showwarning)
-        return _main(argv)
-
-
-def _main(argv) -> int:
     try:
-        result = cli.main(args=argv, prog_name="mrcheck", standalone_mode=False)
+        with warning_lines():   # the code's warnings as "warning: ..." lines on stderr
+            result = cli.main(args=argv, prog_name="mrcheck", standalone_mode=False)
     except MrcheckError as exc:
         click.echo(f"error: {exc}", err=True)
         return EXIT_ERROR

@@ -18,8 +18,15 @@ from mrcheck.cli.options import FINITE, positive, size
                    "workers load the scene themselves from the path the job names.")
 @click.option("--force", is_flag=True, help="Redo shots whose outputs are already complete (default: skip them).")
 def export(job, outdir, workers, scheduler, force):
-    """Batch overlays for a whole job: register every shot, render the modes, blend the photo at
-    every alpha and AO intensity, write side-by-side sheets, a manifest and an HTML report."""
+    """Batch overlays, sheets, manifest and report for a whole job.
+
+    Register every shot of JOB.toml, render the modes, blend the photo at every alpha and AO
+    intensity, write side-by-side sheets, a manifest and an HTML report.
+
+    \b
+    Example:
+      mrcheck export job.toml -o out --workers 2
+    """
     from mrcheck.apps.export.run import export_command
 
     return export_command(job=job, outdir=outdir, workers=workers, scheduler=scheduler, force=force)
@@ -40,8 +47,15 @@ def export(job, outdir, workers, scheduler, force):
 @click.option("--max-body", default="1MiB", show_default=True, metavar="SIZE", callback=size,
               help="Refuse request bodies larger than this (413), e.g. 256KiB; at least 64KiB.")
 def review(target, shots_dir, host, port, token, db, suggestions, max_body):
-    """Review shots in the browser: photo and CAD blended, modes, zoom, discrepancy markers with a
-    category, severity and note, the CAD part under the cursor; exports an HTML report and CSV."""
+    """Review shots in the browser and mark discrepancies.
+
+    Photo and CAD blended, modes, zoom, discrepancy markers with a category, severity and note,
+    the CAD part under the cursor; exports an HTML report and CSV.
+
+    \b
+    Example:
+      mrcheck review out --suggestions p1=suspects/suspects.json
+    """
     from mrcheck.apps.review.app import serve
 
     serve(target, shots_dir=shots_dir, host=host, port=port, token=token, db=db, suggestions=suggestions,
@@ -56,8 +70,15 @@ def review(target, shots_dir, host, port, token, db, suggestions, max_body):
 @click.option("-o", "--output", "outdir", required=True, metavar="OUTDIR",
               help="Folder for heatmap.png, suspects.json (ranked parts, for the review tool) and suspects.md.")
 def discrepancies(shot, scene_path, tolerance_px, outdir):
-    """Point at the CAD parts the photo disagrees with: CAD silhouette and crease edges against the
-    photo's edges, per part, with a heat map and a ranked list of suspects."""
+    """Rank the CAD parts the photo disagrees with, with a heat map.
+
+    CAD silhouette and crease edges against the photo's edges, per part, with a heat map and a
+    ranked list of suspects.
+
+    \b
+    Example:
+      mrcheck discrepancies p1.json --scene hall/scene.toml -o suspects
+    """
     from mrcheck.apps.discrepancies.detector import discrepancies_command
 
     discrepancies_command(shot=shot, scene=scene_path, tolerance_px=tolerance_px, outdir=outdir)
@@ -70,8 +91,15 @@ def discrepancies(shot, scene_path, tolerance_px, outdir):
 @click.option("--units", type=click.Choice(["mm", "cm", "m", "in", "ft"]), help="Unit of the scan's coordinates [default: as the scene, metres].")
 @click.option("-o", "--output", "outdir", required=True, metavar="OUTDIR", help="Folder for deviations, the coloured images and the per-part list.")
 def deviation(scan, scene_path, shot, units, outdir):
-    """Signed cloud-to-mesh distances from a laser scan (PLY, PCD, XYZ) to the planned CAD, per
-    point and per part (as CloudCompare's C2M)."""
+    """Signed distances from a laser scan to the planned CAD.
+
+    Signed cloud-to-mesh distances from a laser scan (PLY, PCD, XYZ) to the planned CAD, per
+    point and per part (as CloudCompare's C2M).
+
+    \b
+    Example:
+      mrcheck deviation scan.ply --scene hall/scene.toml --shot p1.json -o deviation
+    """
     from mrcheck.apps.deviation import deviation_command
 
     deviation_command(scan=scan, scene=scene_path, shot=shot, units=units, outdir=outdir)

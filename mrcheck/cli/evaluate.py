@@ -19,7 +19,9 @@ from mrcheck.render import settings as defaults
                    "JSON, before the table is printed; missing folders are created, an existing file is replaced.")
 @click.option("--repeat", type=int, default=None, callback=positive, help="Timed runs per figure after one warm-up [default: 5, --quick: 3].")
 def bench(quick, json_path, repeat):
-    """Measure the AO passes on this machine: every AO mode at full and half resolution, over
+    """Measure the AO passes and frames on this machine.
+
+    Every AO mode at full and half resolution, over
     the fetch floor, and its whole frame; the blurs and the composite; AO time at 1 M vs 10 M
     triangles; the geometry pass of the generated hall at 1, 10 and 20 M triangles at both
     sizes; the whole frame on the 1.5 M-triangle line scene against VTK's SSAO and Open3D's
@@ -30,7 +32,12 @@ def bench(quick, json_path, repeat):
     The generated halls are cached in the temporary directory ($TMPDIR, else /tmp) under
     mrcheck-bench/ (about 50 MB, made again when the generator changes); the peers' frames, their
     AO-off frames and logs and mrcheck's frame go to mrcheck-bench-peers/ beside it, replaced by
-    each run."""
+    each run.
+
+    \b
+    Example:
+      mrcheck bench --quick --json bench.json
+    """
     from mrcheck.eval.bench.run import bench_command
 
     result = bench_command(quick=quick, json_path=json_path, repeat=repeat, hall=_hall_generator(),
@@ -45,7 +52,6 @@ def _hall_generator():
     from pathlib import Path
 
     import factory_scenes.generator as generator
-
     from mrcheck.eval.bench.scenes import HallGenerator
 
     return HallGenerator(generator.generate, Path(generator.__file__).parent)
@@ -92,8 +98,14 @@ def _progress_bar():
 @click.option("-o", "--output", required=True, metavar="REF.npy", help="Reference AO: .npy float32 (H, W), or 16-bit .png (as --output-ao).")
 def reference(scene_path, view, camera_path, width, height, rays, radius_mode, radius_world, radius_px, falloff, seed,
               units, output):
-    """Ray-traced reference AO (Open3D ray casting) for the pixels of a render, with the same AO
-    definition as the method it judges."""
+    """Ray-traced reference AO for the pixels of a render.
+
+    Open3D ray casting, with the same AO definition as the method it judges.
+
+    \b
+    Example:
+      mrcheck reference factory_scenes/sample_cell/scene.toml --view overview --width 256 -o ref.npy
+    """
     from mrcheck.eval.reference import reference_command
 
     reference_command(scene=scene_path, view=view, camera_path=camera_path, width=width, height=height, rays=rays,
@@ -110,8 +122,15 @@ def reference(scene_path, view, camera_path, width, height, rays, radius_mode, r
 @click.option("--height", type=int, callback=positive, help="Image height [default: the view's].")
 @click.option("-o", "--output", "outdir", required=True, metavar="OUTDIR", help="Folder for the figure, metrics.json and metrics.md.")
 def compare(scene_path, view, samples, rays, width, height, outdir):
-    """Render every AO mode and its ray-traced reference; write a figure (shaded, AO, signed error
-    per mode) and metrics (MAE, RMSE, SSIM, false occlusion, distance retention, pass time)."""
+    """Every AO mode against its ray-traced reference, with metrics.
+
+    Render every AO mode and its ray-traced reference; write a figure (shaded, AO, signed error
+    per mode) and metrics (MAE, RMSE, SSIM, false occlusion, distance retention, pass time).
+
+    \b
+    Example:
+      mrcheck compare factory_scenes/sample_cell/scene.toml --view overview --width 320 -o cmp
+    """
     from mrcheck.eval.compare import compare_command
 
     compare_command(scene=scene_path, view=view, samples=samples, rays=rays, width=width, height=height,

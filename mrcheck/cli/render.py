@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import click
@@ -17,6 +16,8 @@ from mrcheck.cli.options import (
 )
 from mrcheck.core.errors import MrcheckError
 from mrcheck.render import settings as defaults
+
+FIRST_DEMO_IMAGE = "overview_study.png"   # the sample cell's overview, D1 | D2 | D3: what the demo is for
 
 
 @cli.command()
@@ -72,7 +73,10 @@ from mrcheck.render import settings as defaults
 def render(scene, view, camera_path, mode, width, height, samples, radius_px, radius_fraction, radius_world,
            min_world_radius, max_world_radius, falloff, intensity, blur, blur_size, ao_scale, ao_direct, light,
            seed, lod_px, units, output, output_ao):
-    """Render SCENE (a .toml manifest or one mesh file) from a named view or a calibrated camera.
+    """Render a scene from a named view or a calibrated camera.
+
+    SCENE is a .toml manifest or one mesh file; the camera is a named viewpoint of the manifest
+    (--view) or a calibrated camera file (--camera).
 
     \b
     Examples:
@@ -103,13 +107,22 @@ def render(scene, view, camera_path, mode, width, height, samples, radius_px, ra
 @click.option("--width", type=int, callback=positive, help="Image width [default: each viewpoint's, 1024].")
 @click.option("--height", type=int, callback=positive, help="Image height [default: each viewpoint's, 768].")
 def demo(outdir, width, height):
-    """Render the embedded sample factory cell and the generator's shipped cell from each of
-    their viewpoints in D1, D2 and D3, write PNGs (one per mode and a labelled side-by-side
-    sheet per view; the generated cell's prefixed cell_) and print their paths."""
-    from tqdm import tqdm
+    """Render the shipped sample scenes in D1, D2 and D3.
 
+    The embedded sample factory cell and the generator's shipped cell, from each of their
+    viewpoints in D1, D2 and D3: PNGs (one per mode and a labelled side-by-side sheet per view;
+    the generated cell's prefixed cell_), their paths printed. Which to open first is said at
+    the end: DIR/overview_study.png.
+
+    \b
+    Example:
+      mrcheck demo -o mrcheck-demo --width 640
+    """
+    from mrcheck.cli.messages import progress_bar
     from mrcheck.render.views import demo_command
 
-    # disable=None: a bar on a terminal, nothing in a log or a pipe
-    demo_command(Path(outdir), width, height, on_written=click.echo,
-                 progress=lambda views, desc, unit: tqdm(views, desc=desc, unit=unit, file=sys.stderr, disable=None))
+    demo_command(Path(outdir), width, height, on_written=click.echo, progress=progress_bar)
+    first = Path(outdir).resolve() / FIRST_DEMO_IMAGE
+    if first.is_file():
+        click.echo(f"open {first} first: the sample cell's overview in D1 | D2 | D3 (Phong without AO | "
+                   "vector SSAO | standard SSAO) side by side; every *_study.png is such a sheet", err=True)

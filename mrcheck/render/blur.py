@@ -12,7 +12,10 @@ import numpy as np
 
 from mrcheck.core.errors import MrcheckError
 from mrcheck.render.gl import load_program
-from mrcheck.render.settings import MAX_BLUR_SIZE, blur_size_problem  # the rule lives with the settings
+from mrcheck.render.settings import (  # the rule lives with the settings
+    MAX_BLUR_SIZE,
+    blur_size_problem,
+)
 
 
 def gaussian_weights(size: int) -> np.ndarray:

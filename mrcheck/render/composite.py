@@ -10,6 +10,7 @@ import numpy as np
 from mrcheck.core.camera import Camera
 from mrcheck.render.gl import GL_FRAMEBUFFER_SRGB, load_program
 from mrcheck.render.settings import DEFAULT_LIGHT, LIGHTS
+
 SUN_DIRECTION = np.array([0.35, -0.25, 0.90])  # world, towards the sun: high, from one side (z up)
 BACKGROUND = (0.80, 0.84, 0.88)                # linear RGB behind the scene: a pale hall grey
 

@@ -12,6 +12,7 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 
 from mrcheck.core.camera import Camera
+from mrcheck.core.camerafiles import load_camera
 from mrcheck.core.errors import MrcheckError, MrcheckWarning
 from mrcheck.core.output import (
     AO_SUFFIXES,
@@ -40,7 +41,7 @@ def file_camera(view, camera_path, width, height) -> Camera | None:
         raise MrcheckError("give exactly one of --view NAME or --camera CAM.json|CAM.yml")
     if view is not None:
         return None
-    return Camera.load(camera_path).fitted(width, height, camera_path)
+    return load_camera(camera_path).fitted(width, height, camera_path)
 
 
 def scene_and_camera(scene, units, view, camera_path, width, height):

@@ -116,6 +116,7 @@ import cv2
 import numpy as np
 
 from mrcheck.core.camera import Camera
+from mrcheck.core.camerafiles import load_shot, read_photo
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.output import (
     check_not_inputs,
@@ -125,15 +126,9 @@ from mrcheck.core.output import (
     write_text,
 )
 from mrcheck.eval.reference import _raycasting_scene, triangle_owners
-from mrcheck.mr.overlay import (
-    blend,
-    cad_edges,
-    distort_to_photo,
-    distortion_map,
-    load_shot,
-    read_photo,
-    render_for_photo,
-)
+from mrcheck.mr.lens import distort_to_photo, distortion_map
+from mrcheck.mr.overlay import blend
+from mrcheck.mr.shot import cad_edges, render_for_photo
 from mrcheck.render.renderer import Renderer, RenderSettings
 from mrcheck.scene.manifest import scene_files
 from mrcheck.scene.model import Scene, load_scene

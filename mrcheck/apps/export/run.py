@@ -108,6 +108,7 @@ import cv2
 
 from mrcheck.apps.export.report import REPORT, write_report
 from mrcheck.core.camera import Camera
+from mrcheck.core.camerafiles import load_shot, read_photo
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.images import encode_image
 from mrcheck.core.inputs import read_input_text, real_path
@@ -118,16 +119,9 @@ from mrcheck.core.output import (
     write_bytes,
     write_text,
 )
-from mrcheck.mr.overlay import (
-    STUDY_ORDER,
-    check_alpha,
-    distortion_map,
-    load_shot,
-    overlay_images,
-    read_photo,
-    render_for_photo,
-    study_sheet,
-)
+from mrcheck.mr.lens import distortion_map
+from mrcheck.mr.overlay import STUDY_ORDER, check_alpha, overlay_images, study_sheet
+from mrcheck.mr.shot import render_for_photo
 from mrcheck.render.renderer import DEFAULT_SAMPLES, MODES, RenderSettings
 from mrcheck.scene.manifest import files_stamp, scene_files
 

@@ -17,16 +17,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from mrcheck.core.camerafiles import read_photo
 from mrcheck.core.images import read_image
 from mrcheck.core.output import write_image
-from mrcheck.mr.overlay import (
-    cad_edges,
-    distort_to_photo,
-    distortion_map,
-    overlay_images,
-    padded_camera,
-    read_photo,
-)
+from mrcheck.mr.lens import distort_to_photo, distortion_map, padded_camera
+from mrcheck.mr.overlay import overlay_images
+from mrcheck.mr.shot import cad_edges
 from mrcheck.render.renderer import MODES, Renderer, RenderSettings
 from mrcheck.scene.manifest import files_stamp
 

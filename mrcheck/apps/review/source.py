@@ -11,10 +11,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from mrcheck.core.camera import Camera
+from mrcheck.core.camerafiles import load_shot, read_photo
 from mrcheck.core.errors import MrcheckError, display
 from mrcheck.core.inputs import check_input
 from mrcheck.core.jsonfile import is_number, read_json
-from mrcheck.mr.overlay import load_shot, read_photo
 from mrcheck.scene.manifest import files_stamp, read_manifest, scene_files
 from mrcheck.scene.model import MANIFEST_KEYS, load_scene
 

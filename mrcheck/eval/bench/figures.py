@@ -6,7 +6,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from statistics import median
 
-
 PAPER_SIZE = (1280, 1024)             # the paper's benchmark resolution
 SIZES = (PAPER_SIZE, (1024, 768))     # 1024x768: the study's camera resolution
 QUICK_SAMPLES = (16, 64)

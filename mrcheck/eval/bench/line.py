@@ -12,7 +12,14 @@ import moderngl
 
 from mrcheck.core.output import write_image
 from mrcheck.eval.bench import peer_client
-from mrcheck.eval.bench.figures import FRAME_PASSES, FRAME_SETTINGS, PEER_SIZE, Figure, millions, paper_frame_ms
+from mrcheck.eval.bench.figures import (
+    FRAME_PASSES,
+    FRAME_SETTINGS,
+    PEER_SIZE,
+    Figure,
+    millions,
+    paper_frame_ms,
+)
 from mrcheck.eval.bench.peer_client import failure_reason, write_mesh
 from mrcheck.eval.bench.peers import PEERS, ao_off_png
 from mrcheck.eval.bench.scenes import flattened_mesh, line_scene_path

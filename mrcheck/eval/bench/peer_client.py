@@ -14,7 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
-from mrcheck.eval.bench.peers import FRAME_TIMEOUT_S, NOT_INSTALLED, PEER_CLASSES, START_TIMEOUT_S
+from mrcheck.eval.bench.peers import (
+    FRAME_TIMEOUT_S,
+    NOT_INSTALLED,
+    PEER_CLASSES,
+    START_TIMEOUT_S,
+)
+
 
 class PeerError(RuntimeError):
     """A peer that could not start or stopped answering; the message is its one-line reason."""

@@ -32,7 +32,13 @@ from mrcheck.eval.bench.figures import (
 )
 from mrcheck.eval.bench.line import LineStages, frame_jobs, frame_scales
 from mrcheck.eval.bench.peers import PEERS
-from mrcheck.eval.bench.scenes import HallGenerator, hall_scene_path, sample_scene, terrain_camera, terrain_scene
+from mrcheck.eval.bench.scenes import (
+    HallGenerator,
+    hall_scene_path,
+    sample_scene,
+    terrain_camera,
+    terrain_scene,
+)
 from mrcheck.eval.bench.timing import Job, Stage, StageGroup
 from mrcheck.render.ao.kernel import PAPER_SAMPLE_COUNTS
 from mrcheck.render.renderer import Renderer
