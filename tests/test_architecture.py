@@ -35,11 +35,6 @@ KNOWN_PRIVATE_USES = {
     ("mrcheck/apps/review/source.py", "_input_files"),
     ("mrcheck/apps/review/source.py", "_register"),
     ("mrcheck/apps/review/source.py", "_safe_name"),
-    ("mrcheck/eval/bench/run.py", "_ao_pass"),
-    ("mrcheck/eval/bench/run.py", "_blur"),
-    ("mrcheck/eval/bench/run.py", "_half_coverage"),
-    ("mrcheck/eval/bench/run.py", "_read_rgb"),
-    ("mrcheck/eval/bench/run.py", "_targets_for"),
 }
 # (module file, function it prints in, what prints)
 KNOWN_PRINTING = {
@@ -51,16 +46,9 @@ KNOWN_PRINTING = {
     ("mrcheck/apps/review/app.py", "_unexpected", "print"),
     ("mrcheck/apps/review/app.py", "serve", "print"),
     ("mrcheck/apps/review/source.py", "_warn", "print"),
-    ("mrcheck/eval/bench/run.py", "_print_report", "print"),
-    ("mrcheck/eval/bench/run.py", "_sample_scene", "print"),
-    ("mrcheck/eval/bench/run.py", "bench_command", "print"),
     ("mrcheck/eval/compare.py", "_print_table", "print"),
     ("mrcheck/eval/compare.py", "compare_command", "print"),
     ("mrcheck/eval/reference.py", "reference_command", "print"),
-    ("mrcheck/render/views.py", "demo_command", "print"),
-    ("mrcheck/render/views.py", "render_command", "print"),
-    ("mrcheck/render/views.py", "warn_if_nothing_in_view", "print"),
-    ("mrcheck/render/views.py", "warn_units", "print"),
 }
 
 
