@@ -17,6 +17,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from mrcheck.apps.names import CACHED_PREFIXES, cached_name, view_tag
 from mrcheck.core.images import read_image
 from mrcheck.core.output import write_image
 from mrcheck.mr.overlay import (
@@ -34,12 +35,6 @@ INTENSITIES = (0.5, 1.0, 1.5, 2.0)   # the AO slider's four levels
 SAMPLES = 16
 EDGE_RGB = (255, 0, 255)
 THUMB_WIDTH = 160
-_CACHED_PREFIXES = ("photo_", "thumb_", "edges_", "render_")   # the cache's own file names
-
-
-def _fmt(x: float) -> str:
-    return f"{x:g}"
-
 
 def _shot_stamp(shot) -> str:
     """The shot's camera and its photo file (path, size, mtime): what a photo or thumbnail is made of."""
@@ -79,7 +74,7 @@ class RenderService:
         for folder in (p for p in self.cache.iterdir() if p.is_dir()):
             suffixes = current.get(folder.name, ())
             for path in folder.glob("*.png"):
-                if path.name.startswith(_CACHED_PREFIXES) and not path.name.endswith(suffixes):
+                if path.name.startswith(CACHED_PREFIXES) and not path.name.endswith(suffixes):
                     path.unlink(missing_ok=True)
             with contextlib.suppress(OSError):   # empty now: the folder of a vanished shot
                 folder.rmdir()
@@ -95,14 +90,13 @@ class RenderService:
         stamp = _shot_stamp(shot)
         cad = f"{stamp}_{self.source.scene_stamp}"  # renders and edges depend on the scene too
         if kind == "photo":
-            path = folder / f"photo_w{w}_{stamp}.png"
+            path = folder / cached_name("photo", "", w, stamp)
         elif kind == "thumb":
-            path = folder / f"thumb_w{THUMB_WIDTH}_{stamp}.png"
+            path = folder / cached_name("thumb", "", THUMB_WIDTH, stamp)
         elif kind == "edges":
-            path = folder / f"edges_w{w}_{cad}.png"
+            path = folder / cached_name("edges", "", w, cad)
         else:
-            tag = "phong" if mode == "phong" else f"{mode}_i{_fmt(intensity)}"
-            path = folder / f"render_{tag}_w{w}_{cad}.png"
+            path = folder / cached_name("render", view_tag(mode, intensity), w, cad)
         if path.is_file():
             return path
         key = (shot_name, kind, mode, intensity, w)
