@@ -335,11 +335,11 @@ def test_a_database_of_served_pixels_is_upgraded(tmp_path, served_small):
     """A review.sqlite of before (version 0) has markers in the served pixels: scaled once."""
     import sqlite3
 
-    from mrcheck.apps.review.storage import _SCHEMA
+    from mrcheck.apps.review.storage import SCHEMA
 
     source = _box_review(tmp_path, (0.0, 0.0, 0.0), size=(160, 120))
     with contextlib.closing(sqlite3.connect(tmp_path / "r.sqlite")) as db:
-        db.executescript(_SCHEMA)
+        db.executescript(SCHEMA)
         db.execute("INSERT INTO reviews(source, created) VALUES ('old', 0)")
         db.execute("INSERT INTO markers(review, shot, x, y, category, severity, created, updated) "
                    "VALUES (1, 'a', 40, 30.5, 'moved', 2, 0, 0)")

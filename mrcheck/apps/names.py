@@ -82,7 +82,12 @@ def shot_folder(outdir, name: str) -> Path:
 def cached_name(kind: str, tag: str, width: int, stamp: str) -> str:
     """A file of the review's render cache: ``KIND[_TAG]_wWIDTH_STAMP.png`` (KIND photo, thumb,
     edges or render; the tag of a render is its :func:`view_tag`)."""
-    return f"{kind}{'_' + tag if tag else ''}_w{width}_{stamp}.png"
+    return f"{kind}{'_' + tag if tag else ''}_w{width}{cached_suffix(stamp)}"
+
+
+def cached_suffix(stamp: str) -> str:
+    """How every :func:`cached_name` of ``stamp`` ends."""
+    return f"_{stamp}.png"
 
 
 CACHED_PREFIXES = ("photo_", "thumb_", "edges_", "render_")   # the cache's own file names (cached_name)

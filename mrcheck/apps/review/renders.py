@@ -17,7 +17,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from mrcheck.apps.names import CACHED_PREFIXES, cached_name, view_tag
+from mrcheck.apps.names import CACHED_PREFIXES, cached_name, cached_suffix, view_tag
 from mrcheck.core.images import read_image
 from mrcheck.core.output import write_image
 from mrcheck.mr.overlay import (
@@ -70,7 +70,8 @@ class RenderService:
         if not self.cache.is_dir():
             return
         stamps = {name: _shot_stamp(shot) for name, shot in self.source.shots.items()}
-        current = {name: (f"_{stamp}.png", f"_{stamp}_{self.source.scene_stamp}.png") for name, stamp in stamps.items()}
+        current = {name: (cached_suffix(stamp), cached_suffix(f"{stamp}_{self.source.scene_stamp}"))
+                   for name, stamp in stamps.items()}
         for folder in (p for p in self.cache.iterdir() if p.is_dir()):
             suffixes = current.get(folder.name, ())
             for path in folder.glob("*.png"):
