@@ -22,8 +22,8 @@ class Review:
     store: Store
     renders: RenderService
     imported: dict = field(default_factory=dict)   # shot -> suggestions added at this start
-    _picker: object = field(default=None, repr=False)
-    _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
+    _picker: object = field(default=None, init=False, repr=False)
+    _lock: threading.Lock = field(default_factory=threading.Lock, init=False, repr=False)
 
     def picker(self):
         """The ray-casting picker, built on first use (it loads the scene into Open3D)."""
