@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import sys
+
 import click
 
+from mrcheck.cli.console import ProgressStream, console
 from mrcheck.cli.group import cli
 from mrcheck.cli.options import FINITE, positive, size
 
@@ -27,9 +30,47 @@ def export(job, outdir, workers, scheduler, force):
     Example:
       mrcheck export job.toml -o out --workers 2
     """
-    from mrcheck.apps.export.run import export_command
+    from mrcheck.apps.export.run import run_export
 
-    return export_command(job=job, outdir=outdir, workers=workers, scheduler=scheduler, force=force)
+    bar = _ExportBar()
+    try:
+        with console():
+            result = run_export(job=job, outdir=outdir, workers=workers, scheduler=scheduler, force=force,
+                                progress=bar)
+    finally:
+        bar.close()
+    for line in result.summary():
+        click.echo(line)
+    return 1 if result.failed else 0
+
+
+class _ExportBar:
+    """The export's progress on stderr: a bar on a terminal; in a pipe or log file one line per
+    shot (count, name, status, ETA) instead of the bar's \\r frames."""
+
+    def __init__(self):
+        self.stream, self.bar = ProgressStream(sys.stderr), None
+
+    def __call__(self, step) -> None:
+        if self.bar is None:   # the start: the skipped shots are done already
+            from tqdm import tqdm
+
+            # disable=None: a bar on a terminal only
+            self.bar = tqdm(total=step.total, initial=step.done, desc="export", unit="shot", file=self.stream,
+                            dynamic_ncols=True, disable=None)
+            return
+        self.bar.update(1)
+        if self.bar.disable:
+            self.stream.write(f"export: {step.done}/{step.total} shots, {step.name} {step.status}, "
+                              f"ETA {step.eta_s:.0f} s\n")
+        if step.failed:
+            self.bar.set_postfix(failed=step.failed)
+        if step.done == step.total:
+            self.close()
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
 
 
 @cli.command()
@@ -56,10 +97,18 @@ def review(target, shots_dir, host, port, token, db, suggestions, max_body):
     Example:
       mrcheck review out --suggestions p1=suspects/suspects.json
     """
-    from mrcheck.apps.review.app import serve
+    from mrcheck.apps.review.server import start
 
-    serve(target, shots_dir=shots_dir, host=host, port=port, token=token, db=db, suggestions=suggestions,
-          max_body=max_body)
+    with console():   # skipped shots and registration warnings at start-up, internal errors while serving
+        server = start(target, shots_dir=shots_dir, host=host, port=port, token=token, db=db,
+                       suggestions=suggestions, max_body=max_body)
+        try:
+            for line in server.messages():
+                click.echo(line)
+        except BaseException:
+            server.close()
+            raise
+        server.run()
 
 
 @cli.command()

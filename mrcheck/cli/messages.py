@@ -22,7 +22,10 @@ def warning_line(text: str) -> None:
     """``warning: TEXT`` on stderr, on a line of its own (above a progress bar, if one runs)."""
     from tqdm import tqdm
 
-    tqdm.write(f"warning: {text}", file=sys.stderr)
+    try:
+        tqdm.write(f"warning: {text}", file=sys.stderr)
+    except (BrokenPipeError, ValueError):   # nobody reads stderr any more: the work goes on
+        pass
 
 
 @contextlib.contextmanager
