@@ -58,9 +58,14 @@ def review(target, shots_dir, host, port, token, db, suggestions, max_body):
 def discrepancies(shot, scene_path, tolerance_px, outdir):
     """Point at the CAD parts the photo disagrees with: CAD silhouette and crease edges against the
     photo's edges, per part, with a heat map and a ranked list of suspects."""
-    from mrcheck.apps.discrepancies.detector import discrepancies_command
+    from mrcheck.apps.discrepancies.command import discrepancies_command
+    from mrcheck.cli.feedback import warnings_as_lines
 
-    discrepancies_command(shot=shot, scene=scene_path, tolerance_px=tolerance_px, outdir=outdir)
+    with warnings_as_lines():
+        run = discrepancies_command(shot=shot, scene=scene_path, tolerance_px=tolerance_px, outdir=outdir)
+    click.echo(run.summary)
+    for path in run.paths:
+        click.echo(path)
 
 
 @cli.command()
@@ -72,6 +77,10 @@ def discrepancies(shot, scene_path, tolerance_px, outdir):
 def deviation(scan, scene_path, shot, units, outdir):
     """Signed cloud-to-mesh distances from a laser scan (PLY, PCD, XYZ) to the planned CAD, per
     point and per part (as CloudCompare's C2M)."""
-    from mrcheck.apps.deviation import deviation_command
+    from mrcheck.apps.deviation.command import deviation_command
+    from mrcheck.cli.feedback import warnings_as_lines
 
-    deviation_command(scan=scan, scene=scene_path, shot=shot, units=units, outdir=outdir)
+    with warnings_as_lines():
+        run = deviation_command(scan=scan, scene=scene_path, shot=shot, units=units, outdir=outdir)
+    click.echo(run.outdir)
+    click.echo(run.summary, err=True)

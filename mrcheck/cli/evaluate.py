@@ -56,11 +56,15 @@ def reference(scene_path, view, camera_path, width, height, rays, radius_mode, r
               units, output):
     """Ray-traced reference AO (Open3D ray casting) for the pixels of a render, with the same AO
     definition as the method it judges."""
-    from mrcheck.eval.reference import reference_command
+    from mrcheck.cli.feedback import progress_bars, warnings_as_lines
+    from mrcheck.eval.reference import PROGRESS_STAGE, reference_command
 
-    reference_command(scene=scene_path, view=view, camera_path=camera_path, width=width, height=height, rays=rays,
-                      radius_mode=radius_mode, radius_world=radius_world, radius_px=radius_px, falloff=falloff,
-                      seed=seed, units=units, output=output)
+    with warnings_as_lines(), progress_bars({PROGRESS_STAGE: "ray"}) as progress:
+        run = reference_command(scene=scene_path, view=view, camera_path=camera_path, width=width, height=height,
+                                rays=rays, radius_mode=radius_mode, radius_world=radius_world, radius_px=radius_px,
+                                falloff=falloff, seed=seed, units=units, output=output, progress=progress)
+    click.echo(run.path)
+    click.echo(run.timing_line(), err=True)   # stdout carries only the path, as the other commands'
 
 
 @cli.command()
@@ -74,7 +78,14 @@ def reference(scene_path, view, camera_path, width, height, rays, radius_mode, r
 def compare(scene_path, view, samples, rays, width, height, outdir):
     """Render every AO mode and its ray-traced reference; write a figure (shaded, AO, signed error
     per mode) and metrics (MAE, RMSE, SSIM, false occlusion, distance retention, pass time)."""
-    from mrcheck.eval.compare import compare_command
+    from mrcheck.cli.feedback import progress_bars, warnings_as_lines
+    from mrcheck.eval import compare as comparison
+    from mrcheck.eval.reference import PROGRESS_STAGE as REFERENCE_STAGE
 
-    compare_command(scene=scene_path, view=view, samples=samples, rays=rays, width=width, height=height,
-                    outdir=outdir)
+    with warnings_as_lines(), progress_bars({comparison.PROGRESS_STAGE: "mode", REFERENCE_STAGE: "ray"}) as progress:
+        run = comparison.compare_command(scene=scene_path, view=view, samples=samples, rays=rays, width=width,
+                                         height=height, outdir=outdir, progress=progress)
+    for path in run.paths:
+        click.echo(path)
+    for line in run.table():
+        click.echo(line)

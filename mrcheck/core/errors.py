@@ -72,4 +72,10 @@ def bug_reason(exc: BaseException) -> str:
     return display(f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}")
 
 
-__all__ = ["MrcheckError", "bug_reason", "display", "os_reason", "DISPLAY_ERRORS"]
+class MrcheckWarning(UserWarning):
+    """Something a user should know that does not stop the work (an option without effect, a
+    skipped line). Raised with ``warnings.warn``; the command line shows each as one
+    ``warning: ...`` line on stderr (:func:`mrcheck.cli.feedback.warnings_as_lines`)."""
+
+
+__all__ = ["MrcheckError", "MrcheckWarning", "bug_reason", "display", "os_reason", "DISPLAY_ERRORS"]
