@@ -279,6 +279,8 @@ def _render_and_judge(renderer, loaded, camera, settings, rays, progress):
     depth, normals = renderer.last_depth(), renderer.last_normals()
     ao_modes = [m for m in MODES if m != "phong"]
     references, rows = {}, []
+    if progress is not None:
+        progress(PROGRESS_STAGE, 0, len(ao_modes))
     for done, mode in enumerate(ao_modes):
         # the blurred render first: it also builds the mode's AO program, so the timed pass
         # of the unblurred render below is the AO work alone, not shader compilation

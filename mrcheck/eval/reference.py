@@ -205,6 +205,8 @@ def reference_ao(scene: Scene, camera: Camera, depth, normals, rays: int, radius
     shifts = np.random.default_rng(seed).random((jj.size, 2))
     occlusion = np.zeros(jj.size, np.float64)
     per_chunk = max(1, RAY_CHUNK // rays)
+    if progress is not None:
+        progress(PROGRESS_STAGE, 0, jj.size * rays)
     for start in range(0, jj.size, per_chunk):
         sl = slice(start, min(start + per_chunk, jj.size))
         weight = _occlusion(caster, _chunk_rays(surface, sl, base, shifts), falloff)

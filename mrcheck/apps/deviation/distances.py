@@ -34,7 +34,7 @@ away).
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -120,9 +120,6 @@ class PartDeviation:
     signed_mean: float | None
     signed_median: float | None
     rank: int = 0                # 1 = largest median |d|; instances without points last
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
 
 def _row(part, k: int, mine: np.ndarray) -> PartDeviation:

@@ -110,18 +110,12 @@ class Suspect:
     centre: list[float]          # [x, y] of its unsupported outline (else of its pixels)
     suspect: bool
 
-    def to_dict(self) -> dict:
-        return asdict(self)
-
 
 @dataclass
 class Region:
     """Photo structure no CAD edge explains (an added object, clutter)."""
     bbox: list[int]              # [x0, y0, x1, y1]
     edge_pixels: int
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
 
 @dataclass
@@ -133,9 +127,6 @@ class Marker:
     severity: int                # 1 .. 3
     note: str
     part: str | None             # the suspect's instance id; None for a region
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
 
 @dataclass
@@ -159,8 +150,8 @@ class Detection:
     def to_dict(self) -> dict:
         """The JSON part, keys in the order of ``suspects.json``."""
         return {"tolerance_px": self.tolerance_px, "threshold": self.threshold, "warnings": list(self.warnings),
-                "suspects": [s.to_dict() for s in self.suspects], "regions": [r.to_dict() for r in self.regions],
-                "suggested_markers": [m.to_dict() for m in self.suggested_markers]}
+                "suspects": [asdict(s) for s in self.suspects], "regions": [asdict(r) for r in self.regions],
+                "suggested_markers": [asdict(m) for m in self.suggested_markers]}
 
 
 @dataclass(frozen=True)
