@@ -222,7 +222,7 @@ def test_reference_ao_of_the_far_scene(ctx, how):
 def test_discrepancies_ids_and_overlay_edges_of_the_far_scene(ctx, how):
     """The discrepancy check's per-pixel instances (a ray cast) and the overlay's CAD edges
     (from the render's depth) see the near cell as if it were alone."""
-    from mrcheck.apps.discrepancies.detector import object_ids
+    from mrcheck.apps.discrepancies import object_ids
     from mrcheck.mr.shot import cad_edges
 
     (ids, depth, _), (ids_alone, depth_alone, _) = (object_ids(Scene("t", "t", p), LOOK)

@@ -23,7 +23,7 @@ from fastapi.testclient import TestClient  # noqa: E402
 from mrcheck.apps.review.app import create_app  # noqa: E402
 from mrcheck.apps.review.source import open_source  # noqa: E402
 from mrcheck.cli import main  # noqa: E402
-from mrcheck.cli.console import console  # noqa: E402
+from mrcheck.cli.messages import console  # noqa: E402
 from mrcheck.core.errors import MrcheckError  # noqa: E402
 from mrcheck.core.output import write_image  # noqa: E402
 from mrcheck.core.resources import sample_scene_path  # noqa: E402

@@ -17,7 +17,7 @@ uvicorn = pytest.importorskip("uvicorn")
 
 from mrcheck.apps.review.server import listen  # noqa: E402
 from mrcheck.cli import main  # noqa: E402
-from mrcheck.cli.console import console  # noqa: E402
+from mrcheck.cli.messages import console  # noqa: E402
 from mrcheck.core.camera import Camera  # noqa: E402
 from mrcheck.core.errors import MrcheckError  # noqa: E402
 from mrcheck.core.output import write_image  # noqa: E402

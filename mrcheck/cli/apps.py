@@ -6,8 +6,8 @@ import sys
 
 import click
 
-from mrcheck.cli.console import ProgressStream, console
 from mrcheck.cli.group import cli
+from mrcheck.cli.messages import ProgressStream, console
 from mrcheck.cli.options import FINITE, positive, size
 
 
@@ -128,9 +128,13 @@ def discrepancies(shot, scene_path, tolerance_px, outdir):
     Example:
       mrcheck discrepancies p1.json --scene hall/scene.toml -o suspects
     """
-    from mrcheck.apps.discrepancies.detector import discrepancies_command
-
-    discrepancies_command(shot=shot, scene=scene_path, tolerance_px=tolerance_px, outdir=outdir)
+    from mrcheck.apps.discrepancies.command import discrepancies_command
+    
+    with console():
+        run = discrepancies_command(shot=shot, scene=scene_path, tolerance_px=tolerance_px, outdir=outdir)
+    click.echo(run.summary)
+    for path in run.paths:
+        click.echo(path)
 
 
 @cli.command()
@@ -149,6 +153,9 @@ def deviation(scan, scene_path, shot, units, outdir):
     Example:
       mrcheck deviation scan.ply --scene hall/scene.toml --shot p1.json -o deviation
     """
-    from mrcheck.apps.deviation import deviation_command
-
-    deviation_command(scan=scan, scene=scene_path, shot=shot, units=units, outdir=outdir)
+    from mrcheck.apps.deviation.command import deviation_command
+    
+    with console():
+        run = deviation_command(scan=scan, scene=scene_path, shot=shot, units=units, outdir=outdir)
+    click.echo(run.outdir)
+    click.echo(run.summary, err=True)

@@ -106,11 +106,15 @@ def reference(scene_path, view, camera_path, width, height, rays, radius_mode, r
     Example:
       mrcheck reference factory_scenes/sample_cell/scene.toml --view overview --width 256 -o ref.npy
     """
-    from mrcheck.eval.reference import reference_command
+    from mrcheck.cli.messages import progress_bars
+    from mrcheck.eval.reference import PROGRESS_STAGE, reference_command
 
-    reference_command(scene=scene_path, view=view, camera_path=camera_path, width=width, height=height, rays=rays,
-                      radius_mode=radius_mode, radius_world=radius_world, radius_px=radius_px, falloff=falloff,
-                      seed=seed, units=units, output=output)
+    with progress_bars({PROGRESS_STAGE: "ray"}) as progress:
+        run = reference_command(scene=scene_path, view=view, camera_path=camera_path, width=width, height=height,
+                                rays=rays, radius_mode=radius_mode, radius_world=radius_world, radius_px=radius_px,
+                                falloff=falloff, seed=seed, units=units, output=output, progress=progress)
+    click.echo(run.path)
+    click.echo(run.timing_line(), err=True)   # stdout carries only the path, as the other commands'
 
 
 @cli.command()
@@ -131,7 +135,14 @@ def compare(scene_path, view, samples, rays, width, height, outdir):
     Example:
       mrcheck compare factory_scenes/sample_cell/scene.toml --view overview --width 320 -o cmp
     """
-    from mrcheck.eval.compare import compare_command
+    from mrcheck.cli.messages import progress_bars
+    from mrcheck.eval import compare as comparison
+    from mrcheck.eval.reference import PROGRESS_STAGE as REFERENCE_STAGE
 
-    compare_command(scene=scene_path, view=view, samples=samples, rays=rays, width=width, height=height,
-                    outdir=outdir)
+    with progress_bars({comparison.PROGRESS_STAGE: "mode", REFERENCE_STAGE: "ray"}) as progress:
+        run = comparison.compare_command(scene=scene_path, view=view, samples=samples, rays=rays, width=width,
+                                         height=height, outdir=outdir, progress=progress)
+    for path in run.paths:
+        click.echo(path)
+    for line in run.table():
+        click.echo(line)
