@@ -9,9 +9,9 @@
 * nothing below ``mrcheck/cli/`` prints: code returns results, warns through
   ``mrcheck.core.errors.warn`` and reports progress through a callback.
 
-The KNOWN_* lists hold what other packages still do while they are reshaped in parallel (issue
-18, phase B); the lead empties them after merging. A new offender fails the test, and so does a
-listed one that is gone (take it off the list).
+The KNOWN_* sets are empty since phase B of issue 18 landed: an exception to a rule would be
+named there, with its reason. A new offender fails the test, and so does a listed one that is
+gone (take it off the list).
 """
 
 from __future__ import annotations
@@ -29,27 +29,9 @@ PACKAGES = ("mrcheck", "factory_scenes")
 PRINTING = {"print", "click.echo", "click.secho", "tqdm.write", "sys.stdout.write", "sys.stderr.write"}
 
 # (module file, the private name it uses from another module)
-KNOWN_PRIVATE_USES = {
-    ("mrcheck/apps/deviation.py", "_raycasting_scene"),
-    ("mrcheck/apps/discrepancies/detector.py", "_raycasting_scene"),
-    ("mrcheck/apps/review/source.py", "_input_files"),
-    ("mrcheck/apps/review/source.py", "_register"),
-    ("mrcheck/apps/review/source.py", "_safe_name"),
-}
+KNOWN_PRIVATE_USES: set = set()
 # (module file, function it prints in, what prints)
-KNOWN_PRINTING = {
-    ("mrcheck/apps/deviation.py", "_read_text", "print"),
-    ("mrcheck/apps/deviation.py", "deviation_command", "print"),
-    ("mrcheck/apps/discrepancies/detector.py", "discrepancies_command", "click.echo"),
-    ("mrcheck/apps/discrepancies/detector.py", "discrepancies_command", "print"),
-    ("mrcheck/apps/export/run.py", "export_command", "click.echo"),
-    ("mrcheck/apps/review/app.py", "_unexpected", "print"),
-    ("mrcheck/apps/review/app.py", "serve", "print"),
-    ("mrcheck/apps/review/source.py", "_warn", "print"),
-    ("mrcheck/eval/compare.py", "_print_table", "print"),
-    ("mrcheck/eval/compare.py", "compare_command", "print"),
-    ("mrcheck/eval/reference.py", "reference_command", "print"),
-}
+KNOWN_PRINTING: set = set()
 
 
 def _modules():
