@@ -20,8 +20,9 @@ import click
 
 from mrcheck.cli import apps, evaluate, mr, render, scene  # noqa: F401  (they add their commands)
 from mrcheck.cli.group import cli
-from mrcheck.cli.messages import warning_lines
+from mrcheck.cli.messages import progress_bar, warning_lines
 from mrcheck.core.errors import DISPLAY_ERRORS, MrcheckError, bug_reason
+from mrcheck.core.progress import showing_progress
 
 EXIT_ERROR = 1
 
@@ -39,7 +40,8 @@ def _name_safe_streams() -> None:
 def main(argv=None) -> int:
     _name_safe_streams()
     try:
-        with warning_lines():   # the code's warnings as "warning: ..." lines on stderr
+        # the code's warnings as "warning: ..." lines on stderr; its deep loops' progress as bars
+        with warning_lines(), showing_progress(progress_bar):
             result = cli.main(args=argv, prog_name="mrcheck", standalone_mode=False)
     except MrcheckError as exc:
         click.echo(f"error: {exc}", err=True)

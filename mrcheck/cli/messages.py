@@ -51,10 +51,11 @@ def warning_lines():
 def progress_bar(items, desc: str, unit: str):
     """A :data:`mrcheck.core.progress.Progress` for the terminal: a tqdm bar on stderr while the
     items are worked through, erased when done or on an error (leave=False; the caller closes
-    it), no bar when stderr is not a terminal (disable=None: pipes, logs, tests)."""
+    it), no bar when stderr is not a terminal (disable=None: pipes, logs, tests), and none for
+    work done within half a second (delay)."""
     from tqdm import tqdm
 
-    with tqdm(items, desc=desc, unit=unit, file=sys.stderr, disable=None, leave=False) as bar:
+    with tqdm(items, desc=desc, unit=unit, file=sys.stderr, disable=None, leave=False, delay=0.5) as bar:
         yield from bar
 
 

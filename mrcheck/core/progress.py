@@ -9,6 +9,8 @@ before the error's line is printed.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 from collections.abc import Callable, Iterable, Iterator
 
 Progress = Callable[[Iterable, str, str], Iterator]
@@ -19,4 +21,26 @@ def no_progress(items: Iterable, desc: str = "", unit: str = "") -> Iterator:
     yield from items
 
 
-__all__ = ["Progress", "no_progress"]
+# The display of the loops deep inside that no caller hands a callback to (loading a scene's
+# parts, building levels of detail): threading one through every function that loads a scene
+# would add a parameter to a dozen signatures for a bar. The command line sets it for the whole
+# command (mrcheck.cli.main); a library caller sees nothing unless it sets one.
+_SHOWN: contextvars.ContextVar[Progress] = contextvars.ContextVar("mrcheck_progress", default=no_progress)
+
+
+def shown_progress() -> Progress:
+    """The :data:`Progress` the caller installed with :func:`showing_progress` (default: none)."""
+    return _SHOWN.get()
+
+
+@contextlib.contextmanager
+def showing_progress(progress: Progress):
+    """While the block runs, :func:`shown_progress` is ``progress``."""
+    token = _SHOWN.set(progress)
+    try:
+        yield
+    finally:
+        _SHOWN.reset(token)
+
+
+__all__ = ["Progress", "no_progress", "shown_progress", "showing_progress"]

@@ -44,6 +44,7 @@ Manifest (format 1)::
 
 from __future__ import annotations
 
+import contextlib
 import math
 import tomllib
 from dataclasses import dataclass, field
@@ -54,6 +55,7 @@ import numpy as np
 from mrcheck.core.camera import Camera, fit_size
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.inputs import check_input, read_input_text
+from mrcheck.core.progress import no_progress, shown_progress
 from mrcheck.scene.meshes import JointError, read_mesh
 
 UNITS = {"mm": 0.001, "cm": 0.01, "m": 1.0, "in": 0.0254, "ft": 0.3048}  # metres per unit
@@ -300,7 +302,8 @@ def make_part(name, source, vertices, faces, transforms, color=None, units=None,
 
 # -- loading ------------------------------------------------------------------------------------
 def load_scene(path, units: str | None = None, progress: bool = False) -> Scene:
-    """A manifest (``.toml``) or any single mesh file (then ``units`` says its unit)."""
+    """A manifest (``.toml``) or any single mesh file (then ``units`` says its unit);
+    ``progress``: the parts' loading shown through :func:`mrcheck.core.progress.shown_progress`."""
     path = Path(path)
     check_input(path, "scene file", folder_ok=True)
     if path.is_dir():
@@ -348,13 +351,11 @@ def _load_manifest(path: Path, progress: bool) -> Scene:
             raise MrcheckError(f"two viewpoints are named {name!r}", path)
         viewpoints[name] = table
 
-    from tqdm import tqdm
-
     parts, names, owners = [], set(), {}
-    # a with block closes (and, leave=False, erases) the bar on an error too, so the error line
-    # starts a clean line; disable=None: no bar when stderr is not a terminal (pipes, logs, tests)
-    with tqdm(tables, desc="loading scene", unit="part", disable=None if progress else True, leave=False) as bar:
-        for index, table in enumerate(bar):
+    show = shown_progress() if progress else no_progress
+    # closing: a bar is taken down on an error too, so the error line starts a clean line
+    with contextlib.closing(show(tables, "loading scene", "part")) as items:
+        for index, table in enumerate(items):
             parts.append(_part_from_table(path, index, table, names, owners))
 
     scene = Scene(name=data.get("name", path.stem), source=path, parts=parts, viewpoints=viewpoints)
