@@ -119,7 +119,7 @@ RATIO_LIMITS = {1.0: (0.90, 1.16), 4.0: (0.80, 1.08)}
 @pytest.mark.parametrize("name", list(SCENES))
 def test_vector_ao_matches_the_ray_traced_reference(ctx, name, falloff, record_property):
     """Guards the estimator itself: the cosine weight (o = cos / (1 + c (|v|/r)^2)), the factor 2
-    that makes intensity 1 an unbiased estimate of the cosine-weighted definition (README), the
+    that makes intensity 1 an unbiased estimate of the cosine-weighted definition (docs/method.md), the
     hemisphere test and the shape of the attenuation. Two statistics against the ray-traced
     reference on the same G-buffer:
 

@@ -1,5 +1,5 @@
 """`mrcheck bench` runs and reports every figure and ratio (its numbers are not asserted:
-timings belong to the machine, see the README's performance section)."""
+timings belong to the machine, see docs/performance.md)."""
 
 from __future__ import annotations
 

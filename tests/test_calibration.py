@@ -325,7 +325,7 @@ def test_bad_spec(tmp_path, capsys, spec, problem):
 
 
 def test_photo_without_board_of_another_size_is_skipped(tmp_path, capsys):
-    # OpenCV's left.jpg (612x459, books, no board) sorts first in the README's own glob left*.jpg
+    # OpenCV's left.jpg (612x459, books, no board) sorts first in the glob left*.jpg (the quick start uses left[0-9]*.jpg to pass it by)
     stray = str(DATA / "opencv_chessboard" / "left.jpg")
     out = tmp_path / "cam.json"
     code, stdout, err = run(capsys, stray, *CHESS, "--board", CHESS_SPEC, "-o", out)

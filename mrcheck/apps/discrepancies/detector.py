@@ -202,7 +202,7 @@ def _is_thin(inside: np.ndarray, tol: float) -> bool:
     sides of its outline within one tolerance: any thin neighbour "supports" it and a faint one
     does not, so its score is reported but never a suspect. A band w px wide has a largest
     distance-to-outside d = ceil(w / 2); d < T means w <= 2 (T - 1) for a whole T. d <= T
-    (w <= 2 T) was measured too: recall on moved parts 12/13 -> 10/13 (README)."""
+    (w <= 2 T) was measured too: recall on moved parts 12/13 -> 10/13 (docs/discrepancy-evaluation.md)."""
     return bool(cv2.distanceTransform(np.pad(inside, 1).astype(np.uint8), cv2.DIST_L2, 5).max() < tol)
 
 

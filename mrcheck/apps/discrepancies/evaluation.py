@@ -22,7 +22,7 @@ Resolution: detection runs at the photo's own size (ids, outlines and Canny all 
 pixel; the tolerance is 2 px up to 1000 px on the longer side). What limits moves is their image
 displacement: at 400x300 moves of 2-8 px (inside the shifted-outline search) were found 1 in 10
 held out, those over 8 px 26 in 31; the same scenes photographed at 640x480 push most moves past
-8 px. So the evaluation's default size is 640x480; 400x300 figures are kept in the README for
+8 px. So the evaluation's default size is 640x480; 400x300 figures are kept in docs/discrepancy-evaluation.md for
 comparison. Tried and not kept (seeds 0-9): interior crease pixels as extra scored outline (+4
 moves but precision 0.71 -> 0.69 at 400x300, 0.70 -> 0.64 at 640x480) and a "best shift >= 2 px
 and clearly better" rule (1.5 to 3 times the false suspects for +5 to +10 moves). Interior evidence
@@ -34,7 +34,7 @@ the machine seen only through the mesh fence (discriminative score 0.55-0.73), a
 outline the scene behind it explains almost entirely (10 discriminative pixels, below
 :data:`~mrcheck.apps.discrepancies.thresholds.MIN_EDGE_PIXELS`), a workbench moved 2 m (0.12) and a bollard at 18 m moved 5 px (0.51).
 
-Reproduce (seeds 0-9 chose the threshold; 10-19 are the held-out figures in the README)::
+Reproduce (seeds 0-9 chose the threshold; 10-19 are the held-out figures in docs/discrepancy-evaluation.md)::
 
     from mrcheck.apps.discrepancies.evaluation import SAMPLE_CELL_FAR_VIEWS, evaluate
     from mrcheck.core.resources import sample_scene_path

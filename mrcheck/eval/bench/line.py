@@ -100,7 +100,7 @@ class LineStages:
         self.triangles = scene.triangle_count
         label = f"{scene.name}_{millions(self.triangles)}:{view}"  # 1.5M: not the issue's 1 M, said so
         self.stages = [Stage(renderer, scene.camera(view, *size), label) for size, _, _ in FRAME_SETTINGS]
-        # the peers' frames and mrcheck's at their setting, kept to look at (see the README)
+        # the peers' frames and mrcheck's at their setting, kept to look at (see docs/performance.md)
         self.workdir = peer_folder()
         self.workdir.mkdir(parents=True, exist_ok=True)
         self.png = self.workdir / "mrcheck.png"
