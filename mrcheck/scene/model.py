@@ -68,10 +68,23 @@ DEFAULT_COLOR = (0.7, 0.7, 0.7)  # linear RGB of parts without a colour
 DEGENERATE_WARNING_SHARE = 0.001  # warn when more than 0.1 % of a mesh's triangles have zero area
 VALIDATION_CHUNK = 1 << 20        # triangles checked per step (bounds the validation's memory)
 
-MANIFEST_KEYS = {"format", "name", "description", "parts", "viewpoints"}
-_PART_KEYS = {"name", "mesh", "units", "color", "translate", "rotate_deg", "scale", "matrix", "instances", "joints"}
-_INSTANCE_KEYS = {"id", "translate", "rotate_deg", "scale", "matrix"}
+ELEMENT_KEYS = ("name", "ifc_class", "storey")   # what a BIM/CAD import knows about an element
+MANIFEST_KEYS = {"format", "name", "description", "origin", "crs", "parts", "viewpoints"}
+_PART_KEYS = {"name", "mesh", "units", "color", "translate", "rotate_deg", "scale", "matrix", "instances", "joints",
+              "ifc_class", "storey"}
+_INSTANCE_KEYS = {"id", "translate", "rotate_deg", "scale", "matrix"} | set(ELEMENT_KEYS)
 _VIEW_KEYS = {"name", "eye", "target", "up", "fov_y_deg", "width", "height"}
+
+
+@dataclass(frozen=True)
+class ElementInfo:
+    """What an IFC/STEP import knows about one instance (empty strings when nothing): the
+    element's name, IFC class (``IfcColumn``) and storey. The instance's id is its GlobalId (IFC)
+    or assembly path (STEP)."""
+
+    name: str = ""
+    ifc_class: str = ""
+    storey: str = ""
 
 
 def default_instance_ids(name: str, count: int) -> list[str]:
@@ -95,6 +108,10 @@ class Part:
     instance_ids : list of str
         One per instance: the manifest's ``id``, else ``NAME`` for a single instance and
         ``NAME#i`` for instance i (what as-built discrepancy lists refer to).
+    instance_info : list of ElementInfo
+        One per instance: name, IFC class and storey of an imported element (empty otherwise).
+    ifc_class, storey : str
+        The part's, when all its instances share one (imported scenes), else "".
     """
 
     name: str
@@ -105,11 +122,16 @@ class Part:
     color: tuple = DEFAULT_COLOR
     units: str | None = None
     instance_ids: list = field(default_factory=list)
+    instance_info: list = field(default_factory=list)
+    ifc_class: str = ""
+    storey: str = ""
     _bounds: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
         if not self.instance_ids:
             self.instance_ids = default_instance_ids(self.name, len(self.transforms))
+        if not self.instance_info:
+            self.instance_info = [ElementInfo() for _ in self.instance_ids]
 
     @property
     def triangle_count(self) -> int:
@@ -132,10 +154,27 @@ class Part:
 
 @dataclass
 class Scene:
+    """Parts in world coordinates (float64 transforms, metres).
+
+    ``origin`` (3,) float64 is the world position of the manifest's frame (its ``origin`` key:
+    placements and viewpoints are relative to it, world = origin + placement); a model at map
+    coordinates has its map offset here, and ``crs`` names the map (``EPSG:25832``) when known.
+    """
+
     name: str
     source: Path
     parts: list[Part]
     viewpoints: dict = field(default_factory=dict)
+    origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    crs: str = ""
+
+    def element(self, instance_id: str):
+        """(part, instance index, ElementInfo) of an instance id, or None."""
+        for part in self.parts:
+            if instance_id in part.instance_ids:
+                index = part.instance_ids.index(instance_id)
+                return part, index, part.instance_info[index]
+        return None
 
     @property
     def triangle_count(self) -> int:
@@ -474,7 +513,8 @@ def _stored(local: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return local
 
 
-def make_part(name, source, vertices, faces, transforms, color=None, units=None, instance_ids=None) -> Part:
+def make_part(name, source, vertices, faces, transforms, color=None, units=None, instance_ids=None,
+              instance_info=None, ifc_class: str = "", storey: str = "") -> Part:
     """A :class:`Part` from float64 geometry: re-centred, scaled to metres, stored as float32
     (float64 where float32 would not hold it, see :func:`_stored`)."""
     scale = unit_scale(units, source)
@@ -494,14 +534,23 @@ def make_part(name, source, vertices, faces, transforms, color=None, units=None,
         color=tuple(float(c) for c in (color if color is not None else DEFAULT_COLOR)),
         units=units,
         instance_ids=list(instance_ids or []),
+        instance_info=list(instance_info or []),
+        ifc_class=ifc_class,
+        storey=storey,
     )
 
 
 # -- loading ------------------------------------------------------------------------------------
-def load_scene(path, units: str | None = None, progress: bool = False) -> Scene:
-    """A manifest (``.toml``) or any single mesh file (then ``units`` says its unit)."""
+def load_scene(path, units: str | None = None, progress: bool = False, import_settings=None) -> Scene:
+    """A manifest (``.toml``), an IFC/STEP model (imported through the cache,
+    :mod:`mrcheck.scene.importers.cache`, with ``import_settings``) or any single mesh file (then
+    ``units`` says its unit)."""
     path = Path(path)
     check_input(path, "scene file", folder_ok=True)
+    from mrcheck.scene.importers.sniff import IMPORT_SUFFIXES
+
+    if path.suffix.lower() in IMPORT_SUFFIXES and not path.is_dir():
+        return _load_model(path, units, progress, import_settings)
     if path.is_dir():
         candidates = [path / "scene.toml", *sorted(path.glob("*.toml"))]
         manifest = next((c for c in candidates if c.exists()), None)
@@ -515,6 +564,43 @@ def load_scene(path, units: str | None = None, progress: bool = False) -> Scene:
     vertices, faces = read_mesh(path)
     part = make_part(path.stem, path, vertices, faces, np.eye(4), units=units)
     return Scene(name=path.stem, source=path, parts=[part])
+
+
+def _load_model(path: Path, units, progress: bool, import_settings) -> Scene:
+    """An IFC/STEP file through the import cache; the scene's source is the model file."""
+    from mrcheck.scene.importers.cache import cached_manifest
+
+    if units is not None:
+        raise MrcheckError("--units applies to a mesh file; an IFC or STEP file declares its own units", path)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(desc=f"importing {path.name}", unit="element", disable=None, leave=False)
+
+    def report(done, total):
+        bar.total = total
+        bar.n = done
+        bar.refresh()
+
+    try:
+        result = cached_manifest(path, import_settings, report if bar is not None else None)
+    finally:
+        if bar is not None:
+            bar.close()
+    scene = _load_manifest(result.manifest, progress)
+    scene.source = path
+    return scene
+
+
+def manifest_origin(data: dict, path: Path) -> np.ndarray:
+    """The manifest's ``origin`` (3,) float64, zeros when it has none."""
+    if "origin" not in data:
+        return np.zeros(3)
+    try:
+        return _vector(data["origin"], "origin")
+    except MrcheckError as exc:
+        raise MrcheckError(f"{exc} (metres, the world position of the manifest's placements)", path) from None
 
 
 def _load_manifest(path: Path, progress: bool) -> Scene:
@@ -534,6 +620,10 @@ def _load_manifest(path: Path, progress: bool) -> Scene:
     if not tables:
         raise MrcheckError("scene is empty (no [[parts]])", path)
 
+    origin = manifest_origin(data, path)
+    crs = data.get("crs", "")
+    if not isinstance(crs, str):
+        raise MrcheckError(f"crs must be a string such as \"EPSG:25832\", got {crs!r}", path)
     viewpoints = {}
     views = data.get("viewpoints", [])
     if not isinstance(views, list) or not all(isinstance(t, dict) for t in views):
@@ -545,7 +635,7 @@ def _load_manifest(path: Path, progress: bool) -> Scene:
             raise MrcheckError(f"viewpoint {name!r} needs name, eye and target (unknown keys: {unknown or 'none'})", path)
         if name in viewpoints:
             raise MrcheckError(f"two viewpoints are named {name!r}", path)
-        viewpoints[name] = table
+        viewpoints[name] = _shifted(table, origin, path)
 
     from tqdm import tqdm
 
@@ -554,17 +644,43 @@ def _load_manifest(path: Path, progress: bool) -> Scene:
     # starts a clean line; disable=None: no bar when stderr is not a terminal (pipes, logs, tests)
     with tqdm(tables, desc="loading scene", unit="part", disable=None if progress else True, leave=False) as bar:
         for index, table in enumerate(bar):
-            parts.append(_part_from_table(path, index, table, names, owners))
+            parts.append(_part_from_table(path, index, table, names, owners, origin))
 
-    scene = Scene(name=data.get("name", path.stem), source=path, parts=parts, viewpoints=viewpoints)
+    scene = Scene(name=data.get("name", path.stem), source=path, parts=parts, viewpoints=viewpoints, origin=origin,
+                  crs=crs)
     for view in viewpoints:
         scene.camera(view)  # validate every viewpoint once, at load time
     return scene
 
 
-def _part_from_table(path: Path, index: int, table: dict, names: set, owners: dict) -> Part:
+def _shifted(view: dict, origin: np.ndarray, path: Path) -> dict:
+    """A viewpoint table with eye and target in world coordinates (the manifest's are relative
+    to its origin)."""
+    if not np.any(origin):
+        return view
+    try:
+        return {**view, "eye": list(_vector(view["eye"], "eye") + origin),
+                "target": list(_vector(view["target"], "target") + origin)}
+    except MrcheckError as exc:
+        raise MrcheckError(f"viewpoint {view['name']!r}: {exc}", path) from None
+
+
+def _element_info(tables: list, where: str, path: Path) -> list:
+    """The ElementInfo of every instance table (its ``name``, ``ifc_class``, ``storey``)."""
+    found = []
+    for i, t in enumerate(tables):
+        values = {k: t.get(k, "") for k in ELEMENT_KEYS}
+        bad = [k for k, v in values.items() if not isinstance(v, str)]
+        if bad:
+            raise MrcheckError(f"{where} instance {i}: {', '.join(bad)} must be text", path)
+        found.append(ElementInfo(**values))
+    return found
+
+
+def _part_from_table(path: Path, index: int, table: dict, names: set, owners: dict, origin=None) -> Part:
     """The part of one [[parts]] table of the manifest ``path``; ``names`` collects part names,
-    ``owners`` maps every instance id so far to its part's name."""
+    ``owners`` maps every instance id so far to its part's name; placements are relative to
+    ``origin`` (float64, the manifest's)."""
     where = f"part {table.get('name', index)!r}"
     unknown = sorted(set(table) - _PART_KEYS)
     if unknown:
@@ -596,6 +712,14 @@ def _part_from_table(path: Path, index: int, table: dict, names: set, owners: di
         transforms = [transform_from_table(t, f"{where} instance {i}") @ base for i, t in enumerate(instances)]
     except MrcheckError as exc:
         raise MrcheckError(str(exc), path) from None
+    if origin is not None and np.any(origin):
+        shift = np.eye(4)
+        shift[:3, 3] = origin
+        transforms = [shift @ m for m in transforms]   # float64: exact to 1e-9 m at map coordinates
+    info = _element_info(instances, where, path)
+    for key in ("ifc_class", "storey"):
+        if not isinstance(table.get(key, ""), str):
+            raise MrcheckError(f"{where}: {key} must be text", path)
     color = table.get("color")
     if color is not None:
         try:
@@ -631,7 +755,8 @@ def _part_from_table(path: Path, index: int, table: dict, names: set, owners: di
         error = MrcheckError(f"{exc} ({where} of {path})")
         error.path = exc.path
         raise error from None
-    return make_part(name, path.parent / table["mesh"], vertices, faces, transforms, color, table.get("units"), ids)
+    return make_part(name, path.parent / table["mesh"], vertices, faces, transforms, color, table.get("units"), ids,
+                     info, table.get("ifc_class", ""), table.get("storey", ""))
 
 
-__all__ = ["Part", "Scene", "UNITS", "float32_tiles", "load_scene", "read_mesh", "make_part", "transform_from_table"]
+__all__ = ["ElementInfo", "ELEMENT_KEYS", "manifest_origin", "Part", "Scene", "UNITS", "float32_tiles", "load_scene", "read_mesh", "make_part", "transform_from_table"]

@@ -1,0 +1,154 @@
+"""IFC4 output of a generated scene (``mrcheck scene generate --format ifc``), through ifcopenshell.api.
+
+Every part of the scene becomes one element type whose IfcRepresentationMap holds the part's
+mesh as an IfcTriangulatedFaceSet (metres, relative to the mesh's own centre); every instance
+becomes one element of that type, placed by an IfcLocalPlacement and drawn through an
+IfcMappedItem of the type's map (``ifcopenshell.api.type.assign_type`` maps them). So the hall's
+8,000 elements share 50 shapes, as the GLB scene's instances do, and an importer that keeps
+mapped shapes as instances reads back the same parts.
+
+Classes: columns are IfcColumn, walls IfcWall, the floor and roof deck IfcSlab, racks
+IfcFurnishingElement, everything else IfcBuildingElementProxy; the generator's instance id
+(``column-A03``) is the element's Name and Tag, its GlobalId is derived from the seed and that
+id (the same arguments write the same bytes: the header's time stamp is fixed too). Colours are
+IfcSurfaceStyle shading colours. All elements are contained in one storey, "Ground floor".
+"""
+
+from __future__ import annotations
+
+import uuid
+from pathlib import Path
+
+import numpy as np
+
+from mrcheck.core.errors import MrcheckError
+
+TIME_STAMP = "2000-01-01T00:00:00"   # fixed: same arguments, same bytes
+GUID_NAMESPACE = uuid.UUID("6f1c1f52-3a55-4f0e-9a8e-8f3c2b6a9d10")
+STOREY = "Ground floor"
+# part name prefix -> (element class, type class, predefined type); first match wins
+CLASSES = (
+    ("column", "IfcColumn", "IfcColumnType", "COLUMN"),
+    ("wall", "IfcWall", "IfcWallType", "SOLIDWALL"),
+    ("floor_pit", "IfcBuildingElementProxy", "IfcBuildingElementProxyType", "NOTDEFINED"),
+    ("floor_marking", "IfcBuildingElementProxy", "IfcBuildingElementProxyType", "NOTDEFINED"),
+    ("floor", "IfcSlab", "IfcSlabType", "FLOOR"),
+    ("roof_deck", "IfcSlab", "IfcSlabType", "ROOF"),
+    ("rack", "IfcFurnishingElement", "IfcFurnishingElementType", None),
+)
+DEFAULT_CLASS = ("IfcBuildingElementProxy", "IfcBuildingElementProxyType", "NOTDEFINED")
+RIGID_TOLERANCE = 1e-9
+
+
+def ifc_classes(part_name: str) -> tuple:
+    """(element class, type class, predefined type) of a generated part."""
+    for prefix, element, kind, predefined in CLASSES:
+        if part_name.startswith(prefix):
+            return element, kind, predefined
+    return DEFAULT_CLASS
+
+
+def guid(seed: int, instance_id: str) -> str:
+    """A stable IFC GlobalId (22 characters) for a generated instance."""
+    import ifcopenshell.guid
+
+    return ifcopenshell.guid.compress(uuid.uuid5(GUID_NAMESPACE, f"{seed}:{instance_id}").hex)
+
+
+def write_ifc(scene, path: Path, seed: int, description: str, progress=None) -> Path:
+    """Write ``scene`` (a loaded :class:`mrcheck.scene.model.Scene`, metres) as IFC4 to ``path``.
+
+    ``progress(done, total)`` is called per part.
+    """
+    import ifcopenshell.api.context
+    import ifcopenshell.api.project
+    import ifcopenshell.api.spatial
+    import ifcopenshell.api.unit
+
+    model = ifcopenshell.api.project.create_file(version="IFC4")
+    model.header.file_name.time_stamp = TIME_STAMP
+    model.header.file_description.description = (description[:250],)
+    project = _entity(model, "IfcProject", scene.name, guid(seed, "project"))
+    ifcopenshell.api.unit.assign_unit(model, length={"is_metric": True, "raw": "METERS"})
+    context = ifcopenshell.api.context.add_context(model, context_type="Model")
+    body = ifcopenshell.api.context.add_context(model, context_type="Model", context_identifier="Body",
+                                target_view="MODEL_VIEW", parent=context)
+    storey = _spatial(model, project, seed)
+    for index, part in enumerate(scene.parts):
+        elements = _write_part(model, body, part, seed)
+        ifcopenshell.api.spatial.assign_container(model, products=elements, relating_structure=storey)
+        if progress is not None:
+            progress(index + 1, len(scene.parts))
+    model.write(str(path))
+    return path
+
+
+def _entity(model, ifc_class: str, name: str, global_id: str, **attributes):
+    import ifcopenshell.api.root
+
+    entity = ifcopenshell.api.root.create_entity(model, ifc_class=ifc_class, name=name, **attributes)
+    entity.GlobalId = global_id
+    return entity
+
+
+def _spatial(model, project, seed: int):
+    """Site -> building -> storey, each at the origin; returns the storey."""
+    import ifcopenshell.api.aggregate
+    import ifcopenshell.api.geometry
+
+    site = _entity(model, "IfcSite", "Site", guid(seed, "site"))
+    building = _entity(model, "IfcBuilding", "Factory hall", guid(seed, "building"))
+    storey = _entity(model, "IfcBuildingStorey", STOREY, guid(seed, "storey"))
+    ifcopenshell.api.aggregate.assign_object(model, products=[site], relating_object=project)
+    ifcopenshell.api.aggregate.assign_object(model, products=[building], relating_object=site)
+    ifcopenshell.api.aggregate.assign_object(model, products=[storey], relating_object=building)
+    for spatial in (site, building, storey):
+        ifcopenshell.api.geometry.edit_object_placement(model, product=spatial, matrix=np.eye(4), is_si=True)
+    return storey
+
+
+def _write_part(model, body, part, seed: int) -> list:
+    """The type of ``part`` with its mapped mesh, and one element per instance (returned)."""
+    import ifcopenshell.api.geometry
+    import ifcopenshell.api.style
+    import ifcopenshell.api.type
+
+    element_class, type_class, predefined = ifc_classes(part.name)
+    extra = {"predefined_type": predefined} if predefined else {}
+    kind = _entity(model, type_class, part.name, guid(seed, f"type:{part.name}"), **extra)
+    representation = _mesh_representation(model, body, part)
+    ifcopenshell.api.geometry.assign_representation(model, product=kind, representation=representation)
+    style = ifcopenshell.api.style.add_style(model, name=part.name)
+    ifcopenshell.api.style.add_surface_style(model, style=style, ifc_class="IfcSurfaceStyleShading",
+                         attributes={"SurfaceColour": {"Name": None, "Red": part.color[0], "Green": part.color[1],
+                                                       "Blue": part.color[2]}})
+    ifcopenshell.api.style.assign_representation_styles(model, shape_representation=representation, styles=[style])
+    elements = []
+    for instance_id, matrix in zip(part.instance_ids, part.transforms):
+        element = _entity(model, element_class, instance_id, guid(seed, instance_id), **extra)
+        element.Tag = instance_id
+        ifcopenshell.api.geometry.edit_object_placement(model, product=element, matrix=_rigid(matrix, instance_id),
+                             is_si=True)
+        elements.append(element)
+    ifcopenshell.api.type.assign_type(model, related_objects=elements, relating_type=kind)
+    return elements
+
+
+def _mesh_representation(model, body, part):
+    """An IfcShapeRepresentation of the part's triangles (IfcTriangulatedFaceSet, 1-based indices)."""
+    vertices = np.asarray(part.vertices, np.float64)
+    points = model.createIfcCartesianPointList3D(vertices.tolist())
+    faces = (np.asarray(part.faces, np.int64) + 1).tolist()
+    face_set = model.createIfcTriangulatedFaceSet(points, None, None, faces, None)
+    return model.createIfcShapeRepresentation(body, "Body", "Tessellation", [face_set])
+
+
+def _rigid(matrix: np.ndarray, instance_id: str) -> np.ndarray:
+    """``matrix`` when it is a rotation and translation (an IfcLocalPlacement holds no scale)."""
+    rotation = matrix[:3, :3]
+    if not np.allclose(rotation.T @ rotation, np.eye(3), atol=RIGID_TOLERANCE) or np.linalg.det(rotation) < 0:
+        raise MrcheckError(f"instance {instance_id!r} is scaled or mirrored: an IFC placement cannot hold that")
+    return matrix
+
+
+__all__ = ["write_ifc", "ifc_classes", "guid", "STOREY"]

@@ -1,0 +1,242 @@
+"""IFC models (IFC2X3, IFC4, IFC4X3) through IfcOpenShell's geometry iterator.
+
+One part per distinct shape representation: IfcOpenShell builds each representation once and
+gives every element that maps it (an IfcMappedItem of a type's IfcRepresentationMap, or the
+same representation reused) the same geometry id, so repeated elements become instances of one
+part. Every instance's id is its element's GlobalId; part and instance keep the element's name,
+IFC class and storey. Coordinates come in metres whatever the file's unit assignment (the
+iterator converts them). An element whose geometry fails is listed (GlobalId and class) and the
+rest imports.
+
+The iterator runs on ``threads`` cores (C++ threads: the Python loop only collects results).
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+from mrcheck.core.errors import MrcheckError
+from mrcheck.core.quiet import native_output
+from mrcheck.scene.importers.georef import map_conversion, site_origin
+from mrcheck.scene.importers.records import (FailedElement, ImportedInstance, ImportedModel, ImportedPart, ImportSettings,
+                                             unique_part_names)
+from mrcheck.scene.importers.sniff import FileKind
+
+# IfcSpace and IfcOpeningElement have Body geometry that is not built: rooms' air and the voids
+# already cut from their walls
+SKIPPED_CLASSES = ("IfcSpace", "IfcOpeningElement", "IfcVirtualElement")
+DEFAULT_COLOR = (0.7, 0.7, 0.7)
+
+
+def default_threads() -> int:
+    import os
+
+    return max(1, len(os.sched_getaffinity(0)))
+
+
+def read_ifc(path: Path, kind: FileKind, settings: ImportSettings, progress=None) -> ImportedModel:
+    """The model of an IFC file (already checked by :func:`mrcheck.scene.importers.sniff.sniff`).
+
+    ``progress(done, total)`` is called as elements are built. Raises MrcheckError for a file
+    IfcOpenShell cannot parse, a model without any element with a Body representation, and one
+    where no element's geometry could be built.
+    """
+    model = _open(path)
+    bodies = _body_elements(model)
+    if not bodies:
+        products = len(model.by_type("IfcProduct"))
+        raise MrcheckError(f"no element has a body representation ({products} IfcProduct entities, none with "
+                           "3-D 'Body' geometry): nothing to render", path)
+    placement = _placement(model, settings, path)
+    storeys = storey_names(model)
+    parts, seen = _iterate(model, settings, bodies, storeys, placement.matrix, progress)
+    failed = [FailedElement(e.GlobalId, e.is_a(), "IfcOpenShell built no geometry")
+              for e in bodies if e.id() not in seen]
+    if not parts:
+        raise MrcheckError(f"no element's geometry could be built ({len(failed)} of them failed, e.g. "
+                           f"{failed[0].ifc_class} {failed[0].id})", path)
+    project = (model.by_type("IfcProject") or [None])[0]
+    name = (getattr(project, "Name", None) or path.stem) if project is not None else path.stem
+    return ImportedModel(name=str(name), source=path, kind="ifc", schema=kind.schema, parts=_named(parts),
+                         origin=placement.origin, crs=placement.crs, failed=failed, notes=placement.notes)
+
+
+def _open(path: Path):
+    import ifcopenshell
+
+    try:
+        with native_output():
+            return ifcopenshell.open(str(path))
+    except Exception as exc:   # ifcopenshell raises its own, RuntimeError and others for a broken file
+        reason = " ".join(str(exc).split())[:200] or type(exc).__name__
+        raise MrcheckError(f"cannot parse IFC ({reason})", path) from None
+
+
+def _body_elements(model) -> list:
+    """The products with a 3-D Body representation (what the iterator builds), skipped classes aside."""
+    found = []
+    for product in model.by_type("IfcProduct"):
+        if product.is_a() in SKIPPED_CLASSES or any(product.is_a(c) for c in SKIPPED_CLASSES):
+            continue
+        shape = getattr(product, "Representation", None)
+        if shape is None:
+            continue
+        if any((r.RepresentationIdentifier or "Body") == "Body" and _is_3d(r) for r in shape.Representations or ()):
+            found.append(product)
+    return found
+
+
+def _is_3d(representation) -> bool:
+    context = representation.ContextOfItems
+    while context is not None and context.is_a("IfcGeometricRepresentationSubContext"):
+        context = context.ParentContext
+    return context is None or getattr(context, "ContextType", "Model") in (None, "Model", "Design")
+
+
+def storey_names(model) -> dict:
+    """{element step id: storey name} through IfcRelContainedInSpatialStructure, for elements
+    contained in a storey directly or through the element they are aggregated into."""
+    container = {}
+    for rel in model.by_type("IfcRelContainedInSpatialStructure"):
+        structure = rel.RelatingStructure
+        if structure is not None and structure.is_a("IfcBuildingStorey"):
+            for element in rel.RelatedElements or ():
+                container[element.id()] = structure.Name or structure.LongName or f"#{structure.id()}"
+    for rel in model.by_type("IfcRelAggregates"):
+        whole = rel.RelatingObject
+        if whole is not None and whole.id() in container:
+            for piece in rel.RelatedObjects or ():
+                container.setdefault(piece.id(), container[whole.id()])
+    return container
+
+
+def _placement(model, settings: ImportSettings, path: Path):
+    """World frame of the import: the file's own coordinates, or its map coordinates."""
+    conversion = map_conversion(model)
+    if settings.coordinates == "map":
+        if conversion is not None:
+            return conversion
+        placement = site_origin(model)
+        placement.notes.append("no IfcMapConversion in the file: its site placement is taken as the map position")
+        return placement
+    placement = site_origin(model)
+    if conversion is not None:
+        placement.crs = ""
+        placement.notes.append(f"the file has a map conversion (to {conversion.crs or 'a map CRS'}); "
+                               "--coordinates map places the model there")
+    return placement
+
+
+def _geometry_settings(settings: ImportSettings):
+    import ifcopenshell.geom
+
+    geom = ifcopenshell.geom.settings()
+    geom.set("use-world-coords", False)    # local coordinates: shared representations stay shared
+    geom.set("weld-vertices", False)       # faster; the renderer needs no shared vertices
+    geom.set("no-normals", True)           # the renderer computes its own
+    geom.set("mesher-linear-deflection", max(settings.deflection_m(), 1e-4))
+    return geom
+
+
+# cgal-simple builds tessellated and extruded shapes some 8x faster than OpenCascade but no
+# Booleans (the CSG bath): the elements it leaves out get a second pass with OpenCascade
+KERNELS = ("cgal-simple", "opencascade")
+
+
+def _iterate(model, settings, bodies, storeys, world, progress):
+    """{geometry id: ImportedPart} of every built element, and the step ids built."""
+    parts, seen, total = {}, set(), len(bodies)
+    todo = None   # first pass: every element
+    for kernel in KERNELS:
+        if todo is not None and not todo:
+            break
+        _run_iterator(model, settings, kernel, todo, (parts, seen, total), storeys, world, progress)
+        todo = [e for e in bodies if e.id() not in seen]
+    return [p for p in parts.values() if len(p.faces)], seen
+
+
+def _run_iterator(model, settings, kernel, include, state, storeys, world, progress):
+    """One pass of IfcOpenShell's iterator with ``kernel`` over ``include`` (None: every element)."""
+    import ifcopenshell.geom
+    import ifcopenshell.util.shape
+
+    parts, seen, total = state
+    threads = settings.threads or default_threads()
+    # IfcOpenShell logs failures to its own log (not stderr): the caller lists what was not built
+    iterator = ifcopenshell.geom.iterator(_geometry_settings(settings), model, threads, geometry_library=kernel,
+                                          **({"include": include} if include is not None else
+                                             {"exclude": list(SKIPPED_CLASSES)}))
+    ok = iterator.initialize()
+    while ok:
+        shape = iterator.get()
+        element = model.by_id(shape.id)
+        seen.add(shape.id)
+        geometry = shape.geometry
+        part = parts.get(geometry.id)
+        if part is None:
+            part = parts[geometry.id] = _part(geometry, element)
+        matrix = world @ np.asarray(ifcopenshell.util.shape.get_shape_matrix(shape), np.float64)
+        part.instances.append(ImportedInstance(
+            id=str(element.GlobalId), matrix=matrix, name=str(element.Name or ""),
+            ifc_class=element.is_a(), storey=storeys.get(element.id(), "")))
+        if progress is not None:
+            progress(len(seen), total)
+        ok = iterator.next()
+
+
+def _part(geometry, element) -> ImportedPart:
+    vertices = np.frombuffer(geometry.verts_buffer, np.float64).reshape(-1, 3).copy() \
+        if hasattr(geometry, "verts_buffer") else np.asarray(geometry.verts, np.float64).reshape(-1, 3)
+    faces = np.frombuffer(geometry.faces_buffer, np.int32).reshape(-1, 3).astype(np.int64) \
+        if hasattr(geometry, "faces_buffer") else np.asarray(geometry.faces, np.int64).reshape(-1, 3)
+    return ImportedPart(name=_part_name(element), vertices=vertices, faces=faces, color=_colour(geometry, faces),
+                        ifc_class=element.is_a(), storey="")
+
+
+def _colour(geometry, faces) -> tuple:
+    """The diffuse colour of the style that covers most triangles (the scene model has one
+    colour per part); IfcOpenShell's per-class default where the file styles nothing."""
+    materials = list(geometry.materials)
+    if not materials:
+        return DEFAULT_COLOR
+    ids = np.asarray(geometry.material_ids, np.int64)
+    index = int(np.bincount(ids[ids >= 0], minlength=len(materials)).argmax()) if (ids >= 0).any() else 0
+    diffuse = materials[index].diffuse
+    rgb = [float(c) for c in (diffuse.components if hasattr(diffuse, "components") else diffuse)][:3]
+    if len(rgb) != 3 or not all(np.isfinite(rgb)):
+        return DEFAULT_COLOR
+    return tuple(min(max(c, 0.0), 1.0) for c in rgb)
+
+
+def _part_name(element) -> str:
+    """The type's name for a typed element (its shape is the type's), else the element's name,
+    else its class."""
+    import ifcopenshell.util.element
+
+    kind = ifcopenshell.util.element.get_type(element)
+    return str((kind.Name if kind is not None else None) or element.Name or element.is_a())
+
+
+def _named(parts: list[ImportedPart]) -> list[ImportedPart]:
+    """Unique, file-safe part names; each part's class and storey are its instances' when they
+    all share one."""
+    unique_part_names(parts)
+    for part in parts:
+        classes = {i.ifc_class for i in part.instances}
+        storeys = {i.storey for i in part.instances}
+        part.ifc_class = classes.pop() if len(classes) == 1 else ""
+        part.storey = storeys.pop() if len(storeys) == 1 else ""
+    return parts
+
+
+def timed_read(path, kind, settings, progress=None):
+    """(model, seconds) of :func:`read_ifc` (the bench's figure)."""
+    start = time.perf_counter()
+    model = read_ifc(path, kind, settings, progress)
+    return model, time.perf_counter() - start
+
+
+__all__ = ["read_ifc", "storey_names", "default_threads", "timed_read", "SKIPPED_CLASSES"]
