@@ -65,25 +65,29 @@ def write_ifc(scene, path: Path, seed: int, description: str, progress=None, map
     """
     import ifcopenshell.api.context
     import ifcopenshell.api.project
-    import ifcopenshell.api.spatial
-    import ifcopenshell.api.unit
 
     model = ifcopenshell.api.project.create_file(version="IFC4")
     model.header.file_name.time_stamp = TIME_STAMP
     model.header.file_description.description = (description[:250],)
     project = _entity(model, "IfcProject", scene.name, guid(seed, "project"))
-    ifcopenshell.api.unit.assign_unit(model, length={"is_metric": True, "raw": "METERS"})
+    metre = model.createIfcSIUnit(None, "LENGTHUNIT", None, "METRE")   # by hand: the API orders units by a set
+    project.UnitsInContext = model.createIfcUnitAssignment([metre])
     context = ifcopenshell.api.context.add_context(model, context_type="Model")
     body = ifcopenshell.api.context.add_context(model, context_type="Model", context_identifier="Body",
                                 target_view="MODEL_VIEW", parent=context)
     storey = _spatial(model, project, seed)
     if map_origin is not None:
         _georeference(model, map_origin, crs)
+    contained = []
     for index, part in enumerate(scene.parts):
-        elements = _write_part(model, body, part, seed)
-        ifcopenshell.api.spatial.assign_container(model, products=elements, relating_structure=storey)
+        contained += _write_part(model, body, part, seed)
         if progress is not None:
             progress(index + 1, len(scene.parts))
+    # relationships by hand, their lists in the scene's order (the API keeps them in sets, whose
+    # order changes from run to run)
+    model.createIfcRelContainedInSpatialStructure(guid(seed, "contained"), None, None, None, contained, storey)
+    for relationship in model.by_type("IfcRelationship"):   # the API gives them random GlobalIds
+        relationship.GlobalId = guid(seed, f"relationship#{relationship.id()}")
     model.write(str(path))
     return path
 
@@ -127,7 +131,6 @@ def _write_part(model, body, part, seed: int) -> list:
     """The type of ``part`` with its mapped mesh, and one element per instance (returned)."""
     import ifcopenshell.api.geometry
     import ifcopenshell.api.style
-    import ifcopenshell.api.type
 
     element_class, type_class, predefined = ifc_classes(part.name)
     extra = {"predefined_type": predefined} if predefined else {}
@@ -139,15 +142,28 @@ def _write_part(model, body, part, seed: int) -> list:
                          attributes={"SurfaceColour": {"Name": None, "Red": part.color[0], "Green": part.color[1],
                                                        "Blue": part.color[2]}})
     ifcopenshell.api.style.assign_representation_styles(model, shape_representation=representation, styles=[style])
+    (mapping,) = kind.RepresentationMaps                  # made by assign_representation
+    identity = model.createIfcCartesianTransformationOperator3D(
+        None, None, model.createIfcCartesianPoint((0.0, 0.0, 0.0)), 1.0, None)
     elements = []
     for instance_id, matrix in zip(part.instance_ids, part.transforms):
-        element = _entity(model, element_class, instance_id, guid(seed, instance_id), **extra)
-        element.Tag = instance_id
-        ifcopenshell.api.geometry.edit_object_placement(model, product=element, matrix=_rigid(matrix, instance_id),
-                             is_si=True)
+        item = model.createIfcMappedItem(mapping, identity)
+        shape = model.createIfcProductDefinitionShape(None, None, [
+            model.createIfcShapeRepresentation(body, "Body", "MappedRepresentation", [item])])
+        element = model.create_entity(element_class, GlobalId=guid(seed, instance_id), Name=instance_id, Tag=instance_id,
+                                      ObjectPlacement=_placement(model, _rigid(matrix, instance_id)), Representation=shape,
+                                      **({"PredefinedType": predefined} if predefined else {}))
         elements.append(element)
-    ifcopenshell.api.type.assign_type(model, related_objects=elements, relating_type=kind)
+    model.createIfcRelDefinesByType(guid(seed, f"typed:{part.name}"), None, None, None, elements, kind)
     return elements
+
+
+def _placement(model, matrix: np.ndarray):
+    """An IfcLocalPlacement (absolute) of a rigid (4, 4) matrix, metres."""
+    location = model.createIfcCartesianPoint([float(v) for v in matrix[:3, 3]])
+    axis = model.createIfcDirection([float(v) for v in matrix[:3, 2]])
+    ref = model.createIfcDirection([float(v) for v in matrix[:3, 0]])
+    return model.createIfcLocalPlacement(None, model.createIfcAxis2Placement3D(location, axis, ref))
 
 
 def _mesh_representation(model, body, part):

@@ -37,6 +37,7 @@ from pathlib import Path
 from urllib.parse import unquote
 
 from mrcheck.core.errors import MrcheckError, display
+from mrcheck.scene import packages
 
 # files beside a URDF that carry its licence and provenance (matched case-insensitively)
 NOTICE_PREFIXES = ("license", "licence", "copying", "notice", "source", "authors", "readme")
@@ -117,7 +118,8 @@ def _urdf_companions(path: Path) -> list[Path]:
             name = element.get("filename") if element.tag in ("mesh", "texture") else None
             if name:
                 # the loader's own resolution (relative, package://, parent folders of the URDF)
-                resolved = Path(os.path.normpath(yourdfpy.filename_handler_magic(name, dir=str(path.parent))))
+                located = packages.resolve(name, packages.search_folders(path)) if name.startswith(packages.PREFIX) else None
+                resolved = Path(os.path.normpath(located or yourdfpy.filename_handler_magic(name, dir=str(path.parent))))
                 if resolved.is_file():
                     found += mesh_files(resolved)
     finally:

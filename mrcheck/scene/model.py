@@ -69,7 +69,7 @@ DEGENERATE_WARNING_SHARE = 0.001  # warn when more than 0.1 % of a mesh's triang
 VALIDATION_CHUNK = 1 << 20        # triangles checked per step (bounds the validation's memory)
 
 ELEMENT_KEYS = ("name", "ifc_class", "storey")   # what a BIM/CAD import knows about an element
-MANIFEST_KEYS = {"format", "name", "description", "origin", "crs", "parts", "viewpoints"}
+MANIFEST_KEYS = {"format", "name", "description", "origin", "crs", "package_path", "parts", "viewpoints"}
 _PART_KEYS = {"name", "mesh", "units", "color", "translate", "rotate_deg", "scale", "matrix", "instances", "joints",
               "ifc_class", "storey"}
 _INSTANCE_KEYS = {"id", "translate", "rotate_deg", "scale", "matrix"} | set(ELEMENT_KEYS)
@@ -262,12 +262,13 @@ def unit_scale(units, where) -> float:
 
 
 # -- mesh files ------------------------------------------------------------------------------------
-def read_mesh(path: Path, joints: dict | None = None):
+def read_mesh(path: Path, joints: dict | None = None, package_folders=()):
     """(vertices (n, 3) float64, faces (m, 3) int64) of a mesh file or a posed URDF, validated.
 
     NaN/infinite coordinates and meshes with no proper triangle are errors; degenerate
     (zero-area) triangles among good ones are dropped with a warning, as CAD exports often
-    carry a few.
+    carry a few. ``package_folders``: where a URDF's ``package://`` meshes are looked up besides
+    the defaults (:mod:`mrcheck.scene.packages`).
     """
     path = Path(path)
     if check_input(path, "mesh file").st_size == 0:  # the readers' own errors for this are cryptic (index out of bounds)
@@ -279,7 +280,7 @@ def read_mesh(path: Path, joints: dict | None = None):
         raise MrcheckError("joints are only meaningful for a URDF part", path)
     try:
         if suffix == ".urdf":
-            vertices, faces = _read_urdf(path, joints or {})
+            vertices, faces = _read_urdf(path, joints or {}, package_folders)
         else:
             import trimesh
 
@@ -334,12 +335,14 @@ def _ascii_aliases(folder: str, handler):
     return aliased
 
 
-def _read_urdf(path: Path, joints: dict):
+def _read_urdf(path: Path, joints: dict, package_folders=()):
     import yourdfpy
+
+    from mrcheck.scene import packages
 
     # yourdfpy logs what goes wrong (malformed XML, a mesh file it cannot find) and carries on;
     # its messages are kept for the one-line error instead of being printed around it
-    handler = partial(yourdfpy.filename_handler_magic, dir=str(path.parent))
+    handler = packages.handler(path, partial(yourdfpy.filename_handler_magic, dir=str(path.parent)), package_folders)
     logger, collect = logging.getLogger("yourdfpy"), _Collect()
     logger.addHandler(collect)
     propagate, logger.propagate = logger.propagate, False
@@ -358,7 +361,9 @@ def _read_urdf(path: Path, joints: dict):
         logger.propagate = propagate
     missing = [m[len("Can't find "):] for m in collect.messages if m.startswith("Can't find ")]
     if missing:
-        raise MrcheckError(f"URDF mesh file(s) not found: {', '.join(missing)}", path)
+        names = sorted({m[len(packages.PREFIX):].split("/")[0] for m in missing if m.startswith(packages.PREFIX)})
+        hint = f" ({packages.hint(', '.join(names))})" if names else ""
+        raise MrcheckError(f"URDF mesh file(s) not found: {', '.join(missing)}{hint}", path)
     unknown = sorted(set(joints) - set(robot.actuated_joint_names))
     if unknown:
         raise JointError(f"unknown joint(s) {', '.join(unknown)} (the robot {path.name} has: "
@@ -621,6 +626,10 @@ def _load_manifest(path: Path, progress: bool) -> Scene:
         raise MrcheckError("scene is empty (no [[parts]])", path)
 
     origin = manifest_origin(data, path)
+    folders = data.get("package_path", [])
+    if not isinstance(folders, list) or not all(isinstance(f, str) for f in folders):
+        raise MrcheckError("package_path must be a list of folders (relative to the manifest)", path)
+    folders = [path.parent / f for f in folders]
     crs = data.get("crs", "")
     if not isinstance(crs, str):
         raise MrcheckError(f"crs must be a string such as \"EPSG:25832\", got {crs!r}", path)
@@ -644,7 +653,7 @@ def _load_manifest(path: Path, progress: bool) -> Scene:
     # starts a clean line; disable=None: no bar when stderr is not a terminal (pipes, logs, tests)
     with tqdm(tables, desc="loading scene", unit="part", disable=None if progress else True, leave=False) as bar:
         for index, table in enumerate(bar):
-            parts.append(_part_from_table(path, index, table, names, owners, origin))
+            parts.append(_part_from_table(path, index, table, names, owners, origin, folders))
 
     scene = Scene(name=data.get("name", path.stem), source=path, parts=parts, viewpoints=viewpoints, origin=origin,
                   crs=crs)
@@ -677,7 +686,8 @@ def _element_info(tables: list, where: str, path: Path) -> list:
     return found
 
 
-def _part_from_table(path: Path, index: int, table: dict, names: set, owners: dict, origin=None) -> Part:
+def _part_from_table(path: Path, index: int, table: dict, names: set, owners: dict, origin=None,
+                     package_folders=()) -> Part:
     """The part of one [[parts]] table of the manifest ``path``; ``names`` collects part names,
     ``owners`` maps every instance id so far to its part's name; placements are relative to
     ``origin`` (float64, the manifest's)."""
@@ -748,7 +758,7 @@ def _part_from_table(path: Path, index: int, table: dict, names: set, owners: di
                                f"instance id {iid!r} is used by parts {other!r} and {name!r}", path)
         owners[iid] = name
     try:
-        vertices, faces = read_mesh(path.parent / table["mesh"], joints)
+        vertices, faces = read_mesh(path.parent / table["mesh"], joints, package_folders)
     except JointError as exc:     # the manifest's value is wrong: name the manifest and the part
         raise MrcheckError(f"{where}: {exc}", path) from None
     except MrcheckError as exc:   # the mesh is named; say which manifest entry asked for it

@@ -1,7 +1,8 @@
 """``scene import`` and the import cache that lets every command take an .ifc/.step file itself.
 
 The cache holds imported scenes (the same folders ``scene import`` writes) under
-``$MRCHECK_CACHE`` (default ``$XDG_CACHE_HOME/mrcheck/imports``, i.e. ``~/.cache/mrcheck/imports``),
+``imports/`` of mrcheck's cache folder (``$MRCHECK_CACHE_DIR``, else ``$XDG_CACHE_HOME/mrcheck`` or
+``~/.cache/mrcheck``, as the levels of detail),
 one folder per key: the SHA-256 of the file's *content* (a renamed or touched file is still a
 hit, an edited one a miss), the settings that change the result (:meth:`ImportSettings.key`)
 and :data:`IMPORTER_VERSION`. A second load of an unchanged file hashes it and reads the GLB
@@ -29,9 +30,10 @@ IMPORTER_VERSION = "1"    # bump when the importers' output changes: old entries
 
 
 def cache_root() -> Path:
-    """Where imported scenes are cached ($MRCHECK_CACHE, else the XDG cache folder)."""
-    if os.environ.get("MRCHECK_CACHE"):
-        return Path(os.environ["MRCHECK_CACHE"])
+    """Where imported scenes are cached: ``imports/`` in $MRCHECK_CACHE_DIR, else in the XDG
+    cache folder's ``mrcheck/``."""
+    if os.environ.get("MRCHECK_CACHE_DIR"):
+        return Path(os.environ["MRCHECK_CACHE_DIR"]) / "imports"
     base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
     return Path(base) / "mrcheck" / "imports"
 
@@ -87,7 +89,7 @@ def cached_manifest(path, settings: ImportSettings | None = None, progress=None)
         root.mkdir(parents=True, exist_ok=True)
         work = Path(tempfile.mkdtemp(prefix=".partial-", dir=root))
     except OSError as exc:
-        raise MrcheckError(f"cannot write the import cache ({exc.strerror or exc}; set MRCHECK_CACHE to a "
+        raise MrcheckError(f"cannot write the import cache ({exc.strerror or exc}; set MRCHECK_CACHE_DIR to a "
                            "writable folder)", root) from None
     try:
         write_scene(model, work / "scene", _header(path, settings))

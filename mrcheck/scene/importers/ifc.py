@@ -13,6 +13,7 @@ The iterator runs on ``threads`` cores (C++ threads: the Python loop only collec
 
 from __future__ import annotations
 
+import re
 import time
 from pathlib import Path
 
@@ -21,6 +22,7 @@ import numpy as np
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.quiet import native_output
 from mrcheck.scene.importers.georef import map_conversion, site_origin
+from mrcheck.scene.importers.ifc_mapped import Placements, mesh_maps, shape_arrays, shape_colour, split_mapped
 from mrcheck.scene.importers.records import (FailedElement, ImportedInstance, ImportedModel, ImportedPart, ImportSettings,
                                              unique_part_names)
 from mrcheck.scene.importers.sniff import FileKind
@@ -65,14 +67,40 @@ def read_ifc(path: Path, kind: FileKind, settings: ImportSettings, progress=None
 
 
 def _open(path: Path):
+    """The parsed file; any error the parser logs (it skips what it cannot read and carries on)
+    is a syntax error: an element silently missing from the model would be a wrong check."""
     import ifcopenshell
 
+    ifcopenshell.get_log()   # reading the log empties it: what follows is this file's
     try:
         with native_output():
-            return ifcopenshell.open(str(path))
+            model = ifcopenshell.open(str(path))
     except Exception as exc:   # ifcopenshell raises its own, RuntimeError and others for a broken file
         reason = " ".join(str(exc).split())[:200] or type(exc).__name__
         raise MrcheckError(f"cannot parse IFC ({reason})", path) from None
+    errors = [line for line in ifcopenshell.get_log().splitlines() if line.startswith("[error]")]
+    if errors:
+        raise MrcheckError(f"cannot parse IFC: {parse_error(errors, path)}", path)
+    return model
+
+
+_OFFSET = re.compile(r" at offset (\d+)$")
+_LOG_PREFIX = re.compile(r"^\[error\] (\[[A-Z]+\d+\] )?\[[^]]+\] ")
+
+
+def parse_error(errors: list[str], path: Path) -> str:
+    """The first of IfcOpenShell's parse errors as "line N: what" (its offsets are bytes)."""
+    with_offset = [e for e in errors if _OFFSET.search(e)] or errors
+    first = with_offset[0]
+    match = _OFFSET.search(first)
+    text = _LOG_PREFIX.sub("", _OFFSET.sub("", first)).strip()[:160]
+    where = ""
+    if match:
+        with open(path, "rb") as handle:
+            line = handle.read(int(match.group(1))).count(b"\n") + 1
+        where = f"line {line}: "
+    more = f" ({len(errors)} errors in all)" if len(errors) > 1 else ""
+    return f"{where}{text}{more}"
 
 
 def _body_elements(model) -> list:
@@ -147,19 +175,43 @@ KERNELS = ("cgal-simple", "opencascade")
 
 
 def _iterate(model, settings, bodies, storeys, world, progress):
-    """{geometry id: ImportedPart} of every built element, and the step ids built."""
+    """{geometry id: ImportedPart} of every built element, and the step ids built: elements that
+    only map a type's shape through :mod:`.ifc_mapped` (each shape meshed once), the rest through
+    IfcOpenShell's iterator (cgal-simple, then OpenCascade for what that left out)."""
+    import ifcopenshell.util.unit
+
     parts, seen, total = {}, set(), len(bodies)
-    todo = None   # first pass: every element
+    groups, todo = split_mapped(bodies)
+    threads = settings.threads or default_threads()
+    unit_m = float(ifcopenshell.util.unit.calculate_unit_scale(model))
+    meshes = mesh_maps(model, _geometry_settings(settings), groups, KERNELS, threads, unit_m)
+    placements = Placements(unit_m)
+    for map_id, members in groups.items():
+        mesh = meshes.get(map_id)
+        if mesh is None:
+            todo += [element for element, _ in members]
+            continue
+        part = parts[f"map{map_id}"] = ImportedPart(name=_part_name(members[0][0]), vertices=mesh.vertices,
+                                                    faces=mesh.faces, color=mesh.color or DEFAULT_COLOR)
+        for element, item in members:
+            part.instances.append(_instance(element, world @ placements.element(element, item), storeys))
+            seen.add(element.id())
+        if progress is not None:
+            progress(len(seen), total)
     for kernel in KERNELS:
-        if todo is not None and not todo:
-            break
-        _run_iterator(model, settings, kernel, todo, (parts, seen, total), storeys, world, progress)
-        todo = [e for e in bodies if e.id() not in seen]
+        todo = [e for e in todo if e.id() not in seen]
+        if todo:
+            _run_iterator(model, settings, kernel, todo, (parts, seen, total), storeys, world, progress)
     return [p for p in parts.values() if len(p.faces)], seen
 
 
+def _instance(element, matrix, storeys) -> ImportedInstance:
+    return ImportedInstance(id=str(element.GlobalId), matrix=matrix, name=str(element.Name or ""),
+                            ifc_class=element.is_a(), storey=storeys.get(element.id(), ""))
+
+
 def _run_iterator(model, settings, kernel, include, state, storeys, world, progress):
-    """One pass of IfcOpenShell's iterator with ``kernel`` over ``include`` (None: every element)."""
+    """One pass of IfcOpenShell's iterator with ``kernel`` over the elements ``include``."""
     import ifcopenshell.geom
     import ifcopenshell.util.shape
 
@@ -167,8 +219,7 @@ def _run_iterator(model, settings, kernel, include, state, storeys, world, progr
     threads = settings.threads or default_threads()
     # IfcOpenShell logs failures to its own log (not stderr): the caller lists what was not built
     iterator = ifcopenshell.geom.iterator(_geometry_settings(settings), model, threads, geometry_library=kernel,
-                                          **({"include": include} if include is not None else
-                                             {"exclude": list(SKIPPED_CLASSES)}))
+                                          include=include)
     ok = iterator.initialize()
     while ok:
         shape = iterator.get()
@@ -179,36 +230,16 @@ def _run_iterator(model, settings, kernel, include, state, storeys, world, progr
         if part is None:
             part = parts[geometry.id] = _part(geometry, element)
         matrix = world @ np.asarray(ifcopenshell.util.shape.get_shape_matrix(shape), np.float64)
-        part.instances.append(ImportedInstance(
-            id=str(element.GlobalId), matrix=matrix, name=str(element.Name or ""),
-            ifc_class=element.is_a(), storey=storeys.get(element.id(), "")))
+        part.instances.append(_instance(element, matrix, storeys))
         if progress is not None:
             progress(len(seen), total)
         ok = iterator.next()
 
 
 def _part(geometry, element) -> ImportedPart:
-    vertices = np.frombuffer(geometry.verts_buffer, np.float64).reshape(-1, 3).copy() \
-        if hasattr(geometry, "verts_buffer") else np.asarray(geometry.verts, np.float64).reshape(-1, 3)
-    faces = np.frombuffer(geometry.faces_buffer, np.int32).reshape(-1, 3).astype(np.int64) \
-        if hasattr(geometry, "faces_buffer") else np.asarray(geometry.faces, np.int64).reshape(-1, 3)
-    return ImportedPart(name=_part_name(element), vertices=vertices, faces=faces, color=_colour(geometry, faces),
-                        ifc_class=element.is_a(), storey="")
-
-
-def _colour(geometry, faces) -> tuple:
-    """The diffuse colour of the style that covers most triangles (the scene model has one
-    colour per part); IfcOpenShell's per-class default where the file styles nothing."""
-    materials = list(geometry.materials)
-    if not materials:
-        return DEFAULT_COLOR
-    ids = np.asarray(geometry.material_ids, np.int64)
-    index = int(np.bincount(ids[ids >= 0], minlength=len(materials)).argmax()) if (ids >= 0).any() else 0
-    diffuse = materials[index].diffuse
-    rgb = [float(c) for c in (diffuse.components if hasattr(diffuse, "components") else diffuse)][:3]
-    if len(rgb) != 3 or not all(np.isfinite(rgb)):
-        return DEFAULT_COLOR
-    return tuple(min(max(c, 0.0), 1.0) for c in rgb)
+    vertices, faces = shape_arrays(geometry)
+    return ImportedPart(name=_part_name(element), vertices=vertices, faces=faces,
+                        color=shape_colour(geometry) or DEFAULT_COLOR)
 
 
 def _part_name(element) -> str:
