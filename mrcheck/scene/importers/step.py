@@ -68,7 +68,8 @@ def read_step(path: Path, kind: FileKind, settings: ImportSettings, progress=Non
         parts.append(ImportedPart(name=proto.name, vertices=vertices * unit_m, faces=faces, color=colour,
                                   instances=instances))
     if not parts:
-        raise MrcheckError(f"no shape of the {kind.label} file tessellates ({len(failed)} shapes)", path)
+        raise MrcheckError(f"no shape of the {kind.label} file tessellates ({len(failed)} failed to mesh, {skipped} "
+                           "have no faces left: broken or missing surfaces?)", path)
     unique_part_names(parts)
     notes = [f"{skipped} shape(s) without faces (wireframe or points) left out"] if skipped else []
     return ImportedModel(name=path.stem, source=path, kind="step", schema=kind.schema, parts=parts, failed=failed,
