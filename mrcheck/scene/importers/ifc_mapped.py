@@ -156,7 +156,7 @@ class Placements:
         key = placement.id()
         if key not in self._local:
             if placement.is_a("IfcLocalPlacement"):
-                own = np.asarray(ifcopenshell.util.placement.get_axis2placement(placement.RelativePlacement), np.float64)
+                own = axis2placement(placement.RelativePlacement)
                 self._local[key] = self.local(placement.PlacementRelTo) @ own
             else:   # grid placements and the like: IfcOpenShell's own resolution
                 self._local[key] = np.asarray(ifcopenshell.util.placement.get_local_placement(placement), np.float64)
@@ -166,7 +166,9 @@ class Placements:
         """The element's placement @ its mapped item's transformation, translation in metres."""
         import ifcopenshell.util.placement
 
-        key = item.id()
+        # thousands of mapped items share one map and an identity operator (each of its own, as
+        # exporters write them): computed once per map and operator value
+        key = (item.MappingSource.id(), operator_key(item.MappingTarget))
         if key not in self._mapped:
             self._mapped[key] = np.asarray(ifcopenshell.util.placement.get_mappeditem_transformation(item), np.float64)
         matrix = self.local(element.ObjectPlacement) @ self._mapped[key]
@@ -174,5 +176,48 @@ class Placements:
         return matrix
 
 
+def operator_key(operator) -> tuple:
+    """The values of an IfcCartesianTransformationOperator3D(nonUniform), hashable."""
+    def ratios(direction):
+        return tuple(direction.DirectionRatios) if direction is not None else None
+
+    return (operator.is_a(), ratios(operator.Axis1), ratios(operator.Axis2), ratios(operator.Axis3),
+            tuple(operator.LocalOrigin.Coordinates), operator.Scale, getattr(operator, "Scale2", None),
+            getattr(operator, "Scale3", None))
+
+
+def axis2placement(placement) -> np.ndarray:
+    """(4, 4) float64 of an IfcAxis2Placement3D (project units), in plain float arithmetic:
+    IfcOpenShell's helper spends ~0.5 ms per placement in small numpy calls, the hall has
+    8,000. Axis and RefDirection as IFC defines them: z = Axis, x = RefDirection made
+    orthogonal to z, y = z x x; defaults z = (0, 0, 1), x = (1, 0, 0). A 2-D placement goes to
+    IfcOpenShell's helper."""
+    import ifcopenshell.util.placement
+
+    if not placement.is_a("IfcAxis2Placement3D"):
+        return np.asarray(ifcopenshell.util.placement.get_axis2placement(placement), np.float64)
+    location = [float(v) for v in placement.Location.Coordinates]
+    z = _unit(placement.Axis.DirectionRatios if placement.Axis is not None else (0.0, 0.0, 1.0))
+    x = placement.RefDirection.DirectionRatios if placement.RefDirection is not None else (1.0, 0.0, 0.0)
+    if abs(_dot(_unit(x), z)) > 1.0 - 1e-12:   # parallel to z: IFC's default choice of x
+        x = (1.0, 0.0, 0.0) if abs(z[0]) < 0.9 else (0.0, 1.0, 0.0)
+    dot = _dot(x, z)
+    x = _unit([x[i] - dot * z[i] for i in range(3)])
+    y = [z[1] * x[2] - z[2] * x[1], z[2] * x[0] - z[0] * x[2], z[0] * x[1] - z[1] * x[0]]
+    matrix = np.eye(4)
+    matrix[:3, 0], matrix[:3, 1], matrix[:3, 2], matrix[:3, 3] = x, y, z, location
+    return matrix
+
+
+def _dot(a, b) -> float:
+    return float(a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
+
+
+def _unit(v):
+    v = [float(c) for c in v]
+    n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) ** 0.5
+    return [c / n for c in v]
+
+
 __all__ = ["single_mapped_item", "split_mapped", "mesh_maps", "triangulated", "item_colour", "shape_arrays",
-           "shape_colour", "Placements", "MapMesh"]
+           "shape_colour", "Placements", "MapMesh", "axis2placement", "operator_key"]
