@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import click
@@ -26,14 +27,73 @@ def scene():
 @click.option("--units-mix", is_flag=True,
               help="Write parts in mm, m and inches as CAD exports arrive (declared in the manifest), plus a variant "
                    "scene_unit_missing.toml in which one part's unit is not declared.")
+@click.option("--format", "fmt", type=click.Choice(["glb", "ifc"]), default="glb", show_default=True,
+              help="glb: scene.toml plus GLB meshes; ifc: the same scene as one IFC4 file, scene.ifc (mapped type "
+                   "shapes, columns as IfcColumn, racks as IfcFurnishingElement).")
 @click.option("-o", "--output", "outdir", required=True, metavar="DIR", help="Folder for scene.toml and its meshes (replaced).")
-def scene_generate(preset, seed, size_m, target_triangles, units_mix, outdir):
-    """Write a procedural factory scene: a manifest plus GLB meshes, with real robots from their URDFs."""
-    from factory_scenes.generator import generate
+def scene_generate(preset, seed, size_m, target_triangles, units_mix, fmt, outdir):
+    """Write a procedural factory scene: a manifest plus GLB meshes, with real robots from their URDFs.
 
-    manifest = generate(preset, Path(outdir), seed=seed, size_m=size_m, target_triangles=target_triangles,
-                        units_mix=units_mix, progress=True)
-    print(manifest)
+    \b
+    Examples:
+      mrcheck scene generate --preset hall --target-triangles 5000000 -o hall
+      mrcheck scene generate --preset cell --format ifc -o cell_ifc
+    """
+    from factory_scenes.generator import generate
+    from factory_scenes.generator.ifc import generate_ifc
+
+    if fmt == "ifc" and units_mix:
+        raise click.BadParameter("--units-mix writes GLB meshes in mixed units; an IFC file declares one unit")
+    write = generate_ifc if fmt == "ifc" else generate
+    options = {"units_mix": units_mix} if fmt == "glb" else {}
+    print(write(preset, Path(outdir), seed=seed, size_m=size_m, target_triangles=target_triangles, progress=True,
+                **options))
+
+
+@scene.command("import")
+@click.argument("model", metavar="MODEL.ifc|.step|.stp")
+@click.option("-o", "--output", "outdir", required=True, metavar="DIR",
+              help="Folder for scene.toml, meshes/ and README.md (an earlier import there is replaced).")
+@click.option("--coordinates", type=click.Choice(["model", "map"]), default="model", show_default=True,
+              help="IFC: keep the model's own coordinates, or place it at its map coordinates (IfcMapConversion, "
+                   "else the site placement); the scene keeps the offset as its float64 origin.")
+@click.option("--tolerance-px", type=FINITE, default=0.5, show_default=True, callback=positive,
+              help="STEP tessellation: chord error in pixels of a 1024-pixel, 60-degree view at --at-distance.")
+@click.option("--at-distance", "distance_m", type=FINITE, default=2.0, show_default=True, callback=positive,
+              metavar="M", help="STEP tessellation: the viewing distance --tolerance-px is stated at (metres).")
+@click.option("--threads", type=click.IntRange(min=1), help="Geometry threads [default: every core].")
+def scene_import(model, outdir, coordinates, tolerance_px, distance_m, threads):
+    """Import an IFC (IFC2X3, IFC4, IFC4X3) or STEP (AP203, AP214, AP242) model as a normal mrcheck
+    scene. Every command also takes the model file itself (imported once, then cached).
+
+    \b
+    Examples:
+      mrcheck scene import hall.ifc --coordinates map -o hall_scene
+      mrcheck scene import conveyor.step --tolerance-px 0.25 -o conveyor_scene
+    """
+    from tqdm import tqdm
+
+    from mrcheck.scene.importers import ImportSettings
+    from mrcheck.scene.importers.cache import failed_summary, import_scene
+
+    settings = ImportSettings(coordinates=coordinates, tolerance_px=tolerance_px, distance_m=distance_m,
+                              threads=threads)
+    with tqdm(desc=f"importing {Path(model).name}", unit="element", disable=None, leave=False) as bar:
+        def progress(done, total):
+            bar.total = total
+            bar.n = done
+            bar.refresh()
+
+        result = import_scene(Path(model), Path(outdir), settings, progress)
+    if result.failed:
+        print(f"warning: {failed_summary(Path(model), result.failed)}", file=sys.stderr)
+    for note in result.notes:
+        print(f"note: {model}: {note}", file=sys.stderr)
+    origin = "" if not any(result.origin) else \
+        f", origin {', '.join(f'{v:.3f}' for v in result.origin)} m" + (f" ({result.crs})" if result.crs else "")
+    print(f"imported {model} ({result.schema.split()[0]}): {result.elements:,} elements in {result.parts} parts, "
+          f"{result.triangles:,} triangles, {len(result.failed)} left out{origin}; {result.seconds:.1f} s", file=sys.stderr)
+    print(result.manifest)
 
 
 @scene.command("asbuilt")

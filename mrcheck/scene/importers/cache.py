@@ -18,11 +18,12 @@ import os
 import shutil
 import tempfile
 import time
+import warnings
 from pathlib import Path
 
 from mrcheck.core.errors import MrcheckError
 from mrcheck.scene.importers import read_model
-from mrcheck.scene.importers.records import ImportResult, ImportSettings
+from mrcheck.scene.importers.records import ImportResult, ImportSettings, default_settings
 from mrcheck.scene.importers.sniff import file_digest
 from mrcheck.scene.importers.writer import write_scene
 
@@ -73,7 +74,7 @@ def import_scene(path, outdir, settings: ImportSettings | None = None, progress=
 
 def cached_manifest(path, settings: ImportSettings | None = None, progress=None) -> ImportResult:
     """The manifest of the cached import of ``path``, importing it first on a miss."""
-    path, settings = Path(path), settings or ImportSettings()
+    path, settings = Path(path), settings or default_settings()
     start = time.perf_counter()
     from mrcheck.scene.importers.sniff import sniff
 
@@ -100,7 +101,23 @@ def cached_manifest(path, settings: ImportSettings | None = None, progress=None)
                 raise
     finally:
         shutil.rmtree(work, ignore_errors=True)
+    if model.failed:
+        warnings.warn(failed_summary(path, model.failed), LeftOutWarning, stacklevel=2)
     return _result(manifest, model, time.perf_counter() - start, cached=False)
 
 
-__all__ = ["import_scene", "cached_manifest", "cache_root", "cache_key", "IMPORTER_VERSION"]
+class LeftOutWarning(UserWarning):
+    """Elements left out of an import (their geometry failed): the rest imported."""
+
+
+SHOWN_FAILURES = 5
+
+
+def failed_summary(path: Path, failed) -> str:
+    """One line naming the elements left out (the first few; the scene's README lists all)."""
+    names = ", ".join(f"{f.ifc_class} {f.id}" for f in failed[:SHOWN_FAILURES])
+    more = f" and {len(failed) - SHOWN_FAILURES} more" if len(failed) > SHOWN_FAILURES else ""
+    return f"{path}: {len(failed)} element(s) without geometry left out: {names}{more}"
+
+
+__all__ = ["import_scene", "cached_manifest", "failed_summary", "LeftOutWarning", "cache_root", "cache_key", "IMPORTER_VERSION"]

@@ -46,6 +46,20 @@ class ImportSettings:
         return float(self.tolerance_px * 2.0 * self.distance_m * np.tan(np.radians(30.0)) / 1024.0)
 
 
+_DEFAULTS: dict = {}
+
+
+def set_default_settings(**values) -> None:
+    """What :func:`default_settings` gives (the CLI's ``mrcheck --coordinates``), process-wide."""
+    _DEFAULTS.clear()
+    _DEFAULTS.update(values)
+
+
+def default_settings() -> ImportSettings:
+    """The settings an IFC/STEP file given directly as SCENE is imported with."""
+    return ImportSettings(**_DEFAULTS)
+
+
 @dataclass
 class ImportedInstance:
     """One placed copy of a part: an IFC element (id = its GlobalId) or a STEP assembly
@@ -143,5 +157,5 @@ def unique_part_names(parts: list[ImportedPart]) -> None:
         part.name = base if count == 0 else f"{base}_{count + 1}"
 
 
-__all__ = ["unique_part_names", "ImportSettings", "ImportedInstance", "ImportedPart", "ImportedModel", "FailedElement", "ImportResult",
+__all__ = ["unique_part_names", "set_default_settings", "default_settings", "ImportSettings", "ImportedInstance", "ImportedPart", "ImportedModel", "FailedElement", "ImportResult",
            "COORDINATES", "DEFAULT_TOLERANCE_PX", "DEFAULT_DISTANCE_M"]
