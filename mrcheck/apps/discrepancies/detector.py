@@ -525,6 +525,7 @@ def detect(scene: Scene, camera: Camera, photo: np.ndarray, tolerance_px: float 
                          "centre": [round(float(cx), 1), round(float(cy), 1)],
                          "suspect": bool(flagged and not thin)})
     suspects.sort(key=lambda s: (-s["score"], s["id"]))
+    _add_elements(scene, suspects)
 
     # unexplained photo structure: photo edges far from every CAD edge, grouped into regions
     dist_to_cad = cv2.distanceTransform((~cad).astype(np.uint8), cv2.DIST_L2, 5)
@@ -607,6 +608,25 @@ def _legend(width: int) -> np.ndarray:
     return strip
 
 
+def _add_elements(scene: Scene, suspects: list) -> None:
+    """An imported (IFC/STEP) element's name, IFC class and storey on its suspect entry, as
+    ``element`` (absent for scenes that know none: their entries stay as they were)."""
+    known = {iid: info for part in scene.parts for iid, info in zip(part.instance_ids, part.instance_info)
+             if info.name or info.ifc_class or info.storey}
+    for suspect in suspects:
+        info = known.get(suspect["id"])
+        if info is not None:
+            suspect["element"] = {"name": info.name, "ifc_class": info.ifc_class, "storey": info.storey}
+
+
+def _element_label(s: dict) -> str:
+    """" (IfcColumn column-A01, Ground floor)" for an imported element, else ""."""
+    element = s.get("element")
+    text = ", ".join(v for v in (" ".join(v for v in (element["ifc_class"], element["name"]) if v), element["storey"]) if v) \
+        if element else ""
+    return f" ({text})" if text else ""
+
+
 def _markdown(result: dict, shot) -> str:
     lines = [f"# Suspect parts: {shot}", "",
              f"Support = share of a part's visible CAD outline pixels with a photo edge of the same direction "
@@ -619,7 +639,7 @@ def _markdown(result: dict, shot) -> str:
     for s in result["suspects"]:
         if s["suspect"]:
             rank += 1
-            lines.append(f"| {rank} | {s['id']} | {s['part']} | {s['score']:.2f} | {s['support']:.2f} | "
+            lines.append(f"| {rank} | {s['id']}{_element_label(s)} | {s['part']} | {s['score']:.2f} | {s['support']:.2f} | "
                          f"{s['edge_pixels']} | {', '.join(map(str, s['bbox']))} |")
     if rank == 0:
         lines.append("| - | no suspects | | | | | |")

@@ -39,11 +39,11 @@ class Picker:
         for part in self.scene.parts:
             v = np.asarray(part.vertices, np.float64)
             faces = np.ascontiguousarray(part.faces, np.uint32)
-            for transform, instance in zip(part.transforms, part.instance_ids):
+            for transform, instance, info in zip(part.transforms, part.instance_ids, part.instance_info):
                 T = np.asarray(transform, np.float64)
                 world = v @ T[:3, :3].T + (T[:3, 3] - origin)     # float64 until relative to origin
                 gid = raycaster.add_triangles(o3d.core.Tensor(world.astype(np.float32)), o3d.core.Tensor(faces))
-                table[int(gid)] = (part.name, instance)
+                table[int(gid)] = (part.name, instance, info)
         return raycaster, table
 
     def _caster_for(self, centre: np.ndarray):
@@ -56,7 +56,8 @@ class Picker:
         return entry
 
     def pick(self, camera: Camera, u: float, v: float) -> dict:
-        """The part at pixel (u, v) of ``camera``'s (distorted) photo: name, instance, distance (m)."""
+        """The part at pixel (u, v) of ``camera``'s (distorted) photo: name, instance, distance (m),
+        and for an imported (IFC/STEP) element its ``name``, ``ifc_class`` and ``storey``."""
         pixel = np.array([[[u, v]]], np.float64)
         x, y = cv2.undistortPoints(pixel, camera.K, camera.dist).reshape(2)
         direction = camera.R.T @ np.array([x, y, 1.0])
@@ -68,6 +69,7 @@ class Picker:
         t = float(hit["t_hit"].numpy()[0])
         if not np.isfinite(t):
             return {"part": None, "instance": None, "distance": None}
-        part, instance = table[int(hit["geometry_ids"].numpy()[0])]
+        part, instance, info = table[int(hit["geometry_ids"].numpy()[0])]
         return {"part": part, "instance": instance, "distance": round(t, 3),
-                "triangle": int(hit["primitive_ids"].numpy()[0])}
+                "triangle": int(hit["primitive_ids"].numpy()[0]),
+                "name": info.name, "ifc_class": info.ifc_class, "storey": info.storey}
