@@ -134,3 +134,24 @@ def test_a_manifest_origin_shifts_every_placement_and_viewpoint(ctx, generated, 
     near, far = load_scene(manifest), load_scene(shifted)
     np.testing.assert_allclose(far.bounds() - SHIFT, near.bounds(), atol=1e-6)
     _assert_same_image(_image(ctx, near, near.camera("overview", W, H)), _image(ctx, far, far.camera("overview", W, H)))
+
+
+def test_ray_casting_and_deviation_at_map_coordinates(generated, tmp_path):
+    """The discrepancy check's ray cast (which instance each pixel sees) and the scan deviation
+    (cloud-to-mesh distance) of the model at map coordinates equal those at its own, to 0.1 mm."""
+    from mrcheck.apps.deviation import signed_distances
+    from mrcheck.apps.discrepancies.detector import object_ids
+
+    manifest, _, mapped = generated
+    glb = load_scene(manifest)
+    at_map = load_scene(import_scene(mapped, tmp_path / "map", ImportSettings(coordinates="map")).manifest)
+    at_own = load_scene(import_scene(mapped, tmp_path / "own", ImportSettings(coordinates="model")).manifest)
+    near_ids = object_ids(at_own, glb.camera("overview", W, H))
+    far_ids = object_ids(at_map, _shifted_camera(glb, "overview", SHIFT))
+    assert (np.asarray(near_ids[0]) == np.asarray(far_ids[0])).mean() > 0.999
+    rng = np.random.default_rng(0)
+    lo, hi = at_own.bounds()
+    points = rng.uniform(lo, hi, size=(2000, 3))
+    near, _ = signed_distances(at_own, points)
+    far, _ = signed_distances(at_map, points + SHIFT)
+    np.testing.assert_allclose(far, near, atol=1e-4)
