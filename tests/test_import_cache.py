@@ -87,3 +87,30 @@ def test_import_replaces_an_earlier_import_but_no_other_folder(tmp_path):
     (other / "photo.jpg").write_bytes(b"x")
     with pytest.raises(MrcheckError, match="not empty and holds no imported scene"):
         import_scene(WALL, other)
+
+
+def test_many_instances_go_to_a_json_file_beside_the_mesh(tmp_path):
+    import json
+
+    import numpy as np
+    import trimesh
+
+    from factory_scenes.generator.ifc import write_ifc
+    from mrcheck.scene.model import Scene, make_part
+
+    box = trimesh.creation.box()
+    T = np.tile(np.eye(4), (40, 1, 1))
+    T[:, 0, 3] = np.arange(40) * 3.0
+    T[:, 1, 3] = 5e6                                    # far out: the matrices keep it exactly
+    scene = Scene("rows", tmp_path, [make_part("column", tmp_path, np.asarray(box.vertices), np.asarray(box.faces), T)])
+    model = write_ifc(scene, tmp_path / "rows.ifc", 0, "rows")
+    out = tmp_path / "rows"
+    import_scene(model, out)
+    table = json.loads((out / "meshes" / "column.instances.json").read_text())
+    assert len(table) == 40 and "instances_file" in (out / "scene.toml").read_text()
+    loaded = load_scene(out)
+    np.testing.assert_array_equal(np.sort(loaded.parts[0].transforms[:, 0, 3]), np.arange(40) * 3.0)
+    assert np.all(loaded.parts[0].transforms[:, 1, 3] == 5e6)
+    (out / "meshes" / "column.instances.json").write_text("[{")
+    with pytest.raises(MrcheckError, match=r"column\.instances\.json: malformed instances file"):
+        load_scene(out)

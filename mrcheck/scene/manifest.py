@@ -171,6 +171,9 @@ def scene_files(path) -> list[Path]:
         mesh = part.get("mesh") if isinstance(part, dict) else None
         if isinstance(mesh, str):
             files += mesh_files(path.parent / mesh)
+        instances = part.get("instances_file") if isinstance(part, dict) else None
+        if isinstance(instances, str):
+            files.append(Path(os.path.normpath(path.parent / instances)))
     return list(dict.fromkeys(files))
 
 

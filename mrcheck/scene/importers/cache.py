@@ -27,7 +27,7 @@ from mrcheck.scene.importers.records import ImportResult, ImportSettings, defaul
 from mrcheck.scene.importers.sniff import file_digest
 from mrcheck.scene.importers.writer import write_scene
 
-IMPORTER_VERSION = "1"    # bump when the importers' output changes: old entries are then misses
+IMPORTER_VERSION = "2"    # bump when the importers' output changes: old entries are then misses
 
 
 def cache_root() -> Path:

@@ -13,6 +13,7 @@ viewpoint, ``overview``, so that ``mrcheck render MODEL.ifc --view overview`` wo
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
@@ -25,6 +26,7 @@ from mrcheck.scene.manifest import dumps_manifest, write_generated
 MARKER = "Imported by mrcheck scene import"   # a folder whose scene.toml starts with this may be replaced
 OWN = ("scene.toml", "meshes", "README.md")
 OVERVIEW = "overview"
+INLINE_INSTANCES = 16            # more instances of a part go to meshes/NAME.instances.json
 OVERVIEW_SIZE = (1024, 768)
 OVERVIEW_FOV_DEG = 60.0
 
@@ -89,7 +91,13 @@ def _write_part(work: Path, part: ImportedPart) -> dict:
     for key in ("ifc_class", "storey"):
         if getattr(part, key):
             table[key] = getattr(part, key)
-    table["instances"] = [_instance(i, shift) for i in part.instances]
+    instances = [_instance(i, shift) for i in part.instances]
+    if len(instances) > INLINE_INSTANCES:   # thousands of matrices: JSON beside the mesh, not TOML
+        name = f"meshes/{part.name}.instances.json"
+        (work / name).write_text(json.dumps(instances, separators=(",", ":")), encoding="utf-8")
+        table["instances_file"] = name
+    else:
+        table["instances"] = instances
     return table
 
 
