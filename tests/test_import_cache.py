@@ -111,6 +111,9 @@ def test_many_instances_go_to_a_json_file_beside_the_mesh(tmp_path):
     loaded = load_scene(out)
     np.testing.assert_array_equal(np.sort(loaded.parts[0].transforms[:, 0, 3]), np.arange(40) * 3.0)
     assert np.all(loaded.parts[0].transforms[:, 1, 3] == 5e6)
+    from mrcheck.scene.manifest import read_manifest
+
+    assert len(read_manifest(out / "scene.toml")["parts"][0]["instances"]) == 40   # what asbuilt & co. read
     (out / "meshes" / "column.instances.json").write_text("[{")
     with pytest.raises(MrcheckError, match=r"column\.instances\.json: malformed instances file"):
         load_scene(out)

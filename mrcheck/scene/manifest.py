@@ -50,11 +50,17 @@ _BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
 
 
 def read_manifest(path) -> dict:
-    """The raw tables of a manifest that :func:`mrcheck.scene.model.load_scene` has already accepted."""
+    """The raw tables of a manifest that :func:`mrcheck.scene.model.load_scene` has already accepted;
+    a part's ``instances_file`` (an import's JSON list of instance tables) is read into its
+    ``instances``, so that every consumer sees one form."""
     path = Path(path)
     try:
-        return tomllib.loads(path.read_text(encoding="utf-8-sig"))   # as mrcheck.scene.model reads it
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        data = tomllib.loads(path.read_text(encoding="utf-8-sig"))   # as mrcheck.scene.model reads it
+        for part in data.get("parts", []):
+            if isinstance(part, dict) and isinstance(part.get("instances_file"), str):
+                part["instances"] = json.loads((path.parent / part.pop("instances_file")).read_text(encoding="utf-8"))
+        return data
+    except (OSError, UnicodeDecodeError, ValueError) as exc:   # TOMLDecodeError and JSON's are ValueErrors
         raise MrcheckError(f"cannot read manifest ({exc})", path) from None
 
 
