@@ -168,3 +168,29 @@ def test_wrong_extension_for_the_content(tmp_path, name, source, message):
 def test_not_a_step_physical_file(tmp_path, content, message):
     with pytest.raises(MrcheckError, match=message):
         read_model(_with(tmp_path, "model.ifc", content))
+
+
+def test_map_conversion_rotation_and_the_project_unit(tmp_path):
+    """IfcMapConversion with a 90-degree rotation in a millimetre project without a MapUnit: the
+    offsets are in the project's unit (mm), rotation about z, the origin kept in float64."""
+    import ifcopenshell
+    import ifcopenshell.api.georeference
+
+    model = ifcopenshell.open(str(DATA / "wall-standard-case.ifc"))
+    ifcopenshell.api.georeference.add_georeferencing(model, name="EPSG:25832")
+    ifcopenshell.api.georeference.edit_georeferencing(
+        model, projected_crs={"Name": "EPSG:25832"},
+        coordinate_operation={"Eastings": 458658780.0, "Northings": 5438232790.0, "OrthogonalHeight": 113700.0,
+                              "XAxisAbscissa": 0.0, "XAxisOrdinate": 1.0, "Scale": 1.0})
+    path = tmp_path / "wall_map.ifc"
+    model.write(str(path))
+    at_map = read_model(path, ImportSettings(coordinates="map"))
+    assert tuple(at_map.origin) == (458658.78, 5438232.79, 113.7) and at_map.crs == "EPSG:25832"
+    (part,) = at_map.parts
+    matrix = part.instances[0].matrix
+    world = part.vertices @ matrix[:3, :3].T + matrix[:3, 3]      # relative to the origin
+    # the wall runs 5 m along the model's x: rotated by 90 degrees it runs along the map's north
+    np.testing.assert_allclose(np.ptp(world, axis=0), [0.27, 5.0, 2.0], atol=1e-6)
+    np.testing.assert_allclose(world.min(axis=0), [-0.27, 0.0, 0.0], atol=1e-6)
+    at_own = read_model(path)
+    assert not np.any(at_own.origin) and any("--coordinates map" in n for n in at_own.notes)
