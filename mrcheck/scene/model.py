@@ -60,6 +60,9 @@ import numpy as np
 from mrcheck.core.camera import Camera, fit_size
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.inputs import check_input, read_input_text
+from mrcheck.scene.elements import (ELEMENT_KEYS, ElementInfo, element_info, manifest_crs, manifest_origin,
+                                    matrices_in_bulk, part_element_fields, read_instances_file, shifted,
+                                    viewpoint_in_world)
 
 UNITS = {"mm": 0.001, "cm": 0.01, "m": 1.0, "in": 0.0254, "ft": 0.3048}  # metres per unit
 MESH_SUFFIXES = (".glb", ".gltf", ".obj", ".stl", ".ply", ".off", ".urdf")
@@ -68,23 +71,11 @@ DEFAULT_COLOR = (0.7, 0.7, 0.7)  # linear RGB of parts without a colour
 DEGENERATE_WARNING_SHARE = 0.001  # warn when more than 0.1 % of a mesh's triangles have zero area
 VALIDATION_CHUNK = 1 << 20        # triangles checked per step (bounds the validation's memory)
 
-ELEMENT_KEYS = ("name", "ifc_class", "storey")   # what a BIM/CAD import knows about an element
 MANIFEST_KEYS = {"format", "name", "description", "origin", "crs", "package_path", "parts", "viewpoints"}
 _PART_KEYS = {"name", "mesh", "units", "color", "translate", "rotate_deg", "scale", "matrix", "instances", "joints",
               "ifc_class", "storey", "instances_file"}
 _INSTANCE_KEYS = {"id", "translate", "rotate_deg", "scale", "matrix"} | set(ELEMENT_KEYS)
 _VIEW_KEYS = {"name", "eye", "target", "up", "fov_y_deg", "width", "height"}
-
-
-@dataclass(frozen=True)
-class ElementInfo:
-    """What an IFC/STEP import knows about one instance (empty strings when nothing): the
-    element's name, IFC class (``IfcColumn``) and storey. The instance's id is its GlobalId (IFC)
-    or assembly path (STEP)."""
-
-    name: str = ""
-    ifc_class: str = ""
-    storey: str = ""
 
 
 def default_instance_ids(name: str, count: int) -> list[str]:
@@ -598,16 +589,6 @@ def _load_model(path: Path, units, progress: bool, import_settings) -> Scene:
     return scene
 
 
-def manifest_origin(data: dict, path: Path) -> np.ndarray:
-    """The manifest's ``origin`` (3,) float64, zeros when it has none."""
-    if "origin" not in data:
-        return np.zeros(3)
-    try:
-        return _vector(data["origin"], "origin")
-    except MrcheckError as exc:
-        raise MrcheckError(f"{exc} (metres, the world position of the manifest's placements)", path) from None
-
-
 def _load_manifest(path: Path, progress: bool) -> Scene:
     text = read_input_text(path, "manifest", encoding="utf-8-sig")   # -sig: a BOM (Windows Notepad) is no error
     try:
@@ -625,14 +606,11 @@ def _load_manifest(path: Path, progress: bool) -> Scene:
     if not tables:
         raise MrcheckError("scene is empty (no [[parts]])", path)
 
-    origin = manifest_origin(data, path)
+    origin, crs = manifest_origin(data, path), manifest_crs(data, path)
     folders = data.get("package_path", [])
     if not isinstance(folders, list) or not all(isinstance(f, str) for f in folders):
         raise MrcheckError("package_path must be a list of folders (relative to the manifest)", path)
     folders = [path.parent / f for f in folders]
-    crs = data.get("crs", "")
-    if not isinstance(crs, str):
-        raise MrcheckError(f"crs must be a string such as \"EPSG:25832\", got {crs!r}", path)
     viewpoints = {}
     views = data.get("viewpoints", [])
     if not isinstance(views, list) or not all(isinstance(t, dict) for t in views):
@@ -644,7 +622,7 @@ def _load_manifest(path: Path, progress: bool) -> Scene:
             raise MrcheckError(f"viewpoint {name!r} needs name, eye and target (unknown keys: {unknown or 'none'})", path)
         if name in viewpoints:
             raise MrcheckError(f"two viewpoints are named {name!r}", path)
-        viewpoints[name] = _shifted(table, origin, path)
+        viewpoints[name] = viewpoint_in_world(table, origin, path)
 
     from tqdm import tqdm
 
@@ -660,64 +638,6 @@ def _load_manifest(path: Path, progress: bool) -> Scene:
     for view in viewpoints:
         scene.camera(view)  # validate every viewpoint once, at load time
     return scene
-
-
-def _shifted(view: dict, origin: np.ndarray, path: Path) -> dict:
-    """A viewpoint table with eye and target in world coordinates (the manifest's are relative
-    to its origin)."""
-    if not np.any(origin):
-        return view
-    try:
-        return {**view, "eye": list(_vector(view["eye"], "eye") + origin),
-                "target": list(_vector(view["target"], "target") + origin)}
-    except MrcheckError as exc:
-        raise MrcheckError(f"viewpoint {view['name']!r}: {exc}", path) from None
-
-
-def _instances_file(path: Path, table: dict, where: str) -> list:
-    """The instance tables of a part's ``instances_file`` (JSON, relative to the manifest): an
-    import's thousands of instances parse some 50 times faster as JSON than as TOML."""
-    import json
-
-    if "instances" in table:
-        raise MrcheckError(f"{where}: give either instances or instances_file, not both", path)
-    name = table["instances_file"]
-    if not isinstance(name, str):
-        raise MrcheckError(f"{where}: instances_file must be a file name", path)
-    source = path.parent / name
-    try:
-        return json.loads(read_input_text(source, "instances file"))
-    except ValueError as exc:
-        raise MrcheckError(f"malformed instances file ({exc}; {where} of {path})", source) from None
-
-
-def matrices_in_bulk(tables: list, where: str) -> np.ndarray | None:
-    """(k, 4, 4) float64 of instance tables that each give only a ``matrix`` (and the element
-    keys), checked at once as :func:`transform_from_table` checks one; None for other tables."""
-    if len(tables) < 2 or not all("matrix" in t and set(t) <= {"matrix", "id", *ELEMENT_KEYS} for t in tables):
-        return None
-    try:
-        M = np.array([t["matrix"] for t in tables], dtype=np.float64)
-    except (TypeError, ValueError):
-        return None                  # ragged or not numbers: the one-by-one check names the instance
-    if M.shape != (len(tables), 4, 4) or not np.all(np.isfinite(M)) or not np.allclose(M[:, 3], (0, 0, 0, 1)):
-        return None
-    A = M[:, :3, :3]
-    if not np.all(np.abs(np.linalg.det(A)) > 1e-12 * np.linalg.norm(A, axis=(1, 2)) ** 3):
-        return None
-    return M
-
-
-def _element_info(tables: list, where: str, path: Path) -> list:
-    """The ElementInfo of every instance table (its ``name``, ``ifc_class``, ``storey``)."""
-    found = []
-    for i, t in enumerate(tables):
-        values = {k: t.get(k, "") for k in ELEMENT_KEYS}
-        bad = [k for k, v in values.items() if not isinstance(v, str)]
-        if bad:
-            raise MrcheckError(f"{where} instance {i}: {', '.join(bad)} must be text", path)
-        found.append(ElementInfo(**values))
-    return found
 
 
 def _part_from_table(path: Path, index: int, table: dict, names: set, owners: dict, origin=None,
@@ -741,7 +661,7 @@ def _part_from_table(path: Path, index: int, table: dict, names: set, owners: di
         unit_scale(table.get("units"), None)
     except MrcheckError as exc:
         raise MrcheckError(f"{where}: {exc}", path) from None
-    instances = _instances_file(path, table, where) if "instances_file" in table else \
+    instances = read_instances_file(path, table, where) if "instances_file" in table else \
         table.get("instances", [{}])   # no key: one copy at the part's own transform
     if not isinstance(instances, list) or not all(isinstance(t, dict) for t in instances):
         raise MrcheckError(f"{where}: instances must be an array of tables", path)
@@ -754,19 +674,14 @@ def _part_from_table(path: Path, index: int, table: dict, names: set, owners: di
             raise MrcheckError(f"{where} instance {i}: unknown key(s) {', '.join(unknown)}", path)
     try:
         base = transform_from_table(table, where)
-        bulk = matrices_in_bulk(instances, where)
+        bulk = matrices_in_bulk(instances)
         transforms = list(bulk @ base) if bulk is not None else \
             [transform_from_table(t, f"{where} instance {i}") @ base for i, t in enumerate(instances)]
     except MrcheckError as exc:
         raise MrcheckError(str(exc), path) from None
-    if origin is not None and np.any(origin):
-        shift = np.eye(4)
-        shift[:3, 3] = origin
-        transforms = [shift @ m for m in transforms]   # float64: exact to 1e-9 m at map coordinates
-    info = _element_info(instances, where, path)
-    for key in ("ifc_class", "storey"):
-        if not isinstance(table.get(key, ""), str):
-            raise MrcheckError(f"{where}: {key} must be text", path)
+    transforms = shifted(transforms, origin if origin is not None else np.zeros(3))
+    info = element_info(instances, where, path)
+    ifc_class, storey = part_element_fields(table, where, path)
     color = table.get("color")
     if color is not None:
         try:
@@ -803,7 +718,7 @@ def _part_from_table(path: Path, index: int, table: dict, names: set, owners: di
         error.path = exc.path
         raise error from None
     return make_part(name, path.parent / table["mesh"], vertices, faces, transforms, color, table.get("units"), ids,
-                     info, table.get("ifc_class", ""), table.get("storey", ""))
+                     info, ifc_class, storey)
 
 
-__all__ = ["ElementInfo", "ELEMENT_KEYS", "manifest_origin", "Part", "Scene", "UNITS", "float32_tiles", "load_scene", "read_mesh", "make_part", "transform_from_table"]
+__all__ = ["ElementInfo", "Part", "Scene", "UNITS", "float32_tiles", "load_scene", "read_mesh", "make_part", "transform_from_table"]
