@@ -153,5 +153,42 @@ def format_imports(ifc: IfcFigures | None, cache: CacheFigures | None, step: Ste
     return lines
 
 
-__all__ = ["IfcFigures", "CacheFigures", "StepFigures", "measure_ifc", "measure_cache", "measure_step",
+@dataclass
+class ImportReport:
+    """The import section of a bench run: its figures, as JSON and as report lines."""
+
+    ifc: IfcFigures | None
+    cache: CacheFigures | None
+    step: StepFigures | None
+
+    def to_json(self) -> dict:
+        from dataclasses import asdict
+
+        out = {k: asdict(v) for k, v in (("ifc", self.ifc), ("cache", self.cache), ("step", self.step)) if v is not None}
+        if self.ifc is not None:
+            out["ifc"].update(speedup=self.ifc.speedup, round_speedups=self.ifc.round_speedups,
+                              target_speedup=TWO_CORE_TARGET,
+                              elements_per_s={n: self.ifc.elements_per_s(n) for n in self.ifc.seconds},
+                              mb_per_s={n: self.ifc.mb_per_s(n) for n in self.ifc.seconds})
+        if self.cache is not None:
+            out["cache"]["share"] = self.cache.share
+        if self.step is not None:
+            out["step"]["seconds_per_mb"] = self.step.seconds_per_mb
+        return out
+
+    def lines(self) -> list[str]:
+        return format_imports(self.ifc, self.cache, self.step)
+
+
+def measure_imports(hall_ifc: Path | None, step_files, workdir: Path, rounds: int) -> ImportReport:
+    """Every import figure: the IFC importer on ``hall_ifc`` (one and two threads, ``rounds``
+    interleaved rounds), its first load and cached reload (a fresh cache in ``workdir``), and
+    the STEP files."""
+    ifc = measure_ifc(hall_ifc, rounds=rounds) if hall_ifc is not None else None
+    cache = measure_cache(hall_ifc, Path(workdir) / "import-cache") if hall_ifc is not None else None
+    step = measure_step(step_files) if step_files else None
+    return ImportReport(ifc, cache, step)
+
+
+__all__ = ["ImportReport", "measure_imports", "IfcFigures", "CacheFigures", "StepFigures", "measure_ifc", "measure_cache", "measure_step",
            "format_imports", "TWO_CORE_TARGET"]
