@@ -139,8 +139,8 @@ def test_a_manifest_origin_shifts_every_placement_and_viewpoint(ctx, generated, 
 def test_ray_casting_and_deviation_at_map_coordinates(generated, tmp_path):
     """The discrepancy check's ray cast (which instance each pixel sees) and the scan deviation
     (cloud-to-mesh distance) of the model at map coordinates equal those at its own, to 0.1 mm."""
-    from mrcheck.apps.deviation import signed_distances
-    from mrcheck.apps.discrepancies.detector import object_ids
+    from mrcheck.apps.deviation.distances import signed_distances
+    from mrcheck.apps.discrepancies.ids import object_ids
 
     manifest, _, mapped = generated
     glb = load_scene(manifest)

@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from mrcheck.core.errors import MrcheckError
+from mrcheck.core.progress import no_progress
 from mrcheck.scene.importers import ImportSettings, cache
 from mrcheck.scene.importers.cache import cache_root, cached_manifest, import_scene
 from mrcheck.scene.model import load_scene
@@ -29,7 +30,7 @@ def counted(monkeypatch):
     calls = []
     real = cache.read_model
 
-    def read_model(path, settings=None, progress=None):
+    def read_model(path, settings=None, progress=no_progress):
         calls.append(Path(path).name)
         return real(path, settings, progress)
 

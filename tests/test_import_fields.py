@@ -20,10 +20,13 @@ def test_hover_pick_names_the_element():
 
 
 def test_discrepancy_report_carries_the_element(tmp_path):
-    from mrcheck.apps.discrepancies.detector import detect, synthetic_photo
+    from mrcheck.apps.discrepancies.detector import detect
+    from mrcheck.apps.discrepancies.evaluation import synthetic_photo
 
     scene = load_scene(WALL)
     camera = scene.camera("overview", 320, 240)
     result = detect(scene, camera, synthetic_photo(scene, camera))
-    (suspect,) = result["suspects"]
-    assert suspect["id"] == "0czCsOQ5z4dg8QGBRFInu2" and suspect["element"]["ifc_class"] == "IfcWallStandardCase"
+    (suspect,) = result.suspects
+    assert suspect.id == "0czCsOQ5z4dg8QGBRFInu2" and suspect.element["ifc_class"] == "IfcWallStandardCase"
+    assert result.to_dict()["suspects"][0]["element"]["ifc_class"] == "IfcWallStandardCase"
+    assert suspect.element_label == " (IfcWallStandardCase)"

@@ -1,9 +1,30 @@
-"""The ``mrcheck`` click group that every command module adds its commands to."""
+"""The ``mrcheck`` click group that every command module adds its commands to.
+
+Help conventions (tests/test_cli_help.py holds every command to them): a command's docstring
+starts with a one-line summary paragraph, which ``mrcheck --help`` lists in full (never cut with
+"..."), and holds one copy-pasteable example in an ``Example:`` block.
+"""
 
 import click
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+class Group(click.Group):
+    """A click group whose command list shows each command's whole summary paragraph."""
+
+    group_class = type   # subgroups (``mrcheck scene``) list their commands the same way
+
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        rows = []
+        for name in self.list_commands(ctx):
+            command = self.get_command(ctx, name)
+            if command is not None and not command.hidden:
+                rows.append((name, command.get_short_help_str(limit=1_000_000)))
+        if rows:
+            with formatter.section("Commands"):
+                formatter.write_dl(rows)
+
+
+@click.group(cls=Group, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
 @click.version_option(package_name="mrcheck")
 @click.option("--package-path", multiple=True, metavar="DIR",
               help="Where URDF meshes named package://NAME/... are found: the package folder NAME or the folder "
@@ -16,7 +37,12 @@ def cli(package_path, coordinates):
     (Scheer & Keutel), for mixed-reality discrepancy checks.
 
     Every SCENE may be a manifest, a mesh file, a URDF, or an IFC/STEP model itself (imported
-    through a cache). Example: mrcheck --package-path ~/ws/src scene info robot.urdf"""
+    once, then cached).
+
+    \b
+    Example (then open mrcheck-demo/robot_study.png):
+      mrcheck demo -o mrcheck-demo
+    """
     from mrcheck.scene.importers.records import set_default_settings
     from mrcheck.scene.packages import set_package_path
 

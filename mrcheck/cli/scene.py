@@ -1,20 +1,25 @@
-"""``mrcheck scene generate | asbuilt | info``."""
+"""``mrcheck scene generate | import | asbuilt | info``."""
 
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import click
 
 from mrcheck.cli.group import cli
+from mrcheck.cli.messages import progress_bar
 from mrcheck.cli.options import FINITE, positive
 
 
 @cli.group()
 def scene():
-    """Factory scenes: generate procedural halls, make as-built variants, inspect a scene."""
+    """Factory scenes: generate, import IFC/STEP, make as-built variants, inspect.
+
+    \b
+    Example:
+      mrcheck scene info factory_scenes/sample_cell/scene.toml
+    """
 
 
 @scene.command("generate")
@@ -32,12 +37,15 @@ def scene():
                    "shapes, columns as IfcColumn, racks as IfcFurnishingElement).")
 @click.option("-o", "--output", "outdir", required=True, metavar="DIR", help="Folder for scene.toml and its meshes (replaced).")
 def scene_generate(preset, seed, size_m, target_triangles, units_mix, fmt, outdir):
-    """Write a procedural factory scene: a manifest plus GLB meshes, with real robots from their URDFs.
+    """Write a procedural factory scene (manifest + GLB meshes, or IFC4).
+
+    A manifest plus GLB meshes, with real robots from their URDFs; the same preset and seed
+    give the same files, byte for byte. --format ifc writes the same scene as scene.ifc.
 
     \b
     Examples:
-      mrcheck scene generate --preset hall --target-triangles 5000000 -o hall
-      mrcheck scene generate --preset cell --format ifc -o cell_ifc
+      mrcheck scene generate --preset line --seed 3 -o line3
+      mrcheck scene generate --preset hall --target-triangles 5000000 --format ifc -o hall_ifc
     """
     from factory_scenes.generator import generate
     from factory_scenes.generator.ifc import generate_ifc
@@ -63,36 +71,24 @@ def scene_generate(preset, seed, size_m, target_triangles, units_mix, fmt, outdi
               metavar="M", help="STEP tessellation: the viewing distance --tolerance-px is stated at (metres).")
 @click.option("--threads", type=click.IntRange(min=1), help="Geometry threads [default: every core].")
 def scene_import(model, outdir, coordinates, tolerance_px, distance_m, threads):
-    """Import an IFC (IFC2X3, IFC4, IFC4X3) or STEP (AP203, AP214, AP242) model as a normal mrcheck
-    scene. Every command also takes the model file itself (imported once, then cached).
+    """Import an IFC or STEP model as a normal mrcheck scene.
+
+    IFC2X3, IFC4, IFC4X3 (IfcOpenShell) and STEP AP203, AP214, AP242 (OpenCascade): one part
+    per distinct shape, instances with the GlobalId or assembly path as id. Every command also
+    takes the model file itself (imported once, then cached).
 
     \b
     Examples:
       mrcheck scene import hall.ifc --coordinates map -o hall_scene
       mrcheck scene import conveyor.step --tolerance-px 0.25 -o conveyor_scene
     """
-    from tqdm import tqdm
-
     from mrcheck.scene.importers import ImportSettings
-    from mrcheck.scene.importers.cache import failed_summary, import_scene
+    from mrcheck.scene.importers.cache import import_scene
 
     settings = ImportSettings(coordinates=coordinates, tolerance_px=tolerance_px, distance_m=distance_m,
                               threads=threads)
-    with tqdm(desc=f"importing {Path(model).name}", unit="element", disable=None, leave=False) as bar:
-        def progress(done, total):
-            bar.total = total
-            bar.n = done
-            bar.refresh()
-
-        result = import_scene(Path(model), Path(outdir), settings, progress)
-    if result.failed:
-        print(f"warning: {failed_summary(Path(model), result.failed)}", file=sys.stderr)
-    for note in result.notes:
-        print(f"note: {model}: {note}", file=sys.stderr)
-    origin = "" if not any(result.origin) else \
-        f", origin {', '.join(f'{v:.3f}' for v in result.origin)} m" + (f" ({result.crs})" if result.crs else "")
-    print(f"imported {model} ({result.schema.split()[0]}): {result.elements:,} elements in {result.parts} parts, "
-          f"{result.triangles:,} triangles, {len(result.failed)} left out{origin}; {result.seconds:.1f} s", file=sys.stderr)
+    result = import_scene(Path(model), Path(outdir), settings, progress_bar)
+    click.echo(result.summary(), err=True)
     print(result.manifest)
 
 
@@ -101,11 +97,19 @@ def scene_import(model, outdir, coordinates, tolerance_px, distance_m, threads):
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Which perturbations (same seed, same variant).")
 @click.option("-o", "--output", "outdir", required=True, metavar="DIR", help="Folder for the as-built scene and discrepancies.json.")
 def scene_asbuilt(scene_path, seed, outdir):
-    """Write a perturbed copy of a planned scene (objects moved, rotated, missing, added, replaced by
-    another size) and discrepancies.json listing every change: ground truth for discrepancy checks."""
+    """Write a perturbed as-built copy of a scene and its changes.
+
+    A copy of a planned scene with objects moved, rotated, missing, added or replaced by
+    another size, and discrepancies.json listing every change: ground truth for discrepancy
+    checks.
+
+    \b
+    Example:
+      mrcheck scene asbuilt factory_scenes/sample_cell/scene.toml --seed 2 -o built2
+    """
     from mrcheck.scene.asbuilt import make_asbuilt
 
-    for path in make_asbuilt(Path(scene_path), Path(outdir), seed=seed):
+    for path in make_asbuilt(Path(scene_path), Path(outdir), seed=seed, progress=progress_bar):
         print(path)
 
 
@@ -114,8 +118,15 @@ def scene_asbuilt(scene_path, seed, outdir):
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable: triangles, unique_triangles, bounds_m, parts, viewpoints.")
 @click.option("--units", type=click.Choice(["mm", "cm", "m", "in", "ft"]), help="Unit of a single mesh file SCENE.")
 def scene_info(scene_path, as_json, units):
-    """What a planner checks before rendering a CAD export: parts, units, instances, unique and
-    instanced triangle counts, bounds in metres, viewpoints."""
+    """Parts, units, triangles, bounds and viewpoints of a scene.
+
+    What a planner checks before rendering a CAD export: parts, units, instances, unique and
+    instanced triangle counts, bounds in metres, viewpoints.
+
+    \b
+    Example:
+      mrcheck scene info hall.glb --units mm --json
+    """
     from mrcheck.scene.info import describe, format_info
 
     info = describe(Path(scene_path), units=units)

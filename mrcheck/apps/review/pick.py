@@ -8,8 +8,8 @@ cast: float32 keeps better than 0.1 mm within a few kilometres of it. One such s
 every shot whose camera stands within :data:`ORIGIN_RADIUS_M` of its origin (the shots of one
 hall share one); a shot elsewhere gets its own, around its camera centre. The ray starts at the
 camera centre and goes through the *undistorted* pixel: the photo carries the lens distortion,
-so the pixel is undistorted with the shot's K and dist first. ``geometry_ids`` -> (part,
-instance) is the triangle -> part table.
+so the pixel is undistorted with the shot's K and dist first. The ray casting itself is
+:class:`mrcheck.eval.raycast.SceneCaster`'s (its hits name the part instance and the triangle).
 """
 
 from __future__ import annotations
@@ -18,9 +18,9 @@ import threading
 
 import cv2
 import numpy as np
-import open3d as o3d
 
 from mrcheck.core.camera import Camera
+from mrcheck.eval.raycast import SceneCaster, build_caster
 from mrcheck.scene.model import Scene
 
 ORIGIN_RADIUS_M = 1000.0   # float32 spacing 6e-5 m at 1 km: picks to the millimetre nearby
@@ -30,46 +30,43 @@ MAX_ORIGINS = 4            # ray-casting scenes kept (each holds the whole scene
 class Picker:
     def __init__(self, scene: Scene):
         self.scene = scene
-        self._casters: list[tuple[np.ndarray, o3d.t.geometry.RaycastingScene, dict]] = []
+        self._casters: list[tuple[np.ndarray, SceneCaster | None]] = []
         self._lock = threading.Lock()
-
-    def _build(self, origin: np.ndarray):
-        """The ray-casting scene of every instance relative to ``origin``, and its id table."""
-        raycaster, table = o3d.t.geometry.RaycastingScene(), {}
-        for part in self.scene.parts:
-            v = np.asarray(part.vertices, np.float64)
-            faces = np.ascontiguousarray(part.faces, np.uint32)
-            for transform, instance, info in zip(part.transforms, part.instance_ids, part.instance_info):
-                T = np.asarray(transform, np.float64)
-                world = v @ T[:3, :3].T + (T[:3, 3] - origin)     # float64 until relative to origin
-                gid = raycaster.add_triangles(o3d.core.Tensor(world.astype(np.float32)), o3d.core.Tensor(faces))
-                table[int(gid)] = (part.name, instance, info)
-        return raycaster, table
+        self._element_table: dict | None = None
 
     def _caster_for(self, centre: np.ndarray):
-        """(origin, raycaster, table) for a camera at ``centre``; call with the lock held."""
+        """(origin, caster or None for a scene without triangles) for a camera at ``centre``;
+        call with the lock held."""
         for entry in self._casters:
             if np.linalg.norm(centre - entry[0]) <= ORIGIN_RADIUS_M:
                 return entry
-        entry = (centre.copy(), *self._build(centre))
+        entry = (centre.copy(), build_caster(self.scene, centre))
         self._casters = [entry] + self._casters[:MAX_ORIGINS - 1]
         return entry
 
     def pick(self, camera: Camera, u: float, v: float) -> dict:
-        """The part at pixel (u, v) of ``camera``'s (distorted) photo: name, instance, distance (m),
-        and for an imported (IFC/STEP) element its ``name``, ``ifc_class`` and ``storey``."""
+        """The part at pixel (u, v) of ``camera``'s (distorted) photo: name, instance, distance (m)."""
         pixel = np.array([[[u, v]]], np.float64)
         x, y = cv2.undistortPoints(pixel, camera.K, camera.dist).reshape(2)
         direction = camera.R.T @ np.array([x, y, 1.0])
         direction /= np.linalg.norm(direction)
         with self._lock:
-            origin, raycaster, table = self._caster_for(camera.center)
+            origin, caster = self._caster_for(camera.center)
             ray = np.concatenate([camera.center - origin, direction]).astype(np.float32)[None]
-            hit = raycaster.cast_rays(o3d.core.Tensor(ray))
-        t = float(hit["t_hit"].numpy()[0])
-        if not np.isfinite(t):
+            hits = caster.cast(ray) if caster is not None else None
+        if hits is None or not hits.hit[0]:
             return {"part": None, "instance": None, "distance": None}
-        part, instance, info = table[int(hit["geometry_ids"].numpy()[0])]
-        return {"part": part, "instance": instance, "distance": round(t, 3),
-                "triangle": int(hit["primitive_ids"].numpy()[0]),
-                "name": info.name, "ifc_class": info.ifc_class, "storey": info.storey}
+        part, instance = caster.label(hits.instance[0])
+        info = self._elements().get(instance)
+        return {"part": part, "instance": instance, "distance": round(float(hits.t[0]), 3),
+                "triangle": int(hits.triangle[0]),
+                # an imported (IFC/STEP) element's name, class and storey; empty for other scenes
+                "name": info.name if info else "", "ifc_class": info.ifc_class if info else "",
+                "storey": info.storey if info else ""}
+
+    def _elements(self) -> dict:
+        """{instance id: ElementInfo} of the scene (made once)."""
+        if self._element_table is None:
+            self._element_table = {iid: info for part in self.scene.parts
+                                   for iid, info in zip(part.instance_ids, part.instance_info)}
+        return self._element_table

@@ -77,18 +77,16 @@ def _load() -> tuple:
     return tuple(round(v, 2) for v in os.getloadavg())
 
 
-def measure_ifc(path: Path, rounds: int = 2, threads=(1, 2), progress=None) -> IfcFigures:
+def measure_ifc(path: Path, rounds: int = 2, threads=(1, 2)) -> IfcFigures:
     """Import ``path`` ``rounds`` times at each thread count, interleaved."""
     times = {n: [] for n in threads}
     load = _load()
     model = None
-    for r in range(rounds):
+    for _ in range(rounds):
         for n in threads:
             start = time.perf_counter()
             model = read_model(path, ImportSettings(threads=n))
             times[n].append(time.perf_counter() - start)
-            if progress is not None:
-                progress(r * len(threads) + threads.index(n) + 1, rounds * len(threads))
     return IfcFigures(file=Path(path).name, megabytes=os.path.getsize(path) / 1e6, elements=model.element_count,
                       triangles=model.triangle_count, seconds={n: min(t) for n, t in times.items()}, rounds=times,
                       load=load)

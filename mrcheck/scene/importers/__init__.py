@@ -16,12 +16,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from mrcheck.core.progress import Progress, no_progress
 from mrcheck.scene.importers.records import ImportedModel, ImportSettings
 from mrcheck.scene.importers.sniff import IMPORT_SUFFIXES, sniff
 
 
-def read_model(path, settings: ImportSettings | None = None, progress=None) -> ImportedModel:
-    """The parts and instances of an IFC or STEP file; ``progress(done, total)`` as it goes."""
+def read_model(path, settings: ImportSettings | None = None, progress: Progress = no_progress) -> ImportedModel:
+    """The parts and instances of an IFC or STEP file; ``progress`` (a
+    :data:`mrcheck.core.progress.Progress`) shows the shapes as they are built."""
     path = Path(path)
     settings = settings or ImportSettings()
     kind = sniff(path)

@@ -18,10 +18,10 @@ import os
 import shutil
 import tempfile
 import time
-import warnings
 from pathlib import Path
 
-from mrcheck.core.errors import MrcheckError
+from mrcheck.core.errors import MrcheckError, warn
+from mrcheck.core.progress import Progress, no_progress
 from mrcheck.scene.importers import read_model
 from mrcheck.scene.importers.records import ImportResult, ImportSettings, default_settings
 from mrcheck.scene.importers.sniff import file_digest
@@ -57,7 +57,7 @@ def _result(manifest: Path, model, seconds: float, cached: bool) -> ImportResult
                         origin=tuple(float(v) for v in model.origin), crs=model.crs, notes=list(model.notes))
 
 
-def import_scene(path, outdir, settings: ImportSettings | None = None, progress=None) -> ImportResult:
+def import_scene(path, outdir, settings: ImportSettings | None = None, progress: Progress = no_progress) -> ImportResult:
     """Import an .ifc/.step file into the scene folder ``outdir`` (``mrcheck scene import``).
 
     Nothing is written when the import fails; an existing folder is replaced only when it holds
@@ -69,10 +69,11 @@ def import_scene(path, outdir, settings: ImportSettings | None = None, progress=
     start = time.perf_counter()
     model = read_model(path, settings, progress)
     manifest = write_scene(model, Path(outdir), _header(path, settings))
+    _warn_left_out(path, model)
     return _result(manifest, model, time.perf_counter() - start, cached=False)
 
 
-def cached_manifest(path, settings: ImportSettings | None = None, progress=None) -> ImportResult:
+def cached_manifest(path, settings: ImportSettings | None = None, progress: Progress = no_progress) -> ImportResult:
     """The manifest of the cached import of ``path``, importing it first on a miss."""
     path, settings = Path(path), settings or default_settings()
     start = time.perf_counter()
@@ -101,23 +102,26 @@ def cached_manifest(path, settings: ImportSettings | None = None, progress=None)
                 raise
     finally:
         shutil.rmtree(work, ignore_errors=True)
-    if model.failed:
-        warnings.warn(failed_summary(path, model.failed), LeftOutWarning, stacklevel=2)
+    _warn_left_out(path, model)
     return _result(manifest, model, time.perf_counter() - start, cached=False)
-
-
-class LeftOutWarning(UserWarning):
-    """Elements left out of an import (their geometry failed): the rest imported."""
 
 
 SHOWN_FAILURES = 5
 
 
-def failed_summary(path: Path, failed) -> str:
+def failed_summary(failed) -> str:
     """One line naming the elements left out (the first few; the scene's README lists all)."""
     names = ", ".join(f"{f.ifc_class} {f.id}" for f in failed[:SHOWN_FAILURES])
     more = f" and {len(failed) - SHOWN_FAILURES} more" if len(failed) > SHOWN_FAILURES else ""
-    return f"{path}: {len(failed)} element(s) without geometry left out: {names}{more}"
+    return f"{len(failed)} element(s) without geometry left out: {names}{more}"
 
 
-__all__ = ["import_scene", "cached_manifest", "failed_summary", "LeftOutWarning", "cache_root", "cache_key", "IMPORTER_VERSION"]
+def _warn_left_out(path: Path, model) -> None:
+    """The elements an import left out and its notes, as warnings (the CLI shows them)."""
+    if model.failed:
+        warn(failed_summary(model.failed), path)
+    for note in model.notes:
+        warn(note, path)
+
+
+__all__ = ["import_scene", "cached_manifest", "failed_summary", "cache_root", "cache_key", "IMPORTER_VERSION"]

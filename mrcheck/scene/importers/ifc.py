@@ -13,6 +13,7 @@ The iterator runs on ``threads`` cores (C++ threads: the Python loop only collec
 
 from __future__ import annotations
 
+import contextlib
 import re
 import time
 from pathlib import Path
@@ -20,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from mrcheck.core.errors import MrcheckError
+from mrcheck.core.progress import Progress, no_progress
 from mrcheck.core.quiet import native_output
 from mrcheck.scene.importers.georef import map_conversion, site_origin
 from mrcheck.scene.importers.ifc_mapped import Placements, mesh_maps, shape_arrays, shape_colour, split_mapped
@@ -39,10 +41,10 @@ def default_threads() -> int:
     return max(1, len(os.sched_getaffinity(0)))
 
 
-def read_ifc(path: Path, kind: FileKind, settings: ImportSettings, progress=None) -> ImportedModel:
+def read_ifc(path: Path, kind: FileKind, settings: ImportSettings, progress: Progress = no_progress) -> ImportedModel:
     """The model of an IFC file (already checked by :func:`mrcheck.scene.importers.sniff.sniff`).
 
-    ``progress(done, total)`` is called as elements are built. Raises MrcheckError for a file
+    ``progress`` (:data:`mrcheck.core.progress.Progress`) shows the shapes as they are built. Raises MrcheckError for a file
     IfcOpenShell cannot parse, a model without any element with a Body representation, and one
     where no element's geometry could be built.
     """
@@ -54,7 +56,7 @@ def read_ifc(path: Path, kind: FileKind, settings: ImportSettings, progress=None
                            "3-D 'Body' geometry): nothing to render", path)
     placement = _placement(model, settings, path)
     storeys = storey_names(model)
-    parts, seen = _iterate(model, settings, bodies, storeys, placement.matrix, progress)
+    parts, seen = _iterate(model, settings, bodies, storeys, placement.matrix, (progress, f"importing {path.name}"))
     failed = [FailedElement(e.GlobalId, e.is_a(), "IfcOpenShell built no geometry")
               for e in bodies if e.id() not in seen]
     if not parts:
@@ -174,35 +176,58 @@ def _geometry_settings(settings: ImportSettings):
 KERNELS = ("cgal-simple", "opencascade")
 
 
-def _iterate(model, settings, bodies, storeys, world, progress):
+def _iterate(model, settings, bodies, storeys, world, show):
     """{geometry id: ImportedPart} of every built element, and the step ids built: elements that
     only map a type's shape through :mod:`.ifc_mapped` (each shape meshed once), the rest through
     IfcOpenShell's iterator (cgal-simple, then OpenCascade for what that left out)."""
     import ifcopenshell.util.unit
 
-    parts, seen, total = {}, set(), len(bodies)
+    parts, seen = {}, set()
+    progress, desc = show
     groups, todo = split_mapped(bodies)
     threads = settings.threads or default_threads()
     unit_m = float(ifcopenshell.util.unit.calculate_unit_scale(model))
     meshes = mesh_maps(model, _geometry_settings(settings), groups, KERNELS, threads, unit_m)
     placements = Placements(unit_m)
-    for map_id, members in groups.items():
-        mesh = meshes.get(map_id)
-        if mesh is None:
-            todo += [element for element, _ in members]
-            continue
-        part = parts[f"map{map_id}"] = ImportedPart(name=_part_name(members[0][0]), vertices=mesh.vertices,
-                                                    faces=mesh.faces, color=mesh.color or DEFAULT_COLOR)
-        for element, item in members:
-            part.instances.append(_instance(element, world @ placements.element(element, item), storeys))
-            seen.add(element.id())
-        if progress is not None:
-            progress(len(seen), total)
+    with contextlib.closing(progress(list(groups.items()), desc, "shape")) as items:
+        for map_id, members in items:
+            _add_mapped(parts, seen, meshes.get(map_id), members, todo, (world, placements, storeys))
     for kernel in KERNELS:
         todo = [e for e in todo if e.id() not in seen]
         if todo:
-            _run_iterator(model, settings, kernel, todo, (parts, seen, total), storeys, world, progress)
+            with contextlib.closing(progress(_run_iterator(model, settings, kernel, todo), desc, "element")) as shapes:
+                for shape in shapes:
+                    _add_shape(model, parts, seen, shape, world, storeys)
     return [p for p in parts.values() if len(p.faces)], seen
+
+
+def _add_mapped(parts, seen, mesh, members, todo, frame) -> None:
+    """The instances of one representation map (``members``: (element, mapped item)), or, when
+    its mesh did not build, its elements onto ``todo`` (for the iterator)."""
+    world, placements, storeys = frame
+    if mesh is None:
+        todo += [element for element, _ in members]
+        return
+    map_id = members[0][1].MappingSource.id()
+    part = parts[f"map{map_id}"] = ImportedPart(name=_part_name(members[0][0]), vertices=mesh.vertices,
+                                                faces=mesh.faces, color=mesh.color or DEFAULT_COLOR)
+    for element, item in members:
+        part.instances.append(_instance(element, world @ placements.element(element, item), storeys))
+        seen.add(element.id())
+
+
+def _add_shape(model, parts, seen, shape, world, storeys) -> None:
+    """One element the iterator built: an instance of the part of its geometry id."""
+    import ifcopenshell.util.shape
+
+    element = model.by_id(shape.id)
+    seen.add(shape.id)
+    geometry = shape.geometry
+    part = parts.get(geometry.id)
+    if part is None:
+        part = parts[geometry.id] = _part(geometry, element)
+    matrix = world @ np.asarray(ifcopenshell.util.shape.get_shape_matrix(shape), np.float64)
+    part.instances.append(_instance(element, matrix, storeys))
 
 
 def _instance(element, matrix, storeys) -> ImportedInstance:
@@ -210,29 +235,18 @@ def _instance(element, matrix, storeys) -> ImportedInstance:
                             ifc_class=element.is_a(), storey=storeys.get(element.id(), ""))
 
 
-def _run_iterator(model, settings, kernel, include, state, storeys, world, progress):
-    """One pass of IfcOpenShell's iterator with ``kernel`` over the elements ``include``."""
+def _run_iterator(model, settings, kernel, include):
+    """The shapes of one pass of IfcOpenShell's iterator with ``kernel`` over the elements
+    ``include``, as they come."""
     import ifcopenshell.geom
-    import ifcopenshell.util.shape
 
-    parts, seen, total = state
     threads = settings.threads or default_threads()
     # IfcOpenShell logs failures to its own log (not stderr): the caller lists what was not built
     iterator = ifcopenshell.geom.iterator(_geometry_settings(settings), model, threads, geometry_library=kernel,
                                           include=include)
     ok = iterator.initialize()
     while ok:
-        shape = iterator.get()
-        element = model.by_id(shape.id)
-        seen.add(shape.id)
-        geometry = shape.geometry
-        part = parts.get(geometry.id)
-        if part is None:
-            part = parts[geometry.id] = _part(geometry, element)
-        matrix = world @ np.asarray(ifcopenshell.util.shape.get_shape_matrix(shape), np.float64)
-        part.instances.append(_instance(element, matrix, storeys))
-        if progress is not None:
-            progress(len(seen), total)
+        yield iterator.get()
         ok = iterator.next()
 
 
@@ -263,7 +277,7 @@ def _named(parts: list[ImportedPart]) -> list[ImportedPart]:
     return parts
 
 
-def timed_read(path, kind, settings, progress=None):
+def timed_read(path, kind, settings, progress: Progress = no_progress):
     """(model, seconds) of :func:`read_ifc` (the bench's figure)."""
     start = time.perf_counter()
     model = read_ifc(path, kind, settings, progress)

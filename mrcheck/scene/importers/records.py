@@ -142,6 +142,16 @@ class ImportResult:
     crs: str = ""
     notes: list[str] = field(default_factory=list)
 
+    def summary(self) -> str:
+        """The line ``scene import`` prints: what was imported, from where, how long it took."""
+        if self.cached:
+            return f"{self.manifest}: from the import cache"
+        origin = "" if not any(self.origin) else \
+            f", origin {', '.join(f'{v:.3f}' for v in self.origin)} m" + (f" ({self.crs})" if self.crs else "")
+        what = "elements" if self.kind == "ifc" else "instances"
+        return (f"imported {self.model_name} ({self.schema.split()[0]}): {self.elements:,} {what} in {self.parts} "
+                f"parts, {self.triangles:,} triangles, {len(self.failed)} left out{origin}; {self.seconds:.1f} s")
+
 
 _UNSAFE = re.compile(r"[^A-Za-z0-9_.-]+")
 

@@ -15,12 +15,14 @@ tolerance stated in pixels at a distance) and a 0.5 rad angular limit, on every 
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from mrcheck.core.errors import MrcheckError
+from mrcheck.core.progress import Progress, no_progress
 from mrcheck.core.quiet import native_output
 from mrcheck.scene.importers.records import (FailedElement, ImportedInstance, ImportedModel, ImportedPart, ImportSettings,
                                              unique_part_names)
@@ -38,7 +40,7 @@ class _Prototype:
     instances: list = field(default_factory=list)   # (path, matrix, color)
 
 
-def read_step(path: Path, kind: FileKind, settings: ImportSettings, progress=None) -> ImportedModel:
+def read_step(path: Path, kind: FileKind, settings: ImportSettings, progress: Progress = no_progress) -> ImportedModel:
     """The model of a STEP file (checked by :func:`mrcheck.scene.importers.sniff.sniff` first).
 
     Raises MrcheckError for a file the reader refuses, one without any shape, and one where no
@@ -53,20 +55,9 @@ def read_step(path: Path, kind: FileKind, settings: ImportSettings, progress=Non
     if not prototypes:
         raise MrcheckError(f"{kind.label} file holds no shape", path)
     parts, failed, skipped = [], [], 0
-    for index, proto in enumerate(prototypes.values()):
-        vertices, faces, face_colour = _tessellate(proto.shape, settings.deflection_m() / unit_m, colours)
-        if progress is not None:
-            progress(index + 1, len(prototypes))
-        if not len(faces):
-            if _has_faces(proto.shape):
-                failed += [FailedElement(p, "STEP shape", "does not tessellate") for p, _, _ in proto.instances]
-            else:   # a wireframe or point set (AP203's bounded wireframe): nothing to render
-                skipped += len(proto.instances)
-            continue
-        colour = proto.color or face_colour or DEFAULT_COLOR
-        instances = [ImportedInstance(id=p, matrix=m, name=p.rsplit("/", 1)[-1]) for p, m, _ in proto.instances]
-        parts.append(ImportedPart(name=proto.name, vertices=vertices * unit_m, faces=faces, color=colour,
-                                  instances=instances))
+    with contextlib.closing(progress(list(prototypes.values()), f"importing {path.name}", "shape")) as items:
+        for proto in items:
+            skipped += _add_prototype(proto, settings.deflection_m() / unit_m, colours, unit_m, parts, failed)
     if not parts:
         raise MrcheckError(f"no shape of the {kind.label} file tessellates ({len(failed)} failed to mesh, {skipped} "
                            "have no faces left: broken or missing surfaces?)", path)
@@ -74,6 +65,22 @@ def read_step(path: Path, kind: FileKind, settings: ImportSettings, progress=Non
     notes = [f"{skipped} shape(s) without faces (wireframe or points) left out"] if skipped else []
     return ImportedModel(name=path.stem, source=path, kind="step", schema=kind.schema, parts=parts, failed=failed,
                          notes=notes)
+
+
+def _add_prototype(proto, deflection: float, colours, unit_m: float, parts: list, failed: list) -> int:
+    """Tessellate one prototype onto ``parts`` (or its instances onto ``failed``); returns the
+    instances left out for having no faces at all (a wireframe or point set: AP203's bounded
+    wireframe), which are no failure."""
+    vertices, faces, face_colour = _tessellate(proto.shape, deflection, colours)
+    if not len(faces):
+        if _has_faces(proto.shape):
+            failed += [FailedElement(p, "STEP shape", "does not tessellate") for p, _, _ in proto.instances]
+            return 0
+        return len(proto.instances)
+    instances = [ImportedInstance(id=p, matrix=m, name=p.rsplit("/", 1)[-1]) for p, m, _ in proto.instances]
+    parts.append(ImportedPart(name=proto.name, vertices=vertices * unit_m, faces=faces,
+                              color=proto.color or face_colour or DEFAULT_COLOR, instances=instances))
+    return 0
 
 
 def _has_faces(shape) -> bool:
