@@ -61,6 +61,14 @@ def manifest_crs(data: dict, path: Path) -> str:
     return crs
 
 
+def manifest_package_path(data: dict, path: Path) -> list[Path]:
+    """The manifest's ``package_path`` folders (for URDF ``package://`` meshes), relative to it."""
+    folders = data.get("package_path", [])
+    if not isinstance(folders, list) or not all(isinstance(f, str) for f in folders):
+        raise MrcheckError("package_path must be a list of folders (relative to the manifest)", path)
+    return [path.parent / f for f in folders]
+
+
 def shifted(transforms, origin: np.ndarray) -> list:
     """Placements relative to ``origin`` as world transforms (float64: exact to 1e-9 m at map
     coordinates)."""
@@ -136,5 +144,5 @@ def part_element_fields(table: dict, where: str, path: Path) -> tuple[str, str]:
     return table.get("ifc_class", ""), table.get("storey", "")
 
 
-__all__ = ["ElementInfo", "ELEMENT_KEYS", "manifest_origin", "manifest_crs", "shifted", "viewpoint_in_world",
+__all__ = ["ElementInfo", "ELEMENT_KEYS", "manifest_origin", "manifest_crs", "manifest_package_path", "shifted", "viewpoint_in_world",
            "read_instances_file", "matrices_in_bulk", "element_info", "part_element_fields"]

@@ -57,8 +57,8 @@ from mrcheck.core.errors import MrcheckError
 from mrcheck.core.inputs import check_input, read_input_text
 from mrcheck.core.progress import no_progress, shown_progress
 from mrcheck.scene.elements import (ELEMENT_KEYS, ElementInfo, element_info, manifest_crs, manifest_origin,
-                                    matrices_in_bulk, part_element_fields, read_instances_file, shifted,
-                                    viewpoint_in_world)
+                                    manifest_package_path, matrices_in_bulk, part_element_fields,
+                                    read_instances_file, shifted, viewpoint_in_world)
 from mrcheck.scene.meshes import JointError, read_mesh
 
 UNITS = {"mm": 0.001, "cm": 0.01, "m": 1.0, "in": 0.0254, "ft": 0.3048}  # metres per unit
@@ -345,7 +345,9 @@ def load_scene(path, units: str | None = None, progress: bool = False, import_se
     from mrcheck.scene.importers.sniff import IMPORT_SUFFIXES
 
     if path.suffix.lower() in IMPORT_SUFFIXES and not path.is_dir():
-        return _load_model(path, units, progress, import_settings)
+        from mrcheck.scene.importers.cache import load_model
+
+        return load_model(path, units, progress, import_settings)
     if path.is_dir():
         candidates = [path / "scene.toml", *sorted(path.glob("*.toml"))]
         manifest = next((c for c in candidates if c.exists()), None)
@@ -359,18 +361,6 @@ def load_scene(path, units: str | None = None, progress: bool = False, import_se
     vertices, faces = read_mesh(path)
     part = make_part(path.stem, path, vertices, faces, np.eye(4), units=units)
     return Scene(name=path.stem, source=path, parts=[part])
-
-
-def _load_model(path: Path, units, progress: bool, import_settings) -> Scene:
-    """An IFC/STEP file through the import cache; the scene's source is the model file."""
-    from mrcheck.scene.importers.cache import cached_manifest
-
-    if units is not None:
-        raise MrcheckError("--units applies to a mesh file; an IFC or STEP file declares its own units", path)
-    result = cached_manifest(path, import_settings, shown_progress() if progress else no_progress)
-    scene = _load_manifest(result.manifest, progress)
-    scene.source = path
-    return scene
 
 
 def _load_manifest(path: Path, progress: bool) -> Scene:
@@ -391,10 +381,7 @@ def _load_manifest(path: Path, progress: bool) -> Scene:
         raise MrcheckError("scene is empty (no [[parts]])", path)
 
     origin, crs = manifest_origin(data, path), manifest_crs(data, path)
-    folders = data.get("package_path", [])
-    if not isinstance(folders, list) or not all(isinstance(f, str) for f in folders):
-        raise MrcheckError("package_path must be a list of folders (relative to the manifest)", path)
-    folders = [path.parent / f for f in folders]
+    folders = manifest_package_path(data, path)
     viewpoints = {}
     views = data.get("viewpoints", [])
     if not isinstance(views, list) or not all(isinstance(t, dict) for t in views):
