@@ -34,7 +34,8 @@ class ElementInfo:
     storey: str = ""
 
 
-def _three(value, where: str) -> np.ndarray:
+def vector3(value, where: str) -> np.ndarray:
+    """Three finite float64 numbers (a translation, an origin, an eye), else a MrcheckError."""
     try:
         v = np.array(value, dtype=np.float64)
     except (TypeError, ValueError):
@@ -49,7 +50,7 @@ def manifest_origin(data: dict, path: Path) -> np.ndarray:
     if "origin" not in data:
         return np.zeros(3)
     try:
-        return _three(data["origin"], "origin")
+        return vector3(data["origin"], "origin")
     except MrcheckError as exc:
         raise MrcheckError(f"{exc} (metres, the world position of the manifest's placements)", path) from None
 
@@ -85,8 +86,8 @@ def viewpoint_in_world(view: dict, origin: np.ndarray, path: Path) -> dict:
     if not np.any(origin):
         return view
     try:
-        return {**view, "eye": list(_three(view["eye"], "eye") + origin),
-                "target": list(_three(view["target"], "target") + origin)}
+        return {**view, "eye": list(vector3(view["eye"], "eye") + origin),
+                "target": list(vector3(view["target"], "target") + origin)}
     except MrcheckError as exc:
         raise MrcheckError(f"viewpoint {view['name']!r}: {exc}", path) from None
 
@@ -144,5 +145,6 @@ def part_element_fields(table: dict, where: str, path: Path) -> tuple[str, str]:
     return table.get("ifc_class", ""), table.get("storey", "")
 
 
-__all__ = ["ElementInfo", "ELEMENT_KEYS", "manifest_origin", "manifest_crs", "manifest_package_path", "shifted", "viewpoint_in_world",
+__all__ = ["vector3", "ElementInfo", "ELEMENT_KEYS", "manifest_origin", "manifest_crs", "manifest_package_path", "shifted",
+           "viewpoint_in_world",
            "read_instances_file", "matrices_in_bulk", "element_info", "part_element_fields"]

@@ -58,7 +58,7 @@ from mrcheck.core.inputs import check_input, read_input_text
 from mrcheck.core.progress import no_progress, shown_progress
 from mrcheck.scene.elements import (ELEMENT_KEYS, ElementInfo, element_info, manifest_crs, manifest_origin,
                                     manifest_package_path, matrices_in_bulk, part_element_fields,
-                                    read_instances_file, shifted, viewpoint_in_world)
+                                    read_instances_file, shifted, vector3, viewpoint_in_world)
 from mrcheck.scene.meshes import JointError, read_mesh
 
 UNITS = {"mm": 0.001, "cm": 0.01, "m": 1.0, "in": 0.0254, "ft": 0.3048}  # metres per unit
@@ -219,23 +219,13 @@ def transform_from_table(table: dict, where: str) -> np.ndarray:
                 raise MrcheckError(f"{where}: scale: {scale} is not a finite number")
             if not scale > 0:
                 raise MrcheckError(f"{where}: scale must be positive, got {scale}")
-            M[:3, :3] = _rotation_xyz(_vector(table.get("rotate_deg", (0, 0, 0)), f"{where} rotate_deg")) * scale
-            M[:3, 3] = _vector(table.get("translate", (0, 0, 0)), f"{where} translate")
+            M[:3, :3] = _rotation_xyz(vector3(table.get("rotate_deg", (0, 0, 0)), f"{where} rotate_deg")) * scale
+            M[:3, 3] = vector3(table.get("translate", (0, 0, 0)), f"{where} translate")
     except (TypeError, ValueError):
         raise MrcheckError(f"{where}: transform values must be numbers") from None
     if not np.all(np.isfinite(M)):
         raise MrcheckError(f"{where}: transform has NaN or infinite values")
     return M
-
-
-def _vector(value, where: str) -> np.ndarray:
-    try:
-        v = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise MrcheckError(f"{where} must be three numbers") from None
-    if v.shape != (3,) or not np.all(np.isfinite(v)):
-        raise MrcheckError(f"{where} must be three finite numbers, got {value!r}")
-    return v
 
 
 def unit_scale(units, where) -> float:
