@@ -88,7 +88,7 @@ import numpy as np
 
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.output import check_not_inputs, check_writable_ancestor
-from mrcheck.core.progress import Progress, no_progress
+from mrcheck.core.progress import Progress, no_progress, showing_progress
 from mrcheck.scene.asbuilt_plan import (
     DECIMALS,
     KINDS,
@@ -251,7 +251,8 @@ def make_asbuilt(scene_path, outdir, seed: int = 0, progress: Progress = no_prog
     ``outdir`` (replacing an earlier variant there); returns [scene.toml, discrepancies.json].
     ``progress``: shows choosing the changes and copying the meshes (and, given at all, loading
     the scene: a terminal bar of :func:`mrcheck.scene.model.load_scene`)."""
-    scene = load_scene(Path(scene_path), progress=progress is not no_progress)
+    with showing_progress(progress):   # the loading bar is the shown one: give it this command's display
+        scene = load_scene(Path(scene_path), progress=progress is not no_progress)
     # absolute first: `-o .` and `-o ../here` from inside the folder name the same folder
     manifest, outdir = scene.source, Path(os.path.abspath(outdir))
     if manifest.suffix.lower() != ".toml":
