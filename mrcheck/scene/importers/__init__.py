@@ -36,9 +36,4 @@ def read_model(path, settings: ImportSettings | None = None, progress: Progress 
     return read_step(path, kind, settings, progress)
 
 
-def is_model_file(path) -> bool:
-    """Whether ``path`` names a file the importers read (by extension)."""
-    return Path(path).suffix.lower() in IMPORT_SUFFIXES
-
-
-__all__ = ["read_model", "is_model_file", "ImportSettings", "ImportedModel", "IMPORT_SUFFIXES"]
+__all__ = ["read_model", "ImportSettings", "ImportedModel", "IMPORT_SUFFIXES"]

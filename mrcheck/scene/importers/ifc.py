@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import contextlib
 import re
-import time
 from pathlib import Path
 
 import numpy as np
@@ -277,11 +276,4 @@ def _named(parts: list[ImportedPart]) -> list[ImportedPart]:
     return parts
 
 
-def timed_read(path, kind, settings, progress: Progress = no_progress):
-    """(model, seconds) of :func:`read_ifc` (the bench's figure)."""
-    start = time.perf_counter()
-    model = read_ifc(path, kind, settings, progress)
-    return model, time.perf_counter() - start
-
-
-__all__ = ["read_ifc", "storey_names", "default_threads", "timed_read", "SKIPPED_CLASSES"]
+__all__ = ["read_ifc", "storey_names", "default_threads", "parse_error", "SKIPPED_CLASSES", "KERNELS"]

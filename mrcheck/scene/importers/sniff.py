@@ -7,7 +7,6 @@ unknown schema or a truncated download is one clear line instead of a parser's m
 
 from __future__ import annotations
 
-import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -120,9 +119,5 @@ def file_digest(path, chunk: int = 1 << 22) -> str:
     return digest.hexdigest()
 
 
-def file_size(path) -> int:
-    return os.stat(path).st_size
-
-
-__all__ = ["FileKind", "sniff", "file_digest", "file_size", "ifc_schema_family", "IMPORT_SUFFIXES", "IFC_SUFFIXES",
+__all__ = ["FileKind", "sniff", "file_digest", "ifc_schema_family", "IMPORT_SUFFIXES", "IFC_SUFFIXES",
            "STEP_SUFFIXES", "IFC_SCHEMAS"]
