@@ -14,7 +14,7 @@ from mrcheck.cli.options import FINITE, positive
 
 @cli.group()
 def scene():
-    """Factory scenes: generate, import IFC/STEP, make as-built variants, inspect.
+    """Factory scenes: generate, import, as-built variants, inspect.
 
     \b
     Example:
@@ -37,7 +37,7 @@ def scene():
                    "shapes, columns as IfcColumn, racks as IfcFurnishingElement).")
 @click.option("-o", "--output", "outdir", required=True, metavar="DIR", help="Folder for scene.toml and its meshes (replaced).")
 def scene_generate(preset, seed, size_m, target_triangles, units_mix, fmt, outdir):
-    """Write a procedural factory scene (manifest + GLB meshes, or IFC4).
+    """Write a procedural factory scene (GLB meshes, or IFC4).
 
     A manifest plus GLB meshes, with real robots from their URDFs; the same preset and seed
     give the same files, byte for byte. --format ifc writes the same scene as scene.ifc.
