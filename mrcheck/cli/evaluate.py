@@ -54,7 +54,9 @@ def _hall_generator():
     import factory_scenes.generator as generator
     from mrcheck.eval.bench.scenes import HallGenerator
 
-    return HallGenerator(generator.generate, Path(generator.__file__).parent)
+    from factory_scenes.generator.ifc import write_ifc
+
+    return HallGenerator(generator.generate, Path(generator.__file__).parent, write_ifc)
 
 
 def _progress_bar():

@@ -1,4 +1,4 @@
-"""``mrcheck scene generate | asbuilt | info``."""
+"""``mrcheck scene generate | import | asbuilt | info``."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from mrcheck.cli.options import FINITE, positive
 
 @cli.group()
 def scene():
-    """Factory scenes: generate, make as-built variants, inspect.
+    """Factory scenes: generate, import, as-built variants, inspect.
 
     \b
     Example:
@@ -32,22 +32,64 @@ def scene():
 @click.option("--units-mix", is_flag=True,
               help="Write parts in mm, m and inches as CAD exports arrive (declared in the manifest), plus a variant "
                    "scene_unit_missing.toml in which one part's unit is not declared.")
+@click.option("--format", "fmt", type=click.Choice(["glb", "ifc"]), default="glb", show_default=True,
+              help="glb: scene.toml plus GLB meshes; ifc: the same scene as one IFC4 file, scene.ifc (mapped type "
+                   "shapes, columns as IfcColumn, racks as IfcFurnishingElement).")
 @click.option("-o", "--output", "outdir", required=True, metavar="DIR", help="Folder for scene.toml and its meshes (replaced).")
-def scene_generate(preset, seed, size_m, target_triangles, units_mix, outdir):
-    """Write a procedural factory scene (manifest + GLB meshes).
+def scene_generate(preset, seed, size_m, target_triangles, units_mix, fmt, outdir):
+    """Write a procedural factory scene (GLB meshes, or IFC4).
 
     A manifest plus GLB meshes, with real robots from their URDFs; the same preset and seed
-    give the same files, byte for byte.
+    give the same files, byte for byte. --format ifc writes the same scene as scene.ifc.
 
     \b
-    Example:
+    Examples:
       mrcheck scene generate --preset line --seed 3 -o line3
+      mrcheck scene generate --preset hall --target-triangles 5000000 --format ifc -o hall_ifc
     """
     from factory_scenes.generator import generate
+    from factory_scenes.generator.ifc import generate_ifc
 
-    manifest = generate(preset, Path(outdir), seed=seed, size_m=size_m, target_triangles=target_triangles,
-                        units_mix=units_mix, progress=True)
-    print(manifest)
+    if fmt == "ifc" and units_mix:
+        raise click.BadParameter("--units-mix writes GLB meshes in mixed units; an IFC file declares one unit")
+    write = generate_ifc if fmt == "ifc" else generate
+    options = {"units_mix": units_mix} if fmt == "glb" else {}
+    print(write(preset, Path(outdir), seed=seed, size_m=size_m, target_triangles=target_triangles, progress=True,
+                **options))
+
+
+@scene.command("import")
+@click.argument("model", metavar="MODEL.ifc|.step|.stp")
+@click.option("-o", "--output", "outdir", required=True, metavar="DIR",
+              help="Folder for scene.toml, meshes/ and README.md (an earlier import there is replaced).")
+@click.option("--coordinates", type=click.Choice(["model", "map"]), default="model", show_default=True,
+              help="IFC: keep the model's own coordinates, or place it at its map coordinates (IfcMapConversion, "
+                   "else the site placement); the scene keeps the offset as its float64 origin.")
+@click.option("--tolerance-px", type=FINITE, default=0.5, show_default=True, callback=positive,
+              help="STEP tessellation: chord error in pixels of a 1024-pixel, 60-degree view at --at-distance.")
+@click.option("--at-distance", "distance_m", type=FINITE, default=2.0, show_default=True, callback=positive,
+              metavar="M", help="STEP tessellation: the viewing distance --tolerance-px is stated at (metres).")
+@click.option("--threads", type=click.IntRange(min=1), help="Geometry threads [default: every core].")
+def scene_import(model, outdir, coordinates, tolerance_px, distance_m, threads):
+    """Import an IFC or STEP model as a normal mrcheck scene.
+
+    IFC2X3, IFC4, IFC4X3 (IfcOpenShell) and STEP AP203, AP214, AP242 (OpenCascade): one part
+    per distinct shape, instances with the GlobalId or assembly path as id. Every command also
+    takes the model file itself (imported once, then cached).
+
+    \b
+    Examples:
+      mrcheck scene import hall.ifc --coordinates map -o hall_scene
+      mrcheck scene import conveyor.step --tolerance-px 0.25 -o conveyor_scene
+    """
+    from mrcheck.scene.importers import ImportSettings
+    from mrcheck.scene.importers.cache import import_scene
+
+    settings = ImportSettings(coordinates=coordinates, tolerance_px=tolerance_px, distance_m=distance_m,
+                              threads=threads)
+    result = import_scene(Path(model), Path(outdir), settings, progress_bar)
+    click.echo(result.summary(), err=True)
+    print(result.manifest)
 
 
 @scene.command("asbuilt")

@@ -11,7 +11,14 @@ Public API, by module:
 * ``info``: :func:`describe`, :func:`format_info` (``mrcheck scene info``);
 * ``robots``: the shipped URDF robots (:func:`robot_urdf`, :func:`copy_robot`, pose sampling);
 * ``asbuilt``: :func:`make_asbuilt` (``mrcheck scene asbuilt``); ``asbuilt_plan``: how its
-  changes are chosen.
+  changes are chosen;
+* ``elements``: :class:`ElementInfo` (an imported element's name, IFC class, storey:
+  ``Part.instance_info``), the manifest's float64 ``origin`` (``Scene.origin``, ``Scene.crs``),
+  instances files;
+* ``packages``: URDF ``package://`` resolution (:func:`set_package_path`, :func:`resolve`);
+* ``importers``: IFC and STEP (:func:`read_model`), ``importers.cache``: :func:`import_scene`
+  (``mrcheck scene import``), :func:`cached_manifest` and :func:`load_model` (a model file given
+  as SCENE).
 
 The scene generator (``factory_scenes``) builds on this API; mrcheck never imports it below the
 command line.

@@ -22,6 +22,12 @@ does, but without any GL) and returns a JSON-ready dictionary:
     one entry per part: ``name``, ``mesh`` (as written in the manifest, or the file as given),
     ``units`` (null = as authored), ``instances``, ``triangles`` (of the mesh),
     ``triangles_drawn`` (x instances), ``bounds_m`` (all its instances).
+``origin``, ``crs``
+    the float64 world position of the manifest's placements (map coordinates of an imported
+    BIM model, else zeros) and the map's CRS ("" when unknown).
+``parts[].ifc_class``, ``parts[].storey``, ``parts[].elements``
+    of imported (IFC/STEP) scenes: the part's IFC class and storey (when all its instances
+    share one) and per instance ``id`` (GlobalId or assembly path), ``name``, ``ifc_class``, ``storey``.
 ``viewpoints``
     one entry per named view: ``name``, ``eye``, ``target``, ``fov_y_deg``, ``width``,
     ``height`` (the defaults the renderer uses filled in).
@@ -35,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mrcheck.scene.importers.sniff import IMPORT_SUFFIXES
 from mrcheck.scene.manifest import mesh_files, read_manifest
 from mrcheck.scene.model import load_scene
 
@@ -51,11 +58,14 @@ def describe(path, units: str | None = None) -> dict:
     """The facts of the scene at ``path`` as a JSON-ready dictionary (see the module docstring)."""
     path = Path(path)
     scene = load_scene(path, units=units)
+    imported = scene.source.suffix.lower() in IMPORT_SUFFIXES
     if scene.source.suffix.lower() == ".toml":
         meshes = [table["mesh"] for table in read_manifest(scene.source)["parts"]]  # loader order
+    elif imported:   # the import cache's GLB of each part
+        meshes = [f"{path.name}: {part.name}" for part in scene.parts]
     else:
         meshes = [str(path)]
-    files = {f for part in scene.parts for f in mesh_files(part.source) if f.is_file()}
+    files = {scene.source} if imported else {f for part in scene.parts for f in mesh_files(part.source) if f.is_file()}
     parts = []
     for part, mesh in zip(scene.parts, meshes):
         boxes = part.instance_bounds()
@@ -67,6 +77,7 @@ def describe(path, units: str | None = None) -> dict:
             "triangles": part.triangle_count,
             "triangles_drawn": part.triangle_count * len(part.transforms),
             "bounds_m": [_floats(boxes[:, 0].min(axis=0)), _floats(boxes[:, 1].max(axis=0))],
+            **_element_fields(part),
         })
     views = []
     for name, vp in scene.viewpoints.items():
@@ -85,12 +96,24 @@ def describe(path, units: str | None = None) -> dict:
         "unique_triangles": sum(p.triangle_count for p in scene.parts),
         "instances": sum(len(p.transforms) for p in scene.parts),
         "bounds_m": [_floats(b) for b in scene.bounds()],
+        "origin": _floats(scene.origin),
+        "crs": scene.crs,
         "units_declared": sorted({p.units for p in scene.parts if p.units is not None}),
         "parts_without_units": [p.name for p in scene.parts if p.units is None],
         "files_bytes": sum(f.stat().st_size for f in files),
         "parts": parts,
         "viewpoints": views,
     }
+
+
+def _element_fields(part) -> dict:
+    """The IFC/STEP facts of a part and its instances (nothing for a part that has none)."""
+    known = any(info.name or info.ifc_class or info.storey for info in part.instance_info)
+    if not (known or part.ifc_class or part.storey):
+        return {}
+    return {"ifc_class": part.ifc_class, "storey": part.storey,
+            "elements": [{"id": iid, "name": info.name, "ifc_class": info.ifc_class, "storey": info.storey}
+                         for iid, info in zip(part.instance_ids, part.instance_info)]}
 
 
 def _size(n: int) -> str:
@@ -128,12 +151,19 @@ def format_info(info: dict) -> str:
         + (f" (+ {len(missing)} part(s) as authored)" if missing else ""),
         f"bounds      x {lo[0]:.3f} .. {hi[0]:.3f}   y {lo[1]:.3f} .. {hi[1]:.3f}   z {lo[2]:.3f} .. {hi[2]:.3f} m",
         f"extent      {extent[0]:.3f} x {extent[1]:.3f} x {extent[2]:.3f} m (L x W x H)",
-        "",
     ]
+    if any(info.get("origin", (0, 0, 0))) or info.get("crs"):
+        lines.append("origin      " + ", ".join(f"{v:.3f}" for v in info["origin"]) + " m"
+                     + (f" ({info['crs']})" if info.get("crs") else "") + "  (placements are relative to it)")
+    lines.append("")
     rows = [[p["name"], p["mesh"], p["units"] or "-", p["instances"], f"{p['triangles']:,}", f"{p['triangles_drawn']:,}",
              " x ".join(f"{e:.2f}" for e in np.subtract(p["bounds_m"][1], p["bounds_m"][0]))]
             for p in info["parts"]]
-    lines += _columns(["part", "mesh", "units", "instances", "triangles", "drawn", "extent m"], rows, right={3, 4, 5})
+    header = ["part", "mesh", "units", "instances", "triangles", "drawn", "extent m"]
+    if any("ifc_class" in p for p in info["parts"]):   # an imported model: what each part is, where
+        header += ["class", "storey"]
+        rows = [r + [p.get("ifc_class") or "-", p.get("storey") or "-"] for r, p in zip(rows, info["parts"])]
+    lines += _columns(header, rows, right={3, 4, 5})
     if info["viewpoints"]:
         lines += ["", "viewpoints"]
         rows = [[v["name"], _point(v["eye"]), _point(v["target"]), f"{v['fov_y_deg']:g}", f"{v['width']} x {v['height']}"]

@@ -37,6 +37,7 @@ from pathlib import Path
 from urllib.parse import unquote
 
 from mrcheck.core.errors import MrcheckError, display
+from mrcheck.scene import packages
 
 # files beside a URDF that carry its licence and provenance (matched case-insensitively)
 NOTICE_PREFIXES = ("license", "licence", "copying", "notice", "source", "authors", "readme")
@@ -49,11 +50,17 @@ _BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
 
 
 def read_manifest(path) -> dict:
-    """The raw tables of a manifest that :func:`mrcheck.scene.model.load_scene` has already accepted."""
+    """The raw tables of a manifest that :func:`mrcheck.scene.model.load_scene` has already accepted;
+    a part's ``instances_file`` (an import's JSON list of instance tables) is read into its
+    ``instances``, so that every consumer sees one form."""
     path = Path(path)
     try:
-        return tomllib.loads(path.read_text(encoding="utf-8-sig"))   # as mrcheck.scene.model reads it
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        data = tomllib.loads(path.read_text(encoding="utf-8-sig"))   # as mrcheck.scene.model reads it
+        for part in data.get("parts", []):
+            if isinstance(part, dict) and isinstance(part.get("instances_file"), str):
+                part["instances"] = json.loads((path.parent / part.pop("instances_file")).read_text(encoding="utf-8"))
+        return data
+    except (OSError, UnicodeDecodeError, ValueError) as exc:   # TOMLDecodeError and JSON's are ValueErrors
         raise MrcheckError(f"cannot read manifest ({exc})", path) from None
 
 
@@ -117,7 +124,8 @@ def _urdf_companions(path: Path) -> list[Path]:
             name = element.get("filename") if element.tag in ("mesh", "texture") else None
             if name:
                 # the loader's own resolution (relative, package://, parent folders of the URDF)
-                resolved = Path(os.path.normpath(yourdfpy.filename_handler_magic(name, dir=str(path.parent))))
+                located = packages.resolve(name, packages.search_folders(path)) if name.startswith(packages.PREFIX) else None
+                resolved = Path(os.path.normpath(located or yourdfpy.filename_handler_magic(name, dir=str(path.parent))))
                 if resolved.is_file():
                     found += mesh_files(resolved)
     finally:
@@ -169,6 +177,9 @@ def scene_files(path) -> list[Path]:
         mesh = part.get("mesh") if isinstance(part, dict) else None
         if isinstance(mesh, str):
             files += mesh_files(path.parent / mesh)
+        instances = part.get("instances_file") if isinstance(part, dict) else None
+        if isinstance(instances, str):
+            files.append(Path(os.path.normpath(path.parent / instances)))
     return list(dict.fromkeys(files))
 
 

@@ -26,12 +26,13 @@ DEGENERATE_WARNING_SHARE = 0.001  # warn when more than 0.1 % of a mesh's triang
 VALIDATION_CHUNK = 1 << 20        # triangles checked per step (bounds the validation's memory)
 
 
-def read_mesh(path: Path, joints: dict | None = None):
+def read_mesh(path: Path, joints: dict | None = None, package_folders=()):
     """(vertices (n, 3) float64, faces (m, 3) int64) of a mesh file or a posed URDF, validated.
 
     NaN/infinite coordinates and meshes with no proper triangle are errors; degenerate
     (zero-area) triangles among good ones are dropped with a warning, as CAD exports often
-    carry a few.
+    carry a few. ``package_folders``: where a URDF's ``package://`` meshes are looked up besides
+    the defaults (:mod:`mrcheck.scene.packages`).
     """
     path = Path(path)
     if check_input(path, "mesh file").st_size == 0:  # the readers' own errors for this are cryptic (index out of bounds)
@@ -43,7 +44,7 @@ def read_mesh(path: Path, joints: dict | None = None):
         raise MrcheckError("joints are only meaningful for a URDF part", path)
     try:
         if suffix == ".urdf":
-            vertices, faces = _read_urdf(path, joints or {})
+            vertices, faces = _read_urdf(path, joints or {}, package_folders)
         else:
             import trimesh
 
@@ -98,12 +99,14 @@ def _ascii_aliases(folder: str, handler):
     return aliased
 
 
-def _read_urdf(path: Path, joints: dict):
+def _read_urdf(path: Path, joints: dict, package_folders=()):
     import yourdfpy
+
+    from mrcheck.scene import packages
 
     # yourdfpy logs what goes wrong (malformed XML, a mesh file it cannot find) and carries on;
     # its messages are kept for the one-line error instead of being printed around it
-    handler = partial(yourdfpy.filename_handler_magic, dir=str(path.parent))
+    handler = packages.handler(path, partial(yourdfpy.filename_handler_magic, dir=str(path.parent)), package_folders)
     logger, collect = logging.getLogger("yourdfpy"), _Collect()
     logger.addHandler(collect)
     propagate, logger.propagate = logger.propagate, False
@@ -122,7 +125,9 @@ def _read_urdf(path: Path, joints: dict):
         logger.propagate = propagate
     missing = [m[len("Can't find "):] for m in collect.messages if m.startswith("Can't find ")]
     if missing:
-        raise MrcheckError(f"URDF mesh file(s) not found: {', '.join(missing)}", path)
+        names = sorted({m[len(packages.PREFIX):].split("/")[0] for m in missing if m.startswith(packages.PREFIX)})
+        hint = f" ({packages.hint(', '.join(names))})" if names else ""
+        raise MrcheckError(f"URDF mesh file(s) not found: {', '.join(missing)}{hint}", path)
     unknown = sorted(set(joints) - set(robot.actuated_joint_names))
     if unknown:
         raise JointError(f"unknown joint(s) {', '.join(unknown)} (the robot {path.name} has: "

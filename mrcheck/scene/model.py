@@ -56,15 +56,19 @@ from mrcheck.core.camera import Camera, fit_size
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.inputs import check_input, read_input_text
 from mrcheck.core.progress import no_progress, shown_progress
+from mrcheck.scene.elements import (ELEMENT_KEYS, ElementInfo, element_info, manifest_crs, manifest_origin,
+                                    manifest_package_path, matrices_in_bulk, part_element_fields,
+                                    read_instances_file, shifted, vector3, viewpoint_in_world)
 from mrcheck.scene.meshes import JointError, read_mesh
 
 UNITS = {"mm": 0.001, "cm": 0.01, "m": 1.0, "in": 0.0254, "ft": 0.3048}  # metres per unit
 DEFAULT_COLOR = (0.7, 0.7, 0.7)  # linear RGB of parts without a colour
 
 
-MANIFEST_KEYS = {"format", "name", "description", "parts", "viewpoints"}
-_PART_KEYS = {"name", "mesh", "units", "color", "translate", "rotate_deg", "scale", "matrix", "instances", "joints"}
-_INSTANCE_KEYS = {"id", "translate", "rotate_deg", "scale", "matrix"}
+MANIFEST_KEYS = {"format", "name", "description", "origin", "crs", "package_path", "parts", "viewpoints"}
+_PART_KEYS = {"name", "mesh", "units", "color", "translate", "rotate_deg", "scale", "matrix", "instances", "joints",
+              "ifc_class", "storey", "instances_file"}
+_INSTANCE_KEYS = {"id", "translate", "rotate_deg", "scale", "matrix"} | set(ELEMENT_KEYS)
 _VIEW_KEYS = {"name", "eye", "target", "up", "fov_y_deg", "width", "height"}
 
 
@@ -89,6 +93,10 @@ class Part:
     instance_ids : list of str
         One per instance: the manifest's ``id``, else ``NAME`` for a single instance and
         ``NAME#i`` for instance i (what as-built discrepancy lists refer to).
+    instance_info : list of ElementInfo
+        One per instance: name, IFC class and storey of an imported element (empty otherwise).
+    ifc_class, storey : str
+        The part's, when all its instances share one (imported scenes), else "".
     """
 
     name: str
@@ -99,11 +107,16 @@ class Part:
     color: tuple = DEFAULT_COLOR
     units: str | None = None
     instance_ids: list = field(default_factory=list)
+    instance_info: list = field(default_factory=list)
+    ifc_class: str = ""
+    storey: str = ""
     _bounds: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
         if not self.instance_ids:
             self.instance_ids = default_instance_ids(self.name, len(self.transforms))
+        if not self.instance_info:
+            self.instance_info = [ElementInfo() for _ in self.instance_ids]
 
     @property
     def triangle_count(self) -> int:
@@ -126,10 +139,27 @@ class Part:
 
 @dataclass
 class Scene:
+    """Parts in world coordinates (float64 transforms, metres).
+
+    ``origin`` (3,) float64 is the world position of the manifest's frame (its ``origin`` key:
+    placements and viewpoints are relative to it, world = origin + placement); a model at map
+    coordinates has its map offset here, and ``crs`` names the map (``EPSG:25832``) when known.
+    """
+
     name: str
     source: Path
     parts: list[Part]
     viewpoints: dict = field(default_factory=dict)
+    origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    crs: str = ""
+
+    def element(self, instance_id: str):
+        """(part, instance index, ElementInfo) of an instance id, or None."""
+        for part in self.parts:
+            if instance_id in part.instance_ids:
+                index = part.instance_ids.index(instance_id)
+                return part, index, part.instance_info[index]
+        return None
 
     @property
     def triangle_count(self) -> int:
@@ -189,23 +219,13 @@ def transform_from_table(table: dict, where: str) -> np.ndarray:
                 raise MrcheckError(f"{where}: scale: {scale} is not a finite number")
             if not scale > 0:
                 raise MrcheckError(f"{where}: scale must be positive, got {scale}")
-            M[:3, :3] = _rotation_xyz(_vector(table.get("rotate_deg", (0, 0, 0)), f"{where} rotate_deg")) * scale
-            M[:3, 3] = _vector(table.get("translate", (0, 0, 0)), f"{where} translate")
+            M[:3, :3] = _rotation_xyz(vector3(table.get("rotate_deg", (0, 0, 0)), f"{where} rotate_deg")) * scale
+            M[:3, 3] = vector3(table.get("translate", (0, 0, 0)), f"{where} translate")
     except (TypeError, ValueError):
         raise MrcheckError(f"{where}: transform values must be numbers") from None
     if not np.all(np.isfinite(M)):
         raise MrcheckError(f"{where}: transform has NaN or infinite values")
     return M
-
-
-def _vector(value, where: str) -> np.ndarray:
-    try:
-        v = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise MrcheckError(f"{where} must be three numbers") from None
-    if v.shape != (3,) or not np.all(np.isfinite(v)):
-        raise MrcheckError(f"{where} must be three finite numbers, got {value!r}")
-    return v
 
 
 def unit_scale(units, where) -> float:
@@ -277,7 +297,8 @@ def _stored(local: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return local
 
 
-def make_part(name, source, vertices, faces, transforms, color=None, units=None, instance_ids=None) -> Part:
+def make_part(name, source, vertices, faces, transforms, color=None, units=None, instance_ids=None,
+              instance_info=None, ifc_class: str = "", storey: str = "") -> Part:
     """A :class:`Part` from float64 geometry: re-centred, scaled to metres, stored as float32
     (float64 where float32 would not hold it, see :func:`_stored`)."""
     scale = unit_scale(units, source)
@@ -297,15 +318,26 @@ def make_part(name, source, vertices, faces, transforms, color=None, units=None,
         color=tuple(float(c) for c in (color if color is not None else DEFAULT_COLOR)),
         units=units,
         instance_ids=list(instance_ids or []),
+        instance_info=list(instance_info or []),
+        ifc_class=ifc_class,
+        storey=storey,
     )
 
 
 # -- loading ------------------------------------------------------------------------------------
-def load_scene(path, units: str | None = None, progress: bool = False) -> Scene:
-    """A manifest (``.toml``) or any single mesh file (then ``units`` says its unit);
-    ``progress``: the parts' loading shown through :func:`mrcheck.core.progress.shown_progress`."""
+def load_scene(path, units: str | None = None, progress: bool = False, import_settings=None) -> Scene:
+    """A manifest (``.toml``), an IFC/STEP model (imported through the cache,
+    :mod:`mrcheck.scene.importers.cache`, with ``import_settings``) or any single mesh file (then
+    ``units`` says its unit); ``progress``: the loading shown through
+    :func:`mrcheck.core.progress.shown_progress`."""
     path = Path(path)
     check_input(path, "scene file", folder_ok=True)
+    from mrcheck.scene.importers.sniff import IMPORT_SUFFIXES
+
+    if path.suffix.lower() in IMPORT_SUFFIXES and not path.is_dir():
+        from mrcheck.scene.importers.cache import load_model
+
+        return load_model(path, units, progress, import_settings)
     if path.is_dir():
         candidates = [path / "scene.toml", *sorted(path.glob("*.toml"))]
         manifest = next((c for c in candidates if c.exists()), None)
@@ -338,6 +370,8 @@ def _load_manifest(path: Path, progress: bool) -> Scene:
     if not tables:
         raise MrcheckError("scene is empty (no [[parts]])", path)
 
+    origin, crs = manifest_origin(data, path), manifest_crs(data, path)
+    folders = manifest_package_path(data, path)
     viewpoints = {}
     views = data.get("viewpoints", [])
     if not isinstance(views, list) or not all(isinstance(t, dict) for t in views):
@@ -349,24 +383,28 @@ def _load_manifest(path: Path, progress: bool) -> Scene:
             raise MrcheckError(f"viewpoint {name!r} needs name, eye and target (unknown keys: {unknown or 'none'})", path)
         if name in viewpoints:
             raise MrcheckError(f"two viewpoints are named {name!r}", path)
-        viewpoints[name] = table
+        viewpoints[name] = viewpoint_in_world(table, origin, path)
 
     parts, names, owners = [], set(), {}
     show = shown_progress() if progress else no_progress
     # closing: a bar is taken down on an error too, so the error line starts a clean line
     with contextlib.closing(show(tables, "loading scene", "part")) as items:
         for index, table in enumerate(items):
-            parts.append(_part_from_table(path, index, table, names, owners))
+            parts.append(_part_from_table(path, index, table, names, owners, origin, folders))
 
-    scene = Scene(name=data.get("name", path.stem), source=path, parts=parts, viewpoints=viewpoints)
+    scene = Scene(name=data.get("name", path.stem), source=path, parts=parts, viewpoints=viewpoints, origin=origin,
+                  crs=crs)
     for view in viewpoints:
         scene.camera(view)  # validate every viewpoint once, at load time
     return scene
 
 
-def _part_from_table(path: Path, index: int, table: dict, names: set, owners: dict) -> Part:
+def _part_from_table(path: Path, index: int, table: dict, names: set, owners: dict, origin=None,
+                     package_folders=()) -> Part:
     """The part of one [[parts]] table of the manifest ``path``; ``names`` collects part names,
-    ``owners`` maps every instance id so far to its part's name."""
+    ``owners`` maps every instance id so far to its part's name; placements are relative to
+    ``origin`` (float64, the manifest's); URDF ``package://`` meshes are also looked up in
+    ``package_folders``."""
     where = f"part {table.get('name', index)!r}"
     unknown = sorted(set(table) - _PART_KEYS)
     if unknown:
@@ -383,7 +421,8 @@ def _part_from_table(path: Path, index: int, table: dict, names: set, owners: di
         unit_scale(table.get("units"), None)
     except MrcheckError as exc:
         raise MrcheckError(f"{where}: {exc}", path) from None
-    instances = table.get("instances", [{}])   # no key: one copy at the part's own transform
+    instances = read_instances_file(path, table, where) if "instances_file" in table else \
+        table.get("instances", [{}])   # no key: one copy at the part's own transform
     if not isinstance(instances, list) or not all(isinstance(t, dict) for t in instances):
         raise MrcheckError(f"{where}: instances must be an array of tables", path)
     if not instances:   # it drew one copy before, silently; a planner who empties it means none
@@ -393,23 +432,32 @@ def _part_from_table(path: Path, index: int, table: dict, names: set, owners: di
         unknown = sorted(set(t) - _INSTANCE_KEYS)
         if unknown:
             raise MrcheckError(f"{where} instance {i}: unknown key(s) {', '.join(unknown)}", path)
-    try:
-        base = transform_from_table(table, where)
-        transforms = [transform_from_table(t, f"{where} instance {i}") @ base for i, t in enumerate(instances)]
-    except MrcheckError as exc:
-        raise MrcheckError(str(exc), path) from None
+    transforms = shifted(_transforms(table, instances, where, path), origin if origin is not None else np.zeros(3))
     color = _part_color(table, where, path)
     joints = _part_joints(table, where, path)
     ids = _instance_ids(name, instances, owners, path)
     try:
-        vertices, faces = read_mesh(path.parent / table["mesh"], joints)
+        vertices, faces = read_mesh(path.parent / table["mesh"], joints, package_folders)
     except JointError as exc:     # the manifest's value is wrong: name the manifest and the part
         raise MrcheckError(f"{where}: {exc}", path) from None
     except MrcheckError as exc:   # the mesh is named; say which manifest entry asked for it
         error = MrcheckError(f"{exc} ({where} of {path})")
         error.path = exc.path
         raise error from None
-    return make_part(name, path.parent / table["mesh"], vertices, faces, transforms, color, table.get("units"), ids)
+    return make_part(name, path.parent / table["mesh"], vertices, faces, transforms, color, table.get("units"), ids,
+                     element_info(instances, where, path), *part_element_fields(table, where, path))
+
+
+def _transforms(table: dict, instances: list, where: str, path: Path) -> list:
+    """Every instance's transform @ the part's (checked at once for an import's plain matrices)."""
+    try:
+        base = transform_from_table(table, where)
+        bulk = matrices_in_bulk(instances)
+        if bulk is not None:
+            return list(bulk @ base)
+        return [transform_from_table(t, f"{where} instance {i}") @ base for i, t in enumerate(instances)]
+    except MrcheckError as exc:
+        raise MrcheckError(str(exc), path) from None
 
 
 def _part_color(table: dict, where: str, path: Path):
@@ -455,4 +503,4 @@ def _instance_ids(name: str, instances: list, owners: dict, path: Path) -> list[
     return ids
 
 
-__all__ = ["Part", "Scene", "UNITS", "float32_tiles", "load_scene", "make_part", "transform_from_table"]
+__all__ = ["ElementInfo", "Part", "Scene", "UNITS", "float32_tiles", "load_scene", "make_part", "transform_from_table"]

@@ -109,6 +109,17 @@ class Suspect:
     bbox: list[int]              # [x0, y0, x1, y1] of the instance's visible pixels
     centre: list[float]          # [x, y] of its unsupported outline (else of its pixels)
     suspect: bool
+    # an imported (IFC/STEP) element's {"name", "ifc_class", "storey"}; None for other scenes
+    element: dict | None = None
+
+    @property
+    def element_label(self) -> str:
+        """" (IfcColumn column-A01, Ground floor)" for an imported element, else ""."""
+        if not self.element:
+            return ""
+        what = " ".join(v for v in (self.element["ifc_class"], self.element["name"]) if v)
+        text = ", ".join(v for v in (what, self.element["storey"]) if v)
+        return f" ({text})" if text else ""
 
 
 @dataclass
@@ -287,9 +298,20 @@ def detect(scene: Scene, camera: Camera, photo: np.ndarray, tolerance_px: float 
     suspects = [s for index in np.unique(owner[owner >= 0])
                 if (s := _suspect(planned, int(index), sup, tol, threshold)) is not None]
     suspects.sort(key=lambda s: (-s.score, s.id))
+    _add_elements(scene, suspects)
     regions, unexplained = _regions(sup.edges, planned.cad, tol)
     return Detection(tol, threshold, suspects, regions, _markers(suspects, regions), planned, sup.supported,
                      unexplained)
+
+
+def _add_elements(scene: Scene, suspects: list[Suspect]) -> None:
+    """Each suspect's imported element (name, IFC class, storey), where the scene knows one."""
+    known = {iid: info for part in scene.parts for iid, info in zip(part.instance_ids, part.instance_info)
+             if info.name or info.ifc_class or info.storey}
+    for suspect in suspects:
+        info = known.get(suspect.id)
+        if info is not None:
+            suspect.element = {"name": info.name, "ifc_class": info.ifc_class, "storey": info.storey}
 
 
 __all__ = ["detect", "Detection", "Suspect", "Region", "Marker"]

@@ -39,7 +39,7 @@ def markdown(detection: Detection, shot) -> str:
              "| rank | id | part | score | support | edge px | bbox (x0, y0, x1, y1) |", "|---|---|---|---|---|---|---|"]
     flagged = detection.flagged
     for rank, s in enumerate(flagged, 1):
-        lines.append(f"| {rank} | {s.id} | {s.part} | {s.score:.2f} | {s.support:.2f} | "
+        lines.append(f"| {rank} | {s.id}{s.element_label} | {s.part} | {s.score:.2f} | {s.support:.2f} | "
                      f"{s.edge_pixels} | {', '.join(map(str, s.bbox))} |")
     if not flagged:
         lines.append("| - | no suspects | | | | | |")

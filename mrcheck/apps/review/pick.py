@@ -32,6 +32,7 @@ class Picker:
         self.scene = scene
         self._casters: list[tuple[np.ndarray, SceneCaster | None]] = []
         self._lock = threading.Lock()
+        self._element_table: dict | None = None
 
     def _caster_for(self, centre: np.ndarray):
         """(origin, caster or None for a scene without triangles) for a camera at ``centre``;
@@ -56,5 +57,16 @@ class Picker:
         if hits is None or not hits.hit[0]:
             return {"part": None, "instance": None, "distance": None}
         part, instance = caster.label(hits.instance[0])
+        info = self._elements().get(instance)
         return {"part": part, "instance": instance, "distance": round(float(hits.t[0]), 3),
-                "triangle": int(hits.triangle[0])}
+                "triangle": int(hits.triangle[0]),
+                # an imported (IFC/STEP) element's name, class and storey; empty for other scenes
+                "name": info.name if info else "", "ifc_class": info.ifc_class if info else "",
+                "storey": info.storey if info else ""}
+
+    def _elements(self) -> dict:
+        """{instance id: ElementInfo} of the scene (made once)."""
+        if self._element_table is None:
+            self._element_table = {iid: info for part in self.scene.parts
+                                   for iid, info in zip(part.instance_ids, part.instance_info)}
+        return self._element_table

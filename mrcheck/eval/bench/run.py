@@ -47,6 +47,7 @@ height field stands in when the sample cell is missing, and the output says so).
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -132,9 +133,30 @@ def bench_command(quick: bool, json_path: str | None, repeat: int | None, hall: 
               "target_samples": {name: "every" if name in EVERY_SAMPLE_COUNT else RATIO_SAMPLES
                                  for name in measured["ratios_by_samples"].get(str(RATIO_SAMPLES), {})},
               **memory}
+    text = report_text(report, figures)
+    if hall.write_ifc is not None:   # the import figures (issue 19): the hall as IFC, the STEP test models
+        imports = _import_figures(quick, hall)
+        report["imports"] = imports.to_json()
+        text += "\n\nImports (load " + f"{os.getloadavg()[0]:.1f}" + "):\n" + "\n".join(imports.lines())
     if json_path is not None:
         write_text(json_path, json.dumps(report, indent=2))
-    return BenchResult(report, report_text(report, figures), json_path)
+    return BenchResult(report, text, json_path)
+
+
+IMPORT_HALL_TRIANGLES = 5_000_000     # the issue's hall; --quick: 1 M, one round
+STEP_MODELS = Path(__file__).resolve().parents[3] / "tests" / "data" / "cad" / "step"   # in a checkout
+
+
+def _import_figures(quick: bool, hall: HallGenerator):
+    import tempfile
+
+    from mrcheck.eval.bench.imports import measure_imports
+    from mrcheck.eval.bench.scenes import hall_ifc_path
+
+    ifc = hall_ifc_path(hall, 1_000_000 if quick else IMPORT_HALL_TRIANGLES)
+    steps = sorted(STEP_MODELS.glob("*.st*p")) if STEP_MODELS.is_dir() else []
+    with tempfile.TemporaryDirectory(prefix="mrcheck-bench-import-") as work:
+        return measure_imports(ifc, steps, Path(work), rounds=1 if quick else 3)
 
 
 __all__ = ["bench_command", "measure_plan", "BenchResult", "HallGenerator", "terrain_scene", "terrain_camera",

@@ -86,6 +86,9 @@ class HallGenerator:
 
     generate: Callable
     source: Path
+    # the generator's IFC writer, write_ifc(scene, path, seed, description), for the import
+    # figures (None: the bench measures no IFC import)
+    write_ifc: Callable | None = None
 
     def digest(self) -> str:
         """A hash of the generator's source and of the robots module whose arms it places: the
@@ -113,6 +116,20 @@ def hall_scene_path(hall: HallGenerator, triangles: int, seed: int = HALL_SEED) 
                 raise
         shutil.rmtree(work, ignore_errors=True)
     return final / "scene.toml"
+
+
+def hall_ifc_path(hall: HallGenerator, triangles: int, seed: int = HALL_SEED) -> Path:
+    """The generated hall at ``triangles`` written as IFC4 (``scene generate --format ifc``),
+    once per (budget, seed, generator source), beside the hall's scene.toml."""
+    manifest = hall_scene_path(hall, triangles, seed)
+    final = manifest.parent / "hall.ifc"
+    if not final.exists():
+        from mrcheck.scene.model import load_scene
+
+        work = final.with_name(f".hall.ifc.{os.getpid()}")
+        hall.write_ifc(load_scene(manifest), work, seed, f"mrcheck bench hall {triangles} seed {seed}")
+        os.replace(work, final)
+    return final
 
 
 def line_scene_path() -> Path:

@@ -238,7 +238,9 @@ for (const pane of panes) {
       const seq = ++pickSeq;
       const hit = await api("GET", `api/shots/${enc(S.shot.name)}/pick?x=${p.x.toFixed(1)}&y=${p.y.toFixed(1)}`);
       if (seq !== pickSeq) return;
-      tip.textContent = hit.part ? `${hit.instance} - ${hit.distance.toFixed(2)} m` : "no CAD";
+      // an imported element: its IFC class, name and storey after the id (GlobalId)
+      const element = [hit.ifc_class, hit.name, hit.storey].filter(Boolean).join(", ");
+      tip.textContent = hit.part ? `${hit.instance}${element ? ` (${element})` : ""} - ${hit.distance.toFixed(2)} m` : "no CAD";
       tip.style.display = "block";
     }, 60);
   });
