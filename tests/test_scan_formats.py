@@ -239,3 +239,16 @@ def test_laz_without_a_laz_backend(tmp_path, monkeypatch, capsys):
     with pytest.raises(MrcheckError, match="LAZ-compressed but no LAZ backend is installed"):
         read_scan(DATA / "simple.laz")
     assert len(read_scan(DATA / "simple.las")) == 1065    # an uncompressed LAS needs none
+
+
+# -- the bench's scan figures ----------------------------------------------------------------------
+def test_bench_scan_figures_read_what_they_wrote(tmp_path):
+    from mrcheck.eval.bench.scans import measure_scan_reading, scan_figures_text
+
+    figures = measure_scan_reading(tmp_path, 60_000, 1)
+    assert [(f.format, f.points) for f in figures] == [("laz", 60_000), ("e57", 60_000)]
+    for f in figures:
+        assert f.runs_s[0] > 0 and f.points_per_s == 60_000 / f.runs_s[0]
+        assert f.result_mb == pytest.approx(60_000 * 34 / 2**20) and f.peak_rss_mb[0] > f.result_mb
+    assert not list(tmp_path.iterdir())                 # the synthetic scans are not kept
+    assert "M points/s" in scan_figures_text(figures)[0]

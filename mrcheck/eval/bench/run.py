@@ -64,6 +64,7 @@ from mrcheck.eval.bench.figures import (
 )
 from mrcheck.eval.bench.plan import plan
 from mrcheck.eval.bench.report import floor_ratios, machine, ratios, report_text
+from mrcheck.eval.bench.scans import scan_reading
 from mrcheck.eval.bench.scenes import HallGenerator, terrain_camera, terrain_scene
 from mrcheck.eval.bench.timing import PeakMemory, measure
 from mrcheck.render.gl import create_context, made_current
@@ -125,16 +126,17 @@ def bench_command(quick: bool, json_path: str | None, repeat: int | None, hall: 
     repeat = repeat or (QUICK_REPEAT if quick else DEFAULT_REPEAT)
 
     figures, about, reasons, memory = measure_plan(quick, repeat, hall, progress)
+    scan_json, scan_lines = scan_reading(quick, repeat)   # each read in a process of its own
     measured = ratios(figures, reasons)
     floor_ratios(figures)
     report = {"machine": about, "run": {"quick": quick, "repeat": repeat, "warmup": 1},
               "figures": [f.to_json() for f in figures], **measured, "targets": TARGETS, "peer_targets": PEER_TARGETS,
               "target_samples": {name: "every" if name in EVERY_SAMPLE_COUNT else RATIO_SAMPLES
                                  for name in measured["ratios_by_samples"].get(str(RATIO_SAMPLES), {})},
-              **memory}
+              **memory, "scan_reading": scan_json}
     if json_path is not None:
         write_text(json_path, json.dumps(report, indent=2))
-    return BenchResult(report, report_text(report, figures), json_path)
+    return BenchResult(report, "\n".join([report_text(report, figures), *scan_lines]), json_path)
 
 
 __all__ = ["bench_command", "measure_plan", "BenchResult", "HallGenerator", "terrain_scene", "terrain_camera",

@@ -63,6 +63,13 @@ class CloudBuilder:
             self.intensity[self.size:end] = intensity
         self.size = end
 
+    def reserve(self, n: int):
+        """Views of the next ``n`` rows (points, colours or None, intensity or None) for a reader
+        to fill in place; it then adds ``n`` to :attr:`size`."""
+        end = self.size + n
+        return (self.points[self.size:end], None if self.colours is None else self.colours[self.size:end],
+                None if self.intensity is None else self.intensity[self.size:end])
+
     def cloud(self, scans: list[ScanPose], **extra) -> ScanCloud:
         """The filled part as a :class:`ScanCloud` (views, no copy)."""
         n = self.size
