@@ -350,6 +350,7 @@ def test_bench_writes_the_json_before_printing(quick, tmp_path, monkeypatch):
     measured = _figures(report)
     monkeypatch.setattr(bench, "measure_plan",
                         lambda quick, repeat, hall, progress: (measured, report["machine"], {}, {"peak_rss_mb": 1.0}))
+    monkeypatch.setattr(bench, "scan_reading", lambda quick, repeat: ([], []))   # nor the scan reads
 
     class Closed(io.StringIO):
         def write(self, text):
