@@ -350,6 +350,8 @@ def test_bench_writes_the_json_before_printing(quick, tmp_path, monkeypatch):
     measured = _figures(report)
     monkeypatch.setattr(bench, "measure_plan",
                         lambda quick, repeat, hall, progress: (measured, report["machine"], {}, {"peak_rss_mb": 1.0}))
+    monkeypatch.setattr(bench, "scan_reading", lambda quick, repeat: ([], []))   # nor the scan reads
+    monkeypatch.setattr(bench, "import_figures", lambda quick, hall: None)   # nor the imports
 
     class Closed(io.StringIO):
         def write(self, text):

@@ -46,7 +46,7 @@ def test_bench_command_measures_the_hall_as_ifc(tmp_path, monkeypatch):
     path = hall_ifc_path(hall, 1_000_000)
     assert path.name == "hall.ifc" and path.stat().st_size > 0
     assert hall_ifc_path(hall, 1_000_000) == path                     # written once
-    report = bench._import_figures(True, hall)
+    report = bench.import_figures(True, hall)
     data = report.to_json()
     assert data["ifc"]["elements"] > 100 and set(data["ifc"]["seconds"]) == {1, 2}
     assert data["cache"]["reload_s"] > 0 and data["step"]["seconds_per_mb"] > 0

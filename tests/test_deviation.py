@@ -133,8 +133,8 @@ def _bad(tmp_path, kind) -> Path:
     elif kind == "garbage":
         path.write_text("x y z\n1 2 3\n")
     elif kind == "unsupported":
-        path = tmp_path / "scan.las"
-        path.write_bytes(b"LASF")
+        path = tmp_path / "scan.rcp"       # Autodesk ReCap: not read
+        path.write_bytes(b"RCP")
     elif kind == "millimetres":
         np.savetxt(path, _bunny_points() * 1000.0)
     elif kind == "far":
@@ -158,7 +158,7 @@ def _bad(tmp_path, kind) -> Path:
     ("no points", "scan has no points"),
     ("nan", "1 points with NaN"),
     ("garbage", "not a text x y z point file"),
-    ("unsupported", "unsupported scan format .las"),
+    ("unsupported", "unsupported scan format .rcp"),
     ("millimetres", "the scan looks like millimetres; pass --units mm"),
     ("far", "m away from the scene: wrong units or not registered"),
     ("truncated ply", "cannot read scan, corrupt or truncated"),

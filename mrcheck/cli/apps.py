@@ -141,17 +141,18 @@ def discrepancies(shot, scene_path, tolerance_px, outdir):
 @click.argument("scan", metavar="SCAN")
 @click.option("--scene", "scene_path", required=True, metavar="SCENE", help="The planned scene.")
 @click.option("--shot", metavar="SHOT.json", help="Colour the deviations on this shot's render / overlay too.")
-@click.option("--units", type=click.Choice(["mm", "cm", "m", "in", "ft"]), help="Unit of the scan's coordinates [default: as the scene, metres].")
+@click.option("--units", type=click.Choice(["mm", "cm", "m", "in", "ft"]), help="Unit of the scan's coordinates [default: the unit of a LAS/LAZ file's CRS, else metres].")
 @click.option("-o", "--output", "outdir", required=True, metavar="OUTDIR", help="Folder for deviations, the coloured images and the per-part list.")
 def deviation(scan, scene_path, shot, units, outdir):
     """Signed distances from a laser scan to the planned CAD.
 
-    Signed cloud-to-mesh distances from a laser scan (PLY, PCD, XYZ) to the planned CAD, per
-    point and per part (as CloudCompare's C2M).
+    Signed cloud-to-mesh distances from a laser scan (E57 with every scan's pose, LAS/LAZ at
+    map coordinates, PLY, PCD, XYZ) to the planned CAD, per point and per part (as
+    CloudCompare's C2M).
 
     \b
     Example:
-      mrcheck deviation scan.ply --scene hall/scene.toml --shot p1.json -o deviation
+      mrcheck deviation hall.e57 --scene hall/scene.toml --shot p1.json -o deviation
     """
     from mrcheck.apps.deviation.command import deviation_command
     

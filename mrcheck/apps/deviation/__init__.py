@@ -3,8 +3,8 @@ per point and per part instance, as CloudCompare's C2M).
 
 Modules, in the order the data flows:
 
-* ``scans`` -- :func:`read_scan`: every scan format (one reader per suffix in ``READERS``) and
-  the checks every scan file passes;
+* :func:`read_scan` (from :mod:`mrcheck.scene.scans`, where the bench reads scans too): every
+  scan format into one :class:`~mrcheck.scene.scans.ScanCloud`, and the checks every scan passes;
 * ``distances`` -- :func:`deviation` -> :class:`Deviation`: the placement checks (units,
   registration), :func:`signed_distances` and the ranked :class:`PartDeviation` rows; the
   distance's definition in its docstring;
@@ -23,7 +23,8 @@ from mrcheck.apps.deviation.distances import (
     signed_distances,
 )
 from mrcheck.apps.deviation.report import DeviationReport
-from mrcheck.apps.deviation.scans import SCAN_SUFFIXES, read_scan
+from mrcheck.scene.scans import SCAN_SUFFIXES, ScanCloud, read_scan
 
 __all__ = ["deviation_command", "DeviationRun", "deviation", "Deviation", "PartDeviation", "DeviationReport",
-           "check_placement", "signed_distances", "part_statistics", "read_scan", "SCAN_SUFFIXES"]
+           "check_placement", "signed_distances", "part_statistics", "read_scan", "ScanCloud",
+           "SCAN_SUFFIXES"]

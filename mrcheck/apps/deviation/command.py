@@ -38,7 +38,6 @@ from mrcheck.apps.deviation.report import (
     parts_json,
     parts_markdown,
 )
-from mrcheck.apps.deviation.scans import read_scan
 from mrcheck.core.output import (
     check_not_inputs,
     check_output_dir,
@@ -48,6 +47,7 @@ from mrcheck.core.output import (
     write_text,
 )
 from mrcheck.scene.manifest import scene_files
+from mrcheck.scene.scans import read_scan
 
 
 @dataclass(frozen=True)
@@ -83,7 +83,8 @@ def deviation_command(scan, scene, shot=None, units=None, outdir="deviation") ->
                       ("the scene", scene_files(scene))])
     if shot is not None:
         photo = read_photo(photo_path, camera)
-    points = read_scan(scan, units)          # the scan's own errors before the slow scene load
+    cloud = read_scan(scan, units)           # the scan's own errors before the slow scene load
+    points = cloud.points
     loaded = load_scene(scene, progress=True)
     result = deviation(points, loaded, scan)
 
@@ -92,7 +93,7 @@ def deviation_command(scan, scene, shot=None, units=None, outdir="deviation") ->
     images = view_images(points, colours, scale_mm)
     if camera is not None:
         images.update(shot_images(loaded, camera, photo, points, colours, scale_mm))
-    report = make_report(result, scan, scene, units, scale_mm)
+    report = make_report(result, scan, scene, cloud.units, scale_mm, cloud.crs)
     # all or none: a deviations.npy without its parts.json would pass for a complete result
     write_all_or_none([lambda: write_bytes(outdir / DEVIATIONS, npy_bytes(result.distances.astype(np.float32))),
                        lambda: write_text(outdir / PARTS_JSON, parts_json(report)),

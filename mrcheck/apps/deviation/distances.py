@@ -153,7 +153,7 @@ class Deviation:
 
 
 def deviation(points: np.ndarray, scene: Scene, scan=None) -> Deviation:
-    """Check scan points (metres, :func:`~mrcheck.apps.deviation.scans.read_scan`) against a
+    """Check scan points (metres, :func:`~mrcheck.scene.scans.read_scan` ``.points``) against a
     loaded scene and measure them. ``scan`` names the file in errors."""
     scan_diag, scene_diag = check_placement(points, scene, scan)
     d, owner = signed_distances(scene, points)

@@ -31,18 +31,19 @@ class DeviationReport:
     sign: str
     colour_scale_mm: float       # S of the images' colour map
     parts: list[PartDeviation]
+    crs: str | None = None       # the coordinate reference system the scan file names (LAS/LAZ)
 
     def to_dict(self) -> dict:
         return asdict(self)
 
 
-def make_report(result: Deviation, scan, scene, units, scale_mm: float) -> DeviationReport:
+def make_report(result: Deviation, scan, scene, units, scale_mm: float, crs: str | None = None) -> DeviationReport:
     d = result.distances
     a = np.abs(d)
     return DeviationReport(scan=str(scan), scene=str(scene), units=units or "m", points=int(len(d)),
                            median_abs=float(np.median(a)), mean_abs=float(a.mean()), p95_abs=float(np.percentile(a, 95)),
                            signed_mean=float(d.mean()), distance_unit="m", sign=SIGN, colour_scale_mm=scale_mm,
-                           parts=result.parts)
+                           parts=result.parts, crs=crs)
 
 
 def parts_json(report: DeviationReport) -> str:

@@ -65,6 +65,7 @@ from mrcheck.eval.bench.figures import (
 )
 from mrcheck.eval.bench.plan import plan
 from mrcheck.eval.bench.report import floor_ratios, machine, ratios, report_text
+from mrcheck.eval.bench.scans import scan_reading
 from mrcheck.eval.bench.scenes import HallGenerator, terrain_camera, terrain_scene
 from mrcheck.eval.bench.timing import PeakMemory, measure
 from mrcheck.render.gl import create_context, made_current
@@ -126,28 +127,33 @@ def bench_command(quick: bool, json_path: str | None, repeat: int | None, hall: 
     repeat = repeat or (QUICK_REPEAT if quick else DEFAULT_REPEAT)
 
     figures, about, reasons, memory = measure_plan(quick, repeat, hall, progress)
+    scan_json, scan_lines = scan_reading(quick, repeat)   # each read in a process of its own
+    imports = import_figures(quick, hall)   # the issue-19 import figures, None without an IFC writer
     measured = ratios(figures, reasons)
     floor_ratios(figures)
     report = {"machine": about, "run": {"quick": quick, "repeat": repeat, "warmup": 1},
               "figures": [f.to_json() for f in figures], **measured, "targets": TARGETS, "peer_targets": PEER_TARGETS,
               "target_samples": {name: "every" if name in EVERY_SAMPLE_COUNT else RATIO_SAMPLES
                                  for name in measured["ratios_by_samples"].get(str(RATIO_SAMPLES), {})},
-              **memory}
-    text = report_text(report, figures)
-    if hall.write_ifc is not None:   # the import figures (issue 19): the hall as IFC, the STEP test models
-        imports = _import_figures(quick, hall)
+              **memory, "scan_reading": scan_json}
+    lines = [report_text(report, figures), *scan_lines]
+    if imports is not None:
         report["imports"] = imports.to_json()
-        text += "\n\nImports (load " + f"{os.getloadavg()[0]:.1f}" + "):\n" + "\n".join(imports.lines())
+        lines += ["", "Imports:", *imports.lines()]
     if json_path is not None:
         write_text(json_path, json.dumps(report, indent=2))
-    return BenchResult(report, text, json_path)
+    return BenchResult(report, "\n".join(lines), json_path)
 
 
 IMPORT_HALL_TRIANGLES = 5_000_000     # the issue's hall; --quick: 1 M, one round
 STEP_MODELS = Path(__file__).resolve().parents[3] / "tests" / "data" / "cad" / "step"   # in a checkout
 
 
-def _import_figures(quick: bool, hall: HallGenerator):
+def import_figures(quick: bool, hall: HallGenerator):
+    """The import figures (:func:`mrcheck.eval.bench.imports.measure_imports`) of the generated
+    hall written as IFC and the STEP test models; None when ``hall`` cannot write IFC."""
+    if hall.write_ifc is None:
+        return None
     import tempfile
 
     from mrcheck.eval.bench.imports import measure_imports

@@ -1,14 +1,8 @@
-"""Reading laser scans: every supported file format, one reader each, and the checks every scan
-passes (a missing, empty or unreadable file, an unsupported format, no points, NaN/infinite
-points: one-line :class:`~mrcheck.core.errors.MrcheckError`).
-
-Formats (:data:`READERS`, suffix -> reader): ``.ply`` and ``.pcd`` through
+"""Point files without scan structure: ``.ply`` and ``.pcd`` through
 ``open3d.io.read_point_cloud``; ``.xyz``, ``.txt``, ``.pts`` as header-less text ``x y z [...]``
 per line (separated by white space, commas or semicolons; no decimal commas). A ``.ply`` without
 the ``ply`` magic on its first line is read as text too (the Stanford bunny's range scans are
-such files). A new format is one more reader in :data:`READERS`: a function of the path that
-returns (N, 3) float64 points in the file's own units, raising :class:`MrcheckError` for what
-it cannot read.
+such files). Each reader returns (N, 3) float64 points in the file's own units.
 """
 
 from __future__ import annotations
@@ -20,9 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from mrcheck.core.errors import MrcheckError, MrcheckWarning
-from mrcheck.core.inputs import check_input
 from mrcheck.core.quiet import native_output
-from mrcheck.scene.model import unit_scale
 
 
 def _is_ply_binary_or_header(path: Path) -> bool:
@@ -103,45 +95,13 @@ def read_text_points(path: Path) -> np.ndarray:
     return data
 
 
-def _read_ply(path: Path) -> np.ndarray:
+def read_ply(path: Path) -> np.ndarray:
     # sniff, do not trust the suffix: header-less "x y z" files are often named .ply
     return _read_cloud(path, "ply") if _is_ply_binary_or_header(path) else read_text_points(path)
 
 
-def _read_pcd(path: Path) -> np.ndarray:
+def read_pcd(path: Path) -> np.ndarray:
     return _read_cloud(path, "pcd")
 
 
-READERS = {".ply": _read_ply, ".pcd": _read_pcd, ".xyz": read_text_points, ".txt": read_text_points,
-           ".pts": read_text_points}
-SCAN_SUFFIXES = tuple(READERS)
-
-
-def read_scan(path, units: str | None = None) -> np.ndarray:
-    """(N, 3) float64 scan points in metres (``units``: the file's, else metres); every
-    bad-input case raises :class:`MrcheckError`."""
-    path = Path(path)
-    size = check_input(path, "scan file").st_size
-    suffix = path.suffix.lower()
-    if suffix not in READERS:
-        raise MrcheckError(f"unsupported scan format {suffix or '(none)'} (use {', '.join(SCAN_SUFFIXES)})", path)
-    if size == 0:
-        raise MrcheckError("scan file is empty (no points)", path)
-    scale = unit_scale(units, path)
-    try:
-        points = READERS[suffix](path)
-    except MrcheckError:
-        raise
-    except Exception as exc:  # the readers raise many types for corrupt files
-        reason = " ".join(str(exc).split())[:200] or type(exc).__name__
-        raise MrcheckError(f"cannot read scan ({reason})", path) from None
-    points = points.reshape(-1, 3)
-    if len(points) == 0:
-        raise MrcheckError("scan has no points (empty or unreadable cloud)", path)
-    bad = ~np.all(np.isfinite(points), axis=1)
-    if bad.any():
-        raise MrcheckError(f"scan has {int(bad.sum())} points with NaN or infinite coordinates", path)
-    return points * scale
-
-
-__all__ = ["read_scan", "read_text_points", "READERS", "SCAN_SUFFIXES"]
+__all__ = ["read_text_points", "read_ply", "read_pcd"]
