@@ -204,6 +204,17 @@ def reprojection_error(truth: Camera, estimate: Camera, points: np.ndarray) -> n
     return np.linalg.norm(proj(truth) - proj(estimate), axis=1)
 
 
+def corner_errors(truth: Camera, estimate: Camera, depth: float) -> np.ndarray:
+    """(4,) pixel errors at the image corners (top left, top right, bottom right, bottom left)
+    of the points that ``estimate`` sees there at ``depth``: what the reported corner
+    uncertainty (:class:`~mrcheck.mr.edges.uncertainty.PoseUncertainty`) is a 1-sigma of."""
+    w, h = estimate.width, estimate.height
+    corners = np.array([[0, 0], [w - 1, 0], [w - 1, h - 1], [0, h - 1]], np.float64)
+    rays = np.linalg.solve(estimate.K, np.column_stack([corners, np.ones(4)]).T).T
+    world = (depth * rays - estimate.t) @ estimate.R
+    return np.linalg.norm(truth.project(world) - corners, axis=1)
+
+
 def perturbed(camera: Camera, points: np.ndarray, offset_px: float, rng) -> Camera:
     """``camera`` moved in a random direction (rotation and translation mixed) by the amount
     that moves ``points`` by ``offset_px`` (median)."""
@@ -237,4 +248,4 @@ def make_case(scene: Scene, camera: Camera, seed: int, offset_px: float | None =
                      float(np.median(reprojection_error(camera, rough, points))))
 
 
-__all__ = ["PhotoCase", "synthetic_photo", "scene_points", "reprojection_error", "perturbed", "make_case"]
+__all__ = ["PhotoCase", "synthetic_photo", "scene_points", "reprojection_error", "corner_errors", "perturbed", "make_case"]

@@ -25,6 +25,7 @@ from mrcheck.core.camera import Camera
 
 TUKEY_C = 4.685        # 95 % efficiency at the normal distribution
 _MAD_TO_SIGMA = 1.4826
+_RIDGE = 1e-12
 
 
 @dataclass
@@ -105,7 +106,9 @@ def gauss_newton_step(rows: np.ndarray, residuals: np.ndarray, weights: np.ndarr
     diagonal times ``1 + damping``), or None when the normal equations are singular."""
     H = rows.T @ (weights[:, None] * rows)
     g = rows.T @ (weights * residuals)
-    H = H + damping * np.diag(np.diag(H))
+    # Marquardt's diagonal scaling, plus a trace-relative ridge: a direction no edge constrains
+    # (all edges parallel) has a zero column, and its step is then zero instead of singular
+    H = H + damping * np.diag(np.diag(H)) + _RIDGE * max(np.trace(H), 1e-30) * np.eye(6)
     try:
         return -np.linalg.solve(H, g)
     except np.linalg.LinAlgError:
@@ -126,6 +129,7 @@ def covariance(rows: np.ndarray, residuals: np.ndarray, weights: np.ndarray, clu
     rows, residuals, weights, clusters = rows[used], residuals[used], weights[used], clusters[used]
     n = len(residuals)
     H = rows.T @ (weights[:, None] * rows)
+    H = H + _RIDGE * max(np.trace(H), 1e-30) * np.eye(6)   # an unconstrained direction: huge, not singular
     try:
         H_inv = np.linalg.inv(H)
     except np.linalg.LinAlgError:
@@ -140,7 +144,19 @@ def covariance(rows: np.ndarray, residuals: np.ndarray, weights: np.ndarray, clu
     m = len(S)
     correction = (m / max(m - 1, 1)) * ((n - 1) / dof)    # the usual small-sample factor
     sandwich = correction * H_inv @ (S.T @ S) @ H_inv
-    return sandwich if np.trace(sandwich) > np.trace(plain) else plain
+    # an edge's samples share one error of the edge's position (a shadow beside it, a bent
+    # or worn real edge): counted as ONE measurement of the residuals' scale at the edge's mean
+    # row; what the residuals cannot show (a bias shared by the edges) this bounds from below
+    sums = np.zeros((m, 6))
+    np.add.at(sums, cluster, rows * weights[:, None])
+    mass = np.bincount(cluster, weights=weights, minlength=m)
+    mean_rows = sums / np.maximum(mass, 1e-12)[:, None]
+    try:
+        G = mean_rows.T @ mean_rows
+        per_edge = sigma2 * np.linalg.inv(G + _RIDGE * max(np.trace(G), 1e-30) * np.eye(6))
+    except np.linalg.LinAlgError:
+        per_edge = np.full((6, 6), np.inf)
+    return max((plain, sandwich, per_edge), key=np.trace)
 
 
 __all__ = ["PoseState", "Projection", "project", "tukey_weights", "tukey_cost", "normal_rows", "gauss_newton_step", "covariance",

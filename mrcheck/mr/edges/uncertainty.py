@@ -126,7 +126,7 @@ def parallel_edges(normals: np.ndarray, weights: np.ndarray) -> float | None:
     if values[1] <= 0 or values[0] / values[1] >= PARALLEL_RATIO:
         return None
     nx, ny = vectors[:, 1]
-    return float(math.degrees(math.atan2(nx, -ny)) % 180.0)   # the edge direction, perpendicular to n
+    return float(round(math.degrees(math.atan2(nx, -ny))) % 180)   # the edge direction, perpendicular to n
 
 
 __all__ = ["PoseUncertainty", "pose_uncertainty", "weak_direction", "parallel_edges", "corner_jacobians",
