@@ -35,11 +35,33 @@ def calibrate(images, board, min_views, max_view_error, output):
 @click.option("--intrinsics", required=True, metavar="CAM.json", help="Calibrated camera (JSON, or OpenCV YAML).")
 @click.option("--markers", metavar="MAP.json", help="Marker map: surveyed world corners of ArUco/AprilTag markers and ChArUco boards.")
 @click.option("--points", metavar="CORR.json", help="Manual correspondences: pixel <-> world point pairs (>= 4).")
+@click.option("--initial", metavar="ROUGH.json",
+              help="A rough pose (any camera JSON with R and t: an earlier shot, `mrcheck scene camera`'s output) "
+                   "that the CAD's edges are snapped from onto the photo's edges (markerless).")
+@click.option("--refine/--no-refine", default=None,
+              help="Snap the pose of --markers/--points onto the photo's edges as well [default: no; with --initial "
+                   "always].")
 @click.option("--max-error", type=FINITE, default=None, callback=positive, metavar="PX",
               help="RANSAC inlier threshold in pixels [default: automatic].")
 @click.option("-o", "--output", required=True, metavar="SHOT.json", help="The registered shot (camera JSON + photo, rms, method, ids used/rejected).")
-def register(scene_path, photo, intrinsics, markers, points, max_error, output):
-    """Find the camera pose of a photo in the factory, from markers or clicked correspondences."""
+def register(scene_path, photo, intrinsics, markers, points, initial, refine, max_error, output):
+    """Find the camera pose of a photo in the factory, from markers, clicked correspondences, or a
+    rough pose snapped onto the photo's edges.
+
+    \b
+    Example (markerless, from a named viewpoint):
+      mrcheck scene camera hall/scene.toml --view aisle --intrinsics cam.json -o rough.json
+      mrcheck register hall/scene.toml --photo IMG_1.jpg --intrinsics cam.json --initial rough.json -o shot.json
+    """
+    if initial is not None or refine:
+        from mrcheck.mr.edgeshot import register_edges_command, summary_lines
+
+        shot = register_edges_command(scene=scene_path, photo=photo, intrinsics=intrinsics, initial=initial,
+                                      markers=markers, points=points, refine=refine, max_error=max_error,
+                                      output=output)
+        for line in summary_lines(shot, output):
+            click.echo(line)
+        return
     from mrcheck.mr.registration import register_command
 
     register_command(scene=scene_path, photo=photo, intrinsics=intrinsics, markers=markers, points=points,

@@ -1,4 +1,4 @@
-"""``mrcheck scene generate | asbuilt | info``."""
+"""``mrcheck scene generate | asbuilt | camera | info``."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from mrcheck.cli.options import FINITE, positive
 
 @cli.group()
 def scene():
-    """Factory scenes: generate procedural halls, make as-built variants, inspect a scene."""
+    """Factory scenes: generate procedural halls, make as-built variants, write a viewpoint's camera, inspect a scene."""
 
 
 @scene.command("generate")
@@ -47,6 +47,23 @@ def scene_asbuilt(scene_path, seed, outdir):
 
     for path in make_asbuilt(Path(scene_path), Path(outdir), seed=seed):
         print(path)
+
+
+@scene.command("camera")
+@click.argument("scene_path", metavar="SCENE")
+@click.option("--view", required=True, metavar="NAME", help="Named viewpoint of the scene manifest.")
+@click.option("--intrinsics", metavar="CAM.json", help="The photo's calibrated camera (size, K, distortion) [default: the viewpoint's own].")
+@click.option("-o", "--output", required=True, metavar="ROUGH.json", help="Camera JSON (or .yml/.yaml OpenCV YAML) with R and t.")
+def scene_camera(scene_path, view, intrinsics, output):
+    """Write a named viewpoint as a camera file: the rough start of a markerless registration.
+
+    \b
+    Example:
+      mrcheck scene camera factory_scenes/cell/scene.toml --view overview --intrinsics cam.json -o rough.json
+    """
+    from mrcheck.mr.edgeshot import scene_camera_command
+
+    print(scene_camera_command(scene_path, view, intrinsics=intrinsics, output=output))
 
 
 @scene.command("info")

@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from mrcheck.core.camera import Camera
@@ -136,24 +137,45 @@ def front_edges(edges: EdgeSet, centre: np.ndarray) -> np.ndarray:
     return edges.crease | (fa != fb)
 
 
-def sample_edges(edges: EdgeSet, camera: Camera, spacing_px: float, near: float = 1e-3) -> Samples:
+def project_pinhole(camera: Camera, points: np.ndarray) -> np.ndarray:
+    """(n, 2) pinhole pixels of world points (``camera.project``, in OpenCV's C++: a dense
+    scene's edges are hundreds of thousands of points per pose), about the camera centre so
+    that coordinates far from the world origin keep their precision."""
+    if len(points) == 0:
+        return np.zeros((0, 2))
+    rvec = cv2.Rodrigues(camera.R)[0]
+    uv, _ = cv2.projectPoints(points - camera.center, rvec, np.zeros(3), camera.K, None)
+    return uv.reshape(-1, 2)
+
+
+def sample_edges(edges: EdgeSet, camera: Camera, spacing_px: float, near: float = 1e-3,
+                 max_count: int | None = None) -> Samples:
     """Points every ``spacing_px`` pixels (pinhole projection) along the edges that face the
     camera, clipped to the part of each edge in front of the camera and inside the image (a
-    margin of one spacing). Visibility (occlusion) is :func:`visible`'s."""
+    margin of one spacing); the spacing is widened so that at most about ``max_count`` points
+    are made (a dense scene at full resolution has millions of edge pixels). Visibility
+    (occlusion) is :func:`visible`'s."""
     idx = np.flatnonzero(front_edges(edges, camera.center))
     a, b = edges.a[idx], edges.b[idx]
     za, zb = a @ camera.R[2] + camera.t[2], b @ camera.R[2] + camera.t[2]
     ahead = (za > near) | (zb > near)
     idx, a, b, za, zb = idx[ahead], a[ahead], b[ahead], za[ahead], zb[ahead]
-    # clip to z >= near: move the end behind the camera onto the near plane
-    s = np.clip((near - za) / np.where(zb != za, zb - za, 1.0), 0.0, 1.0)
-    a = np.where((za < near)[:, None], a + s[:, None] * (b - a), a)
-    s = np.clip((near - zb) / np.where(za != zb, za - zb, 1.0), 0.0, 1.0)
-    b = np.where((zb < near)[:, None], b + s[:, None] * (a - b), b)
-    pa, pb = camera.project(a), camera.project(b)
+    clip = (za < near) | (zb < near)
+    if np.any(clip):      # move the end behind the camera onto the near plane
+        a, b = a.copy(), b.copy()
+        ca, cb, cza, czb = a[clip], b[clip], za[clip], zb[clip]
+        s = np.clip((near - cza) / np.where(czb != cza, czb - cza, 1.0), 0.0, 1.0)[:, None]
+        a[clip] = np.where((cza < near)[:, None], ca + s * (cb - ca), ca)
+        s = np.clip((near - czb) / np.where(cza != czb, cza - czb, 1.0), 0.0, 1.0)[:, None]
+        b[clip] = np.where((czb < near)[:, None], cb + s * (ca - cb), cb)
+    pa, pb = project_pinhole(camera, a), project_pinhole(camera, b)
+    lo, hi = np.minimum(pa, pb), np.maximum(pa, pb)
+    in_view = (hi[:, 0] > -1) & (hi[:, 1] > -1) & (lo[:, 0] < camera.width) & (lo[:, 1] < camera.height)
     length = np.linalg.norm(pb - pa, axis=1)
-    keep = np.isfinite(length) & (length >= _MIN_EDGE_PX)
+    keep = in_view & np.isfinite(length) & (length >= _MIN_EDGE_PX)
     idx, a, b, length = idx[keep], a[keep], b[keep], length[keep]
+    if max_count:
+        spacing_px = max(spacing_px, float(np.sum(np.minimum(length, 4 * (camera.width + camera.height)))) / max_count)
     count = np.maximum(1, np.floor(length / spacing_px)).astype(np.int64)
     count = np.minimum(count, 4096)   # a wall edge crossing the whole view: enough samples
     edge = np.repeat(np.arange(len(idx)), count)
@@ -164,7 +186,7 @@ def sample_edges(edges: EdgeSet, camera: Camera, spacing_px: float, near: float 
     tangents = (b - a)[edge]
     tangents /= np.linalg.norm(tangents, axis=1, keepdims=True)
     samples = Samples(points, tangents, edges.group[idx][edge], idx[edge])
-    uv = camera.project(samples.points)
+    uv = project_pinhole(camera, samples.points)
     margin = spacing_px
     inside = ((uv[:, 0] > -margin) & (uv[:, 0] < camera.width - 1 + margin)
               & (uv[:, 1] > -margin) & (uv[:, 1] < camera.height - 1 + margin))
@@ -189,7 +211,7 @@ def visible(samples: Samples, camera: Camera, depth: np.ndarray) -> np.ndarray:
     # the farthest depth of each 3x3 neighbourhood (a grey dilation)
     padded = np.pad(far, 1, mode="edge")
     farthest = np.max(np.stack([padded[i:i + h, j:j + w] for i in range(3) for j in range(3)]), axis=0)
-    uv = camera.project(samples.points)
+    uv = project_pinhole(camera, samples.points)
     sx, sy = w / camera.width, h / camera.height
     col = np.clip(np.rint((uv[:, 0] + 0.5) * sx - 0.5), 0, w - 1).astype(np.int64)
     row = np.clip(np.rint((uv[:, 1] + 0.5) * sy - 0.5), 0, h - 1).astype(np.int64)
@@ -221,4 +243,4 @@ def isolated(uv: np.ndarray, normals: np.ndarray, edge_mask: np.ndarray, scale: 
 
 
 __all__ = ["EdgeSet", "Samples", "mesh_edges", "scene_edges", "front_edges", "sample_edges", "visible", "subset",
-           "isolated", "CREASE_DEG"]
+           "isolated", "project_pinhole", "CREASE_DEG"]

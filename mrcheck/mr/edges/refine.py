@@ -26,6 +26,7 @@ from mrcheck.render.renderer import RenderSettings
 from mrcheck.mr.edges.uncertainty import WEAK_CORNER_PX, PoseUncertainty, parallel_edges, pose_uncertainty
 
 _COARSEST_WIDTH = 160
+_CANDIDATES = 8            # edge points made per sample kept (half of them hidden, most not distinct)
 _ISOLATION_PX = 6          # no other CAD edge within this many level px along a sample's normal ...
 _ISOLATED_ENOUGH = 300     # ... as long as this many samples (or a quarter) stay
 _MIN_SAMPLES = 30
@@ -178,9 +179,10 @@ class _Fitter:
         level_camera = cam.resized(max(1, round(cam.width * scale)), max(1, round(cam.height * scale)))
         depth, image = render_depth(self.renderer, level_camera, with_image=True)
         start = self.clock.add("render", start)
-        samples = model.sample_edges(self.edges, cam, self.options.spacing_px / scale)
+        samples = model.sample_edges(self.edges, cam, self.options.spacing_px / scale,
+                                     max_count=_CANDIDATES * self.options.max_samples)
         samples = model.subset(samples, model.visible(samples, cam, depth) & ~self.dropped[samples.group])
-        samples = _thinned(samples, 4 * self.options.max_samples)
+        samples = _thinned(samples, _CANDIDATES // 2 * self.options.max_samples)
         proj = solver.project(self.state, self.camera, samples.points, samples.tangents)
         # the edges the render shows alone within the isolation radius (see photo.distinct); as
         # isolated as the scene allows: a lone box has its corners' neighbours within any radius

@@ -90,8 +90,11 @@ def pose_uncertainty(state: PoseState, camera, cov: np.ndarray, depth: float) ->
     def centre(s):
         return -s.R.T @ s.t + s.centre
 
-    def angles(s):                                       # camera-frame rotation of s from state
-        return cv2.Rodrigues(s.R @ R0.T)[0].ravel()
+    def angles(s):
+        # the camera-frame rotation of s from state, small: the axial vector of the skew part
+        # (cv2.Rodrigues returns exactly zero below 1e-5 rad, which the differences need)
+        M = s.R @ R0.T
+        return 0.5 * np.array([M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1]])
 
     Jp, Ja = _numeric(centre, state, 3), _numeric(angles, state, 3)
     cov_p, cov_a = Jp @ cov @ Jp.T, Ja @ cov @ Ja.T
