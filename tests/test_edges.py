@@ -18,7 +18,7 @@ from mrcheck.mr.edges import model
 from mrcheck.mr.edges.refine import render_depth
 from mrcheck.render.renderer import Renderer
 from mrcheck.scene.model import Scene, make_part
-from tests.edge_helpers import crate_camera, crate_scene
+from mrcheck.eval.edgescenes import crate_camera, crate_scene
 
 SEEDS = range(10)
 

@@ -75,3 +75,38 @@ def deviation(scan, scene_path, shot, units, outdir):
     from mrcheck.apps.deviation import deviation_command
 
     deviation_command(scan=scan, scene=scene_path, shot=shot, units=units, outdir=outdir)
+
+
+@cli.command()
+@click.argument("video", metavar="VIDEO")
+@click.option("--scene", "scene_path", required=True, metavar="SCENE", help="The planned scene.")
+@click.option("--intrinsics", required=True, metavar="CAM.json", help="The video camera's calibration (JSON, or OpenCV YAML).")
+@click.option("--initial", required=True, metavar="ROUGH.json", help="The first frame's rough pose (camera JSON with R and t).")
+@click.option("--poses", metavar="POSES.jsonl", help="Per-frame poses, RMS, support, uncertainty, lost flag [default: OUT.poses.jsonl].")
+@click.option("--alpha", type=FINITE, default=0.5, show_default=True, help="Photo opacity in the overlay, 0 (CAD only) .. 1.")
+@click.option("-o", "--output", required=True, metavar="OUT.mp4", help="The overlay video (vector AO, half-resolution AO).")
+def track(video, scene_path, intrinsics, initial, poses, alpha, output):
+    """Snap the CAD onto every frame of a video (each frame from the previous ones' constant-velocity
+    prediction), write the overlay video and the poses; frames whose support collapses are marked lost.
+
+    \b
+    Example:
+      mrcheck track walk.mp4 --scene hall/scene.toml --intrinsics cam.json --initial rough.json -o walk_overlay.mp4
+    """
+    from tqdm import tqdm
+
+    from mrcheck.apps.track import track_command
+
+    with tqdm(unit="frame", desc="track", leave=False) as bar:
+        def progress(done, total):
+            bar.total = total or None
+            bar.update(done - bar.n)
+
+        result = track_command(video, scene_path, intrinsics, initial, output, poses=poses, alpha=alpha,
+                               progress=progress)
+    click.echo(f"tracked {len(result.frames)} frames in {result.seconds:.1f} s ({result.fps:.2f} frames/s); "
+               f"lost: {', '.join(map(str, result.lost)) or 'none'}")
+    for frame in result.frames:
+        if frame.lost:
+            click.echo(f"  frame {frame.frame} lost ({frame.reason}): its pose is the prediction, not trusted")
+    click.echo(f"wrote {output}")

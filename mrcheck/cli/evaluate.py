@@ -17,7 +17,10 @@ from mrcheck.cli.options import FINITE, positive
               help="Also write every raw figure (with its peak memory) and the ratios (with their per-round ratios) as "
                    "JSON, before the table is printed; missing folders are created, an existing file is replaced.")
 @click.option("--repeat", type=int, default=None, callback=positive, help="Timed runs per figure after one warm-up [default: 5, --quick: 3].")
-def bench(quick, json_path, repeat):
+@click.option("--edges", is_flag=True,
+              help="Only the edge registration against OpenCV's RAPID tracker (cv2.rapid) on Open3D photos of the "
+                   "crate scene and the generated cell: accuracy and time side by side (--quick: 3 cases each, else 10).")
+def bench(quick, json_path, repeat, edges):
     """Measure the AO passes on this machine: every AO mode at full and half resolution, over
     the fetch floor, and its whole frame; the blurs and the composite; AO time at 1 M vs 10 M
     triangles; the geometry pass of the generated hall at 1, 10 and 20 M triangles at both
@@ -29,7 +32,19 @@ def bench(quick, json_path, repeat):
     The generated halls are cached in the temporary directory ($TMPDIR, else /tmp) under
     mrcheck-bench/ (about 50 MB, made again when the generator changes); the peers' frames, their
     AO-off frames and logs and mrcheck's frame go to mrcheck-bench-peers/ beside it, replaced by
-    each run."""
+    each run.
+
+    \b
+    Example:
+      mrcheck bench --quick --json bench.json
+      mrcheck bench --edges --quick
+    """
+    if edges:
+        from mrcheck.eval.edgebench import edge_bench
+
+        for line in edge_bench(quick=quick, progress=lambda text: click.echo(text, err=True)):
+            click.echo(line)
+        return
     from mrcheck.eval.bench.run import bench_command
 
     bench_command(quick=quick, json_path=json_path, repeat=repeat)

@@ -134,4 +134,24 @@ def summary_lines(rows: list[EdgeBenchRow]) -> list[str]:
     return lines
 
 
-__all__ = ["EdgeBenchRow", "rapid_refine", "bench_cases", "summary_lines", "RAPID_ITERATIONS"]
+def edge_bench(quick: bool = False, progress=None) -> list[str]:
+    """``mrcheck bench --edges``: both methods on the crate scene
+    (:mod:`mrcheck.eval.edgescenes`) and on the generated cell's ``overview``, at 640x480 with
+    lens distortion, 10 seeds each (3 with ``quick``); the lines of :func:`summary_lines` per scene."""
+    from mrcheck.core.resources import factory_scenes_dir
+    from mrcheck.eval.edgescenes import crate_camera, crate_scene
+    from mrcheck.scene.model import load_scene
+
+    seeds = range(3 if quick else 10)
+    cell = load_scene(factory_scenes_dir() / "cell" / "scene.toml")
+    crates = crate_camera(640, 480)
+    lines = []
+    for name, scene, camera in (("crates", crate_scene(), crates), ("cell-overview", cell, cell.camera("overview", 640))):
+        camera = Camera(camera.width, camera.height, camera.K, camera.R, camera.t, crates.dist)
+        rows = bench_cases(name, scene, camera, seeds, progress)
+        lines += [f"== edge registration: {name}, {camera.width}x{camera.height}, {len(seeds)} cases ==",
+                  *summary_lines(rows)]
+    return lines
+
+
+__all__ = ["EdgeBenchRow", "rapid_refine", "bench_cases", "summary_lines", "edge_bench", "RAPID_ITERATIONS"]
