@@ -148,3 +148,12 @@ def test_parallel_edges_warn_and_name_the_weak_direction():
     assert any("parallel" in w for w in fit.warnings), fit.warnings
     assert any("poorly constrained" in w and "sideways" in w for w in fit.warnings), fit.warnings
 
+
+
+def test_a_rough_pose_looking_away_fails_with_a_reason():
+    """No CAD edge in view at all (the camera turned to the sky): a one-line failure, not a crash
+    (cv2.projectPoints returns None for no points)."""
+    scene, camera = crate_scene(), crate_camera(320, 240)
+    away = Camera.from_look_at([0.0, 0.0, 50.0], [0.0, 0.0, 100.0], [0, 1, 0], 50.0, 320, 240)
+    with pytest.raises(EdgeFitError, match="visible CAD edge samples"):
+        refine_pose(scene, camera, np.zeros((240, 320), np.uint8), initial=away)

@@ -59,7 +59,7 @@ class EdgeOptions:
     spacing_px: float = 3.0
     max_samples: int = 3000
     iterations: int = 10
-    min_support: float = 0.3
+    min_support: float = 0.5
     levels: int | None = None
     rerender_px: float = 1.5
 
@@ -183,6 +183,9 @@ class _Fitter:
                                      max_count=_CANDIDATES * self.options.max_samples)
         samples = model.subset(samples, model.visible(samples, cam, depth) & ~self.dropped[samples.group])
         samples = _thinned(samples, _CANDIDATES // 2 * self.options.max_samples)
+        if len(samples) < _MIN_SAMPLES:
+            self.clock.add("edges", start)
+            return samples
         proj = solver.project(self.state, self.camera, samples.points, samples.tangents)
         # the edges the render shows alone within the isolation radius (see photo.distinct); as
         # isolated as the scene allows: a lone box has its corners' neighbours within any radius

@@ -67,6 +67,8 @@ class Projection:
 
 def project(state: PoseState, camera: Camera, points: np.ndarray, tangents: np.ndarray) -> Projection:
     """The samples at ``state`` through ``camera``'s lens; the normal from the projected tangent."""
+    if len(points) == 0:              # cv2.projectPoints returns None for no points
+        return Projection(np.zeros((0, 2)), np.zeros((0, 2, 6)), np.zeros((0, 2)), np.zeros(0))
     local = points - state.centre
     uv, jac = cv2.projectPoints(local, state.rvec, state.t, camera.K, camera.dist)
     uv = uv.reshape(-1, 2)
