@@ -219,28 +219,5 @@ def visible(samples: Samples, camera: Camera, depth: np.ndarray) -> np.ndarray:
     return farthest[row, col] >= z * (1.0 - _VISIBLE_DEPTH_TOL)
 
 
-def isolated(uv: np.ndarray, normals: np.ndarray, edge_mask: np.ndarray, scale: float, radius: int) -> np.ndarray:
-    """(n,) bool: the samples (at full-resolution ``uv`` with image ``normals``) with no other CAD
-    edge of ``edge_mask`` (a level's silhouette and crease pixels, level ``scale``) within
-    ``radius`` level pixels along their normal, their own line (2 px) aside.
-
-    The search takes the nearest photo edge along the normal: where the CAD itself has another
-    edge within the search radius (a wire fence, a corrugated wall, the flanges of a beam) the
-    nearest photo edge may be that one's, and the fit would snap onto the wrong line. Those
-    samples wait for a finer level, where the radius is smaller (or are left out).
-    """
-    h, w = edge_mask.shape
-    p = uv * scale
-    clear = np.ones(len(uv), bool)
-    for k in range(3, radius + 1):
-        for sign in (-1.0, 1.0):
-            q = np.rint(p + sign * k * normals).astype(np.int64)
-            inside = (q[:, 0] >= 0) & (q[:, 0] < w) & (q[:, 1] >= 0) & (q[:, 1] < h)
-            hit = np.zeros(len(uv), bool)
-            hit[inside] = edge_mask[q[inside, 1], q[inside, 0]]
-            clear &= ~hit
-    return clear
-
-
 __all__ = ["EdgeSet", "Samples", "mesh_edges", "scene_edges", "front_edges", "sample_edges", "visible", "subset",
-           "isolated", "project_pinhole", "CREASE_DEG"]
+           "project_pinhole", "CREASE_DEG"]

@@ -172,8 +172,8 @@ class _Fitter:
         self.state = None
 
     def visible_samples(self, scale: float, radius: int):
-        """Samples of the visible, isolated edges at the current pose (:func:`model.isolated`
-        within ``radius`` level px), thinned to ``max_samples``."""
+        """Samples of the visible, distinct edges at the current pose (:func:`photo.distinct` in
+        the Phong render, within ``radius`` level px), thinned to ``max_samples``."""
         start = time.perf_counter()
         cam = self.state.camera(self.camera)
         level_camera = cam.resized(max(1, round(cam.width * scale)), max(1, round(cam.height * scale)))
