@@ -146,8 +146,9 @@ def render_depth(renderer, camera: Camera, with_image: bool = False):
     """(H, W) float32 linear depth of ``camera`` (0 = background), from the renderer's result
     (full detail: a simplified mesh moves the edges); with ``with_image`` also the Phong
     render's grey image (float32, 0..1)."""
-    result = renderer.render(camera, ["phong"], RenderSettings(lod_px=0.0))["phong"]
-    depth = getattr(result, "depth", None)
+    frame = renderer.render(camera, ["phong"], RenderSettings(lod_px=0.0))
+    result = frame["phong"]
+    depth = getattr(frame, "depth", None)
     depth = depth if depth is not None else renderer.last_depth()
     if not with_image:
         return depth
