@@ -37,20 +37,17 @@ float sample_term(int i, vec2 p, vec3 P, vec3 n, vec2 rot, float r_px, float inv
 }
 
 void main() {
-    ivec2 ij = ivec2(gl_FragCoord.xy);
-    float z = centre_depth(ij);
-    if (z <= 0.0) { ao_depth.x = 1.0; return; }          // background
+    AOPixel px;
+    if (!ao_begin(px)) return;                  // background
 
-    vec2 p = vec2(ij);
-    vec3 P = unproject(p, z);
-    vec3 n = centre_normal(ij);
-    vec2 rot = normalize(texelFetch(u_noise, ij % NOISE_SIZE, 0).xy + vec2(1e-6, 0.0));
+    vec2 p = vec2(px.ij);
+    vec2 rot = normalize(px.noise.xy + vec2(1e-6, 0.0));
     float inv_r = 1.0 / u_radius_world;
-    float r_px = u_radius_world * u_intrinsics.y / z;   // the disk's radius on screen
-    float bias = BETA * z * inv_r;                      // beta * z_C, in units of R
+    float r_px = u_radius_world * u_intrinsics.y / px.z;   // the disk's radius on screen
+    float bias = BETA * px.z * inv_r;                      // beta * z_C, in units of R
 
     float sum = 0.0;
-#define AO_SAMPLE(i) sum += sample_term(i, p, P, n, rot, r_px, inv_r, bias);
+#define AO_SAMPLE(i) sum += sample_term(i, p, px.P, px.n, rot, r_px, inv_r, bias);
 #include "ao_unroll.glsl"   // for (i = 0; i < AO_SAMPLES; ++i) AO_SAMPLE(i), unrolled
     ao_depth.x = pow(max(0.0, 1.0 - 2.0 * u_intensity / float(AO_SAMPLES) * sum), CONTRAST);
 }

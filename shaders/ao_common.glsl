@@ -34,6 +34,29 @@ vec3 unproject(vec2 uv, float z) {
     return vec3((uv - u_intrinsics.zw) / u_intrinsics.xy * z, z);
 }
 
+// What every AO pass's main() starts from: its pixel ij, the depth z there, the camera-space
+// point P and normal n, and the pixel's texel of the rotation tile (a unit vector).
+struct AOPixel {
+    ivec2 ij;
+    float z;
+    vec3 P;
+    vec3 n;
+    vec3 noise;
+};
+
+// The start of every AO pass's main():  AOPixel px; if (!ao_begin(px)) return;
+// False on the background, whose texel it has written (AO 1, depth 0). A pass that does not
+// read px.n (crytek) does not pay its fetch: the compiler drops the unused texelFetch.
+bool ao_begin(out AOPixel px) {
+    px.ij = ivec2(gl_FragCoord.xy);
+    px.z = centre_depth(px.ij);
+    if (px.z <= 0.0) { ao_depth.x = 1.0; return false; }
+    px.P = unproject(vec2(px.ij), px.z);
+    px.n = centre_normal(px.ij);
+    px.noise = texelFetch(u_noise, px.ij % NOISE_SIZE, 0).xyz;
+    return true;
+}
+
 // Nearest pixel q of camera-space point S and the depth stored there (texelFetch, one fetch,
 // no filtering). Outside the image the fetch is clamped to the border and ``inside`` is false:
 // the caller folds it into its final select (one unsigned compare, as negative q wraps to a

@@ -33,16 +33,13 @@ float sample_access(int i, vec3 P, float z, vec3 plane, float inv_r) {
 }
 
 void main() {
-    ivec2 ij = ivec2(gl_FragCoord.xy);
-    float z = centre_depth(ij);
-    if (z <= 0.0) { ao_depth.x = 1.0; return; }          // background
+    AOPixel px;
+    if (!ao_begin(px)) return;                  // background (px.n is not read: no normal)
 
-    vec3 P = unproject(vec2(ij), z);
-    vec3 plane = texelFetch(u_noise, ij % NOISE_SIZE, 0).xyz;
     float inv_r = 1.0 / u_radius_world;
 
     float access = 0.0;
-#define AO_SAMPLE(i) access += sample_access(i, P, z, plane, inv_r);
+#define AO_SAMPLE(i) access += sample_access(i, px.P, px.z, px.noise, inv_r);
 #include "ao_unroll.glsl"   // for (i = 0; i < AO_SAMPLES; ++i) AO_SAMPLE(i), unrolled
     ao_depth.x = clamp(1.0 - u_intensity * (1.0 - access / float(AO_SAMPLES)), 0.0, 1.0);
 }

@@ -25,14 +25,8 @@
 // artefacts).
 #include "ao_common.glsl"
 
-#if AO_SAMPLES >= 64
-#define HBAO_DIRS 8
-#elif AO_SAMPLES >= 4
-#define HBAO_DIRS 4
-#else
-#define HBAO_DIRS AO_SAMPLES
-#endif
-#define HBAO_STEPS (AO_SAMPLES / HBAO_DIRS)
+// HBAO_DIRS and HBAO_STEPS are injected from Python: mrcheck/render/ao/hbao.py,
+// directions_and_steps, the one place that splits the AO_SAMPLES budget.
 
 uniform float u_radius_world;   // R, scene units
 
@@ -40,14 +34,14 @@ const float SIN_BIAS = 0.02;    // angle bias (sine units, about 1.1 degrees)
 const float TWO_PI = 6.28318530718;
 
 void main() {
-    ivec2 ij = ivec2(gl_FragCoord.xy);
-    float z = centre_depth(ij);
-    if (z <= 0.0) { ao_depth.x = 1.0; return; }          // background
+    AOPixel px;
+    if (!ao_begin(px)) return;                  // background
 
-    vec2 p = vec2(ij);
-    vec3 P = unproject(p, z);
-    vec3 n = centre_normal(ij);
-    vec3 noise = texelFetch(u_noise, ij % NOISE_SIZE, 0).xyz;
+    vec2 p = vec2(px.ij);
+    vec3 P = px.P;
+    vec3 n = px.n;
+    float z = px.z;
+    vec3 noise = px.noise;
     vec2 rot = normalize(noise.xy + vec2(1e-6, 0.0));   // per-pixel rotation (cos, sin)
     float jitter = 0.5 + 0.5 * noise.z;                 // per-pixel step offset in [0, 1]
     float R2 = u_radius_world * u_radius_world;

@@ -27,18 +27,15 @@ float sample_term(int i, vec3 P, vec3 plane, vec3 n_reflected, float inv_r) {
 }
 
 void main() {
-    ivec2 ij = ivec2(gl_FragCoord.xy);
-    float z = centre_depth(ij);
-    if (z <= 0.0) { ao_depth.x = 1.0; return; }          // background
+    AOPixel px;
+    if (!ao_begin(px)) return;                  // background
 
-    vec3 P = unproject(vec2(ij), z);
-    vec3 n = centre_normal(ij);
-    vec3 plane = texelFetch(u_noise, ij % NOISE_SIZE, 0).xyz;
-    vec3 n_reflected = reflect(n, plane);       // for hemisphere_offset's flip
+    vec3 plane = px.noise;
+    vec3 n_reflected = reflect(px.n, plane);    // for hemisphere_offset's flip
     float inv_r = 1.0 / u_radius_world;
 
     float sum = 0.0;
-#define AO_SAMPLE(i) sum += sample_term(i, P, plane, n_reflected, inv_r);
+#define AO_SAMPLE(i) sum += sample_term(i, px.P, plane, n_reflected, inv_r);
 #include "ao_unroll.glsl"   // for (i = 0; i < AO_SAMPLES; ++i) AO_SAMPLE(i), unrolled
     ao_depth.x = clamp(1.0 - u_intensity * sum / float(AO_SAMPLES), 0.0, 1.0);
 }

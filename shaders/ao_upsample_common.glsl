@@ -9,7 +9,7 @@
 uniform sampler2D u_ao_half;
 uniform ivec2 u_size_half;
 
-const float UPSAMPLE_DEPTH_TOLERANCE = 0.05;   // relative, as in blur_bilateral.glsl
+#include "depth_tolerance.glsl"   // DEPTH_TOLERANCE, shared with the bilateral blur
 
 float upsampled_ao(ivec2 ij, float z) {
     vec2 h = vec2(ij) * 0.5;
@@ -19,7 +19,7 @@ float upsampled_ao(ivec2 ij, float z) {
     vec4 zq = textureGather(u_ao_half, uv, 1);
     vec4 aq = textureGather(u_ao_half, uv, 0);
     vec4 bilinear = vec4((1.0 - f.x) * f.y, f.x * f.y, f.x * (1.0 - f.y), (1.0 - f.x) * (1.0 - f.y));
-    vec4 d = (zq - z) / (max(z, 1e-30) * UPSAMPLE_DEPTH_TOLERANCE);
+    vec4 d = (zq - z) / (max(z, 1e-30) * DEPTH_TOLERANCE);
     vec4 w = bilinear / (1.0 + d * d);
     float weight = dot(w, vec4(1.0));
 

@@ -39,19 +39,16 @@ float sample_term(int i, vec3 P, vec3 n, vec3 plane, vec3 n_reflected, float r_S
 }
 
 void main() {
-    ivec2 ij = ivec2(gl_FragCoord.xy);
-    float z = centre_depth(ij);
-    if (z <= 0.0) { ao_depth.x = 1.0; return; }          // background
+    AOPixel px;
+    if (!ao_begin(px)) return;                  // background
 
-    vec3 P = unproject(vec2(ij), z);
-    vec3 n = centre_normal(ij);
-    vec3 plane = texelFetch(u_noise, ij % NOISE_SIZE, 0).xyz;
-    vec3 n_reflected = reflect(n, plane);       // for hemisphere_offset's flip
-    float r_S = clamp(u_radius_px * z / u_intrinsics.y, u_radius_clamp.x, u_radius_clamp.y);
+    vec3 plane = px.noise;
+    vec3 n_reflected = reflect(px.n, plane);    // for hemisphere_offset's flip
+    float r_S = clamp(u_radius_px * px.z / u_intrinsics.y, u_radius_clamp.x, u_radius_clamp.y);
     float c_over_r2 = u_falloff / (r_S * r_S);
 
     float sum = 0.0;
-#define AO_SAMPLE(i) sum += sample_term(i, P, n, plane, n_reflected, r_S, c_over_r2);
+#define AO_SAMPLE(i) sum += sample_term(i, px.P, px.n, plane, n_reflected, r_S, c_over_r2);
 #include "ao_unroll.glsl"   // for (i = 0; i < AO_SAMPLES; ++i) AO_SAMPLE(i), unrolled
     ao_depth.x = clamp(1.0 - u_intensity * 2.0 * sum / float(AO_SAMPLES), 0.0, 1.0);
 }

@@ -8,9 +8,7 @@ uniform ivec2 u_size;
 uniform ivec2 u_step;                       // (1, 0) horizontal, (0, 1) vertical
 uniform float u_weights[BLUR_RADIUS + 1];   // Gaussian, centre first (mrcheck/blur.py)
 
-// Relative depth difference at which a tap's weight falls to 1/e. Relative, so the blur
-// behaves the same in a scene authored in millimetres or metres.
-const float DEPTH_TOLERANCE = 0.05;
+#include "depth_tolerance.glsl"   // DEPTH_TOLERANCE: a tap's weight falls to 1/e there
 
 out vec2 ao_depth;
 

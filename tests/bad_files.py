@@ -126,12 +126,12 @@ class WouldServe(Exception):
 def no_serving(monkeypatch):
     """``mrcheck review`` stops where it would start serving: a case that should fail before
     does not block the test run, and one that should start up says so."""
-    import mrcheck.apps.review.app
+    import mrcheck.apps.review.server
 
     def listen(host, port):
         raise WouldServe()
 
-    monkeypatch.setattr(mrcheck.apps.review.app, "listen", listen)
+    monkeypatch.setattr(mrcheck.apps.review.server, "listen", listen)
 
 
 @pytest.fixture

@@ -49,5 +49,4 @@ def render_ao(ctx, scene, camera, mode, **settings) -> np.ndarray:
 
 def render_depth(ctx, scene, camera) -> np.ndarray:
     renderer = Renderer(scene, ctx=ctx)
-    renderer.render(camera, ["phong"])
-    return renderer.last_depth()
+    return renderer.render(camera, ["phong"]).depth

@@ -6,7 +6,8 @@ import cv2
 import numpy as np
 
 from mrcheck.core.camera import Camera
-from mrcheck.mr.overlay import distort_to_photo, render_for_photo
+from mrcheck.mr.lens import distort_to_photo
+from mrcheck.mr.shot import render_for_photo
 from mrcheck.render.renderer import Renderer, RenderSettings
 from mrcheck.scene.model import make_part
 

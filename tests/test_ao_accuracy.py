@@ -39,8 +39,8 @@ def _render(ctx, scene, camera, **settings):
                                  "lod_px": REFERENCE_LOD_PX, **settings})
     renderer = Renderer(scene, ctx=ctx)
     try:
-        ao = renderer.render(camera, ["vector"], settings, want_ao=True)["vector"].ao
-        return ao, renderer.last_depth(), renderer.last_normals()
+        frame = renderer.render(camera, ["vector"], settings, want_ao=True, want_normals=True)
+        return frame["vector"].ao, frame.depth, frame.normals
     finally:
         renderer.release()
 
@@ -119,7 +119,7 @@ RATIO_LIMITS = {1.0: (0.90, 1.16), 4.0: (0.80, 1.08)}
 @pytest.mark.parametrize("name", list(SCENES))
 def test_vector_ao_matches_the_ray_traced_reference(ctx, name, falloff, record_property):
     """Guards the estimator itself: the cosine weight (o = cos / (1 + c (|v|/r)^2)), the factor 2
-    that makes intensity 1 an unbiased estimate of the cosine-weighted definition (README), the
+    that makes intensity 1 an unbiased estimate of the cosine-weighted definition (docs/method.md), the
     hemisphere test and the shape of the attenuation. Two statistics against the ray-traced
     reference on the same G-buffer:
 

@@ -491,7 +491,7 @@ instances = [{{ id = "bottom", translate = [5.0, 5.0, 0.0] }}, {{ id = "top", tr
 
 def test_shows_progress_for_loading_choosing_and_copying(tmp_path, monkeypatch):
     """Bars (on a terminal: disable=None) for the scene's loading and the variant's own work,
-    which takes seconds on a hall; none with progress=False."""
+    which takes seconds on a hall; none without a progress callback."""
     import tqdm
 
     shown = []
@@ -504,8 +504,11 @@ def test_shows_progress_for_loading_choosing_and_copying(tmp_path, monkeypatch):
 
     monkeypatch.setattr(tqdm, "tqdm", Recording)
     planned = small_scene(tmp_path / "plan")
-    make_asbuilt(planned, tmp_path / "v", seed=0)
+    from mrcheck.cli.messages import progress_bar
+    from mrcheck.core.progress import no_progress
+
+    make_asbuilt(planned, tmp_path / "v", seed=0, progress=progress_bar)   # as `mrcheck scene asbuilt` does
     assert shown == ["loading scene", "choosing changes", "copying meshes"]
     shown.clear()
-    make_asbuilt(planned, tmp_path / "w", seed=0, progress=False)
+    make_asbuilt(planned, tmp_path / "w", seed=0, progress=no_progress)
     assert shown == []

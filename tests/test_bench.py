@@ -1,5 +1,5 @@
 """`mrcheck bench` runs and reports every figure and ratio (its numbers are not asserted:
-timings belong to the machine, see the README's performance section)."""
+timings belong to the machine, see docs/performance.md)."""
 
 from __future__ import annotations
 
@@ -18,9 +18,16 @@ import numpy as np
 import pytest
 
 from mrcheck.cli import main
+from mrcheck.eval.bench import figures as bench_figures
+from mrcheck.eval.bench import line as bench_line
+from mrcheck.eval.bench import peer_client as bench_client
 from mrcheck.eval.bench import peers as bench_peers
+from mrcheck.eval.bench import plan as bench_plan
+from mrcheck.eval.bench import report as bench_report
 from mrcheck.eval.bench import run as bench
-from mrcheck.eval.bench.peers import PeerError, PeerNotInstalled, PeerWorker
+from mrcheck.eval.bench import scenes as bench_scenes
+from mrcheck.eval.bench import timing as bench_timing
+from mrcheck.eval.bench.peer_client import PeerError, PeerNotInstalled, PeerWorker
 
 from .conftest import box, scene_of
 
@@ -110,7 +117,7 @@ def test_bench_quick_measures_every_item_of_the_issue(quick):
     want = set()
     for samples in (16, 64):
         for scale in (1.0, 0.5):
-            want |= {(name, mode, "sample", 1280, 1024, samples, scale, None) for mode in bench.AO_MODES
+            want |= {(name, mode, "sample", 1280, 1024, samples, scale, None) for mode in bench_figures.AO_MODES
                      for name in ("ao", "frame")}
             want.add(("fetch_floor", None, "sample", 1280, 1024, samples, scale, None))
     for scale in (1.0, 0.5):
@@ -135,7 +142,7 @@ def test_bench_quick_measures_every_item_of_the_issue(quick):
         else:
             want.add(("frame", peer, "line", 1024, 768, None, None, line))
     assert set(have) == want
-    assert set(report["ratios"]) >= set(bench.TARGETS) | set(bench.PEER_TARGETS)
+    assert set(report["ratios"]) >= set(bench_figures.TARGETS) | set(bench_figures.PEER_TARGETS)
     halls = [f for f in report["figures"] if f["name"] == "geometry" and _kind(f["scene"]) == "hall"]
     assert all(f["stats"]["generated"] == "hall" and f["stats"]["triangles_drawn"] > 0 for f in halls)
     assert report["machine"]["gl_renderer"] and report["peak_rss_mb"] > 100  # numpy, GL, a 20 M-triangle hall
@@ -144,7 +151,7 @@ def test_bench_quick_measures_every_item_of_the_issue(quick):
         assert f["mode"] not in bench_peers.PEERS or f["stats"]["setup_peak_rss_mb"] > 50  # the peer's set-up
     assert report["peak_rss_per_figure"] and "peak MB" in printed.splitlines()[0]
     pngs = [Path(f["stats"]["png"]) for f in report["figures"] if "png" in f["stats"]]
-    assert pngs and all(png.parent == bench.peer_folder() and png.exists() for png in pngs)  # one folder, reused
+    assert pngs and all(png.parent == bench_line.peer_folder() and png.exists() for png in pngs)  # one folder, reused
     assert "vector_over_ssao" in printed and "GTX285" in printed
 
 
@@ -154,8 +161,8 @@ def test_the_progress_total_is_the_figures_measured(quick):
     3 line-scene frames and 2 peers)."""
     report, _ = quick
     not_run = sum(report["ratios"][f"{peer}_over_mrcheck_frame"] is None for peer in bench_peers.PEERS)
-    assert sum(section.count for section in bench._plan(None, quick=True)) == len(report["figures"]) + not_run == 64
-    assert sum(section.count for section in bench._plan(None, quick=False)) == 204
+    assert bench_plan.planned_figures(quick=True) == len(report["figures"]) + not_run == 64
+    assert bench_plan.planned_figures(quick=False) == 204
 
 
 def test_the_papers_column_is_beside_its_own_method_only(quick):
@@ -178,14 +185,19 @@ def test_bench_quick_timings_are_plausible(quick):
         assert f["unit"] == "ms" and 0 < f["min_ms"] <= f["median_ms"] <= f["max_ms"]
         if f["name"] in ("ao", "fetch_floor", "frame") or f["name"].startswith(("blur", "composite", "geometry")):
             assert f["min_ms"] >= 0.1, f  # a 1280x1024 AO pass cannot take under 0.1 ms, nor a frame
-    for f in report["figures"]:  # a whole frame takes longer than its AO pass alone
+    # a whole frame takes longer than its AO pass alone. The two are timed in different entries, at
+    # different moments, and a loaded machine (other processes) slowed single AO passes to 3x their
+    # frame (a frame median 535 ms below its AO pass's 1684 ms): so each pair with a wide margin,
+    # and all pairs together by their median ratio. A frame that does not wait for its AO pass (no
+    # ctx.finish()) takes the time to submit it, a few percent of the pass: it fails both.
+    over_ao = []
+    for f in report["figures"]:
         if f["name"] == "frame" and _kind(f["scene"]) == "sample":
             ao = _one(report, name="ao", kind="sample", mode=f["mode"], width=f["width"], samples=f["samples"],
                       scale=f["scale"])
-            # the fastest rounds, with a margin: the figures are timed at different moments, and a
-            # loaded machine (other processes) slowed one AO pass to 3x its frame; a frame that does
-            # not wait for its AO pass (no ctx.finish()) would still be far below this
-            assert f["min_ms"] > 0.8 * ao["min_ms"], (f, ao)
+            over_ao.append(f["min_ms"] / ao["min_ms"])
+            assert over_ao[-1] > 0.2, (f, ao)
+    assert len(over_ao) == 20 and np.median(over_ao) > 0.8, over_ao   # 5 modes x 2 scales x 2 sample counts
     line = {(f["width"], f["scale"]): f["median_ms"] for f in report["figures"] if f["name"] == "frame"
             and f["mode"] == "vector" and _kind(f["scene"]) == "line"}
     assert line[1024, 0.5] < line[1024, 1.0]  # the half-resolution AO frame does less work
@@ -199,14 +211,14 @@ def test_a_null_ratio_has_its_reason_next_to_it(quick):
     the peer's reason beside it in ``ratios``, in the top-level ``reasons`` and printed with it."""
     report, _ = quick
     figures = [f for f in _figures(report) if f.mode not in bench_peers.PEERS]
-    measured = bench._ratios(figures, {"vtk": "not installed: pyvista (test)"})
+    measured = bench_report.ratios(figures, {"vtk": "not installed: pyvista (test)"})
     ratios = measured["ratios"]
-    for key in bench.PEER_RATIOS.values():
+    for key in bench_figures.PEER_RATIOS.values():
         for name in (key, key + "_half_res_ao"):
             assert ratios[name] is None and ratios[name + "_reason"]
     assert ratios["vtk_over_mrcheck_frame_half_res_ao_reason"] == "not installed: pyvista (test)"
     assert ratios["open3d_over_mrcheck_frame_reason"] == "no open3d frame was measured"
-    printed = bench._format_ratios(measured, {"quick": False, "repeat": 1}).splitlines()
+    printed = bench_report.format_ratios(measured, {"quick": False, "repeat": 1}).splitlines()
     assert sum("not installed: pyvista (test)" in line for line in printed) == 2
     assert all(not line.strip().startswith("vtk_over_mrcheck_frame_reason") for line in printed)
 
@@ -223,12 +235,12 @@ def test_a_ratio_keeps_its_rounds(quick):
     vector = next(f for f in figures if (f.name, f.mode, f.width, f.samples, f.scale, f.triangles)
                   == ("ao", "vector", 1280, 16, 1.0, None))
     vector.times_ms = [vector.times_ms[0], 2 * vector.times_ms[0], 0.5 * vector.times_ms[0]]
-    measured = bench._ratios(figures)
+    measured = bench_report.ratios(figures)
     r = measured["ratios"]["vector_over_ssao"]
     assert measured["ratios_rounds"]["vector_over_ssao"] == pytest.approx([r, 2 * r, 0.5 * r])
     v = measured["ratios_by_samples"]["16"]["half_over_full"]
     assert measured["ratios_by_samples_rounds"]["16"]["half_over_full"] == pytest.approx([v, v / 2, 2 * v])
-    text = bench._format_ratios(measured, {"quick": True, "repeat": 3})
+    text = bench_report.format_ratios(measured, {"quick": True, "repeat": 3})
     line = next(line for line in text.splitlines() if line.split()[0] == "vector_over_ssao")
     assert f"{r:.3f} (rounds {0.5 * r:.2f}-{2 * r:.2f})" in line
     assert "verdicts from 3 rounds are indicative" in text
@@ -248,7 +260,7 @@ def test_vector_over_ssao_is_judged_at_every_sample_count(quick):
               and f.triangles is None}
     ssao[16, 1.0].times_ms = [vector[16, 1.0].times_ms[0]]       # vector / ssao = 1.0 at 16 samples
     ssao[64, 1.0].times_ms = [vector[64, 1.0].times_ms[0] / 1.5]  # and 1.5 at 64
-    lines = bench._format_ratios(bench._ratios(figures), report["run"]).splitlines()
+    lines = bench_report.format_ratios(bench_report.ratios(figures), report["run"]).splitlines()
     assert next(line for line in lines if line.split()[0] == "vector_over_ssao").endswith(
         "meets at 16; MISSES at 64 samples")
     assert [line.split()[1:3] + [line.split()[-1]] for line in lines if line.split()[0] == "vector_over_ssao"][1:] == \
@@ -269,27 +281,27 @@ def test_the_hall_cache_is_keyed_by_the_generators_source(tmp_path, monkeypatch)
         (outdir / "scene.toml").write_text(f"# hall {len(made)}\n")
         return outdir / "scene.toml"
 
-    monkeypatch.setattr(generator, "generate", generate)
     monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
-    first = bench.hall_scene_path(1000)
-    assert bench.hall_scene_path(1000) == first and len(made) == 1
-    assert first.parent.name == f"hall_1000_seed0_{bench._generator_digest()}"
+    shipped = bench_scenes.HallGenerator(generate, Path(generator.__file__).parent)
+    first = bench_scenes.hall_scene_path(shipped, 1000)
+    assert bench_scenes.hall_scene_path(shipped, 1000) == first and len(made) == 1
+    assert first.parent.name == f"hall_1000_seed0_{shipped.digest()}"
     source = tmp_path / "generator"
     source.mkdir()
     (source / "__init__.py").write_text("PRESETS = {}\n")
-    monkeypatch.setattr(generator, "__file__", str(source / "__init__.py"))
-    before = bench._generator_digest()
+    other = bench_scenes.HallGenerator(generate, source)
+    before = other.digest()
     (source / "layout.py").write_text("AISLE_M = 3.5\n")  # the generator changes
-    assert bench._generator_digest() != before
-    second = bench.hall_scene_path(1000)
+    assert other.digest() != before
+    second = bench_scenes.hall_scene_path(other, 1000)
     assert second != first and len(made) == 2 and second.read_text() == "# hall 2\n" and first.exists()
 
 
 def test_the_stand_in_for_a_missing_sample_cell_has_a_label_of_its_own(tmp_path, monkeypatch):
     """Else its AO passes would be divided by the height-field section's floor (same label)."""
-    monkeypatch.setattr(bench, "sample_scene_path", lambda: tmp_path / "missing.toml")
-    scene, camera_for, label = bench._sample_scene()
-    assert label != scene.name == bench.terrain_scene(bench.TRIANGLE_COUNTS[0]).name
+    monkeypatch.setattr(bench_scenes, "sample_scene_path", lambda: tmp_path / "missing.toml")
+    scene, camera_for, label = bench_scenes.sample_scene()
+    assert label != scene.name == bench_scenes.terrain_scene(bench_figures.TRIANGLE_COUNTS[0]).name
     assert camera_for((1280, 1024)).width == 1280
 
 
@@ -335,8 +347,9 @@ def test_peak_memory_is_reset_before_an_entry():
 def test_bench_writes_the_json_before_printing(quick, tmp_path, monkeypatch):
     """A reader that goes away (`mrcheck bench --json X | head`) costs the printout, not the run."""
     report, _ = quick
-    figures = _figures(report)
-    monkeypatch.setattr(bench, "_run", lambda quick, repeat: (figures, report["machine"], {}, {"peak_rss_mb": 1.0}))
+    measured = _figures(report)
+    monkeypatch.setattr(bench, "measure_plan",
+                        lambda quick, repeat, hall, progress: (measured, report["machine"], {}, {"peak_rss_mb": 1.0}))
 
     class Closed(io.StringIO):
         def write(self, text):
@@ -368,9 +381,9 @@ READY = ('print(json.dumps({"ready": True, "version": "fake 1", "settings": {}, 
 
 
 def test_peer_not_installed_gives_its_reason(tmp_path, monkeypatch):
-    monkeypatch.setattr(bench_peers, "importable", lambda peer: f"not installed: {peer} (test)")
+    monkeypatch.setattr(bench_client, "importable", lambda peer: f"not installed: {peer} (test)")
     reasons = {}
-    assert bench._start_peers(None, _box_on_floor(), VIEW, reasons, tmp_path) == []
+    assert bench_line.start_peers(None, _box_on_floor(), VIEW, reasons, tmp_path) == []
     assert reasons == {"vtk": "not installed: vtk (test)", "open3d": "not installed: open3d (test)"}
     assert not list(tmp_path.glob("*.npz"))  # the mesh file is gone once the workers have started
 
@@ -386,10 +399,10 @@ def test_peer_worker_that_dies_at_start_gives_a_one_line_reason(tmp_path, monkey
         def __init__(self, peer, mesh, png):
             super().__init__(peer, mesh, png, command=command)
 
-    monkeypatch.setattr(bench_peers, "importable", lambda peer: None)
-    monkeypatch.setattr(bench_peers, "PeerWorker", Crashing)
+    monkeypatch.setattr(bench_client, "importable", lambda peer: None)
+    monkeypatch.setattr(bench_client, "PeerWorker", Crashing)
     reasons = {}
-    assert bench._start_peers(None, _box_on_floor(), VIEW, reasons, tmp_path) == []
+    assert bench_line.start_peers(None, _box_on_floor(), VIEW, reasons, tmp_path) == []
     for peer in ("vtk", "open3d"):
         assert "exit code 3" in reasons[peer] and "no Vulkan driver" in reasons[peer]
         assert "\n" not in reasons[peer]
@@ -428,21 +441,21 @@ def test_peer_worker_that_crashes_mid_run_gives_null_and_reason(ctx, tmp_path):
     worker = PeerWorker("vtk", tmp_path / "m.npz", tmp_path / "vtk.png", command=command).start()
     worker.wait_ready(timeout=60)
     reasons = {}
-    peer = bench._PeerStage(ctx, worker, reasons)
+    peer = bench_line.PeerStage(ctx, worker, reasons)
 
     class Ours:  # a stand-in for mrcheck's frame
         def __init__(self):
-            self.ctx, self.renderer = ctx, self
+            self.ctx = ctx
 
-        def _timed(self, work):
+        def timed(self, work):
             work()
             return 10.0
 
-    ours = bench.Figure("frame", "vector", *bench.PEER_SIZE, bench.PEER_SAMPLES, 1.0, "fake", 1)
-    theirs = bench.Figure("frame", "vtk", *bench.PEER_SIZE, None, None, "fake", 1)
-    entry = [(Ours(), bench._Job(ours, lambda: None, lambda: None)),
-             (peer, bench._Job(theirs, lambda: None, lambda: None))]
-    figures = bench._measure(entry, repeat=3)
+    ours = bench.Figure("frame", "vector", *bench_figures.PEER_SIZE, bench_figures.PEER_SAMPLES, 1.0, "fake", 1)
+    theirs = bench.Figure("frame", "vtk", *bench_figures.PEER_SIZE, None, None, "fake", 1)
+    entry = [(Ours(), bench_timing.Job(ours, lambda: None, lambda: None)),
+             (peer, bench_timing.Job(theirs, lambda: None, lambda: None))]
+    figures = bench_timing.measure(entry, repeat=3)
     assert figures == [ours] and ours.times_ms == [10.0] * 3
     assert "exit code -11" in reasons["vtk"] and "Segmentation fault" in reasons["vtk"]
     peer.release()
@@ -455,7 +468,7 @@ def test_a_peer_that_cannot_be_imported_is_not_installed_one_that_breaks_fails(t
     """The real worker with stand-ins for pyvista and vtk first ahead on the path: one whose
     import fails (a shared library missing) is not installed; one that imports but is broken
     is a failure, not a reason to skip."""
-    mesh = bench_peers.write_mesh(tmp_path / "mesh.npz", *bench.flattened_mesh(_box_on_floor()), VIEW, (160, 120))
+    mesh = bench_client.write_mesh(tmp_path / "mesh.npz", *bench_scenes.flattened_mesh(_box_on_floor()), VIEW, (160, 120))
     for case, body in (("missing", "raise ImportError('libGL.so.1: cannot open shared object file')"),
                        ("broken", "")):
         (tmp_path / case).mkdir()
@@ -475,10 +488,10 @@ def test_peer_worker_renders_with_ao_on(tmp_path, peer):
     """The real worker on a box on a floor: the protocol, the settings it reports, and that its AO
     changes the image (no timing asserted). Skipped only when the peer is not installed here:
     a peer that is installed and fails, fails the test."""
-    if why := bench_peers.importable(peer):
+    if why := bench_client.importable(peer):
         pytest.skip(why)
     scene = _box_on_floor()
-    mesh = bench_peers.write_mesh(tmp_path / "mesh.npz", *bench.flattened_mesh(scene), VIEW, (160, 120))
+    mesh = bench_client.write_mesh(tmp_path / "mesh.npz", *bench_scenes.flattened_mesh(scene), VIEW, (160, 120))
     worker = PeerWorker(peer, mesh, tmp_path / f"{peer}.png").start()
     try:
         info = worker.wait_ready()

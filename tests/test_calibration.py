@@ -15,10 +15,12 @@ import numpy as np
 import pytest
 
 from mrcheck.cli import main
+from mrcheck.cli.messages import progress_bar, warning_lines
 from mrcheck.core.camera import Camera
-from mrcheck.core.camerafiles import read_camera, write_camera
+from mrcheck.core.camerafiles import load_camera, read_camera, write_camera
 from mrcheck.core.errors import MrcheckError
-from mrcheck.mr.calibration import detect_views, parse_board
+from mrcheck.mr.boards import parse_board
+from mrcheck.mr.calibration import detect_views
 
 DATA = Path(__file__).parent / "data" / "calibration"
 CHESS = sorted(str(p) for p in (DATA / "opencv_chessboard").glob("left[0-9]*.jpg"))
@@ -94,12 +96,12 @@ def test_charuco_against_opencv_tutorial(tmp_path, capsys):
 def test_json_output_is_a_camera(tmp_path, capsys):
     out = tmp_path / "cam.json"
     assert run(capsys, *CHESS, "--board", CHESS_SPEC, "-o", out)[0] == 0
-    camera = Camera.load(out, need_pose=False)
+    camera = load_camera(out, need_pose=False)
     data = json.loads(out.read_text())
     assert (camera.width, camera.height) == (640, 480) and camera.dist.shape == (5,)
     assert "R" not in data and "t" not in data  # intrinsics only: a render refuses it
     with pytest.raises(MrcheckError, match="camera JSON has intrinsics but no pose"):
-        Camera.load(out)
+        load_camera(out)
     assert set(data["per_view_errors"]) == set(CHESS)
     assert set(data["std"]) == {"fx", "fy", "cx", "cy", "dist"} and len(data["std"]["dist"]) == 5
     assert 0 < data["std"]["fx"] < 5 and data["board"] == CHESS_SPEC
@@ -184,7 +186,8 @@ def test_progress_bar_on_a_terminal(tmp_path, monkeypatch):
     cv2.imwrite(str(noise), np.random.default_rng(0).integers(0, 256, (480, 640), np.uint8))
     terminal = _Terminal()
     monkeypatch.setattr(sys, "stderr", terminal)
-    views = detect_views([*CHESS[:3], noise, CHESS[3]], parse_board(CHESS_SPEC))[0]
+    with warning_lines():   # as the command line shows them
+        views = detect_views([*CHESS[:3], noise, CHESS[3]], parse_board(CHESS_SPEC), progress=progress_bar)[0]
     assert len(views) == 4
     text = terminal.getvalue()
     assert "finding the board" in text and "/5 " in text and "photo" in text
@@ -322,7 +325,7 @@ def test_bad_spec(tmp_path, capsys, spec, problem):
 
 
 def test_photo_without_board_of_another_size_is_skipped(tmp_path, capsys):
-    # OpenCV's left.jpg (612x459, books, no board) sorts first in the README's own glob left*.jpg
+    # OpenCV's left.jpg (612x459, books, no board) sorts first in the glob left*.jpg (the quick start uses left[0-9]*.jpg to pass it by)
     stray = str(DATA / "opencv_chessboard" / "left.jpg")
     out = tmp_path / "cam.json"
     code, stdout, err = run(capsys, stray, *CHESS, "--board", CHESS_SPEC, "-o", out)

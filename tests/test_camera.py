@@ -10,6 +10,7 @@ import pytest
 import trimesh
 
 from mrcheck.core.camera import Camera
+from mrcheck.core.camerafiles import load_camera
 from mrcheck.core.errors import MrcheckError
 
 from .conftest import box, render_depth, scene_of
@@ -70,7 +71,7 @@ def test_camera_json_round_trip_and_shot_files(tmp_path):
     shot = camera.to_dict() | {"dist": [0.1, -0.05, 0.001, 0.0, 0.01], "photo": "IMG_1.jpg", "rms": 0.4, "method": "markers"}
     path = tmp_path / "shot.json"
     path.write_text(json.dumps(shot))
-    loaded = Camera.load(path)
+    loaded = load_camera(path)
     assert np.allclose(loaded.K, camera.K) and np.allclose(loaded.R, camera.R) and np.allclose(loaded.t, camera.t)
     assert loaded.dist.tolist() == shot["dist"]
     assert Camera.from_dict(loaded.to_dict()).to_dict() == loaded.to_dict()

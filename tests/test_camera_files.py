@@ -13,7 +13,7 @@ import pytest
 
 from mrcheck.cli import main
 from mrcheck.core.camera import Camera
-from mrcheck.core.camerafiles import read_camera, write_camera
+from mrcheck.core.camerafiles import load_camera, read_camera, write_camera
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.resources import sample_scene_path
 
@@ -74,7 +74,7 @@ def test_truncated_yaml_intrinsics_is_one_line_error(tmp_path, capsys, register_
 
 
 def test_yaml_cut_anywhere_loads_or_is_mrcheck_error(tmp_path):
-    posed = Camera.load(CONVEYOR).with_pose(cv2.Rodrigues(np.array([0.1, -0.2, 0.3]))[0], [1.0, 2.0, 3.0])
+    posed = load_camera(CONVEYOR).with_pose(cv2.Rodrigues(np.array([0.1, -0.2, 0.3]))[0], [1.0, 2.0, 3.0])
     text = write_camera(tmp_path / "whole.yml", posed, {"rms": 0.3}).read_bytes()
     path = tmp_path / "cut.yml"
     for n in range(len(text)):
@@ -114,9 +114,9 @@ def test_dist_lengths_opencv_takes_are_accepted(n):
 
 def test_shot_json_with_three_dist_is_one_line_error(tmp_path, capsys):
     shot = tmp_path / "SHOT.json"
-    shot.write_text(json.dumps(Camera.load(CONVEYOR).to_dict() | {"dist": [0.1, 0, 0], "photo": "p.png"}))
+    shot.write_text(json.dumps(load_camera(CONVEYOR).to_dict() | {"dist": [0.1, 0, 0], "photo": "p.png"}))
     with pytest.raises(MrcheckError, match="dist"):
-        Camera.load(shot)
+        load_camera(shot)
     result = run(capsys, "overlay", shot, "--scene", SCENE, "-o", tmp_path / "o.png")
     assert_one_line_error(result, shot, "dist must")
     result = run(capsys, "render", SCENE, "--camera", shot, *TINY, "-o", tmp_path / "r.png")
@@ -131,9 +131,9 @@ def test_yaml_with_twenty_dist_is_one_line_error(tmp_path, capsys, register_inpu
 
 # -- 3. OpenCV YAML wherever a camera is -----------------------------------------------------------
 def test_yaml_camera_loads_as_the_json_one(tmp_path):
-    camera = Camera.load(CONVEYOR)
+    camera = load_camera(CONVEYOR)
     for name in ("cam.yml", "cam.YAML"):
-        back = Camera.load(write_camera(tmp_path / name, camera))
+        back = load_camera(write_camera(tmp_path / name, camera))
         assert np.allclose(back.K, camera.K) and np.allclose(back.R, camera.R) and np.allclose(back.t, camera.t)
         assert (back.width, back.height) == (camera.width, camera.height)
 
@@ -141,14 +141,14 @@ def test_yaml_camera_loads_as_the_json_one(tmp_path):
 def test_yaml_intrinsics_have_no_pose_for_a_render(tmp_path):
     path = intrinsics_yaml(tmp_path / "cam.yml")
     with pytest.raises(MrcheckError, match="no pose"):
-        Camera.load(path)
+        load_camera(path)
     # the registration takes intrinsics only
-    for camera in (read_camera(path), Camera.load(path, need_pose=False)):
+    for camera in (read_camera(path), load_camera(path, need_pose=False)):
         assert camera.fx == 500.0 and camera.dist.size == 5 and np.array_equal(camera.R, np.eye(3))
 
 
 def test_render_and_reference_take_a_yaml_camera(tmp_path, capsys):
-    yml = write_camera(tmp_path / "cam.yml", Camera.load(CONVEYOR))
+    yml = write_camera(tmp_path / "cam.yml", load_camera(CONVEYOR))
     images = {}
     for camera in (CONVEYOR, yml):
         out = tmp_path / f"{camera.suffix[1:]}.png"
@@ -174,7 +174,7 @@ def test_render_from_json_intrinsics_says_no_pose(tmp_path, capsys, command):
     """A camera JSON without R and t (what `mrcheck calibrate -o cam.json` writes) stood the camera
     at the world origin looking along +z; a render now refuses it as it refuses the YAML."""
     path = tmp_path / "cam.json"
-    write_camera(path, Camera.load(CONVEYOR), pose=False)
+    write_camera(path, load_camera(CONVEYOR), pose=False)
     out = tmp_path / ("r.png" if command == "render" else "r.npy")
     result = run(capsys, command, SCENE, "--camera", path, *TINY, "-o", out)
     assert_one_line_error(result, path, "camera JSON has intrinsics but no pose (R and t)")

@@ -13,7 +13,7 @@ import pytest
 from mrcheck.cli import main
 from mrcheck.core.resources import sample_scene_path
 from mrcheck.eval import metrics
-from mrcheck.eval.compare import _strip_height
+from mrcheck.eval.compare import legend_strip_height
 from mrcheck.render.renderer import MODES
 
 AO_MODES = [m for m in MODES if m != "phong"]
@@ -113,7 +113,7 @@ def test_compare_writes_figure_and_metrics(tmp_path, capsys):
     rows = len(AO_MODES) + len(kinds)
     assert figure.shape[0] % rows == 0
     row_height = figure.shape[0] // rows
-    assert H + _strip_height(H) < row_height < 2 * H
+    assert H + legend_strip_height(H) < row_height < 2 * H
     assert 3 * W <= figure.shape[1] < 3 * W + 10
 
     md = (out / "metrics.md").read_text()

@@ -250,7 +250,7 @@ def test_ssao_bias_removes_self_occlusion_of_a_tilted_plane(ctx, seed):
     plane must stay fully open. The plane's normal is 60 degrees from the line of sight, depth
     3.4 m (top) to 9.2 m (bottom), the half step 0.011 to 0.08 m, R = 1 m (36 px at 5 m), so
     the bias (0.02 m) covers the nearer 40 % of the image; farther down the false occlusion of
-    oblique surfaces that the README reports remains (measured: mean darkening 0.002-0.003
+    oblique surfaces that docs/method.md reports remains (measured: mean darkening 0.002-0.003
     there). Guards the bias: set to 0, the near part darkens (10-29 % of its pixels below 0.99,
     min 0.91-0.94) and the whole plane's mean darkening rises from 0.0019 to 0.011-0.014."""
     camera = Camera.from_look_at((0, 0, 0), (0, 1, 0), (0, 0, 1), 30, 128, 96)

@@ -6,7 +6,6 @@ view, so that both what is hidden and what is not are known.
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -14,9 +13,10 @@ import pytest
 import trimesh
 
 from mrcheck.core.camera import Camera
+from mrcheck.core.progress import showing_progress
 from mrcheck.core.resources import factory_scenes_dir
 from mrcheck.render import culling, lod
-from mrcheck.render.gbuffer import GBuffer
+from mrcheck.render.gbuffer import FLUSH_TRIANGLES, DrawOptions, GBuffer
 from mrcheck.render.gl import made_current
 from mrcheck.render.renderer import Renderer, RenderSettings
 from mrcheck.scene.model import Scene, load_scene, make_part
@@ -48,15 +48,14 @@ def _scene(sphere_subdivisions=2) -> tuple[Scene, Camera]:
 
 
 def _draw(renderer: Renderer, camera: Camera, occlusion: bool, lod_px: float, prepare: bool = True,
-          backface: bool = True, size=(W, H)):
+          backface: bool = True, size=(W, H), flush_triangles: int = FLUSH_TRIANGLES):
     with made_current(renderer.ctx):
         if prepare:
             renderer.geometry.prepare_levels()
         gbuffer = GBuffer.create(renderer.ctx, size)
-        renderer.geometry.occlusion_culling = occlusion
-        renderer.geometry.backface_culling = backface
-        renderer.geometry.lod_px = lod_px
-        stats = renderer.geometry.draw(gbuffer, camera)
+        options = DrawOptions(lod_px=lod_px, occlusion_culling=occlusion, backface_culling=backface,
+                              flush_triangles=flush_triangles)
+        stats = renderer.geometry.draw(gbuffer, camera, options)
         depth = gbuffer.read_depth().copy()
         gbuffer.release()
     return stats, depth
@@ -155,10 +154,9 @@ def test_flushing_between_draws_changes_no_pixel():
     scene, camera = _closed_scene()
     renderer = Renderer(scene)
     try:
-        renderer.geometry.flush_triangles = 0
-        _, depth_one_go = _draw(renderer, camera, occlusion=False, lod_px=0.0)
-        renderer.geometry.flush_triangles = 1    # glFlush after every draw
-        _, depth_flushed = _draw(renderer, camera, occlusion=False, lod_px=0.0)
+        _, depth_one_go = _draw(renderer, camera, occlusion=False, lod_px=0.0, flush_triangles=0)
+        # glFlush after every draw
+        _, depth_flushed = _draw(renderer, camera, occlusion=False, lod_px=0.0, flush_triangles=1)
     finally:
         renderer.release()
     np.testing.assert_array_equal(depth_flushed, depth_one_go)
@@ -270,28 +268,27 @@ def test_levels_are_cached_on_disk_by_content(tmp_path, monkeypatch):
 
 def test_building_levels_shows_progress_and_loading_them_does_not(tmp_path, monkeypatch):
     """Building a robot's levels on a first render took 8-12 s with nothing on the terminal after
-    the loading bar: a bar (stderr, terminals only, as mrcheck's others) says what is being built."""
+    the loading bar: a progress display (the command line's bar, as mrcheck's others) says what
+    is being built, step by step, and is closed when done."""
     bars = []
 
-    class Bar:
-        def __init__(self, **kwargs):
-            self.kwargs, self.n = kwargs, 0
-            bars.append(self)
-
-        def update(self, n):
-            self.n += n
-
-        def close(self):
-            self.closed = True
+    def progress(items, desc, unit):
+        bar = {"desc": desc, "unit": unit, "n": 0, "closed": False}
+        bars.append(bar)
+        try:
+            for item in items:
+                bar["n"] += 1
+                yield item
+        finally:
+            bar["closed"] = True
 
     monkeypatch.setenv("MRCHECK_CACHE_DIR", str(tmp_path))
-    monkeypatch.setattr(lod, "tqdm", Bar)
     sphere = trimesh.creation.icosphere(3, radius=1.0)
-    lod.levels_for(sphere.vertices, sphere.faces, "robot_2")
-    assert len(bars) == 1
-    bar = bars[0]
-    assert bar.kwargs["desc"] == f"building levels of detail (robot_2, {len(sphere.faces):,} triangles)"
-    assert bar.kwargs["disable"] is None and bar.kwargs["file"] is sys.stderr and bar.closed
-    assert 0 < bar.n <= bar.kwargs["total"] == len(sphere.faces)
-    lod.levels_for(sphere.vertices, sphere.faces)   # from the cache: milliseconds, no bar
-    assert len(bars) == 1
+    with showing_progress(progress):
+        levels = lod.levels_for(sphere.vertices, sphere.faces, "robot_2")
+        assert len(bars) == 1
+        bar = bars[0]
+        assert bar["desc"] == f"building levels of detail (robot_2, {len(sphere.faces):,} triangles)"
+        assert bar["closed"] and bar["n"] == len(levels) > 0
+        lod.levels_for(sphere.vertices, sphere.faces)   # from the cache: milliseconds, no bar
+        assert len(bars) == 1

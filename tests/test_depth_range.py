@@ -42,7 +42,7 @@ def _render(ctx, parts, camera, modes=("phong", "vector")):
     renderer = Renderer(Scene("t", "t", list(parts)), ctx=ctx)
     try:
         results = renderer.render(camera, list(modes), SETTINGS, want_ao=True)
-        return results, renderer.last_depth()
+        return results, results.depth
     finally:
         renderer.release()
 
@@ -175,8 +175,7 @@ def test_a_mesh_spanning_1e12_m_keeps_and_renders_its_small_box(ctx, tmp_path, c
     assert "degenerate" not in capsys.readouterr().err
     assert scene.parts[0].triangle_count == len(faces)
     renderer = Renderer(scene, ctx=ctx)
-    renderer.render(LOOK, ["phong"])
-    depth = renderer.last_depth()
+    depth = renderer.render(LOOK, ["phong"]).depth
     renderer.release()
     _, alone = _render(ctx, [_part("box", CUBE)], LOOK, ["phong"])
     on_box = alone > 0
@@ -211,8 +210,8 @@ def test_reference_ao_of_the_far_scene(ctx, how):
     for parts in _with_far(how, FAR * VIEW_DIR):
         scene = Scene("t", "t", parts)
         renderer = Renderer(scene, ctx=ctx)
-        renderer.render(LOOK, ["phong"], RenderSettings(lod_px=REFERENCE_LOD_PX))
-        depth, normals = renderer.last_depth(), renderer.last_normals()
+        frame = renderer.render(LOOK, ["phong"], RenderSettings(lod_px=REFERENCE_LOD_PX), want_normals=True)
+        depth, normals = frame.depth, frame.normals
         renderer.release()
         results.append(reference_ao(scene, LOOK, depth, normals, 16, "world", 0.5))
     assert (results[1] < 0.9).mean() > 0.01
@@ -223,8 +222,8 @@ def test_reference_ao_of_the_far_scene(ctx, how):
 def test_discrepancies_ids_and_overlay_edges_of_the_far_scene(ctx, how):
     """The discrepancy check's per-pixel instances (a ray cast) and the overlay's CAD edges
     (from the render's depth) see the near cell as if it were alone."""
-    from mrcheck.apps.discrepancies.detector import object_ids
-    from mrcheck.mr.overlay import cad_edges
+    from mrcheck.apps.discrepancies import object_ids
+    from mrcheck.mr.shot import cad_edges
 
     (ids, depth, _), (ids_alone, depth_alone, _) = (object_ids(Scene("t", "t", p), LOOK)
                                                     for p in _with_far(how, FAR * VIEW_DIR))

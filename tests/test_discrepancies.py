@@ -1,5 +1,5 @@
 """``mrcheck discrepancies``: object ids, suspects, heat map, and precision / recall measured on
-as-built variants of the sample cell (protocol: :mod:`mrcheck.apps.discrepancies.detector`)."""
+as-built variants of the sample cell (protocol: :mod:`mrcheck.apps.discrepancies.evaluation`)."""
 
 from __future__ import annotations
 
@@ -9,16 +9,18 @@ import cv2
 import numpy as np
 import pytest
 
-from mrcheck.apps.discrepancies.detector import (
-    DISCRIMINATIVE_FLOOR,
-    DISCRIMINATIVE_THRESHOLD,
+from mrcheck.apps.discrepancies import (
     SAMPLE_CELL_FAR_VIEWS,
-    SCORE_THRESHOLD,
     behind_ids,
     detect,
     evaluate,
     object_ids,
     synthetic_photo,
+)
+from mrcheck.apps.discrepancies.thresholds import (
+    DISCRIMINATIVE_FLOOR,
+    DISCRIMINATIVE_THRESHOLD,
+    SCORE_THRESHOLD,
 )
 from mrcheck.cli import main
 from mrcheck.core.camera import Camera
@@ -45,8 +47,7 @@ def test_object_ids_match_the_render_silhouette(ctx, sample):
     camera = _camera(sample, k1=0.0)
     ids, depth, labels = object_ids(sample, camera)
     renderer = Renderer(sample, ctx=ctx)
-    renderer.render(camera, ["phong"])
-    gl_depth = renderer.last_depth()
+    gl_depth = renderer.render(camera, ["phong"]).depth
     renderer.release()
     agree = np.mean((ids >= 0) == (gl_depth > 0))
     assert agree > 0.99
@@ -79,7 +80,7 @@ def test_precision_and_recall_on_asbuilt_variants(ctx, tmp_path):
     the asserted (measured) levels fail if that rule stops working."""
     result = evaluate(SAMPLE, seeds=(0, 1, 2), views=("overview", "conveyor", *SAMPLE_CELL_FAR_VIEWS[:2]), width=640,
                       height=480, workdir=tmp_path, ctx=ctx)
-    s = result["summary"]
+    s = result.summary
     print(json.dumps(s, indent=1))
     kinds = s["per_kind"]
     assert kinds["moved >=0.2 m"]["recall"] >= 0.9
@@ -96,16 +97,16 @@ def test_planned_scene_as_photo_gives_few_suspects(ctx, sample):
     camera = _camera(sample)
     photo = synthetic_photo(sample, camera, Renderer(sample, ctx=ctx))
     result = detect(sample, camera, photo, renderer=Renderer(sample, ctx=ctx))
-    scored = result["suspects"]
+    scored = result.suspects
     assert len(scored) > 10
-    flagged = [s for s in scored if s["suspect"]]
+    flagged = [s for s in scored if s.suspect]
     assert len(flagged) <= 0.1 * len(scored)
-    assert all(not s["thin"] and (s["score"] >= SCORE_THRESHOLD or (s["score"] >= DISCRIMINATIVE_FLOOR and
-               s["discriminative_score"] >= DISCRIMINATIVE_THRESHOLD)) for s in flagged)
-    solid = [s for s in scored if not s["thin"]]
-    assert np.median([s["support"] for s in solid]) > 0.85
+    assert all(not s.thin and (s.score >= SCORE_THRESHOLD or (s.score >= DISCRIMINATIVE_FLOOR and
+               s.discriminative_score >= DISCRIMINATIVE_THRESHOLD)) for s in flagged)
+    solid = [s for s in scored if not s.thin]
+    assert np.median([s.support for s in solid]) > 0.85
     # unshifted is (about) the best match of a part that is where it was planned
-    assert np.median([s["best_shift_support"] - s["support"] for s in solid]) < 0.05
+    assert np.median([s.best_shift_support - s.support for s in solid]) < 0.05
 
 
 @pytest.mark.parametrize("encode", [None, ".jpg"])
@@ -118,9 +119,9 @@ def test_a_clean_photo_of_the_planned_scene_gives_few_suspects(ctx, sample, enco
     if encode:
         photo = cv2.imdecode(cv2.imencode(encode, photo, [cv2.IMWRITE_JPEG_QUALITY, 90])[1], cv2.IMREAD_COLOR)
     result = detect(sample, camera, photo, renderer=Renderer(sample, ctx=ctx))
-    flagged = [s for s in result["suspects"] if s["suspect"]]
-    assert len(result["suspects"]) > 10 and len(flagged) <= 0.1 * len(result["suspects"])
-    assert all(s["score"] >= 0.0 for s in result["suspects"])
+    flagged = [s for s in result.suspects if s.suspect]
+    assert len(result.suspects) > 10 and len(flagged) <= 0.1 * len(result.suspects)
+    assert all(s.score >= 0.0 for s in result.suspects)
 
 
 def _shot(tmp_path, scene, camera, photo):

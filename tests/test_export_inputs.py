@@ -11,7 +11,7 @@ import socket
 import numpy as np
 import pytest
 
-from mrcheck.apps.export import run as export
+from mrcheck.apps.export import execute
 from mrcheck.cli import main
 from mrcheck.core.camera import Camera
 from mrcheck.core.output import write_image
@@ -79,7 +79,7 @@ def test_scene_that_does_not_load_is_a_bad_job(problem, job, tmp_path, capsys):
 @pytest.mark.parametrize("address", ["notanaddress", "unreachable"])
 def test_bad_scheduler_leaves_no_outdir(address, job, tmp_path, capsys, monkeypatch):
     pytest.importorskip("distributed")
-    monkeypatch.setattr(export, "SCHEDULER_TIMEOUT", "1s")
+    monkeypatch.setattr(execute, "SCHEDULER_TIMEOUT", "1s")
     if address == "unreachable":
         address = f"tcp://127.0.0.1:{_free_port()}"
     out = tmp_path / "out"

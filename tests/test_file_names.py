@@ -97,10 +97,9 @@ def test_calibrate_names_the_views(ws, capfd, suffix):
 
 
 def test_a_yaml_camera_of_such_a_name_is_read(ws, capfd):
-    from mrcheck.core.camera import Camera
-    from mrcheck.core.camerafiles import write_camera
+    from mrcheck.core.camerafiles import load_camera, write_camera
 
-    cam = Camera.load(ws["camera"])
+    cam = load_camera(ws["camera"])
     write_camera(f"{PREFIX}cam.yml", cam)
     _ok(["render", ws["mesh"], "--camera", f"{PREFIX}cam.yml", "-o", "out/r.png", "--mode", "phong"], capfd)
 

@@ -217,8 +217,7 @@ def test_viewpoints_see_near_and_far(ctx, scene_dir, preset, target, far):
     renderer = Renderer(scene, ctx=ctx)
     try:
         for view in scene.viewpoints:
-            renderer.render(scene.camera(view, 256, 192), ["phong"])
-            depth = renderer.last_depth()
+            depth = renderer.render(scene.camera(view, 256, 192), ["phong"]).depth
             covered = depth > 0
             assert covered.mean() > 0.5, view
             assert depth[covered].min() < 3.0, view

@@ -311,7 +311,8 @@ def test_comma_separated_scans_still_read(project, capsys, content):
 
 def test_the_cases_cover_every_float_option():
     """A float option added to the CLI without a case here is a failure of this test."""
-    from mrcheck.cli import FINITE, cli
+    from mrcheck.cli import cli
+    from mrcheck.cli.options import FINITE
 
     def commands(group, prefix=()):
         for name, command in group.commands.items():

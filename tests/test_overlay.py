@@ -16,13 +16,9 @@ import pytest
 from mrcheck.cli import main
 from mrcheck.core.camera import Camera
 from mrcheck.core.resources import sample_scene_path
-from mrcheck.mr.overlay import (
-    cad_edges,
-    distortion_map,
-    overlay_images,
-    padded_camera,
-    render_for_photo,
-)
+from mrcheck.mr.lens import distortion_map, padded_camera
+from mrcheck.mr.overlay import overlay_images
+from mrcheck.mr.shot import cad_edges, render_for_photo
 from mrcheck.render.renderer import Renderer, RenderSettings
 from mrcheck.scene.model import Scene, load_scene
 

@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 
 from mrcheck.cli import main
-from mrcheck.core.camera import Camera
-from mrcheck.mr.registration import solve_pose
+from mrcheck.core.camerafiles import load_camera
+from mrcheck.mr.pose import solve_pose
 
 BOX = Path(__file__).resolve().parent / "data" / "pose" / "box"
 PHOTO, SCENE = BOX / "resized_IMG_3875.JPG", BOX / "scene.toml"
@@ -58,7 +58,7 @@ def test_registration_rejects_the_two_misclicks(shot):
     # where the pose puts the mis-clicked corners: the left one lies on the boundary between the
     # box's yellow side and the table (looked at in an 8x zoom; the right one is in deep shadow)
     world = np.array([p["world"] for p in data["rejected"]])
-    left = Camera.load(shot).project(world)[0]
+    left = load_camera(shot).project(world)[0]
     assert np.abs(left - (129.2, 255.6)).max() < 1.5
 
 
@@ -86,7 +86,7 @@ def test_the_seven_clicks_are_not_ambiguous(shot):
 def test_each_good_corner_is_predicted_by_the_other_four():
     """Leave one out: the pose from four clicks predicts the fifth corner; the error is what an
     overlay built from such clicks is off by there (measured 0.7-2.0 px)."""
-    camera = Camera.load(BOX / "canon.json", need_pose=False)
+    camera = load_camera(BOX / "canon.json", need_pose=False)
     points = json.loads((BOX / "corners.json").read_text())["points"]
     pixels = np.array([points[i]["pixel"] for i in GOOD], float)
     world = np.array([points[i]["world"] for i in GOOD], float)
@@ -119,7 +119,7 @@ def test_overlay_and_the_photo_edges_agree_and_a_moved_pose_is_seen(shot, tmp_pa
     assert np.hypot(*box["best_shift"]) <= 3.0                       # measured (-2, 2)
 
     data = json.loads(shot.read_text())
-    camera = Camera.load(shot)
+    camera = load_camera(shot)
     centre = np.array([0.0945, 0.129, 0.0375])                       # the box's centre, metres
     z = float((camera.R @ centre + camera.t)[2])
     moved = dict(data, t=(camera.t + np.array([4 * z / camera.fx, 0.0, 0.0])).tolist())

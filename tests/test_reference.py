@@ -20,8 +20,8 @@ SCENE = str(sample_scene_path())
 def gbuffer(ctx, scene, camera):
     renderer = Renderer(scene, ctx=ctx)
     try:
-        renderer.render(camera, ["phong"], RenderSettings(lod_px=REFERENCE_LOD_PX))
-        return renderer.last_depth(), renderer.last_normals()
+        frame = renderer.render(camera, ["phong"], RenderSettings(lod_px=REFERENCE_LOD_PX), want_normals=True)
+        return frame.depth, frame.normals
     finally:
         renderer.release()
 

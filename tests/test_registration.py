@@ -16,13 +16,13 @@ from scipy.spatial.transform import Rotation
 
 from mrcheck.cli import main
 from mrcheck.core.camera import Camera
-from mrcheck.mr.overlay import load_shot
-from mrcheck.mr.registration import (
-    _print_summary,
-    read_photo,
-    register_markers,
-    register_points,
-)
+from mrcheck.core.camerafiles import load_camera, load_shot
+from mrcheck.core.camerafiles import read_photo as read_rgb_photo
+from mrcheck.mr.registration import register_markers, register_points, summary_lines
+
+
+def read_photo(path):
+    return read_rgb_photo(path, grey=True)   # what registration reads: the photo in grey
 
 DATA = Path(__file__).parent / "data"
 CHARUCO = DATA / "calibration" / "opencv_charuco"
@@ -115,7 +115,7 @@ def test_charuco_registration_does_not_depend_on_the_board_pose(board_frame_shot
 def test_cli_writes_a_shot_that_is_a_camera(files, capsys):
     assert run(files, "--markers", str(files / "map.json")) == 0
     shot = json.loads((files / "SHOT.json").read_text())
-    camera = Camera.load(files / "SHOT.json")  # what `mrcheck render --camera SHOT.json` reads
+    camera = load_camera(files / "SHOT.json")  # what `mrcheck render --camera SHOT.json` reads
     assert (camera.width, camera.height) == (640, 480)
     # the photo relative to the shot's folder, which load_shot resolves
     assert not Path(shot["photo"]).is_absolute()
@@ -315,5 +315,4 @@ def test_the_summary_counts_many_points_instead_of_listing_them(capsys):
     shot = {"method": "points", "photo": "p.jpg", "camera_position": [0, 0, 0], "rms": 0.3,
             "expected_overlay_error_px": 0.5, "warnings": [],
             "used": [entry(i) for i in range(54) if i not in (7, 40)], "rejected": [entry(7, 9.0), entry(40, 12.5)]}
-    _print_summary(shot, "SHOT.json")
-    assert "used 52 of 54; rejected 7 (9.0 px), 40 (12.5 px)" in capsys.readouterr().out
+    assert "used 52 of 54; rejected 7 (9.0 px), 40 (12.5 px)" in "\n".join(summary_lines(shot, "SHOT.json"))

@@ -23,6 +23,7 @@ from fastapi.testclient import TestClient  # noqa: E402
 from mrcheck.apps.review.app import create_app  # noqa: E402
 from mrcheck.apps.review.source import open_source  # noqa: E402
 from mrcheck.cli import main  # noqa: E402
+from mrcheck.cli.messages import console  # noqa: E402
 from mrcheck.core.errors import MrcheckError  # noqa: E402
 from mrcheck.core.output import write_image  # noqa: E402
 from mrcheck.core.resources import sample_scene_path  # noqa: E402
@@ -279,7 +280,8 @@ def test_review_of_a_job(tmp_path, capsys):
     job.write_text(f'scene = "{BOX / "scene.toml"}"\n[[shots]]\nname = "box"\nphoto = "{BOX / "resized_IMG_3875.JPG"}"\n'
                    f'intrinsics = "{BOX / "canon.json"}"\npoints = "corners_mm.json"\n'
                    '[[shots]]\nname = "gone"\nshot = "gone.json"\n')
-    source = open_source(job)
+    with console():   # warnings as the command shows them: lines on stderr
+        source = open_source(job)
     out, err = capsys.readouterr()
     assert list(source.shots) == ["box"] and source.shots["box"].size == (718, 480)
     assert out == ""
@@ -333,11 +335,11 @@ def test_a_database_of_served_pixels_is_upgraded(tmp_path, served_small):
     """A review.sqlite of before (version 0) has markers in the served pixels: scaled once."""
     import sqlite3
 
-    from mrcheck.apps.review.storage import _SCHEMA
+    from mrcheck.apps.review.storage import SCHEMA
 
     source = _box_review(tmp_path, (0.0, 0.0, 0.0), size=(160, 120))
     with contextlib.closing(sqlite3.connect(tmp_path / "r.sqlite")) as db:
-        db.executescript(_SCHEMA)
+        db.executescript(SCHEMA)
         db.execute("INSERT INTO reviews(source, created) VALUES ('old', 0)")
         db.execute("INSERT INTO markers(review, shot, x, y, category, severity, created, updated) "
                    "VALUES (1, 'a', 40, 30.5, 'moved', 2, 0, 0)")
@@ -390,7 +392,8 @@ def test_an_unexpected_error_has_the_apis_error_shape(client, monkeypatch, capsy
 
     monkeypatch.delenv("MRCHECK_DEBUG", raising=False)
     monkeypatch.setattr(client.app.state.store, "markers", boom)
-    r = client.get("/api/markers")
+    with console():   # the server's console, as `mrcheck review` shows it
+        r = client.get("/api/markers")
     assert r.status_code == 500 and r.json() == {"error": "internal error, please report it: ZeroDivisionError: division by zero"}
     err = capsys.readouterr().err
     assert err == ("error: internal error in GET /api/markers, please report it: ZeroDivisionError: division by zero "
@@ -573,12 +576,12 @@ def test_the_page_shows_why_a_photo_failed(tmp_path):
 def test_the_page_says_why_an_export_failed(tmp_path, monkeypatch):
     """The export links were plain downloads: a failed report ended as "canceled" in the
     browser's download list, with no reason on the page."""
-    import mrcheck.apps.review.app as review_app
+    import mrcheck.apps.review.routes.exports as review_exports
 
     def broken(*args):
         raise MrcheckError("no space left on the device")
 
-    monkeypatch.setattr(review_app, "report_html", broken)
+    monkeypatch.setattr(review_exports, "report_html", broken)
     with _box_page(tmp_path) as (app, page, url):
         _open(page, url)
         page.click("#export-html")

@@ -15,8 +15,9 @@ import pytest
 pytest.importorskip("fastapi")
 uvicorn = pytest.importorskip("uvicorn")
 
-from mrcheck.apps.review.app import listen  # noqa: E402
+from mrcheck.apps.review.server import listen  # noqa: E402
 from mrcheck.cli import main  # noqa: E402
+from mrcheck.cli.messages import console  # noqa: E402
 from mrcheck.core.camera import Camera  # noqa: E402
 from mrcheck.core.errors import MrcheckError  # noqa: E402
 from mrcheck.core.output import write_image  # noqa: E402
@@ -270,7 +271,8 @@ def test_a_shots_folder_skips_what_is_not_a_shot(outdir, tmp_path, capsys):
     (shots / "canon.json").write_text(json.dumps({"width": 64, "height": 48, "K": [[50, 0, 32], [0, 50, 24], [0, 0, 1]]}))
     (shots / "corners.json").write_text(json.dumps({"points": [{"pixel": [1, 2], "world": [0, 0, 0]}]}))
     (shots / "broken.json").write_text('{"width": 64,')
-    source = open_source(sample_scene_path(), shots)
+    with console():   # warnings as the command shows them: lines on stderr
+        source = open_source(sample_scene_path(), shots)
     out, err = capsys.readouterr()
     assert sorted(source.shots) == ["Halle_S_d", "a"] and out == ""
     assert err.count("\n") == 3 and all(f"warning: {shots / name}: " in err for name in ("canon.json", "corners.json", "broken.json"))
@@ -289,7 +291,8 @@ def test_an_export_says_which_shots_it_cannot_review(outdir, capsys):
     manifest = json.loads((outdir / "manifest.json").read_text())
     manifest["shots"].append({"name": "gone", "status": "done", "folder": "shots/gone"})
     (outdir / "manifest.json").write_text(json.dumps(manifest))
-    assert list(open_source(outdir).shots) == ["shot"]
+    with console():
+        assert list(open_source(outdir).shots) == ["shot"]
     err = capsys.readouterr().err
     assert err == f"warning: shot gone skipped: {outdir / 'shots' / 'gone' / 'SHOT.json'}: shot file not found\n"
     manifest["shots"] = [{**e, "status": "failed"} for e in manifest["shots"]]
@@ -310,7 +313,7 @@ def test_a_corrupt_shot_json_is_said_once(tmp_path, capsys):
     from mrcheck.apps.review.source import open_source
 
     (tmp_path / "a.json").write_text('{"photo": "a\nb.png"}')
-    with pytest.raises(MrcheckError) as info:
+    with pytest.raises(MrcheckError) as info, console():
         open_source(sample_scene_path(), tmp_path)
     assert f"warning: {tmp_path / 'a.json'}: malformed shot JSON: Invalid control character at line 1 (skipped" \
         in capsys.readouterr().err

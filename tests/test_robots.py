@@ -179,8 +179,7 @@ def test_the_four_robots_render_side_by_side(ctx, copies):
     # level camera at 0.45 m: the floor (z <= 0) is only ever seen below the image centre
     camera = Camera.from_look_at((0, -6.5, 0.45), (0, 0, 0.45), (0, 0, 1), 45.0, 160, 120)
     renderer = Renderer(scene, ctx=ctx)
-    renderer.render(camera, ["phong"])
-    depth = renderer.last_depth()
+    depth = renderer.render(camera, ["phong"]).depth
     assert depth.shape == (120, 160)
     for x, name in zip(xs, robots.ROBOT_NAMES):
         u, v = camera.project(np.array([[x, 0.0, 0.6]]))[0]

@@ -91,14 +91,14 @@ def test_a_manifest_with_a_utf8_bom_loads(tmp_path):
 
 
 def test_the_readme_instance_example_does_what_it_says(tmp_path):
-    """The README's manifest example: the first instance at (-5.8, -2.5), C-2 turned in place at
-    (-5.8, 3.5) -- not swung about the origin by a part translate."""
+    """The documented manifest example (docs/formats.md): the first instance at (-5.8, -2.5), C-2
+    turned in place at (-5.8, 3.5) -- not swung about the origin by a part translate."""
     import re
     import tomllib
     from pathlib import Path
 
-    readme = (Path(__file__).parents[1] / "README.md").read_text()
-    section = readme[readme.index("### Scene manifest (TOML)"):]
+    readme = (Path(__file__).parents[1] / "docs" / "formats.md").read_text()
+    section = readme[readme.index("## Scene manifest (TOML)"):]
     example = tomllib.loads(re.search(r"```toml\n(.*?)```", section, re.S).group(1))
     part = next(p for p in example["parts"] if p.get("instances"))
     trimesh.creation.box((4000.0, 1000.0, 500.0)).export(tmp_path / "conveyor.stl")   # 4 x 1 m in mm, centred

@@ -36,7 +36,9 @@ from mrcheck.core.errors import MrcheckError
 from mrcheck.core.inputs import check_input
 from mrcheck.core.output import check_not_inputs, check_output_path
 from mrcheck.mr.edges import EdgeFitError, EdgeOptions, refine_pose, scene_edges
-from mrcheck.mr.overlay import distortion_map, overlay_images, render_for_photo
+from mrcheck.mr.lens import distortion_map
+from mrcheck.mr.overlay import overlay_images
+from mrcheck.mr.shot import render_for_photo
 from mrcheck.mr.registration import fit_camera
 from mrcheck.render.renderer import Renderer, RenderSettings
 from mrcheck.scene.manifest import scene_files
@@ -85,6 +87,14 @@ class TrackResult:
     @property
     def fps(self) -> float:
         return len(self.frames) / self.seconds if self.seconds > 0 else math.inf
+
+    def summary_line(self) -> str:
+        return (f"tracked {len(self.frames)} frames in {self.seconds:.1f} s ({self.fps:.2f} frames/s); "
+                f"lost: {', '.join(map(str, self.lost)) or 'none'}")
+
+    def lost_lines(self) -> list[str]:
+        return [f"  frame {f.frame} lost ({f.reason}): its pose is the prediction, not trusted"
+                for f in self.frames if f.lost]
 
 
 def predicted(previous: list) -> Camera:

@@ -1,4 +1,9 @@
-"""The ``mrcheck`` command line. Commands only; the work lives in the modules.
+"""The ``mrcheck`` command line. Commands only; the work lives in the layers below.
+
+One module per command group (``render``, ``scene``, ``mr``, ``apps``, ``evaluate``), sharing
+``group`` (the click group and its help conventions), ``options`` (option types and checks) and
+``messages`` (warnings as ``warning: ...`` lines, progress bars). A command parses its options,
+calls one function of a lower layer and prints what it returns. Public API: :func:`main`.
 
 Exit status: 0 on success; 1 with a one-line ``error: ...`` on stderr when the input is bad
 (file, option value, scene), when ``export`` finished but some shots failed, or on an internal
@@ -15,7 +20,9 @@ import click
 
 from mrcheck.cli import apps, evaluate, mr, render, scene  # noqa: F401  (they add their commands)
 from mrcheck.cli.group import cli
+from mrcheck.cli.messages import progress_bar, warning_lines
 from mrcheck.core.errors import DISPLAY_ERRORS, MrcheckError, bug_reason
+from mrcheck.core.progress import showing_progress
 
 EXIT_ERROR = 1
 
@@ -33,7 +40,9 @@ def _name_safe_streams() -> None:
 def main(argv=None) -> int:
     _name_safe_streams()
     try:
-        result = cli.main(args=argv, prog_name="mrcheck", standalone_mode=False)
+        # the code's warnings as "warning: ..." lines on stderr; its deep loops' progress as bars
+        with warning_lines(), showing_progress(progress_bar):
+            result = cli.main(args=argv, prog_name="mrcheck", standalone_mode=False)
     except MrcheckError as exc:
         click.echo(f"error: {exc}", err=True)
         return EXIT_ERROR

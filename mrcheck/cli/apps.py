@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import sys
+
 import click
 
 from mrcheck.cli.group import cli
+from mrcheck.cli.messages import ProgressStream, console
 from mrcheck.cli.options import FINITE, positive, size
 
 
@@ -18,11 +21,56 @@ from mrcheck.cli.options import FINITE, positive, size
                    "workers load the scene themselves from the path the job names.")
 @click.option("--force", is_flag=True, help="Redo shots whose outputs are already complete (default: skip them).")
 def export(job, outdir, workers, scheduler, force):
-    """Batch overlays for a whole job: register every shot, render the modes, blend the photo at
-    every alpha and AO intensity, write side-by-side sheets, a manifest and an HTML report."""
-    from mrcheck.apps.export.run import export_command
+    """Batch overlays, sheets, manifest and report for a whole job.
 
-    return export_command(job=job, outdir=outdir, workers=workers, scheduler=scheduler, force=force)
+    Register every shot of JOB.toml, render the modes, blend the photo at every alpha and AO
+    intensity, write side-by-side sheets, a manifest and an HTML report.
+
+    \b
+    Example:
+      mrcheck export job.toml -o out --workers 2
+    """
+    from mrcheck.apps.export.run import run_export
+
+    bar = _ExportBar()
+    try:
+        with console():
+            result = run_export(job=job, outdir=outdir, workers=workers, scheduler=scheduler, force=force,
+                                progress=bar)
+    finally:
+        bar.close()
+    for line in result.summary():
+        click.echo(line)
+    return 1 if result.failed else 0
+
+
+class _ExportBar:
+    """The export's progress on stderr: a bar on a terminal; in a pipe or log file one line per
+    shot (count, name, status, ETA) instead of the bar's \\r frames."""
+
+    def __init__(self):
+        self.stream, self.bar = ProgressStream(sys.stderr), None
+
+    def __call__(self, step) -> None:
+        if self.bar is None:   # the start: the skipped shots are done already
+            from tqdm import tqdm
+
+            # disable=None: a bar on a terminal only
+            self.bar = tqdm(total=step.total, initial=step.done, desc="export", unit="shot", file=self.stream,
+                            dynamic_ncols=True, disable=None)
+            return
+        self.bar.update(1)
+        if self.bar.disable:
+            self.stream.write(f"export: {step.done}/{step.total} shots, {step.name} {step.status}, "
+                              f"ETA {step.eta_s:.0f} s\n")
+        if step.failed:
+            self.bar.set_postfix(failed=step.failed)
+        if step.done == step.total:
+            self.close()
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
 
 
 @cli.command()
@@ -40,12 +88,27 @@ def export(job, outdir, workers, scheduler, force):
 @click.option("--max-body", default="1MiB", show_default=True, metavar="SIZE", callback=size,
               help="Refuse request bodies larger than this (413), e.g. 256KiB; at least 64KiB.")
 def review(target, shots_dir, host, port, token, db, suggestions, max_body):
-    """Review shots in the browser: photo and CAD blended, modes, zoom, discrepancy markers with a
-    category, severity and note, the CAD part under the cursor; exports an HTML report and CSV."""
-    from mrcheck.apps.review.app import serve
+    """Review shots in the browser and mark discrepancies.
 
-    serve(target, shots_dir=shots_dir, host=host, port=port, token=token, db=db, suggestions=suggestions,
-          max_body=max_body)
+    Photo and CAD blended, modes, zoom, discrepancy markers with a category, severity and note,
+    the CAD part under the cursor; exports an HTML report and CSV.
+
+    \b
+    Example:
+      mrcheck review out --suggestions p1=suspects/suspects.json
+    """
+    from mrcheck.apps.review.server import start
+
+    with console():   # skipped shots and registration warnings at start-up, internal errors while serving
+        server = start(target, shots_dir=shots_dir, host=host, port=port, token=token, db=db,
+                       suggestions=suggestions, max_body=max_body)
+        try:
+            for line in server.messages():
+                click.echo(line)
+        except BaseException:
+            server.close()
+            raise
+        server.run()
 
 
 @cli.command()
@@ -56,11 +119,22 @@ def review(target, shots_dir, host, port, token, db, suggestions, max_body):
 @click.option("-o", "--output", "outdir", required=True, metavar="OUTDIR",
               help="Folder for heatmap.png, suspects.json (ranked parts, for the review tool) and suspects.md.")
 def discrepancies(shot, scene_path, tolerance_px, outdir):
-    """Point at the CAD parts the photo disagrees with: CAD silhouette and crease edges against the
-    photo's edges, per part, with a heat map and a ranked list of suspects."""
-    from mrcheck.apps.discrepancies.detector import discrepancies_command
+    """Rank the CAD parts the photo disagrees with, with a heat map.
 
-    discrepancies_command(shot=shot, scene=scene_path, tolerance_px=tolerance_px, outdir=outdir)
+    CAD silhouette and crease edges against the photo's edges, per part, with a heat map and a
+    ranked list of suspects.
+
+    \b
+    Example:
+      mrcheck discrepancies p1.json --scene hall/scene.toml -o suspects
+    """
+    from mrcheck.apps.discrepancies.command import discrepancies_command
+    
+    with console():
+        run = discrepancies_command(shot=shot, scene=scene_path, tolerance_px=tolerance_px, outdir=outdir)
+    click.echo(run.summary)
+    for path in run.paths:
+        click.echo(path)
 
 
 @cli.command()
@@ -70,11 +144,21 @@ def discrepancies(shot, scene_path, tolerance_px, outdir):
 @click.option("--units", type=click.Choice(["mm", "cm", "m", "in", "ft"]), help="Unit of the scan's coordinates [default: as the scene, metres].")
 @click.option("-o", "--output", "outdir", required=True, metavar="OUTDIR", help="Folder for deviations, the coloured images and the per-part list.")
 def deviation(scan, scene_path, shot, units, outdir):
-    """Signed cloud-to-mesh distances from a laser scan (PLY, PCD, XYZ) to the planned CAD, per
-    point and per part (as CloudCompare's C2M)."""
-    from mrcheck.apps.deviation import deviation_command
+    """Signed distances from a laser scan to the planned CAD.
 
-    deviation_command(scan=scan, scene=scene_path, shot=shot, units=units, outdir=outdir)
+    Signed cloud-to-mesh distances from a laser scan (PLY, PCD, XYZ) to the planned CAD, per
+    point and per part (as CloudCompare's C2M).
+
+    \b
+    Example:
+      mrcheck deviation scan.ply --scene hall/scene.toml --shot p1.json -o deviation
+    """
+    from mrcheck.apps.deviation.command import deviation_command
+    
+    with console():
+        run = deviation_command(scan=scan, scene=scene_path, shot=shot, units=units, outdir=outdir)
+    click.echo(run.outdir)
+    click.echo(run.summary, err=True)
 
 
 @cli.command()
@@ -82,31 +166,27 @@ def deviation(scan, scene_path, shot, units, outdir):
 @click.option("--scene", "scene_path", required=True, metavar="SCENE", help="The planned scene.")
 @click.option("--intrinsics", required=True, metavar="CAM.json", help="The video camera's calibration (JSON, or OpenCV YAML).")
 @click.option("--initial", required=True, metavar="ROUGH.json", help="The first frame's rough pose (camera JSON with R and t).")
-@click.option("--poses", metavar="POSES.jsonl", help="Per-frame poses, RMS, support, uncertainty, lost flag [default: OUT.poses.jsonl].")
+@click.option("--poses", metavar="POSES.jsonl", help="Per-frame pose, RMS, support, uncertainty, lost flag [default: OUT.poses.jsonl].")
 @click.option("--alpha", type=FINITE, default=0.5, show_default=True, help="Photo opacity in the overlay, 0 (CAD only) .. 1.")
-@click.option("-o", "--output", required=True, metavar="OUT.mp4", help="The overlay video (vector AO, half-resolution AO).")
+@click.option("-o", "--output", required=True, metavar="OUT.mp4", help="The overlay video (vector AO at half resolution).")
 def track(video, scene_path, intrinsics, initial, poses, alpha, output):
-    """Snap the CAD onto every frame of a video (each frame from the previous ones' constant-velocity
-    prediction), write the overlay video and the poses; frames whose support collapses are marked lost.
+    """Snap the CAD onto every frame of a video.
+
+    Each frame starts from the previous frames' constant-velocity prediction and is snapped onto
+    its edges; writes the overlay video and the poses. Frames whose support collapses are marked
+    lost (docs/edge-registration.md).
 
     \b
     Example:
       mrcheck track walk.mp4 --scene hall/scene.toml --intrinsics cam.json --initial rough.json -o walk_overlay.mp4
     """
-    from tqdm import tqdm
-
     from mrcheck.apps.track import track_command
+    from mrcheck.cli.messages import progress_bars
 
-    with tqdm(unit="frame", desc="track", leave=False) as bar:
-        def progress(done, total):
-            bar.total = total or None
-            bar.update(done - bar.n)
-
+    with console(), progress_bars({"track": "frame"}) as bars:
         result = track_command(video, scene_path, intrinsics, initial, output, poses=poses, alpha=alpha,
-                               progress=progress)
-    click.echo(f"tracked {len(result.frames)} frames in {result.seconds:.1f} s ({result.fps:.2f} frames/s); "
-               f"lost: {', '.join(map(str, result.lost)) or 'none'}")
-    for frame in result.frames:
-        if frame.lost:
-            click.echo(f"  frame {frame.frame} lost ({frame.reason}): its pose is the prediction, not trusted")
+                               progress=lambda done, total: bars("track", done, max(total, done)))
+    click.echo(result.summary_line())
+    for line in result.lost_lines():
+        click.echo(line)
     click.echo(f"wrote {output}")

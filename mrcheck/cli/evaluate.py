@@ -6,6 +6,7 @@ import click
 
 from mrcheck.cli.group import cli
 from mrcheck.cli.options import FINITE, positive
+from mrcheck.render import settings as defaults
 
 
 @cli.command()
@@ -21,7 +22,9 @@ from mrcheck.cli.options import FINITE, positive
               help="Only the edge registration against OpenCV's RAPID tracker (cv2.rapid) on Open3D photos of the "
                    "crate scene and the generated cell: accuracy and time side by side (--quick: 3 cases each, else 10).")
 def bench(quick, json_path, repeat, edges):
-    """Measure the AO passes on this machine: every AO mode at full and half resolution, over
+    """Measure the AO passes and frames on this machine.
+
+    Every AO mode at full and half resolution, over
     the fetch floor, and its whole frame; the blurs and the composite; AO time at 1 M vs 10 M
     triangles; the geometry pass of the generated hall at 1, 10 and 20 M triangles at both
     sizes; the whole frame on the 1.5 M-triangle line scene against VTK's SSAO and Open3D's
@@ -47,7 +50,43 @@ def bench(quick, json_path, repeat, edges):
         return
     from mrcheck.eval.bench.run import bench_command
 
-    bench_command(quick=quick, json_path=json_path, repeat=repeat)
+    result = bench_command(quick=quick, json_path=json_path, repeat=repeat, hall=_hall_generator(),
+                           progress=_progress_bar())
+    click.echo(result.text)
+    if result.json_path is not None:
+        click.echo(result.json_path)
+
+
+def _hall_generator():
+    """The bench's halls come from the factory_scenes generator, which only the CLI imports."""
+    from pathlib import Path
+
+    import factory_scenes.generator as generator
+    from mrcheck.eval.bench.scenes import HallGenerator
+
+    return HallGenerator(generator.generate, Path(generator.__file__).parent)
+
+
+def _progress_bar():
+    """The bench's progress as a tqdm bar on stderr: (figures measured, planned, the last one)."""
+    import sys
+
+    from tqdm import tqdm
+
+    bar = None
+
+    def progress(done: int, total: int, label: str) -> None:
+        nonlocal bar
+        if bar is None:
+            bar = tqdm(total=total, desc="bench", unit="figure", file=sys.stderr)
+        bar.total = total
+        if label:
+            bar.set_postfix_str(label, refresh=False)
+        bar.update(done - bar.n)
+        if done >= total:
+            bar.close()
+
+    return progress
 
 
 @cli.command()
@@ -61,35 +100,59 @@ def bench(quick, json_path, repeat, edges):
 @click.option("--radius-mode", type=click.Choice(["world", "screen"]), default="screen", show_default=True,
               help="world: a constant world radius (for ssao and the other world-radius modes); "
                    "screen: the vector method's per-pixel r_S = r_px * Z / f_y.")
-@click.option("--radius", "radius_world", type=FINITE, default=None, callback=positive, help="World radius (scene units) [default: 0.2].")
-@click.option("--radius-px", type=FINITE, default=None, callback=positive, help="Screen radius in pixels [default: 2% of the image height].")
-@click.option("--falloff", type=FINITE, default=1.0, show_default=True, help="c of the attenuation 1 / (1 + c (d/r)^2), as in the render modes.")
+@click.option("--radius", "radius_world", type=FINITE, default=None, callback=positive, help=f"World radius (scene units) [default: {defaults.DEFAULT_RADIUS_WORLD}].")
+@click.option("--radius-px", type=FINITE, default=None, callback=positive, help=f"Screen radius in pixels [default: {defaults.DEFAULT_RADIUS_FRACTION:.0%} of the image height].")
+@click.option("--falloff", type=FINITE, default=defaults.DEFAULT_FALLOFF, show_default=True, help="c of the attenuation 1 / (1 + c (d/r)^2), as in the render modes.")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Seed of the ray directions.")
 @click.option("--units", type=click.Choice(["mm", "cm", "m", "in", "ft"]), help="Unit of a single mesh file SCENE.")
 @click.option("-o", "--output", required=True, metavar="REF.npy", help="Reference AO: .npy float32 (H, W), or 16-bit .png (as --output-ao).")
 def reference(scene_path, view, camera_path, width, height, rays, radius_mode, radius_world, radius_px, falloff, seed,
               units, output):
-    """Ray-traced reference AO (Open3D ray casting) for the pixels of a render, with the same AO
-    definition as the method it judges."""
-    from mrcheck.eval.reference import reference_command
+    """Ray-traced reference AO for the pixels of a render.
 
-    reference_command(scene=scene_path, view=view, camera_path=camera_path, width=width, height=height, rays=rays,
-                      radius_mode=radius_mode, radius_world=radius_world, radius_px=radius_px, falloff=falloff,
-                      seed=seed, units=units, output=output)
+    Open3D ray casting, with the same AO definition as the method it judges.
+
+    \b
+    Example:
+      mrcheck reference factory_scenes/sample_cell/scene.toml --view overview --width 256 -o ref.npy
+    """
+    from mrcheck.cli.messages import progress_bars
+    from mrcheck.eval.reference import PROGRESS_STAGE, reference_command
+
+    with progress_bars({PROGRESS_STAGE: "ray"}) as progress:
+        run = reference_command(scene=scene_path, view=view, camera_path=camera_path, width=width, height=height,
+                                rays=rays, radius_mode=radius_mode, radius_world=radius_world, radius_px=radius_px,
+                                falloff=falloff, seed=seed, units=units, output=output, progress=progress)
+    click.echo(run.path)
+    click.echo(run.timing_line(), err=True)   # stdout carries only the path, as the other commands'
 
 
 @cli.command()
 @click.argument("scene_path", metavar="SCENE")
 @click.option("--view", required=True, metavar="NAME", help="Named viewpoint of the scene manifest.")
-@click.option("--samples", type=int, default=16, show_default=True, callback=positive, help="AO samples per pixel for every mode.")
+@click.option("--samples", type=int, default=defaults.DEFAULT_SAMPLES, show_default=True, callback=positive, help="AO samples per pixel for every mode.")
 @click.option("--rays", type=int, default=256, show_default=True, callback=positive, help="Reference rays per pixel.")
 @click.option("--width", type=int, callback=positive, help="Image width [default: the view's].")
 @click.option("--height", type=int, callback=positive, help="Image height [default: the view's].")
 @click.option("-o", "--output", "outdir", required=True, metavar="OUTDIR", help="Folder for the figure, metrics.json and metrics.md.")
 def compare(scene_path, view, samples, rays, width, height, outdir):
-    """Render every AO mode and its ray-traced reference; write a figure (shaded, AO, signed error
-    per mode) and metrics (MAE, RMSE, SSIM, false occlusion, distance retention, pass time)."""
-    from mrcheck.eval.compare import compare_command
+    """Every AO mode against its ray-traced reference, with metrics.
 
-    compare_command(scene=scene_path, view=view, samples=samples, rays=rays, width=width, height=height,
-                    outdir=outdir)
+    Render every AO mode and its ray-traced reference; write a figure (shaded, AO, signed error
+    per mode) and metrics (MAE, RMSE, SSIM, false occlusion, distance retention, pass time).
+
+    \b
+    Example:
+      mrcheck compare factory_scenes/sample_cell/scene.toml --view overview --width 320 -o cmp
+    """
+    from mrcheck.cli.messages import progress_bars
+    from mrcheck.eval import compare as comparison
+    from mrcheck.eval.reference import PROGRESS_STAGE as REFERENCE_STAGE
+
+    with progress_bars({comparison.PROGRESS_STAGE: "mode", REFERENCE_STAGE: "ray"}) as progress:
+        run = comparison.compare_command(scene=scene_path, view=view, samples=samples, rays=rays, width=width,
+                                         height=height, outdir=outdir, progress=progress)
+    for path in run.paths:
+        click.echo(path)
+    for line in run.table():
+        click.echo(line)

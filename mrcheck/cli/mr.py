@@ -5,7 +5,9 @@ from __future__ import annotations
 import click
 
 from mrcheck.cli.group import cli
+from mrcheck.cli.messages import echo_lines, progress_bar, warning_line
 from mrcheck.cli.options import FINITE, MODE_CHOICES, positive, warn_unused_options
+from mrcheck.render import settings as defaults
 
 
 @cli.command()
@@ -22,11 +24,23 @@ from mrcheck.cli.options import FINITE, MODE_CHOICES, positive, warn_unused_opti
 @click.option("-o", "--output", required=True, metavar="CAM.json",
               help="Camera JSON (K, dist, width, height, rms, per-view errors); .yml/.yaml writes OpenCV FileStorage.")
 def calibrate(images, board, min_views, max_view_error, output):
-    """Calibrate a camera from photos of a chessboard or ChArUco board (cv2.calibrateCamera)."""
+    """Calibrate a camera from chessboard or ChArUco board photos.
+
+    Zhang's method (cv2.calibrateCamera) on every photo the board is found in; outlier views
+    are rejected and the camera calibrated again without them.
+
+    \b
+    Example:
+      mrcheck calibrate photos/*.jpg --board chessboard:9x6:0.025 -o camera.json
+    """
     from mrcheck.mr.calibration import calibrate_command
 
-    calibrate_command(images=list(images), board=board, output=output, min_views=min_views,
-                      max_view_error=max_view_error)
+    done = calibrate_command(images=list(images), board=board, output=output, min_views=min_views,
+                             max_view_error=max_view_error, progress=progress_bar)
+    print("\n".join(done.report))
+    if done.warning:
+        warning_line(done.warning)
+    print(f"wrote {done.output}")
 
 
 @cli.command()
@@ -37,35 +51,38 @@ def calibrate(images, board, min_views, max_view_error, output):
 @click.option("--points", metavar="CORR.json", help="Manual correspondences: pixel <-> world point pairs (>= 4).")
 @click.option("--initial", metavar="ROUGH.json",
               help="A rough pose (any camera JSON with R and t: an earlier shot, `mrcheck scene camera`'s output) "
-                   "that the CAD's edges are snapped from onto the photo's edges (markerless).")
+                   "snapped onto the photo's edges (markerless; docs/edge-registration.md).")
 @click.option("--refine/--no-refine", default=None,
-              help="Snap the pose of --markers/--points onto the photo's edges as well [default: no; with --initial "
-                   "always].")
+              help="Snap the pose of --markers/--points onto the photo's edges as well [default: no; with "
+                   "--initial always].")
 @click.option("--max-error", type=FINITE, default=None, callback=positive, metavar="PX",
               help="RANSAC inlier threshold in pixels [default: automatic].")
 @click.option("-o", "--output", required=True, metavar="SHOT.json", help="The registered shot (camera JSON + photo, rms, method, ids used/rejected).")
 def register(scene_path, photo, intrinsics, markers, points, initial, refine, max_error, output):
-    """Find the camera pose of a photo in the factory, from markers, clicked correspondences, or a
-    rough pose snapped onto the photo's edges.
+    """Find a photo's camera pose from markers, clicked points or the CAD's edges.
+
+    The pose of the calibrated camera in the factory, from surveyed markers (--markers),
+    clicked pixel <-> world correspondences (--points), or a rough pose (--initial) whose CAD
+    edges are snapped onto the photo's edges; writes SHOT.json.
 
     \b
-    Example (markerless, from a named viewpoint):
-      mrcheck scene camera hall/scene.toml --view aisle --intrinsics cam.json -o rough.json
-      mrcheck register hall/scene.toml --photo IMG_1.jpg --intrinsics cam.json --initial rough.json -o shot.json
+    Example:
+      mrcheck register hall/scene.toml --photo p1.jpg --intrinsics camera.json --markers map.json -o p1.json
+      mrcheck scene camera hall/scene.toml --view aisle --intrinsics camera.json -o rough.json
+      mrcheck register hall/scene.toml --photo p2.jpg --intrinsics camera.json --initial rough.json -o p2.json
     """
     if initial is not None or refine:
-        from mrcheck.mr.edgeshot import register_edges_command, summary_lines
+        from mrcheck.mr.edgeshot import register_edges_command
 
-        shot = register_edges_command(scene=scene_path, photo=photo, intrinsics=intrinsics, initial=initial,
-                                      markers=markers, points=points, refine=refine, max_error=max_error,
-                                      output=output)
-        for line in summary_lines(shot, output):
-            click.echo(line)
+        echo_lines(register_edges_command(scene=scene_path, photo=photo, intrinsics=intrinsics, initial=initial,
+                                          markers=markers, points=points, refine=refine, max_error=max_error,
+                                          output=output).summary())
         return
     from mrcheck.mr.registration import register_command
 
-    register_command(scene=scene_path, photo=photo, intrinsics=intrinsics, markers=markers, points=points,
-                     max_error=max_error, output=output)
+    done = register_command(scene=scene_path, photo=photo, intrinsics=intrinsics, markers=markers, points=points,
+                            max_error=max_error, output=output)
+    echo_lines(done.summary())
 
 
 @cli.command()
@@ -76,13 +93,23 @@ def register(scene_path, photo, intrinsics, markers, points, initial, refine, ma
 @click.option("--alpha", type=FINITE, default=0.5, show_default=True, help="Photo opacity, 0 (CAD only) .. 1 (photo only).")
 @click.option("--edges", is_flag=True, help="Draw CAD silhouette and crease edges over the photo.")
 @click.option("--edge-color", default="ff00ff", show_default=True, metavar="RRGGBB", help="Colour of the CAD edges.")
-@click.option("--intensity", type=FINITE, default=1.0, show_default=True, help="AO strength (0 none ... 2 strong).")
-@click.option("--samples", type=int, default=16, show_default=True, callback=positive, help="AO samples per pixel.")
+@click.option("--intensity", type=FINITE, default=defaults.DEFAULT_INTENSITY, show_default=True, help="AO strength (0 none ... 2 strong).")
+@click.option("--samples", type=int, default=defaults.DEFAULT_SAMPLES, show_default=True, callback=positive, help="AO samples per pixel.")
 @click.option("-o", "--output", required=True, metavar="OUT.png", help="Output image.")
 def overlay(shot, scene_path, mode, alpha, edges, edge_color, intensity, samples, output):
-    """Blend the CAD rendered from a registered shot over its photo, lens distortion included."""
-    from mrcheck.mr.overlay import overlay_command
+    """Blend the CAD rendered from a registered shot over its photo.
+
+    The planned CAD rendered from the shot's camera, distorted like its lens, blended over the
+    photo; --mode all writes the study's sheet (D1, D2, D3, each virtual and over the photo).
+
+    \b
+    Example:
+      mrcheck overlay p1.json --scene hall/scene.toml --mode vector --alpha 0.4 --edges -o p1_overlay.png
+    """
+    from mrcheck.core.output import write_image
+    from mrcheck.mr.shot import overlay_shot
 
     warn_unused_options(click.get_current_context(), mode)
-    overlay_command(shot=shot, scene=scene_path, mode=mode, alpha=alpha, edges=edges, edge_color=edge_color,
-                    intensity=intensity, samples=samples, output=output)
+    image = overlay_shot(shot=shot, scene=scene_path, mode=mode, alpha=alpha, edges=edges, edge_color=edge_color,
+                         intensity=intensity, samples=samples, output=output)
+    print(write_image(output, image))

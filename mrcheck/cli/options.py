@@ -8,9 +8,7 @@ import click
 
 
 def mode_choices() -> list[str]:
-    from mrcheck.render.renderer import (
-        MODES,  # every render mode (the AO modes register themselves there)
-    )
+    from mrcheck.render.settings import MODES  # every render mode
 
     return [*MODES, "all"]
 
@@ -51,7 +49,7 @@ def size(ctx, param, value):
 
 def odd_kernel(ctx, param, value):
     # checked here, not when the blur is built: that is after loading the scene, and never for phong
-    from mrcheck.render.blur import (
+    from mrcheck.render.settings import (
         blur_size_problem,  # the maximum is a uniform array's size: see there
     )
 

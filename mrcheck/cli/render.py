@@ -15,6 +15,9 @@ from mrcheck.cli.options import (
     warn_unused_options,
 )
 from mrcheck.core.errors import MrcheckError
+from mrcheck.render import settings as defaults
+
+FIRST_DEMO_IMAGE = "robot_study.png"   # the sample cell's robot in D1 | D2 | D3: creases and contacts (README's picture)
 
 
 @cli.command()
@@ -30,29 +33,34 @@ from mrcheck.core.errors import MrcheckError
               help="Image width in pixels [default: the view's or camera's]; one side alone keeps the aspect ratio, "
                    "which a --camera's must keep.")
 @click.option("--height", type=int, callback=positive, help="Image height in pixels [default: the view's or camera's].")
-@click.option("--samples", type=int, default=16, show_default=True, callback=positive,
+@click.option("--samples", type=int, default=defaults.DEFAULT_SAMPLES, show_default=True, callback=positive,
               help="AO samples per pixel (the paper uses 16, 36, 64, 128).")
 @click.option("--radius-px", type=FINITE, callback=positive,
-              help="vector: sampling radius on screen, pixels at the output resolution [default: 2% of the image height].")
+              help="vector: sampling radius on screen, pixels at the output resolution "
+                   f"[default: {defaults.DEFAULT_RADIUS_FRACTION:.0%} of the image height].")
 @click.option("--radius-fraction", type=FINITE, callback=positive,
-              help="vector: sampling radius as a fraction of the image height, instead of --radius-px [default: 0.02].")
-@click.option("--radius", "radius_world", type=FINITE, default=0.2, show_default=True, callback=positive,
+              help="vector: sampling radius as a fraction of the image height, instead of --radius-px "
+                   f"[default: {defaults.DEFAULT_RADIUS_FRACTION}].")
+@click.option("--radius", "radius_world", type=FINITE, default=defaults.DEFAULT_RADIUS_WORLD, show_default=True, callback=positive,
               help="ssao: constant world radius in scene units (metres for parts with declared units).")
 @click.option("--min-world-radius", type=FINITE, help="vector: clamp the world sampling radius from below (scene units).")
 @click.option("--max-world-radius", type=FINITE, help="vector: clamp the world sampling radius from above (scene units).")
-@click.option("--falloff", type=FINITE, default=1.0, show_default=True,
+@click.option("--falloff", type=FINITE, default=defaults.DEFAULT_FALLOFF, show_default=True,
               help="c, the attenuation of o = cos / (1 + c (|v|/r)^2); larger = occlusion falls off faster with distance.")
-@click.option("--intensity", type=FINITE, default=1.0, show_default=True,
+@click.option("--intensity", type=FINITE, default=defaults.DEFAULT_INTENSITY, show_default=True,
               help="AO strength: 0 none, 0.5 weak ... 2 strong (the study stepped four levels, weak to strong).")
-@click.option("--blur/--no-blur", default=True, show_default=True, help="Depth-aware bilateral blur of the AO buffer.")
-@click.option("--blur-size", type=int, default=9, show_default=True, callback=odd_kernel, help="Blur kernel size, odd, 3 to 255 (the paper uses 9 and 13).")
-@click.option("--ao-scale", type=click.Choice(["1", "0.5"]), default="1", show_default=True,
+@click.option("--blur/--no-blur", default=defaults.DEFAULT_BLUR_ON, show_default=True, help="Depth-aware bilateral blur of the AO buffer.")
+@click.option("--blur-size", type=int, default=defaults.DEFAULT_BLUR_SIZE, show_default=True, callback=odd_kernel,
+              help=f"Blur kernel size, odd, 3 to {defaults.MAX_BLUR_SIZE} (the paper uses 9 and 13).")
+@click.option("--ao-scale", type=click.Choice([f"{s:g}" for s in defaults.AO_SCALES]),
+              default=f"{defaults.DEFAULT_AO_SCALE:g}", show_default=True,
               help="AO resolution: 1 full, 0.5 half resolution with depth-aware upsampling (the paper's 'Half Res.').")
 @click.option("--ao-direct", is_flag=True, help="Let AO darken the direct light too (default: the ambient term only).")
-@click.option("--light", type=click.Choice(["headlight", "sun"]), default="headlight", show_default=True,
+@click.option("--light", type=click.Choice(defaults.LIGHTS), default=defaults.DEFAULT_LIGHT, show_default=True,
               help="headlight: a light just above the camera; sun: a fixed direction from above.")
-@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Seed of the AO kernel and rotation tile (renders are reproducible).")
-@click.option("--lod-px", type=FINITE, default=0.5, show_default=True,
+@click.option("--seed", type=click.IntRange(min=0), default=defaults.DEFAULT_SEED, show_default=True,
+              help="Seed of the AO kernel and rotation tile (renders are reproducible).")
+@click.option("--lod-px", type=FINITE, default=defaults.DEFAULT_LOD_PX, show_default=True,
               help="Level of detail: parts drawn 4+ times and single parts of 50 k+ triangles (robots) use a "
                    "simplified mesh where its measured error stays below this many pixels; 0 draws every part "
                    "at full detail.")
@@ -65,28 +73,32 @@ from mrcheck.core.errors import MrcheckError
 def render(scene, view, camera_path, mode, width, height, samples, radius_px, radius_fraction, radius_world,
            min_world_radius, max_world_radius, falloff, intensity, blur, blur_size, ao_scale, ao_direct, light,
            seed, lod_px, units, output, output_ao):
-    """Render SCENE (a .toml manifest or one mesh file) from a named view or a calibrated camera.
+    """Render a scene from a named view or a calibrated camera.
+
+    SCENE is a .toml manifest or one mesh file; the camera is a named viewpoint of the manifest
+    (--view) or a calibrated camera file (--camera).
 
     \b
     Examples:
       mrcheck render factory_scenes/sample_cell/scene.toml --view overview --mode all -o study.png
       mrcheck render hall.glb --units mm --camera shot.json --mode vector --no-blur -o v.png --output-ao ao.npy
     """
-    from mrcheck.render.renderer import DEFAULT_RADIUS_FRACTION
     from mrcheck.render.views import render_command
 
     if radius_px is not None and radius_fraction is not None:
         raise MrcheckError("give --radius-px or --radius-fraction, not both")
     warn_unused_options(click.get_current_context(), mode)
-    render_command(
+    written = render_command(
         scene=scene, view=view, camera_path=camera_path, mode=mode, width=width, height=height, units=units,
         output=output, output_ao=output_ao,
-        settings=dict(samples=samples, radius_px=radius_px, radius_fraction=radius_fraction or DEFAULT_RADIUS_FRACTION,
+        settings=dict(samples=samples, radius_px=radius_px, radius_fraction=radius_fraction or defaults.DEFAULT_RADIUS_FRACTION,
                       radius_world=radius_world,
                       min_world_radius=min_world_radius, max_world_radius=max_world_radius, falloff=falloff,
                       intensity=intensity, blur=blur, blur_size=blur_size, ao_scale=float(ao_scale),
                       ao_direct=ao_direct, light=light, seed=seed, lod_px=lod_px),
     )
+    for path in written:
+        click.echo(path)
 
 
 @cli.command()
@@ -95,9 +107,22 @@ def render(scene, view, camera_path, mode, width, height, samples, radius_px, ra
 @click.option("--width", type=int, callback=positive, help="Image width [default: each viewpoint's, 1024].")
 @click.option("--height", type=int, callback=positive, help="Image height [default: each viewpoint's, 768].")
 def demo(outdir, width, height):
-    """Render the embedded sample factory cell and the generator's shipped cell from each of
-    their viewpoints in D1, D2 and D3, write PNGs (one per mode and a labelled side-by-side
-    sheet per view; the generated cell's prefixed cell_) and print their paths."""
+    """Render the shipped sample scenes in D1, D2 and D3.
+
+    The embedded sample factory cell and the generator's shipped cell, from each of their
+    viewpoints in D1, D2 and D3: PNGs (one per mode and a labelled side-by-side sheet per view;
+    the generated cell's prefixed cell_), their paths printed. Which to open first is said at
+    the end: DIR/robot_study.png.
+
+    \b
+    Example:
+      mrcheck demo -o mrcheck-demo --width 640
+    """
+    from mrcheck.cli.messages import progress_bar
     from mrcheck.render.views import demo_command
 
-    demo_command(Path(outdir), width, height)
+    demo_command(Path(outdir), width, height, on_written=click.echo, progress=progress_bar)
+    first = Path(outdir).resolve() / FIRST_DEMO_IMAGE
+    if first.is_file():
+        click.echo(f"open {first} first: the sample cell's robot in D1 | D2 | D3 (Phong without AO | "
+                   "vector SSAO | standard SSAO) side by side; every *_study.png is such a sheet", err=True)

@@ -8,12 +8,18 @@ from pathlib import Path
 import click
 
 from mrcheck.cli.group import cli
+from mrcheck.cli.messages import progress_bar
 from mrcheck.cli.options import FINITE, positive
 
 
 @cli.group()
 def scene():
-    """Factory scenes: generate procedural halls, make as-built variants, write a viewpoint's camera, inspect a scene."""
+    """Factory scenes: generate, make as-built variants, inspect.
+
+    \b
+    Example:
+      mrcheck scene info factory_scenes/sample_cell/scene.toml
+    """
 
 
 @scene.command("generate")
@@ -28,7 +34,15 @@ def scene():
                    "scene_unit_missing.toml in which one part's unit is not declared.")
 @click.option("-o", "--output", "outdir", required=True, metavar="DIR", help="Folder for scene.toml and its meshes (replaced).")
 def scene_generate(preset, seed, size_m, target_triangles, units_mix, outdir):
-    """Write a procedural factory scene: a manifest plus GLB meshes, with real robots from their URDFs."""
+    """Write a procedural factory scene (manifest + GLB meshes).
+
+    A manifest plus GLB meshes, with real robots from their URDFs; the same preset and seed
+    give the same files, byte for byte.
+
+    \b
+    Example:
+      mrcheck scene generate --preset line --seed 3 -o line3
+    """
     from factory_scenes.generator import generate
 
     manifest = generate(preset, Path(outdir), seed=seed, size_m=size_m, target_triangles=target_triangles,
@@ -41,21 +55,33 @@ def scene_generate(preset, seed, size_m, target_triangles, units_mix, outdir):
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Which perturbations (same seed, same variant).")
 @click.option("-o", "--output", "outdir", required=True, metavar="DIR", help="Folder for the as-built scene and discrepancies.json.")
 def scene_asbuilt(scene_path, seed, outdir):
-    """Write a perturbed copy of a planned scene (objects moved, rotated, missing, added, replaced by
-    another size) and discrepancies.json listing every change: ground truth for discrepancy checks."""
+    """Write a perturbed as-built copy of a scene and its changes.
+
+    A copy of a planned scene with objects moved, rotated, missing, added or replaced by
+    another size, and discrepancies.json listing every change: ground truth for discrepancy
+    checks.
+
+    \b
+    Example:
+      mrcheck scene asbuilt factory_scenes/sample_cell/scene.toml --seed 2 -o built2
+    """
     from mrcheck.scene.asbuilt import make_asbuilt
 
-    for path in make_asbuilt(Path(scene_path), Path(outdir), seed=seed):
+    for path in make_asbuilt(Path(scene_path), Path(outdir), seed=seed, progress=progress_bar):
         print(path)
 
 
 @scene.command("camera")
 @click.argument("scene_path", metavar="SCENE")
 @click.option("--view", required=True, metavar="NAME", help="Named viewpoint of the scene manifest.")
-@click.option("--intrinsics", metavar="CAM.json", help="The photo's calibrated camera (size, K, distortion) [default: the viewpoint's own].")
+@click.option("--intrinsics", metavar="CAM.json",
+              help="The photo's calibrated camera (size, K, distortion) [default: the viewpoint's own].")
 @click.option("-o", "--output", required=True, metavar="ROUGH.json", help="Camera JSON (or .yml/.yaml OpenCV YAML) with R and t.")
 def scene_camera(scene_path, view, intrinsics, output):
-    """Write a named viewpoint as a camera file: the rough start of a markerless registration.
+    """Write a named viewpoint as a camera file.
+
+    The viewpoint's pose with the photo's intrinsics: the rough start of a markerless
+    registration (mrcheck register --initial).
 
     \b
     Example:
@@ -71,8 +97,15 @@ def scene_camera(scene_path, view, intrinsics, output):
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable: triangles, unique_triangles, bounds_m, parts, viewpoints.")
 @click.option("--units", type=click.Choice(["mm", "cm", "m", "in", "ft"]), help="Unit of a single mesh file SCENE.")
 def scene_info(scene_path, as_json, units):
-    """What a planner checks before rendering a CAD export: parts, units, instances, unique and
-    instanced triangle counts, bounds in metres, viewpoints."""
+    """Parts, units, triangles, bounds and viewpoints of a scene.
+
+    What a planner checks before rendering a CAD export: parts, units, instances, unique and
+    instanced triangle counts, bounds in metres, viewpoints.
+
+    \b
+    Example:
+      mrcheck scene info hall.glb --units mm --json
+    """
     from mrcheck.scene.info import describe, format_info
 
     info = describe(Path(scene_path), units=units)

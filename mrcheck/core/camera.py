@@ -18,7 +18,8 @@ Camera JSON (the contract other tools rely on)::
      "dist": [k1,k2,p1,p2,k3] (optional), "R": 3x3, "t": [tx,ty,tz]}
 
 Extra keys (``photo``, ``rms``, ...) are ignored, so a registered SHOT.json is a camera too.
-A ``.yml``/``.yaml`` camera file is OpenCV FileStorage instead (see :mod:`mrcheck.mr.calibration`).
+A ``.yml``/``.yaml`` camera file is OpenCV FileStorage instead. Reading and writing either file
+is :mod:`mrcheck.core.camerafiles` (this module is the model only: it reads no file).
 """
 
 from __future__ import annotations
@@ -26,14 +27,11 @@ from __future__ import annotations
 import math
 import numbers
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from mrcheck.core.errors import MrcheckError
-from mrcheck.core.jsonfile import read_json
 
-YAML_SUFFIXES = (".yml", ".yaml")
 # the lengths OpenCV's projectPoints/undistortPoints take (0: no distortion); any other length
 # passes here and fails deep inside OpenCV in the overlay or the registration
 DIST_SIZES = (0, 4, 5, 8, 12, 14)
@@ -202,29 +200,6 @@ class Camera:
         except MrcheckError as exc:
             raise MrcheckError(str(exc), source) from None
 
-    @classmethod
-    def load(cls, path, need_pose=True) -> "Camera":
-        """A camera file: our camera JSON, or OpenCV FileStorage YAML for .yml/.yaml.
-
-        A calibration (OpenCV's YAML, or ``mrcheck calibrate``'s JSON) holds intrinsics only; with
-        ``need_pose`` (a render) a file without R and t is an error rather than a camera silently
-        standing at the world origin.
-        """
-        path = Path(path)
-        if path.suffix.lower() in YAML_SUFFIXES:
-            from mrcheck.core.camerafiles import (
-                read_yaml_camera,  # a local import: calibration imports this module
-            )
-
-            data, kind = read_yaml_camera(path), "OpenCV YAML camera"
-        else:
-            data, kind = read_json(path, "camera"), "camera JSON"
-        camera = cls.from_dict(data, path)  # the intrinsics checked first
-        if need_pose and not ("R" in data and "t" in data):
-            raise MrcheckError(f"{kind} has intrinsics but no pose (R and t); register a photo with it "
-                               "(mrcheck register --intrinsics) and use the SHOT.json", path)
-        return camera
-
     def to_dict(self, pose: bool = True) -> dict:
         """The camera JSON's keys; ``pose=False`` for intrinsics only (no R, t: not renderable)."""
         out = {"width": self.width, "height": self.height, "K": self.K.tolist()}
@@ -317,4 +292,4 @@ def gl_projection(camera: Camera, near: float) -> np.ndarray:
     return P
 
 
-__all__ = ["Camera", "fit_size", "gl_projection", "YAML_SUFFIXES", "DIST_SIZES"]
+__all__ = ["Camera", "fit_size", "gl_projection", "DIST_SIZES"]

@@ -1,8 +1,17 @@
-"""Camera and shot files: our camera JSON and OpenCV FileStorage YAML, read and written.
+"""Every camera and shot file mrcheck reads or writes, and the photo of a shot.
 
 A camera JSON is :meth:`Camera.to_dict`'s keys (plus extras: a SHOT.json is a camera too); a
 ``.yml``/``.yaml`` file is OpenCV FileStorage with OpenCV's own key names (``camera_matrix``,
 ``distortion_coefficients``, ``image_width``, ...).
+
+* :func:`load_camera`: a camera to render from (pose required unless ``need_pose=False``);
+  :func:`read_camera`: a calibration's intrinsics (a pose, if any, is kept but not required);
+* :func:`write_camera`: either format, atomically;
+* :func:`load_shot`: a registered SHOT.json's camera and the path of its photo;
+  :func:`read_photo`: that photo, RGB (or grey), checked against the camera's size.
+
+The model (:class:`mrcheck.core.camera.Camera`) reads no file, so this module imports it and
+never the reverse.
 """
 
 from __future__ import annotations
@@ -14,11 +23,14 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from mrcheck.core.camera import YAML_SUFFIXES, Camera
+from mrcheck.core.camera import Camera
 from mrcheck.core.errors import MrcheckError, display
+from mrcheck.core.images import read_image
 from mrcheck.core.inputs import check_input, read_input_text
+from mrcheck.core.jsonfile import read_json
 from mrcheck.core.output import write_text
 
+YAML_SUFFIXES = (".yml", ".yaml")
 CAMERA_SUFFIXES = (".json",) + YAML_SUFFIXES
 
 
@@ -81,15 +93,58 @@ def _write_strings(fs, key, values):
     fs.endWriteStruct()
 
 
+def load_camera(path, need_pose=True) -> Camera:
+    """A camera file: our camera JSON, or OpenCV FileStorage YAML for .yml/.yaml.
+
+    A calibration (OpenCV's YAML, or ``mrcheck calibrate``'s JSON) holds intrinsics only; with
+    ``need_pose`` (a render) a file without R and t is an error rather than a camera silently
+    standing at the world origin.
+    """
+    path = Path(path)
+    if _is_yaml(path):
+        data, kind = read_yaml_camera(path), "OpenCV YAML camera"
+    else:
+        data, kind = read_json(path, "camera"), "camera JSON"
+    camera = Camera.from_dict(data, path)  # the intrinsics checked first
+    if need_pose and not ("R" in data and "t" in data):
+        raise MrcheckError(f"{kind} has intrinsics but no pose (R and t); register a photo with it "
+                           "(mrcheck register --intrinsics) and use the SHOT.json", path)
+    return camera
+
+
 def read_camera(path) -> Camera:
     """A :class:`Camera` from our camera JSON or an OpenCV calibration YAML (no pose: R = I, t = 0)."""
-    return Camera.load(path, need_pose=False)
+    return load_camera(path, need_pose=False)
+
+
+def load_shot(path) -> tuple[Camera, Path]:
+    """The camera of a registered SHOT.json and the absolute path of its photo."""
+    path = Path(path)
+    data = read_json(path, "shot")   # a shot is JSON (camera keys + "photo"), never OpenCV YAML
+    camera = Camera.from_dict(data, path)
+    photo = data.get("photo")
+    if not isinstance(photo, str) or not photo:
+        raise MrcheckError("shot JSON has no \"photo\" path", path)
+    photo_path = Path(photo)
+    if not photo_path.is_absolute():
+        photo_path = path.resolve().parent / photo_path
+    return camera, photo_path
+
+
+def read_photo(path, camera: Camera | None = None, grey: bool = False) -> np.ndarray:
+    """The photo of a shot: (H, W, 3) uint8 RGB, or (H, W) uint8 with ``grey``, or a one-line
+    error. Given the shot's ``camera``, a photo of another size is an error too."""
+    image = read_image(path, "photo", grey=grey)
+    h, w = image.shape[:2]
+    if camera is not None and (w, h) != (camera.width, camera.height):
+        raise MrcheckError(f"photo is {w}x{h} but the shot was registered at {camera.width}x{camera.height}", path)
+    return image
 
 
 def read_yaml_camera(path: Path) -> dict:
     """The camera dict (:meth:`Camera.from_dict`'s keys) of an OpenCV FileStorage YAML.
 
-    R and t are there only when the file has them: :meth:`Camera.load` tells an intrinsics file
+    R and t are there only when the file has them: :func:`load_camera` tells an intrinsics file
     from a posed camera by that.
     """
     path = Path(path)
@@ -155,4 +210,5 @@ def _number(node) -> float:
     return node.real() if node.isInt() or node.isReal() else math.nan
 
 
-__all__ = ["read_camera", "read_yaml_camera", "write_camera", "CAMERA_SUFFIXES"]
+__all__ = ["load_camera", "read_camera", "read_yaml_camera", "write_camera", "load_shot", "read_photo",
+           "CAMERA_SUFFIXES", "YAML_SUFFIXES"]

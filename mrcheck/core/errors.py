@@ -12,6 +12,7 @@ shell and ``ls -b`` do; messages, warnings and human-readable files use it.
 
 import codecs
 import errno
+import warnings
 
 DISPLAY_ERRORS = "mrcheck.display"   # the codec error handler of display(), for streams and encode()
 
@@ -66,10 +67,22 @@ class MrcheckError(Exception):
         super().__init__(display(message))
 
 
+class MrcheckWarning(UserWarning):
+    """Something the user should hear about that does not stop the work (a photo skipped, parts
+    without units). The command line prints each as one ``warning: MESSAGE`` line on stderr
+    (:func:`mrcheck.cli.messages.warning_lines`); code below the CLI never prints."""
+
+
+def warn(message: str, path=None) -> None:
+    """Warn the user (:class:`MrcheckWarning`): ``PATH: message`` when a file is named, one line."""
+    # not display()ed here: the CLI's stderr shows a name's undecodable bytes as \xNN itself
+    warnings.warn(f"{path}: {message}" if path is not None else str(message), MrcheckWarning, stacklevel=2)
+
+
 def bug_reason(exc: BaseException) -> str:
     """An unexpected exception (a bug, not bad input) as one line for "internal error, please
     report it: ...": its type and at most 300 characters of its message."""
     return display(f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}")
 
 
-__all__ = ["MrcheckError", "bug_reason", "display", "os_reason", "DISPLAY_ERRORS"]
+__all__ = ["MrcheckError", "MrcheckWarning", "warn", "bug_reason", "display", "os_reason", "DISPLAY_ERRORS"]

@@ -2,7 +2,11 @@
 
 The shaders: a wheel carries them inside the package (``mrcheck/_data/shaders``, see
 ``pyproject.toml``); an editable install or a checkout finds them at the top of the repository.
-The scenes live in the ``factory_scenes`` package, installed next to ``mrcheck``.
+The scenes and robot assets live in the ``factory_scenes`` package, installed next to
+``mrcheck`` (the wheel carries both, an editable install or a checkout has both at the top of the
+repository). mrcheck finds that folder as data and never imports the package: the generator
+imports mrcheck's public API, and only the command line (``mrcheck scene generate``) imports the
+generator, so the two never import each other.
 """
 
 from __future__ import annotations
@@ -25,10 +29,9 @@ def shader_dir() -> Path:
 
 
 def factory_scenes_dir() -> Path:
-    """The ``factory_scenes`` package folder: generator code, shipped scenes, robot assets."""
-    import factory_scenes
-
-    return Path(factory_scenes.__file__).resolve().parent
+    """The ``factory_scenes`` package folder (shipped scenes, robot assets), found beside
+    ``mrcheck/`` without importing it."""
+    return _REPO / "factory_scenes"
 
 
 def sample_scene_path() -> Path:

@@ -22,14 +22,14 @@ per mode: shaded | AO | signed error ``ao - reference``), ``metrics.json`` and `
 from __future__ import annotations
 
 import json
-import sys
-from dataclasses import replace
+import warnings
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from mrcheck.core.errors import MrcheckError
+from mrcheck.core.errors import MrcheckError, MrcheckWarning
 from mrcheck.core.output import (
     check_not_inputs,
     check_output_dir,
@@ -66,8 +66,29 @@ def reference_kind(mode: str) -> str:
     return "screen" if mode == "vector" else "world"
 
 
+@dataclass
+class Reference:
+    """A ray-traced reference AO and how the figure and the report name it."""
+    ao: np.ndarray
+    short: str = ""                          # "screen 1.4 px", "world 0.2"
+    label: str = ""                          # "screen radius 1.4 px, 256 rays"
+    distance_retention: float | None = None  # its own, which the modes' is compared with
+
+
+@dataclass
+class ModeRow:
+    """One AO mode's renders and metrics (a figure row, a table row)."""
+    mode: str
+    kind: str              # the reference it is judged against: "screen" or "world"
+    image: np.ndarray      # the shaded (blurred) render
+    ao: np.ndarray         # the unblurred AO buffer
+    ms: float              # its AO pass time
+    metrics: dict          # all_metrics against the reference
+
+
 # -- figure ----------------------------------------------------------------------------------------
-def _strip_height(h: int) -> int:
+def legend_strip_height(h: int) -> int:
+    """Height (px) of the error-scale strip under each panel of a figure whose renders are ``h`` high."""
     return max(6, h // 14)
 
 
@@ -131,25 +152,25 @@ def _legend_panel(h: int, w: int, judged: list[str]) -> np.ndarray:
     return panel
 
 
-def build_figure(phong, references: dict, rows: list[dict], mask, rays: int) -> np.ndarray:
-    """The comparison figure: one labelled row per reference (Phong image, reference AO, the
+def build_figure(phong, references: dict, rows: list, mask, rays: int) -> np.ndarray:
+    """The comparison figure (``references``: kind -> :class:`Reference`, ``rows``: :class:`ModeRow`): one labelled row per reference (Phong image, reference AO, the
     error legend), then one per mode (shaded image, AO, signed error map with a legend strip)."""
     h, w = mask.shape
-    strip_h = _strip_height(h)
+    strip_h = legend_strip_height(h)
     strip = _legend_strip(w, strip_h)
     sheets = []
     for kind, ref in references.items():
-        judged = [row["mode"] for row in rows if row["kind"] == kind]
-        panels = [phong, _grey(ref["ao"], mask), _legend_panel(h, w, judged)]
-        labels = ["D1 Phong (no AO)", f"reference, {ref['short']}", f"error scale ({rays} ref. rays)"]
+        judged = [row.mode for row in rows if row.kind == kind]
+        panels = [phong, _grey(ref.ao, mask), _legend_panel(h, w, judged)]
+        labels = ["D1 Phong (no AO)", f"reference, {ref.short}", f"error scale ({rays} ref. rays)"]
         sheets.append(labelled_sheet([_with_strip(p, None, strip_h) for p in panels], labels))
     for row in rows:
-        ref = references[row["kind"]]["ao"]
-        panels = [_with_strip(row["image"], None, strip_h), _with_strip(_grey(row["ao"], mask), None, strip_h),
-                  _with_strip(_error_map(row["ao"], ref, mask), strip, strip_h)]
-        name = STUDY_LABELS.get(row["mode"], row["mode"])
-        sheets.append(labelled_sheet(panels, [f"{name}: shaded", f"{row['mode']}: AO (no blur)",
-                                              f"{row['mode']} - {row['kind']} reference"]))
+        ref = references[row.kind].ao
+        panels = [_with_strip(row.image, None, strip_h), _with_strip(_grey(row.ao, mask), None, strip_h),
+                  _with_strip(_error_map(row.ao, ref, mask), strip, strip_h)]
+        name = STUDY_LABELS.get(row.mode, row.mode)
+        sheets.append(labelled_sheet(panels, [f"{name}: shaded", f"{row.mode}: AO (no blur)",
+                                              f"{row.mode} - {row.kind} reference"]))
     return np.vstack(sheets)
 
 
@@ -218,29 +239,91 @@ def markdown(report: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _print_table(modes: dict) -> None:
+def table_lines(modes: dict) -> list[str]:
+    """The metrics table as aligned console lines (mode left, numbers right)."""
     rows = _table_rows(modes)
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
-    for r in rows:
-        print("  ".join(cell.rjust(width) if i else cell.ljust(width) for i, (cell, width) in enumerate(zip(r, widths))))
+    return ["  ".join(cell.rjust(width) if i else cell.ljust(width) for i, (cell, width) in enumerate(zip(r, widths)))
+            for r in rows]
 
 
 # -- the command -----------------------------------------------------------------------------------
-def _reference(scene, camera, depth, normals, rays, kind, settings) -> np.ndarray:
+PROGRESS_STAGE = "comparing"     # the stage compare_command reports its modes under
+
+
+@dataclass(frozen=True)
+class ComparisonRun:
+    """What ``mrcheck compare`` measured (``report`` is ``metrics.json``) and the files written."""
+    report: dict
+    paths: list[Path]      # figure.png, metrics.json, metrics.md
+
+    def table(self) -> list[str]:
+        """The metrics table for the console."""
+        return table_lines(self.report["modes"])
+
+
+def _reference(scene, camera, depth, normals, rays, kind, settings, progress) -> np.ndarray:
     from mrcheck.eval.reference import (
         reference_ao,  # imports Open3D: only when a comparison runs
     )
 
     radius = settings.radius_px if kind == "screen" else settings.radius_world
     return reference_ao(scene, camera, depth, normals, rays, kind, radius, falloff=settings.falloff,
-                        seed=settings.seed, progress=True)  # its bar shows on a terminal only
+                        seed=settings.seed, progress=progress)
 
 
-def compare_command(scene, view, samples, rays, width, height, outdir):
+def _render_and_judge(renderer, loaded, camera, settings, rays, progress):
+    """(phong image, depth, references by kind, mode rows): every AO mode rendered blurred and
+    unblurred, judged against the reference of its radius definition (computed once per kind)."""
+    frame = renderer.render(camera, ["phong"], settings, want_normals=True)
+    phong, depth, normals = frame["phong"].image, frame.depth, frame.normals
+    ao_modes = [m for m in MODES if m != "phong"]
+    references, rows = {}, []
+    if progress is not None:
+        progress(PROGRESS_STAGE, 0, len(ao_modes))
+    for done, mode in enumerate(ao_modes):
+        # the blurred render first: it also builds the mode's AO program, so the timed pass
+        # of the unblurred render below is the AO work alone, not shader compilation
+        shaded = renderer.render(camera, [mode], settings)[mode].image
+        raw = renderer.render(camera, [mode], replace(settings, blur=False), want_ao=True)[mode]
+        kind = reference_kind(mode)
+        if kind not in references:  # one reference per radius definition, shared by its modes
+            references[kind] = Reference(_reference(loaded, camera, depth, normals, rays, kind, settings, progress))
+        rows.append(ModeRow(mode, kind, shaded, raw.ao, raw.timings_ms["ao"],
+                            all_metrics(raw.ao, references[kind].ao, depth)))
+        if progress is not None:
+            progress(PROGRESS_STAGE, done + 1, len(ao_modes))
+    return phong, depth, references, rows
+
+
+def _label_references(references: dict, settings, rays: int, depth) -> None:
+    """Each reference's labels and its own distance retention (the value the modes' is compared with)."""
+    for kind, ref in references.items():
+        ref.short = f"screen {settings.radius_px:.1f} px" if kind == "screen" else f"world {settings.radius_world:g}"
+        ref.label = f"{ref.short.replace(' ', ' radius ', 1)}, {rays} rays"
+        try:
+            ref.distance_retention = distance_retention(ref.ao, ref.ao, depth)
+        except MetricUndefined:
+            ref.distance_retention = None
+
+
+def _report(scene, view, camera, samples, rays, settings, references: dict, rows: list[ModeRow]) -> dict:
+    """``metrics.json``."""
+    modes = {row.mode: {**{k: row.metrics[k] for k in METRIC_NAMES}, "ms": row.ms, "reference": row.kind}
+             for row in rows}
+    return {"scene": str(Path(scene).resolve()), "view": view, "width": camera.width, "height": camera.height,
+            "samples": samples, "rays": rays, "modes": modes,
+            "radius_px": settings.radius_px, "radius_world": settings.radius_world, "falloff": settings.falloff,
+            "references": {k: {"radius_mode": k, "label": r.label, "distance_retention": r.distance_retention}
+                           for k, r in references.items()},
+            "notes": {row.mode: row.metrics["notes"] for row in rows if row.metrics["notes"]}}
+
+
+def compare_command(scene, view, samples, rays, width, height, outdir, progress=None) -> ComparisonRun:
     """Render every AO mode of ``scene`` from ``view``, compare each with its reference, write
-    ``figure.png``, ``metrics.json`` and ``metrics.md`` into ``outdir`` and print their paths."""
-    from tqdm import tqdm
-
+    ``figure.png``, ``metrics.json`` and ``metrics.md`` into ``outdir``. An undefined metric is
+    warned about (``MrcheckWarning``); ``progress(stage, done, total)`` hears of the modes
+    (:data:`PROGRESS_STAGE`) and of the references' rays."""
     from mrcheck.eval.reference import MAX_RAYS, REFERENCE_LOD_PX
 
     outdir = check_output_dir(outdir)
@@ -251,56 +334,23 @@ def compare_command(scene, view, samples, rays, width, height, outdir):
     camera = loaded.camera(view, width, height)
     # full detail: the references are ray-traced on the full-detail scene (REFERENCE_LOD_PX)
     settings = RenderSettings(samples=samples, lod_px=REFERENCE_LOD_PX).validated(camera.height)
-    ao_modes = [m for m in MODES if m != "phong"]
-
     renderer = Renderer(loaded)
     try:
-        phong = renderer.render(camera, ["phong"], settings)["phong"].image
-        depth, normals = renderer.last_depth(), renderer.last_normals()
-        mask = covered(depth)
-        references, rows = {}, []
-        # disable=None: a bar on a terminal, nothing in a log or a pipe
-        for mode in tqdm(ao_modes, desc="comparing", unit="mode", file=sys.stderr, disable=None):
-            # the blurred render first: it also builds the mode's AO program, so the timed pass
-            # of the unblurred render below is the AO work alone, not shader compilation
-            shaded = renderer.render(camera, [mode], settings)[mode].image
-            raw = renderer.render(camera, [mode], replace(settings, blur=False), want_ao=True)[mode]
-            kind = reference_kind(mode)
-            if kind not in references:  # one reference per radius definition, shared by its modes
-                references[kind] = {"ao": _reference(loaded, camera, depth, normals, rays, kind, settings)}
-            rows.append({"mode": mode, "kind": kind, "image": shaded, "ao": raw.ao, "ms": raw.timings_ms["ao"],
-                         "metrics": all_metrics(raw.ao, references[kind]["ao"], depth)})
+        phong, depth, references, rows = _render_and_judge(renderer, loaded, camera, settings, rays, progress)
     finally:
         renderer.release()
-
-    for kind, ref in references.items():
-        ref["short"] = f"screen {settings.radius_px:.1f} px" if kind == "screen" else f"world {settings.radius_world:g}"
-        ref["label"] = f"{ref['short'].replace(' ', ' radius ', 1)}, {rays} rays"
-        try:
-            ref["distance_retention"] = distance_retention(ref["ao"], ref["ao"], depth)
-        except MetricUndefined:
-            ref["distance_retention"] = None
-
-    modes = {row["mode"]: {**{k: row["metrics"][k] for k in METRIC_NAMES}, "ms": row["ms"], "reference": row["kind"]}
-             for row in rows}
-    report = {"scene": str(Path(scene).resolve()), "view": view, "width": camera.width, "height": camera.height,
-              "samples": samples, "rays": rays, "modes": modes,
-              "radius_px": settings.radius_px, "radius_world": settings.radius_world, "falloff": settings.falloff,
-              "references": {k: {"radius_mode": k, "label": r["label"], "distance_retention": r["distance_retention"]}
-                             for k, r in references.items()},
-              "notes": {row["mode"]: row["metrics"]["notes"] for row in rows if row["metrics"]["notes"]}}
+    _label_references(references, settings, rays, depth)
+    report = _report(scene, view, camera, samples, rays, settings, references, rows)
     for mode, reasons in report["notes"].items():
         for metric, reason in reasons.items():
-            print(f"warning: {mode} {metric} undefined: {reason}", file=sys.stderr)
+            warnings.warn(MrcheckWarning(f"{mode} {metric} undefined: {reason}"))
 
-    figure = build_figure(phong, references, rows, mask, rays)
+    figure = build_figure(phong, references, rows, covered(depth), rays)
     text = json.dumps(report, indent=2) + "\n"
     writes = [lambda: write_image(outdir / FIGURE_NAME, figure),
               lambda: write_text(outdir / JSON_NAME, text), lambda: write_text(outdir / MD_NAME, markdown(report))]
-    for path in write_all_or_none(writes):
-        print(path)
-    _print_table(modes)
-    return report
+    return ComparisonRun(report, list(write_all_or_none(writes)))
 
 
-__all__ = ["compare_command", "build_figure", "rankings", "markdown", "reference_kind", "ERROR_SCALE"]
+__all__ = ["compare_command", "ComparisonRun", "Reference", "ModeRow", "build_figure", "rankings", "markdown", "table_lines", "reference_kind",
+           "legend_strip_height", "ERROR_SCALE", "PROGRESS_STAGE"]

@@ -33,14 +33,16 @@ CENTRE (world orientation), and the pixel points are formed there directly: with
 from __future__ import annotations
 
 import math
-import sys
 import time
+import warnings
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from mrcheck.core.camera import Camera
-from mrcheck.core.errors import MrcheckError
+from mrcheck.core.errors import MrcheckError, MrcheckWarning
+from mrcheck.eval.raycast import build_caster
 from mrcheck.scene.model import Scene
 
 # Level-of-detail error of the render whose G-buffer the rays start from: none. Measured with the
@@ -55,57 +57,7 @@ RAY_CHUNK = 1 << 21             # rays per cast: ~50 MB of float32 rays, enough 
 ORIGIN_EPSILON = 2e-5           # ray origin offset along the normal, relative to the depth Z
 GOLDEN = 0.5 * (math.sqrt(5.0) - 1.0)
 RADIUS_MODES = ("world", "screen")
-
-
-def _triangle_soup(scene: Scene, origin: np.ndarray):
-    """(V, 3) float32 vertices relative to ``origin`` (float64 until then) and (F, 3) uint32
-    faces of every part at every instance transform."""
-    vertices, faces, base = [], [], 0
-    for part in scene.parts:
-        if len(part.faces) == 0 or len(part.vertices) == 0:
-            continue
-        local = part.vertices.astype(np.float64)
-        for T in part.transforms:
-            # float64 world transform, then subtract the camera centre, and only then float32
-            world = local @ T[:3, :3].T + (T[:3, 3] - origin)
-            vertices.append(world.astype(np.float32))
-            faces.append(part.faces.astype(np.int64) + base)
-            base += len(local)
-    if not vertices:
-        return None, None
-    faces = np.concatenate(faces)
-    if base > np.iinfo(np.uint32).max:
-        raise MrcheckError(f"the scene has too many vertices for the ray caster ({base})")
-    return np.concatenate(vertices), faces.astype(np.uint32)
-
-
-def triangle_owners(scene: Scene):
-    """Which part instance every triangle of :func:`_triangle_soup` belongs to.
-
-    Returns ``(owners, first)``: ``owners`` lists ``(part, instance index)`` in the soup's order
-    (parts in scene order, each at every transform; empty parts skipped), ``first`` is the
-    (len(owners) + 1,) int64 start of each one's triangles, so the owner of primitive id ``p`` is
-    ``owners[np.searchsorted(first, p, side="right") - 1]``.
-    """
-    owners, counts = [], []
-    for part in scene.parts:
-        if len(part.faces) == 0 or len(part.vertices) == 0:
-            continue   # the same skip as _triangle_soup: the two orders must agree
-        for k in range(len(part.transforms)):
-            owners.append((part, k))
-            counts.append(len(part.faces))
-    return owners, np.concatenate(([0], np.cumsum(counts, dtype=np.int64)))
-
-
-def _raycasting_scene(scene: Scene, origin: np.ndarray):
-    import open3d as o3d
-
-    vertices, faces = _triangle_soup(scene, origin)
-    if vertices is None:
-        return None
-    rc = o3d.t.geometry.RaycastingScene()
-    rc.add_triangles(o3d.core.Tensor(vertices), o3d.core.Tensor(faces))
-    return rc
+PROGRESS_STAGE = "reference AO"     # the stage reference_ao reports its rays under
 
 
 def _base_pattern(rays: int) -> np.ndarray:
@@ -131,15 +83,14 @@ def _check_rays(rays) -> None:
         raise MrcheckError(f"rays must be a whole number in [1, {MAX_RAYS}], got {rays!r}")
 
 
-def _validate(camera, depth, normals, rays, radius_mode, radius, falloff):
-    H, W = camera.height, camera.width
-    if depth.shape != (H, W):
-        raise MrcheckError(f"depth has shape {depth.shape}, the camera wants {(H, W)}")
-    if normals.shape != (H, W, 3):
-        raise MrcheckError(f"normals have shape {normals.shape}, the camera wants {(H, W, 3)}")
-    _check_rays(rays)
+def _check_radius_mode(radius_mode) -> None:
     if radius_mode not in RADIUS_MODES:
         raise MrcheckError(f"radius mode must be one of {', '.join(RADIUS_MODES)}, got {radius_mode!r}")
+
+
+def _check_parameters(rays, radius_mode, radius, falloff) -> None:
+    _check_rays(rays)
+    _check_radius_mode(radius_mode)
     if not (isinstance(radius, (int, float)) and math.isfinite(radius) and radius > 0):
         raise MrcheckError(f"radius must be positive, got {radius!r}")
     # c < 0 would divide by zero at d/r = 1/sqrt(-c); the render modes reject it too
@@ -147,44 +98,26 @@ def _validate(camera, depth, normals, rays, radius_mode, radius, falloff):
         raise MrcheckError(f"falloff must be >= 0, got {falloff!r}")
 
 
-def reference_ao(scene: Scene, camera: Camera, depth, normals, rays: int, radius_mode: str, radius: float,
-                 falloff: float = 1.0, seed: int = 0, progress: bool = False) -> np.ndarray:
-    """(H, W) float32 ray-traced AO for the pixels of a render (definition: module docstring).
+def _validate(camera, depth, normals, rays, radius_mode, radius, falloff):
+    H, W = camera.height, camera.width
+    if depth.shape != (H, W):
+        raise MrcheckError(f"depth has shape {depth.shape}, the camera wants {(H, W)}")
+    if normals.shape != (H, W, 3):
+        raise MrcheckError(f"normals have shape {normals.shape}, the camera wants {(H, W, 3)}")
+    _check_parameters(rays, radius_mode, radius, falloff)
 
-    Parameters
-    ----------
-    scene : the scene that was rendered (all parts and instances are occluders).
-    camera : the camera of the render.
-    depth : (H, W) camera-space z of the G-buffer, 0 = background (``Renderer.last_depth`` of a render
-        at ``lod_px=REFERENCE_LOD_PX``).
-    normals : (H, W, 3) camera-space normals, OpenCV axes (``Renderer.last_normals``).
-    rays : N, cosine-weighted rays per pixel.
-    radius_mode : "world": ``r = radius`` in scene units; "screen": ``radius`` is in pixels and
-        ``r = radius * Z / f_y`` per pixel.
-    radius : see ``radius_mode``. Also the maximum ray distance.
-    falloff : c of the attenuation ``1 / (1 + c (d/r)^2)``; 0 counts every hit within r fully.
-    seed : seed of the per-pixel shifts of the ray pattern (the same seed, the same result).
-    progress : a tqdm bar on stderr.
-    """
-    depth = np.asarray(depth, np.float32)
-    normals = np.asarray(normals, np.float32)
-    _validate(camera, depth, normals, rays, radius_mode, radius, falloff)
-    rays = int(rays)
-    ao = np.ones(depth.shape, np.float32)
 
-    mask = np.isfinite(depth) & (depth > 0.0)
-    jj, ii = np.nonzero(mask)                      # row (v), column (u) of every surface pixel
-    if jj.size == 0:
-        return ao
-    rc = _raycasting_scene(scene, camera.center)
-    if rc is None:                                 # no triangles: nothing occludes
-        return ao
+@dataclass(frozen=True)
+class _Surface:
+    """The covered pixels' ray starts, relative to the camera centre in world orientation."""
+    origins: np.ndarray   # (m, 3) float32, lifted off the surface along the normal
+    frames: np.ndarray    # (m, 3 axes, 3) float32 tangent, bitangent, normal
+    radius: np.ndarray    # (m,) float64 maximum ray distance r per pixel
 
-    import open3d as o3d
-    from tqdm import tqdm
 
-    # surface points and normals relative to the camera centre in world orientation (R^T X_cam),
-    # in float64 until the float32 ray origins are formed
+def _surface(camera: Camera, depth, normals, jj, ii, radius_mode: str, radius: float) -> _Surface:
+    """Surface points and normals of pixels (jj, ii) relative to the camera centre in world
+    orientation (R^T X_cam: no large numbers), in float64 until the float32 ray origins."""
     z = depth[jj, ii].astype(np.float64)
     p_cam = np.column_stack(((ii - camera.cx) * z / camera.fx, (jj - camera.cy) * z / camera.fy, z))
     n_cam = normals[jj, ii].astype(np.float64)
@@ -199,110 +132,165 @@ def reference_ao(scene: Scene, camera: Camera, depth, normals, rays: int, radius
     # surface by a small amount relative to its depth so that no ray hits its own triangle
     origins = (p_rel + n_world * (ORIGIN_EPSILON * z)[:, None]).astype(np.float32)
     T, B = _tangent_frames(n_world)
-    frames = np.stack((T, B, n_world), axis=1).astype(np.float32)   # (m, 3 axes, 3)
+    return _Surface(origins, np.stack((T, B, n_world), axis=1).astype(np.float32), r)
 
+
+def _chunk_rays(surface: _Surface, sl: slice, base: np.ndarray, shifts: np.ndarray) -> np.ndarray:
+    """(m N, 6) float32 rays of the pixels ``sl``: the lattice ``base`` shifted per pixel,
+    cosine-distributed about the normal, each direction scaled by the pixel's r."""
+    m, rays = sl.stop - sl.start, len(base)
+    u = np.mod(base[None, :, :] + shifts[sl, None, :], 1.0).astype(np.float32)   # (m, N, 2)
+    # cosine-weighted hemisphere (Malley): uniform disc lifted to the hemisphere
+    rad = np.sqrt(u[..., 0])
+    phi = np.float32(2.0 * math.pi) * u[..., 1]
+    local = np.stack((rad * np.cos(phi), rad * np.sin(phi), np.sqrt(np.maximum(0.0, 1.0 - u[..., 0]))), -1)
+    # directions scaled by r: t is then d / r, and tfar = 1 is the maximum distance for
+    # every pixel at once (the screen radius differs per pixel)
+    dirs = np.einsum("mna,mak->mnk", local, surface.frames[sl]) * surface.radius[sl, None, None].astype(np.float32)
+    ray_array = np.empty((m, rays, 6), np.float32)
+    ray_array[..., :3] = surface.origins[sl, None, :]
+    ray_array[..., 3:] = dirs
+    return ray_array.reshape(-1, 6)
+
+
+def _occlusion(caster, ray_array: np.ndarray, falloff: float) -> np.ndarray:
+    """(n,) float64 weight of every ray: 0 without a hit within r, else 1 / (1 + c (d/r)^2)."""
+    # the occlusion query (bool, any hit in [0, 1]) is cheaper than a closest-hit cast
+    hit = caster.occluded(ray_array, tfar=1.0)
+    if falloff == 0.0:
+        return hit.astype(np.float64)
+    weight = np.zeros(hit.shape, np.float64)
+    idx = np.nonzero(hit)[0]
+    if idx.size:
+        # the distance is needed only for the rays that hit within r
+        t_hit = caster.cast(ray_array[idx]).t.astype(np.float64)
+        t_hit = np.minimum(t_hit, 1.0)     # the same first hit; guards float ties at t = 1
+        weight[idx] = 1.0 / (1.0 + falloff * t_hit * t_hit)
+    return weight
+
+
+def reference_ao(scene: Scene, camera: Camera, depth, normals, rays: int, radius_mode: str, radius: float,
+                 falloff: float = 1.0, seed: int = 0, progress=None) -> np.ndarray:
+    """(H, W) float32 ray-traced AO for the pixels of a render (definition: module docstring).
+
+    Parameters
+    ----------
+    scene : the scene that was rendered (all parts and instances are occluders).
+    camera : the camera of the render.
+    depth : (H, W) camera-space z of the G-buffer, 0 = background (``Frame.depth`` of a render
+        at ``lod_px=REFERENCE_LOD_PX``).
+    normals : (H, W, 3) camera-space normals, OpenCV axes (``Frame.normals``, ``want_normals=True``).
+    rays : N, cosine-weighted rays per pixel.
+    radius_mode : "world": ``r = radius`` in scene units; "screen": ``radius`` is in pixels and
+        ``r = radius * Z / f_y`` per pixel.
+    radius : see ``radius_mode``. Also the maximum ray distance.
+    falloff : c of the attenuation ``1 / (1 + c (d/r)^2)``; 0 counts every hit within r fully.
+    seed : seed of the per-pixel shifts of the ray pattern (the same seed, the same result).
+    progress : None, or ``progress(stage, done, total)`` called with :data:`PROGRESS_STAGE` and
+        the rays cast so far.
+    """
+    depth = np.asarray(depth, np.float32)
+    normals = np.asarray(normals, np.float32)
+    _validate(camera, depth, normals, rays, radius_mode, radius, falloff)
+    rays = int(rays)
+    ao = np.ones(depth.shape, np.float32)
+    jj, ii = np.nonzero(np.isfinite(depth) & (depth > 0.0))     # row (v), column (u) of every surface pixel
+    caster = build_caster(scene, camera.center) if jj.size else None
+    if caster is None:                              # nothing covered, or no triangles: nothing occludes
+        return ao
+    surface = _surface(camera, depth, normals, jj, ii, radius_mode, radius)
     base = _base_pattern(rays)
     # Cranley-Patterson rotation: one random shift of the lattice per pixel, so neighbouring
     # pixels use different directions (no structured artefacts) and each stays stratified
     shifts = np.random.default_rng(seed).random((jj.size, 2))
-
     occlusion = np.zeros(jj.size, np.float64)
     per_chunk = max(1, RAY_CHUNK // rays)
-    bar = tqdm(total=jj.size * rays, unit="ray", unit_scale=True, desc="reference AO", file=sys.stderr,
-               disable=None if progress else True)
-    try:
-        for start in range(0, jj.size, per_chunk):
-            sl = slice(start, min(start + per_chunk, jj.size))
-            m = sl.stop - sl.start
-            u = np.mod(base[None, :, :] + shifts[sl, None, :], 1.0).astype(np.float32)   # (m, N, 2)
-            # cosine-weighted hemisphere (Malley): uniform disc lifted to the hemisphere
-            rad = np.sqrt(u[..., 0])
-            phi = np.float32(2.0 * math.pi) * u[..., 1]
-            local = np.stack((rad * np.cos(phi), rad * np.sin(phi), np.sqrt(np.maximum(0.0, 1.0 - u[..., 0]))), -1)
-            # directions scaled by r: t is then d / r, and tfar = 1 is the maximum distance for
-            # every pixel at once (the screen radius differs per pixel)
-            dirs = np.einsum("mna,mak->mnk", local, frames[sl]) * r[sl, None, None].astype(np.float32)
-            ray_array = np.empty((m, rays, 6), np.float32)
-            ray_array[..., :3] = origins[sl, None, :]
-            ray_array[..., 3:] = dirs
-            ray_array = ray_array.reshape(-1, 6)
-            rays_t = o3d.core.Tensor(ray_array)
-            # the occlusion query (bool, any hit in [0, 1]) is cheaper than a closest-hit cast
-            hit = rc.test_occlusions(rays_t, tnear=0.0, tfar=1.0).numpy().astype(bool)
-            if falloff == 0.0:
-                weight = hit.astype(np.float64)
-            else:
-                weight = np.zeros(hit.shape, np.float64)
-                idx = np.nonzero(hit)[0]
-                if idx.size:
-                    # the distance is needed only for the rays that hit within r
-                    t_hit = rc.cast_rays(o3d.core.Tensor(ray_array[idx]))["t_hit"].numpy().astype(np.float64)
-                    t_hit = np.minimum(t_hit, 1.0)     # the same first hit; guards float ties at t = 1
-                    weight[idx] = 1.0 / (1.0 + falloff * t_hit * t_hit)
-            occlusion[sl] = weight.reshape(m, rays).sum(axis=1)
-            bar.update(m * rays)
-    finally:
-        bar.close()
+    if progress is not None:
+        progress(PROGRESS_STAGE, 0, jj.size * rays)
+    for start in range(0, jj.size, per_chunk):
+        sl = slice(start, min(start + per_chunk, jj.size))
+        weight = _occlusion(caster, _chunk_rays(surface, sl, base, shifts), falloff)
+        occlusion[sl] = weight.reshape(-1, rays).sum(axis=1)
+        if progress is not None:
+            progress(PROGRESS_STAGE, sl.stop * rays, jj.size * rays)
     ao[jj, ii] = np.clip(1.0 - occlusion / rays, 0.0, 1.0).astype(np.float32)
     return ao
 
 
+# -- the command ---------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class ReferenceRun:
+    """What ``mrcheck reference`` did: the file written and the rays it cast in how long."""
+    path: Path
+    rays_cast: int
+    seconds: float
+
+    def timing_line(self) -> str:
+        rate = f", {self.rays_cast / self.seconds / 1e6:.2f} M rays/s" if self.seconds > 0 and self.rays_cast else ""
+        return f"reference AO: {self.rays_cast} rays in {self.seconds:.2f} s{rate}"
+
+
+def _command_radius(radius_mode, radius_world, radius_px, camera) -> float:
+    """The radius the command uses, its mode's default when not given; warns about the other
+    mode's option (as render warns about an option its mode does not read)."""
+    from mrcheck.render.renderer import (
+        DEFAULT_RADIUS_FRACTION,
+        DEFAULT_RADIUS_WORLD,
+        check_screen_radius,
+    )
+
+    if radius_mode == "world":
+        return DEFAULT_RADIUS_WORLD if radius_world is None else radius_world
+    radius = DEFAULT_RADIUS_FRACTION * camera.height if radius_px is None else radius_px
+    check_screen_radius(radius, camera.height, "the screen radius is in pixels")   # render's rule
+    return radius
+
+
+def _warn_ignored_radius(radius_mode, radius_world, radius_px) -> None:
+    # one radius is used, the other dropped: the user meant one or the other
+    ignored = {"world": ("--radius-px", radius_px, "screen"), "screen": ("--radius", radius_world, "world")}
+    option, value, users = ignored[radius_mode]
+    if value is not None:
+        warnings.warn(MrcheckWarning(f"{option} has no effect in radius mode {radius_mode} (it applies to {users})"))
+
+
 def reference_command(scene, view, camera_path, width, height, rays, radius_mode, radius_world, radius_px,
-                      falloff, seed, units, output):
-    """``mrcheck reference``: render the G-buffer, ray-trace the reference AO, write it."""
+                      falloff, seed, units, output, progress=None) -> ReferenceRun:
+    """``mrcheck reference``: check everything, render the G-buffer, ray-trace the reference
+    AO, write it; returns what was written. ``progress`` as in :func:`reference_ao`."""
     from mrcheck.core.output import (
         AO_SUFFIXES,
         check_not_inputs,
         check_output_path,
         write_ao,
     )
-    from mrcheck.render.renderer import (
-        DEFAULT_RADIUS_FRACTION,
-        DEFAULT_RADIUS_WORLD,
-        Renderer,
-        RenderSettings,
-        check_screen_radius,
-    )
+    from mrcheck.render.renderer import Renderer, RenderSettings
     from mrcheck.render.views import scene_and_camera, warn_if_nothing_in_view
     from mrcheck.scene.manifest import scene_files
 
     output = check_output_path(output, AO_SUFFIXES, "reference output")   # fail before the work
     check_not_inputs([output], [("the scene", scene_files(scene)), ("--camera", camera_path)])
-    if radius_mode not in RADIUS_MODES:
-        raise MrcheckError(f"radius mode must be one of {', '.join(RADIUS_MODES)}, got {radius_mode!r}")
-    _check_rays(rays)   # before a long scene load (_validate below checks everything)
-    # as render warns about an option its mode does not read: one radius is used, the other dropped
-    ignored = {"world": ("--radius-px", radius_px, "screen"), "screen": ("--radius", radius_world, "world")}
-    option, value, users = ignored[radius_mode]
-    if value is not None:
-        print(f"warning: {option} has no effect in radius mode {radius_mode} (it applies to {users})", file=sys.stderr)
+    _check_radius_mode(radius_mode)
+    _check_rays(rays)   # before a long scene load (_check_parameters below checks everything)
+    _warn_ignored_radius(radius_mode, radius_world, radius_px)
     loaded, camera = scene_and_camera(scene, units, view, camera_path, width, height)
-    if radius_mode == "world":
-        radius = DEFAULT_RADIUS_WORLD if radius_world is None else radius_world
-    else:
-        radius = DEFAULT_RADIUS_FRACTION * camera.height if radius_px is None else radius_px
-        check_screen_radius(radius, camera.height, "the screen radius is in pixels")   # render's rule
-    _validate(camera, np.zeros((camera.height, camera.width), np.float32),
-              np.zeros((camera.height, camera.width, 3), np.float32), rays, radius_mode, radius, falloff)
+    radius = _command_radius(radius_mode, radius_world, radius_px, camera)
+    _check_parameters(rays, radius_mode, radius, falloff)
 
     renderer = Renderer(loaded)
     try:
-        renderer.render(camera, ["phong"], RenderSettings(lod_px=REFERENCE_LOD_PX))
-        depth, normals = renderer.last_depth(), renderer.last_normals()
+        frame = renderer.render(camera, ["phong"], RenderSettings(lod_px=REFERENCE_LOD_PX), want_normals=True)
+        depth, normals = frame.depth, frame.normals
     finally:
         renderer.release()
     warn_if_nothing_in_view(depth, view, camera_path)
 
     start = time.perf_counter()
-    ao = reference_ao(loaded, camera, depth, normals, rays, radius_mode, radius, falloff, seed, progress=True)
+    ao = reference_ao(loaded, camera, depth, normals, rays, radius_mode, radius, falloff, seed, progress=progress)
     seconds = time.perf_counter() - start
-    cast = int(np.count_nonzero(depth > 0)) * int(rays)
     path = write_ao(Path(output), ao)
-    print(path)
-    # stdout carries only the path (as the other commands); the timing goes to stderr
-    rate = f", {cast / seconds / 1e6:.2f} M rays/s" if seconds > 0 and cast else ""
-    print(f"reference AO: {cast} rays in {seconds:.2f} s{rate}", file=sys.stderr)
-    return path
+    return ReferenceRun(path, int(np.count_nonzero(depth > 0)) * int(rays), seconds)
 
 
-__all__ = ["reference_ao", "reference_command", "triangle_owners", "MAX_RAYS", "RADIUS_MODES"]
+__all__ = ["reference_ao", "reference_command", "ReferenceRun", "MAX_RAYS", "RADIUS_MODES", "REFERENCE_LOD_PX",
+           "PROGRESS_STAGE"]

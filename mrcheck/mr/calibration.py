@@ -1,24 +1,20 @@
-"""Camera calibration from photos of a chessboard or ChArUco board, and camera file I/O.
+"""Camera calibration from photos of a chessboard or ChArUco board.
 
 Conventions:
 
-* Board SPEC strings: ``chessboard:COLSxROWS:SQUARE`` counts INNER corners (OpenCV's
-  ``patternSize``), ``charuco:COLSxROWS:SQUARE:MARKER:DICT`` counts SQUARES (OpenCV's
-  ``CharucoBoard`` size); sizes are in metres, DICT is an OpenCV predefined dictionary name
-  (``DICT_6X6_250``). The board lies in its own z = 0 plane; its units only scale the (unused)
-  extrinsics, never K.
+* Board SPEC strings: :mod:`mrcheck.mr.boards`.
 * Pixel coordinates and K are OpenCV's (see :mod:`mrcheck.core.camera`); ``dist`` is OpenCV's
   ``[k1, k2, p1, p2, k3]``. Errors are RMS reprojection errors in pixels: ``rms`` over all
   points of the kept views, ``per_view_errors`` per view (``calibrateCameraExtended``).
 * A calibrated camera has no pose: R = I, t = 0 (the camera frame is the world frame).
-* Output: our camera JSON (``Camera.load`` reads it; extra keys rms, per_view_errors,
+* Output: our camera JSON (:func:`mrcheck.core.camerafiles.read_camera` reads it; extra keys rms, per_view_errors,
   rejected_views, skipped_views, duplicate_views, std, board), or for ``.yml``/``.yaml``
   OpenCV FileStorage in the layout of OpenCV's calibration samples (``image_width``,
-  ``image_height``, ``camera_matrix``, ``distortion_coefficients``, ``avg_reprojection_error``).
-  :func:`read_camera` reads both.
+  ``image_height``, ``camera_matrix``, ``distortion_coefficients``, ``avg_reprojection_error``),
+  which it reads too.
 
 Views where the board is not found (whatever their size) and unreadable images are skipped with
-a warning on stderr; the views with the board must share one size; a photo given twice (same
+a warning (:func:`mrcheck.core.errors.warn`); the views with the board must share one size; a photo given twice (same
 file or same bytes) is used once; outlier views (RMS above ``max_view_error``, by default above
 ``max(3 x median, 1 px)`` of the first calibration) are rejected and the camera is calibrated
 again without them, until every view kept is within the threshold.
@@ -30,7 +26,6 @@ import contextlib
 import hashlib
 import math
 import os
-import sys
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
@@ -41,10 +36,12 @@ import numpy as np
 
 from mrcheck.core.camera import Camera
 from mrcheck.core.camerafiles import CAMERA_SUFFIXES, write_camera
-from mrcheck.core.errors import MrcheckError, display
+from mrcheck.core.errors import MrcheckError, display, warn
 from mrcheck.core.images import decode_image
 from mrcheck.core.inputs import read_input, real_path
 from mrcheck.core.output import check_not_inputs, check_output_path
+from mrcheck.core.progress import Progress, no_progress
+from mrcheck.mr.boards import Board, parse_board
 
 DEFAULT_MIN_VIEWS = 5
 # Zhang's method (cv2.calibrateCamera) gets two equations on the intrinsics from each view of a
@@ -64,149 +61,8 @@ POOR_STD_FRACTION = 0.01
 # good views (median 0.1 px) from losing ordinary ones at 0.4 px
 OUTLIER_FACTOR = 3.0
 OUTLIER_FLOOR_PX = 1.0
-# fewer ChArUco corners than this cannot constrain a view's pose (six parameters) reliably
-MIN_CHARUCO_CORNERS = 6
-# photos longer than this are searched on a copy downscaled to it, and the corners refined in the
-# photo itself: on OpenCV's 13 photos upscaled to 4032 x 3024 (a 12 MP phone photo) a search at
-# full size took up to 7 s a photo (3.7 s without a board) and found 7 boards (the detectors miss
-# corners blurred over many pixels); on the copy all 13, 0.4 s a photo at most
-DETECT_LONG_SIDE = 1280
 # photos a wrong board SPEC's near sizes are tried on, at most (some milliseconds a try)
 HINT_PHOTOS = 5
-_SUBPIX_CRITERIA = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.001)  # OpenCV's samples
-
-
-# -- boards -------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class Board:
-    """A parsed board SPEC; :meth:`detect` finds it in a grey image."""
-
-    spec: str
-    kind: str  # "chessboard" or "charuco"
-    cols: int
-    rows: int
-    square: float
-    marker: float = 0.0
-    dictionary: str = ""
-
-    def __post_init__(self):
-        if self.kind == "charuco":
-            aruco = cv2.aruco
-            board = aruco.CharucoBoard((self.cols, self.rows), self.square, self.marker,
-                                       aruco.getPredefinedDictionary(getattr(aruco, self.dictionary)))
-            # the detector interpolates the chessboard corners from the markers and refines them
-            # to sub-pixel accuracy itself (cornerSubPix inside detectBoard)
-            object.__setattr__(self, "_charuco", (board, aruco.CharucoDetector(board)))
-        else:
-            grid = np.mgrid[0:self.cols, 0:self.rows].T.reshape(-1, 2) * self.square
-            object.__setattr__(self, "_grid", np.column_stack((grid, np.zeros(len(grid)))).astype(np.float32))
-
-    def detect(self, gray: np.ndarray, quick: bool = False):
-        """(object points (n, 3) float32 metres, image points (n, 2) float32 px), or None.
-
-        A photo longer than DETECT_LONG_SIDE px is searched on a copy downscaled to that size, and
-        the corners found there are refined with cornerSubPix in the photo itself. ``quick``
-        leaves out a chessboard's fallback detector (0.5 s on a 640 x 480 photo without the board).
-        """
-        scale = max(gray.shape) / DETECT_LONG_SIDE
-        if scale <= 1:
-            return self._detect(gray, quick)
-        small = cv2.resize(gray, (round(gray.shape[1] / scale), round(gray.shape[0] / scale)),
-                           interpolation=cv2.INTER_AREA)
-        found = self._detect(small, quick)
-        if found is None:
-            return None
-        obj, img = found
-        # pixel i of the copy covers pixels [i f, (i + 1) f) of the photo, so its centre is (i + 0.5) f - 0.5
-        factor = np.array([gray.shape[1] / small.shape[1], gray.shape[0] / small.shape[0]], np.float32)
-        img = (img + 0.5) * factor - 0.5
-        # no 5 px cap here: a window narrower than the blur of an edge settles off the corner (on 3x
-        # upscales of OpenCV's 13 photos, 5 px gave 0.66 px RMS per original pixel, a quarter
-        # square 0.20, as the originals' 0.195)
-        img = cv2.cornerSubPix(gray, img.reshape(-1, 1, 2), self._subpix_window(obj, img), (-1, -1), _SUBPIX_CRITERIA)
-        return obj, img.reshape(-1, 2)
-
-    def _detect(self, gray, quick):
-        return self._detect_charuco(gray) if self.kind == "charuco" else self._detect_chessboard(gray, quick)
-
-    def _detect_chessboard(self, gray, quick):
-        size = (self.cols, self.rows)
-        # the classic detector first: it is what OpenCV's calibration sample uses, so results match
-        # it; FAST_CHECK only skips images without a board sooner
-        flags = cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_FAST_CHECK
-        found, corners = cv2.findChessboardCorners(gray, size, flags=flags)
-        if found:
-            window = self._subpix_window(self._grid, corners.reshape(-1, 2), most=5)
-            corners = cv2.cornerSubPix(gray, corners, window, (-1, -1), _SUBPIX_CRITERIA)
-        elif not quick:
-            # the sector-based detector copes with blur and strong distortion, and is sub-pixel already
-            found, corners = cv2.findChessboardCornersSB(gray, size, flags=cv2.CALIB_CB_ACCURACY)
-        if not found:
-            return None
-        return self._grid, corners.reshape(-1, 2).astype(np.float32)
-
-    def _detect_charuco(self, gray):
-        board, detector = self._charuco
-        corners, ids, _, _ = detector.detectBoard(gray)
-        if ids is None or len(ids) < MIN_CHARUCO_CORNERS or board.checkCharucoCornersCollinear(ids):
-            return None  # collinear corners give no homography, calibrateCamera would fail
-        obj, img = board.matchImagePoints(corners, ids)  # object points of the corners, by id
-        return obj.reshape(-1, 3).astype(np.float32), img.reshape(-1, 2).astype(np.float32)
-
-    def _subpix_window(self, obj, img, most=None):
-        """cornerSubPix's winSize (a HALF size): a quarter of the smallest square in the image, at
-        least 2 px (at most ``most``), and on a ChArUco board no wider than the white margin
-        around its markers, which would pull the corner towards a marker's edges.
-
-        OpenCV's calibration sample passes (11, 11), a 23 x 23 px window; where squares are smaller
-        than that (left02.jpg of its own photos: 21.8 px) the window takes in the neighbouring
-        corners and pulls the refined corner up to 6 px off, a 1.2 px view error instead of 0.17 px.
-        """
-        i, j = np.triu_indices(len(img), 1)
-        # pixels per metre between two corners, at its smallest: where the board is most foreshortened
-        per_metre = np.min(np.linalg.norm(img[i] - img[j], axis=1) / np.linalg.norm(obj[i] - obj[j], axis=1))
-        reach = min(0.25, (self.square - self.marker) / (2 * self.square)) * self.square * per_metre
-        half = int(max(2, reach) if most is None else min(most, max(2, reach)))
-        return (half, half)
-
-
-def parse_board(spec: str) -> Board:
-    """A :class:`Board` of a SPEC string, or MrcheckError naming what is wrong with it."""
-    fields = spec.split(":")
-    kind = fields[0].strip().lower()
-    expected = {"chessboard": 3, "charuco": 5}
-    if kind not in expected:
-        raise MrcheckError(f"board SPEC {spec!r}: unknown board type {fields[0]!r} (chessboard or charuco)")
-    if len(fields) != expected[kind]:
-        form = "chessboard:COLSxROWS:SQUARE" if kind == "chessboard" else "charuco:COLSxROWS:SQUARE:MARKER:DICT"
-        raise MrcheckError(f"board SPEC {spec!r}: expected {form}")
-    try:
-        cols, rows = (int(n) for n in fields[1].lower().split("x"))
-    except ValueError:
-        raise MrcheckError(f"board SPEC {spec!r}: size {fields[1]!r} is not COLSxROWS, e.g. 9x6") from None
-    smallest = 3 if kind == "chessboard" else 2  # OpenCV's chessboard detectors need 3x3 inner corners
-    if cols < smallest or rows < smallest:
-        raise MrcheckError(f"board SPEC {spec!r}: size must be at least {smallest}x{smallest}")
-    sizes = [_length(spec, name, value) for name, value in zip(("square", "marker"), fields[2:4])]
-    if kind == "chessboard":
-        return Board(spec, kind, cols, rows, sizes[0])
-    square, marker = sizes
-    if marker >= square:
-        raise MrcheckError(f"board SPEC {spec!r}: marker size must be smaller than the square size")
-    dictionary = fields[4].strip().upper()
-    if not dictionary.startswith("DICT_") or not isinstance(getattr(cv2.aruco, dictionary, None), int):
-        raise MrcheckError(f"board SPEC {spec!r}: unknown ArUco dictionary {fields[4]!r} (e.g. DICT_6X6_250)")
-    return Board(spec, kind, cols, rows, square, marker, dictionary)
-
-
-def _length(spec, name, text) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not (value > 0 and math.isfinite(value)):
-        raise MrcheckError(f"board SPEC {spec!r}: {name} size must be a positive length in metres, got {text!r}")
-    return value
 
 
 # -- calibration --------------------------------------------------------------------------------
@@ -294,12 +150,6 @@ def _duplicate(seen: dict, name, path: Path, data):
     return None
 
 
-def _warn(name, problem):
-    from tqdm import tqdm
-
-    tqdm.write(f"warning: {name}: {problem}", file=sys.stderr)  # on a line of its own above a progress bar
-
-
 class Detected(NamedTuple):
     """What :func:`detect_views` found; every image given is in one of views, skipped, duplicates."""
 
@@ -311,35 +161,33 @@ class Detected(NamedTuple):
     unreadable: dict  # the others among skipped: {name: why it cannot be used}
 
 
-def detect_views(images, board: Board) -> Detected:
-    """The board in each photo; warns on stderr.
+def detect_views(images, board: Board, progress: Progress = no_progress) -> Detected:
+    """The board in each photo; a warning for each photo skipped; ``progress`` shows the photos
+    done (a photo takes up to seconds).
 
     The size is that of the photos where the board is found: a photo without it is skipped
     whatever its size (a stray photo in the glob must not fail the calibration). A photo given
     twice (the same file, or a copy with the same bytes) is used once: twice would weigh its view
     double and count it as two photos.
     """
-    from tqdm import tqdm
-
     views, sizes, skipped, duplicates, without_board, unreadable, seen = {}, {}, [], [], [], {}, {}
-    # a photo takes up to seconds; disable=None: a bar on a terminal only (not in pipes, logs, tests);
-    # the with block erases it (leave=False) on an error too, so the error line starts a clean line
-    with tqdm(images, desc="finding the board", unit="photo", file=sys.stderr, disable=None, leave=False) as bar:
+    # closing: a bar is taken down on an error too, so the error line starts a clean line
+    with contextlib.closing(progress(images, "finding the board", "photo")) as bar:
         for name in bar:
             data, gray, problem = _read_image(Path(name))
             first = _duplicate(seen, name, Path(name), data)
             if first is not None:
-                _warn(name, f"{first[1]} {first[0]}, used once")
+                warn(f"{first[1]} {first[0]}, used once", name)
                 duplicates.append(name)
                 continue
             if gray is None:
-                _warn(name, f"{problem}, skipped")
+                warn(f"{problem}, skipped", name)
                 skipped.append(name)
                 unreadable[name] = problem
                 continue
             points = board.detect(gray)
             if points is None:
-                _warn(name, "board not found")
+                warn("board not found", name)
                 skipped.append(name)
                 without_board.append(name)
             else:
@@ -362,7 +210,7 @@ def _common_size(sizes: dict):
     return size
 
 
-def calibrate(images, board: Board, min_views=None, max_view_error=None):
+def calibrate(images, board: Board, min_views=None, max_view_error=None, progress: Progress = no_progress):
     """Detect, calibrate, reject outlier views and recalibrate until every kept view is within the threshold.
 
     Returns (camera, extra, report lines); ``extra`` holds the JSON's rms, per_view_errors, ...
@@ -372,7 +220,7 @@ def calibrate(images, board: Board, min_views=None, max_view_error=None):
         raise MrcheckError(f"--min-views must be at least {MIN_VIEWS_FLOOR}, got {min_views}: Zhang's method gets two "
                            "equations on the camera from each photo of a flat board, so fewer photos leave it "
                            "undetermined (a low RMS error with a wrong camera)")
-    found = detect_views(images, board)
+    found = detect_views(images, board, progress)
     views, size, skipped, duplicates = found.views, found.size, found.skipped, found.duplicates
     # a board missing from most photos that could be read more likely has a wrong SPEC than bad photos
     hint = _spec_hint(board, found.without_board) if len(views) < len(found.without_board) else ""
@@ -381,8 +229,8 @@ def calibrate(images, board: Board, min_views=None, max_view_error=None):
         raise MrcheckError(f"board found in only {len(views)} of {len(images) - len(duplicates)} images{repeats}, "
                            f"need at least {min_views} (--min-views){_unreadable(found.unreadable)}{hint}")
     if hint:
-        _warn(f"board {board.spec}", f"found in only {len(views)} of {len(views) + len(found.without_board)} readable "
-                                     f"images{hint}")
+        warn(f"found in only {len(views)} of {len(views) + len(found.without_board)} readable images{hint}",
+             f"board {board.spec}")
     result, rejected, threshold = _without_outliers(views, size, min_views, max_view_error)
     camera = Camera(size[0], size[1], result.K, dist=result.dist)
     extra = {
@@ -497,18 +345,27 @@ def _poorly_determined(camera, std):
             "length); add photos with the board tilted different ways and reaching into the image corners")
 
 
-def calibrate_command(images, board, output, min_views=None, max_view_error=None) -> None:
+@dataclass(frozen=True)
+class Calibrated:
+    """What ``mrcheck calibrate`` did: the camera written to ``output``, the report's lines, and
+    a warning when fx, fy, cx or cy are poorly determined (else None)."""
+
+    camera: Camera
+    output: Path
+    report: list
+    warning: str | None
+
+
+def calibrate_command(images, board, output, min_views=None, max_view_error=None,
+                      progress: Progress = no_progress) -> Calibrated:
     """The ``mrcheck calibrate`` command: everything checked before the work, output written last."""
     spec = parse_board(board)
     output = check_output_path(output, CAMERA_SUFFIXES, "camera output")
     check_not_inputs([output], [("an image", images)])   # a glob of a folder takes in its old camera file too
-    camera, extra, report = calibrate(images, spec, min_views, max_view_error)
+    camera, extra, report = calibrate(images, spec, min_views, max_view_error, progress)
     write_camera(output, camera, extra, pose=False)  # a calibration has no pose
-    print("\n".join(report))
     problem = _poorly_determined(camera, extra["std"])
-    if problem:
-        _warn(output, problem)
-    print(f"wrote {output}")
+    return Calibrated(camera, output, report, problem and f"{output}: {problem}")
 
 
-__all__ = ["Board", "parse_board", "detect_views", "calibrate", "calibrate_command", "DEFAULT_MIN_VIEWS"]
+__all__ = ["detect_views", "calibrate", "calibrate_command", "Calibrated", "Detected", "DEFAULT_MIN_VIEWS"]

@@ -22,18 +22,18 @@ A failed fit (diverged, too little support) is an error: nothing is written, exi
 
 from __future__ import annotations
 
-import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from mrcheck.core.camera import Camera
-from mrcheck.core.camerafiles import read_camera, write_camera
+from mrcheck.core.camerafiles import read_camera, read_photo, write_camera
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.inputs import check_input
 from mrcheck.core.output import check_not_inputs, check_output_path
 from mrcheck.mr.edges import EdgeFit, EdgeFitError, EdgeOptions, refine_pose
-from mrcheck.mr.registration import fit_camera, load_points, photo_reference, read_photo, register_photo
+from mrcheck.mr.registration import fit_camera, load_points, photo_reference, register_photo
 from mrcheck.mr.markers import load_marker_map
 from mrcheck.scene.manifest import scene_files
 from mrcheck.scene.model import load_scene
@@ -68,7 +68,7 @@ def snap_photo(photo, camera: Camera, scene, rough: Camera, start: str = "initia
     """The SHOT dict of ``photo`` (a path) registered by snapping ``scene`` onto its edges from
     the pose of ``rough``; ``camera``: the photo's intrinsics (rescaled to the photo when it was
     resized). Raises :class:`~mrcheck.mr.edges.EdgeFitError` (naming the photo) on failure."""
-    grey = read_photo(photo)
+    grey = read_photo(photo, grey=True)
     camera, warnings = fit_camera(camera, grey.shape[1], grey.shape[0], photo)
     rough = camera.with_pose(rough.R, rough.t)
     try:
@@ -80,12 +80,24 @@ def snap_photo(photo, camera: Camera, scene, rough: Camera, start: str = "initia
     return shot
 
 
+@dataclass
+class EdgeRegistered:
+    """What ``mrcheck register`` with edges did: the shot dict written (``"photo"`` absolute) and where."""
+
+    shot: dict
+    output: Path
+
+    def summary(self) -> list[str]:
+        """The lines ``mrcheck register`` prints (:func:`summary_lines`)."""
+        return summary_lines(self.shot, self.output)
+
+
 def register_edges_command(scene, photo, intrinsics, initial=None, markers=None, points=None, refine=True,
-                           max_error=None, output="SHOT.json") -> dict:
+                           max_error=None, output="SHOT.json") -> EdgeRegistered:
     """``mrcheck register`` with edges: the start from ``initial`` (a camera JSON with R and t),
     or from ``markers`` / ``points`` (refined by the edges unless ``refine`` is False, which is
     the plain marker registration); writes SHOT.json atomically (``photo`` relative to it) and
-    returns the shot dict (``photo`` absolute). The CLI prints :func:`summary_lines`."""
+    returns what it did (the shot's ``photo`` absolute); the CLI prints its ``summary()``."""
     output = check_output_path(output, (".json",), "shot")
     starts = [name for name, value in (("--initial", initial), ("--markers", markers), ("--points", points))
               if value is not None]
@@ -109,7 +121,7 @@ def register_edges_command(scene, photo, intrinsics, initial=None, markers=None,
     shot = snap_photo(photo, camera, model, rough, start)
     extra = {k: v for k, v in shot.items() if k not in ("width", "height", "K", "dist", "R", "t")}
     write_camera(output, Camera.from_dict(shot), {**extra, "photo": photo_reference(shot["photo"], output)})
-    return shot
+    return EdgeRegistered(shot, output)
 
 
 def summary_lines(shot: dict, output) -> list[str]:
@@ -157,5 +169,5 @@ def scene_camera_command(scene, view, intrinsics=None, output="ROUGH.json") -> P
     return write_camera(output, camera, {"view": view})
 
 
-__all__ = ["edge_shot", "snap_photo", "register_edges_command", "summary_lines", "view_camera",
+__all__ = ["EdgeRegistered", "edge_shot", "snap_photo", "register_edges_command", "summary_lines", "view_camera",
            "scene_camera_command"]

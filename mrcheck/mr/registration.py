@@ -20,37 +20,37 @@ Output, SHOT.json: the camera JSON (``width``, ``height``, ``K``, ``dist``, ``R`
     "expected_overlay_error_px": predicted overlay error at the points' depth (1 sigma, RMS
         over the image, first order, from the pose covariance), "warnings": [str, ...]
 
-The pose: RANSAC (``cv2.solvePnPRansac``, AP3P minimal samples) over all points of all markers
-jointly, a refit on the inliers (IPPE's two solutions when the points are coplanar, SQPnP otherwise)
-and ``cv2.solvePnPRefineLM``; the candidate with the lowest RMS wins. All of it runs in the points'
-own frame (centred on their mean, axes along their principal directions), so the result does not
-depend on where the world frame is: OpenCV's RANSAC works in float32 (useless 1e6 m from the
-origin) and its EPnP fails on coplanar points for about half the orientations of their plane.
+The pose itself is solved in :mod:`mrcheck.mr.pose`.
 """
 
 from __future__ import annotations
 
-import itertools
 import json
 import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
 
-import click
 import cv2
 import numpy as np
 
 from mrcheck.core.camera import Camera
-from mrcheck.core.camerafiles import read_camera
+from mrcheck.core.camerafiles import read_camera, read_photo
 from mrcheck.core.errors import MrcheckError
-from mrcheck.core.images import read_image
 from mrcheck.core.inputs import check_input
 from mrcheck.core.jsonfile import read_json
 from mrcheck.core.output import check_not_inputs, check_output_path, write_text
 from mrcheck.mr.markers import Group, detect_markers, load_marker_map, parse_marker_map
+from mrcheck.mr.pose import (
+    Pose,
+    expected_overlay_error,
+    principal_axes,
+    reprojection_errors,
+    solve_pose,
+)
 from mrcheck.scene.manifest import scene_files
-from mrcheck.scene.model import MESH_SUFFIXES, load_scene
+from mrcheck.scene.meshes import MESH_SUFFIXES
+from mrcheck.scene.model import load_scene
 
 # corner noise assumed when the residuals cannot tell (exact synthetic data, a single marker):
 # subpixel ArUco/ChArUco corners are good to a few tenths of a pixel
@@ -59,9 +59,6 @@ _WARN_OVERLAY_PX = 3.0  # predicted overlay error worth a warning
 _WARN_DISTANCE_RATIO = 15.0  # mean distance / extent of the points
 _WARN_FRONTAL_DEG = 20.0  # coplanar points whose plane faces the camera within this angle
 _FAR_MARGIN_M = 5.0  # a camera this far outside the scene (or one scene extent) is suspicious
-# up to this many points (clicks), every 4-point subset is a pose hypothesis (C(12, 4) = 495 AP3P
-# solves, ~10 ms); beyond, RANSAC's consensus alone (markers: many corners, ties are rare)
-_EXHAUSTIVE_MAX = 12
 _LIST_MAX = 12  # the summary line lists the markers or points used up to this many
 
 
@@ -76,11 +73,6 @@ def fit_camera(camera: Camera, width: int, height: int, source=None):
         return camera.resized(width, height), [warning]
     raise MrcheckError(f"photo is {width}x{height} but the intrinsics are for {camera.width}x{camera.height} "
                        "(another aspect ratio: a crop or another camera mode; calibrate at this size)", source)
-
-
-def read_photo(path) -> np.ndarray:
-    """The photo as (H, W) uint8 grey, or a one-line error."""
-    return read_image(path, "photo", grey=True)
 
 
 def load_points(path) -> list:
@@ -108,197 +100,6 @@ def _parse_points(data, source="correspondences") -> list:
     return groups
 
 
-# -- the pose ---------------------------------------------------------------------------------
-
-@dataclass
-class Pose:
-    R: np.ndarray
-    t: np.ndarray
-    errors: np.ndarray  # (n,) reprojection error of every point, px
-    inliers: np.ndarray  # (n,) bool
-    threshold: float
-    rival: tuple | None = None  # (inliers, rms) of another consensus of the same size, if any
-
-    @property
-    def rms(self) -> float:
-        return _inlier_rms(self.errors, self.inliers)
-
-
-def _inlier_rms(errors: np.ndarray, inliers: np.ndarray) -> float:
-    return float(np.sqrt(np.mean(errors[inliers] ** 2)))
-
-
-def _reprojection_errors(camera, rvec, tvec, pixels, world) -> np.ndarray:
-    projected, _ = cv2.projectPoints(world, rvec, tvec, camera.K, camera.dist)
-    return np.linalg.norm(projected.reshape(-1, 2) - pixels, axis=1)
-
-
-def _principal(world):
-    """``(c, s, Q)``: the points' mean, the singular values of the centred points (3, zero-padded)
-    and their principal axes as the columns of a rotation (det +1; the last column is the normal
-    of their best plane). ``X_local = Q^T (X - c)`` puts coplanar points in z = 0 and keeps
-    coordinates small however far from the origin they are."""
-    c = world.mean(axis=0)
-    _, s, vt = np.linalg.svd(world - c)
-    Q = vt.T.copy()  # n >= 3 points (2-D pixels padded with z = 0): vt is 3 x 3
-    if np.linalg.det(Q) < 0:
-        Q[:, 2] = -Q[:, 2]
-    return c, np.concatenate([s, np.zeros(3 - s.size)]), Q
-
-
-def solve_pose(camera: Camera, pixels, world, max_error=None) -> Pose:
-    """Robust pose of ``camera`` from 2D-3D pairs: hypotheses of the inlier set, each refit and
-    LM-refined; the most inliers win, then the lowest RMS.
-
-    Hypotheses: RANSAC's inliers and, for up to :data:`_EXHAUSTIVE_MAX` points (manual clicks),
-    the inliers of the AP3P pose of every 4-point subset. RANSAC alone keeps the first largest
-    consensus it meets: with clicks, two sets of equal size (the right one, and one of two
-    mis-clicks with good points that happen to agree) are common, and the better fit must win.
-
-    Solved in the points' local frame (:func:`_principal`) and mapped back: the same points in any
-    world frame give the same camera relative to them."""
-    pixels = np.ascontiguousarray(pixels, np.float64).reshape(-1, 2)
-    world = np.ascontiguousarray(world, np.float64).reshape(-1, 3)
-    n = len(world)
-    if n < 4:
-        raise MrcheckError(f"need at least 4 usable points for a pose, got {n}")
-    c, s, Q = _principal(world)
-    if s[0] < 1e-6 or s[1] < 1e-3 * s[0]:
-        raise MrcheckError("the world points are collinear (or coincide): the pose is undetermined; "
-                           "use points spread over an area")
-    if _principal(np.column_stack([pixels, np.zeros(n)]))[1][1] < 1e-3 * max(camera.width, camera.height):
-        raise MrcheckError("the image points are collinear (or coincide): the pose is undetermined")
-    planar = s[2] < 1e-3 * s[0]
-    # automatic threshold: a few pixels, more for big photos (clicks and corners scale with size)
-    threshold = float(max_error) if max_error else max(3.0, 0.003 * math.hypot(camera.width, camera.height))
-
-    world = np.ascontiguousarray((world - c) @ Q)  # from here on the local frame
-    fits = [_refit(camera, pixels, world, inliers, seed, planar, threshold)
-            for inliers, seed in _hypotheses(camera, pixels, world, threshold)]
-    fits = sorted((f for f in fits if f is not None), key=lambda f: (-f.inliers.sum(), f.rms))
-    if not fits:
-        raise MrcheckError(f"no consistent pose: fewer than 4 points agree within {threshold:.1f} px "
-                           "(check the survey, the ids and the intrinsics, or raise --max-error)")
-    best = fits[0]
-    # another consensus as large as the one used, on other points: the data cannot tell them apart
-    rival = next((f for f in fits[1:] if f.inliers.sum() == best.inliers.sum()
-                  and (f.inliers != best.inliers).any()), None)
-    R_local = cv2.Rodrigues(best.rvec)[0]
-    R = R_local @ Q.T  # X_cam = R_local Q^T (X - c) + t_local
-    return Pose(R, best.tvec.ravel() - R @ c, best.errors, best.inliers, threshold,
-                rival=None if rival is None else (rival.inliers, rival.rms))
-
-
-@dataclass
-class _Fit:
-    rvec: np.ndarray
-    tvec: np.ndarray
-    errors: np.ndarray
-    inliers: np.ndarray
-
-    @property
-    def rms(self) -> float:
-        return _inlier_rms(self.errors, self.inliers)
-
-
-def _hypotheses(camera, pixels, world, threshold):
-    """(inlier mask, seed poses) to refit: all points when there are 4 (nothing to vote on),
-    RANSAC's consensus, and for few points the consensus of every 4-point subset's pose."""
-    n = len(world)
-    if n == 4:
-        return [(np.ones(n, bool), [])]
-    hypotheses = {}
-    # AP3P samples: valid for coplanar points in any orientation (EPnP's are not); the inliers are
-    # RANSAC's, the pose it returns (an EPnP fit on them) is only one more seed
-    ok, rvec, tvec, idx = cv2.solvePnPRansac(world, pixels, camera.K, camera.dist, iterationsCount=1000,
-                                             reprojectionError=threshold, confidence=0.9999, flags=cv2.SOLVEPNP_AP3P)
-    if ok and idx is not None and len(idx) >= 4:
-        inliers = np.zeros(n, bool)
-        inliers[np.ravel(idx)] = True
-        hypotheses[inliers.tobytes()] = (inliers, [(rvec, tvec)])
-    if n <= _EXHAUSTIVE_MAX:
-        for subset in itertools.combinations(range(n), 4):
-            sub = list(subset)
-            try:
-                ok, rvec, tvec = cv2.solvePnP(world[sub], pixels[sub], camera.K, camera.dist, flags=cv2.SOLVEPNP_AP3P)
-            except cv2.error:
-                continue
-            if not ok:
-                continue
-            inliers = _reprojection_errors(camera, rvec, tvec, pixels, world) < threshold
-            if inliers.sum() >= 4:
-                hypotheses.setdefault(inliers.tobytes(), (inliers, []))[1].append((rvec, tvec))
-    return list(hypotheses.values())
-
-
-def _refit(camera, pixels, world, inliers, seeds, planar, threshold) -> _Fit | None:
-    """The best pose for one consensus: seeds plus an IPPE / SQPnP fit on the inliers, LM-refined;
-    then once more on the inliers of that fit. None when fewer than 4 points agree."""
-    candidates, best = list(seeds), None
-    for _ in range(2):  # refit on the inliers, then once more on the inliers of the refit
-        if inliers.sum() < 4:
-            break
-        flag = cv2.SOLVEPNP_IPPE if planar else cv2.SOLVEPNP_SQPNP
-        try:
-            count, rvecs, tvecs, _ = cv2.solvePnPGeneric(world[inliers], pixels[inliers], camera.K, camera.dist, flags=flag)
-        except cv2.error:
-            count, rvecs, tvecs = 0, [], []
-        candidates += list(zip(rvecs, tvecs))[:count]
-        found = _best(camera, candidates, pixels, world, inliers)
-        if found is None:
-            break
-        best = found
-        inliers = best[2] < threshold
-    if best is None or inliers.sum() < 4:
-        return None
-    return _Fit(best[0], best[1], best[2], inliers)
-
-
-def _best(camera, candidates, pixels, world, inliers):
-    """LM-refine every candidate on the inliers; the lowest RMS with all inliers in front wins."""
-    best, best_rms = None, np.inf
-    for rvec, tvec in candidates:
-        rvec, tvec = cv2.solvePnPRefineLM(world[inliers], pixels[inliers], camera.K, camera.dist,
-                                          rvec.copy(), tvec.copy())
-        R = cv2.Rodrigues(rvec)[0]
-        if np.any((world[inliers] @ R.T + tvec.ravel())[:, 2] <= 0):
-            continue  # the mirror solution of a plane puts the points behind the camera
-        errors = _reprojection_errors(camera, rvec, tvec, pixels, world)
-        rms = np.sqrt(np.mean(errors[inliers] ** 2))
-        if rms < best_rms:
-            best, best_rms = (rvec, tvec, errors), rms
-    return best
-
-
-def expected_overlay_error(camera: Camera, world, sigma_px: float) -> float:
-    """Predicted overlay error (px, 1 sigma, RMS over a 5x5 grid filling the image) at the points' depth.
-
-    The pose covariance ``sigma^2 (J^T J)^-1`` of the registration points, propagated to points that
-    fill the image at the median depth of the registration points: a small far marker pins down
-    only its own neighbourhood, and this number says how badly the rest of the view may be off.
-    Computed with the world origin moved to the points' mean (the same first-order result; with the
-    points 1e6 m from the origin the rotation columns of J would swamp the normal matrix).
-    """
-    world = np.asarray(world, np.float64).reshape(-1, 3)
-    centre = world.mean(axis=0)
-    world, t = world - centre, camera.t + camera.R @ centre
-    rvec, no_dist = cv2.Rodrigues(camera.R)[0], np.zeros(5)
-    # pinhole Jacobians: a distortion polynomial extrapolated to the image corners would blow up
-    _, J = cv2.projectPoints(world, rvec, t, camera.K, no_dist)
-    information = J[:, :6].T @ J[:, :6]
-    depth = float(np.median(world @ camera.R[2] + t[2]))
-    u, v = np.meshgrid(np.linspace(0, camera.width - 1, 5), np.linspace(0, camera.height - 1, 5))
-    rays = np.linalg.solve(camera.K, np.stack([u.ravel(), v.ravel(), np.ones(u.size)]))
-    grid = (depth * rays - t[:, None]).T @ camera.R  # R.T @ (depth * ray - t), row-wise
-    _, Jg = cv2.projectPoints(grid, rvec, t, camera.K, no_dist)
-    try:
-        covariance = sigma_px ** 2 * np.linalg.inv(information)
-    except np.linalg.LinAlgError:
-        return float("inf")
-    per_point = np.einsum("ij,jk,ik->i", Jg[:, :6], covariance, Jg[:, :6]).reshape(-1, 2).sum(axis=1)
-    return float(np.sqrt(per_point.mean()))
-
-
 def _geometry_warnings(camera: Camera, world, pose: Pose, single_marker: bool):
     """Warnings about poses the data barely constrain, and the predicted overlay error."""
     warnings = []
@@ -309,7 +110,7 @@ def _geometry_warnings(camera: Camera, world, pose: Pose, single_marker: bool):
     if single_marker:
         warnings.append("only one marker was used: a pose from a single small target is weak "
                         "away from it (a 20 cm marker at 10 m: ~30 px overlay error); add markers spread over the view")
-    _, s, Q = _principal(world)
+    _, s, Q = principal_axes(world)
     normal = Q[:, 2]
     extent = 2.0 * s[0] / math.sqrt(n)  # ~ the points' spread along their longest direction
     distance = float(np.mean(np.linalg.norm(world @ camera.R.T + camera.t, axis=1)))
@@ -345,7 +146,7 @@ def _register(camera: Camera, groups: list, method: str, max_error, warnings: li
         if keep.sum() < 4:
             raise MrcheckError("fewer than 4 usable points after rejecting inconsistent markers")
         refit = solve_pose(camera, pixels[keep], world[keep], pose.threshold)
-        errors = _reprojection_errors(camera, cv2.Rodrigues(refit.R)[0], refit.t, pixels, world)
+        errors = reprojection_errors(camera, cv2.Rodrigues(refit.R)[0], refit.t, pixels, world)
         pose = Pose(refit.R, refit.t, errors, keep & (errors < refit.threshold), refit.threshold)
     used, rejected = [], []
     for i, group in enumerate(groups):
@@ -430,7 +231,7 @@ def register_photo(photo, camera: Camera, marker_map=None, points=None, max_erro
     ``camera`` holds the intrinsics (rescaled to the photo when needed). ``scene_bounds``: the
     (2, 3) bounds of the scene the shot is for; a camera far outside them is a warning.
     ``points_file``: where ``points`` came from, named by errors about them (else the photo)."""
-    image = read_photo(photo)
+    image = read_photo(photo, grey=True)
     try:
         if marker_map is not None:
             shot = register_markers(image, camera, marker_map, max_error)
@@ -458,8 +259,22 @@ def _check_pixels_inside(groups: list, width: int, height: int) -> None:
             raise MrcheckError(f"point #{g.label['index']}: pixel ({u:g}, {v:g}) lies outside the {width}x{height} photo")
 
 
-def register_command(scene, photo, intrinsics, markers=None, points=None, max_error=None, output="SHOT.json") -> dict:
-    """``mrcheck register``: register ``photo``, write SHOT.json atomically, print a summary."""
+@dataclass(frozen=True)
+class Registered:
+    """What ``mrcheck register`` did: the shot dict written (its ``"photo"`` absolute) and where."""
+
+    shot: dict
+    output: Path
+
+    def summary(self) -> list[str]:
+        """The lines ``mrcheck register`` prints: what was used and rejected, the rms, the camera
+        position, the expected overlay error, each warning, and the file written."""
+        return summary_lines(self.shot, self.output)
+
+
+def register_command(scene, photo, intrinsics, markers=None, points=None, max_error=None,
+                     output="SHOT.json") -> Registered:
+    """``mrcheck register``: register ``photo`` and write SHOT.json atomically."""
     output = check_output_path(output, (".json",), "shot")
     if (markers is None) == (points is None):
         raise MrcheckError("give either --markers MAP.json or --points CORR.json (exactly one)")
@@ -476,13 +291,12 @@ def register_command(scene, photo, intrinsics, markers=None, points=None, max_er
     shot = register_photo(photo, camera, marker_map=marker_map, points=pairs, max_error=max_error, scene_bounds=bounds,
                           points_file=points)
     write_text(output, json.dumps({**shot, "photo": photo_reference(shot["photo"], output)}, indent=2) + "\n")
-    _print_summary(shot, output)
-    return shot
+    return Registered(shot, output)
 
 
 def photo_reference(photo, shot_file) -> str:
     """The ``"photo"`` value of a SHOT.json written to ``shot_file``: the photo's path relative
-    to the shot's folder (``overlay.load_shot`` resolves it against that folder), so that a
+    to the shot's folder (:func:`mrcheck.core.camerafiles.load_shot` resolves it against that folder), so that a
     project folder of shots and photos, or an export folder with the photos beside it, can be
     moved or copied to another machine as a whole; absolute when no relative path exists (a
     photo on another Windows drive). Pure path arithmetic: an export's Dask worker computes it
@@ -506,7 +320,9 @@ def _far_from_scene(position: np.ndarray, bounds: np.ndarray) -> str | None:
             "in the scene's unit and frame (mm against m)?")
 
 
-def _print_summary(shot: dict, output) -> None:
+def summary_lines(shot: dict, output) -> list[str]:
+    """A registration's summary: markers or points used and rejected, rms, camera position,
+    expected overlay error, the shot's warnings, the file written."""
     def names(entries, errors=False):
         out = []
         for e in entries:
@@ -520,14 +336,12 @@ def _print_summary(shot: dict, output) -> None:
     # 54 chessboard corners are a count, not a list (the rejected are always listed)
     total = f" of {len(used) + len(shot['rejected'])}" if shot["method"] == "points" else ""  # a board can be in both
     used_text = names(used) if len(used) <= _LIST_MAX else f"{len(used)}{total}"
-    click.echo(f"registered {shot['photo']} from {which}: used {used_text}; "
-               f"rejected {names(shot['rejected'], errors=True)}")
-    click.echo(f"  rms {shot['rms']:.3f} px, camera at ({x:.3f}, {y:.3f}, {z:.3f}) m, "
-               f"expected overlay error ~{shot['expected_overlay_error_px']:.1f} px")
-    for warning in shot["warnings"]:
-        click.echo(f"  warning: {warning}")
-    click.echo(f"wrote {output}")
+    return [f"registered {shot['photo']} from {which}: used {used_text}; rejected {names(shot['rejected'], errors=True)}",
+            f"  rms {shot['rms']:.3f} px, camera at ({x:.3f}, {y:.3f}, {z:.3f}) m, "
+            f"expected overlay error ~{shot['expected_overlay_error_px']:.1f} px",
+            *(f"  warning: {warning}" for warning in shot["warnings"]),
+            f"wrote {output}"]
 
 
-__all__ = ["register_command", "register_photo", "photo_reference", "register_markers", "register_points", "solve_pose", "fit_camera",
-           "expected_overlay_error", "read_photo", "load_points", "Pose"]
+__all__ = ["register_command", "register_photo", "photo_reference", "register_markers", "register_points",
+           "fit_camera", "load_points", "summary_lines", "Registered"]

@@ -12,20 +12,10 @@ import numpy as np
 
 from mrcheck.core.errors import MrcheckError
 from mrcheck.render.gl import load_program
-
-# The kernel's one-sided weights are a uniform array of size // 2 + 1 floats. OpenGL 4.5 promises
-# only 1024 fragment uniform components, and a driver may give each array element a whole vec4:
-# 128 elements (size 255) fit even then. llvmpipe links up to 32759 (16384 components); 100001
-# failed to link. A blur that wide is far past any use (the paper's are 9 and 13).
-MAX_BLUR_SIZE = 255
-
-
-def blur_size_problem(size: int) -> str | None:
-    """What is wrong with a blur kernel size, or None: the one rule of the CLI option,
-    RenderSettings (checked before a scene loads) and BilateralBlur."""
-    if size < 3 or size % 2 == 0 or size > MAX_BLUR_SIZE:
-        return f"must be odd, 3 to {MAX_BLUR_SIZE}, got {size}"
-    return None
+from mrcheck.render.settings import (  # the rule lives with the settings
+    MAX_BLUR_SIZE,
+    blur_size_problem,
+)
 
 
 def gaussian_weights(size: int) -> np.ndarray:
@@ -36,6 +26,8 @@ def gaussian_weights(size: int) -> np.ndarray:
 
 
 class BilateralBlur:
+    """The two-direction blur of one kernel size (its program, weights and vertex array)."""
+
     def __init__(self, ctx: moderngl.Context, size: int):
         if problem := blur_size_problem(size):
             raise MrcheckError(f"blur kernel size {problem}")

@@ -9,8 +9,8 @@ import numpy as np
 
 from mrcheck.core.camera import Camera
 from mrcheck.render.gl import GL_FRAMEBUFFER_SRGB, load_program
+from mrcheck.render.settings import DEFAULT_LIGHT, LIGHTS
 
-LIGHTS = ("headlight", "sun")
 SUN_DIRECTION = np.array([0.35, -0.25, 0.90])  # world, towards the sun: high, from one side (z up)
 BACKGROUND = (0.80, 0.84, 0.88)                # linear RGB behind the scene: a pale hall grey
 
@@ -41,7 +41,7 @@ class Composite:
             self.variants[half] = (program, ctx.vertex_array(program, []))
 
     def run(self, target: moderngl.Framebuffer, gbuffer, ao: moderngl.Texture, camera: Camera,
-            use_ao: bool, light: str = "headlight", ao_direct: bool = False,
+            use_ao: bool, light: str = DEFAULT_LIGHT, ao_direct: bool = False,
             ao_half: bool = False) -> None:
         """Shade into ``target``; ``ao`` holds (AO, depth) texels, at half resolution when
         ``ao_half``."""

@@ -30,11 +30,29 @@ from mrcheck.core.camera import Camera, gl_projection
 from mrcheck.core.errors import MrcheckError
 from mrcheck.render import culling, lod
 from mrcheck.render.gl import float_depth_texture, flush, load_program
+from mrcheck.render.settings import DEFAULT_LOD_PX
 from mrcheck.scene.model import Scene, float32_tiles
 
 FLUSH_TRIANGLES = 20_000  # see GeometryPass._submit
 NEAR_SHARE = 0.5          # the near plane at half the nearest box in view (see near_plane)
 NEAR_FLOOR = 2.0 ** -60   # ... or at this share of the farthest one, with the camera inside a box
+
+
+@dataclass(frozen=True)
+class DrawOptions:
+    """How :meth:`GeometryPass.draw` draws a frame.
+
+    lod_px : allowed error of a level of detail on screen, pixels (0 draws every part at full
+        detail); see :mod:`mrcheck.render.lod`.
+    occlusion_culling, backface_culling : exact (:mod:`mrcheck.render.culling`), off only to
+        measure them.
+    flush_triangles : a glFlush after this many triangles (0: none; see ``GeometryPass._submit``).
+    """
+
+    lod_px: float = DEFAULT_LOD_PX
+    occlusion_culling: bool = True
+    backface_culling: bool = True
+    flush_triangles: int = FLUSH_TRIANGLES
 
 
 @dataclass
@@ -109,12 +127,8 @@ class _GpuPart:
 
 
 class GeometryPass:
-    """Uploads a :class:`Scene` once; :meth:`draw` renders it into a :class:`GBuffer`.
-
-    ``lod_px``: allowed error of a level of detail on screen, pixels (0 draws every part at full
-    detail); see :mod:`mrcheck.render.lod`. ``occlusion_culling`` and ``backface_culling``: exact
-    (:mod:`mrcheck.render.culling`), off only to measure them.
-    """
+    """Uploads a :class:`Scene` once; :meth:`draw` renders it into a :class:`GBuffer` as its
+    :class:`DrawOptions` say."""
 
     def __init__(self, ctx: moderngl.Context, scene: Scene):
         self.ctx = ctx
@@ -123,10 +137,6 @@ class GeometryPass:
         self.parts = [gpu for part in scene.parts for gpu in self._upload(part)]
         self.boxes = culling.Boxes(self.parts)
         self.hiz = culling.HiZ(ctx)
-        self.occlusion_culling = True
-        self.backface_culling = True
-        self.flush_triangles = FLUSH_TRIANGLES
-        self.lod_px = lod.LOD_PIXELS
         self.last_stats = {}
 
     def _upload_mesh(self, vertices, faces, instance_count: int) -> _GpuMesh:
@@ -184,7 +194,7 @@ class GeometryPass:
                 self._use_levels(gpu)
 
     # -- per-camera work --------------------------------------------------------------------
-    def draw(self, gbuffer: GBuffer, camera: Camera) -> dict:
+    def draw(self, gbuffer: GBuffer, camera: Camera, options: DrawOptions = DrawOptions()) -> dict:
         """Render the scene into ``gbuffer``; returns stats (near, far, what was drawn and culled)."""
         batches = culling.frustum(self.boxes, camera)
         near, far = near_plane(batches)
@@ -198,10 +208,10 @@ class GeometryPass:
                  "instances_occluded": 0}
         focal = max(camera.fx, camera.fy)
         occluders, candidates = culling.split_occluders(batches, camera)
-        planned = self._plan(candidates, focal)
-        if self.occlusion_culling and _triangles(planned) >= culling.MIN_CANDIDATE_TRIANGLES:
-            draws = self._plan(occluders, focal)
-            self._submit(draws)
+        planned = self._plan(candidates, focal, options)
+        if options.occlusion_culling and _triangles(planned) >= culling.MIN_CANDIDATE_TRIANGLES:
+            draws = self._plan(occluders, focal, options)
+            self._submit(draws, options.flush_triangles)
             drawn = list(occluders)
             for band in culling.depth_bands(candidates, culling.DEPTH_BANDS):
                 self.hiz.build(gbuffer.depth)
@@ -209,21 +219,21 @@ class GeometryPass:
                 stats["instances_occluded"] += int(sum(h.sum() for h in hidden))
                 visible = [b.subset(~h) for b, h in zip(band, hidden) if not h.all()]
                 gbuffer.fbo.use()
-                band_draws = self._plan(visible, focal)
-                self._submit(band_draws)
+                band_draws = self._plan(visible, focal, options)
+                self._submit(band_draws, options.flush_triangles)
                 draws += band_draws
                 drawn += visible
         else:
             drawn = batches
-            draws = self._plan(occluders, focal) + planned
-            self._submit(draws)
+            draws = self._plan(occluders, focal, options) + planned
+            self._submit(draws, options.flush_triangles)
         stats.update(triangles_drawn=_triangles(draws), triangles_full_detail=_triangles(drawn),
                      instances_drawn=int(sum(len(b) for b in drawn)),
                      triangles_with_backface_culling=int(sum(d.mesh.closed * len(d.mv) for d in draws if d.cull)))
         self.last_stats = stats
         return stats
 
-    def _plan(self, batches, focal: float) -> list["_Draw"]:
+    def _plan(self, batches, focal: float, options: DrawOptions) -> list["_Draw"]:
         """One draw per part and level of detail: each instance at the coarsest level whose
         error stays below ``lod_px`` pixels at its nearest depth (levels loaded or built on first
         need: which level an instance gets never depends on what was rendered before)."""
@@ -231,15 +241,15 @@ class GeometryPass:
         for batch in batches:
             gpu = batch.part
             level = np.zeros(len(batch), np.int64)
-            if self.lod_px > 0 and (gpu.lod_pending or len(gpu.levels) > 1):
-                allowed = lod.allowed_error(batch.z_near, batch.scale, focal, self.lod_px)
+            if options.lod_px > 0 and (gpu.lod_pending or len(gpu.levels) > 1):
+                allowed = lod.allowed_error(batch.z_near, batch.scale, focal, options.lod_px)
                 if gpu.lod_pending and allowed.max() > 0:
                     self._use_levels(gpu)
                 level = lod.choose(gpu.errors, allowed)
             # Back faces of closed bodies may be culled for instances wholly in front of the
             # camera; which faces are "back" on screen flips with a mirroring transform.
             cull = np.full(len(batch), None, object)
-            if self.backface_culling:
+            if options.backface_culling:
                 in_front = batch.z_near > 0
                 mirrored = np.linalg.det(batch.mv[:, :3, :3]) < 0
                 cull[in_front] = np.where(mirrored[in_front], "front", "back")
@@ -252,7 +262,7 @@ class GeometryPass:
                                        gpu.color, face))
         return draws
 
-    def _submit(self, draws: list["_Draw"]) -> None:
+    def _submit(self, draws: list["_Draw"], flush_triangles: int) -> None:
         """Draw into the bound framebuffer, nearest first (early depth testing saves fragments).
 
         A flush every ``flush_triangles`` triangles lets llvmpipe's threads rasterise what was
@@ -283,7 +293,7 @@ class GeometryPass:
             if culled < 3 * mesh.triangles:
                 mesh.vao.render(moderngl.TRIANGLES, vertices=3 * mesh.triangles - culled, first=culled, instances=count)
             pending += mesh.triangles * count
-            if self.flush_triangles and pending >= self.flush_triangles:
+            if flush_triangles and pending >= flush_triangles:
                 flush()
                 pending = 0
         ctx.disable(moderngl.DEPTH_TEST)
@@ -366,4 +376,4 @@ def check_camera_outside(geometry: GeometryPass, gbuffer: GBuffer, camera: Camer
         )
 
 
-__all__ = ["GBuffer", "GeometryPass", "check_camera_outside", "near_plane"]
+__all__ = ["DrawOptions", "GBuffer", "GeometryPass", "check_camera_outside", "near_plane"]

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import ctypes
 import re
+import time
 from contextlib import contextmanager
 from functools import lru_cache
 from pathlib import Path
@@ -147,20 +148,42 @@ def srgb_texture(ctx: moderngl.Context, size) -> moderngl.Texture:
 
 
 # -- shader loading -------------------------------------------------------------------------------
-def _read_shader(name: str) -> str:
-    path = shader_dir() / name
+PRELUDE = "<defines>"   # what GLSL source string 0 is: the #version line and the injected defines
+# Line numbers of source string S start at S * LINE_BASE + 1. Mesa reports the line of every error
+# but, for some errors (undeclared names), source string 0 whatever the #line said: the line
+# number alone still tells the file.
+LINE_BASE = 100_000
+# a driver's position of a message: Mesa "S:L(C):", NVIDIA "S(L) :"; S is the source string number
+_POSITION = re.compile(r"\b(\d+):(\d+)\((\d+)\)|\b(\d+)\((\d+)\)(?=\s*:)")
+
+
+def _expand(name: str, directory: Path, files: list[str]) -> str:
+    """The text of shader file ``name`` with its includes pasted in. Each pasted file is a GLSL
+    source string of its own, numbered S by its place in ``files``, its lines numbered from
+    S * LINE_BASE + 1 (``#line N S``: in GLSL 4.5 the line after it is line N of source string S),
+    so that a compile error names its file and line (:func:`compile_errors`)."""
+    path = directory / name
     try:
         text = path.read_text()
     except OSError:
         raise MrcheckError("shader file missing from the installation", path) from None
-    return _INCLUDE.sub(lambda m: _read_shader(m.group(1)), text)
+    number = len(files)
+    files.append(name)
+    base = number * LINE_BASE
+    lines = [f"#line {base + 1} {number}"]
+    for n, line in enumerate(text.splitlines(), 1):
+        include = _INCLUDE.match(line)
+        if include is None:
+            lines.append(line)
+        else:
+            lines += [_expand(include.group(1), directory, files), f"#line {base + n + 1} {number}"]
+    return "\n".join(lines)
 
 
 def _stage_source(body: str, stage: str, defines: dict) -> str:
     lines = [f"#version {GL_VERSION} core", f"#define {stage} 1"]
     lines += [f"#define {key} {_glsl_literal(value)}" for key, value in sorted(defines.items())]
-    lines += ["#line 1", body]
-    return "\n".join(lines)
+    return "\n".join([*lines, body])
 
 
 def _glsl_literal(value) -> str:
@@ -171,28 +194,71 @@ def _glsl_literal(value) -> str:
     return str(value)
 
 
-def load_program(ctx: moderngl.Context, name: str, defines: dict | None = None) -> moderngl.Program:
-    """Compile ``shaders/<name>.glsl`` with ``defines``; cached per (context, name, defines)."""
+def compile_errors(message: str, files: dict[str, list[str]]) -> str:
+    """The driver's compile ``message`` as one line: its error lines, each position given as
+    ``file.glsl:LINE(COL)`` of the file it is in. ``files``: by stage (moderngl's "vertex_shader" /
+    "fragment_shader" headings), the file name of every source string."""
+    names, found = next(iter(files.values())), []
+    for line in message.splitlines():
+        stage = next((s for s in files if line.strip() == s), None)
+        if stage is not None:
+            names = files[stage]
+            continue
+        if _POSITION.search(line) is None or "error" not in line.lower():
+            continue
+
+        def place(m):
+            row, col = (int(m.group(2)), m.group(3)) if m.group(1) else (int(m.group(5)), None)
+            source, row = divmod(row, LINE_BASE)
+            name = names[source] if source < len(names) else f"source {source}"
+            return f"{name}:{row}" + (f"({col})" if col else "")
+
+        found.append(_POSITION.sub(place, line.strip(), count=1))
+    return "; ".join(found) or " ".join(message.split())
+
+
+def load_program(ctx: moderngl.Context, name: str, defines: dict | None = None,
+                 directory: Path | None = None) -> moderngl.Program:
+    """Compile ``<directory>/<name>.glsl`` (the shipped ``shaders/`` by default) with ``defines``;
+    cached per (context, name, defines, directory). A compile error is one :class:`MrcheckError`
+    line naming the file and line of each error, in whichever included file it is."""
     defines = dict(defines or {})
-    key = (name, tuple(sorted(defines.items())))
+    directory = Path(directory) if directory is not None else shader_dir()
+    key = (name, tuple(sorted(defines.items())), str(directory))
     cache = _extra(ctx).setdefault("programs", {})
     if key in cache:
         return cache[key]
-    body = _read_shader(f"{name}.glsl")
-    vertex_body = body if "VERTEX_SHADER" in body else _read_shader("fullscreen.glsl")
+    fragment_files, vertex_files = [PRELUDE], [PRELUDE]
+    body = _expand(f"{name}.glsl", directory, fragment_files)
+    if "VERTEX_SHADER" in body:
+        vertex_body, vertex_files = body, fragment_files
+    else:
+        vertex_body = _expand("fullscreen.glsl", shader_dir(), vertex_files)
     try:
         program = ctx.program(
             vertex_shader=_stage_source(vertex_body, "VERTEX_SHADER", defines),
             fragment_shader=_stage_source(body, "FRAGMENT_SHADER", defines),
         )
     except moderngl.Error as exc:
-        raise MrcheckError(f"shader {name}.glsl does not compile: {exc}") from None
+        files = {"vertex_shader": vertex_files, "fragment_shader": fragment_files}
+        raise MrcheckError(f"shader {name}.glsl does not compile: {compile_errors(str(exc), files)}") from None
     cache[key] = program
     return program
+
+
+def timed_ms(ctx: moderngl.Context, work) -> float:
+    """Milliseconds of the GL work of ``work()``, measured with the pipeline drained before and
+    after (``ctx.finish()``), so that the figure includes llvmpipe's rasterisation threads."""
+    ctx.finish()
+    start = time.perf_counter()
+    work()
+    ctx.finish()
+    return (time.perf_counter() - start) * 1000.0
 
 
 def shader_path(name: str) -> Path:
     return shader_dir() / f"{name}.glsl"
 
 
-__all__ = ["create_context", "flush", "made_current", "float_depth_texture", "load_program", "shader_path", "GL_VERSION"]
+__all__ = ["create_context", "flush", "made_current", "float_depth_texture", "srgb_texture", "load_program",
+           "compile_errors", "timed_ms", "shader_path", "GL_VERSION", "GL_FRAMEBUFFER_SRGB"]

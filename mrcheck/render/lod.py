@@ -33,17 +33,19 @@ them in milliseconds.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
-import sys
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
-LOD_PIXELS = 0.5
+from mrcheck.core.progress import shown_progress
+from mrcheck.render.settings import DEFAULT_LOD_PX
+
+LOD_PIXELS = DEFAULT_LOD_PX  # the default allowed error, pixels (mrcheck.render.settings)
 MIN_TRIANGLES = 64           # fewer: a coarser copy saves less than its extra draw call costs
 MAX_TRIANGLES = 1_000_000    # more: building the chain takes seconds; drawn as it is
 STEP = 2                     # each level about 1/STEP of the triangles of the one before
@@ -115,30 +117,32 @@ def build_levels(vertices: np.ndarray, faces: np.ndarray, name: str | None = Non
     samples = np.concatenate([np.asarray(vertices, np.float32),
                               np.asarray(vertices, np.float32)[np.asarray(faces)].mean(axis=1)])
     to_original = _distance_query(vertices, faces)
-    levels, previous = [], len(faces)
     # A robot's chain takes seconds on a first render (then the disk cache has it): a bar, or the
-    # terminal is silent that long after the scene's loading bar (delay: none for the many small
-    # parts that take milliseconds). Counted in triangles removed: each step halves the one before.
+    # terminal is silent that long after the scene's loading bar (the CLI's bar waits half a
+    # second, so the many small parts that take milliseconds show none). One step per level.
     label = f"{name}, " if name else ""
-    bar = tqdm(total=len(faces), desc=f"building levels of detail ({label}{len(faces):,} triangles)", unit="tri",
-               unit_scale=True, file=sys.stderr, disable=None, leave=False, delay=0.5)
-    try:
-        while previous // STEP >= 4:
-            coarse = welded.simplify_quadric_decimation(target_number_of_triangles=previous // STEP)
-            coarse.remove_degenerate_triangles()
-            coarse.remove_unreferenced_vertices()
-            count = len(coarse.triangles)
-            if count == 0 or count > previous * MIN_SAVING:
-                break
-            v = np.asarray(coarse.vertices, np.float32)
-            f = np.asarray(coarse.triangles, np.uint32)
-            error = max(float(to_original(v).max()), float(_distance_query(v, f)(samples).max()))
-            levels.append(Level(v, f, error))
-            bar.update(previous - count)
-            welded, previous = coarse, count
-    finally:
-        bar.close()
-    return levels
+    steps = _decimated(welded, len(faces), lambda v, f: max(float(to_original(v).max()),
+                                                            float(_distance_query(v, f)(samples).max())))
+    show = shown_progress()
+    with contextlib.closing(show(steps, f"building levels of detail ({label}{len(faces):,} triangles)", "level")) as levels:
+        return list(levels)
+
+
+def _decimated(welded, triangles: int, error_of):
+    """Each coarser :class:`Level` of ``welded`` (``triangles`` of them), about 1/STEP of the one
+    before, until a step saves too little; ``error_of(vertices, faces)`` is a level's error."""
+    previous = triangles
+    while previous // STEP >= 4:
+        coarse = welded.simplify_quadric_decimation(target_number_of_triangles=previous // STEP)
+        coarse.remove_degenerate_triangles()
+        coarse.remove_unreferenced_vertices()
+        count = len(coarse.triangles)
+        if count == 0 or count > previous * MIN_SAVING:
+            return
+        v = np.asarray(coarse.vertices, np.float32)
+        f = np.asarray(coarse.triangles, np.uint32)
+        yield Level(v, f, error_of(v, f))
+        welded, previous = coarse, count
 
 
 def choose(errors: np.ndarray, allowed: np.ndarray) -> np.ndarray:

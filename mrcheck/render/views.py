@@ -1,12 +1,19 @@
-"""What the CLI commands do, as plain functions (testable without click)."""
+"""What the ``render`` and ``demo`` commands do, as plain functions (testable without click).
+
+They print nothing: they return the paths they wrote (``demo`` also reports each as it is
+written, through ``on_written``), report progress through a callback and warn through
+:func:`warnings.warn` (:class:`MrcheckWarning`, which the CLI shows as ``warning: ...`` lines).
+"""
 
 from __future__ import annotations
 
-import sys
+import warnings
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 from mrcheck.core.camera import Camera
-from mrcheck.core.errors import MrcheckError
+from mrcheck.core.camerafiles import load_camera
+from mrcheck.core.errors import MrcheckError, MrcheckWarning
 from mrcheck.core.output import (
     AO_SUFFIXES,
     IMAGE_SUFFIXES,
@@ -34,7 +41,7 @@ def file_camera(view, camera_path, width, height) -> Camera | None:
         raise MrcheckError("give exactly one of --view NAME or --camera CAM.json|CAM.yml")
     if view is not None:
         return None
-    return Camera.load(camera_path).fitted(width, height, camera_path)
+    return load_camera(camera_path).fitted(width, height, camera_path)
 
 
 def scene_and_camera(scene, units, view, camera_path, width, height):
@@ -55,8 +62,8 @@ def warn_units(scene) -> None:
         return
     missing = [p.name for p in scene.parts if p.units is None]
     if missing:
-        print(f"warning: {scene.source}: {len(missing)} part(s) without declared units, coordinates taken as "
-              f"authored (not metres): {', '.join(missing)}", file=sys.stderr)
+        warnings.warn(f"{scene.source}: {len(missing)} part(s) without declared units, coordinates taken as "
+                      f"authored (not metres): {', '.join(missing)}", MrcheckWarning, stacklevel=2)
 
 
 def warn_if_nothing_in_view(depth, view, camera_path, subject="camera", hint="a wrong pose, or units?") -> None:
@@ -65,7 +72,7 @@ def warn_if_nothing_in_view(depth, view, camera_path, subject="camera", hint="a 
     ``subject`` "shot"); discrepancies warns in its own report."""
     if not (depth > 0).any():
         source = camera_path if view is None else f"viewpoint {view!r}"
-        print(f"warning: {source}: no CAD part is in view of this {subject} ({hint})", file=sys.stderr)
+        warnings.warn(f"{source}: no CAD part is in view of this {subject} ({hint})", MrcheckWarning, stacklevel=2)
 
 
 def _ao_paths(output_ao: Path, modes) -> dict:
@@ -75,7 +82,9 @@ def _ao_paths(output_ao: Path, modes) -> dict:
     return {m: output_ao.with_name(f"{output_ao.stem}_{m}{output_ao.suffix}") for m in ao_modes}
 
 
-def render_command(scene, view, camera_path, mode, width, height, units, output, output_ao, settings: dict):
+def render_command(scene, view, camera_path, mode, width, height, units, output, output_ao,
+                   settings: dict) -> list[Path]:
+    """``mrcheck render``: every output written, or none; returns the paths written."""
     output = check_output_path(output, IMAGE_SUFFIXES)
     modes = list(STUDY_ORDER) if mode == "all" else [mode]
     ao_paths = {}
@@ -96,7 +105,7 @@ def render_command(scene, view, camera_path, mode, width, height, units, output,
     renderer = Renderer(loaded)
     try:
         results = renderer.render(camera, modes, settings, want_ao=output_ao is not None)
-        warn_if_nothing_in_view(renderer.last_depth(), view, camera_path)
+        warn_if_nothing_in_view(results.depth, view, camera_path)
     finally:
         renderer.release()
     if mode == "all":
@@ -104,32 +113,41 @@ def render_command(scene, view, camera_path, mode, width, height, units, output,
     else:
         image = results[mode].image
     writes = [lambda m=m, path=path: write_ao(path, results[m].ao) for m, path in ao_paths.items()]
-    for path in write_all_or_none([*writes, lambda: write_image(output, image)]):
-        print(path)
+    return list(write_all_or_none([*writes, lambda: write_image(output, image)]))
 
 
-def demo_command(outdir: Path, width=None, height=None):
+def _unchanged(items: Iterable, desc: str, unit: str) -> Iterable:
+    return items
+
+
+def demo_command(outdir: Path, width=None, height=None, on_written: Callable[[Path], None] = lambda path: None,
+                 progress: Callable[..., Iterable] = _unchanged) -> list[Path]:
     """Render the embedded scenes from each of their viewpoints in D1, D2, D3: the sample cell
-    as ``VIEW_MODE.png`` and the generator's shipped cell as ``cell_VIEW_MODE.png``."""
-    from tqdm import tqdm
-
+    as ``VIEW_MODE.png`` and the generator's shipped cell as ``cell_VIEW_MODE.png``. Each path
+    goes to ``on_written`` as it is written; ``progress(views, desc=..., unit=...)`` wraps each
+    scene's views (a tqdm bar in the CLI). Returns the paths written."""
     outdir = check_output_dir(Path(outdir).resolve())
     scenes = [("", sample_scene_path()), ("cell_", factory_scenes_dir() / "cell" / "scene.toml")]
+    written = []
+
+    def write(path, image):
+        written.append(write_image(path, image))
+        on_written(written[-1])
+
     for prefix, manifest in scenes:
         scene = load_scene(manifest, progress=True)
         renderer = Renderer(scene)
         try:
-            # disable=None: a bar on a terminal, nothing in a log or a pipe
-            for view in tqdm(sorted(scene.viewpoints), desc=f"rendering {scene.name}", unit="view",
-                             file=sys.stderr, disable=None):
+            for view in progress(sorted(scene.viewpoints), desc=f"rendering {scene.name}", unit="view"):
                 # only the modes written: the comparison modes would cost three AO passes per view
                 results = renderer.render(scene.camera(view, width, height), STUDY_ORDER)
                 for m in STUDY_ORDER:
-                    print(write_image(outdir / f"{prefix}{view}_{m}.png", results[m].image))
+                    write(outdir / f"{prefix}{view}_{m}.png", results[m].image)
                 sheet = labelled_sheet([results[m].image for m in STUDY_ORDER], [STUDY_LABELS[m] for m in STUDY_ORDER])
-                print(write_image(outdir / f"{prefix}{view}_study.png", sheet))
+                write(outdir / f"{prefix}{view}_study.png", sheet)
         finally:
             renderer.release()
+    return written
 
 
 __all__ = ["render_command", "demo_command", "file_camera", "scene_and_camera", "warn_units", "warn_if_nothing_in_view"]

@@ -99,7 +99,7 @@ class _PosedModel:
     """One robot's visual meshes reduced to convex-hull points, for fast pose checks.
 
     :func:`sample_joints` tries many poses; loading the meshes for each (what
-    :func:`mrcheck.scene.model.read_mesh` does) would take 0.1-0.3 s per try. The lowest and the
+    :func:`mrcheck.scene.meshes.read_mesh` does) would take 0.1-0.3 s per try. The lowest and the
     outermost point of a mesh are vertices of its convex hull, so the hull points give the same
     answers from a few hundred points per link.
     """
@@ -108,7 +108,7 @@ class _PosedModel:
         import yourdfpy
 
         path = robot_urdf(name)
-        # loaded exactly as mrcheck.scene.model.read_mesh loads a URDF part, so the poses checked here
+        # loaded exactly as mrcheck.scene.meshes.read_mesh loads a URDF part, so the poses checked here
         # are the poses rendered
         handler = partial(yourdfpy.filename_handler_magic, dir=str(path.parent))
         self.urdf = yourdfpy.URDF.load(str(path), filename_handler=handler,
@@ -181,7 +181,7 @@ def joint_limits(name) -> dict[str, tuple[float, float]]:
         URDF's actuated-joint order. Continuous joints and joints without a limit get
         ``(-pi, pi)``: every orientation once.
     """
-    from mrcheck.scene.model import urdf_joint_range
+    from mrcheck.scene.meshes import urdf_joint_range
 
     urdf = _kinematics(_check_name(name))  # checked first: the cache needs a hashable name
     limits = {}
@@ -296,7 +296,7 @@ def robot_mesh(name, joints=None) -> tuple[np.ndarray, np.ndarray]:
     MrcheckError
         For an unknown robot or joint name.
     """
-    from mrcheck.scene.model import read_mesh
+    from mrcheck.scene.meshes import read_mesh
 
     return read_mesh(robot_urdf(name), joints or {})
 

@@ -8,8 +8,8 @@ cast: float32 keeps better than 0.1 mm within a few kilometres of it. One such s
 every shot whose camera stands within :data:`ORIGIN_RADIUS_M` of its origin (the shots of one
 hall share one); a shot elsewhere gets its own, around its camera centre. The ray starts at the
 camera centre and goes through the *undistorted* pixel: the photo carries the lens distortion,
-so the pixel is undistorted with the shot's K and dist first. ``geometry_ids`` -> (part,
-instance) is the triangle -> part table.
+so the pixel is undistorted with the shot's K and dist first. The ray casting itself is
+:class:`mrcheck.eval.raycast.SceneCaster`'s (its hits name the part instance and the triangle).
 """
 
 from __future__ import annotations
@@ -18,9 +18,9 @@ import threading
 
 import cv2
 import numpy as np
-import open3d as o3d
 
 from mrcheck.core.camera import Camera
+from mrcheck.eval.raycast import SceneCaster, build_caster
 from mrcheck.scene.model import Scene
 
 ORIGIN_RADIUS_M = 1000.0   # float32 spacing 6e-5 m at 1 km: picks to the millimetre nearby
@@ -30,28 +30,16 @@ MAX_ORIGINS = 4            # ray-casting scenes kept (each holds the whole scene
 class Picker:
     def __init__(self, scene: Scene):
         self.scene = scene
-        self._casters: list[tuple[np.ndarray, o3d.t.geometry.RaycastingScene, dict]] = []
+        self._casters: list[tuple[np.ndarray, SceneCaster | None]] = []
         self._lock = threading.Lock()
 
-    def _build(self, origin: np.ndarray):
-        """The ray-casting scene of every instance relative to ``origin``, and its id table."""
-        raycaster, table = o3d.t.geometry.RaycastingScene(), {}
-        for part in self.scene.parts:
-            v = np.asarray(part.vertices, np.float64)
-            faces = np.ascontiguousarray(part.faces, np.uint32)
-            for transform, instance in zip(part.transforms, part.instance_ids):
-                T = np.asarray(transform, np.float64)
-                world = v @ T[:3, :3].T + (T[:3, 3] - origin)     # float64 until relative to origin
-                gid = raycaster.add_triangles(o3d.core.Tensor(world.astype(np.float32)), o3d.core.Tensor(faces))
-                table[int(gid)] = (part.name, instance)
-        return raycaster, table
-
     def _caster_for(self, centre: np.ndarray):
-        """(origin, raycaster, table) for a camera at ``centre``; call with the lock held."""
+        """(origin, caster or None for a scene without triangles) for a camera at ``centre``;
+        call with the lock held."""
         for entry in self._casters:
             if np.linalg.norm(centre - entry[0]) <= ORIGIN_RADIUS_M:
                 return entry
-        entry = (centre.copy(), *self._build(centre))
+        entry = (centre.copy(), build_caster(self.scene, centre))
         self._casters = [entry] + self._casters[:MAX_ORIGINS - 1]
         return entry
 
@@ -62,12 +50,11 @@ class Picker:
         direction = camera.R.T @ np.array([x, y, 1.0])
         direction /= np.linalg.norm(direction)
         with self._lock:
-            origin, raycaster, table = self._caster_for(camera.center)
+            origin, caster = self._caster_for(camera.center)
             ray = np.concatenate([camera.center - origin, direction]).astype(np.float32)[None]
-            hit = raycaster.cast_rays(o3d.core.Tensor(ray))
-        t = float(hit["t_hit"].numpy()[0])
-        if not np.isfinite(t):
+            hits = caster.cast(ray) if caster is not None else None
+        if hits is None or not hits.hit[0]:
             return {"part": None, "instance": None, "distance": None}
-        part, instance = table[int(hit["geometry_ids"].numpy()[0])]
-        return {"part": part, "instance": instance, "distance": round(t, 3),
-                "triangle": int(hit["primitive_ids"].numpy()[0])}
+        part, instance = caster.label(hits.instance[0])
+        return {"part": part, "instance": instance, "distance": round(float(hits.t[0]), 3),
+                "triangle": int(hits.triangle[0])}

@@ -17,16 +17,13 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from mrcheck.apps.names import CACHED_PREFIXES, cached_name, cached_suffix, view_tag
+from mrcheck.core.camerafiles import read_photo
 from mrcheck.core.images import read_image
 from mrcheck.core.output import write_image
-from mrcheck.mr.overlay import (
-    cad_edges,
-    distort_to_photo,
-    distortion_map,
-    overlay_images,
-    padded_camera,
-    read_photo,
-)
+from mrcheck.mr.lens import distort_to_photo, distortion_map, padded_camera
+from mrcheck.mr.overlay import overlay_images
+from mrcheck.mr.shot import cad_edges
 from mrcheck.render.renderer import MODES, Renderer, RenderSettings
 from mrcheck.scene.manifest import files_stamp
 
@@ -34,12 +31,6 @@ INTENSITIES = (0.5, 1.0, 1.5, 2.0)   # the AO slider's four levels
 SAMPLES = 16
 EDGE_RGB = (255, 0, 255)
 THUMB_WIDTH = 160
-_CACHED_PREFIXES = ("photo_", "thumb_", "edges_", "render_")   # the cache's own file names
-
-
-def _fmt(x: float) -> str:
-    return f"{x:g}"
-
 
 def _shot_stamp(shot) -> str:
     """The shot's camera and its photo file (path, size, mtime): what a photo or thumbnail is made of."""
@@ -75,11 +66,12 @@ class RenderService:
         if not self.cache.is_dir():
             return
         stamps = {name: _shot_stamp(shot) for name, shot in self.source.shots.items()}
-        current = {name: (f"_{stamp}.png", f"_{stamp}_{self.source.scene_stamp}.png") for name, stamp in stamps.items()}
+        current = {name: (cached_suffix(stamp), cached_suffix(f"{stamp}_{self.source.scene_stamp}"))
+                   for name, stamp in stamps.items()}
         for folder in (p for p in self.cache.iterdir() if p.is_dir()):
             suffixes = current.get(folder.name, ())
             for path in folder.glob("*.png"):
-                if path.name.startswith(_CACHED_PREFIXES) and not path.name.endswith(suffixes):
+                if path.name.startswith(CACHED_PREFIXES) and not path.name.endswith(suffixes):
                     path.unlink(missing_ok=True)
             with contextlib.suppress(OSError):   # empty now: the folder of a vanished shot
                 folder.rmdir()
@@ -95,14 +87,13 @@ class RenderService:
         stamp = _shot_stamp(shot)
         cad = f"{stamp}_{self.source.scene_stamp}"  # renders and edges depend on the scene too
         if kind == "photo":
-            path = folder / f"photo_w{w}_{stamp}.png"
+            path = folder / cached_name("photo", "", w, stamp)
         elif kind == "thumb":
-            path = folder / f"thumb_w{THUMB_WIDTH}_{stamp}.png"
+            path = folder / cached_name("thumb", "", THUMB_WIDTH, stamp)
         elif kind == "edges":
-            path = folder / f"edges_w{w}_{cad}.png"
+            path = folder / cached_name("edges", "", w, cad)
         else:
-            tag = "phong" if mode == "phong" else f"{mode}_i{_fmt(intensity)}"
-            path = folder / f"render_{tag}_w{w}_{cad}.png"
+            path = folder / cached_name("render", view_tag(mode, intensity), w, cad)
         if path.is_file():
             return path
         key = (shot_name, kind, mode, intensity, w)
@@ -170,7 +161,7 @@ class RenderService:
         settings = RenderSettings(samples=self.samples, intensity=intensity, seed=0).validated(camera.height)
         results = renderer.render(render_camera, [mode], settings)
         if kind == "edges":
-            mask = cad_edges(renderer.last_depth(), render_camera.fx).astype(np.float32)
+            mask = cad_edges(results.depth, render_camera.fx).astype(np.float32)
             cover = np.minimum(distort_to_photo(mask, maps, offset, photo.shape[:2]) * 2.0, 1.0)
             rgba = np.zeros(photo.shape[:2] + (4,), np.uint8)
             rgba[..., :3] = EDGE_RGB

@@ -1,16 +1,18 @@
-"""The review's export: a self-contained HTML report (a crop of every marker in every mode) and CSV."""
+"""The review's export: a self-contained HTML report (a crop of every marker in every mode, from
+the template ``templates/report.html.j2``, every value escaped) and CSV."""
 
 from __future__ import annotations
 
 import base64
 import csv
-import html
 import io
 import time
 
 import cv2
 import numpy as np
+from markupsafe import Markup
 
+from mrcheck.apps.templating import render
 from mrcheck.core.errors import MrcheckError, display
 from mrcheck.core.images import encode_image
 from mrcheck.render.renderer import MODES, STUDY_LABELS
@@ -28,8 +30,8 @@ def _crop(image: np.ndarray, x: float, y: float) -> np.ndarray:
     return crop
 
 
-def _data_url(image: np.ndarray) -> str:
-    return "data:image/png;base64," + base64.b64encode(encode_image(".png", image)).decode()
+def _data_url(image: np.ndarray) -> Markup:
+    return Markup("data:image/png;base64," + base64.b64encode(encode_image(".png", image)).decode())
 
 
 def _text(value: str | None) -> str:
@@ -66,36 +68,30 @@ def _shot_images(source, renders, shot: str, intensity: float):
         return str(exc)
 
 
+def _marker(m: dict, crops, served_scale) -> dict:
+    """What the report shows of one marker: its fields as text, and its crops (label, data URL)
+    or why there are none."""
+    if isinstance(crops, str):
+        problem, figures = crops, []
+    else:  # the marker is in the photo's pixels, the images are the served ones
+        sx, sy = served_scale
+        problem, figures = None, [(label, _data_url(_crop(img, m["x"] * sx, m["y"] * sy))) for label, img in crops]
+    return {"id": m["id"], "category": m["category"], "severity": m["severity"], "shot": m["shot"],
+            "x": f"{m['x']:.0f}", "y": f"{m['y']:.0f}", "part": m["part"] or "none",
+            "distance": "" if m["distance"] is None else f" at {m['distance']:.2f} m",
+            "placed": f" in {STUDY_LABELS.get(m['mode'], m['mode'])}" if m["mode"] else "",
+            "created": _when(m["created"]),
+            "changed": "" if m["updated"] == m["created"] else f", last changed {_when(m['updated'])}",
+            "note": m["note"], "problem": problem, "crops": figures}
+
+
 def report_html(source, renders, markers: list, intensity: float = 1.0) -> str:
     """Every marker with its note, part, shot and a crop of the photo and of every mode."""
-    e = html.escape
-    images = {}
-    rows = []
+    images, shown = {}, []
     for m in markers:
         if m["shot"] not in images:
             images[m["shot"]] = _shot_images(source, renders, m["shot"], intensity)
         crops = images[m["shot"]]
-        if isinstance(crops, str):
-            figures = f"<i>no crops: {e(crops)}</i>"
-        else:  # the marker is in the photo's pixels, the images are the served ones
-            sx, sy = source.shots[m["shot"]].served_scale()
-            figures = "".join(f'<figure><img src="{_data_url(_crop(img, m["x"] * sx, m["y"] * sy))}" alt="{e(label)}">'
-                              f"<figcaption>{e(label)}</figcaption></figure>" for label, img in crops)
-        distance = "" if m["distance"] is None else f" at {m['distance']:.2f} m"
-        placed = f" in {STUDY_LABELS.get(m['mode'], m['mode'])}" if m["mode"] else ""
-        changed = "" if m["updated"] == m["created"] else f", last changed {_when(m['updated'])}"
-        rows.append(f'<section class="marker" id="marker-{m["id"]}"><h2>#{m["id"]} {e(m["category"])} '
-                    f'(severity {m["severity"]}) -- shot {e(m["shot"])}</h2>'
-                    f'<p class="meta">photo pixel ({m["x"]:.0f}, {m["y"]:.0f}); CAD part: '
-                    f'<b>{e(m["part"] or "none")}</b>{distance}; placed{e(placed)} {_when(m["created"])}{changed}</p>'
-                    f'<p class="note">{e(m["note"]) or "<i>no note</i>"}</p>'
-                    f'<div class="crops">{figures}</div></section>')
-    body = "".join(rows) or "<p>No markers.</p>"
-    return f"""<!doctype html><html><head><meta charset="utf-8"><title>mrcheck review</title><style>
-body{{font-family:sans-serif;margin:2em;color:#222}} .marker{{border-top:1px solid #ccc;padding:.5em 0}}
-.crops{{display:flex;flex-wrap:wrap;gap:6px}} figure{{margin:0}} figcaption{{font-size:12px;color:#555}}
-.note{{white-space:pre-wrap}} h2{{font-size:1.1em}}</style></head><body>
-<h1>mrcheck review: {e(source.label)}</h1><p>{len(markers)} marker(s), scene {e(display(source.scene))},
-exported {_when(time.time())}. Crops: photo and every mode (AO intensity {intensity:g}).
-Positions are pixels of the original photo (from its top-left corner).</p>
-{body}</body></html>"""
+        shown.append(_marker(m, crops, None if isinstance(crops, str) else source.shots[m["shot"]].served_scale()))
+    return render("mrcheck.apps.review", "report.html.j2", label=source.label, scene=display(source.scene),
+                  exported=_when(time.time()), intensity=f"{intensity:g}", markers=shown)

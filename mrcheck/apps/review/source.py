@@ -6,15 +6,16 @@ import concurrent.futures
 import json
 import os
 import re
-import sys
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from mrcheck.apps.names import MANIFEST, REPORT, SHOT_FILE, shot_folder, shot_name
 from mrcheck.core.camera import Camera
-from mrcheck.core.errors import MrcheckError, display
+from mrcheck.core.camerafiles import load_shot, read_photo
+from mrcheck.core.errors import MrcheckError, MrcheckWarning, display
 from mrcheck.core.inputs import check_input
 from mrcheck.core.jsonfile import is_number, read_json
-from mrcheck.mr.overlay import load_shot, read_photo
 from mrcheck.scene.manifest import files_stamp, read_manifest, scene_files
 from mrcheck.scene.model import MANIFEST_KEYS, load_scene
 
@@ -100,7 +101,7 @@ def _checked_name(name: str, path) -> str:
 
 def _warn(message: str) -> None:
     """One shot that cannot be reviewed is a warning, not the end of the review of the others."""
-    print(f"warning: {message}", file=sys.stderr)
+    warnings.warn(message, MrcheckWarning, stacklevel=2)
 
 
 def _read_manifest(path: Path) -> tuple[Path, list]:
@@ -119,42 +120,44 @@ def _read_manifest(path: Path) -> tuple[Path, list]:
 
 
 def from_outdir(outdir: Path) -> Source:
-    scene, entries = _read_manifest(outdir / "manifest.json")
-    shots, files = {}, [outdir / "manifest.json"]
+    scene, entries = _read_manifest(outdir / MANIFEST)
+    shots, files = {}, [outdir / MANIFEST]
     for entry in sorted(entries, key=lambda e: e["name"]):
         if entry.get("status") not in ("done", "skipped"):   # failed in the export: its report says why
             continue
         try:   # a done shot's SHOT.json deleted or broken since the export
-            name = _checked_name(entry["name"], outdir / "manifest.json")
-            files.append(outdir / entry.get("folder", f"shots/{name}") / "SHOT.json")
+            name = _checked_name(entry["name"], outdir / MANIFEST)
+            folder = outdir / entry["folder"] if "folder" in entry else shot_folder(outdir, name)
+            files.append(folder / SHOT_FILE)
             shots[name] = _shot(name, files[-1])
         except MrcheckError as exc:
             _warn(f"shot {entry['name']} skipped: {exc}")
     if not shots:
         failed = sum(e.get("status") == "failed" for e in entries)
-        why = (f"every shot ({failed}) failed in the export; its report.html says why" if entries and failed == len(entries)
+        why = (f"every shot ({failed}) failed in the export; its {REPORT} says why" if entries and failed == len(entries)
                else "the export has no shots" if not entries else "see the warnings above")
         raise MrcheckError(f"no usable shots to review: {why}", outdir)
     return Source(scene, shots, outdir, display(outdir), origin=outdir, files=files)
 
 
 def from_job(job_path: Path) -> Source:
-    from mrcheck.apps.export.run import _input_files, _register, load_job
+    from mrcheck.apps.export.job import load_job
+    from mrcheck.apps.export.shot import register_shot
+    from mrcheck.apps.export.tasks import input_files
 
     job = load_job(job_path)
     bounds = job.loaded.bounds()   # loaded by load_job: a camera far outside the scene is a warning, as in export
     shots, files = {}, [job_path]
     for entry in job.shots:
-        inputs = {k: v for k, v in entry.items() if k != "name"}
-        files += _input_files(inputs)
+        files += input_files(entry.inputs)
         try:
-            data, camera, photo = _register(inputs, None, bounds)
+            data, camera, photo = register_shot(entry.inputs, None, bounds)
         except MrcheckError as exc:
-            _warn(f"shot {entry['name']} skipped: {exc}")
+            _warn(f"shot {entry.name} skipped: {exc}")
             continue
-        for warning in data["warnings"] if "shot" not in inputs else ():  # registered here, as export would
-            _warn(f"shot {entry['name']}: {warning}")
-        name = _checked_name(entry["name"], job_path)
+        for warning in data["warnings"] if entry.inputs.shot is None else ():  # registered here, as export would
+            _warn(f"shot {entry.name}: {warning}")
+        name = _checked_name(entry.name, job_path)
         shots[name] = Shot(name, camera, Path(photo), _rms(data))
     if not shots:
         raise MrcheckError("no usable shots to review: every shot was skipped (see the warnings above)", job_path)
@@ -165,13 +168,11 @@ def from_job(job_path: Path) -> Source:
 def from_scene(scene: Path, shots_dir: Path) -> Source:
     """The SHOT.json files of ``shots_dir``, named after their files as export names its shots;
     the folder's other JSON files (intrinsics, correspondences, a broken shot) are warnings."""
-    from mrcheck.apps.export.run import _safe_name
-
     files = sorted(shots_dir.glob("*.json"))
     shots, named = {}, {}
     for path in files:
         try:
-            name = _checked_name(_safe_name(path.stem)[:128], path)
+            name = _checked_name(shot_name(path.stem)[:128], path)
             if name in shots:
                 raise MrcheckError(f"its shot name {name!r} is that of {named[name].name} too", path)
             shots[name], named[name] = _shot(name, path), path
@@ -199,7 +200,7 @@ def _is_scene_manifest(path: Path) -> bool:
 def _check_scene_target(target: Path) -> None:
     """SCENE of ``SCENE --shots DIR`` is not a job or an export, which name their scene themselves
     (else load_scene would list the job's keys as unknown, or miss the export's scene.toml)."""
-    if target.is_dir() and (target / "manifest.json").is_file():
+    if target.is_dir() and (target / MANIFEST).is_file():
         raise MrcheckError("is an export folder, not a scene: review it without --shots", target)
     if target.suffix == ".toml" and target.is_file() and "shots" in _toml_keys(target):
         raise MrcheckError("is a job file, not a scene: review it without --shots", target)
@@ -216,7 +217,7 @@ def open_source(target, shots_dir=None) -> Source:
         _check_scene_target(target)
         source = from_scene(target, Path(shots_dir))
     elif target.is_dir():
-        if not (target / "manifest.json").is_file():
+        if not (target / MANIFEST).is_file():
             raise MrcheckError("not an export folder (no manifest.json); pass JOB.toml, OUTDIR or SCENE --shots DIR", target)
         source = from_outdir(target)
     elif target.suffix == ".toml" and target.is_file():
@@ -247,7 +248,7 @@ def _check_files(source: Source, target: Path) -> None:
     printed: else each render or pick of the shot (or of every shot) would fail only once the
     planner asks for it. Also stamps the scene's files once, for the render cache."""
     if not os.path.lexists(source.scene):
-        named_by = f" (named by {target / 'manifest.json'}; moved since the export?)" if target.is_dir() else ""
+        named_by = f" (named by {target / MANIFEST}; moved since the export?)" if target.is_dir() else ""
         raise MrcheckError(f"scene not found{named_by}", source.scene)
     check_input(source.scene, "scene", folder_ok=True)   # a symlink loop, a FIFO ...
     files = scene_files(source.scene)

@@ -18,7 +18,7 @@ VERSION = 1
 TABLES = {"reviews", "markers", "imported", "sqlite_sequence"}   # a database with others is another program's
 _FIELDS = ("id", "shot", "x", "y", "category", "severity", "note", "part", "distance", "mode", "created", "updated")
 
-_SCHEMA = """
+SCHEMA = """
 CREATE TABLE IF NOT EXISTS reviews (id INTEGER PRIMARY KEY, source TEXT NOT NULL, created REAL NOT NULL);
 CREATE TABLE IF NOT EXISTS markers (
     id INTEGER PRIMARY KEY AUTOINCREMENT,
@@ -54,7 +54,7 @@ class Store:
                                        f"this one reads up to {VERSION})", self.path)
                 db.execute("PRAGMA journal_mode=WAL")
                 db.execute("BEGIN IMMEDIATE")   # the schema, the review and an upgrade: all or nothing
-                for statement in filter(str.strip, _SCHEMA.split(";")):  # executescript would commit first
+                for statement in filter(str.strip, SCHEMA.split(";")):  # executescript would commit first
                     db.execute(statement)
                 self.review, self.created = self._review(db, review, version)
                 if version < 1:

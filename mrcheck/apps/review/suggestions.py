@@ -17,10 +17,10 @@ import math
 from pathlib import Path
 
 from mrcheck.apps.review.storage import SEVERITIES
+from mrcheck.core.camerafiles import load_shot
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.inputs import real_path
 from mrcheck.core.jsonfile import number_problem, read_json
-from mrcheck.mr.overlay import load_shot
 
 CATEGORY = "suggested"
 REGION_NEAR = 0.02   # a part-less suggestion this close (share of the photo's width) to an imported one is that one

@@ -12,8 +12,9 @@ class AOPass:
     """A full-screen AO pass compiled for one sample count.
 
     Subclasses name their shader (``shader``), may replace the offsets (``offsets``, a function
-    of (samples, seed)) and set their own uniforms in :meth:`_set_method_uniforms` (by default
-    the world radius, which every mode but ``vector`` uses).
+    of (samples, seed)), add compile-time constants (:meth:`method_defines`) and set their own
+    uniforms in :meth:`_set_method_uniforms` (by default the world radius, which every mode but
+    ``vector`` uses).
     """
 
     shader: str = ""
@@ -23,7 +24,8 @@ class AOPass:
         self.ctx = ctx
         self.samples = int(samples)
         self.stride = int(stride)
-        self.program = load_program(ctx, self.shader, kernel.defines(samples, stride))
+        self.program = load_program(ctx, self.shader, {**kernel.defines(samples, stride),
+                                                       **self.method_defines(self.samples)})
         if "u_kernel" in self.program:  # a method may not use the kernel (hbao)
             self.program["u_kernel"].write(self.offsets(self.samples, seed).tobytes())
         tile = kernel.rotation_tile(seed)
@@ -50,6 +52,10 @@ class AOPass:
         normal.use(1)
         self.noise.use(2)
         draw_covered(self.ctx, target, self.vao)
+
+    def method_defines(self, samples: int) -> dict:
+        """Constants of the method's shader beyond the shared ones (:func:`kernel.defines`)."""
+        return {}
 
     def _set_method_uniforms(self, settings, scale: float) -> None:
         self.program["u_radius_world"].value = float(settings.radius_world)

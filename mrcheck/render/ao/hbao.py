@@ -14,13 +14,18 @@ from mrcheck.render.ao.base import AOPass
 
 
 def directions_and_steps(samples: int) -> tuple[int, int]:
-    """(directions, steps per direction) for a budget of ``samples`` fetches (as the shader)."""
+    """(directions, steps per direction) for a budget of ``samples`` fetches: the one place that
+    splits it (the shader is compiled with the result as HBAO_DIRS and HBAO_STEPS)."""
     dirs = 8 if samples >= 64 else 4 if samples >= 4 else samples
     return dirs, samples // dirs
 
 
 class HBAO(AOPass):
     shader = "ao_hbao"
+
+    def method_defines(self, samples: int) -> dict:
+        dirs, steps = directions_and_steps(samples)
+        return {"HBAO_DIRS": dirs, "HBAO_STEPS": steps}
 
 
 __all__ = ["HBAO", "directions_and_steps"]

@@ -1,0 +1,87 @@
+"""``mrcheck discrepancies``: check the inputs, detect, write ``OUTDIR``'s three files at once.
+
+Outputs (``OUTDIR``, all or none): ``heatmap.png`` (:mod:`mrcheck.apps.discrepancies.heatmap`),
+``suspects.json`` and ``suspects.md`` (:mod:`mrcheck.apps.discrepancies.report`).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+from mrcheck.apps.discrepancies.detector import Detection, detect
+from mrcheck.apps.discrepancies.heatmap import heatmap
+from mrcheck.apps.discrepancies.report import (
+    HEATMAP,
+    OUTPUT_NAMES,
+    SUSPECTS_JSON,
+    SUSPECTS_MD,
+    markdown,
+    summary_line,
+    suspects_json,
+)
+from mrcheck.apps.discrepancies.thresholds import MAX_TOLERANCE_SHARE
+from mrcheck.core.camerafiles import load_shot, read_photo
+from mrcheck.core.errors import MrcheckError, MrcheckWarning
+from mrcheck.core.output import (
+    check_not_inputs,
+    check_output_dir,
+    write_all_or_none,
+    write_image,
+    write_text,
+)
+from mrcheck.scene.manifest import scene_files
+from mrcheck.scene.model import load_scene
+
+NOTHING_IN_VIEW = ("no CAD part is in view of this shot, so nothing was checked: a wrong pose, "
+                   "or the shot of another scene?")
+
+
+@dataclass(frozen=True)
+class DiscrepancyRun:
+    """What ``mrcheck discrepancies`` found and wrote."""
+    detection: Detection
+    paths: list[Path]       # heatmap.png, suspects.json, suspects.md
+
+    @property
+    def summary(self) -> str:
+        """The console line: parts checked, suspects, regions."""
+        return summary_line(self.detection)
+
+
+def _check_tolerance_limit(tolerance_px, camera, shot) -> None:
+    # outlines are searched up to SHIFT_RADIUS tolerances away, on arrays padded by as much: a
+    # tolerance near the image's size means nothing and costs gigabytes (10000 px: 48 GB)
+    limit = MAX_TOLERANCE_SHARE * min(camera.width, camera.height)
+    if tolerance_px is not None and tolerance_px > limit:
+        raise MrcheckError(f"tolerance must be at most {MAX_TOLERANCE_SHARE:.0%} of the photo's shorter side "
+                           f"({limit:g} px for {camera.width}x{camera.height}), got {tolerance_px:g}", shot)
+
+
+def discrepancies_command(shot, scene, tolerance_px=None, outdir=None) -> DiscrepancyRun:
+    """Validate, detect, then write heatmap.png, suspects.json and suspects.md into ``outdir``.
+    A shot that sees no CAD part is warned about (``MrcheckWarning``) and says so in its files."""
+    if tolerance_px is not None and not (math.isfinite(tolerance_px) and tolerance_px > 0):
+        raise MrcheckError(f"tolerance must be positive, got {tolerance_px}")
+    camera, photo_path = load_shot(shot)
+    _check_tolerance_limit(tolerance_px, camera, shot)
+    outdir = check_output_dir(outdir)
+    check_not_inputs([outdir / name for name in OUTPUT_NAMES],
+                     [("the shot", shot), ("the shot's photo", photo_path), ("the scene", scene_files(scene))])
+    photo = read_photo(photo_path, camera)      # missing, unreadable or wrong-size photo: exit 1
+    loaded = load_scene(scene, progress=True)
+    detection = detect(loaded, camera, photo, tolerance_px)
+    if not detection.suspects:  # "no suspects" would read as "all as planned"
+        detection.warnings.append(NOTHING_IN_VIEW)
+    for warning in detection.warnings:
+        warnings.warn(MrcheckWarning(warning))
+    image = heatmap(photo, detection)
+    paths = write_all_or_none([lambda: write_image(outdir / HEATMAP, image),
+                               lambda: write_text(outdir / SUSPECTS_JSON, suspects_json(detection, shot, scene)),
+                               lambda: write_text(outdir / SUSPECTS_MD, markdown(detection, shot))])
+    return DiscrepancyRun(detection, list(paths))
+
+
+__all__ = ["discrepancies_command", "DiscrepancyRun"]

@@ -1,0 +1,133 @@
+"""What the planned scene looks like through a camera, lens included: the render, its CAD edges,
+the id buffer, the scored outlines and the *discriminative* outlines (what the scene without
+each part would not show). It depends only on scene and camera, so an evaluation over many
+photos of one view computes it once (:func:`planned_view`).
+
+CAD edges are :func:`mrcheck.mr.overlay.cad_edges` of the planned render's depth (inverse depth
+second differences: silhouettes and creases), resampled into the photo's geometry as the overlay
+does, plus the boundaries between different instance ids (two touching parts at the same depth
+have a real outline that depth alone does not show).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mrcheck.apps.discrepancies.edges import (
+    cad_edge_owner,
+    orientation_bin,
+    oriented_support,
+    outline_normals,
+    silhouettes,
+)
+from mrcheck.apps.discrepancies.ids import behind_ids, object_ids
+from mrcheck.apps.discrepancies.thresholds import (
+    MIN_EDGE_PIXELS,
+    default_tolerance,
+    shift_radius,
+)
+from mrcheck.core.camera import Camera
+from mrcheck.eval.raycast import build_caster
+from mrcheck.mr.lens import distort_to_photo, distortion_map
+from mrcheck.mr.shot import cad_edges, render_for_photo
+from mrcheck.render.renderer import Renderer, RenderSettings
+from mrcheck.scene.model import Scene
+
+
+@dataclass(frozen=True)
+class BoxMask:
+    """A mask given only inside a box of the image (most of an outline's image is empty)."""
+    box: tuple[int, int, int, int]   # y0, y1, x0, x1
+    mask: np.ndarray                 # (y1 - y0, x1 - x0) bool
+
+    def full(self, shape) -> np.ndarray:
+        """The mask in the whole image of ``shape`` (False outside the box)."""
+        y0, y1, x0, x1 = self.box
+        out = np.zeros(shape, bool)
+        out[y0:y1, x0:x1] = self.mask
+        return out
+
+
+@dataclass
+class PlannedView:
+    """The planned scene through one camera, in the photo's (distorted) pixels."""
+    render: np.ndarray    # (H, W, 3) uint8 Phong render, for the heat map's overlay
+    cad: np.ndarray       # (H, W) bool CAD edges: silhouettes, creases and instance boundaries
+    ids: np.ndarray       # (H, W) int32 visible instance (ids.BACKGROUND = none)
+    depth: np.ndarray     # (H, W) float32 camera depth of the visible instance (0 = none)
+    labels: list          # (part name, instance id) of every instance index
+    outline: np.ndarray   # (H, W) bool the scored outline pixels (silhouettes)
+    owner: np.ndarray     # (H, W) int32 the instance each outline pixel belongs to (-1 elsewhere)
+    discriminative: dict  # instance index -> BoxMask of its discriminative outline pixels
+
+
+def discriminative_outlines(ids: np.ndarray, depth: np.ndarray, cad: np.ndarray, owner: np.ndarray,
+                            behind: tuple[np.ndarray, np.ndarray], fx: float, tol: float) -> dict:
+    """Per scored instance, the outline pixels that tell "part there" from "part gone": its
+    :func:`~mrcheck.apps.discrepancies.edges.silhouettes` pixels (``owner``) with no CAD edge of
+    the same orientation (within ``tol``) in the planned scene *without* it -- the id / depth
+    buffer with its pixels replaced by ``behind`` (:func:`~mrcheck.apps.discrepancies.ids.behind_ids`):
+    what the photo shows if the part is not there. A bollard's sides in front of a fence post's
+    parallel sides are dropped, its top against the floor is kept. Returns ``{index: BoxMask}``."""
+    bids, bdepth = behind
+    cad_bins = orientation_bin(outline_normals(cad))
+    pad = shift_radius(tol) + 6
+    h, w = ids.shape
+    out = {}
+    for index in np.unique(owner[owner >= 0]):
+        mask = owner == index
+        if np.count_nonzero(mask) < MIN_EDGE_PIXELS:
+            continue
+        ys, xs = np.nonzero(mask | (ids == index))
+        y0, y1, x0, x1 = max(0, ys.min() - pad), min(h, ys.max() + 1 + pad), max(0, xs.min() - pad), min(w, xs.max() + 1 + pad)
+        wid, wdepth = ids[y0:y1, x0:x1].copy(), depth[y0:y1, x0:x1].copy()
+        gone = wid == index
+        wid[gone], wdepth[gone] = bids[y0:y1, x0:x1][gone], bdepth[y0:y1, x0:x1][gone]
+        without = silhouettes(wid, wdepth) | cad_edges(wdepth, fx)
+        _clear_border(without)
+        explained = oriented_support(without, outline_normals(without), tol)
+        keep = mask[y0:y1, x0:x1] & ~np.take_along_axis(explained, cad_bins[y0:y1, x0:x1][None], 0)[0]
+        out[int(index)] = BoxMask((y0, y1, x0, x1), keep)
+    return out
+
+
+def _clear_border(mask: np.ndarray) -> None:
+    """The frame border is no edge of the scene."""
+    mask[[0, -1], :] = False
+    mask[:, [0, -1]] = False
+
+
+def planned_view(scene: Scene, camera: Camera, renderer=None) -> PlannedView:
+    """What the planned ``scene`` looks like through ``camera`` (lens included); ``renderer``: a
+    :class:`~mrcheck.render.renderer.Renderer` of ``scene`` to reuse (else one is made)."""
+    maps = distortion_map(camera)
+    own = renderer is None
+    renderer = Renderer(scene) if own else renderer
+    try:
+        # full detail (lod_px=0): the outlines are measured to the pixel, and it is one render
+        renders, edges, offset, maps = render_for_photo(renderer, camera, ["phong"], RenderSettings(lod_px=0.0), True,
+                                                        maps)
+    finally:
+        if own:
+            renderer.release()
+    shape = (camera.height, camera.width)
+    render = distort_to_photo(renders["phong"], maps, offset, shape)
+    cad = distort_to_photo(edges.astype(np.float32), maps, offset, shape) > 0.25
+    caster = build_caster(scene, camera.center)   # one BVH for the visible and the behind pass
+    ids, depth, labels = object_ids(scene, camera, maps, caster)
+    outline = silhouettes(ids, depth)
+    cad |= outline                             # touching parts at one depth: the outline is real too
+    for m in (cad, outline):
+        _clear_border(m)
+    # support is judged on outlines only: a crease between two faces may show no contrast
+    # under another light (a corrugated wall in the sun), an outline against what lies behind
+    # almost always does
+    owner = cad_edge_owner(ids, depth, outline)
+    behind = behind_ids(scene, camera, ids, depth, maps, caster=caster)
+    discriminative = discriminative_outlines(ids, depth, cad, owner, behind, camera.fx, default_tolerance(camera))
+    return PlannedView(render, cad, ids, depth, labels, outline, owner, discriminative)
+
+
+__all__ = ["PlannedView", "BoxMask", "planned_view", "discriminative_outlines"]

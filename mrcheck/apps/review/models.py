@@ -1,0 +1,39 @@
+"""The request bodies of the review's API (pydantic, strict)."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from mrcheck.apps.review.storage import CATEGORIES, MAX_NOTE
+from mrcheck.render.renderer import MODES
+
+Category = Literal["missing", "moved", "extra", "wrong size", "other", "suggested"]
+assert set(Category.__args__) == set(CATEGORIES)
+Mode = Literal[MODES]
+# strict: a field of the wrong type (a severity true or "2", a note null) or an unknown one (a
+# typo such as "severty") is a 422, not converted or ignored; a whole number is still a valid x
+_STRICT = ConfigDict(extra="forbid", strict=True)
+
+
+class MarkerIn(BaseModel):
+    model_config = _STRICT
+    shot: str = Field(max_length=128)
+    x: float
+    y: float
+    category: Category
+    severity: int = Field(ge=1, le=3)
+    note: str = Field(default="", max_length=MAX_NOTE)
+    mode: Mode | None = None  # the mode the marker was placed in
+
+
+class MarkerPatch(BaseModel):
+    """Only the fields given are changed (the None defaults mean "not given"; null is refused)."""
+    model_config = _STRICT
+    x: float = None
+    y: float = None
+    category: Category = None
+    severity: int = Field(default=None, ge=1, le=3)
+    note: str = Field(default=None, max_length=MAX_NOTE)
+    mode: Mode = None

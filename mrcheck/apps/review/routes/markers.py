@@ -1,0 +1,49 @@
+"""The markers: list, add, edit (moving one picks the CAD part under it again), delete."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from fastapi import APIRouter, Depends, HTTPException
+
+from mrcheck.apps.review.models import MarkerIn, MarkerPatch
+from mrcheck.apps.review.state import MAX_ID, Review, check_xy, current
+
+router = APIRouter(prefix="/api/markers")
+Current = Annotated[Review, Depends(current)]
+
+
+@router.get("")
+def list_markers(review: Current, shot: str | None = None):
+    if shot is not None:
+        review.shot_or_404(shot)
+    return review.store.markers(shot)
+
+
+@router.post("", status_code=201)
+def add_marker(review: Current, marker: MarkerIn):
+    shot = review.shot_or_404(marker.shot)
+    check_xy(shot, marker.x, marker.y)
+    return review.store.add({**marker.model_dump(), **review.cad_under(shot, marker.x, marker.y)})
+
+
+@router.patch("/{marker_id}")
+def edit_marker(review: Current, marker_id: int, patch: MarkerPatch):
+    current_marker = review.marker_or_404(marker_id)
+    values = patch.model_dump(exclude_unset=True)
+    if "x" in values or "y" in values:
+        shot = review.source.shots.get(current_marker["shot"])
+        if shot is None:  # left in the database by an earlier review of this folder
+            raise HTTPException(409, f"marker {marker_id} is on shot {current_marker['shot']!r}, which this review "
+                                     "no longer has: it can be edited or deleted, not moved")
+        x, y = values.get("x", current_marker["x"]), values.get("y", current_marker["y"])
+        check_xy(shot, x, y)
+        values.update(review.cad_under(shot, x, y))
+    return review.store.update(marker_id, values)
+
+
+@router.delete("/{marker_id}")
+def delete_marker(review: Current, marker_id: int):
+    if not (1 <= marker_id <= MAX_ID and review.store.delete(marker_id)):
+        raise HTTPException(404, f"no marker {marker_id}")
+    return {"deleted": marker_id}

@@ -1,0 +1,76 @@
+"""What every route of one review app shares (:class:`Review`, ``app.state.review``): the source,
+the marker store, the render service and the picker, with the checks the routes have in common."""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass, field
+
+from fastapi import HTTPException, Request
+
+from mrcheck.apps.review.renders import RenderService
+from mrcheck.apps.review.source import Source
+from mrcheck.apps.review.storage import Store
+from mrcheck.apps.review.suggestions import pending
+
+MAX_ID = 2**63 - 1  # SQLite's INTEGER range; a larger id cannot be bound (OverflowError), nor exist
+
+
+@dataclass
+class Review:
+    source: Source
+    store: Store
+    renders: RenderService
+    imported: dict = field(default_factory=dict)   # shot -> suggestions added at this start
+    _picker: object = field(default=None, init=False, repr=False)
+    _lock: threading.Lock = field(default_factory=threading.Lock, init=False, repr=False)
+
+    def picker(self):
+        """The ray-casting picker, built on first use (it loads the scene into Open3D)."""
+        with self._lock:
+            if self._picker is None:
+                from mrcheck.apps.review.pick import Picker
+
+                self._picker = Picker(self.source.loaded)
+            return self._picker
+
+    def cad_under(self, shot, x, y) -> dict:
+        """What a marker at photo pixel (x, y) of ``shot`` stores of the CAD: its part instance and distance."""
+        hit = self.picker().pick(shot.camera, x, y)
+        return {"part": hit["instance"], "distance": hit["distance"]}
+
+    def import_suggestions(self, suggestions: dict) -> None:
+        """{shot name: markers} (:func:`.suggestions.load_suggestions`) into the store, each once
+        per review; ``self.imported``: {shot name: markers added now}."""
+        for name, markers in suggestions.items():
+            # like a marker the planner places: the CAD part under it and its distance; only for the
+            # new ones, so that a restart with nothing new does not load the scene for the picker
+            shot = self.source.shots[name]
+            markers = pending(markers, self.store.imported_keys(name), shot.size[0])
+            cads = [self.cad_under(shot, m["x"], m["y"]) for m in markers]
+            if added := self.store.import_suggestions(name, [{**m, **cad, "part": cad["part"] or m["part"]}
+                                                             for m, cad in zip(markers, cads)]):
+                self.imported[name] = added
+
+    def shot_or_404(self, name: str):
+        if name not in self.source.shots:
+            raise HTTPException(404, f"no shot named {name!r}")
+        return self.source.shots[name]
+
+    def marker_or_404(self, marker_id: int) -> dict:
+        current = self.store.get(marker_id) if 1 <= marker_id <= MAX_ID else None
+        if current is None:
+            raise HTTPException(404, f"no marker {marker_id}")
+        return current
+
+
+def check_xy(shot, x, y) -> None:
+    """A marker's or pick's photo pixel lies inside the shot's photo, else 422."""
+    w, h = shot.size
+    if not (0 <= x < w and 0 <= y < h):
+        raise HTTPException(422, f"coordinates ({x}, {y}) are outside the {w}x{h} image")
+
+
+def current(request: Request) -> Review:
+    """The review of the app serving ``request`` (a FastAPI dependency)."""
+    return request.app.state.review

@@ -1,0 +1,94 @@
+"""The render targets of one output size: the G-buffer, the AO buffers at full and half
+resolution, the half-resolution coverage depth and the sRGB colour target, reused frame to frame."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import moderngl
+import numpy as np
+
+from mrcheck.render.gbuffer import GBuffer
+from mrcheck.render.gl import float_depth_texture, srgb_texture
+
+
+@dataclass
+class AOBuffers:
+    """The AO buffers of one AO resolution: (texture, framebuffer) x 3 -- raw, scratch, blurred --
+    of RG32F (AO, depth) texels (``shaders/ao_common.glsl``); ``half``: at half the output size."""
+
+    buffers: list
+    half: bool
+
+    @property
+    def raw(self):
+        return self.buffers[0]
+
+    @property
+    def scratch(self):
+        return self.buffers[1]
+
+    @property
+    def blurred(self):
+        return self.buffers[2]
+
+
+def _ao_target(ctx: moderngl.Context, size, zbuffer=None):
+    """RG32F (AO, depth) texels: what the AO passes and the blur write (ao_common.glsl)."""
+    texture = ctx.texture(size, 2, dtype="f4")
+    texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    texture.repeat_x = texture.repeat_y = False  # gathers at the border clamp, not wrap
+    return texture, ctx.framebuffer([texture], zbuffer)
+
+
+class RenderTargets:
+    """Render targets of one output size. The full-resolution AO buffers carry the G-buffer's
+    depth buffer, so that the AO passes skip the background (mrcheck.render.ao.base.draw_covered;
+    the blur and composite never depth-test); the half-resolution ones, made on first use,
+    carry the half-resolution coverage (shaders/ao_coverage.glsl), which plays that part there."""
+
+    def __init__(self, ctx: moderngl.Context, size):
+        w, h = size
+        self.ctx = ctx
+        self.size = (w, h)
+        self.half_size = ((w + 1) // 2, (h + 1) // 2)
+        self.gbuffer = GBuffer.create(ctx, self.size)
+        self.full = AOBuffers([_ao_target(ctx, self.size, self.gbuffer.zbuffer) for _ in range(3)], False)
+        self.color = srgb_texture(ctx, self.size)
+        self.color_fbo = ctx.framebuffer([self.color])
+        self._half = None
+        self.half_coverage = self.half_coverage_fbo = None
+        self.half_coverage_frame = -1    # the G-buffer frame the coverage was made from
+
+    def ao_buffers(self, scale: float) -> AOBuffers:
+        """The AO buffers (raw, scratch, blurred) of the AO resolution ``scale`` (1.0 or 0.5)."""
+        if scale == 1.0:
+            return self.full
+        if self._half is None:
+            self.half_coverage = float_depth_texture(self.ctx, self.half_size)
+            self.half_coverage_fbo = self.ctx.framebuffer([], self.half_coverage)
+            self._half = AOBuffers([_ao_target(self.ctx, self.half_size, self.half_coverage) for _ in range(3)], True)
+        return self._half
+
+    def read_rgb(self) -> np.ndarray:
+        """(H, W, 3) uint8 sRGB of the colour target."""
+        w, h = self.size
+        rgba = np.frombuffer(self.color.read(), np.uint8).reshape(h, w, 4)
+        return rgba[..., :3].copy()
+
+    def read_normals(self) -> np.ndarray:
+        """(H, W, 3) float32 unit camera-space normals of the G-buffer (OpenCV axes, facing the
+        camera; zero on the background)."""
+        w, h = self.size
+        normal = np.frombuffer(self.gbuffer.normal.read(), np.float16).reshape(h, w, 4)
+        return normal[..., :3].astype(np.float32)
+
+    def release(self) -> None:
+        self.gbuffer.release()
+        ao = self.full.buffers + (self._half.buffers if self._half is not None else [])
+        half = [self.half_coverage_fbo, self.half_coverage] if self._half is not None else []
+        for obj in [fbo for _, fbo in ao] + [texture for texture, _ in ao] + half + [self.color_fbo, self.color]:
+            obj.release()
+
+
+__all__ = ["RenderTargets", "AOBuffers"]
