@@ -12,7 +12,7 @@ import pytest
 
 from mrcheck.cli import main
 from mrcheck.core.camera import Camera
-from mrcheck.core.camerafiles import write_camera
+from mrcheck.core.camerafiles import load_camera, write_camera
 from mrcheck.eval.edgephotos import make_case, reprojection_error
 from tests.edge_helpers import crate_camera, crate_scene, write_crate_scene
 
@@ -47,7 +47,7 @@ def test_register_initial_writes_an_edge_shot(project, capsys):
     assert set(shot["uncertainty"]["corner_px"]) == {"top_left", "top_right", "bottom_right", "bottom_left"}
     assert len(shot["uncertainty"]["position_mm"]) == 3 and len(shot["uncertainty"]["angle_deg"]) == 3
     assert set(shot["times_s"]) >= {"render", "edges", "match", "solve", "total"}
-    fitted = Camera.load(out)
+    fitted = load_camera(out)
     assert np.median(reprojection_error(case.truth, fitted, case.points)) < 1.0      # measured 0.06
     printed = capsys.readouterr().out
     assert "from edges (start: initial): edge rms" in printed and "overlay 1-sigma at the corners" in printed
@@ -90,7 +90,7 @@ def test_scene_camera_writes_the_viewpoint_with_the_photo_intrinsics(project, tm
     out = tmp_path / "rough.json"
     assert main(["scene", "camera", str(manifest), "--view", "front", "--intrinsics", str(folder / "cam.json"),
                  "-o", str(out)]) == 0
-    written = Camera.load(out)
+    written = load_camera(out)
     camera = crate_camera(640, 480)
     assert np.allclose(written.K, camera.K) and np.allclose(written.dist, camera.dist)
     assert np.allclose(written.R, camera.R, atol=1e-9) and np.allclose(written.t, camera.t, atol=1e-9)

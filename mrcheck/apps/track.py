@@ -31,7 +31,7 @@ import cv2
 import numpy as np
 
 from mrcheck.core.camera import Camera
-from mrcheck.core.camerafiles import read_camera
+from mrcheck.core.camerafiles import load_camera, read_camera
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.inputs import check_input
 from mrcheck.core.output import check_not_inputs, check_output_path
@@ -40,7 +40,8 @@ from mrcheck.mr.lens import distortion_map
 from mrcheck.mr.overlay import overlay_images
 from mrcheck.mr.shot import render_for_photo
 from mrcheck.mr.registration import fit_camera
-from mrcheck.render.renderer import Renderer, RenderSettings
+from mrcheck.render.renderer import Renderer
+from mrcheck.render.settings import RenderSettings
 from mrcheck.scene.manifest import scene_files
 from mrcheck.scene.model import load_scene
 
@@ -218,7 +219,7 @@ def track_command(video, scene, intrinsics, initial, output, poses=None, alpha=0
     check_input(scene, "scene", folder_ok=True)
     if not 0.0 <= alpha <= 1.0:
         raise MrcheckError(f"--alpha must be in [0, 1], got {alpha}")
-    return track_video(video, load_scene(scene), read_camera(intrinsics), Camera.load(initial), output, poses,
+    return track_video(video, load_scene(scene), read_camera(intrinsics), load_camera(initial), output, poses,
                        alpha=alpha, progress=progress)
 
 

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from mrcheck.core.camera import Camera
-from mrcheck.core.camerafiles import read_camera, read_photo, write_camera
+from mrcheck.core.camerafiles import load_camera, read_camera, read_photo, write_camera
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.inputs import check_input
 from mrcheck.core.output import check_not_inputs, check_output_path
@@ -109,7 +109,7 @@ def register_edges_command(scene, photo, intrinsics, initial=None, markers=None,
     camera = read_camera(intrinsics)
     model = load_scene(scene, progress=True)
     if initial is not None:
-        rough, start = Camera.load(initial), "initial"
+        rough, start = load_camera(initial), "initial"
         if refine is False:
             raise MrcheckError("--no-refine needs --markers or --points (--initial is only a start for the edges)")
     else:

@@ -22,7 +22,7 @@ import numpy as np
 from mrcheck.core.camera import Camera
 from mrcheck.core.errors import MrcheckError
 from mrcheck.mr.edges import model, photo, solver
-from mrcheck.render.renderer import RenderSettings
+from mrcheck.render.settings import RenderSettings
 from mrcheck.mr.edges.uncertainty import WEAK_CORNER_PX, PoseUncertainty, parallel_edges, pose_uncertainty
 
 _COARSEST_WIDTH = 160
@@ -147,12 +147,9 @@ def render_depth(renderer, camera: Camera, with_image: bool = False):
     (full detail: a simplified mesh moves the edges); with ``with_image`` also the Phong
     render's grey image (float32, 0..1)."""
     frame = renderer.render(camera, ["phong"], RenderSettings(lod_px=0.0))
-    result = frame["phong"]
-    depth = getattr(frame, "depth", None)
-    depth = depth if depth is not None else renderer.last_depth()
     if not with_image:
-        return depth
-    return depth, result.image.astype(np.float32) @ np.array([0.299, 0.587, 0.114], np.float32) / 255.0
+        return frame.depth
+    return frame.depth, frame["phong"].image.astype(np.float32) @ np.array([0.299, 0.587, 0.114], np.float32) / 255.0
 
 
 def level_count(width: int, options: EdgeOptions) -> int:
