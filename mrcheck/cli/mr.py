@@ -59,7 +59,7 @@ def calibrate(images, board, min_views, max_view_error, output):
               help="RANSAC inlier threshold in pixels [default: automatic].")
 @click.option("-o", "--output", required=True, metavar="SHOT.json", help="The registered shot (camera JSON + photo, rms, method, ids used/rejected).")
 def register(scene_path, photo, intrinsics, markers, points, initial, refine, max_error, output):
-    """Find a photo's camera pose from markers, clicked points or the CAD's edges.
+    """Find a photo's pose: markers, clicks or the CAD's edges.
 
     The pose of the calibrated camera in the factory, from surveyed markers (--markers),
     clicked pixel <-> world correspondences (--points), or a rough pose (--initial) whose CAD
