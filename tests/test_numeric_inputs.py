@@ -66,6 +66,8 @@ OPTIONS = {   # every float option of every command, on a command line that work
     "reference-world": (["reference", "scene.toml", "--camera", "cam.json", "--rays", "4", "--radius-mode", "world",
                          "-o", "out/r.npy"], ["--radius"]),
     "discrepancies": (["discrepancies", "shot.json", "--scene", "scene.toml", "-o", "out/d"], ["--tolerance-px"]),
+    "track": (["track", "walk.mp4", "--scene", "scene.toml", "--intrinsics", "intr.json", "--initial", "cam.json",
+               "-o", "out/t.mp4"], ["--alpha"]),
 }
 OPTION_CASES = [case(f"{name}{option}={text(v)}", [*args, option, text(v)], [option, f"{text(v)} is not a finite number"])
                 for name, (args, options) in OPTIONS.items() for option in options for v in BAD]

@@ -160,3 +160,34 @@ def deviation(scan, scene_path, shot, units, outdir):
         run = deviation_command(scan=scan, scene=scene_path, shot=shot, units=units, outdir=outdir)
     click.echo(run.outdir)
     click.echo(run.summary, err=True)
+
+
+@cli.command()
+@click.argument("video", metavar="VIDEO")
+@click.option("--scene", "scene_path", required=True, metavar="SCENE", help="The planned scene.")
+@click.option("--intrinsics", required=True, metavar="CAM.json", help="The video camera's calibration (JSON, or OpenCV YAML).")
+@click.option("--initial", required=True, metavar="ROUGH.json", help="The first frame's rough pose (camera JSON with R and t).")
+@click.option("--poses", metavar="POSES.jsonl", help="Per-frame pose, RMS, support, uncertainty, lost flag [default: OUT.poses.jsonl].")
+@click.option("--alpha", type=FINITE, default=0.5, show_default=True, help="Photo opacity in the overlay, 0 (CAD only) .. 1.")
+@click.option("-o", "--output", required=True, metavar="OUT.mp4", help="The overlay video (vector AO at half resolution).")
+def track(video, scene_path, intrinsics, initial, poses, alpha, output):
+    """Snap the CAD onto every frame of a video.
+
+    Each frame starts from the previous frames' constant-velocity prediction and is snapped onto
+    its edges; writes the overlay video and the poses. Frames whose support collapses are marked
+    lost (docs/edge-registration.md).
+
+    \b
+    Example:
+      mrcheck track walk.mp4 --scene hall/scene.toml --intrinsics cam.json --initial rough.json -o walk_overlay.mp4
+    """
+    from mrcheck.apps.track import track_command
+    from mrcheck.cli.messages import progress_bars
+
+    with console(), progress_bars({"track": "frame"}) as bars:
+        result = track_command(video, scene_path, intrinsics, initial, output, poses=poses, alpha=alpha,
+                               progress=lambda done, total: bars("track", done, max(total, done)))
+    click.echo(result.summary_line())
+    for line in result.lost_lines():
+        click.echo(line)
+    click.echo(f"wrote {output}")

@@ -18,7 +18,10 @@ from mrcheck.render import settings as defaults
               help="Also write every raw figure (with its peak memory) and the ratios (with their per-round ratios) as "
                    "JSON, before the table is printed; missing folders are created, an existing file is replaced.")
 @click.option("--repeat", type=int, default=None, callback=positive, help="Timed runs per figure after one warm-up [default: 5, --quick: 3].")
-def bench(quick, json_path, repeat):
+@click.option("--edges", is_flag=True,
+              help="Only the edge registration against OpenCV's RAPID tracker (cv2.rapid) on Open3D photos of the "
+                   "crate scene and the generated cell: accuracy and time side by side (--quick: 3 cases each, else 10).")
+def bench(quick, json_path, repeat, edges):
     """Measure the AO passes and frames on this machine.
 
     Every AO mode at full and half resolution, over
@@ -37,7 +40,14 @@ def bench(quick, json_path, repeat):
     \b
     Example:
       mrcheck bench --quick --json bench.json
+      mrcheck bench --edges --quick
     """
+    if edges:
+        from mrcheck.eval.edgebench import edge_bench
+
+        for line in edge_bench(quick=quick, progress=lambda text: click.echo(text, err=True)):
+            click.echo(line)
+        return
     from mrcheck.eval.bench.run import bench_command
 
     result = bench_command(quick=quick, json_path=json_path, repeat=repeat, hall=_hall_generator(),

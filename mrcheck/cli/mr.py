@@ -49,19 +49,35 @@ def calibrate(images, board, min_views, max_view_error, output):
 @click.option("--intrinsics", required=True, metavar="CAM.json", help="Calibrated camera (JSON, or OpenCV YAML).")
 @click.option("--markers", metavar="MAP.json", help="Marker map: surveyed world corners of ArUco/AprilTag markers and ChArUco boards.")
 @click.option("--points", metavar="CORR.json", help="Manual correspondences: pixel <-> world point pairs (>= 4).")
+@click.option("--initial", metavar="ROUGH.json",
+              help="A rough pose (any camera JSON with R and t: an earlier shot, `mrcheck scene camera`'s output) "
+                   "snapped onto the photo's edges (markerless; docs/edge-registration.md).")
+@click.option("--refine/--no-refine", default=None,
+              help="Snap the pose of --markers/--points onto the photo's edges as well [default: no; with "
+                   "--initial always].")
 @click.option("--max-error", type=FINITE, default=None, callback=positive, metavar="PX",
               help="RANSAC inlier threshold in pixels [default: automatic].")
 @click.option("-o", "--output", required=True, metavar="SHOT.json", help="The registered shot (camera JSON + photo, rms, method, ids used/rejected).")
-def register(scene_path, photo, intrinsics, markers, points, max_error, output):
-    """Find a photo's camera pose from markers or clicked points.
+def register(scene_path, photo, intrinsics, markers, points, initial, refine, max_error, output):
+    """Find a photo's pose: markers, clicks or the CAD's edges.
 
-    The pose of the calibrated camera in the factory, from surveyed markers (--markers) or
-    clicked pixel <-> world correspondences (--points); writes SHOT.json.
+    The pose of the calibrated camera in the factory, from surveyed markers (--markers),
+    clicked pixel <-> world correspondences (--points), or a rough pose (--initial) whose CAD
+    edges are snapped onto the photo's edges; writes SHOT.json.
 
     \b
     Example:
       mrcheck register hall/scene.toml --photo p1.jpg --intrinsics camera.json --markers map.json -o p1.json
+      mrcheck scene camera hall/scene.toml --view aisle --intrinsics camera.json -o rough.json
+      mrcheck register hall/scene.toml --photo p2.jpg --intrinsics camera.json --initial rough.json -o p2.json
     """
+    if initial is not None or refine:
+        from mrcheck.mr.edgeshot import register_edges_command
+
+        echo_lines(register_edges_command(scene=scene_path, photo=photo, intrinsics=intrinsics, initial=initial,
+                                          markers=markers, points=points, refine=refine, max_error=max_error,
+                                          output=output).summary())
+        return
     from mrcheck.mr.registration import register_command
 
     done = register_command(scene=scene_path, photo=photo, intrinsics=intrinsics, markers=markers, points=points,

@@ -1,4 +1,4 @@
-"""``mrcheck scene generate | import | asbuilt | info``."""
+"""``mrcheck scene generate | import | asbuilt | camera | info``."""
 
 from __future__ import annotations
 
@@ -111,6 +111,27 @@ def scene_asbuilt(scene_path, seed, outdir):
 
     for path in make_asbuilt(Path(scene_path), Path(outdir), seed=seed, progress=progress_bar):
         print(path)
+
+
+@scene.command("camera")
+@click.argument("scene_path", metavar="SCENE")
+@click.option("--view", required=True, metavar="NAME", help="Named viewpoint of the scene manifest.")
+@click.option("--intrinsics", metavar="CAM.json",
+              help="The photo's calibrated camera (size, K, distortion) [default: the viewpoint's own].")
+@click.option("-o", "--output", required=True, metavar="ROUGH.json", help="Camera JSON (or .yml/.yaml OpenCV YAML) with R and t.")
+def scene_camera(scene_path, view, intrinsics, output):
+    """Write a named viewpoint as a camera file.
+
+    The viewpoint's pose with the photo's intrinsics: the rough start of a markerless
+    registration (mrcheck register --initial).
+
+    \b
+    Example:
+      mrcheck scene camera factory_scenes/cell/scene.toml --view overview --intrinsics cam.json -o rough.json
+    """
+    from mrcheck.mr.edgeshot import scene_camera_command
+
+    print(scene_camera_command(scene_path, view, intrinsics=intrinsics, output=output))
 
 
 @scene.command("info")

@@ -1,0 +1,226 @@
+"""``mrcheck track VIDEO``: the CAD snapped onto every frame of a video, and the overlay video.
+
+Each frame starts from the previous frames' poses with a constant-velocity prediction (the
+last motion applied once more) and is snapped onto the frame's edges
+(:func:`mrcheck.mr.edges.refine_pose`, two pyramid levels and a search radius for frame-to-frame
+motion, the renderer and the scene's edges reused). A frame whose fit fails or ends with its
+support below :data:`LOST_SUPPORT` is *lost*: its pose is the prediction, not trusted, the next
+frame starts from it, and ``poses.jsonl`` says so. The overlay (vector AO at half resolution,
+lens distortion as calibrated) is drawn at every frame's pose, lost ones included, so that the
+video shows what the log says.
+
+``poses.jsonl``: one JSON object per frame: ``frame``, ``time_s``, ``R``, ``t``, ``rms_px``,
+``support``, ``corner_px`` (the four corners' 1-sigma), ``lost`` (bool), ``reason`` (lost only),
+``seconds`` (the snap's time).
+
+Video read and written with PyAV (FFmpeg); the output is H.264 (MPEG-4 part 2 where FFmpeg
+lacks an H.264 encoder), written to a temporary file and renamed when complete.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from mrcheck.core.camera import Camera
+from mrcheck.core.camerafiles import load_camera, read_camera
+from mrcheck.core.errors import MrcheckError
+from mrcheck.core.inputs import check_input
+from mrcheck.core.output import check_not_inputs, check_output_path
+from mrcheck.mr.edges import EdgeFitError, EdgeOptions, refine_pose, scene_edges
+from mrcheck.mr.lens import distortion_map
+from mrcheck.mr.overlay import overlay_images
+from mrcheck.mr.shot import render_for_photo
+from mrcheck.mr.registration import fit_camera
+from mrcheck.render.renderer import Renderer
+from mrcheck.render.settings import RenderSettings
+from mrcheck.scene.manifest import scene_files
+from mrcheck.scene.model import load_scene
+
+LOST_SUPPORT = 0.25
+TRACK_OPTIONS = EdgeOptions(search_px=16.0, levels=2, iterations=6, max_samples=1500, min_support=0.0)
+OVERLAY_SETTINGS = RenderSettings(samples=8, ao_scale=0.5)
+
+
+@dataclass
+class FramePose:
+    """The pose of one frame and how it was found (see the module docstring)."""
+
+    frame: int
+    time_s: float
+    camera: Camera
+    rms_px: float | None
+    support: float
+    corner_px: list
+    lost: bool
+    reason: str = ""
+    seconds: float = 0.0
+
+    def to_dict(self) -> dict:
+        out = {"frame": self.frame, "time_s": round(self.time_s, 4), "R": self.camera.R.tolist(),
+               "t": self.camera.t.tolist(), "rms_px": None if self.rms_px is None else round(self.rms_px, 4),
+               "support": round(self.support, 4), "corner_px": [round(v, 3) for v in self.corner_px],
+               "lost": self.lost, "seconds": round(self.seconds, 3)}
+        if self.lost:
+            out["reason"] = self.reason
+        return out
+
+
+@dataclass
+class TrackResult:
+    """``frames``: every frame's :class:`FramePose`; ``seconds``: wall time of the whole run."""
+
+    frames: list = field(default_factory=list)
+    seconds: float = 0.0
+
+    @property
+    def lost(self) -> list:
+        return [f.frame for f in self.frames if f.lost]
+
+    @property
+    def fps(self) -> float:
+        return len(self.frames) / self.seconds if self.seconds > 0 else math.inf
+
+    def summary_line(self) -> str:
+        return (f"tracked {len(self.frames)} frames in {self.seconds:.1f} s ({self.fps:.2f} frames/s); "
+                f"lost: {', '.join(map(str, self.lost)) or 'none'}")
+
+    def lost_lines(self) -> list[str]:
+        return [f"  frame {f.frame} lost ({f.reason}): its pose is the prediction, not trusted"
+                for f in self.frames if f.lost]
+
+
+def predicted(previous: list) -> Camera:
+    """Constant velocity: the last pose moved once more by the motion between the last two."""
+    last = previous[-1].camera
+    if len(previous) < 2:
+        return last
+    before = previous[-2].camera
+    dR = last.R @ before.R.T                 # X_cam' = dR X_cam + dt between the two frames
+    dt = last.t - dR @ before.t
+    return last.with_pose(dR @ last.R, dR @ last.t + dt)
+
+
+def snap_frame(scene, camera: Camera, grey, start: Camera, renderer, edges) -> tuple:
+    """``(camera at the pose, fit or None, reason)`` of one frame from ``start``."""
+    try:
+        fit = refine_pose(scene, camera, grey, initial=start, options=TRACK_OPTIONS, renderer=renderer, edges=edges)
+    except EdgeFitError as exc:
+        return start, None, str(exc)
+    if fit.support < LOST_SUPPORT:
+        return start, fit, f"support {fit.support:.0%} below {LOST_SUPPORT:.0%}"
+    return fit.camera, fit, ""
+
+
+def _writer(path: Path, width: int, height: int, rate):
+    import av
+
+    container = av.open(str(path), "w", format="mp4")
+    for codec in ("libx264", "h264", "mpeg4"):
+        try:
+            stream = container.add_stream(codec, rate=rate)
+            break
+        except (ValueError, av.error.FFmpegError):   # not in this FFmpeg build
+            continue
+    else:
+        container.close()
+        raise MrcheckError("FFmpeg (PyAV) has no H.264 or MPEG-4 encoder", path)
+    stream.width, stream.height, stream.pix_fmt = width - width % 2, height - height % 2, "yuv420p"
+    return container, stream
+
+
+def track_video(video, scene, intrinsics: Camera, initial: Camera, output, poses_path, alpha: float = 0.5,
+                progress=None) -> TrackResult:
+    """Track ``video`` (a path) from the pose of ``initial``; write the overlay video ``output``
+    and ``poses_path`` (JSON lines) atomically; ``progress(done, total)`` after every frame."""
+    import av
+
+    result = TrackResult()
+    start_time = time.perf_counter()
+    edges = scene_edges(scene)
+    renderer = Renderer(scene)
+    folder = Path(output).parent
+    tmp_video = Path(tempfile.mkstemp(suffix=".mp4", dir=folder, prefix=".track-")[1])
+    try:
+        with av.open(str(video)) as source:
+            stream = source.streams.video[0]
+            total = stream.frames or 0
+            container = None
+            for index, frame in enumerate(source.decode(stream)):
+                rgb = frame.to_ndarray(format="rgb24")
+                if container is None:
+                    camera, _ = fit_camera(intrinsics, rgb.shape[1], rgb.shape[0], video)
+                    maps = distortion_map(camera)
+                    container, out_stream = _writer(tmp_video, rgb.shape[1], rgb.shape[0], stream.average_rate or 25)
+                pose = _track_frame(result.frames, scene, camera, rgb, initial, renderer, edges, index,
+                                    float(frame.time or 0.0))
+                result.frames.append(pose)
+                image = _overlay(renderer, pose.camera, rgb, alpha, maps)
+                image = image[:out_stream.height, :out_stream.width]
+                for packet in out_stream.encode(av.VideoFrame.from_ndarray(np.ascontiguousarray(image), format="rgb24")):
+                    container.mux(packet)
+                if progress:
+                    progress(index + 1, total)
+            if container is None:
+                raise MrcheckError("the video has no frames", video)
+            for packet in out_stream.encode():
+                container.mux(packet)
+            container.close()
+        lines = "".join(json.dumps(f.to_dict()) + "\n" for f in result.frames)
+        _write_atomic(Path(poses_path), lines)
+        os.replace(tmp_video, output)
+    except av.error.FFmpegError as exc:
+        raise MrcheckError(f"cannot read the video: {exc}", video) from None
+    finally:
+        renderer.release()
+        if tmp_video.exists():
+            tmp_video.unlink()
+    result.seconds = time.perf_counter() - start_time
+    return result
+
+
+def _track_frame(previous, scene, camera, rgb, initial, renderer, edges, index, time_s) -> FramePose:
+    start = camera.with_pose(initial.R, initial.t) if not previous else predicted(previous)
+    grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
+    began = time.perf_counter()
+    pose, fit, reason = snap_frame(scene, camera, grey, start, renderer, edges)
+    corners = list(fit.uncertainty.corner_px) if fit is not None else []
+    return FramePose(index, time_s, pose, None if fit is None else fit.rms_px, 0.0 if fit is None else fit.support,
+                     corners, bool(reason), reason, time.perf_counter() - began)
+
+
+def _overlay(renderer, camera, rgb, alpha, maps) -> np.ndarray:
+    renders, _, offset, maps = render_for_photo(renderer, camera, ["vector"], OVERLAY_SETTINGS, False, maps)
+    return overlay_images(rgb, renders, camera, alpha, offset=offset, maps=maps)["vector"]
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
+def track_command(video, scene, intrinsics, initial, output, poses=None, alpha=0.5, progress=None) -> TrackResult:
+    """``mrcheck track``: check the inputs, track, write OUT.mp4 and poses.jsonl (default: beside
+    the video output, ``OUT.poses.jsonl``)."""
+    output = check_output_path(output, (".mp4",), "video")
+    poses = Path(poses) if poses else output.with_suffix(".poses.jsonl")
+    check_not_inputs([output, poses], [("the video", video), ("--intrinsics", intrinsics), ("--initial", initial),
+                                       ("the scene", scene_files(scene))])
+    check_input(video, "video")
+    check_input(scene, "scene", folder_ok=True)
+    if not 0.0 <= alpha <= 1.0:
+        raise MrcheckError(f"--alpha must be in [0, 1], got {alpha}")
+    return track_video(video, load_scene(scene), read_camera(intrinsics), load_camera(initial), output, poses,
+                       alpha=alpha, progress=progress)
+
+
+__all__ = ["FramePose", "TrackResult", "predicted", "snap_frame", "track_video", "track_command", "LOST_SUPPORT"]

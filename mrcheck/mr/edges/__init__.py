@@ -1,0 +1,21 @@
+"""Markerless registration: snap the CAD onto the photo's edges.
+
+Public API (stable; the review's click registration and the discrepancy check build on it):
+
+* :func:`refine_pose` ``(scene, camera, grey, initial=None, options=None, *, renderer=None,
+  edges=None) -> EdgeFit``: the refined pose, edge RMS, support share, pose uncertainty,
+  warnings and the time per stage; raises :class:`EdgeFitError` on failure.
+* :class:`EdgeOptions`, :class:`EdgeFit`, :class:`EdgeFitError`, :class:`LevelReport`,
+  :class:`~mrcheck.mr.edges.uncertainty.PoseUncertainty`.
+* :func:`~mrcheck.mr.edges.model.scene_edges` (the scene's edges, to reuse between frames).
+
+Modules: ``model`` (the CAD's visible edges), ``photo`` (the photo's edges, the search along
+the normal), ``solver`` (residuals, robust Gauss-Newton, covariance), ``uncertainty`` (px, mm,
+degrees, the weak direction), ``refine`` (coarse to fine).
+"""
+
+from mrcheck.mr.edges.model import scene_edges
+from mrcheck.mr.edges.refine import EdgeFit, EdgeFitError, EdgeOptions, LevelReport, refine_pose
+from mrcheck.mr.edges.uncertainty import PoseUncertainty
+
+__all__ = ["refine_pose", "EdgeFit", "EdgeFitError", "EdgeOptions", "LevelReport", "PoseUncertainty", "scene_edges"]

@@ -1,0 +1,223 @@
+"""The CAD side of the edge registration: the scene's edges, and the visible ones from a pose.
+
+Why the mesh's own edges and not edges found in a rendered image: an edge found in the depth or
+normal buffer lies at a pixel centre, up to half a pixel off the true line, and always on the
+same (inner) side of a silhouette, a bias that does not average out over many samples and that
+alone would use up most of a one-pixel accuracy budget. The mesh edges are exact lines in 3D;
+the render decides only which of them are seen (the depth buffer, :meth:`EdgeModel.samples`).
+
+Edges kept per mesh (vertices welded first: GLB meshes split them at every face):
+
+* creases: two faces meeting at more than :data:`CREASE_DEG` (box edges, profiles), and
+  boundary or non-manifold edges; seen unless the depth buffer hides them;
+* silhouette candidates: the other edges (facets of a tessellated cylinder), seen only where
+  one face turns towards the camera and the other away (the contour of a curved surface).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from mrcheck.core.camera import Camera
+from mrcheck.scene.model import Scene
+
+CREASE_DEG = 30.0           # a facet edge of a 12-sided cylinder (30 deg) is not yet a crease
+_WELD_DIGITS = 6            # vertices within a micrometre (metres) are one vertex
+_VISIBLE_DEPTH_TOL = 0.01   # an edge point up to 1 % behind the visible surface is still on it
+_MIN_EDGE_PX = 2.0          # edges shorter than this on screen give no sample
+
+
+@dataclass
+class EdgeSet:
+    """The scene's edges in world coordinates, float64 (one row per edge of every instance).
+
+    ``a``, ``b``: (n, 3) end points; ``na``, ``nb``: (n, 3) unit normals of the two faces (equal
+    for a boundary edge); ``crease``: (n,) bool; ``group``: (n,) int, the instance the edge
+    belongs to (an index into ``group_names``, the instance ids).
+    """
+
+    a: np.ndarray
+    b: np.ndarray
+    na: np.ndarray
+    nb: np.ndarray
+    crease: np.ndarray
+    group: np.ndarray
+    group_names: list
+
+    def __len__(self) -> int:
+        return len(self.a)
+
+
+@dataclass
+class Samples:
+    """Points sampled along the visible edges at one pose (world, float64).
+
+    ``points``: (n, 3); ``tangents``: (n, 3) unit edge directions; ``group``: (n,) instance index;
+    ``edge``: (n,) index of the edge in the :class:`EdgeSet` (the unit whose samples share one
+    error: the clusters of the uncertainty, :mod:`mrcheck.mr.edges.solver`).
+    """
+
+    points: np.ndarray
+    tangents: np.ndarray
+    group: np.ndarray
+    edge: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+
+def mesh_edges(vertices: np.ndarray, faces: np.ndarray, crease_deg: float = CREASE_DEG):
+    """``(a, b, na, nb, crease)`` of one mesh in its own coordinates (see :class:`EdgeSet`)."""
+    v = np.asarray(vertices, np.float64)
+    key = np.round(v, _WELD_DIGITS)
+    _, weld = np.unique(key, axis=0, return_inverse=True)
+    f = weld.reshape(-1)[np.asarray(faces, np.int64)]
+    normal = np.cross(v[faces[:, 1]] - v[faces[:, 0]], v[faces[:, 2]] - v[faces[:, 0]])
+    area = np.linalg.norm(normal, axis=1)
+    keep = (area > 1e-12) & (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
+    f, faces, normal = f[keep], np.asarray(faces)[keep], normal[keep] / area[keep, None]
+    # each face's three edges, as (welded low, welded high) keys; the positions from the original
+    # vertex indices (a welded vertex's copies sit within a micrometre)
+    lo = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    pos = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    owner = np.tile(np.arange(len(f)), 3)
+    pair = np.sort(lo, axis=1)
+    order = np.lexsort((pair[:, 1], pair[:, 0]))
+    pair, pos, owner = pair[order], pos[order], owner[order]
+    start = np.flatnonzero(np.r_[True, np.any(pair[1:] != pair[:-1], axis=1)])
+    count = np.diff(np.r_[start, len(pair)])
+    first = owner[start]
+    second = np.where(count >= 2, owner[np.minimum(start + 1, len(pair) - 1)], first)
+    na, nb = normal[first], normal[second]
+    # the angle between the two faces' planes, whatever their winding (a mesh whose triangles of
+    # one flat face wind both ways has no crease along the face's diagonal); nb then turned to
+    # na's side, so that a contour is where the two faces' signs really change
+    dot = np.einsum("ij,ij->i", na, nb)
+    nb = np.where((dot < 0)[:, None], -nb, nb)
+    crease = (count != 2) | (np.abs(dot) < math.cos(math.radians(crease_deg)))
+    a, b = v[pos[start, 0]], v[pos[start, 1]]
+    return a, b, na, nb, crease
+
+
+def scene_edges(scene: Scene, crease_deg: float = CREASE_DEG) -> EdgeSet:
+    """Every instance's edges in world coordinates (a mesh's edges found once, then placed)."""
+    parts = []
+    names = []
+    for part in scene.parts:
+        a, b, na, nb, crease = mesh_edges(part.vertices, part.faces, crease_deg)
+        for transform, name in zip(part.transforms, part.instance_ids):
+            M, offset = transform[:3, :3], transform[:3, 3]
+            # normals with the inverse transpose (a non-uniform scale would tilt them otherwise)
+            N = np.linalg.inv(M).T
+            n_a, n_b = na @ N.T, nb @ N.T
+            n_a /= np.linalg.norm(n_a, axis=1, keepdims=True)
+            n_b /= np.linalg.norm(n_b, axis=1, keepdims=True)
+            parts.append((a @ M.T + offset, b @ M.T + offset, n_a, n_b, crease, np.full(len(a), len(names))))
+            names.append(name)
+    if not parts:
+        empty = np.zeros((0, 3))
+        return EdgeSet(empty, empty, empty, empty, np.zeros(0, bool), np.zeros(0, int), [])
+    columns = [np.concatenate(c) for c in zip(*parts)]
+    return EdgeSet(*columns, group_names=names)
+
+
+def front_edges(edges: EdgeSet, centre: np.ndarray) -> np.ndarray:
+    """(n,) bool: the edges that can be seen from ``centre`` (world): every crease, and the
+    contour edges (one face towards it, the other away)."""
+    mid = 0.5 * (edges.a + edges.b)
+    to_eye = centre - mid
+    fa = np.einsum("ij,ij->i", edges.na, to_eye) > 0
+    fb = np.einsum("ij,ij->i", edges.nb, to_eye) > 0
+    # creases whatever their faces' winding (meshes from CAD exports often mix it; the depth
+    # buffer hides the ones behind); a contour needs its faces' sign to change
+    return edges.crease | (fa != fb)
+
+
+def project_pinhole(camera: Camera, points: np.ndarray) -> np.ndarray:
+    """(n, 2) pinhole pixels of world points (``camera.project``, in OpenCV's C++: a dense
+    scene's edges are hundreds of thousands of points per pose), about the camera centre so
+    that coordinates far from the world origin keep their precision."""
+    if len(points) == 0:
+        return np.zeros((0, 2))
+    rvec = cv2.Rodrigues(camera.R)[0]
+    uv, _ = cv2.projectPoints(points - camera.center, rvec, np.zeros(3), camera.K, None)
+    return uv.reshape(-1, 2)
+
+
+def sample_edges(edges: EdgeSet, camera: Camera, spacing_px: float, near: float = 1e-3,
+                 max_count: int | None = None) -> Samples:
+    """Points every ``spacing_px`` pixels (pinhole projection) along the edges that face the
+    camera, clipped to the part of each edge in front of the camera and inside the image (a
+    margin of one spacing); the spacing is widened so that at most about ``max_count`` points
+    are made (a dense scene at full resolution has millions of edge pixels). Visibility
+    (occlusion) is :func:`visible`'s."""
+    idx = np.flatnonzero(front_edges(edges, camera.center))
+    a, b = edges.a[idx], edges.b[idx]
+    za, zb = a @ camera.R[2] + camera.t[2], b @ camera.R[2] + camera.t[2]
+    ahead = (za > near) | (zb > near)
+    idx, a, b, za, zb = idx[ahead], a[ahead], b[ahead], za[ahead], zb[ahead]
+    clip = (za < near) | (zb < near)
+    if np.any(clip):      # move the end behind the camera onto the near plane
+        a, b = a.copy(), b.copy()
+        ca, cb, cza, czb = a[clip], b[clip], za[clip], zb[clip]
+        s = np.clip((near - cza) / np.where(czb != cza, czb - cza, 1.0), 0.0, 1.0)[:, None]
+        a[clip] = np.where((cza < near)[:, None], ca + s * (cb - ca), ca)
+        s = np.clip((near - czb) / np.where(cza != czb, cza - czb, 1.0), 0.0, 1.0)[:, None]
+        b[clip] = np.where((czb < near)[:, None], cb + s * (ca - cb), cb)
+    pa, pb = project_pinhole(camera, a), project_pinhole(camera, b)
+    lo, hi = np.minimum(pa, pb), np.maximum(pa, pb)
+    in_view = (hi[:, 0] > -1) & (hi[:, 1] > -1) & (lo[:, 0] < camera.width) & (lo[:, 1] < camera.height)
+    length = np.linalg.norm(pb - pa, axis=1)
+    keep = in_view & np.isfinite(length) & (length >= _MIN_EDGE_PX)
+    idx, a, b, length = idx[keep], a[keep], b[keep], length[keep]
+    if max_count:
+        spacing_px = max(spacing_px, float(np.sum(np.minimum(length, 4 * (camera.width + camera.height)))) / max_count)
+    count = np.maximum(1, np.floor(length / spacing_px)).astype(np.int64)
+    count = np.minimum(count, 4096)   # a wall edge crossing the whole view: enough samples
+    edge = np.repeat(np.arange(len(idx)), count)
+    k = np.arange(len(edge)) - np.repeat(np.cumsum(count) - count, count)
+    # the points are evenly spaced in 3D; on screen close to it (perspective shortens the far end)
+    f = (k + 0.5) / count[edge]
+    points = a[edge] + f[:, None] * (b[edge] - a[edge])
+    tangents = (b - a)[edge]
+    tangents /= np.linalg.norm(tangents, axis=1, keepdims=True)
+    samples = Samples(points, tangents, edges.group[idx][edge], idx[edge])
+    uv = project_pinhole(camera, samples.points)
+    margin = spacing_px
+    inside = ((uv[:, 0] > -margin) & (uv[:, 0] < camera.width - 1 + margin)
+              & (uv[:, 1] > -margin) & (uv[:, 1] < camera.height - 1 + margin))
+    return subset(samples, inside)
+
+
+def subset(samples: Samples, mask) -> Samples:
+    return Samples(samples.points[mask], samples.tangents[mask], samples.group[mask], samples.edge[mask])
+
+
+def visible(samples: Samples, camera: Camera, depth: np.ndarray) -> np.ndarray:
+    """(n,) bool: the samples that no nearer surface hides, by the depth buffer ``depth`` (H, W)
+    linear depth of ``camera`` (0 = background), which may be smaller than the camera's image
+    (a coarse level): it is looked up at the scaled pixel.
+
+    A point on an edge is seen when some pixel of its 3x3 neighbourhood shows a surface at its
+    depth or farther (the background counts as infinitely far): a silhouette pixel shows either
+    the part itself or what lies behind it, a hidden edge only the nearer occluder.
+    """
+    h, w = depth.shape
+    far = np.where(depth > 0, depth, np.inf).astype(np.float32)
+    # the farthest depth of each 3x3 neighbourhood (a grey dilation)
+    padded = np.pad(far, 1, mode="edge")
+    farthest = np.max(np.stack([padded[i:i + h, j:j + w] for i in range(3) for j in range(3)]), axis=0)
+    uv = project_pinhole(camera, samples.points)
+    sx, sy = w / camera.width, h / camera.height
+    col = np.clip(np.rint((uv[:, 0] + 0.5) * sx - 0.5), 0, w - 1).astype(np.int64)
+    row = np.clip(np.rint((uv[:, 1] + 0.5) * sy - 0.5), 0, h - 1).astype(np.int64)
+    z = samples.points @ camera.R[2] + camera.t[2]
+    return farthest[row, col] >= z * (1.0 - _VISIBLE_DEPTH_TOL)
+
+
+__all__ = ["EdgeSet", "Samples", "mesh_edges", "scene_edges", "front_edges", "sample_edges", "visible", "subset",
+           "project_pinhole", "CREASE_DEG"]

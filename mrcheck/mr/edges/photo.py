@@ -1,0 +1,133 @@
+"""The photo side of the edge registration: an image pyramid of gradients, and the search for the
+photo's edge along a CAD edge's normal (the "moving edges" of RAPID and its successors: Harris &
+Stennett 1990, Drummond & Cipolla 2002), with sub-pixel positions.
+
+Pixel coordinates of level ``l`` (``cv2.pyrDown`` halves the image ``l`` times): its pixel ``i``
+is centred on pixel ``2i`` of the level below (a symmetric 5-tap kernel), so ``u_l = u / 2**l``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+_ORIENTATION_COS = math.cos(math.radians(35.0))  # the photo's gradient within 35 deg of the CAD normal
+_NOISE_FACTOR = 4.0   # an edge is a gradient above this many times the image's median gradient
+
+
+@dataclass
+class Level:
+    """One pyramid level: its scale (``2**-l``), the gradient images and the edge threshold."""
+
+    scale: float
+    gx: np.ndarray
+    gy: np.ndarray
+    threshold: float
+
+    @property
+    def shape(self) -> tuple:
+        return self.gx.shape
+
+
+def to_level(uv: np.ndarray, scale: float) -> np.ndarray:
+    return uv * scale          # cv2.pyrDown: level pixel i is centred on pixel 2i below
+
+
+def pyramid(grey: np.ndarray, levels: int) -> list[Level]:
+    """``levels`` levels of the (H, W) grey photo, level 0 at full resolution."""
+    image = grey.astype(np.float32) / (255.0 if grey.dtype == np.uint8 else 1.0)
+    out = []
+    for level in range(levels):
+        if level:
+            image = cv2.pyrDown(image)
+        # a light blur first: the Scharr kernel alone is 3 px wide, and sensor noise or JPEG blocks
+        # would make every pixel a local maximum of the gradient
+        smooth = cv2.GaussianBlur(image, (0, 0), 0.8)
+        gx = cv2.Scharr(smooth, cv2.CV_32F, 1, 0) / 32.0
+        gy = cv2.Scharr(smooth, cv2.CV_32F, 0, 1) / 32.0
+        magnitude = np.hypot(gx, gy)
+        threshold = max(_NOISE_FACTOR * float(np.median(magnitude)), 2.0 / 255.0)
+        out.append(Level(0.5 ** level, gx, gy, threshold))
+    return out
+
+
+def _bilinear(image: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``image`` at float pixel positions (0 outside)."""
+    h, w = image.shape
+    u0, v0 = np.floor(u), np.floor(v)
+    fu, fv = u - u0, v - v0
+    u0, v0 = u0.astype(np.int64), v0.astype(np.int64)
+    inside = (u0 >= 0) & (v0 >= 0) & (u0 < w - 1) & (v0 < h - 1)
+    u0, v0 = np.clip(u0, 0, w - 2), np.clip(v0, 0, h - 2)
+    value = ((1 - fu) * (1 - fv) * image[v0, u0] + fu * (1 - fv) * image[v0, u0 + 1]
+             + (1 - fu) * fv * image[v0 + 1, u0] + fu * fv * image[v0 + 1, u0 + 1])
+    return np.where(inside, value, 0.0)
+
+
+@dataclass
+class Matches:
+    """Per sample: ``offset`` along the normal to the photo's edge (level pixels; nan: none
+    found), ``strength`` of that edge (the gradient along the normal), ``polarity`` (its sign)."""
+
+    offset: np.ndarray
+    strength: np.ndarray
+    polarity: np.ndarray
+
+
+def _peaks(level: Level, uv: np.ndarray, normals: np.ndarray, radius: int, polarity=None):
+    """The gradient profile along each normal and its edge peaks: ``(steps, a, along, peak)``."""
+    n = len(uv)
+    steps = np.arange(-radius - 1, radius + 2, dtype=np.float64)           # one extra each side
+    pu = uv[:, 0:1] + steps[None, :] * normals[:, 0:1]
+    pv = uv[:, 1:2] + steps[None, :] * normals[:, 1:2]
+    gx = _bilinear(level.gx, pu.ravel(), pv.ravel()).reshape(n, -1)
+    gy = _bilinear(level.gy, pu.ravel(), pv.ravel()).reshape(n, -1)
+    along = gx * normals[:, 0:1] + gy * normals[:, 1:2]
+    a = np.abs(along)
+    centre = a[:, 1:-1]
+    peak = (centre >= a[:, :-2]) & (centre > a[:, 2:]) & (centre > level.threshold)
+    peak &= centre >= _ORIENTATION_COS * np.hypot(gx, gy)[:, 1:-1]
+    if polarity is not None:
+        sign = np.sign(along[:, 1:-1])
+        peak &= (polarity[:, None] == 0) | (sign == polarity[:, None])
+    return steps, a, along, peak
+
+
+def search(level: Level, uv: np.ndarray, normals: np.ndarray, radius: int, polarity=None) -> Matches:
+    """For every point ``uv`` (level pixels) with unit image normal ``normals``: the photo's edge
+    nearest to it along the normal within ``radius`` level pixels.
+
+    An edge is a local maximum of the gradient component along the normal, above the level's
+    threshold, with the gradient within 35 degrees of the normal (a crossing edge of another
+    direction is not this one); the position is refined to sub-pixel by a parabola through the
+    maximum and its two neighbours. ``polarity`` (the sign of the gradient along the normal
+    found before, or 0 for any) keeps a point on the same side's edge from one iteration to
+    the next, so it does not hop to a parallel edge of the opposite contrast.
+    """
+    n = len(uv)
+    steps, a, along, peak = _peaks(level, uv, normals, radius, polarity)
+    distance = np.where(peak, np.abs(steps[None, 1:-1]), np.inf)
+    best = np.argmin(distance, axis=1)
+    found = np.isfinite(distance[np.arange(n), best])
+    i = best + 1                                                           # index into a
+    rows = np.arange(n)
+    left, mid, right = a[rows, i - 1], a[rows, i], a[rows, i + 1]
+    denom = left - 2 * mid + right
+    delta = np.where(denom < 0, 0.5 * (left - right) / np.where(denom < 0, denom, -1.0), 0.0)
+    offset = np.where(found, steps[i] + np.clip(delta, -0.5, 0.5), np.nan)
+    return Matches(offset, np.where(found, mid, 0.0), np.where(found, np.sign(along[rows, i]), 0.0))
+
+
+def distinct(level: Level, uv: np.ndarray, normals: np.ndarray, radius: int, own_px: float = 1.0) -> np.ndarray:
+    """(n,) bool: an edge peak within ``own_px`` of each point and no other within ``radius``
+    along its normal -- in a render of the CAD at the pose, the edges the search can find
+    without mistaking a neighbour for them."""
+    steps, _, _, peak = _peaks(level, uv, normals, radius)
+    near = np.abs(steps[1:-1]) <= own_px
+    return np.any(peak & near[None, :], axis=1) & ~np.any(peak & ~near[None, :], axis=1)
+
+
+__all__ = ["Level", "Matches", "pyramid", "search", "distinct", "to_level"]

@@ -1,0 +1,390 @@
+"""Edge registration: snap a rough camera pose onto the photo's edges (:func:`refine_pose`).
+
+Coarse to fine over an image pyramid (the coarsest level about 160 px wide): at each level the
+CAD is rendered at the current pose (the depth buffer says which mesh edges are seen,
+:mod:`mrcheck.mr.edges.model`), points are sampled along the visible edges every few level
+pixels, each is matched to the nearest photo edge along its image normal
+(:mod:`mrcheck.mr.edges.photo`), and robust Gauss-Newton steps move the pose
+(:mod:`mrcheck.mr.edges.solver`); the visible edges are found again when the pose has moved by
+more than a pixel or two of the level. Parts whose edges find (almost) no support are dropped
+from the finer levels (a CAD part missing in the hall). The search radius of the coarsest level
+is how far off the rough pose may be (``EdgeOptions.search_px``, full-resolution pixels).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mrcheck.core.camera import Camera
+from mrcheck.core.errors import MrcheckError
+from mrcheck.mr.edges import model, photo, solver
+from mrcheck.render.settings import RenderSettings
+from mrcheck.mr.edges.uncertainty import WEAK_CORNER_PX, PoseUncertainty, parallel_edges, pose_uncertainty
+
+_COARSEST_WIDTH = 160
+_CANDIDATES = 8            # edge points made per sample kept (half of them hidden, most not distinct)
+_ISOLATION_PX = 6          # no other CAD edge within this many level px along a sample's normal ...
+_ISOLATED_ENOUGH = 300     # ... as long as this many samples (or a quarter) stay
+_MIN_SAMPLES = 30
+_PART_MIN_SAMPLES = 12     # a part with fewer samples is never judged on its own
+_PART_MIN_SUPPORT = 0.2    # ... and one whose samples find support less often than this is dropped
+_CONVERGED_PX = 0.02       # a step moving no sample more than this (level px) ends the level
+_SIGMA_FLOOR_PX = 0.3      # the robust scale's floor at full resolution (level px: twice this)
+_ANNEAL = 0.7              # the robust scale shrinks by this after every step kept
+_NEXT_LEVEL_SIGMA = 1.5    # a finer level starts here (level px): the coarser one's floor, doubled
+_DIVERGED_SHARE = 0.25     # the pose moved the view by more than this share of the image diagonal
+
+
+class EdgeFitError(MrcheckError):
+    """The edge fit failed: it diverged, or ended with too little support (the message says which)."""
+
+
+@dataclass
+class EdgeOptions:
+    """Settings of :func:`refine_pose`; the defaults suit photos of 640 to 4000 px.
+
+    ``search_px``: how far (full-resolution px) the rough pose may put an edge from the photo's;
+    ``spacing_px``: sample spacing along the edges in level pixels; ``max_samples``: per level
+    (evenly thinned beyond); ``iterations``: at most per level; ``min_support``: the share of
+    samples that must find a photo edge at the end; ``levels``: pyramid levels (None: the
+    coarsest about 160 px wide); ``rerender_px``: re-find the visible edges after the pose moved
+    by this many level pixels.
+    """
+
+    search_px: float = 48.0
+    spacing_px: float = 3.0
+    max_samples: int = 3000
+    iterations: int = 10
+    min_support: float = 0.5
+    levels: int | None = None
+    rerender_px: float = 1.5
+
+    def validated(self) -> "EdgeOptions":
+        checks = [(0 < self.search_px < math.inf, f"search radius must be positive, got {self.search_px}"),
+                  (0.5 <= self.spacing_px < math.inf, f"sample spacing must be >= 0.5 px, got {self.spacing_px}"),
+                  (self.max_samples >= _MIN_SAMPLES, f"max samples must be >= {_MIN_SAMPLES}, got {self.max_samples}"),
+                  (self.iterations >= 1, f"iterations must be >= 1, got {self.iterations}"),
+                  (0 <= self.min_support <= 1, f"min support must be in [0, 1], got {self.min_support}"),
+                  (self.levels is None or 1 <= self.levels <= 8, f"levels must be 1..8, got {self.levels}")]
+        for ok, message in checks:
+            if not ok:
+                raise MrcheckError(message)
+        return self
+
+
+@dataclass
+class LevelReport:
+    """What one pyramid level did: its scale, iterations, samples, support share and RMS (level px)."""
+
+    scale: float
+    iterations: int
+    samples: int
+    support: float
+    rms_px: float
+
+
+@dataclass
+class EdgeFit:
+    """The result of :func:`refine_pose`.
+
+    ``camera``: the photo's camera at the refined pose; ``rms_px``: RMS distance of the supported
+    samples to their photo edges (full-resolution px); ``support``: share of the visible edge
+    samples that found a photo edge with a non-zero robust weight; ``samples``: visible samples
+    at full resolution; ``uncertainty``: :class:`~mrcheck.mr.edges.uncertainty.PoseUncertainty`;
+    ``warnings``: sentences; ``times_s``: seconds per stage (``render``, ``edges``, ``photo``,
+    ``match``, ``solve``, ``uncertainty``, ``total``); ``dropped``: instance ids whose edges found
+    no support (left out); ``levels``: one :class:`LevelReport` per level, coarse to fine.
+    """
+
+    camera: Camera
+    rms_px: float
+    support: float
+    samples: int
+    uncertainty: PoseUncertainty
+    warnings: list = field(default_factory=list)
+    times_s: dict = field(default_factory=dict)
+    dropped: list = field(default_factory=list)
+    levels: list = field(default_factory=list)
+
+
+@dataclass
+class _Evaluation:
+    r: np.ndarray
+    rows: np.ndarray
+    proj: object
+    found: object
+    weights: np.ndarray
+    sigma: float
+    cost: float
+
+
+class _Clock:
+    def __init__(self):
+        self.times = {k: 0.0 for k in ("render", "edges", "photo", "match", "solve", "uncertainty")}
+
+    def add(self, stage, start):
+        self.times[stage] += time.perf_counter() - start
+        return time.perf_counter()
+
+
+def _radius(sigma: float) -> int:
+    """The search radius (level px) of a robust scale: the Tukey support, at least 3 px."""
+    return max(3, int(math.ceil(solver.TUKEY_C * sigma)))
+
+
+def _thinned(samples, most: int):
+    if len(samples) <= most:
+        return samples
+    return model.subset(samples, np.linspace(0, len(samples) - 1, most).astype(int))
+
+
+def render_depth(renderer, camera: Camera, with_image: bool = False):
+    """(H, W) float32 linear depth of ``camera`` (0 = background), from the renderer's result
+    (full detail: a simplified mesh moves the edges); with ``with_image`` also the Phong
+    render's grey image (float32, 0..1)."""
+    frame = renderer.render(camera, ["phong"], RenderSettings(lod_px=0.0))
+    if not with_image:
+        return frame.depth
+    return frame.depth, frame["phong"].image.astype(np.float32) @ np.array([0.299, 0.587, 0.114], np.float32) / 255.0
+
+
+def level_count(width: int, options: EdgeOptions) -> int:
+    if options.levels is not None:
+        return options.levels
+    return max(1, 1 + int(math.floor(math.log2(max(width, 1) / _COARSEST_WIDTH))))
+
+
+class _Fitter:
+    """The state of one fit (kept in an object: the levels share the pose, the clock, the parts)."""
+
+    def __init__(self, edges, renderer, camera, grey, options, clock):
+        self.edges, self.renderer, self.camera, self.options, self.clock = edges, renderer, camera, options, clock
+        start = time.perf_counter()
+        self.pyramid = photo.pyramid(grey, level_count(camera.width, options))
+        clock.add("photo", start)
+        self.dropped = np.zeros(len(edges.group_names), bool)
+        self.state = None
+
+    def visible_samples(self, scale: float, radius: int):
+        """Samples of the visible, distinct edges at the current pose (:func:`photo.distinct` in
+        the Phong render, within ``radius`` level px), thinned to ``max_samples``."""
+        start = time.perf_counter()
+        cam = self.state.camera(self.camera)
+        level_camera = cam.resized(max(1, round(cam.width * scale)), max(1, round(cam.height * scale)))
+        depth, image = render_depth(self.renderer, level_camera, with_image=True)
+        start = self.clock.add("render", start)
+        samples = model.sample_edges(self.edges, cam, self.options.spacing_px / scale,
+                                     max_count=_CANDIDATES * self.options.max_samples)
+        samples = model.subset(samples, model.visible(samples, cam, depth) & ~self.dropped[samples.group])
+        samples = _thinned(samples, _CANDIDATES // 2 * self.options.max_samples)
+        if len(samples) < _MIN_SAMPLES:
+            self.clock.add("edges", start)
+            return samples
+        proj = solver.project(self.state, self.camera, samples.points, samples.tangents)
+        # the edges the render shows alone within the isolation radius (see photo.distinct); as
+        # isolated as the scene allows: a lone box has its corners' neighbours within any radius
+        rendered = photo.pyramid(image, 1)[0]
+        uv = proj.uv * (depth.shape[1] / cam.width)
+        for r in range(min(radius, _ISOLATION_PX), 2, -1):
+            keep = photo.distinct(rendered, uv, proj.normal, r)
+            if np.count_nonzero(keep) >= min(_ISOLATED_ENOUGH, len(samples) // 4):
+                samples = model.subset(samples, keep)
+                break
+        self.clock.add("edges", start)
+        return _thinned(samples, self.options.max_samples)
+
+    def match(self, level, samples, radius, polarity):
+        """Residuals (level px; nan without a match), rows and the projection of the samples."""
+        start = time.perf_counter()
+        proj = solver.project(self.state, self.camera, samples.points, samples.tangents)
+        uv = photo.to_level(proj.uv, level.scale)
+        found = photo.search(level, uv, proj.normal, radius, polarity)
+        self.clock.add("match", start)
+        return -found.offset, solver.normal_rows(proj, level.scale), proj, found
+
+    def evaluate(self, level, samples, radius, polarity, sigma) -> "_Evaluation":
+        """Match the samples at the current pose; Tukey weights and cost at the scale ``sigma``."""
+        r, rows, proj, found = self.match(level, samples, radius, polarity)
+        start = time.perf_counter()
+        ok = np.isfinite(r)
+        weights = np.zeros(len(r))
+        weights[ok] = solver.tukey_weights(r[ok], sigma, sigma)[0]
+        cost = solver.tukey_cost(np.where(ok, r, np.inf), sigma)
+        self.clock.add("solve", start)
+        return _Evaluation(r, rows, proj, found, weights, sigma, cost)
+
+    def samples_for(self, level, radius):
+        samples = self.visible_samples(level.scale, radius)
+        if len(samples) < _MIN_SAMPLES:
+            raise EdgeFitError(f"only {len(samples)} visible CAD edge samples in view (at least {_MIN_SAMPLES} "
+                               "needed): is the rough pose looking at the scene?")
+        return samples
+
+    def run_level(self, level, sigma: float, judge_parts: bool) -> LevelReport:
+        """Levenberg-Marquardt on the robust cost (a step is kept only when it lowers the cost
+        of the re-matched samples), re-finding the visible edges when the pose moved.
+
+        Graduated: the robust scale ``sigma`` (level px) starts wide -- on the coarsest level
+        the rough pose's error, where most matches within the search radius are another edge's
+        and a scale measured from the residuals (MAD) would take them all in -- and shrinks by
+        :data:`_ANNEAL` after every step kept, to the level's floor; the search radius follows
+        (the Tukey support, ``4.685 sigma``)."""
+        floor = _SIGMA_FLOOR_PX if level.scale == 1.0 else 2 * _SIGMA_FLOOR_PX
+        radius = _radius(sigma)
+        samples = self.samples_for(level, radius)
+        now = self.evaluate(level, samples, radius, None, sigma)
+        polarity, moved, damping, iterations = now.found.polarity, 0.0, 1e-3, 0
+        while iterations < self.options.iterations and damping < 1e4:
+            iterations += 1
+            ok = np.isfinite(now.r)
+            if np.count_nonzero(now.weights) < 6:
+                raise EdgeFitError(f"the CAD's edges found no photo edges near them ({np.count_nonzero(ok)} of "
+                                   f"{len(now.r)} samples): the rough pose is too far off or the photo shows another view")
+            step = solver.gauss_newton_step(now.rows[ok], now.r[ok], now.weights[ok], damping)
+            if step is None:
+                raise EdgeFitError("the edges found do not determine the pose (singular normal equations)")
+            shift = float(np.max(np.abs(now.rows @ step)))
+            limit = max(radius / 2.0, 1.0)           # a trust region: no sample moves more than half the search
+            if shift > limit:
+                step, shift = step * (limit / shift), limit
+            before = self.state
+            self.state = before.moved(step)
+            trial = self.evaluate(level, samples, radius, polarity, sigma)
+            if trial.cost >= now.cost:
+                self.state, damping = before, damping * 10.0
+                continue
+            damping, moved = max(damping / 10.0, 1e-6), moved + shift
+            polarity = np.where(polarity == 0, trial.found.polarity, polarity)
+            if shift < _CONVERGED_PX and sigma <= floor:
+                now = trial
+                break
+            sigma = max(floor, sigma * _ANNEAL)
+            radius = _radius(sigma)
+            if moved > self.options.rerender_px:
+                samples, moved = self.samples_for(level, radius), 0.0
+                polarity = None
+            now = self.evaluate(level, samples, radius, polarity, sigma)
+            polarity = now.found.polarity if polarity is None else polarity
+        if judge_parts:     # not on the coarsest level: a part may still be off by the search radius there
+            self.drop_unsupported(samples, now.weights)
+        ok = np.isfinite(now.r) & (now.weights > 0)
+        rms = float(np.sqrt(np.average(now.r[ok] ** 2, weights=now.weights[ok]))) if np.any(ok) else math.inf
+        return LevelReport(level.scale, iterations, len(samples), float(np.mean(now.weights > 0)), rms)
+
+    def drop_unsupported(self, samples, weights) -> None:
+        """Leave out the instances whose edges (enough of them) found support too rarely."""
+        count = np.bincount(samples.group, minlength=len(self.dropped))
+        supported = np.bincount(samples.group, weights=(weights > 0).astype(float), minlength=len(self.dropped))
+        judged = count >= _PART_MIN_SAMPLES
+        self.dropped |= judged & (supported < _PART_MIN_SUPPORT * np.maximum(count, 1))
+
+
+def refine_pose(scene, camera: Camera, grey: np.ndarray, initial: Camera | None = None,
+                options: EdgeOptions | None = None, *, renderer=None, edges=None) -> EdgeFit:
+    """Snap the pose of ``camera`` (or of ``initial``) onto the edges of the photo ``grey``.
+
+    ``scene``: the :class:`~mrcheck.scene.model.Scene`; ``camera``: the photo's intrinsics (at the
+    photo's size, lens distortion as calibrated) and, without ``initial``, the rough pose;
+    ``grey``: (H, W) photo, uint8 or float in 0..1 (colour is converted). ``renderer``: a
+    :class:`~mrcheck.render.renderer.Renderer` of ``scene`` to reuse (a video), else one is made
+    and released; ``edges``: :func:`~mrcheck.mr.edges.model.scene_edges` of the scene, to reuse.
+    Raises :class:`EdgeFitError` when the fit diverges or ends with too little support.
+    """
+    options = (options or EdgeOptions()).validated()
+    grey = _grey(grey)
+    if grey.shape != (camera.height, camera.width):
+        raise MrcheckError(f"photo is {grey.shape[1]}x{grey.shape[0]} but the camera is {camera.width}x{camera.height}")
+    start_total = time.perf_counter()
+    clock = _Clock()
+    start = time.perf_counter()
+    edges = edges if edges is not None else model.scene_edges(scene)
+    clock.add("edges", start)
+    own = renderer is None
+    if own:
+        from mrcheck.render.renderer import Renderer
+
+        renderer = Renderer(scene)
+    try:
+        fit = _fit(_Fitter(edges, renderer, camera, grey, options, clock), camera if initial is None else
+                   camera.with_pose(initial.R, initial.t))
+    finally:
+        if own:
+            renderer.release()
+    fit.times_s = {**clock.times, "total": time.perf_counter() - start_total}
+    return fit
+
+
+def _grey(image: np.ndarray) -> np.ndarray:
+    image = np.asarray(image)
+    if image.ndim == 3:
+        image = image[..., :3].astype(np.float32) @ np.array([0.299, 0.587, 0.114], np.float32)
+        return image / 255.0 if image.max() > 1.5 else image
+    return image
+
+
+def _fit(fitter: _Fitter, rough: Camera) -> EdgeFit:
+    centre = _edges_centre(fitter.edges, rough)
+    fitter.state = solver.PoseState.of(rough, centre)
+    reports = []
+    for index in reversed(range(len(fitter.pyramid))):
+        level = fitter.pyramid[index]
+        # the first level's scale: the rough pose's error, a third of the search radius
+        sigma = fitter.options.search_px * level.scale / solver.TUKEY_C if not reports else _NEXT_LEVEL_SIGMA
+        reports.append(fitter.run_level(level, sigma, judge_parts=bool(reports)))
+    return _finish(fitter, rough, reports)
+
+
+def _edges_centre(edges: model.EdgeSet, camera: Camera) -> np.ndarray:
+    """A centre for the pose's rotation: the mean of the edge midpoints in front of the camera."""
+    mid = 0.5 * (edges.a + edges.b)
+    ahead = (mid @ camera.R[2] + camera.t[2]) > 0
+    return mid[ahead].mean(axis=0) if np.any(ahead) else mid.mean(axis=0)
+
+
+def _finish(fitter: _Fitter, rough: Camera, reports: list) -> EdgeFit:
+    """The full-resolution statistics, the uncertainty, the warnings, or the failure."""
+    options, camera = fitter.options, fitter.camera
+    samples = fitter.visible_samples(1.0, 3)
+    r, rows, proj, _ = fitter.match(fitter.pyramid[0], samples, 3, None)
+    start = time.perf_counter()
+    ok = np.isfinite(r)
+    weights = np.zeros(len(r))
+    weights[ok], _ = solver.tukey_weights(r[ok], 0.25)
+    support = float(np.mean(weights > 0)) if len(r) else 0.0
+    rms = float(np.sqrt(np.average(r[ok] ** 2, weights=weights[ok]))) if np.any(weights > 0) else math.inf
+    fitted = fitter.state.camera(camera)
+    moved = np.median(np.linalg.norm(rough.project(samples.points) - fitted.project(samples.points), axis=1))
+    if moved > _DIVERGED_SHARE * math.hypot(camera.width, camera.height):
+        raise EdgeFitError(f"the edge fit diverged: it moved the view by {moved:.0f} px from the rough pose")
+    if support < options.min_support:
+        raise EdgeFitError(f"too little support: {support:.0%} of {len(r)} CAD edge samples found a photo edge "
+                           f"(at least {options.min_support:.0%} needed); is the rough pose within "
+                           f"{options.search_px:g} px, and does the photo show the scene?")
+    rows_full = rows / fitter.pyramid[0].scale
+    cov = solver.covariance(rows_full, np.where(ok, r, 0.0), weights, samples.edge)
+    depth = float(np.median(proj.depth[weights > 0]))
+    uncertainty = pose_uncertainty(fitter.state, camera, cov, depth)
+    fitter.clock.add("uncertainty", start)
+    warnings = _warnings(uncertainty, proj.normal[weights > 0], weights[weights > 0])
+    dropped = [name for name, d in zip(fitter.edges.group_names, fitter.dropped) if d]
+    return EdgeFit(fitted, rms, support, len(r), uncertainty, warnings, dropped=dropped, levels=reports)
+
+
+def _warnings(uncertainty: PoseUncertainty, normals, weights) -> list:
+    out = []
+    angle = parallel_edges(normals, weights)
+    if angle is not None:
+        out.append(f"the edges found are nearly all parallel (at {angle:.0f} deg in the image): the pose is poorly "
+                   "constrained along them")
+    if uncertainty.max_corner_px > WEAK_CORNER_PX or (uncertainty.weak and angle is not None):
+        weak = f"; weakest: {uncertainty.weak}" if uncertainty.weak else ""
+        out.append(f"the pose is poorly constrained: up to {uncertainty.max_corner_px:.1f} px (1 sigma) at the image "
+                   f"corners{weak}")
+    return out
+
+
+__all__ = ["refine_pose", "EdgeFit", "EdgeOptions", "EdgeFitError", "LevelReport", "render_depth", "level_count"]
