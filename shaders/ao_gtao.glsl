@@ -16,30 +16,23 @@
 
 void main() {
     AOPixel px;
-    if (!ao_begin(px)) return;                  // background
-
-    vec2 p = vec2(px.ij);
-    vec3 V = normalize(-px.P);
-    vec2 rot = normalize(px.noise.xy + vec2(1e-6, 0.0));    // per-pixel slice rotation (cos, sin)
-    float jitter = 0.5 + 0.5 * px.noise.z;                  // per-pixel step offset in [0, 1]
-    float r_S = world_radius(px.z);
-    float r2 = r_S * r_S;
-    float r_proj = r_S * u_intrinsics.y / px.z;             // r_px unless clamped
+    SlicePixel sp;
+    if (!slice_begin(px, sp)) return;           // background
 
     float visible = 0.0, whole = 0.0;
     for (int i = 0; i < SLICES; ++i) {
-        Slice s = make_slice(i, rot, V, px.n);
+        Slice s = make_slice(i, sp.rot, sp.V, px.n);
         float sin_n = sin(s.n), cos_n = cos(s.n);
         // each side's horizon as its lift above the tangent (0: open), attenuated by distance
         float lift_pos = 0.0, lift_neg = 0.0;
         for (int k = 0; k < SLICE_STEPS; ++k) {
-            float offset = step_offset(k, jitter, r_proj);
+            float offset = step_offset(k, sp.jitter, sp.r_proj);
             vec3 d;
             float lift;
-            if (slice_sample(p, s.dir, offset, px.P, px.n, V, d, lift))
-                lift_pos = max(lift_pos, lift * attenuation(dot(d, d), r2));
-            if (slice_sample(p, -s.dir, offset, px.P, px.n, V, d, lift))
-                lift_neg = max(lift_neg, lift * attenuation(dot(d, d), r2));
+            if (slice_sample(sp.p, s.dir, offset, px.P, px.n, sp.V, d, lift))
+                lift_pos = max(lift_pos, lift * attenuation(dot(d, d), sp.r2));
+            if (slice_sample(sp.p, -s.dir, offset, px.P, px.n, sp.V, d, lift))
+                lift_neg = max(lift_neg, lift * attenuation(dot(d, d), sp.r2));
         }
         // h2 = n + min(h2 - n, pi/2), h1 = n + max(h1 - n, -pi/2) of the paper, as lifts
         float h2 = s.n + HALF_PI - min(lift_pos, PI);

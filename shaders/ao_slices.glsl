@@ -57,6 +57,32 @@ Slice make_slice(int i, vec2 rot, vec3 V, vec3 N) {
     return s;
 }
 
+// What the slice passes' main() starts from, beyond ao_begin's AOPixel: the pixel as a vec2,
+// the view vector V (P to the camera), the tile's slice rotation (cos, sin) and step jitter in
+// [0, 1], the world radius r_S, its square and its projection in pixels (r_px unless clamped).
+struct SlicePixel {
+    vec2 p;
+    vec3 V;
+    vec2 rot;
+    float jitter;
+    float r_S;
+    float r2;
+    float r_proj;
+};
+
+// ao_begin, then the SlicePixel; false on the background (written by ao_begin).
+bool slice_begin(out AOPixel px, out SlicePixel sp) {
+    if (!ao_begin(px)) return false;
+    sp.p = vec2(px.ij);
+    sp.V = normalize(-px.P);
+    sp.rot = normalize(px.noise.xy + vec2(1e-6, 0.0));
+    sp.jitter = 0.5 + 0.5 * px.noise.z;
+    sp.r_S = world_radius(px.z);
+    sp.r2 = sp.r_S * sp.r_S;
+    sp.r_proj = sp.r_S * u_intrinsics.y / px.z;
+    return true;
+}
+
 // G(h) = sign(h) a(h), the antiderivative of the slice's cosine-weighted measure (above).
 float slice_G(float h, float n, float sin_n, float cos_n) {
     float a = (cos_n - cos(2.0 * h - n) + 2.0 * h * sin_n) * 0.25;

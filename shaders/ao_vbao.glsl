@@ -68,33 +68,26 @@ float occluded_measure(uint bits, float n, float sin_n, float cos_n) {
 
 void main() {
     AOPixel px;
-    if (!ao_begin(px)) return;                  // background
-
-    vec2 p = vec2(px.ij);
-    vec3 V = normalize(-px.P);
-    vec2 rot = normalize(px.noise.xy + vec2(1e-6, 0.0));    // per-pixel slice rotation (cos, sin)
-    float jitter = 0.5 + 0.5 * px.noise.z;                  // per-pixel step offset in [0, 1]
-    float r_S = world_radius(px.z);
-    float r2 = r_S * r_S;
-    float r_proj = r_S * u_intrinsics.y / px.z;             // r_px unless clamped
-    float thickness = u_thickness * r_S;
+    SlicePixel sp;
+    if (!slice_begin(px, sp)) return;           // background
+    float thickness = u_thickness * sp.r_S;
     float u = fract(0.5 + 0.5 * px.noise.y + 0.25 * px.noise.x);   // attenuation thresholds, per pixel
 
     float visible = 0.0, whole = 0.0;
     for (int i = 0; i < SLICES; ++i) {
-        Slice s = make_slice(i, rot, V, px.n);
+        Slice s = make_slice(i, sp.rot, sp.V, px.n);
         float sin_n = sin(s.n), cos_n = cos(s.n);
         uint bits = 0u;
         for (int k = 0; k < SLICE_STEPS; ++k) {
-            float offset = step_offset(k, jitter, r_proj);
+            float offset = step_offset(k, sp.jitter, sp.r_proj);
             vec3 d;
             float lift;
             u = fract(u + GOLDEN);
-            if (slice_sample(p, s.dir, offset, px.P, px.n, V, d, lift))
-                bits |= sample_bits(d, lift, 1.0, V, px.n, r2, thickness, u);
+            if (slice_sample(sp.p, s.dir, offset, px.P, px.n, sp.V, d, lift))
+                bits |= sample_bits(d, lift, 1.0, sp.V, px.n, sp.r2, thickness, u);
             u = fract(u + GOLDEN);
-            if (slice_sample(p, -s.dir, offset, px.P, px.n, V, d, lift))
-                bits |= sample_bits(d, lift, -1.0, V, px.n, r2, thickness, u);
+            if (slice_sample(sp.p, -s.dir, offset, px.P, px.n, sp.V, d, lift))
+                bits |= sample_bits(d, lift, -1.0, sp.V, px.n, sp.r2, thickness, u);
         }
         float total = slice_G(s.n + HALF_PI, s.n, sin_n, cos_n) - slice_G(s.n - HALF_PI, s.n, sin_n, cos_n);
         visible += s.len * (total - occluded_measure(bits, s.n, sin_n, cos_n));

@@ -7,7 +7,6 @@ Unblurred AO, fixed seeds."""
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 import pytest
 
@@ -16,7 +15,7 @@ from mrcheck.render.ao.gtao import slices_and_steps
 from mrcheck.render.renderer import DEFAULT_RADIUS_FRACTION, RenderSettings
 
 from .conftest import box, render_ao, render_depth, scene_of
-from .test_ao_properties import _band_width_px, _block_on_slab, _ring_darkening
+from .test_ao_properties import _ring_darkening, bands_at_2_and_200_m, blocks_at_5_and_100_m
 
 W, H = 320, 240
 SLICE_MODES = ["gtao", "vbao"]
@@ -47,15 +46,8 @@ def test_planes_are_unoccluded(ctx, mode, scale):
 @pytest.mark.parametrize("mode", [*SLICE_MODES, "gtao clamped"])
 def test_projected_sampling_radius_is_constant_with_depth(ctx, mode):
     # as the vector test: the same picture at 2 m and, scaled by 100, at 200 m
-    camera = Camera.from_look_at((0, 0, 0), (0, 1, 0), (0, 0, 1), 60, W, H)
-    widths, totals = {}, {}
-    for distance in (2.0, 200.0):
-        s = distance / 2.0
-        scene = scene_of(box((20 * s, 0.1 * s, 20 * s), (0, distance + 0.05 * s, 0)),
-                         box((0.6 * s, 0.1 * s, 0.6 * s), (0, distance - 0.05 * s, 0)))
-        clamp = {"max_world_radius": 0.12} if mode.endswith("clamped") else {}
-        ao = render_ao(ctx, scene, camera, mode.split()[0], samples=64, radius_px=12, **clamp)
-        widths[distance], totals[distance] = _band_width_px(ao, render_depth(ctx, scene, camera), distance)
+    clamp = {"max_world_radius": 0.12} if mode.endswith("clamped") else {}
+    widths, totals = bands_at_2_and_200_m(ctx, mode.split()[0], radius_px=12, **clamp)
     print(mode, widths, totals)
     # a band to measure at 2 m (narrower than vector's: a horizon's elevation falls off with
     # distance from the step, and the steps are denser near the pixel)
@@ -70,17 +62,8 @@ def test_projected_sampling_radius_is_constant_with_depth(ctx, mode):
 @pytest.mark.parametrize("mode", SLICE_MODES)
 def test_distance_retention(ctx, mode, record_property):
     # tests/test_ao_properties.py's scene: the same block at 5 m and at 100 m, seen at one angle
-    width, height = 800, 600
-    camera = Camera.from_look_at((0, 0, 0), (0, 1, 0), (0, 0, 1), 40, width, height)
-    scene = scene_of(*_block_on_slab(5.0, -2.5), *_block_on_slab(100.0, 18.0))
-    slabs = scene_of(*_block_on_slab(5.0, -2.5, False), *_block_on_slab(100.0, 18.0, False))
-    depth = render_depth(ctx, scene, camera)
-    blocks = (depth > 0) & (np.abs(depth - render_depth(ctx, slabs, camera)) > 1e-3 * depth)
-    count, labels = cv2.connectedComponents(blocks.astype(np.uint8))
-    assert count == 3
-    sizes = [(labels == i).sum() for i in (1, 2)]
-    near_mask, far_mask = [(labels == i) for i in np.argsort(sizes)[::-1] + 1]
-    radius_px = DEFAULT_RADIUS_FRACTION * height
+    camera, scene, slabs, near_mask, far_mask = blocks_at_5_and_100_m(ctx)
+    radius_px = DEFAULT_RADIUS_FRACTION * camera.height
     ao = render_ao(ctx, scene, camera, mode, samples=36, radius_px=radius_px)
     ao_without = render_ao(ctx, slabs, camera, mode, samples=36, radius_px=radius_px)
     near = _ring_darkening(ao, ao_without, near_mask, int(radius_px))

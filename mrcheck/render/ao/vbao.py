@@ -10,20 +10,15 @@ sampling radius r_S (1.0: as thick as the radius).
 
 from __future__ import annotations
 
-from mrcheck.render.ao.base import AOPass
-from mrcheck.render.ao.gtao import slices_and_steps
-from mrcheck.render.ao.screen_radius import set_screen_radius
+from mrcheck.render.ao.gtao import GTAO
 
 
-class VBAO(AOPass):
+class VBAO(GTAO):
+    """GTAO's slices, sample budget and radius uniforms; its own shader and the thickness."""
     shader = "ao_vbao"
 
-    def method_defines(self, samples: int) -> dict:
-        slices, steps = slices_and_steps(samples)
-        return {"SLICES": slices, "SLICE_STEPS": steps}
-
     def _set_method_uniforms(self, settings, scale: float) -> None:
-        set_screen_radius(self.program, settings, scale)
+        super()._set_method_uniforms(settings, scale)
         self.program["u_thickness"].value = float(settings.thickness)
 
 
