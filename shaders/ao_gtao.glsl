@@ -9,8 +9,9 @@
 // the tangent times the reference's weight 1 / (1 + c (d/r)^2) within r (0 beyond), i.e. its
 // horizon angle is blended from the side's open horizon (the tangent) towards its own, as XeGTAO
 // blends (in cosines, with a linear falloff). Horizons are measured as that elevation against
-// the tangent on each sample's own pixel ray (ao_slices.glsl, slice_sample: why). No thickness heuristic: every sample above the horizon occludes all below it (the
-// halo behind thin objects that vbao addresses).
+// the tangent on each sample's own pixel ray (ao_slices.glsl, slice_sample: why). No thickness
+// heuristic: every sample above the horizon occludes all below it (the halo behind thin objects
+// that vbao addresses).
 #include "ao_common.glsl"
 #include "ao_slices.glsl"
 

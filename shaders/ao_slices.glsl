@@ -103,10 +103,11 @@ float step_offset(int k, float jitter, float r_proj) {
 // Why the tangent on the sample's own ray (as ao_hbao.glsl does): samples are rounded to pixel
 // centres, which leaves the slice plane, and the angle of an off-plane point from V is not the
 // in-slice tangent angle n +- pi/2: measured against that, a grazing floor read as occluded
-// (GTAO on the sample cell's floor: visible noise, AO down to ~0.9). P, delta and T lie in one
-// plane (the pixel ray's), so the angle between delta and T is the sample's elevation there: a
-// plane gives lift 0 exactly, and on an unrounded slice line it is the paper's horizon angle
-// less the tangent's, (n +- pi/2) - h. One acos per sample.
+// (GTAO on the sample cell's floor: a visible speckle in the unblurred AO, 320x240; how dark
+// was not measured). P, delta and T lie in one plane (the pixel ray's), so the angle between
+// delta and T is the sample's elevation there: a plane gives lift 0 exactly, and on an
+// unrounded slice line it is the paper's horizon angle less the tangent's, |(n +- pi/2) - h|.
+// One acos per sample.
 bool slice_sample(vec2 p, vec2 dir, float offset, vec3 P, vec3 N, vec3 V, out vec3 delta, out float lift) {
     ivec2 q;
     bool inside;
