@@ -156,13 +156,14 @@ def test_bench_quick_measures_every_item_of_the_issue(quick):
 
 
 def test_the_progress_total_is_the_figures_measured(quick):
-    """The plan's count is what a run measures: 64 figures quick, 204 in a full run (2 sizes x
-    (4 sample counts x 22 + 6) on the sample cell, 5 on the height fields, 3 halls at 2 sizes,
-    3 line-scene frames and 2 peers)."""
+    """The plan's count is what a run measures: 80 figures quick, 268 in a full run (2 sizes x
+    (4 sample counts x 30 + 6) on the sample cell -- 7 AO modes' passes and frames at 2
+    resolutions and 2 floors per count --, 5 on the height fields, 3 halls at 2 sizes, 3
+    line-scene frames and 2 peers)."""
     report, _ = quick
     not_run = sum(report["ratios"][f"{peer}_over_mrcheck_frame"] is None for peer in bench_peers.PEERS)
-    assert bench_plan.planned_figures(quick=True) == len(report["figures"]) + not_run == 64
-    assert bench_plan.planned_figures(quick=False) == 204
+    assert bench_plan.planned_figures(quick=True) == len(report["figures"]) + not_run == 80
+    assert bench_plan.planned_figures(quick=False) == 268
 
 
 def test_the_papers_column_is_beside_its_own_method_only(quick):
