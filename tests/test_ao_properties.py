@@ -82,21 +82,28 @@ def _band_width_px(ao, depth, wall_depth):
     return float((distance * darkening).sum() / max(darkening.sum(), 1e-9)), float(darkening.sum())
 
 
-@pytest.mark.parametrize("mode", ["vector", "ssao", "vector clamped"])
-def test_projected_sampling_radius_is_constant_with_depth(ctx, mode):
-    # A wall facing the camera with a block standing 0.1 m out of it at 2 m, and the same scaled
-    # to stand at 200 m: both views show the same picture, so only the sampling radius decides
-    # how wide the AO band around the block is, in pixels.
+def bands_at_2_and_200_m(ctx, mode, **settings):
+    """(widths, totals) by distance (2, 200 m) of the AO band around a block 0.1 m out of a
+    facing wall, and the same scaled by 100 (see the test below); 64 samples."""
     camera = Camera.from_look_at((0, 0, 0), (0, 1, 0), (0, 0, 1), 60, W, H)
     widths, totals = {}, {}
     for distance in (2.0, 200.0):
         s = distance / 2.0
         scene = scene_of(box((20 * s, 0.1 * s, 20 * s), (0, distance + 0.05 * s, 0)),
                          box((0.6 * s, 0.1 * s, 0.6 * s), (0, distance - 0.05 * s, 0)))
-        # NOTES 6: the optional world clamp turns the vector radius back into a world one
-        clamp = {"max_world_radius": 0.12} if mode == "vector clamped" else {}
-        ao = render_ao(ctx, scene, camera, mode.split()[0], samples=64, radius_px=12, radius_world=0.12, **clamp)
+        ao = render_ao(ctx, scene, camera, mode, samples=64, **settings)
         widths[distance], totals[distance] = _band_width_px(ao, render_depth(ctx, scene, camera), distance)
+    return widths, totals
+
+
+@pytest.mark.parametrize("mode", ["vector", "ssao", "vector clamped"])
+def test_projected_sampling_radius_is_constant_with_depth(ctx, mode):
+    # A wall facing the camera with a block standing 0.1 m out of it at 2 m, and the same scaled
+    # to stand at 200 m: both views show the same picture, so only the sampling radius decides
+    # how wide the AO band around the block is, in pixels.
+    # NOTES 6: the optional world clamp turns the vector radius back into a world one
+    clamp = {"max_world_radius": 0.12} if mode == "vector clamped" else {}
+    widths, totals = bands_at_2_and_200_m(ctx, mode.split()[0], radius_px=12, radius_world=0.12, **clamp)
     assert widths[2.0] > 2.0 and totals[2.0] > 10.0  # there is a band to measure at 2 m
     if mode == "vector":
         assert widths[200.0] == pytest.approx(widths[2.0], rel=0.05)
@@ -123,13 +130,10 @@ def _block_on_slab(distance, x, with_block=True):
     return [p.apply_transform(T) for p in parts]
 
 
-def test_distance_retention_vector_keeps_ao_far_away_ssao_loses_it(ctx, record_property):
-    # The paper's central claim (section 3): identical objects at 5 m and 100 m. Each stands on
-    # its own slab seen at the same angle, so distance is the only difference. (On one common
-    # floor the far contact is seen at 1 degree, where a pixel row spans metres of depth and no
-    # screen-space method sees a crease at all.) The ssao radius equals the vector one at 5 m.
-    width, height = 800, 600
-    camera = Camera.from_look_at((0, 0, 0), (0, 1, 0), (0, 0, 1), 40, width, height)
+def blocks_at_5_and_100_m(ctx):
+    """(camera, scene, the scene without the blocks, near block's mask, far block's mask) of the
+    distance-retention test below: 800x600, 40 degrees."""
+    camera = Camera.from_look_at((0, 0, 0), (0, 1, 0), (0, 0, 1), 40, 800, 600)
     scene = scene_of(*_block_on_slab(5.0, -2.5), *_block_on_slab(100.0, 18.0))
     slabs = scene_of(*_block_on_slab(5.0, -2.5, False), *_block_on_slab(100.0, 18.0, False))
     depth = render_depth(ctx, scene, camera)
@@ -138,8 +142,16 @@ def test_distance_retention_vector_keeps_ao_far_away_ssao_loses_it(ctx, record_p
     assert count == 3, "expected the two blocks as two blobs"
     sizes = [(labels == i).sum() for i in (1, 2)]
     near_mask, far_mask = [(labels == i) for i in np.argsort(sizes)[::-1] + 1]
+    return camera, scene, slabs, near_mask, far_mask
 
-    radius_px = DEFAULT_RADIUS_FRACTION * height  # the default screen radius
+
+def test_distance_retention_vector_keeps_ao_far_away_ssao_loses_it(ctx, record_property):
+    # The paper's central claim (section 3): identical objects at 5 m and 100 m. Each stands on
+    # its own slab seen at the same angle, so distance is the only difference. (On one common
+    # floor the far contact is seen at 1 degree, where a pixel row spans metres of depth and no
+    # screen-space method sees a crease at all.) The ssao radius equals the vector one at 5 m.
+    camera, scene, slabs, near_mask, far_mask = blocks_at_5_and_100_m(ctx)
+    radius_px = DEFAULT_RADIUS_FRACTION * camera.height  # the default screen radius
     radius_world = radius_px * 5.0 / camera.fy    # ssao: the same radius at 5 m
     ratios = {}
     for mode in ("vector", "ssao"):

@@ -43,6 +43,10 @@ CASES = {
     "overview_hbao": ("overview", "hbao", {}, "image"),
     "overview_alchemy": ("overview", "alchemy", {}, "image"),
     "robot_hbao_ao_raw": ("robot", "hbao", {"blur": False, "samples": 36}, "ao"),
+    "overview_gtao": ("overview", "gtao", {}, "image"),
+    "overview_vbao": ("overview", "vbao", {}, "image"),
+    "robot_gtao_ao_raw": ("robot", "gtao", {"blur": False, "samples": 36}, "ao"),
+    "robot_vbao_ao_raw": ("robot", "vbao", {"blur": False, "samples": 36}, "ao"),
 }
 
 

@@ -57,6 +57,7 @@ OPTIONS = {   # every float option of every command, on a command line that work
     "render": (RENDER, ["--radius-px", "--radius-fraction", "--min-world-radius", "--max-world-radius", "--falloff",
                         "--intensity", "--lod-px"]),
     "render-ssao": ([*RENDER, "--mode", "ssao"], ["--radius"]),
+    "render-vbao": ([*RENDER, "--mode", "vbao"], ["--thickness"]),
     "overlay": (["overlay", "shot.json", "--scene", "scene.toml", "-o", "out/o.png"], ["--alpha", "--intensity"]),
     "register": (["register", "scene.toml", "--photo", "photo.png", "--intrinsics", "intr.json", "--points", "corr.json",
                   "-o", "out/s.json"], ["--max-error"]),

@@ -26,6 +26,7 @@ from mrcheck.cli import main  # noqa: E402
 from mrcheck.cli.messages import console  # noqa: E402
 from mrcheck.core.errors import MrcheckError  # noqa: E402
 from mrcheck.core.output import write_image  # noqa: E402
+from mrcheck.render.settings import MODES  # noqa: E402
 from mrcheck.core.resources import sample_scene_path  # noqa: E402
 from mrcheck.scene.model import load_scene  # noqa: E402
 
@@ -124,7 +125,7 @@ def test_marker_crud_and_persistence(client, outdir, tmp_path):
         # a byte-order mark, so that Excel reads the UTF-8 notes as UTF-8
         assert exported.content.startswith(b"\xef\xbb\xbfid,shot,") and "charset=utf-8" in exported.headers["content-type"]
         report = other.get("/api/export/report.html").text
-        assert "pillar 25 cm off" in report and report.count("data:image/png") == 7  # photo + 6 modes
+        assert "pillar 25 cm off" in report and report.count("data:image/png") == 1 + len(MODES)  # photo + every mode
     assert (tmp_path / "review.sqlite-wal").exists() or (tmp_path / "review.sqlite").stat().st_size > 0
 
 

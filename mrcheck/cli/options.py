@@ -62,12 +62,19 @@ def odd_kernel(ctx, param, value):
 AO_MODES = tuple(m for m in MODE_CHOICES if m not in ("phong", "all"))
 
 
-WORLD_RADIUS_MODES = tuple(m for m in AO_MODES if m != "vector")   # ssao and the comparison modes
+def screen_radius_modes() -> tuple[str, ...]:
+    from mrcheck.render.settings import SCREEN_RADIUS_MODES  # vector, gtao, vbao
+
+    return SCREEN_RADIUS_MODES
+
+
+SCREEN_RADIUS_MODES = screen_radius_modes()
+WORLD_RADIUS_MODES = tuple(m for m in AO_MODES if m not in SCREEN_RADIUS_MODES)   # ssao and the other comparison modes
 
 
 OPTION_MODES = {
-    "radius_px": ("vector",), "radius_fraction": ("vector",), "min_world_radius": ("vector",),
-    "max_world_radius": ("vector",), "radius_world": WORLD_RADIUS_MODES, "samples": AO_MODES,
+    "radius_px": SCREEN_RADIUS_MODES, "radius_fraction": SCREEN_RADIUS_MODES, "min_world_radius": SCREEN_RADIUS_MODES,
+    "max_world_radius": SCREEN_RADIUS_MODES, "radius_world": WORLD_RADIUS_MODES, "thickness": ("vbao",), "samples": AO_MODES,
     "falloff": AO_MODES, "intensity": AO_MODES, "blur": AO_MODES, "blur_size": AO_MODES,
     "ao_scale": AO_MODES, "ao_direct": AO_MODES, "seed": AO_MODES,
 }

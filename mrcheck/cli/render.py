@@ -28,7 +28,8 @@ FIRST_DEMO_IMAGE = "robot_study.png"   # the sample cell's robot in D1 | D2 | D3
                    "a registered SHOT.json works too.")
 @click.option("--mode", type=click.Choice(MODE_CHOICES), default="vector", show_default=True,
               help="phong = D1 (no AO), vector = D2 (Scheer & Keutel), ssao = D3 (standard SSAO); comparison modes crytek, "
-                   "hbao, alchemy (world radius like ssao); all = D1|D2|D3 side by side, labelled.")
+                   "hbao, alchemy (world radius like ssao), gtao, vbao (screen radius like vector); "
+                   "all = D1|D2|D3 side by side, labelled.")
 @click.option("--width", type=int, callback=positive,
               help="Image width in pixels [default: the view's or camera's]; one side alone keeps the aspect ratio, "
                    "which a --camera's must keep.")
@@ -36,17 +37,19 @@ FIRST_DEMO_IMAGE = "robot_study.png"   # the sample cell's robot in D1 | D2 | D3
 @click.option("--samples", type=int, default=defaults.DEFAULT_SAMPLES, show_default=True, callback=positive,
               help="AO samples per pixel (the paper uses 16, 36, 64, 128).")
 @click.option("--radius-px", type=FINITE, callback=positive,
-              help="vector: sampling radius on screen, pixels at the output resolution "
+              help="vector, gtao, vbao: sampling radius on screen, pixels at the output resolution "
                    f"[default: {defaults.DEFAULT_RADIUS_FRACTION:.0%} of the image height].")
 @click.option("--radius-fraction", type=FINITE, callback=positive,
-              help="vector: sampling radius as a fraction of the image height, instead of --radius-px "
+              help="vector, gtao, vbao: sampling radius as a fraction of the image height, instead of --radius-px "
                    f"[default: {defaults.DEFAULT_RADIUS_FRACTION}].")
 @click.option("--radius", "radius_world", type=FINITE, default=defaults.DEFAULT_RADIUS_WORLD, show_default=True, callback=positive,
               help="ssao: constant world radius in scene units (metres for parts with declared units).")
-@click.option("--min-world-radius", type=FINITE, help="vector: clamp the world sampling radius from below (scene units).")
-@click.option("--max-world-radius", type=FINITE, help="vector: clamp the world sampling radius from above (scene units).")
+@click.option("--min-world-radius", type=FINITE, help="vector, gtao, vbao: clamp the world sampling radius from below (scene units).")
+@click.option("--max-world-radius", type=FINITE, help="vector, gtao, vbao: clamp the world sampling radius from above (scene units).")
 @click.option("--falloff", type=FINITE, default=defaults.DEFAULT_FALLOFF, show_default=True,
               help="c, the attenuation of o = cos / (1 + c (|v|/r)^2); larger = occlusion falls off faster with distance.")
+@click.option("--thickness", type=FINITE, default=defaults.DEFAULT_THICKNESS, show_default=True, callback=positive,
+              help="vbao: assumed thickness of every surface, in units of the world sampling radius.")
 @click.option("--intensity", type=FINITE, default=defaults.DEFAULT_INTENSITY, show_default=True,
               help="AO strength: 0 none, 0.5 weak ... 2 strong (the study stepped four levels, weak to strong).")
 @click.option("--blur/--no-blur", default=defaults.DEFAULT_BLUR_ON, show_default=True, help="Depth-aware bilateral blur of the AO buffer.")
@@ -71,8 +74,8 @@ FIRST_DEMO_IMAGE = "robot_study.png"   # the sample cell's robot in D1 | D2 | D3
               help="Also write the AO term alone: .npy float32 (H, W) in [0,1], background 1, or 16-bit grey .png. "
                    "With --mode all, one file per AO mode, named AO_vector.npy, AO_ssao.npy.")
 def render(scene, view, camera_path, mode, width, height, samples, radius_px, radius_fraction, radius_world,
-           min_world_radius, max_world_radius, falloff, intensity, blur, blur_size, ao_scale, ao_direct, light,
-           seed, lod_px, units, output, output_ao):
+           min_world_radius, max_world_radius, falloff, thickness, intensity, blur, blur_size, ao_scale, ao_direct,
+           light, seed, lod_px, units, output, output_ao):
     """Render a scene from a named view or a calibrated camera.
 
     SCENE is a .toml manifest or one mesh file; the camera is a named viewpoint of the manifest
@@ -82,6 +85,7 @@ def render(scene, view, camera_path, mode, width, height, samples, radius_px, ra
     Examples:
       mrcheck render factory_scenes/sample_cell/scene.toml --view overview --mode all -o study.png
       mrcheck render hall.glb --units mm --camera shot.json --mode vector --no-blur -o v.png --output-ao ao.npy
+      mrcheck render factory_scenes/sample_cell/scene.toml --view robot --mode vbao --thickness 0.5 -o vbao.png
     """
     from mrcheck.render.views import render_command
 
@@ -94,7 +98,7 @@ def render(scene, view, camera_path, mode, width, height, samples, radius_px, ra
         settings=dict(samples=samples, radius_px=radius_px, radius_fraction=radius_fraction or defaults.DEFAULT_RADIUS_FRACTION,
                       radius_world=radius_world,
                       min_world_radius=min_world_radius, max_world_radius=max_world_radius, falloff=falloff,
-                      intensity=intensity, blur=blur, blur_size=blur_size, ao_scale=float(ao_scale),
+                      thickness=thickness, intensity=intensity, blur=blur, blur_size=blur_size, ao_scale=float(ao_scale),
                       ao_direct=ao_direct, light=light, seed=seed, lod_px=lod_px),
     )
     for path in written:

@@ -6,8 +6,8 @@ unblurred (``blur=False``), the raw estimate the metrics judge, whose AO pass ti
 Each mode is judged against the reference of its own radius definition
 (:func:`mrcheck.eval.reference.reference_ao`):
 
-* ``vector`` -- ``radius_mode="screen"`` with the render's ``radius_px`` (per pixel
-  ``r_S = r_px * Z / f_y``);
+* ``vector``, ``gtao``, ``vbao`` -- ``radius_mode="screen"`` with the render's ``radius_px`` (per
+  pixel ``r_S = r_px * Z / f_y``); these share one screen reference;
 * every other mode -- ``radius_mode="world"`` with the render's ``radius_world``; these modes
   share one world reference, computed once.
 
@@ -46,6 +46,7 @@ from mrcheck.eval.metrics import (
     distance_retention,
 )
 from mrcheck.render.renderer import MODES, STUDY_LABELS, Renderer, RenderSettings
+from mrcheck.render.settings import SCREEN_RADIUS_MODES
 from mrcheck.scene.manifest import scene_files
 from mrcheck.scene.model import load_scene
 
@@ -62,8 +63,8 @@ COLUMNS = {"mae": ("MAE", False), "rmse": ("RMSE", False), "ssim": ("SSIM", True
 
 
 def reference_kind(mode: str) -> str:
-    """``"screen"`` for ``vector`` (screen-constant radius), ``"world"`` for every other AO mode."""
-    return "screen" if mode == "vector" else "world"
+    """``"screen"`` for the screen-radius modes (vector, gtao, vbao), ``"world"`` for every other AO mode."""
+    return "screen" if mode in SCREEN_RADIUS_MODES else "world"
 
 
 @dataclass
@@ -224,7 +225,7 @@ def markdown(report: dict) -> str:
     rows = _table_rows(report["modes"])
     lines = [f"# AO modes against ray-traced reference AO: {Path(report['scene']).name}, view {report['view']}", "",
              f"{report['width']}x{report['height']}, {report['samples']} AO samples per pixel, "
-             f"{report['rays']} reference rays per pixel; vector radius {report['radius_px']:.2f} px (screen "
+             f"{report['rays']} reference rays per pixel; screen radius (vector, gtao, vbao) {report['radius_px']:.2f} px (screen "
              f"reference), world radius {report['radius_world']:g} (world reference), falloff {report['falloff']:g}. "
              "Metrics on the unblurred AO over covered pixels; AO pass time of the unblurred render.", "",
              "| " + " | ".join(rows[0]) + " |", "|" + "---|" * len(rows[0])]

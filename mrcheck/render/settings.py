@@ -13,9 +13,11 @@ from dataclasses import dataclass, replace
 from mrcheck.core.errors import MrcheckError
 
 # D1, D2, D3 of the paper's study, then the comparison AO methods (mrcheck.render.ao)
-MODES = ("phong", "vector", "ssao", "crytek", "hbao", "alchemy")
+MODES = ("phong", "vector", "ssao", "crytek", "hbao", "alchemy", "gtao", "vbao")
 STUDY_LABELS = {"phong": "D1 Phong", "vector": "D2 vector SSAO", "ssao": "D3 standard SSAO", "crytek": "Crytek SSAO",
-                "hbao": "HBAO", "alchemy": "Alchemy AO"}
+                "hbao": "HBAO", "alchemy": "Alchemy AO", "gtao": "GTAO", "vbao": "VBAO"}
+# the modes whose radius is on screen (radius_px, optional world clamp); every other AO mode reads radius_world
+SCREEN_RADIUS_MODES = ("vector", "gtao", "vbao")
 LIGHTS = ("headlight", "sun")   # headlight: just above the camera; sun: a fixed world direction
 
 DEFAULT_SAMPLES = 16            # AO samples per pixel (the paper: 16, 36, 64, 128)
@@ -24,6 +26,7 @@ DEFAULT_RADIUS_WORLD = 0.2      # ssao and the comparison modes: metres; equals 
                                 # radius at ~9 m (1024x768, 60 deg)
 DEFAULT_FALLOFF = 1.0           # c of o = cos / (1 + c (|v| / r_S)^2), dimensionless
 DEFAULT_INTENSITY = 1.0         # AO strength: 0 none, 1 the paper's average, > 1 stronger
+DEFAULT_THICKNESS = 1.0         # vbao: assumed thickness of a surface, in units of the world sampling radius
 DEFAULT_BLUR_ON = True          # depth-aware bilateral blur of the AO buffer on
 DEFAULT_BLUR_SIZE = 9           # bilateral kernel size, pixels, odd (the paper's 9x9 / 13x13, table 2)
 DEFAULT_AO_SCALE = 1.0          # AO resolution over the output's: 1.0 full, 0.5 half (the paper's 'Half Res.')
@@ -57,6 +60,7 @@ class RenderSettings:
         ``radius_fraction`` of the image height.
     radius_world : world radius of ``ssao`` in scene units.
     intensity : AO strength (0 none, 1 default, larger stronger).
+    thickness : ``vbao``'s assumed surface thickness as a multiple of the world sampling radius.
     ao_scale : 1.0 full-resolution AO, 0.5 half resolution with depth-aware upsampling.
     lod_px : allowed error of a level of detail on screen, pixels (0: every part at full detail;
         see :mod:`mrcheck.render.lod`).
@@ -70,6 +74,7 @@ class RenderSettings:
     max_world_radius: float | None = None
     falloff: float = DEFAULT_FALLOFF
     intensity: float = DEFAULT_INTENSITY
+    thickness: float = DEFAULT_THICKNESS
     blur: bool = DEFAULT_BLUR_ON
     blur_size: int = DEFAULT_BLUR_SIZE
     ao_scale: float = DEFAULT_AO_SCALE
@@ -105,6 +110,7 @@ class RenderSettings:
             (0 < self.radius_world < math.inf, f"world radius must be positive and finite, got {self.radius_world}"),
             (0 <= self.falloff < math.inf, f"falloff must be >= 0 and finite, got {self.falloff}"),
             (0 <= self.intensity < math.inf, f"intensity must be >= 0 and finite, got {self.intensity}"),
+            (0 < self.thickness < math.inf, f"thickness must be positive and finite, got {self.thickness}"),
             (self.seed >= 0, f"seed must be >= 0, got {self.seed}"),
             (self.ao_scale in AO_SCALES, f"ao scale must be 1.0 or 0.5, got {self.ao_scale}"),
             (blur_problem is None, f"blur size {blur_problem}"),
@@ -125,7 +131,7 @@ def check_screen_radius(radius_px: float, height: int, what: str) -> None:
                            f"{what} (default: {DEFAULT_RADIUS_FRACTION * 100:g} % of the height)")
 
 
-__all__ = ["RenderSettings", "MODES", "STUDY_LABELS", "LIGHTS", "AO_SCALES", "MAX_BLUR_SIZE", "MAX_SAMPLES",
+__all__ = ["RenderSettings", "MODES", "SCREEN_RADIUS_MODES", "DEFAULT_THICKNESS", "STUDY_LABELS", "LIGHTS", "AO_SCALES", "MAX_BLUR_SIZE", "MAX_SAMPLES",
            "MAX_LOD_PX", "blur_size_problem", "check_screen_radius", "DEFAULT_SAMPLES", "DEFAULT_RADIUS_FRACTION",
            "DEFAULT_RADIUS_WORLD", "DEFAULT_FALLOFF", "DEFAULT_INTENSITY", "DEFAULT_BLUR_ON", "DEFAULT_BLUR_SIZE",
            "DEFAULT_AO_SCALE", "DEFAULT_LIGHT", "DEFAULT_SEED", "DEFAULT_LOD_PX"]

@@ -3,7 +3,7 @@
 Job file (TOML; every relative path is relative to the job file's folder)::
 
     scene = "factory_scenes/sample_cell/scene.toml"   # required: the planned CAD (manifest or mesh)
-    modes = ["phong", "vector", "ssao"]       # default D1, D2, D3; any of phong vector ssao crytek hbao alchemy
+    modes = ["phong", "vector", "ssao"]       # default D1, D2, D3; any of phong vector ssao crytek hbao alchemy gtao vbao
     alphas = [0.0, 0.5, 1.0]                  # photo opacities of the overlays, 0..1 (default [0.5])
     intensities = [0.5, 1.0, 1.5, 2.0]        # AO strengths, weak to strong (default [1.0]; AO modes only)
     overlay_intensity = 1.0                   # optional: the intensity of the overlays and the sheet;

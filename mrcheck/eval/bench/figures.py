@@ -9,7 +9,7 @@ from statistics import median
 PAPER_SIZE = (1280, 1024)             # the paper's benchmark resolution
 SIZES = (PAPER_SIZE, (1024, 768))     # 1024x768: the study's camera resolution
 QUICK_SAMPLES = (16, 64)
-AO_MODES = ("vector", "ssao", "crytek", "hbao", "alchemy")
+AO_MODES = ("vector", "ssao", "crytek", "hbao", "alchemy", "gtao", "vbao")
 SCALES = (1.0, 0.5)                   # full and half resolution AO
 BLUR_SIZES = (9, 13)                  # the paper's kernels (Table 2)
 TRIANGLE_COUNTS = (1_000_000, 10_000_000)

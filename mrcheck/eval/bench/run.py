@@ -15,7 +15,7 @@ and the peers' stages), :mod:`.report` (ratios, table), :mod:`.peers` / :mod:`.p
 
 What is timed (Scheer & Keutel, Tables 1 and 2, benchmarked at 1280x1024):
 
-* the AO pass of every mode (``vector`` D2, ``ssao`` D3, and ``crytek``, ``hbao``, ``alchemy``)
+* the AO pass of every mode (``vector`` D2, ``ssao`` D3, and ``crytek``, ``hbao``, ``alchemy``, ``gtao``, ``vbao``)
   per sample count, at full resolution and at half resolution (``ao_scale=0.5``: the G-buffer
   downsample plus the half-size AO draw; the depth-aware upsampling is fused into the
   composite, so it shows up in the half-res composite);

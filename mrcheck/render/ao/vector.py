@@ -11,22 +11,14 @@ large in the world). NOTES n: item n of docs/papers_notes.md.
 from __future__ import annotations
 
 from mrcheck.render.ao.base import AOPass
-
-NO_CLAMP = (0.0, 3.4e38)  # world-radius limits that never bite
+from mrcheck.render.ao.screen_radius import set_screen_radius
 
 
 class VectorAO(AOPass):
     shader = "ao_vector"
 
     def _set_method_uniforms(self, settings, scale: float) -> None:
-        p = self.program
-        # radius_px is at the output resolution; a half-resolution pass has half the pixels
-        # (its f_y is halved too, so the world radius r_px * Z / f_y stays the same).
-        p["u_radius_px"].value = float(settings.radius_px) * scale
-        lo = settings.min_world_radius or NO_CLAMP[0]
-        hi = settings.max_world_radius or NO_CLAMP[1]
-        p["u_radius_clamp"].value = (float(lo), float(hi))
-        p["u_falloff"].value = float(settings.falloff)
+        set_screen_radius(self.program, settings, scale)
 
 
 __all__ = ["VectorAO"]
