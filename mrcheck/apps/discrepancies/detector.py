@@ -109,6 +109,10 @@ class Suspect:
     bbox: list[int]              # [x0, y0, x1, y1] of the instance's visible pixels
     centre: list[float]          # [x, y] of its unsupported outline (else of its pixels)
     suspect: bool
+    # what the scene without the part shows inside its image (the edges of what it hides):
+    # their pixels, and the share of them with an oriented photo edge (None: too few to judge)
+    revealed_pixels: int = 0
+    revealed_support: float | None = None
 
 
 @dataclass
@@ -197,6 +201,21 @@ def _discriminative_score(planned: PlannedView, index: int, sup: _Support):
     return _shift_score(window.full(planned.owner.shape), sup)[0], pixels
 
 
+def _revealed_support(planned: PlannedView, index: int, sup: _Support):
+    """(share with an oriented photo edge or None, pixels) of the edges the part hides: seen in
+    the photo, the part is not (all) there; hidden, it is."""
+    if index not in planned.revealed:
+        return None, 0
+    rev = planned.revealed[index]
+    y0, y1, x0, x1 = rev.mask.box
+    ys, xs = np.nonzero(rev.mask.mask)
+    if len(ys) < MIN_EDGE_PIXELS:
+        return None, len(ys)
+    r = sup.radius
+    seen = sup.padded[rev.bins[ys, xs], ys + y0 + r, xs + x0 + r]
+    return float(seen.mean()), len(ys)
+
+
 def _is_thin(inside: np.ndarray, tol: float) -> bool:
     """A part a few px wide (a fence post, the wires of a mesh panel at a distance) has both
     sides of its outline within one tolerance: any thin neighbour "supports" it and a faint one
@@ -216,6 +235,7 @@ def _suspect(planned: PlannedView, index: int, sup: _Support, tol: float, thresh
     thin = _is_thin(inside, tol)
     score, support, best, (dy, dx) = _shift_score(mask, sup)
     disc_score, disc_n = _discriminative_score(planned, index, sup)
+    rev_support, rev_n = _revealed_support(planned, index, sup)
     flagged = score >= threshold or (disc_score is not None and disc_score >= DISCRIMINATIVE_THRESHOLD
                                      and score >= DISCRIMINATIVE_FLOOR)
     ys, xs = np.nonzero(inside)
@@ -227,38 +247,55 @@ def _suspect(planned: PlannedView, index: int, sup: _Support, tol: float, thresh
                    best_shift_support=round(best, 4), best_shift=[int(dx) - r, int(dy) - r], edge_pixels=n,
                    thin=thin, discriminative_score=None if disc_score is None else round(disc_score, 4),
                    discriminative_pixels=disc_n, bbox=[int(xs.min()), int(ys.min()), int(xs.max()), int(ys.max())],
-                   centre=[round(float(cx), 1), round(float(cy), 1)], suspect=bool(flagged and not thin))
+                   centre=[round(float(cx), 1), round(float(cy), 1)], suspect=bool(flagged and not thin),
+                   revealed_pixels=rev_n, revealed_support=None if rev_support is None else round(rev_support, 4))
 
 
-def _regions(edges: np.ndarray, cad: np.ndarray, tol: float) -> tuple[list[Region], np.ndarray]:
+def _regions(edges: np.ndarray, planned: PlannedView, tol: float) -> tuple[list[Region], np.ndarray]:
     """Unexplained photo structure: photo edges far from every CAD edge, grouped into regions;
-    returns the regions (largest first) and the unexplained edge pixels."""
-    dist_to_cad = cv2.distanceTransform((~cad).astype(np.uint8), cv2.DIST_L2, 5)
+    returns the regions (largest first) and the unexplained edge pixels. A group wholly inside
+    CAD faces above floor level is texture (print, labels), not structure: an added object
+    stands on the floor, so its edges reach down to the floor's pixels (``planned.ground``)."""
+    dist_to_cad = cv2.distanceTransform((~planned.cad).astype(np.uint8), cv2.DIST_L2, 5)
     unexplained = edges & (dist_to_cad > 3.0 * tol)
     k = max(3, int(round(3 * tol)) | 1)
     grouped = cv2.morphologyEx(unexplained.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((k, k), np.uint8))
     count, comp, stats, _ = cv2.connectedComponentsWithStats(grouped, connectivity=8)
+    on_face = planned.ids >= 0 if planned.ground is None else (planned.ids >= 0) & ~planned.ground
+    counts = np.bincount(comp[unexplained], minlength=count)
+    texture = counts == np.bincount(comp[unexplained & on_face], minlength=count)
+    texture[0] = False
+    unexplained &= ~texture[comp]      # texture is not shown as unexplained either
     regions = []
-    for c in range(1, count):
-        pixels = int(np.count_nonzero(unexplained & (comp == c)))
-        if pixels < MIN_REGION_PIXELS:
-            continue
+    for c in np.nonzero((counts >= MIN_REGION_PIXELS) & ~texture)[0]:
+        pixels = int(counts[c])
         x, y, bw, bh = (int(v) for v in stats[c, :4])
         regions.append(Region([x, y, x + bw - 1, y + bh - 1], pixels))
     regions.sort(key=lambda r: -r.edge_pixels)
     return regions, unexplained
 
 
-def _markers(suspects: list[Suspect], regions: list[Region]) -> list[Marker]:
-    """Review markers: one per suspect (missing when almost none of it is seen, else moved), one
-    per unexplained region (extra)."""
+def _on_part(planned: PlannedView, s: Suspect) -> tuple[float, float]:
+    """The pixel of the suspect's own planned image nearest to its centre: the centre of an
+    unsupported outline may lie on the floor or a wall next to it, and a marker there would
+    point (and pick, in the review) at that instead."""
+    index = next(i for i, (_, name) in enumerate(planned.labels) if name == s.id)
+    x0, y0, x1, y1 = s.bbox
+    ys, xs = np.nonzero(planned.ids[y0:y1 + 1, x0:x1 + 1] == index)
+    k = int(np.argmin((xs + x0 - s.centre[0]) ** 2 + (ys + y0 - s.centre[1]) ** 2))
+    return float(xs[k] + x0), float(ys[k] + y0)
+
+
+def _markers(suspects: list[Suspect], regions: list[Region], planned: PlannedView) -> list[Marker]:
+    """Review markers: one per suspect (missing when almost none of it is seen, else moved) on
+    the part's own planned pixels, one per unexplained region (extra)."""
     markers = []
     for s in suspects:
         if not s.suspect:
             continue
         category = "missing" if s.support < 0.15 else "moved"
         severity = 3 if s.score >= 0.8 else 2 if s.score >= 0.65 else 1
-        markers.append(Marker(s.centre[0], s.centre[1], category, severity,
+        markers.append(Marker(*_on_part(planned, s), category, severity,
                               f"{s.name}: {100 * s.support:.0f} % of its CAD outline found in the photo", s.id))
     for r in regions:
         x0, y0, x1, y1 = r.bbox
@@ -287,8 +324,8 @@ def detect(scene: Scene, camera: Camera, photo: np.ndarray, tolerance_px: float 
     suspects = [s for index in np.unique(owner[owner >= 0])
                 if (s := _suspect(planned, int(index), sup, tol, threshold)) is not None]
     suspects.sort(key=lambda s: (-s.score, s.id))
-    regions, unexplained = _regions(sup.edges, planned.cad, tol)
-    return Detection(tol, threshold, suspects, regions, _markers(suspects, regions), planned, sup.supported,
+    regions, unexplained = _regions(sup.edges, planned, tol)
+    return Detection(tol, threshold, suspects, regions, _markers(suspects, regions, planned), planned, sup.supported,
                      unexplained)
 
 
