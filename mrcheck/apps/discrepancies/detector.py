@@ -65,7 +65,7 @@ and the evaluation harness (protocol, and what the method still misses) are the 
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import cv2
 import numpy as np
@@ -81,6 +81,7 @@ from mrcheck.apps.discrepancies.planned import PlannedView, planned_view
 from mrcheck.apps.discrepancies.thresholds import (
     DISCRIMINATIVE_FLOOR,
     DISCRIMINATIVE_THRESHOLD,
+    MAX_SUPPORT,
     MIN_EDGE_PIXELS,
     MIN_REGION_PIXELS,
     SCORE_THRESHOLD,
@@ -166,6 +167,7 @@ class _Support:
     supported: np.ndarray   # (H, W) bool CAD edges with an oriented photo edge within the tolerance
     padded: np.ndarray      # the oriented support maps padded by radius
     radius: int             # px the shifted outlines reach
+    expected: np.ndarray | None = None   # (H, W) bool outline pixels the planned render itself shows as an edge
 
 
 def _support(photo: np.ndarray, cad: np.ndarray, tol: float) -> _Support:
@@ -194,11 +196,13 @@ def _discriminative_score(planned: PlannedView, index: int, sup: _Support):
     part would not show): neighbours' parallel edges at the planned place no longer count."""
     if index not in planned.discriminative:
         return None, 0
-    window = planned.discriminative[index]
-    pixels = int(np.count_nonzero(window.mask))
+    mask = planned.discriminative[index].full(planned.owner.shape)
+    if sup.expected is not None:
+        mask &= sup.expected
+    pixels = int(np.count_nonzero(mask))
     if pixels < MIN_EDGE_PIXELS:
         return None, pixels
-    return _shift_score(window.full(planned.owner.shape), sup)[0], pixels
+    return _shift_score(mask, sup)[0], pixels
 
 
 def _revealed_support(planned: PlannedView, index: int, sup: _Support):
@@ -228,6 +232,8 @@ def _is_thin(inside: np.ndarray, tol: float) -> bool:
 def _suspect(planned: PlannedView, index: int, sup: _Support, tol: float, threshold: float) -> Suspect | None:
     """The scored instance ``index``, or None when its outline is too small to judge."""
     mask = planned.owner == index
+    if sup.expected is not None:
+        mask &= sup.expected
     n = int(mask.sum())
     if n < MIN_EDGE_PIXELS:
         return None
@@ -236,8 +242,8 @@ def _suspect(planned: PlannedView, index: int, sup: _Support, tol: float, thresh
     score, support, best, (dy, dx) = _shift_score(mask, sup)
     disc_score, disc_n = _discriminative_score(planned, index, sup)
     rev_support, rev_n = _revealed_support(planned, index, sup)
-    flagged = score >= threshold or (disc_score is not None and disc_score >= DISCRIMINATIVE_THRESHOLD
-                                     and score >= DISCRIMINATIVE_FLOOR)
+    flagged = (score >= threshold or (disc_score is not None and disc_score >= DISCRIMINATIVE_THRESHOLD
+                                      and score >= DISCRIMINATIVE_FLOOR)) and support <= MAX_SUPPORT
     ys, xs = np.nonzero(inside)
     bad_y, bad_x = np.nonzero(mask & ~sup.supported)
     cy, cx = (bad_y.mean(), bad_x.mean()) if len(bad_y) else (ys.mean(), xs.mean())
@@ -319,7 +325,9 @@ def detect(scene: Scene, camera: Camera, photo: np.ndarray, tolerance_px: float 
     tol = default_tolerance(camera) if tolerance_px is None else float(tolerance_px)
     threshold = SCORE_THRESHOLD if threshold is None else float(threshold)
     planned = planned_view(scene, camera, renderer) if planned is None else planned
-    sup = _support(photo, planned.cad, tol)
+    # judged only where the planned render itself shows an edge (issue 22): an outline with no
+    # contrast in the CAD's own render (grey on grey) says nothing when the photo lacks it too
+    sup = replace(_support(photo, planned.cad, tol), expected=_support(planned.render, planned.cad, tol).supported)
     owner = planned.owner
     suspects = [s for index in np.unique(owner[owner >= 0])
                 if (s := _suspect(planned, int(index), sup, tol, threshold)) is not None]

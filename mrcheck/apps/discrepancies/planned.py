@@ -25,6 +25,7 @@ from mrcheck.apps.discrepancies.edges import (
 )
 from mrcheck.apps.discrepancies.ids import behind_ids, object_ids, undistorted_pixels
 from mrcheck.apps.discrepancies.thresholds import (
+    FLOOR_BAND,
     GROUND_HEIGHT,
     GROUND_SHARE,
     MIN_EDGE_PIXELS,
@@ -126,7 +127,9 @@ def _inside_only(without: np.ndarray, gone: np.ndarray, tol: float) -> np.ndarra
 def ground_pixels(scene: Scene, camera: Camera, depth: np.ndarray, maps) -> np.ndarray:
     """(H, W) bool: the pixels whose planned surface lies at floor level -- within
     :data:`GROUND_HEIGHT` (or :data:`GROUND_SHARE` of the scene's height, if less) above the
-    lowest surface the camera sees, and facing up. An added object stands on the floor, so the photo structure
+    lowest upward face the camera sees, and facing up -- when that face lies in the bottom
+    :data:`FLOOR_BAND` of the scene's height (else the scene has no floor in view: a box alone,
+    whose top is its lowest upward face). An added object stands on the floor, so the photo structure
     it makes reaches down to such pixels; structure wholly inside other CAD faces (the printed
     artwork of a box, a label on a machine) cannot be one (:func:`~.detector.detect`)."""
     u, v = undistorted_pixels(camera, maps)
@@ -138,9 +141,15 @@ def ground_pixels(scene: Scene, camera: Camera, depth: np.ndarray, maps) -> np.n
     # the surface normal from neighbouring pixels' points: only upward faces are a floor
     normal = np.cross(np.gradient(world, axis=1), np.gradient(world, axis=0))
     up = np.abs(normal[..., 2]) > 0.9 * np.maximum(np.linalg.norm(normal, axis=-1), 1e-12)
-    z = np.where(seen, world[..., 2], np.inf)
+    floor = seen & up
     lo, hi = scene.bounds()[:, 2]
-    return seen & up & (z <= np.percentile(z[seen], 1.0) + min(GROUND_HEIGHT, GROUND_SHARE * (hi - lo)))
+    if not floor.any():
+        return floor
+    z = np.where(floor, world[..., 2], np.inf)
+    level = np.percentile(z[floor], 1.0)   # the lowest upward face the camera sees (a slab's side is no floor)
+    if level - lo > FLOOR_BAND * (hi - lo):
+        return np.zeros_like(seen)           # no floor in view or in the scene (a box on its own)
+    return floor & (z <= level + min(GROUND_HEIGHT, GROUND_SHARE * (hi - lo)))
 
 
 def _clear_border(mask: np.ndarray) -> None:
