@@ -72,5 +72,5 @@ def test_demo_says_which_image_to_open_first(tmp_path, capsys):
     assert main(["demo", "-o", str(tmp_path), "--width", "64", "--height", "48"]) == 0
     err = capsys.readouterr().err.strip().splitlines()
     first = Path(err[-1].split("open ", 1)[1].split(" first:", 1)[0])
-    assert first == tmp_path.resolve() / "overview_study.png" and first.is_file()
+    assert first == tmp_path.resolve() / "robot_study.png" and first.is_file()   # the one README.md names first
     assert "D1 | D2 | D3" in err[-1]

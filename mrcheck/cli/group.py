@@ -31,6 +31,6 @@ def cli():
     (Scheer & Keutel), for mixed-reality discrepancy checks.
 
     \b
-    Example (then open mrcheck-demo/overview_study.png):
+    Example (then open mrcheck-demo/robot_study.png):
       mrcheck demo -o mrcheck-demo
     """

@@ -17,7 +17,7 @@ from mrcheck.cli.options import (
 from mrcheck.core.errors import MrcheckError
 from mrcheck.render import settings as defaults
 
-FIRST_DEMO_IMAGE = "overview_study.png"   # the sample cell's overview, D1 | D2 | D3: what the demo is for
+FIRST_DEMO_IMAGE = "robot_study.png"   # the sample cell's robot in D1 | D2 | D3: creases and contacts (README's picture)
 
 
 @cli.command()
@@ -112,7 +112,7 @@ def demo(outdir, width, height):
     The embedded sample factory cell and the generator's shipped cell, from each of their
     viewpoints in D1, D2 and D3: PNGs (one per mode and a labelled side-by-side sheet per view;
     the generated cell's prefixed cell_), their paths printed. Which to open first is said at
-    the end: DIR/overview_study.png.
+    the end: DIR/robot_study.png.
 
     \b
     Example:
@@ -124,5 +124,5 @@ def demo(outdir, width, height):
     demo_command(Path(outdir), width, height, on_written=click.echo, progress=progress_bar)
     first = Path(outdir).resolve() / FIRST_DEMO_IMAGE
     if first.is_file():
-        click.echo(f"open {first} first: the sample cell's overview in D1 | D2 | D3 (Phong without AO | "
+        click.echo(f"open {first} first: the sample cell's robot in D1 | D2 | D3 (Phong without AO | "
                    "vector SSAO | standard SSAO) side by side; every *_study.png is such a sheet", err=True)
