@@ -32,6 +32,13 @@ Method
    2 (T - 1) px for a tolerance T: fence posts and mesh panels at a distance) are scored but
    never suspects.
    Suspects = the others with score >= :data:`SCORE_THRESHOLD`, ranked by score.
+   **Expected outline** (issue 22): only the outline pixels the planned render *itself* shows
+   as an edge are scored (the same oriented support, computed on the planned Phong render):
+   an outline without contrast in the CAD's own render gives no photo edge either, and its
+   absence says nothing. A part with more than :data:`MAX_SUPPORT` of its expected outline
+   found where planned is never a suspect (in a fence's clutter some shifted copy always fits).
+   Each part also reports ``revealed_support``: the share of the edges the "part removed" view
+   shows inside its image that the photo shows (evidence of absence; reported, not yet used).
 5. **What the scene without the part would show** (second rule). :func:`behind_ids` re-casts
    every pixel's ray from just behind its first hit until it meets another instance (one or two
    extra passes for the whole view): the planned scene with each part removed. An outline pixel
@@ -55,6 +62,11 @@ Method
 6. **Unexplained structure**: photo edge pixels farther than ``3 * tolerance`` from every CAD
    edge, closed morphologically and grouped into connected regions; a region with at least
    :data:`MIN_REGION_PIXELS` edge pixels is an "extra" suggestion (an added object, clutter).
+   A group wholly inside CAD faces above floor level (``PlannedView.ground``,
+   :func:`~mrcheck.apps.discrepancies.planned.ground_pixels`) is texture -- print, labels --
+   and dropped: an added object stands on the floor, so its edges reach down to floor pixels.
+7. **Markers** of suspects lie on a pixel of the part's own planned image (the nearest to its
+   unsupported outline's centre) and carry its instance id as their part.
 
 The functions named above are in the package's modules ``ids`` (id buffers), ``edges`` and
 ``planned``; the constants in :mod:`mrcheck.apps.discrepancies.thresholds`. The heat map, the report
@@ -109,6 +121,7 @@ class Suspect:
     discriminative_pixels: int
     bbox: list[int]              # [x0, y0, x1, y1] of the instance's visible pixels
     centre: list[float]          # [x, y] of its unsupported outline (else of its pixels)
+    # edge_pixels, support, score: over the *expected* outline (shown as an edge by the planned render)
     suspect: bool
     # what the scene without the part shows inside its image (the edges of what it hides):
     # their pixels, and the share of them with an oriented photo edge (None: too few to judge)
