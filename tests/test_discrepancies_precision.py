@@ -10,14 +10,19 @@ import numpy as np
 import pytest
 
 from mrcheck.apps.discrepancies import detect, planned_view, synthetic_photo
-from mrcheck.apps.discrepancies.evaluation import _view_camera
 from mrcheck.cli import main
+from mrcheck.core.camera import Camera
 from mrcheck.core.camerafiles import load_shot, read_photo
 from mrcheck.core.resources import sample_scene_path
 from mrcheck.render.renderer import Renderer
 from mrcheck.scene.model import load_scene
 
 BOX = Path(__file__).resolve().parent / "data" / "pose" / "box"
+
+
+def _view_camera(scene, view, w, h, k1):
+    cam = scene.camera(view, w, h)
+    return view, Camera(w, h, cam.K, cam.R, cam.t, np.array([k1, 0.0, 0.0, 0.0]))
 
 
 @pytest.fixture(scope="module")
