@@ -163,11 +163,14 @@ def test_suggested_markers_of_a_discrepancies_run(outdir, tmp_path, monkeypatch)
         markers = c.get("/api/markers", params={"shot": "shot1"}).json()
         assert [(m["category"], m["x"], m["y"], m["severity"]) for m in markers] == [
             ("suggested", 100.0, 80.5, 3), ("suggested", 200.0, 120.0, 1)]
-        # each gets the CAD part under it and its distance, like a marker the planner places
-        # (before, both stayed empty until the marker was moved)
+        # the detector's part is the marker's part, whatever lies under its point (issue 22:
+        # review replaced it by the pick); a marker without a part gets the CAD part under it and
+        # its distance, like a marker the planner places; a distance is only ever the part's own
         for m, guess in zip(markers, ("workbench", None)):
             hit = c.get("/api/shots/shot1/pick", params={"x": m["x"], "y": m["y"]}).json()
-            assert (m["part"], m["distance"]) == (hit["instance"] or guess, hit["distance"])
+            part = guess or hit["instance"]
+            assert (m["part"], m["distance"]) == (part, hit["distance"] if hit["instance"] == part else None)
+        assert markers[0]["part"] == "workbench"
         assert any(m["distance"] is not None for m in markers)
         assert markers[0]["note"].startswith("moved? workbench") and c.get("/api/markers", params={"shot": "shot0"}).json() == []
         assert "suggested" in c.get("/api/info").json()["categories"]

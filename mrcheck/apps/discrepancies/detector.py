@@ -32,6 +32,13 @@ Method
    2 (T - 1) px for a tolerance T: fence posts and mesh panels at a distance) are scored but
    never suspects.
    Suspects = the others with score >= :data:`SCORE_THRESHOLD`, ranked by score.
+   **Expected outline** (issue 22): only the outline pixels the planned render *itself* shows
+   as an edge are scored (the same oriented support, computed on the planned Phong render):
+   an outline without contrast in the CAD's own render gives no photo edge either, and its
+   absence says nothing. A part with more than :data:`MAX_SUPPORT` of its expected outline
+   found where planned is never a suspect (in a fence's clutter some shifted copy always fits).
+   Each part also reports ``revealed_support``: the share of the edges the "part removed" view
+   shows inside its image that the photo shows (evidence of absence; reported, not yet used).
 5. **What the scene without the part would show** (second rule). :func:`behind_ids` re-casts
    every pixel's ray from just behind its first hit until it meets another instance (one or two
    extra passes for the whole view): the planned scene with each part removed. An outline pixel
@@ -55,6 +62,11 @@ Method
 6. **Unexplained structure**: photo edge pixels farther than ``3 * tolerance`` from every CAD
    edge, closed morphologically and grouped into connected regions; a region with at least
    :data:`MIN_REGION_PIXELS` edge pixels is an "extra" suggestion (an added object, clutter).
+   A group wholly inside CAD faces above floor level (``PlannedView.ground``,
+   :func:`~mrcheck.apps.discrepancies.planned.ground_pixels`) is texture -- print, labels --
+   and dropped: an added object stands on the floor, so its edges reach down to floor pixels.
+7. **Markers** of suspects lie on a pixel of the part's own planned image (the nearest to its
+   unsupported outline's centre) and carry its instance id as their part.
 
 The functions named above are in the package's modules ``ids`` (id buffers), ``edges`` and
 ``planned``; the constants in :mod:`mrcheck.apps.discrepancies.thresholds`. The heat map, the report
@@ -65,7 +77,7 @@ and the evaluation harness (protocol, and what the method still misses) are the 
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import cv2
 import numpy as np
@@ -81,6 +93,7 @@ from mrcheck.apps.discrepancies.planned import PlannedView, planned_view
 from mrcheck.apps.discrepancies.thresholds import (
     DISCRIMINATIVE_FLOOR,
     DISCRIMINATIVE_THRESHOLD,
+    MAX_SUPPORT,
     MIN_EDGE_PIXELS,
     MIN_REGION_PIXELS,
     SCORE_THRESHOLD,
@@ -108,7 +121,12 @@ class Suspect:
     discriminative_pixels: int
     bbox: list[int]              # [x0, y0, x1, y1] of the instance's visible pixels
     centre: list[float]          # [x, y] of its unsupported outline (else of its pixels)
+    # edge_pixels, support, score: over the *expected* outline (shown as an edge by the planned render)
     suspect: bool
+    # what the scene without the part shows inside its image (the edges of what it hides):
+    # their pixels, and the share of them with an oriented photo edge (None: too few to judge)
+    revealed_pixels: int = 0
+    revealed_support: float | None = None
     # an imported (IFC/STEP) element's {"name", "ifc_class", "storey"}; None for other scenes
     element: dict | None = None
 
@@ -173,6 +191,7 @@ class _Support:
     supported: np.ndarray   # (H, W) bool CAD edges with an oriented photo edge within the tolerance
     padded: np.ndarray      # the oriented support maps padded by radius
     radius: int             # px the shifted outlines reach
+    expected: np.ndarray | None = None   # (H, W) bool outline pixels the planned render itself shows as an edge
 
 
 def _support(photo: np.ndarray, cad: np.ndarray, tol: float) -> _Support:
@@ -201,11 +220,28 @@ def _discriminative_score(planned: PlannedView, index: int, sup: _Support):
     part would not show): neighbours' parallel edges at the planned place no longer count."""
     if index not in planned.discriminative:
         return None, 0
-    window = planned.discriminative[index]
-    pixels = int(np.count_nonzero(window.mask))
+    mask = planned.discriminative[index].full(planned.owner.shape)
+    if sup.expected is not None:
+        mask &= sup.expected
+    pixels = int(np.count_nonzero(mask))
     if pixels < MIN_EDGE_PIXELS:
         return None, pixels
-    return _shift_score(window.full(planned.owner.shape), sup)[0], pixels
+    return _shift_score(mask, sup)[0], pixels
+
+
+def _revealed_support(planned: PlannedView, index: int, sup: _Support):
+    """(share with an oriented photo edge or None, pixels) of the edges the part hides: seen in
+    the photo, the part is not (all) there; hidden, it is."""
+    if index not in planned.revealed:
+        return None, 0
+    rev = planned.revealed[index]
+    y0, y1, x0, x1 = rev.mask.box
+    ys, xs = np.nonzero(rev.mask.mask)
+    if len(ys) < MIN_EDGE_PIXELS:
+        return None, len(ys)
+    r = sup.radius
+    seen = sup.padded[rev.bins[ys, xs], ys + y0 + r, xs + x0 + r]
+    return float(seen.mean()), len(ys)
 
 
 def _is_thin(inside: np.ndarray, tol: float) -> bool:
@@ -220,6 +256,8 @@ def _is_thin(inside: np.ndarray, tol: float) -> bool:
 def _suspect(planned: PlannedView, index: int, sup: _Support, tol: float, threshold: float) -> Suspect | None:
     """The scored instance ``index``, or None when its outline is too small to judge."""
     mask = planned.owner == index
+    if sup.expected is not None:
+        mask &= sup.expected
     n = int(mask.sum())
     if n < MIN_EDGE_PIXELS:
         return None
@@ -227,8 +265,9 @@ def _suspect(planned: PlannedView, index: int, sup: _Support, tol: float, thresh
     thin = _is_thin(inside, tol)
     score, support, best, (dy, dx) = _shift_score(mask, sup)
     disc_score, disc_n = _discriminative_score(planned, index, sup)
-    flagged = score >= threshold or (disc_score is not None and disc_score >= DISCRIMINATIVE_THRESHOLD
-                                     and score >= DISCRIMINATIVE_FLOOR)
+    rev_support, rev_n = _revealed_support(planned, index, sup)
+    flagged = (score >= threshold or (disc_score is not None and disc_score >= DISCRIMINATIVE_THRESHOLD
+                                      and score >= DISCRIMINATIVE_FLOOR)) and support <= MAX_SUPPORT
     ys, xs = np.nonzero(inside)
     bad_y, bad_x = np.nonzero(mask & ~sup.supported)
     cy, cx = (bad_y.mean(), bad_x.mean()) if len(bad_y) else (ys.mean(), xs.mean())
@@ -238,38 +277,55 @@ def _suspect(planned: PlannedView, index: int, sup: _Support, tol: float, thresh
                    best_shift_support=round(best, 4), best_shift=[int(dx) - r, int(dy) - r], edge_pixels=n,
                    thin=thin, discriminative_score=None if disc_score is None else round(disc_score, 4),
                    discriminative_pixels=disc_n, bbox=[int(xs.min()), int(ys.min()), int(xs.max()), int(ys.max())],
-                   centre=[round(float(cx), 1), round(float(cy), 1)], suspect=bool(flagged and not thin))
+                   centre=[round(float(cx), 1), round(float(cy), 1)], suspect=bool(flagged and not thin),
+                   revealed_pixels=rev_n, revealed_support=None if rev_support is None else round(rev_support, 4))
 
 
-def _regions(edges: np.ndarray, cad: np.ndarray, tol: float) -> tuple[list[Region], np.ndarray]:
+def _regions(edges: np.ndarray, planned: PlannedView, tol: float) -> tuple[list[Region], np.ndarray]:
     """Unexplained photo structure: photo edges far from every CAD edge, grouped into regions;
-    returns the regions (largest first) and the unexplained edge pixels."""
-    dist_to_cad = cv2.distanceTransform((~cad).astype(np.uint8), cv2.DIST_L2, 5)
+    returns the regions (largest first) and the unexplained edge pixels. A group wholly inside
+    CAD faces above floor level is texture (print, labels), not structure: an added object
+    stands on the floor, so its edges reach down to the floor's pixels (``planned.ground``)."""
+    dist_to_cad = cv2.distanceTransform((~planned.cad).astype(np.uint8), cv2.DIST_L2, 5)
     unexplained = edges & (dist_to_cad > 3.0 * tol)
     k = max(3, int(round(3 * tol)) | 1)
     grouped = cv2.morphologyEx(unexplained.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((k, k), np.uint8))
     count, comp, stats, _ = cv2.connectedComponentsWithStats(grouped, connectivity=8)
+    on_face = planned.ids >= 0 if planned.ground is None else (planned.ids >= 0) & ~planned.ground
+    counts = np.bincount(comp[unexplained], minlength=count)
+    texture = counts == np.bincount(comp[unexplained & on_face], minlength=count)
+    texture[0] = False
+    unexplained &= ~texture[comp]      # texture is not shown as unexplained either
     regions = []
-    for c in range(1, count):
-        pixels = int(np.count_nonzero(unexplained & (comp == c)))
-        if pixels < MIN_REGION_PIXELS:
-            continue
+    for c in np.nonzero((counts >= MIN_REGION_PIXELS) & ~texture)[0]:
+        pixels = int(counts[c])
         x, y, bw, bh = (int(v) for v in stats[c, :4])
         regions.append(Region([x, y, x + bw - 1, y + bh - 1], pixels))
     regions.sort(key=lambda r: -r.edge_pixels)
     return regions, unexplained
 
 
-def _markers(suspects: list[Suspect], regions: list[Region]) -> list[Marker]:
-    """Review markers: one per suspect (missing when almost none of it is seen, else moved), one
-    per unexplained region (extra)."""
+def _on_part(planned: PlannedView, s: Suspect) -> tuple[float, float]:
+    """The pixel of the suspect's own planned image nearest to its centre: the centre of an
+    unsupported outline may lie on the floor or a wall next to it, and a marker there would
+    point (and pick, in the review) at that instead."""
+    index = next(i for i, (_, name) in enumerate(planned.labels) if name == s.id)
+    x0, y0, x1, y1 = s.bbox
+    ys, xs = np.nonzero(planned.ids[y0:y1 + 1, x0:x1 + 1] == index)
+    k = int(np.argmin((xs + x0 - s.centre[0]) ** 2 + (ys + y0 - s.centre[1]) ** 2))
+    return float(xs[k] + x0), float(ys[k] + y0)
+
+
+def _markers(suspects: list[Suspect], regions: list[Region], planned: PlannedView) -> list[Marker]:
+    """Review markers: one per suspect (missing when almost none of it is seen, else moved) on
+    the part's own planned pixels, one per unexplained region (extra)."""
     markers = []
     for s in suspects:
         if not s.suspect:
             continue
         category = "missing" if s.support < 0.15 else "moved"
         severity = 3 if s.score >= 0.8 else 2 if s.score >= 0.65 else 1
-        markers.append(Marker(s.centre[0], s.centre[1], category, severity,
+        markers.append(Marker(*_on_part(planned, s), category, severity,
                               f"{s.name}: {100 * s.support:.0f} % of its CAD outline found in the photo", s.id))
     for r in regions:
         x0, y0, x1, y1 = r.bbox
@@ -293,14 +349,16 @@ def detect(scene: Scene, camera: Camera, photo: np.ndarray, tolerance_px: float 
     tol = default_tolerance(camera) if tolerance_px is None else float(tolerance_px)
     threshold = SCORE_THRESHOLD if threshold is None else float(threshold)
     planned = planned_view(scene, camera, renderer) if planned is None else planned
-    sup = _support(photo, planned.cad, tol)
+    # judged only where the planned render itself shows an edge (issue 22): an outline with no
+    # contrast in the CAD's own render (grey on grey) says nothing when the photo lacks it too
+    sup = replace(_support(photo, planned.cad, tol), expected=_support(planned.render, planned.cad, tol).supported)
     owner = planned.owner
     suspects = [s for index in np.unique(owner[owner >= 0])
                 if (s := _suspect(planned, int(index), sup, tol, threshold)) is not None]
     suspects.sort(key=lambda s: (-s.score, s.id))
     _add_elements(scene, suspects)
-    regions, unexplained = _regions(sup.edges, planned.cad, tol)
-    return Detection(tol, threshold, suspects, regions, _markers(suspects, regions), planned, sup.supported,
+    regions, unexplained = _regions(sup.edges, planned, tol)
+    return Detection(tol, threshold, suspects, regions, _markers(suspects, regions, planned), planned, sup.supported,
                      unexplained)
 
 

@@ -11,8 +11,9 @@ have a real outline that depth alone does not show).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
+import cv2
 import numpy as np
 
 from mrcheck.apps.discrepancies.edges import (
@@ -22,8 +23,11 @@ from mrcheck.apps.discrepancies.edges import (
     outline_normals,
     silhouettes,
 )
-from mrcheck.apps.discrepancies.ids import behind_ids, object_ids
+from mrcheck.apps.discrepancies.ids import behind_ids, object_ids, undistorted_pixels
 from mrcheck.apps.discrepancies.thresholds import (
+    FLOOR_BAND,
+    GROUND_HEIGHT,
+    GROUND_SHARE,
     MIN_EDGE_PIXELS,
     default_tolerance,
     shift_radius,
@@ -50,6 +54,15 @@ class BoxMask:
         return out
 
 
+@dataclass(frozen=True)
+class Revealed:
+    """The CAD edges the planned scene *without* one part shows inside that part's image (the
+    edges of what it hides), with their orientation bins: seen in the photo, they are positive
+    evidence that the part is not there."""
+    mask: BoxMask
+    bins: np.ndarray      # orientation bin of every pixel of the mask's box
+
+
 @dataclass
 class PlannedView:
     """The planned scene through one camera, in the photo's (distorted) pixels."""
@@ -61,16 +74,21 @@ class PlannedView:
     outline: np.ndarray   # (H, W) bool the scored outline pixels (silhouettes)
     owner: np.ndarray     # (H, W) int32 the instance each outline pixel belongs to (-1 elsewhere)
     discriminative: dict  # instance index -> BoxMask of its discriminative outline pixels
+    revealed: dict = field(default_factory=dict)   # instance index -> Revealed (what its removal uncovers)
+    ground: np.ndarray | None = None   # (H, W) bool planned surface at floor level (:func:`ground_pixels`)
 
 
 def discriminative_outlines(ids: np.ndarray, depth: np.ndarray, cad: np.ndarray, owner: np.ndarray,
-                            behind: tuple[np.ndarray, np.ndarray], fx: float, tol: float) -> dict:
+                            behind: tuple[np.ndarray, np.ndarray], fx: float, tol: float,
+                            revealed: dict | None = None) -> dict:
     """Per scored instance, the outline pixels that tell "part there" from "part gone": its
     :func:`~mrcheck.apps.discrepancies.edges.silhouettes` pixels (``owner``) with no CAD edge of
     the same orientation (within ``tol``) in the planned scene *without* it -- the id / depth
     buffer with its pixels replaced by ``behind`` (:func:`~mrcheck.apps.discrepancies.ids.behind_ids`):
     what the photo shows if the part is not there. A bollard's sides in front of a fence post's
-    parallel sides are dropped, its top against the floor is kept. Returns ``{index: BoxMask}``."""
+    parallel sides are dropped, its top against the floor is kept. Returns ``{index: BoxMask}``;
+    fills ``revealed`` (when given) with ``{index: Revealed}``: the edges of that "part gone"
+    view strictly inside the part's image."""
     bids, bdepth = behind
     cad_bins = orientation_bin(outline_normals(cad))
     pad = shift_radius(tol) + 6
@@ -87,10 +105,51 @@ def discriminative_outlines(ids: np.ndarray, depth: np.ndarray, cad: np.ndarray,
         wid[gone], wdepth[gone] = bids[y0:y1, x0:x1][gone], bdepth[y0:y1, x0:x1][gone]
         without = silhouettes(wid, wdepth) | cad_edges(wdepth, fx)
         _clear_border(without)
-        explained = oriented_support(without, outline_normals(without), tol)
+        without_normals = outline_normals(without)
+        explained = oriented_support(without, without_normals, tol)
         keep = mask[y0:y1, x0:x1] & ~np.take_along_axis(explained, cad_bins[y0:y1, x0:x1][None], 0)[0]
         out[int(index)] = BoxMask((y0, y1, x0, x1), keep)
+        if revealed is not None:
+            revealed[int(index)] = Revealed(BoxMask((y0, y1, x0, x1), _inside_only(without, gone, tol)),
+                                            orientation_bin(without_normals))
     return out
+
+
+def _inside_only(without: np.ndarray, gone: np.ndarray, tol: float) -> np.ndarray:
+    """The edges of ``without`` strictly inside the part's region ``gone`` (eroded by the
+    tolerance + 1 px, so that the part's own outline, where the photo has an edge whether the
+    part is there or not, does not count)."""
+    k = 2 * int(np.ceil(tol)) + 3
+    inner = cv2.erode(gone.astype(np.uint8), np.ones((k, k), np.uint8)) > 0
+    return without & inner
+
+
+def ground_pixels(scene: Scene, camera: Camera, depth: np.ndarray, maps) -> np.ndarray:
+    """(H, W) bool: the pixels whose planned surface lies at floor level -- within
+    :data:`GROUND_HEIGHT` (or :data:`GROUND_SHARE` of the scene's height, if less) above the
+    lowest upward face the camera sees, and facing up -- when that face lies in the bottom
+    :data:`FLOOR_BAND` of the scene's height (else the scene has no floor in view: a box alone,
+    whose top is its lowest upward face). An added object stands on the floor, so the photo structure
+    it makes reaches down to such pixels; structure wholly inside other CAD faces (the printed
+    artwork of a box, a label on a machine) cannot be one (:func:`~.detector.detect`)."""
+    u, v = undistorted_pixels(camera, maps)
+    seen = depth > 0
+    if not seen.any():
+        return seen
+    cam = np.stack(((u - camera.cx) / camera.fx * depth, (v - camera.cy) / camera.fy * depth, depth), -1)
+    world = (cam - camera.t.reshape(1, 1, 3)) @ camera.R          # world = R^T (p - t)
+    # the surface normal from neighbouring pixels' points: only upward faces are a floor
+    normal = np.cross(np.gradient(world, axis=1), np.gradient(world, axis=0))
+    up = np.abs(normal[..., 2]) > 0.9 * np.maximum(np.linalg.norm(normal, axis=-1), 1e-12)
+    floor = seen & up
+    lo, hi = scene.bounds()[:, 2]
+    if not floor.any():
+        return floor
+    z = np.where(floor, world[..., 2], np.inf)
+    level = np.percentile(z[floor], 1.0)   # the lowest upward face the camera sees (a slab's side is no floor)
+    if level - lo > FLOOR_BAND * (hi - lo):
+        return np.zeros_like(seen)           # no floor in view or in the scene (a box on its own)
+    return floor & (z <= level + min(GROUND_HEIGHT, GROUND_SHARE * (hi - lo)))
 
 
 def _clear_border(mask: np.ndarray) -> None:
@@ -126,8 +185,11 @@ def planned_view(scene: Scene, camera: Camera, renderer=None) -> PlannedView:
     # almost always does
     owner = cad_edge_owner(ids, depth, outline)
     behind = behind_ids(scene, camera, ids, depth, maps, caster=caster)
-    discriminative = discriminative_outlines(ids, depth, cad, owner, behind, camera.fx, default_tolerance(camera))
-    return PlannedView(render, cad, ids, depth, labels, outline, owner, discriminative)
+    revealed = {}
+    discriminative = discriminative_outlines(ids, depth, cad, owner, behind, camera.fx, default_tolerance(camera),
+                                             revealed)
+    return PlannedView(render, cad, ids, depth, labels, outline, owner, discriminative, revealed,
+                       ground_pixels(scene, camera, depth, maps))
 
 
-__all__ = ["PlannedView", "BoxMask", "planned_view", "discriminative_outlines"]
+__all__ = ["PlannedView", "BoxMask", "Revealed", "planned_view", "discriminative_outlines", "ground_pixels"]

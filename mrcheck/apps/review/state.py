@@ -48,7 +48,7 @@ class Review:
             shot = self.source.shots[name]
             markers = pending(markers, self.store.imported_keys(name), shot.size[0])
             cads = [self.cad_under(shot, m["x"], m["y"]) for m in markers]
-            if added := self.store.import_suggestions(name, [{**m, **cad, "part": cad["part"] or m["part"]}
+            if added := self.store.import_suggestions(name, [{**m, **suggested_cad(m, cad)}
                                                              for m, cad in zip(markers, cads)]):
                 self.imported[name] = added
 
@@ -62,6 +62,18 @@ class Review:
         if current is None:
             raise HTTPException(404, f"no marker {marker_id}")
         return current
+
+
+def suggested_cad(marker: dict, under: dict) -> dict:
+    """The part and distance a suggested marker stores. The detector's instance *is* the
+    marker's part: what lies under its point may be another one (the point of a moved part's
+    unsupported outline can fall on the floor or the wall behind it), so the pick only fills in
+    a marker without a part (photo structure no part explains), and its distance is kept only
+    when the pick hit the detector's part (else it would be the distance of something else)."""
+    part = marker["part"]
+    if part is None:
+        return {"part": under["part"], "distance": under["distance"]}
+    return {"part": part, "distance": under["distance"] if under["part"] == part else None}
 
 
 def check_xy(shot, x, y) -> None:
