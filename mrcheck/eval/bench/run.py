@@ -47,7 +47,6 @@ height field stands in when the sample cell is missing, and the output says so).
 from __future__ import annotations
 
 import json
-import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -136,12 +135,13 @@ def bench_command(quick: bool, json_path: str | None, repeat: int | None, hall: 
               "target_samples": {name: "every" if name in EVERY_SAMPLE_COUNT else RATIO_SAMPLES
                                  for name in measured["ratios_by_samples"].get(str(RATIO_SAMPLES), {})},
               **memory, "scan_reading": scan_json}
-    lines = [report_text(report, figures), *scan_lines]
     if imports is not None:
         report["imports"] = imports.to_json()
-        lines += ["", "Imports:", *imports.lines()]
-    if json_path is not None:
+    if json_path is not None:   # before the text is made: nothing after the measurements may lose them
         write_text(json_path, json.dumps(report, indent=2))
+    lines = [report_text(report, figures), *scan_lines]
+    if imports is not None:
+        lines += ["", "Imports:", *imports.lines()]
     return BenchResult(report, "\n".join(lines), json_path)
 
 
