@@ -285,7 +285,7 @@ def test_ordinary_meshes_stay_float32_in_one_piece(ctx):
 
 def test_a_model_with_a_stray_element_is_drawn_in_few_pieces_that_float32_holds(ctx):
     from mrcheck.render.gbuffer import GeometryPass
-    from mrcheck.scene.model import float32_holds, float32_tiles, longest_edges
+    from mrcheck.scene.precision import float32_holds, float32_tiles, longest_edges
 
     [part] = [_merged("model", _hall(HALL_AT) + [_part("stray", box((1, 1, 1), (0, 0, 0)))])]
     assert part.vertices.dtype == np.float64

@@ -11,7 +11,7 @@ albedo     RGBA8     rgb: part colour (linear); a: 1 front face, 0 back face
 zbuffer    D32F      reversed-Z hardware depth near / z, infinite far plane (:func:`near_plane`)
 =========  ========  ==============================================================
 
-Each part is one vertex/index buffer (a float64 part, :func:`mrcheck.scene.model.float32_tiles`, a
+Each part is one vertex/index buffer (a float64 part, :func:`mrcheck.scene.precision.float32_tiles`, a
 few), drawn instanced with per-instance model-view matrices
 that are computed in float64 (view @ world) and cast to float32 only afterwards. Instances
 outside the view frustum or hidden behind the big near occluders are skipped
@@ -31,7 +31,8 @@ from mrcheck.core.errors import MrcheckError
 from mrcheck.render import culling, lod
 from mrcheck.render.gl import float_depth_texture, flush, load_program
 from mrcheck.render.settings import DEFAULT_LOD_PX
-from mrcheck.scene.model import Scene, float32_tiles
+from mrcheck.scene.model import Scene
+from mrcheck.scene.precision import float32_tiles
 
 FLUSH_TRIANGLES = 20_000  # see GeometryPass._submit
 NEAR_SHARE = 0.5          # the near plane at half the nearest box in view (see near_plane)
@@ -109,7 +110,7 @@ class _GpuMesh:
 
 @dataclass
 class _GpuPart:
-    """A part's mesh on the GPU, or one piece of it (:func:`mrcheck.scene.model.float32_tiles`)."""
+    """A part's mesh on the GPU, or one piece of it (:func:`mrcheck.scene.precision.float32_tiles`)."""
     name: str                  # the scene part's (labels a level-of-detail build)
     vertices: np.ndarray       # (n, 3) float32 local (the piece's own centre), for levels of detail
     faces: np.ndarray          # (m, 3) uint32

@@ -10,7 +10,7 @@ transform. The renderer multiplies view @ world in float64 and casts to float32 
 float32 only ever holds coordinates relative to the camera (a hall 1e6 m from the origin
 renders exactly like one at the origin). A mesh that float32 cannot hold around one centre (a
 factory at map coordinates with a stray element at the origin in the same file) stays float64,
-and the renderer draws it in pieces with centres of their own (:func:`float32_tiles`).
+and the renderer draws it in pieces with centres of their own (:func:`mrcheck.scene.precision.float32_tiles`).
 
 Manifest (format 1)::
 
@@ -56,10 +56,22 @@ from mrcheck.core.camera import Camera, fit_size
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.inputs import check_input, read_input_text
 from mrcheck.core.progress import no_progress, shown_progress
-from mrcheck.scene.elements import (ELEMENT_KEYS, ElementInfo, element_info, manifest_crs, manifest_origin,
-                                    manifest_package_path, matrices_in_bulk, part_element_fields,
-                                    read_instances_file, shifted, vector3, viewpoint_in_world)
+from mrcheck.scene.elements import (
+    ELEMENT_KEYS,
+    ElementInfo,
+    element_info,
+    manifest_crs,
+    manifest_origin,
+    manifest_package_path,
+    matrices_in_bulk,
+    part_element_fields,
+    read_instances_file,
+    shifted,
+    vector3,
+    viewpoint_in_world,
+)
 from mrcheck.scene.meshes import JointError, read_mesh
+from mrcheck.scene.precision import float32_or_float64
 
 UNITS = {"mm": 0.001, "cm": 0.01, "m": 1.0, "in": 0.0254, "ft": 0.3048}  # metres per unit
 DEFAULT_COLOR = (0.7, 0.7, 0.7)  # linear RGB of parts without a colour
@@ -86,7 +98,7 @@ class Part:
     vertices : (n, 3) float32, or float64
         Vertex positions relative to the mesh's own bounding-box centre, already in metres for
         a part with declared units. float64 only for a mesh that float32 would round (one with
-        an element far from the rest, see :func:`float32_tiles`).
+        an element far from the rest, see :func:`mrcheck.scene.precision.float32_tiles`).
     faces : (m, 3) uint32
     transforms : (k, 4, 4) float64
         Local -> world, one per instance.
@@ -236,67 +248,6 @@ def unit_scale(units, where) -> float:
     return UNITS[units]
 
 
-# -- float32 local coordinates -------------------------------------------------------------------
-FLOAT32_STEP = 2.0 ** -24   # float32 rounds to this share of a coordinate's magnitude (at most)
-FLOAT32_SHARE = 1e-3        # local coordinates may round a vertex by this share of a small triangle
-SMALL_TRIANGLE = 5          # "a small triangle": this percentile of the triangles' longest edges
-SIZE_SAMPLE = 1 << 14       # make_part judges a mesh on at most this many triangles (a fixed stride)
-
-
-def longest_edges(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """(m,) float64 longest edge of each triangle."""
-    tri = np.asarray(vertices, np.float64)[faces]
-    return np.linalg.norm(tri[:, [1, 2, 0]] - tri, axis=2).max(axis=1)
-
-
-def float32_holds(radius: float, longest: np.ndarray) -> bool:
-    """Whether float32 coordinates up to ``radius`` from their origin keep triangles with these
-    longest edges: rounding by at most FLOAT32_SHARE of a small one (the shipped meshes: at most
-    5e-5 of theirs). Triangles of one point have no size to keep."""
-    sized = longest[longest > 0]
-    return not sized.size or radius * FLOAT32_STEP <= FLOAT32_SHARE * float(np.percentile(sized, SMALL_TRIANGLE))
-
-
-def float32_tiles(vertices: np.ndarray, faces: np.ndarray) -> list[np.ndarray]:
-    """The triangles of a float64 mesh in groups that float32 holds relative to each group's own
-    bounding-box centre (:func:`float32_holds`), as arrays of face indices, in a fixed order.
-
-    A group that does not hold is cut in two at the middle of its triangles' centroids along the
-    axis where they spread most, so that a far element parts from the rest in one cut (the
-    factory at 5e6 m from its stray element at the origin) and a huge triangle from the small
-    ones beside it after a few. A single triangle always holds.
-    """
-    longest = longest_edges(vertices, faces)
-    centroids = np.asarray(vertices, np.float64)[faces].mean(axis=1)
-    tiles, todo = [], [np.arange(len(faces))]
-    while todo:
-        group = todo.pop()
-        used = vertices[faces[group]].reshape(-1, 3)
-        lo, hi = used.min(axis=0), used.max(axis=0)
-        if float32_holds(float(np.abs(used - (lo + hi) / 2.0).max()), longest[group]):
-            tiles.append(group)
-            continue
-        c = centroids[group]
-        axis = int(np.argmax(np.ptp(c, axis=0)))
-        if np.ptp(c[:, axis]) > 0:
-            left = c[:, axis] <= (c[:, axis].min() + c[:, axis].max()) / 2.0
-        else:   # every centroid in one point: halves (both non-empty, as a single triangle holds)
-            left = np.arange(len(group)) < len(group) // 2
-        todo += [group[~left], group[left]]
-    return sorted(tiles, key=lambda group: int(group[0]))
-
-
-def _stored(local: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """``local`` as float32, or kept float64 when float32 would round it beyond FLOAT32_SHARE of
-    its small triangles: a mesh holding a factory at map coordinates and a stray element at the
-    origin has its centre halfway, 2.5e6 m from both, where float32 steps 0.25 m. The consumers
-    then work in float64 and the geometry pass draws it in :func:`float32_tiles`."""
-    sample = faces[::max(1, -(-len(faces) // SIZE_SAMPLE))]   # a stride rounded up: at most SIZE_SAMPLE
-    if not len(sample) or float32_holds(float(np.abs(local).max()), longest_edges(local, sample)):
-        return local.astype(np.float32)
-    return local
-
-
 def make_part(name, source, vertices, faces, transforms, color=None, units=None, instance_ids=None,
               instance_info=None, ifc_class: str = "", storey: str = "") -> Part:
     """A :class:`Part` from float64 geometry: re-centred, scaled to metres, stored as float32
@@ -305,7 +256,7 @@ def make_part(name, source, vertices, faces, transforms, color=None, units=None,
     lo, hi = vertices.min(axis=0), vertices.max(axis=0)
     centre = (lo + hi) / 2.0
     faces = np.asarray(faces)
-    local = _stored((vertices - centre) * scale, faces)
+    local = float32_or_float64((vertices - centre) * scale, faces)
     to_world = np.eye(4)
     to_world[:3, 3] = centre * scale
     transforms = np.asarray(transforms, np.float64).reshape(-1, 4, 4) @ to_world
@@ -503,4 +454,4 @@ def _instance_ids(name: str, instances: list, owners: dict, path: Path) -> list[
     return ids
 
 
-__all__ = ["ElementInfo", "Part", "Scene", "UNITS", "float32_tiles", "load_scene", "make_part", "transform_from_table"]
+__all__ = ["ElementInfo", "Part", "Scene", "UNITS", "load_scene", "make_part", "transform_from_table"]
