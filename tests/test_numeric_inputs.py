@@ -76,6 +76,10 @@ OPTION_CASES += [case(f"scene-generate--size-m-{i}={text(v)}",
                       ["scene", "generate", "--preset", "cell", "--size-m", *[text(v) if j == i else s for j, s in
                                                                             enumerate(("20", "15", "6"))], "-o", "out/g"],
                       ["--size-m", f"{text(v)} is not a finite number"]) for i in range(3) for v in (NAN, INF)]
+WALL_IFC = Path(__file__).parent / "data" / "cad" / "ifc" / "wall-standard-case.ifc"
+OPTION_CASES += [case(f"scene-import{option}={text(v)}", ["scene", "import", "wall.ifc", option, text(v), "-o", "out/i"],
+                      [option, f"{text(v)} is not a finite number"], {"wall.ifc": WALL_IFC.read_text()})
+                 for option in ("--tolerance-px", "--at-distance") for v in BAD]
 BOARD_CASES = [case(f"calibrate-board-{spec}", ["calibrate", "photo.png", "--board", spec, "-o", "out/c.json"],
                     ["board SPEC", spec, "got"])
                for spec in ("chessboard:9x6:nan", "chessboard:9x6:inf", "charuco:5x7:nan:0.03:DICT_6X6_250",

@@ -31,6 +31,7 @@ function fit() {
   const p = visiblePanes()[0].getBoundingClientRect();
   const s = Math.min(p.width / S.shot.width, p.height / S.shot.height);
   S.t = { s, x: (p.width - S.shot.width * s) / 2, y: (p.height - S.shot.height * s) / 2 };
+  S.fitted = true;
   applyTransform();
 }
 function visiblePanes() { return S.view === "side" ? panes : [panes[0]]; }
@@ -207,7 +208,7 @@ for (const pane of panes) {
     ev.preventDefault();
     const r = pane.getBoundingClientRect(), px = ev.clientX - r.left, py = ev.clientY - r.top;
     const k = Math.exp(-ev.deltaY * 0.0015), s = Math.min(40, Math.max(0.05, S.t.s * k));
-    S.t = { s, x: px - (px - S.t.x) * (s / S.t.s), y: py - (py - S.t.y) * (s / S.t.s) };
+    S.t = { s, x: px - (px - S.t.x) * (s / S.t.s), y: py - (py - S.t.y) * (s / S.t.s) }; S.fitted = false;
     applyTransform();
   }, { passive: false });
   pane.addEventListener("mousedown", (ev) => {
@@ -217,7 +218,7 @@ for (const pane of panes) {
     const move = (e) => {
       const dx = e.clientX - start.x, dy = e.clientY - start.y;
       if (Math.abs(dx) + Math.abs(dy) > 3) moved = true;
-      if (moved) { S.t.x = start.tx + dx; S.t.y = start.ty + dy; applyTransform(); }
+      if (moved) { S.t.x = start.tx + dx; S.t.y = start.ty + dy; S.fitted = false; applyTransform(); }
     };
     const up = (e) => {
       window.removeEventListener("mousemove", move); window.removeEventListener("mouseup", up);
@@ -256,6 +257,9 @@ $("#view").addEventListener("change", (ev) => { S.view = ev.target.value; applyV
 $("#edges").addEventListener("change", (ev) => { S.edges = ev.target.checked; applyView(); });
 $("#reset-view").onclick = fit;
 window.addEventListener("resize", fit);
+// the toolbar wraps when its status text or mode buttons grow, and the panes shrink under a fitted
+// image: refit then, unless the planner has zoomed or panned since the last fit
+new ResizeObserver(() => { if (S.fitted) fit(); }).observe($("#viewport"));
 
 async function start() {
   S.info = await api("GET", "api/info");
