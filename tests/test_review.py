@@ -682,6 +682,10 @@ def test_browser_end_to_end(outdir, tmp_path):
             page.wait_for_selector("body[data-loaded='shot0|phong|1']", timeout=60000)
             viewport = page.locator("#viewport")
             cad_opacity = "getComputedStyle(document.querySelector('#pane-a .render')).opacity"
+            # the photo is this scene's phong render: compare it with vector's AO, which differs from it
+            # (with phong, photo and CAD are the same pixels once the image stays fitted)
+            page.click("#modes button[data-mode='vector']")
+            page.wait_for_selector("body[data-loaded='shot0|vector|1']", timeout=60000)
             page.fill("#opacity", "0")
             page.dispatch_event("#opacity", "input")
             assert page.evaluate(cad_opacity) == "0"  # the slider is the CAD's opacity: 0 shows the photo
