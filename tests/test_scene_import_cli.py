@@ -19,7 +19,7 @@ def test_scene_import_writes_a_scene_every_command_reads(tmp_path, capsys):
     assert main(["scene", "import", str(DATA / "ifc" / "wall-standard-case.ifc"), "-o", str(out)]) == 0
     captured = capsys.readouterr()
     assert captured.out.strip() == str(out / "scene.toml")
-    assert "1 elements in 1 parts, 12 triangles, 0 left out" in captured.err
+    assert "1 element in 1 part, 12 triangles, 0 left out" in captured.err
     assert main(["scene", "info", str(out)]) == 0
     info = capsys.readouterr().out
     assert "IfcWallStandardCase" in info and "Double_Brick_-_270" in info

@@ -148,9 +148,15 @@ class ImportResult:
             return f"{self.manifest}: from the import cache"
         origin = "" if not any(self.origin) else \
             f", origin {', '.join(f'{v:.3f}' for v in self.origin)} m" + (f" ({self.crs})" if self.crs else "")
-        what = "elements" if self.kind == "ifc" else "instances"
-        return (f"imported {self.model_name} ({self.schema.split()[0]}): {self.elements:,} {what} in {self.parts} "
-                f"parts, {self.triangles:,} triangles, {len(self.failed)} left out{origin}; {self.seconds:.1f} s")
+        what = "element" if self.kind == "ifc" else "instance"
+        return (f"imported {self.model_name} ({self.schema.split()[0]}): {_count(self.elements, what)} in "
+                f"{_count(self.parts, 'part')}, {self.triangles:,} triangles, {len(self.failed)} left out{origin}; "
+                f"{self.seconds:.1f} s")
+
+
+def _count(n: int, noun: str) -> str:
+    """"1 part", "2 parts", "7,981 elements"."""
+    return f"{n:,} {noun}" + ("" if n == 1 else "s")
 
 
 _UNSAFE = re.compile(r"[^A-Za-z0-9_.-]+")
