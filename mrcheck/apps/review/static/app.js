@@ -257,6 +257,17 @@ $("#edges").addEventListener("change", (ev) => { S.edges = ev.target.checked; ap
 $("#reset-view").onclick = fit;
 window.addEventListener("resize", fit);
 
+function addShotItem(shot) {  // also for a shot added by "Add photo" (addphoto.js)
+  const li = document.createElement("li");
+  li.dataset.name = shot.name;
+  const err = shot.error_px == null ? "error n/a" : `error ${shot.error_px.toFixed(2)} px`;
+  li.innerHTML = `<img alt=""><div><b></b><br><small></small></div>`;
+  $("img", li).src = `api/shots/${enc(shot.name)}/thumb.png`;
+  $("b", li).textContent = shot.name; $("small", li).textContent = err;
+  li.onclick = () => selectShot(shot);
+  $("#shot-list").appendChild(li);
+}
+
 async function start() {
   S.info = await api("GET", "api/info");
   for (const mode of S.info.modes) {
@@ -269,16 +280,7 @@ async function start() {
   for (const c of S.info.categories) $("#ed-category").add(new Option(c, c));
   $("#intensity-out").textContent = S.info.intensities[S.level];
   S.shots = await api("GET", "api/shots");
-  for (const shot of S.shots) {
-    const li = document.createElement("li");
-    li.dataset.name = shot.name;
-    const err = shot.error_px == null ? "error n/a" : `error ${shot.error_px.toFixed(2)} px`;
-    li.innerHTML = `<img alt=""><div><b></b><br><small></small></div>`;
-    $("img", li).src = `api/shots/${enc(shot.name)}/thumb.png`;
-    $("b", li).textContent = shot.name; $("small", li).textContent = err;
-    li.onclick = () => selectShot(shot);
-    $("#shot-list").appendChild(li);
-  }
+  for (const shot of S.shots) addShotItem(shot);
   for (const link of $$("#exports a")) link.onclick = (e) => { e.preventDefault(); exportFile(link); };
   applyView();
   const wanted = new URLSearchParams(location.search).get("shot");
