@@ -46,7 +46,8 @@ class ClickSolve:
     ``shot``: the SHOT.json dict (as ``mrcheck register`` writes it, ``"photo"`` absolute, plus
     ``"clicks"``); ``camera``: the pose saved; ``residuals_px``: per pair, under that pose;
     ``click_residuals_px``: per pair, under the pose of the clicks alone; ``snapped``: whether the
-    edge snap was kept; ``snap_note``: what the snap did, in a sentence."""
+    edge snap was kept; ``snap_note``: what the snap did, in a sentence; ``warnings``: the
+    shot's; ``rejected``: the pairs (0-based) the pose solver found inconsistent and left out."""
 
     shot: dict
     camera: Camera
@@ -55,6 +56,7 @@ class ClickSolve:
     snapped: bool
     snap_note: str
     warnings: list = field(default_factory=list)
+    rejected: list = field(default_factory=list)   # 0-based pairs the pose solver left out (mis-clicks)
 
     @property
     def rms_px(self) -> float:
@@ -110,14 +112,15 @@ def solve_clicks(photo, shape: tuple, intrinsics: Camera, photo_pixels, cad: lis
     if snap is not None:
         shot, final, note = _snapped(snap, rough, clicked, photo, pixels, world, before)
     after = _errors(final, pixels, world)
-    shot = {**shot, "photo": str(photo), "warnings": warnings + list(shot.get("warnings", [])),
-            "clicks": [{"pixel": p.tolist(), "world": w.tolist(), "instance": c.instance,
+    rejected = {r["index"] for r in clicked["rejected"]}
+    # the clicks' own warnings (a rejected mis-click, only 4 pairs) stay when the edges' are added
+    own = clicked["warnings"] + (list(shot["warnings"]) if shot is not clicked else [])
+    shot = {**shot, "photo": str(photo), "warnings": warnings + own + ([note] if final is rough else []),
+            "clicks": [{"pixel": p.tolist(), "world": w.tolist(), "instance": c.instance, "used": i not in rejected,
                         "error_px": round(float(e), 3), "click_pose_error_px": round(float(b), 3)}
-                       for p, w, c, e, b in zip(pixels, world, cad, after, before)]}
-    if final is rough:
-        shot["warnings"].append(note)
+                       for i, (p, w, c, e, b) in enumerate(zip(pixels, world, cad, after, before))]}
     return ClickSolve(shot, final, [round(float(e), 3) for e in after], [round(float(e), 3) for e in before],
-                      final is not rough, note, shot["warnings"])
+                      final is not rough, note, shot["warnings"], sorted(rejected))
 
 
 def _snapped(snap, rough: Camera, clicked: dict, photo, pixels, world, before) -> tuple[dict, Camera, str]:

@@ -7,8 +7,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from fastapi import APIRouter, Depends, HTTPException, Query, Request
-from fastapi.concurrency import run_in_threadpool
+from fastapi import APIRouter, Body, Depends, HTTPException, Query
 from fastapi.responses import Response
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -19,6 +18,7 @@ from mrcheck.core.errors import MrcheckError
 router = APIRouter(prefix="/api/addphoto")
 Current = Annotated[Review, Depends(current)]
 _PNG = {"Cache-Control": "no-store"}
+OCTETS = "application/octet-stream"
 Pixel = Annotated[list[float], Field(min_length=2, max_length=2)]
 
 
@@ -51,10 +51,10 @@ def files(review: Current):
 
 
 @router.post(UPLOAD_PATH.removeprefix("/api/addphoto"), status_code=201)
-async def upload(review: Current, request: Request, kind: Literal["photo", "intrinsics"],
-                 filename: str = Query(..., min_length=1, max_length=255)):
-    data = await request.body()
-    return await run_in_threadpool(_planner_error, review.addphoto.upload, kind, filename, data)
+def upload(review: Current, kind: Literal["photo", "intrinsics"], data: Annotated[bytes, Body(media_type=OCTETS)],
+           filename: str = Query(..., min_length=1, max_length=255)):
+    # the body read by FastAPI, as a marker's is: a chunked body past the limit is its 413
+    return _planner_error(review.addphoto.upload, kind, filename, data)
 
 
 @router.get("/photo")
@@ -100,7 +100,7 @@ def solve(review: Current, body: SolveIn):
     result, shot = solved.solve, solved.solve.shot
     return {"id": ident, "method": shot["method"], "snapped": result.snapped, "note": result.snap_note,
             "residuals_px": result.residuals_px, "click_residuals_px": result.click_residuals_px,
-            "rms_px": round(result.rms_px, 3), "edge_rms_px": shot["rms"] if result.snapped else None,
+            "rejected": result.rejected, "rms_px": round(result.rms_px, 3), "edge_rms_px": shot["rms"] if result.snapped else None,
             "support": shot.get("support"), "camera_position": shot["camera_position"],
             "warnings": result.warnings, "width": result.camera.width, "height": result.camera.height}
 
