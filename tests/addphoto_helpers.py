@@ -47,21 +47,31 @@ def project(camera: Camera, world) -> np.ndarray:
     return pixels.reshape(-1, 2)
 
 
+def _solid(picker, camera: Camera, pixel, hit) -> bool:
+    """The pixels 3 px around ``pixel`` hit the same part within 15 cm of ``hit``: a point on a
+    face a planner can click, not on a fence's wire (which a click a pixel off misses)."""
+    for du, dv in ((-3, 0), (3, 0), (0, -3), (0, 3)):
+        near = picker.world_point(camera, pixel[0] + du, pixel[1] + dv)
+        if near is None or near[1] != hit[1] or np.linalg.norm(near[0] - hit[0]) > 0.15:
+            return False
+    return True
+
+
 def scene_points(scene, view: Camera, count: int = 8) -> np.ndarray:
     """World points on the CAD seen by both the truth camera and ``view`` (the ray cast from each
-    hits the same point), spread over the photo: what a planner would click."""
+    hits the same point, on a solid face), spread over the photo: what a planner would click."""
     picker, truth = Picker(scene), truth_camera()
     points = []
-    for v in np.linspace(0.15, 0.85, 5) * SIZE[1]:
-        for u in np.linspace(0.1, 0.9, 6) * SIZE[0]:
+    for v in np.linspace(0.1, 0.9, 9) * SIZE[1]:
+        for u in np.linspace(0.05, 0.95, 10) * SIZE[0]:
             hit = picker.world_point(truth, u, v)
-            if hit is None:
+            if hit is None or not _solid(picker, truth, (u, v), hit):
                 continue
             seen = project(Camera(view.width, view.height, view.K, view.R, view.t), hit[0][None])[0]
             if not (5 <= seen[0] < view.width - 5 and 5 <= seen[1] < view.height - 5):
                 continue
             back = picker.world_point(view, *seen)
-            if back is not None and np.linalg.norm(back[0] - hit[0]) < 0.01:
+            if back is not None and np.linalg.norm(back[0] - hit[0]) < 0.01 and _solid(picker, view, seen, back):
                 points.append(hit[0])
     points = np.array(points)
     assert len(points) >= count, f"only {len(points)} points seen from both cameras"

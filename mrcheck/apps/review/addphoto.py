@@ -29,8 +29,8 @@ from mrcheck.core.errors import MrcheckError, display
 from mrcheck.core.images import decode_image, encode_image
 from mrcheck.core.output import IMAGE_SUFFIXES
 from mrcheck.mr.edges import EdgeOptions, refine_pose, scene_edges
-from mrcheck.mr.lens import distortion_map, padded_camera
-from mrcheck.mr.overlay import overlay_images
+from mrcheck.mr.lens import distort_to_photo, distortion_map, padded_camera
+from mrcheck.mr.overlay import DEFAULT_EDGE_COLOR, draw_edges, overlay_images
 from mrcheck.mr.registration import photo_reference
 from mrcheck.mr.shot import cad_edges
 from mrcheck.render.settings import RenderSettings
@@ -39,7 +39,8 @@ UPLOADS = ".uploads"        # in the render cache: a shot name never starts with
 MAX_KEPT = 16               # uploads and solves kept (the oldest are forgotten)
 VIEW_WIDTH = 800            # CAD views are rendered at most this wide
 SERVED_WIDTH = 1280         # a photo is shown at most this wide (the page stretches it back)
-PHOTO_ALPHA = 0.5           # the overlay: photo and CAD half and half, CAD edges on top
+PHOTO_ALPHA = 0.5           # the overlay: photo and CAD half and half, CAD edges on top ...
+EDGE_OPACITY = 0.6          # ... at this opacity
 _ID = re.compile(r"[0-9a-f]{16}")
 
 
@@ -272,9 +273,10 @@ def _overlay(renderer, camera: Camera, photo: np.ndarray) -> np.ndarray:
     maps = distortion_map(camera)
     render_camera, offset = padded_camera(camera, maps)
     results = renderer.render(render_camera, ["phong"], RenderSettings(samples=4, seed=0).validated(camera.height))
-    edges = cad_edges(results.depth, render_camera.fx)
-    return overlay_images(photo, {"phong": results["phong"].image}, camera, PHOTO_ALPHA, edges=edges,
-                          offset=offset, maps=maps)["phong"]
+    mixed = overlay_images(photo, {"phong": results["phong"].image}, camera, PHOTO_ALPHA, offset=offset, maps=maps)
+    # the CAD's edges at part opacity: a fence's hundreds of edges would hide the photo they are judged on
+    edges = distort_to_photo(cad_edges(results.depth, render_camera.fx).astype(np.float32), maps, offset, photo.shape[:2])
+    return draw_edges(mixed["phong"], np.minimum(edges * 2.0, 1.0) * EDGE_OPACITY, DEFAULT_EDGE_COLOR)
 
 
 def _free(folder: Path, stem: str, suffix: str, taken=()) -> tuple[str, Path]:

@@ -60,7 +60,9 @@ class ClickSolve:
 
     @property
     def rms_px(self) -> float:
-        return float(np.sqrt(np.mean(np.square(self.residuals_px))))
+        """RMS residual of the pairs used (the rejected ones left out)."""
+        used = [e for i, e in enumerate(self.residuals_px) if i not in self.rejected]
+        return float(np.sqrt(np.mean(np.square(used))))
 
 
 def cad_points(picker, view: Camera, pixels) -> list[CadPoint]:
@@ -130,9 +132,11 @@ def _snapped(snap, rough: Camera, clicked: dict, photo, pixels, world, before) -
         fit = snap(rough)
     except EdgeFitError as exc:
         return clicked, rough, f"edge snap failed ({exc.problem}): the pose of the clicks is kept"
-    rms_before = float(np.sqrt(np.mean(before ** 2)))
+    used = np.ones(len(pixels), bool)
+    used[[r["index"] for r in clicked["rejected"]]] = False   # a mis-click the solver left out is no measure
+    rms_before = float(np.sqrt(np.mean(before[used] ** 2)))
     after = _errors(fit.camera, pixels, world)
-    rms_after = float(np.sqrt(np.mean(after ** 2)))
+    rms_after = float(np.sqrt(np.mean(after[used] ** 2)))
     if rms_after > rms_before + clicked["inlier_threshold_px"]:
         return clicked, rough, (f"edge snap not used: it moved the view away from the clicks (click RMS {rms_after:.1f} px "
                                 f"against {rms_before:.1f} px): the pose of the clicks is kept")

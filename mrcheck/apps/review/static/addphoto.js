@@ -156,10 +156,13 @@ async function apSolve() {
     const list = $("#ap-residuals"); list.textContent = "";
     r.residuals_px.forEach((e, i) => {
       const li = document.createElement("li");
-      li.textContent = `${e.toFixed(2)} px` + (r.snapped ? ` (clicks alone: ${r.click_residuals_px[i].toFixed(2)} px)` : "");
+      li.textContent = `${e.toFixed(2)} px` + (r.snapped ? ` (clicks alone: ${r.click_residuals_px[i].toFixed(2)} px)` : "")
+        + (r.rejected.includes(i) ? ": left out (does not agree with the others: a mis-click?)" : "");
+      li.classList.toggle("rejected", r.rejected.includes(i));
       list.appendChild(li);
     });
-    apMessage(`click RMS ${r.rms_px.toFixed(2)} px; ${r.note}` + (r.warnings.length ? `; ${r.warnings.filter((w) => w !== r.note).join("; ")}` : ""));
+    const left = r.rejected.length ? ` (${r.rejected.length} pair(s) left out)` : "";
+    apMessage(`click RMS ${r.rms_px.toFixed(2)} px${left}; ${r.note}` + (r.warnings.length ? `; ${r.warnings.filter((w) => w !== r.note).join("; ")}` : ""));
     document.body.dataset.apSolved = r.id;
   } finally { AP.busy = false; }
 }
