@@ -1,7 +1,7 @@
 // mrcheck review, "Add photo": pick or upload a photo and its intrinsics, click 4+ points on the
 // photo and the same points on a CAD view, solve (the server ray-casts the CAD clicks, solves the
 // pose, snaps it onto the photo's edges), look at the overlay and the residuals, save the shot.
-// Uses app.js's globals ($, $$, enc, S, addShotItem, selectShot).
+// Uses app.js's globals ($, $$, enc, S, addShotItem, selectShot, zoomed, panOrClick).
 "use strict";
 const AP = { photo: null, intrinsics: null, view: null, size: null, cad: null, clicks: { photo: [], cad: [] },
   panes: {}, result: null, busy: false };
@@ -41,28 +41,15 @@ function apSetImage(side, url, size) {
 function apInit(side, el, img, onClick) {
   const p = AP.panes[side] = { el, img, stage: $(".ap-stage", el), t: { s: 1, x: 0, y: 0 }, size: null };
   el.addEventListener("wheel", (ev) => {
-    ev.preventDefault();
-    const r = el.getBoundingClientRect(), px = ev.clientX - r.left, py = ev.clientY - r.top;
-    const s = Math.min(40, Math.max(0.02, p.t.s * Math.exp(-ev.deltaY * 0.0015)));
-    p.t = { s, x: px - (px - p.t.x) * (s / p.t.s), y: py - (py - p.t.y) * (s / p.t.s) }; apTransform(side);
+    ev.preventDefault(); p.t = zoomed(p.t, el, ev, 0.02); apTransform(side);
   }, { passive: false });
   el.addEventListener("mousedown", (ev) => {
     if (ev.button !== 0 || !p.size) return;
-    const start = { x: ev.clientX, y: ev.clientY, tx: p.t.x, ty: p.t.y };
-    let moved = false;
-    const move = (e) => {
-      const dx = e.clientX - start.x, dy = e.clientY - start.y;
-      if (Math.abs(dx) + Math.abs(dy) > 3) moved = true;
-      if (moved) { p.t.x = start.tx + dx; p.t.y = start.ty + dy; apTransform(side); }
-    };
-    const up = (e) => {
-      window.removeEventListener("mousemove", move); window.removeEventListener("mouseup", up);
-      if (moved) return;
+    panOrClick(ev, () => p.t, () => apTransform(side), (e) => {
       const r = el.getBoundingClientRect();
       const x = (e.clientX - r.left - p.t.x) / p.t.s, y = (e.clientY - r.top - p.t.y) / p.t.s;
       if (x >= 0 && y >= 0 && x < p.size[0] && y < p.size[1]) onClick(x, y);
-    };
-    window.addEventListener("mousemove", move); window.addEventListener("mouseup", up);
+    });
   });
 }
 

@@ -202,31 +202,38 @@ function toImage(pane, ev) {
   return { x: (ev.clientX - r.left - S.t.x) / S.t.s, y: (ev.clientY - r.top - S.t.y) / S.t.s };
 }
 let pickTimer = null, pickSeq = 0;
+// wheel zoom about the cursor and press-drag pan, for these panes and "Add photo"'s (addphoto.js)
+function zoomed(t, el, ev, least) {  // the transform after a wheel event over el
+  const r = el.getBoundingClientRect(), px = ev.clientX - r.left, py = ev.clientY - r.top;
+  const s = Math.min(40, Math.max(least, t.s * Math.exp(-ev.deltaY * 0.0015)));
+  return { s, x: px - (px - t.x) * (s / t.s), y: py - (py - t.y) * (s / t.s) };
+}
+// a press that moves more than 3 px pans the transform getT() gives (apply() shows it); else its release is click(e)
+function panOrClick(ev, getT, apply, click) {
+  const start = { x: ev.clientX, y: ev.clientY, tx: getT().x, ty: getT().y };
+  let moved = false;
+  const move = (e) => {
+    const dx = e.clientX - start.x, dy = e.clientY - start.y;
+    if (Math.abs(dx) + Math.abs(dy) > 3) moved = true;
+    if (moved) { getT().x = start.tx + dx; getT().y = start.ty + dy; apply(); }
+  };
+  const up = (e) => {
+    window.removeEventListener("mousemove", move); window.removeEventListener("mouseup", up);
+    if (!moved) click(e);
+  };
+  window.addEventListener("mousemove", move); window.addEventListener("mouseup", up);
+}
 for (const pane of panes) {
   pane.addEventListener("wheel", (ev) => {
-    ev.preventDefault();
-    const r = pane.getBoundingClientRect(), px = ev.clientX - r.left, py = ev.clientY - r.top;
-    const k = Math.exp(-ev.deltaY * 0.0015), s = Math.min(40, Math.max(0.05, S.t.s * k));
-    S.t = { s, x: px - (px - S.t.x) * (s / S.t.s), y: py - (py - S.t.y) * (s / S.t.s) };
-    applyTransform();
+    ev.preventDefault(); S.t = zoomed(S.t, pane, ev, 0.05); applyTransform();
   }, { passive: false });
   pane.addEventListener("mousedown", (ev) => {
     if (ev.button !== 0 || !S.shot) return;
-    const start = { x: ev.clientX, y: ev.clientY, tx: S.t.x, ty: S.t.y };
-    let moved = false;
-    const move = (e) => {
-      const dx = e.clientX - start.x, dy = e.clientY - start.y;
-      if (Math.abs(dx) + Math.abs(dy) > 3) moved = true;
-      if (moved) { S.t.x = start.tx + dx; S.t.y = start.ty + dy; applyTransform(); }
-    };
-    const up = (e) => {
-      window.removeEventListener("mousemove", move); window.removeEventListener("mouseup", up);
-      if (moved) return;
+    panOrClick(ev, () => S.t, applyTransform, (e) => {
       if (S.selected !== null) { select(null); return; }  // the first click closes the editor (saved), the next places a marker
       const p = toImage(pane, e);
       if (p.x >= 0 && p.y >= 0 && p.x < S.shot.width && p.y < S.shot.height) addMarker(p.x, p.y);
-    };
-    window.addEventListener("mousemove", move); window.addEventListener("mouseup", up);
+    });
   });
   pane.addEventListener("mousemove", (ev) => {
     if (!S.shot) return;
