@@ -94,6 +94,7 @@ class Solved:
     solve: ClickSolve
     photo_ref: str
     photo: Path
+    photo_name: str   # the name shown (an upload's own file name)
     overlay: bytes
 
 
@@ -168,6 +169,9 @@ class AddPhoto:
             raise MrcheckError(exc.problem, name) from None
         return photo, read_photo(photo), camera
 
+    def photo_name(self, photo_ref: str) -> str:
+        return self.resolve("photo", photo_ref)[1]
+
     def photo_png(self, photo_ref: str) -> tuple[bytes, tuple[int, int]]:
         """The photo as PNG, at most :data:`SERVED_WIDTH` wide, and its native (width, height)."""
         import cv2
@@ -213,7 +217,7 @@ class AddPhoto:
         snapper = self._snapper(image) if snap else None
         result = solve_clicks(photo.resolve(), image.shape[:2], camera, photo_pixels, cad, snapper)
         overlay = self.review.renders.call(lambda renderer: _overlay(renderer, result.camera, image))
-        solved = Solved(result, photo_ref, photo, encode_image("overlay.png", overlay))
+        solved = Solved(result, photo_ref, photo, self.photo_name(photo_ref), encode_image("overlay.png", overlay))
         ident = secrets.token_hex(8)
         with self._lock:
             self._solved[ident] = solved
@@ -246,7 +250,9 @@ class AddPhoto:
             folder.mkdir(parents=True, exist_ok=True)
             photo, copied = solved.photo, None
             if solved.photo_ref.startswith("upload:"):
-                copied = photo = _copy_new(solved.photo, folder, self._staged[solved.photo_ref[7:]][1])
+                if not solved.photo.is_file():   # forgotten: more than MAX_KEPT uploads since
+                    raise MrcheckError(f"the uploaded photo {solved.photo_name} is no longer kept: upload it again")
+                copied = photo = _copy_new(solved.photo, folder, solved.photo_name)
             try:
                 name, shot_file = _free_shot(folder, shot_name(Path(photo).stem), source.shots)
                 shot = dict(solved.solve.shot)

@@ -23,7 +23,6 @@ import numpy as np
 
 from mrcheck.core.camera import Camera
 from mrcheck.core.errors import MrcheckError
-from mrcheck.mr.edges import EdgeFitError
 from mrcheck.mr.edgeshot import edge_shot
 from mrcheck.mr.pose import reprojection_errors
 from mrcheck.mr.registration import fit_camera, register_points
@@ -130,7 +129,7 @@ def _snapped(snap, rough: Camera, clicked: dict, photo, pixels, world, before) -
     or moves the view away from the clicks (see the module docstring)."""
     try:
         fit = snap(rough)
-    except EdgeFitError as exc:
+    except MrcheckError as exc:   # an EdgeFitError (too little support, diverged) or any other input problem
         return clicked, rough, f"edge snap failed ({exc.problem}): the pose of the clicks is kept"
     used = np.ones(len(pixels), bool)
     used[[r["index"] for r in clicked["rejected"]]] = False   # a mis-click the solver left out is no measure

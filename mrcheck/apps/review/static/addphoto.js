@@ -111,7 +111,7 @@ async function apSetView(name) {
 async function apInputs() {  // both chosen: the photo's size checked against the intrinsics, the photo shown
   AP.photo = $("#ap-photo").value || null; AP.intrinsics = $("#ap-intrinsics").value || null;
   AP.clicks.photo = []; apForget(); AP.size = null;
-  if (!AP.photo || !AP.intrinsics) { apDrawClicks(); return; }
+  if (!AP.photo || !AP.intrinsics) { apDrawClicks(); apMessage(`choose ${AP.photo ? "the intrinsics" : "a photo"} too`); return; }
   const info = await apCall("GET", `api/addphoto/photo?photo=${enc(AP.photo)}&intrinsics=${enc(AP.intrinsics)}`);
   AP.size = [info.width, info.height];
   apSetImage("photo", `api/addphoto/photo.png?photo=${enc(AP.photo)}`, AP.size);
