@@ -211,3 +211,24 @@ def test_a_mis_click_is_left_out_and_named(client, clicks):
     result = _solve(client, _pairs(wrong, cad)).json()
     assert result["rejected"] == [2] and result["residuals_px"][2] > 40 and result["snapped"], result
     assert median_error_px(Camera.from_dict(_saved(client, result)), world) < 0.5
+
+
+def test_intrinsics_of_the_same_aspect_ratio_are_rescaled_with_a_warning(client, shots):
+    """As ``mrcheck register`` does: a calibration at half the photo's size is rescaled, and said."""
+    (shots / "half.json").write_text(json.dumps(truth_camera().resized(240, 180).to_dict(pose=False)))
+    info = client.get("/api/addphoto/photo", params={"photo": "folder:photo.png", "intrinsics": "folder:half.json"})
+    assert info.status_code == 200 and "K rescaled" in info.json()["warnings"][0], info.text
+
+
+def test_a_forgotten_upload_is_a_one_line_error_at_save(client, shots, clicks, monkeypatch):
+    import mrcheck.apps.review.addphoto as addphoto
+
+    monkeypatch.setattr(addphoto, "MAX_KEPT", 2)
+    world, photo, cad = clicks
+    up = _upload(client, "photo", "new.png", (shots / "photo.png").read_bytes()).json()
+    result = _solve(client, _pairs(photo, cad), photo=up["ref"], snap=False).json()
+    for _ in range(2):   # two more uploads: the photo's is the oldest of three, forgotten
+        _upload(client, "intrinsics", "cam.json", (shots / "cam.json").read_bytes())
+    r = client.post(f"/api/addphoto/results/{result['id']}/save")
+    assert r.status_code == 422 and "the uploaded photo new.png is no longer kept: upload it again" in r.json()["error"]
+    assert not (shots / "new.json").exists() and not (shots / "new.png").exists()
