@@ -166,6 +166,10 @@ def test_an_uploaded_photo_is_copied_under_a_new_name(client, shots, clicks):
     assert (shots / "photo.png").read_bytes() == data and (shots / "photo-2.png").read_bytes() == data
     assert json.loads((shots / "photo-2.json").read_text())["photo"] == "photo-2.png"
     assert not (shots / "photo.json").exists()
+    staged = client.app.state.review.addphoto.uploads
+    assert len(list(staged.iterdir())) == 2
+    _app(shots, client.app.state.review.renders.cache.parent)   # the next start: the staged uploads are gone
+    assert list(staged.iterdir()) == []
 
 
 def test_the_upload_has_its_own_limit_and_the_guards(shots, tmp_path):

@@ -109,6 +109,9 @@ class AddPhoto:
         self._renders: dict = {}   # view name -> PNG
         self._edges = None
         self._lock = threading.Lock()
+        for old in self.uploads.glob("*") if self.uploads.is_dir() else ():   # an earlier server's: unreachable now
+            if _ID.fullmatch(old.stem):
+                old.unlink(missing_ok=True)
 
     @property
     def folder(self) -> Path:
