@@ -87,11 +87,14 @@ class _ExportBar:
               help="Import the suggested markers of an `mrcheck discrepancies` run (repeatable; NAME picks the shot).")
 @click.option("--max-body", default="1MiB", show_default=True, metavar="SIZE", callback=size,
               help="Refuse request bodies larger than this (413), e.g. 256KiB; at least 64KiB.")
-def review(target, shots_dir, host, port, token, db, suggestions, max_body):
+@click.option("--max-upload", default="64MiB", show_default=True, metavar="SIZE", callback=size,
+              help="Refuse photos and camera files uploaded by \"Add photo\" larger than this (413).")
+def review(target, shots_dir, host, port, token, db, suggestions, max_body, max_upload):
     """Review shots in the browser and mark discrepancies.
 
     Photo and CAD blended, modes, zoom, discrepancy markers with a category, severity and note,
-    the CAD part under the cursor; exports an HTML report and CSV.
+    the CAD part under the cursor; exports an HTML report and CSV. "Add photo" registers a new
+    photo by clicking 4+ points on it and on the CAD, and saves it as a shot.
 
     \b
     Example:
@@ -101,7 +104,7 @@ def review(target, shots_dir, host, port, token, db, suggestions, max_body):
 
     with console():   # skipped shots and registration warnings at start-up, internal errors while serving
         server = start(target, shots_dir=shots_dir, host=host, port=port, token=token, db=db,
-                       suggestions=suggestions, max_body=max_body)
+                       suggestions=suggestions, max_body=max_body, max_upload=max_upload)
         try:
             for line in server.messages():
                 click.echo(line)

@@ -17,7 +17,8 @@ from fastapi import FastAPI
 
 from mrcheck.apps.names import REVIEW_CACHE, REVIEW_DATABASE
 from mrcheck.apps.review import middleware
-from mrcheck.apps.review.guard import MAX_BODY
+from mrcheck.apps.review.addphoto import AddPhoto
+from mrcheck.apps.review.guard import MAX_BODY, MAX_UPLOAD
 from mrcheck.apps.review.renders import RenderService
 from mrcheck.apps.review.routes import ROUTERS
 from mrcheck.apps.review.state import Review
@@ -36,17 +37,18 @@ def cache_path(db_path: Path) -> Path:
 
 def create_app(source, db_path: Path | None = None, cache_dir: Path | None = None, token: str | None = None,
                samples: int = 16, suggestions: dict | None = None, host: str | None = None,
-               max_body: int = MAX_BODY) -> FastAPI:
+               max_body: int = MAX_BODY, max_upload: int = MAX_UPLOAD) -> FastAPI:
     """``suggestions``: {shot name: markers} (:func:`.suggestions.load_suggestions`), imported
     into the review's markers once; ``app.state.imported``: {shot name: markers added now}.
     ``host``: the address the server is bound to, whose names alone a request's Host header may
     give (:func:`.guard.host_names`); None checks no Host (an app not on a socket, as in tests).
-    ``max_body``: the largest request body, in bytes."""
+    ``max_body``: the largest request body, in bytes; ``max_upload``: the largest upload of "Add photo"."""
     db_path = database_path(source, db_path)
     store = Store(db_path, source.review_name(db_path),
                   served_scales={s.name: s.served_scale() for s in source.shots.values() if s.served_size != s.size})
     renders = RenderService(source, cache_dir or cache_path(db_path), samples=samples)
     review = Review(source, store, renders)
+    review.addphoto = AddPhoto(review, renders.cache)
     review.import_suggestions(suggestions or {})
 
     @contextlib.asynccontextmanager
@@ -58,7 +60,7 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
     app.state.review = review
     app.state.source, app.state.store, app.state.renders = source, store, renders
     app.state.imported = review.imported   # shot -> suggestions added at this start
-    middleware.install(app, token, host, max_body)
+    middleware.install(app, token, host, max_body, max_upload)
     for router in ROUTERS:
         app.include_router(router)
     return app

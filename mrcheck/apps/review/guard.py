@@ -10,7 +10,8 @@ checked by :class:`RequestCheck` (pure ASGI) in front of the token check and eve
   runs; a chunked body is counted as it is read (Starlette's RequestBodyLimitMiddleware, which
   FastAPI's ``max_body_size`` is made of) and refused with 413 once it passes the limit, the
   rest unread. The largest body the app takes is a marker with the longest note, some 26 kB
-  (2000 characters, JSON-escaped as 12 bytes each at worst); no route takes uploads.
+  (2000 characters, JSON-escaped as 12 bytes each at worst). The one exception is the upload
+  of "Add photo" (:data:`UPLOAD_PATH`: a photo or a camera file), limited to ``max_upload``.
 """
 
 from __future__ import annotations
@@ -26,6 +27,8 @@ from starlette.middleware.body_limit import RequestBodyLimitMiddleware
 
 MAX_BODY = 1 << 20          # the default limit: 1 MiB, some 40 x the largest marker
 MIN_MAX_BODY = 64 << 10     # a smaller limit would refuse markers with long notes
+MAX_UPLOAD = 64 << 20       # an uploaded photo: a 24 MP JPEG is some 12 MB, a 16-bit TIFF more
+UPLOAD_PATH = "/api/addphoto/upload"
 ALL_INTERFACES = ("0.0.0.0", "::", "")
 LOOPBACK_NAMES = ("localhost", "127.0.0.1", "[::1]")
 _HOST = re.compile(r"(?P<name>\[[0-9a-f:.]+\]|[a-z0-9_.-]+)(?::[0-9]{1,5})?")
@@ -108,18 +111,20 @@ class RequestCheck:
     one is counted as it is read, by Starlette's RequestBodyLimitMiddleware behind this check
     (whose own answer to a declared size is a plain-text 413, not the app's JSON error)."""
 
-    def __init__(self, app, hosts: Hosts | None, max_body: int):
+    def __init__(self, app, hosts: Hosts | None, max_body: int, max_upload: int = MAX_UPLOAD):
         self.app = RequestBodyLimitMiddleware(app, max_body_size=max_body)
-        self.hosts, self.max_body = hosts, max_body
+        self.upload_app = RequestBodyLimitMiddleware(app, max_body_size=max_upload)
+        self.hosts, self.max_body, self.max_upload = hosts, max_body, max_upload
 
     async def __call__(self, scope, receive, send):
+        upload = scope["type"] == "http" and scope.get("path") == UPLOAD_PATH
         if scope["type"] == "http":  # the app has no websocket routes: the router refuses those
-            refused = self._refused(Headers(scope=scope))
+            refused = self._refused(Headers(scope=scope), upload)
             if refused is not None:
                 return await JSONResponse({"error": refused[1]}, status_code=refused[0])(scope, receive, send)
-        await self.app(scope, receive, send)
+        await (self.upload_app if upload else self.app)(scope, receive, send)
 
-    def _refused(self, headers) -> tuple[int, str] | None:
+    def _refused(self, headers, upload: bool) -> tuple[int, str] | None:
         if self.hosts is not None:
             given = headers.get("host")
             name = _parse_host(given)
@@ -127,13 +132,14 @@ class RequestCheck:
                 what = "no Host header" if given is None else f"Host {given!r} is not a name of this server"
                 return 403, f"{what} (it answers to {self.hosts.describe()})"
         length = headers.get("content-length")
-        if length is not None and length.isdigit() and int(length) > self.max_body:
-            return 413, too_large(self.max_body, f"{int(length)} bytes, ")
+        limit = self.max_upload if upload else self.max_body
+        if length is not None and length.isdigit() and int(length) > limit:
+            return 413, too_large(limit, f"{int(length)} bytes, ", "--max-upload" if upload else "--max-body")
         return None
 
 
-def too_large(limit: int, size: str = "") -> str:
-    return f"request body too large: {size}over the limit of {format_size(limit)} (--max-body)"
+def too_large(limit: int, size: str = "", option: str = "--max-body") -> str:
+    return f"request body too large: {size}over the limit of {format_size(limit)} ({option})"
 
 
 def parse_size(text: str) -> int:

@@ -15,14 +15,14 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-from mrcheck.apps.review.guard import RequestCheck, host_names, too_large
+from mrcheck.apps.review.guard import UPLOAD_PATH, RequestCheck, host_names, too_large
 from mrcheck.core.errors import MrcheckError, bug_reason
 
 COOKIE = "mrcheck_review_token"
 log = logging.getLogger("mrcheck.review")
 
 
-def _error_handlers(app: FastAPI, max_body: int) -> None:
+def _error_handlers(app: FastAPI, max_body: int, max_upload: int) -> None:
     @app.exception_handler(RequestValidationError)
     async def _invalid(request, exc):
         errors = [f"{'.'.join(str(p) for p in e['loc'][1:]) or e['loc'][0]}: {e['msg']}" for e in exc.errors()]
@@ -31,7 +31,9 @@ def _error_handlers(app: FastAPI, max_body: int) -> None:
     @app.exception_handler(StarletteHTTPException)  # the routing's own 404 / 405 too, not only ours
     async def _http(request, exc):
         # the body limit's own "Content Too Large" names neither the limit nor the option
-        detail = too_large(max_body) if exc.status_code == 413 else exc.detail
+        upload = request.url.path == UPLOAD_PATH
+        detail = (too_large(max_upload if upload else max_body, option="--max-upload" if upload else "--max-body")
+                  if exc.status_code == 413 else exc.detail)
         return JSONResponse({"error": detail}, status_code=exc.status_code, headers=exc.headers)
 
     @app.exception_handler(MrcheckError)
@@ -69,12 +71,13 @@ def _unexpected_errors(app: FastAPI) -> None:
             return JSONResponse({"error": f"internal error, please report it: {reason}"}, status_code=500)
 
 
-def install(app: FastAPI, token: str | None, host: str | None, max_body: int) -> None:
+def install(app: FastAPI, token: str | None, host: str | None, max_body: int, max_upload: int) -> None:
     """The handlers and middleware of the review app (see the module's docstring). ``host``: the
     bound address whose names alone a request's Host may give; None checks no Host."""
-    _error_handlers(app, max_body)
+    _error_handlers(app, max_body, max_upload)
     if token is not None:
         _token_check(app, token)
     _unexpected_errors(app)
     # added last, so outermost: before the token check
-    app.add_middleware(RequestCheck, hosts=None if host is None else host_names(host), max_body=max_body)
+    app.add_middleware(RequestCheck, hosts=None if host is None else host_names(host), max_body=max_body,
+                       max_upload=max_upload)

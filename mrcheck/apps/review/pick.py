@@ -44,8 +44,8 @@ class Picker:
         self._casters = [entry] + self._casters[:MAX_ORIGINS - 1]
         return entry
 
-    def pick(self, camera: Camera, u: float, v: float) -> dict:
-        """The part at pixel (u, v) of ``camera``'s (distorted) photo: name, instance, distance (m)."""
+    def _cast(self, camera: Camera, u: float, v: float):
+        """(hits or None for no hit, caster, unit ray direction) of pixel (u, v)."""
         pixel = np.array([[[u, v]]], np.float64)
         x, y = cv2.undistortPoints(pixel, camera.K, camera.dist).reshape(2)
         direction = camera.R.T @ np.array([x, y, 1.0])
@@ -54,7 +54,19 @@ class Picker:
             origin, caster = self._caster_for(camera.center)
             ray = np.concatenate([camera.center - origin, direction]).astype(np.float32)[None]
             hits = caster.cast(ray) if caster is not None else None
-        if hits is None or not hits.hit[0]:
+        return (hits if hits is not None and hits.hit[0] else None), caster, direction
+
+    def world_point(self, camera: Camera, u: float, v: float):
+        """(world point (3,) float64, instance id) of the CAD surface at pixel (u, v), or None."""
+        hits, caster, direction = self._cast(camera, u, v)
+        if hits is None:
+            return None
+        return camera.center + float(hits.t[0]) * direction, caster.label(hits.instance[0])[1]
+
+    def pick(self, camera: Camera, u: float, v: float) -> dict:
+        """The part at pixel (u, v) of ``camera``'s (distorted) photo: name, instance, distance (m)."""
+        hits, caster, _ = self._cast(camera, u, v)
+        if hits is None:
             return {"part": None, "instance": None, "distance": None}
         part, instance = caster.label(hits.instance[0])
         info = self._elements().get(instance)

@@ -109,6 +109,13 @@ class RenderService:
     def image(self, shot_name, kind, mode="phong", intensity=1.0) -> np.ndarray:
         return read_image(self.file(shot_name, kind, mode, intensity), "cached render")
 
+    def call(self, fn):
+        """``fn(renderer)`` run in the render thread, which owns the EGL context (the review's
+        "Add photo": its CAD views, the edge snap, the overlay); returns what it returns."""
+        future = concurrent.futures.Future()
+        self._queue.put((None, fn, future))
+        return future.result(timeout=300)
+
     def close(self):
         self._queue.put(None)
 
@@ -121,13 +128,17 @@ class RenderService:
                 break
             key, path, future = item
             try:
-                if not path.is_file():
+                if key is None:   # a call (:meth:`call`): ``path`` is the function
+                    renderer = renderer or Renderer(self.source.loaded)
+                    future.set_result(path(renderer))
+                elif not path.is_file():
                     start = time.perf_counter()
                     if key[1] in ("render", "edges") and renderer is None:
                         renderer = Renderer(self.source.loaded)
                     self._make(renderer, key, path)
                     self.timings.append((key, time.perf_counter() - start))
-                future.set_result(path)
+                if key is not None:
+                    future.set_result(path)
             except BaseException as exc:  # noqa: BLE001 -- handed to the waiting request
                 future.set_exception(exc)
             finally:

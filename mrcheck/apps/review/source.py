@@ -25,6 +25,7 @@ MAX_SIZE = 1280  # renders and photos are served at most this wide (same aspect 
 # discrepancies, look at the original photo.
 # an export's shot names (never "." or ".."), at most 128 characters: a path segment of the API's URLs
 _NAME = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9._-]{0,127}")
+ADDED_SHOTS = "added-shots"  # shots added in the review ("Add photo") of an export or a job, beside it
 
 
 @dataclass
@@ -66,6 +67,7 @@ class Source:
     loaded: object = None  # the Scene, loaded once by open_source (the renderer and the picker share it)
     origin: Path | None = None  # the job file, export folder or shots folder reviewed
     files: list = field(default_factory=list)  # the files read to find the shots (job, manifest, SHOT.json, ...)
+    kind: str = "scene"    # what is reviewed: "scene" (SCENE --shots DIR), "export" or "job"
 
     def inputs(self) -> list:
         """``(what, paths)`` of every file the review reads (:func:`mrcheck.core.output.check_not_inputs`)."""
@@ -137,7 +139,7 @@ def from_outdir(outdir: Path) -> Source:
         why = (f"every shot ({failed}) failed in the export; its {REPORT} says why" if entries and failed == len(entries)
                else "the export has no shots" if not entries else "see the warnings above")
         raise MrcheckError(f"no usable shots to review: {why}", outdir)
-    return Source(scene, shots, outdir, display(outdir), origin=outdir, files=files)
+    return Source(scene, shots, outdir, display(outdir), origin=outdir, files=files, kind="export")
 
 
 def from_job(job_path: Path) -> Source:
@@ -162,22 +164,30 @@ def from_job(job_path: Path) -> Source:
     if not shots:
         raise MrcheckError("no usable shots to review: every shot was skipped (see the warnings above)", job_path)
     return Source(Path(job.scene), shots, job_path.resolve().parent, display(job_path), loaded=job.loaded, origin=job_path,
-                  files=files)
+                  files=files, kind="job")
 
 
-def from_scene(scene: Path, shots_dir: Path) -> Source:
-    """The SHOT.json files of ``shots_dir``, named after their files as export names its shots;
-    the folder's other JSON files (intrinsics, correspondences, a broken shot) are warnings."""
+def _folder_shots(shots_dir: Path, shots: dict) -> list:
+    """Add the SHOT.json files of ``shots_dir`` to ``shots``, named after their files as export
+    names its shots; the folder's other JSON files (intrinsics, correspondences, a broken shot)
+    are warnings. Returns the files read."""
     files = sorted(shots_dir.glob("*.json"))
-    shots, named = {}, {}
+    named = {}
     for path in files:
         try:
             name = _checked_name(shot_name(path.stem)[:128], path)
             if name in shots:
-                raise MrcheckError(f"its shot name {name!r} is that of {named[name].name} too", path)
-            shots[name], named[name] = _shot(name, path), path
+                raise MrcheckError(f"its shot name {name!r} is that of {named.get(name, 'another shot')} too", path)
+            shots[name], named[name] = _shot(name, path), path.name
         except MrcheckError as exc:
             _warn(f"{exc} (skipped: not a usable shot)")
+    return files
+
+
+def from_scene(scene: Path, shots_dir: Path) -> Source:
+    """The SHOT.json files of ``shots_dir`` (:func:`_folder_shots`)."""
+    shots = {}
+    files = _folder_shots(shots_dir, shots)
     if not shots:
         why = f"none of its {len(files)} JSON file(s) is a shot" if files else "it has no SHOT.json files (*.json)"
         raise MrcheckError(f"no usable shots to review: {why}", shots_dir)
@@ -227,6 +237,8 @@ def open_source(target, shots_dir=None) -> Source:
         source = from_job(target)
     else:
         raise MrcheckError("pass JOB.toml, an export OUTDIR or SCENE --shots DIR", target)
+    if source.kind != "scene" and (Path(source.home) / ADDED_SHOTS).is_dir():   # shots added in an earlier review
+        source.files += _folder_shots(Path(source.home) / ADDED_SHOTS, source.shots)
     _check_files(source, target)
     return source
 

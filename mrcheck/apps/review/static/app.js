@@ -203,31 +203,38 @@ function toImage(pane, ev) {
   return { x: (ev.clientX - r.left - S.t.x) / S.t.s, y: (ev.clientY - r.top - S.t.y) / S.t.s };
 }
 let pickTimer = null, pickSeq = 0;
+// wheel zoom about the cursor and press-drag pan, for these panes and "Add photo"'s (addphoto.js)
+function zoomed(t, el, ev, least) {  // the transform after a wheel event over el
+  const r = el.getBoundingClientRect(), px = ev.clientX - r.left, py = ev.clientY - r.top;
+  const s = Math.min(40, Math.max(least, t.s * Math.exp(-ev.deltaY * 0.0015)));
+  return { s, x: px - (px - t.x) * (s / t.s), y: py - (py - t.y) * (s / t.s) };
+}
+// a press that moves more than 3 px pans the transform getT() gives (apply() shows it); else its release is click(e)
+function panOrClick(ev, getT, apply, click) {
+  const start = { x: ev.clientX, y: ev.clientY, tx: getT().x, ty: getT().y };
+  let moved = false;
+  const move = (e) => {
+    const dx = e.clientX - start.x, dy = e.clientY - start.y;
+    if (Math.abs(dx) + Math.abs(dy) > 3) moved = true;
+    if (moved) { getT().x = start.tx + dx; getT().y = start.ty + dy; apply(); }
+  };
+  const up = (e) => {
+    window.removeEventListener("mousemove", move); window.removeEventListener("mouseup", up);
+    if (!moved) click(e);
+  };
+  window.addEventListener("mousemove", move); window.addEventListener("mouseup", up);
+}
 for (const pane of panes) {
   pane.addEventListener("wheel", (ev) => {
-    ev.preventDefault();
-    const r = pane.getBoundingClientRect(), px = ev.clientX - r.left, py = ev.clientY - r.top;
-    const k = Math.exp(-ev.deltaY * 0.0015), s = Math.min(40, Math.max(0.05, S.t.s * k));
-    S.t = { s, x: px - (px - S.t.x) * (s / S.t.s), y: py - (py - S.t.y) * (s / S.t.s) }; S.fitted = false;
-    applyTransform();
+    ev.preventDefault(); S.t = zoomed(S.t, pane, ev, 0.05); S.fitted = false; applyTransform();
   }, { passive: false });
   pane.addEventListener("mousedown", (ev) => {
     if (ev.button !== 0 || !S.shot) return;
-    const start = { x: ev.clientX, y: ev.clientY, tx: S.t.x, ty: S.t.y };
-    let moved = false;
-    const move = (e) => {
-      const dx = e.clientX - start.x, dy = e.clientY - start.y;
-      if (Math.abs(dx) + Math.abs(dy) > 3) moved = true;
-      if (moved) { S.t.x = start.tx + dx; S.t.y = start.ty + dy; S.fitted = false; applyTransform(); }
-    };
-    const up = (e) => {
-      window.removeEventListener("mousemove", move); window.removeEventListener("mouseup", up);
-      if (moved) return;
+    panOrClick(ev, () => S.t, () => { S.fitted = false; applyTransform(); }, (e) => {
       if (S.selected !== null) { select(null); return; }  // the first click closes the editor (saved), the next places a marker
       const p = toImage(pane, e);
       if (p.x >= 0 && p.y >= 0 && p.x < S.shot.width && p.y < S.shot.height) addMarker(p.x, p.y);
-    };
-    window.addEventListener("mousemove", move); window.addEventListener("mouseup", up);
+    });
   });
   pane.addEventListener("mousemove", (ev) => {
     if (!S.shot) return;
@@ -261,6 +268,17 @@ window.addEventListener("resize", fit);
 // image: refit then, unless the planner has zoomed or panned since the last fit
 new ResizeObserver(() => { if (S.fitted) fit(); }).observe($("#viewport"));
 
+function addShotItem(shot) {  // also for a shot added by "Add photo" (addphoto.js)
+  const li = document.createElement("li");
+  li.dataset.name = shot.name;
+  const err = shot.error_px == null ? "error n/a" : `error ${shot.error_px.toFixed(2)} px`;
+  li.innerHTML = `<img alt=""><div><b></b><br><small></small></div>`;
+  $("img", li).src = `api/shots/${enc(shot.name)}/thumb.png`;
+  $("b", li).textContent = shot.name; $("small", li).textContent = err;
+  li.onclick = () => selectShot(shot);
+  $("#shot-list").appendChild(li);
+}
+
 async function start() {
   S.info = await api("GET", "api/info");
   for (const mode of S.info.modes) {
@@ -273,16 +291,7 @@ async function start() {
   for (const c of S.info.categories) $("#ed-category").add(new Option(c, c));
   $("#intensity-out").textContent = S.info.intensities[S.level];
   S.shots = await api("GET", "api/shots");
-  for (const shot of S.shots) {
-    const li = document.createElement("li");
-    li.dataset.name = shot.name;
-    const err = shot.error_px == null ? "error n/a" : `error ${shot.error_px.toFixed(2)} px`;
-    li.innerHTML = `<img alt=""><div><b></b><br><small></small></div>`;
-    $("img", li).src = `api/shots/${enc(shot.name)}/thumb.png`;
-    $("b", li).textContent = shot.name; $("small", li).textContent = err;
-    li.onclick = () => selectShot(shot);
-    $("#shot-list").appendChild(li);
-  }
+  for (const shot of S.shots) addShotItem(shot);
   for (const link of $$("#exports a")) link.onclick = (e) => { e.preventDefault(); exportFile(link); };
   applyView();
   const wanted = new URLSearchParams(location.search).get("shot");
