@@ -96,7 +96,7 @@ def _peaks(level: Level, uv: np.ndarray, normals: np.ndarray, radius: int, polar
     return steps, a, along, peak
 
 
-def search(level: Level, uv: np.ndarray, normals: np.ndarray, radius: int, polarity=None) -> Matches:
+def search(level: Level, uv: np.ndarray, normals: np.ndarray, radius: int, polarity=None, outside=None) -> Matches:
     """For every point ``uv`` (level pixels) with unit image normal ``normals``: the photo's edge
     nearest to it along the normal within ``radius`` level pixels.
 
@@ -106,10 +106,20 @@ def search(level: Level, uv: np.ndarray, normals: np.ndarray, radius: int, polar
     maximum and its two neighbours. ``polarity`` (the sign of the gradient along the normal
     found before, or 0 for any) keeps a point on the same side's edge from one iteration to
     the next, so it does not hop to a parallel edge of the opposite contrast.
+
+    ``outside`` (n,): for a contour, the background's side along the normal (+1, -1; 0 for a
+    crease): such a point takes the *outermost* edge in its window instead of the nearest. The
+    CAD has no texture, so the print or trim just inside a real object's outline (the box of
+    tests/data/pose/box: a printed border 4-8 px inside) must not take the outline's samples;
+    beyond the outline lies what the object stands before, where the CAD has no edge.
     """
     n = len(uv)
     steps, a, along, peak = _peaks(level, uv, normals, radius, polarity)
     distance = np.where(peak, np.abs(steps[None, 1:-1]), np.inf)
+    if outside is not None:
+        # outermost: rank by how far out (the nearest breaks ties among creases, outside = 0)
+        rank = -outside[:, None] * steps[None, 1:-1] * (2 * radius + 3) + np.abs(steps[None, 1:-1])
+        distance = np.where(peak & (outside[:, None] != 0), rank, distance)
     best = np.argmin(distance, axis=1)
     found = np.isfinite(distance[np.arange(n), best])
     i = best + 1                                                           # index into a
