@@ -15,6 +15,7 @@ import cv2
 import numpy as np
 
 _ORIENTATION_COS = math.cos(math.radians(35.0))  # the photo's gradient within 35 deg of the CAD normal
+_OUTLINE_SHARE = 0.25  # a contour's edge: the outermost peak of at least this share of the strongest
 _NOISE_FACTOR = 4.0   # an edge is a gradient above this many times the image's median gradient
 
 
@@ -108,7 +109,8 @@ def search(level: Level, uv: np.ndarray, normals: np.ndarray, radius: int, polar
     the next, so it does not hop to a parallel edge of the opposite contrast.
 
     ``outside`` (n,): for a contour, the background's side along the normal (+1, -1; 0 for a
-    crease): such a point takes the *outermost* edge in its window instead of the nearest. The
+    crease): such a point takes the *outermost* of the strong edges in its window (at least a quarter
+    of the strongest) instead of the nearest. The
     CAD has no texture, so the print or trim just inside a real object's outline (the box of
     tests/data/pose/box: a printed border 4-8 px inside) must not take the outline's samples;
     beyond the outline lies what the object stands before, where the CAD has no edge.
@@ -117,9 +119,12 @@ def search(level: Level, uv: np.ndarray, normals: np.ndarray, radius: int, polar
     steps, a, along, peak = _peaks(level, uv, normals, radius, polarity)
     distance = np.where(peak, np.abs(steps[None, 1:-1]), np.inf)
     if outside is not None:
-        # outermost: rank by how far out (the nearest breaks ties among creases, outside = 0)
+        # the outermost of the strong edges (a quarter of the window's strongest: a soft shadow
+        # edge or the table's grain beyond the outline does not count); creases keep the nearest
+        magnitude = np.where(peak, a[:, 1:-1], 0.0)
+        strong = peak & (magnitude >= _OUTLINE_SHARE * magnitude.max(axis=1, keepdims=True))
         rank = -outside[:, None] * steps[None, 1:-1] * (2 * radius + 3) + np.abs(steps[None, 1:-1])
-        distance = np.where(peak & (outside[:, None] != 0), rank, distance)
+        distance = np.where((outside[:, None] != 0), np.where(strong, rank, np.inf), distance)
     best = np.argmin(distance, axis=1)
     found = np.isfinite(distance[np.arange(n), best])
     i = best + 1                                                           # index into a
