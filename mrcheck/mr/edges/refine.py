@@ -26,7 +26,7 @@ from mrcheck.render.settings import RenderSettings
 from mrcheck.mr.edges.uncertainty import WEAK_CORNER_PX, PoseUncertainty, parallel_edges, pose_uncertainty
 
 _COARSEST_WIDTH = 160
-_CANDIDATES = 60           # edge points made per sample kept (in a dense hall most are hidden or not salient)
+_CANDIDATES = 24           # edge points made per sample kept (in a dense hall most are hidden or not salient)
 _MIN_SAMPLES = 30
 _PART_MIN_SAMPLES = 12     # a part with fewer samples is never judged on its own
 _PART_MIN_SUPPORT = 0.2    # ... and one whose samples find support less often than this is dropped
@@ -166,6 +166,7 @@ class _Fitter:
         clock.add("photo", start)
         self.dropped = np.zeros(len(edges.group_names), bool)
         self.state = None
+        self.last_full = None     # the full-resolution level's last samples (reused by _finish)
 
     def visible_samples(self, scale: float, radius: int = 0):
         """Samples of the visible, salient edges at the current pose (:func:`model.salient` on
@@ -260,6 +261,8 @@ class _Fitter:
             polarity = now.found.polarity if polarity is None else polarity
         if judge_parts:     # not on the coarsest level: a part may still be off by the search radius there
             self.drop_unsupported(samples, now.weights)
+        if level.scale == 1.0:
+            self.last_full = model.subset(samples, ~self.dropped[samples.group])
         ok = np.isfinite(now.r) & (now.weights > 0)
         rms = float(np.sqrt(np.average(now.r[ok] ** 2, weights=now.weights[ok]))) if np.any(ok) else math.inf
         return LevelReport(level.scale, iterations, len(samples), float(np.mean(now.weights > 0)), rms)
@@ -349,7 +352,9 @@ def _edges_centre(edges: model.EdgeSet, camera: Camera) -> np.ndarray:
 def _finish(fitter: _Fitter, rough: Camera, reports: list) -> EdgeFit:
     """The full-resolution statistics, the uncertainty, the warnings, or the failure."""
     options, camera = fitter.options, fitter.camera
-    samples = fitter.visible_samples(1.0)
+    # the finest level's samples, found within rerender_px of this pose (a render less per fit:
+    # a video frame's snap is a third render and edge search otherwise)
+    samples = fitter.last_full if fitter.last_full is not None else fitter.visible_samples(1.0)
     r, rows, proj, _ = fitter.match(fitter.pyramid[0], samples, 3, None)
     start = time.perf_counter()
     ok = np.isfinite(r)
