@@ -136,13 +136,4 @@ def search(level: Level, uv: np.ndarray, normals: np.ndarray, radius: int, polar
     return Matches(offset, np.where(found, mid, 0.0), np.where(found, np.sign(along[rows, i]), 0.0))
 
 
-def distinct(level: Level, uv: np.ndarray, normals: np.ndarray, radius: int, own_px: float = 1.0) -> np.ndarray:
-    """(n,) bool: an edge peak within ``own_px`` of each point and no other within ``radius``
-    along its normal -- in a render of the CAD at the pose, the edges the search can find
-    without mistaking a neighbour for them."""
-    steps, _, _, peak = _peaks(level, uv, normals, radius)
-    near = np.abs(steps[1:-1]) <= own_px
-    return np.any(peak & near[None, :], axis=1) & ~np.any(peak & ~near[None, :], axis=1)
-
-
-__all__ = ["Level", "Matches", "pyramid", "search", "distinct", "to_level"]
+__all__ = ["Level", "Matches", "pyramid", "search", "to_level"]
