@@ -88,9 +88,10 @@ def crate_fits():
 
 
 def test_snap_is_within_a_pixel_in_nine_of_ten_cases(crate_fits):
-    """Median reprojection error on the scene points <= 1 px in at least 9 of 10 seeds
-    (measured: 9 of 10, 0.03-0.61 px; seed 0, 28 px off, fails with "too little support" and
-    writes nothing). A case that fails must say so, never return a wrong pose quietly."""
+    """Median reprojection error on the scene points <= 1 px in at least 9 of 10 seeds (the
+    target), here in all 10 (measured: 0.03-0.28 px since the chamfer coarse stage; before it,
+    9 of 10 with seed 0, 28 px off, failing with "too little support"). A case that fails must
+    say so, never return a wrong pose quietly."""
     assert all(15.0 <= case.offset_px <= 40.0 for case, _ in crate_fits)
     errors = []
     for case, fit in crate_fits:
@@ -100,7 +101,7 @@ def test_snap_is_within_a_pixel_in_nine_of_ten_cases(crate_fits):
             continue
         errors.append(float(np.median(reprojection_error(case.truth, fit.camera, case.points))))
         assert errors[-1] <= 1.0 or fit.warnings, (errors[-1], fit.warnings)
-    assert sum(e <= 1.0 for e in errors) >= 9, errors
+    assert sum(e <= 1.0 for e in errors) == 10, errors
 
 
 def test_the_reported_uncertainty_covers_the_true_error(crate_fits):

@@ -75,8 +75,8 @@ def test_no_refine_needs_markers_or_points(project, tmp_path, capsys):
 
 def test_points_then_edges_on_the_real_photo(tmp_path, capsys):
     """The box of tests/data/pose/box from its clicked corners, refined by the edges: a shot of
-    method edges starting from the points. (Its accuracy is not asserted: the snap moves the
-    outline onto the printed border just inside the box's outline, see docs/registration.md.)"""
+    method edges starting from the points. (Its accuracy on the photo's outline is measured in
+    tests/test_edges_box.py; see docs/edge-registration.md.)"""
     out = tmp_path / "shot.json"
     code = main(["register", str(BOX / "scene.toml"), "--photo", str(BOX / "resized_IMG_3875.JPG"), "--intrinsics",
                  str(BOX / "canon.json"), "--points", str(BOX / "corners.json"), "--refine", "-o", str(out)])

@@ -29,6 +29,10 @@ CREASE_DEG = 30.0           # a facet edge of a 12-sided cylinder (30 deg) is no
 _WELD_DIGITS = 6            # vertices within a micrometre (metres) are one vertex
 _VISIBLE_DEPTH_TOL = 0.01   # an edge point up to 1 % behind the visible surface is still on it
 _MIN_EDGE_PX = 2.0          # edges shorter than this on screen give no sample
+SALIENT_NEAR_PX = 1.0       # salient(): each side of an edge probed this far (level px) ...
+SALIENT_FAR_PX = 2.0        # ... and this far: one surface over that width on both sides
+_ON_PLANE = 0.003           # a point lies in a surface's plane: within 0.3 % of the depth (6 cm at 20 m)
+_SIDE_NORMAL_COS = math.cos(math.radians(20.0))
 
 
 @dataclass
@@ -58,13 +62,16 @@ class Samples:
 
     ``points``: (n, 3); ``tangents``: (n, 3) unit edge directions; ``group``: (n,) instance index;
     ``edge``: (n,) index of the edge in the :class:`EdgeSet` (the unit whose samples share one
-    error: the clusters of the uncertainty, :mod:`mrcheck.mr.edges.solver`).
+    error: the clusters of the uncertainty, :mod:`mrcheck.mr.edges.solver`); ``outside``: (n,)
+    for a contour the side of the background along the image normal (+1 or -1), 0 for a crease
+    or not known (:func:`salient`).
     """
 
     points: np.ndarray
     tangents: np.ndarray
     group: np.ndarray
     edge: np.ndarray
+    outside: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.points)
@@ -138,14 +145,15 @@ def front_edges(edges: EdgeSet, centre: np.ndarray) -> np.ndarray:
 
 
 def project_pinhole(camera: Camera, points: np.ndarray) -> np.ndarray:
-    """(n, 2) pinhole pixels of world points (``camera.project``, in OpenCV's C++: a dense
-    scene's edges are hundreds of thousands of points per pose), about the camera centre so
-    that coordinates far from the world origin keep their precision."""
+    """(n, 2) pinhole pixels of world points (as ``camera.project``), about the camera centre so
+    that coordinates far from the world origin keep their precision. Plain numpy: a dense
+    scene's edges are hundreds of thousands of points per pose, and ``cv2.projectPoints``
+    (which also makes a Jacobian) took about 2 us per point."""
     if len(points) == 0:
         return np.zeros((0, 2))
-    rvec = cv2.Rodrigues(camera.R)[0]
-    uv, _ = cv2.projectPoints(points - camera.center, rvec, np.zeros(3), camera.K, None)
-    return uv.reshape(-1, 2)
+    x = (np.asarray(points, np.float64) - camera.center) @ (camera.K @ camera.R).T
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return x[:, :2] / x[:, 2:3]
 
 
 def sample_edges(edges: EdgeSet, camera: Camera, spacing_px: float, near: float = 1e-3,
@@ -194,7 +202,8 @@ def sample_edges(edges: EdgeSet, camera: Camera, spacing_px: float, near: float 
 
 
 def subset(samples: Samples, mask) -> Samples:
-    return Samples(samples.points[mask], samples.tangents[mask], samples.group[mask], samples.edge[mask])
+    outside = None if samples.outside is None else samples.outside[mask]
+    return Samples(samples.points[mask], samples.tangents[mask], samples.group[mask], samples.edge[mask], outside)
 
 
 def visible(samples: Samples, camera: Camera, depth: np.ndarray) -> np.ndarray:
@@ -207,10 +216,9 @@ def visible(samples: Samples, camera: Camera, depth: np.ndarray) -> np.ndarray:
     the part itself or what lies behind it, a hidden edge only the nearer occluder.
     """
     h, w = depth.shape
-    far = np.where(depth > 0, depth, np.inf).astype(np.float32)
+    far = np.where(depth > 0, depth, np.float32(3e38)).astype(np.float32)
     # the farthest depth of each 3x3 neighbourhood (a grey dilation)
-    padded = np.pad(far, 1, mode="edge")
-    farthest = np.max(np.stack([padded[i:i + h, j:j + w] for i in range(3) for j in range(3)]), axis=0)
+    farthest = cv2.dilate(far, np.ones((3, 3), np.uint8), borderType=cv2.BORDER_REPLICATE)
     uv = project_pinhole(camera, samples.points)
     sx, sy = w / camera.width, h / camera.height
     col = np.clip(np.rint((uv[:, 0] + 0.5) * sx - 0.5), 0, w - 1).astype(np.int64)
@@ -219,5 +227,72 @@ def visible(samples: Samples, camera: Camera, depth: np.ndarray) -> np.ndarray:
     return farthest[row, col] >= z * (1.0 - _VISIBLE_DEPTH_TOL)
 
 
+def pinhole_samples(camera: Camera, samples: Samples, shape) -> tuple:
+    """``(uv, normals, local)`` of the samples in a pinhole image of ``shape`` (H, W) of
+    ``camera`` (a level's render): pixel positions, unit image normals of the edges, (n, 3)
+    camera coordinates."""
+    h, w = shape
+    sx, sy = w / camera.width, h / camera.height
+    local = samples.points @ camera.R.T + camera.t
+    z = local[:, 2]
+    uv = project_pinhole(camera, samples.points)
+    ahead = project_pinhole(camera, samples.points + (1e-3 * z)[:, None] * samples.tangents)
+    d = (ahead - uv) * (sx, sy)
+    d /= np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-12)
+    level_uv = np.column_stack([(uv[:, 0] + 0.5) * sx - 0.5, (uv[:, 1] + 0.5) * sy - 0.5])
+    return level_uv, np.column_stack([-d[:, 1], d[:, 0]]), local
+
+
+def _lookup(image: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """``image`` (H, W[, C]) at the nearest pixel of level positions ``uv`` (clamped)."""
+    h, w = image.shape[:2]
+    col = np.clip(np.rint(uv[:, 0]), 0, w - 1).astype(np.int64)
+    row = np.clip(np.rint(uv[:, 1]), 0, h - 1).astype(np.int64)
+    return image[row, col]
+
+
+def salient(uv: np.ndarray, normals: np.ndarray, points: np.ndarray, depth: np.ndarray,
+            surface_normals: np.ndarray, K: np.ndarray, near_px: float = SALIENT_NEAR_PX,
+            far_px: float = SALIENT_FAR_PX) -> tuple:
+    """``(keep, outside)``: (n,) bool, the samples whose edge a photo can show as one clean step, judged on a render
+    at the level's size: ``uv`` level pixels, ``normals`` unit image normals, ``points`` (n, 3)
+    camera coordinates of the samples; ``depth`` (H, W, 0 = background) and ``surface_normals``
+    (H, W, 3) the render's G-buffer (camera space), ``K`` the level camera's matrix.
+
+    Across the edge, at ``near_px`` and ``far_px`` on each side along the normal, the render's
+    surface point and normal are looked up. A side is *on* the edge when the edge point lies in
+    that side's surface plane (within :data:`_ON_PLANE` of its depth: slope-independent, so a
+    face seen obliquely counts and a column 20 cm before a wall 19 m away does not); it is
+    *clean* when the far probe lies in the near probe's plane (one surface over ``far_px``: no
+    other edge that close). Kept: a contour (exactly one side on, the other farther or
+    background and clean: a thin column before a wall counts) or a crease (both on and clean,
+    normals more than :data:`CREASE_DEG` apart). Removed: wires and bars thinner than
+    ``2 near_px`` (no side is on: in a photo they blur away), corrugated sheet, grids and racks
+    (not clean), mesh edges inside a flat face. ``outside`` (n,): the contour's background side
+    along the normal (+1, -1; 0 for a crease), see :class:`Samples`.
+    """
+    z = points[:, 2]
+    K_inv = np.linalg.inv(K)
+    sides = []
+    for sign in (-1.0, 1.0):
+        probes = []
+        for d in (near_px, far_px):
+            p = uv + (sign * d) * normals
+            dz = _lookup(depth, p).astype(np.float64)
+            ray = np.column_stack([p, np.ones(len(p))]) @ K_inv.T
+            probes.append((dz, ray * dz[:, None], _lookup(surface_normals, p).astype(np.float64)))
+        (d1, p1, n1), (d2, p2, n2) = probes
+        bg1, bg2 = d1 <= 0, d2 <= 0
+        in_plane = lambda q: np.abs(np.einsum("ij,ij->i", n1, q - p1)) <= _ON_PLANE * d1  # noqa: E731
+        clean = (bg1 & bg2) | (~bg1 & ~bg2 & in_plane(p2) & (np.einsum("ij,ij->i", n1, n2) > _SIDE_NORMAL_COS))
+        on = ~bg1 & in_plane(points)
+        behind = bg1 | (d1 > z * (1.0 - _ON_PLANE))
+        sides.append((clean, on, behind, n1))
+    (clean_a, on_a, behind_a, n_a), (clean_b, on_b, behind_b, n_b) = sides
+    out_b, out_a = clean_a & clean_b & on_a & ~on_b & behind_b, clean_a & clean_b & on_b & ~on_a & behind_a
+    crease = on_a & on_b & clean_a & clean_b & (np.einsum("ij,ij->i", n_a, n_b) < math.cos(math.radians(CREASE_DEG)))
+    return out_a | out_b | crease, np.where(out_b, 1.0, 0.0) - np.where(out_a, 1.0, 0.0)
+
+
 __all__ = ["EdgeSet", "Samples", "mesh_edges", "scene_edges", "front_edges", "sample_edges", "visible", "subset",
-           "project_pinhole", "CREASE_DEG"]
+           "project_pinhole", "pinhole_samples", "salient", "CREASE_DEG"]

@@ -15,6 +15,7 @@ import cv2
 import numpy as np
 
 _ORIENTATION_COS = math.cos(math.radians(35.0))  # the photo's gradient within 35 deg of the CAD normal
+_OUTLINE_SHARE = 0.25  # a contour's edge: the outermost peak of at least this share of the strongest
 _NOISE_FACTOR = 4.0   # an edge is a gradient above this many times the image's median gradient
 
 
@@ -96,7 +97,7 @@ def _peaks(level: Level, uv: np.ndarray, normals: np.ndarray, radius: int, polar
     return steps, a, along, peak
 
 
-def search(level: Level, uv: np.ndarray, normals: np.ndarray, radius: int, polarity=None) -> Matches:
+def search(level: Level, uv: np.ndarray, normals: np.ndarray, radius: int, polarity=None, outside=None) -> Matches:
     """For every point ``uv`` (level pixels) with unit image normal ``normals``: the photo's edge
     nearest to it along the normal within ``radius`` level pixels.
 
@@ -106,10 +107,24 @@ def search(level: Level, uv: np.ndarray, normals: np.ndarray, radius: int, polar
     maximum and its two neighbours. ``polarity`` (the sign of the gradient along the normal
     found before, or 0 for any) keeps a point on the same side's edge from one iteration to
     the next, so it does not hop to a parallel edge of the opposite contrast.
+
+    ``outside`` (n,): for a contour, the background's side along the normal (+1, -1; 0 for a
+    crease): such a point takes the *outermost* of the strong edges in its window (at least a quarter
+    of the strongest) instead of the nearest. The
+    CAD has no texture, so the print or trim just inside a real object's outline (the box of
+    tests/data/pose/box: a printed border 4-8 px inside) must not take the outline's samples;
+    beyond the outline lies what the object stands before, where the CAD has no edge.
     """
     n = len(uv)
     steps, a, along, peak = _peaks(level, uv, normals, radius, polarity)
     distance = np.where(peak, np.abs(steps[None, 1:-1]), np.inf)
+    if outside is not None:
+        # the outermost of the strong edges (a quarter of the window's strongest: a soft shadow
+        # edge or the table's grain beyond the outline does not count); creases keep the nearest
+        magnitude = np.where(peak, a[:, 1:-1], 0.0)
+        strong = peak & (magnitude >= _OUTLINE_SHARE * magnitude.max(axis=1, keepdims=True))
+        rank = -outside[:, None] * steps[None, 1:-1] * (2 * radius + 3) + np.abs(steps[None, 1:-1])
+        distance = np.where((outside[:, None] != 0), np.where(strong, rank, np.inf), distance)
     best = np.argmin(distance, axis=1)
     found = np.isfinite(distance[np.arange(n), best])
     i = best + 1                                                           # index into a
@@ -121,13 +136,4 @@ def search(level: Level, uv: np.ndarray, normals: np.ndarray, radius: int, polar
     return Matches(offset, np.where(found, mid, 0.0), np.where(found, np.sign(along[rows, i]), 0.0))
 
 
-def distinct(level: Level, uv: np.ndarray, normals: np.ndarray, radius: int, own_px: float = 1.0) -> np.ndarray:
-    """(n,) bool: an edge peak within ``own_px`` of each point and no other within ``radius``
-    along its normal -- in a render of the CAD at the pose, the edges the search can find
-    without mistaking a neighbour for them."""
-    steps, _, _, peak = _peaks(level, uv, normals, radius)
-    near = np.abs(steps[1:-1]) <= own_px
-    return np.any(peak & near[None, :], axis=1) & ~np.any(peak & ~near[None, :], axis=1)
-
-
-__all__ = ["Level", "Matches", "pyramid", "search", "distinct", "to_level"]
+__all__ = ["Level", "Matches", "pyramid", "search", "to_level"]

@@ -21,14 +21,12 @@ import numpy as np
 
 from mrcheck.core.camera import Camera
 from mrcheck.core.errors import MrcheckError
-from mrcheck.mr.edges import model, photo, solver
+from mrcheck.mr.edges import coarse, model, photo, solver
 from mrcheck.render.settings import RenderSettings
 from mrcheck.mr.edges.uncertainty import WEAK_CORNER_PX, PoseUncertainty, parallel_edges, pose_uncertainty
 
 _COARSEST_WIDTH = 160
-_CANDIDATES = 8            # edge points made per sample kept (half of them hidden, most not distinct)
-_ISOLATION_PX = 6          # no other CAD edge within this many level px along a sample's normal ...
-_ISOLATED_ENOUGH = 300     # ... as long as this many samples (or a quarter) stay
+_CANDIDATES = 24           # edge points made per sample kept (in a dense hall most are hidden or not salient)
 _MIN_SAMPLES = 30
 _PART_MIN_SAMPLES = 12     # a part with fewer samples is never judged on its own
 _PART_MIN_SUPPORT = 0.2    # ... and one whose samples find support less often than this is dropped
@@ -62,6 +60,7 @@ class EdgeOptions:
     min_support: float = 0.5
     levels: int | None = None
     rerender_px: float = 1.5
+    coarse: str = "chamfer"
 
     def validated(self) -> "EdgeOptions":
         checks = [(0 < self.search_px < math.inf, f"search radius must be positive, got {self.search_px}"),
@@ -69,7 +68,8 @@ class EdgeOptions:
                   (self.max_samples >= _MIN_SAMPLES, f"max samples must be >= {_MIN_SAMPLES}, got {self.max_samples}"),
                   (self.iterations >= 1, f"iterations must be >= 1, got {self.iterations}"),
                   (0 <= self.min_support <= 1, f"min support must be in [0, 1], got {self.min_support}"),
-                  (self.levels is None or 1 <= self.levels <= 8, f"levels must be 1..8, got {self.levels}")]
+                  (self.levels is None or 1 <= self.levels <= 8, f"levels must be 1..8, got {self.levels}"),
+                  (self.coarse in ("chamfer", "normal"), f"coarse must be chamfer or normal, got {self.coarse!r}")]
         for ok, message in checks:
             if not ok:
                 raise MrcheckError(message)
@@ -124,7 +124,7 @@ class _Evaluation:
 
 class _Clock:
     def __init__(self):
-        self.times = {k: 0.0 for k in ("render", "edges", "photo", "match", "solve", "uncertainty")}
+        self.times = {k: 0.0 for k in ("render", "edges", "photo", "coarse", "match", "solve", "uncertainty")}
 
     def add(self, stage, start):
         self.times[stage] += time.perf_counter() - start
@@ -142,14 +142,12 @@ def _thinned(samples, most: int):
     return model.subset(samples, np.linspace(0, len(samples) - 1, most).astype(int))
 
 
-def render_depth(renderer, camera: Camera, with_image: bool = False):
-    """(H, W) float32 linear depth of ``camera`` (0 = background), from the renderer's result
-    (full detail: a simplified mesh moves the edges); with ``with_image`` also the Phong
-    render's grey image (float32, 0..1)."""
-    frame = renderer.render(camera, ["phong"], RenderSettings(lod_px=0.0))
-    if not with_image:
-        return frame.depth
-    return frame.depth, frame["phong"].image.astype(np.float32) @ np.array([0.299, 0.587, 0.114], np.float32) / 255.0
+def render_depth(renderer, camera: Camera, with_normals: bool = False):
+    """(H, W) float32 linear depth of ``camera`` (0 = background), from the renderer's
+    G-buffer alone (no shading pass; full detail: a simplified mesh moves the edges); with
+    ``with_normals`` also the (H, W, 3) camera-space normals."""
+    frame = renderer.render(camera, [], RenderSettings(lod_px=0.0), want_normals=with_normals)
+    return (frame.depth, frame.normals) if with_normals else frame.depth
 
 
 def level_count(width: int, options: EdgeOptions) -> int:
@@ -168,32 +166,24 @@ class _Fitter:
         clock.add("photo", start)
         self.dropped = np.zeros(len(edges.group_names), bool)
         self.state = None
+        self.last_full = None     # the full-resolution level's last samples (reused by _finish)
 
-    def visible_samples(self, scale: float, radius: int):
-        """Samples of the visible, distinct edges at the current pose (:func:`photo.distinct` in
-        the Phong render, within ``radius`` level px), thinned to ``max_samples``."""
+    def visible_samples(self, scale: float, radius: int = 0):
+        """Samples of the visible, salient edges at the current pose (:func:`model.salient` on
+        the render's depth and normals at the level's size), thinned to ``max_samples``."""
         start = time.perf_counter()
         cam = self.state.camera(self.camera)
         level_camera = cam.resized(max(1, round(cam.width * scale)), max(1, round(cam.height * scale)))
-        depth, image = render_depth(self.renderer, level_camera, with_image=True)
+        depth, normals = render_depth(self.renderer, level_camera, with_normals=True)
         start = self.clock.add("render", start)
         samples = model.sample_edges(self.edges, cam, self.options.spacing_px / scale,
                                      max_count=_CANDIDATES * self.options.max_samples)
         samples = model.subset(samples, model.visible(samples, cam, depth) & ~self.dropped[samples.group])
-        samples = _thinned(samples, _CANDIDATES // 2 * self.options.max_samples)
-        if len(samples) < _MIN_SAMPLES:
-            self.clock.add("edges", start)
-            return samples
-        proj = solver.project(self.state, self.camera, samples.points, samples.tangents)
-        # the edges the render shows alone within the isolation radius (see photo.distinct); as
-        # isolated as the scene allows: a lone box has its corners' neighbours within any radius
-        rendered = photo.pyramid(image, 1)[0]
-        uv = proj.uv * (depth.shape[1] / cam.width)
-        for r in range(min(radius, _ISOLATION_PX), 2, -1):
-            keep = photo.distinct(rendered, uv, proj.normal, r)
-            if np.count_nonzero(keep) >= min(_ISOLATED_ENOUGH, len(samples) // 4):
-                samples = model.subset(samples, keep)
-                break
+        if len(samples) >= _MIN_SAMPLES:
+            uv, normal, local = model.pinhole_samples(cam, samples, depth.shape)
+            keep, outside = model.salient(uv, normal, local, depth, normals, level_camera.K)
+            samples.outside = outside
+            samples = model.subset(samples, keep)
         self.clock.add("edges", start)
         return _thinned(samples, self.options.max_samples)
 
@@ -202,7 +192,7 @@ class _Fitter:
         start = time.perf_counter()
         proj = solver.project(self.state, self.camera, samples.points, samples.tangents)
         uv = photo.to_level(proj.uv, level.scale)
-        found = photo.search(level, uv, proj.normal, radius, polarity)
+        found = photo.search(level, uv, proj.normal, radius, polarity, outside=samples.outside)
         self.clock.add("match", start)
         return -found.offset, solver.normal_rows(proj, level.scale), proj, found
 
@@ -217,8 +207,8 @@ class _Fitter:
         self.clock.add("solve", start)
         return _Evaluation(r, rows, proj, found, weights, sigma, cost)
 
-    def samples_for(self, level, radius):
-        samples = self.visible_samples(level.scale, radius)
+    def samples_for(self, scale: float):
+        samples = self.visible_samples(scale)
         if len(samples) < _MIN_SAMPLES:
             raise EdgeFitError(f"only {len(samples)} visible CAD edge samples in view (at least {_MIN_SAMPLES} "
                                "needed): is the rough pose looking at the scene?")
@@ -235,7 +225,7 @@ class _Fitter:
         (the Tukey support, ``4.685 sigma``)."""
         floor = _SIGMA_FLOOR_PX if level.scale == 1.0 else 2 * _SIGMA_FLOOR_PX
         radius = _radius(sigma)
-        samples = self.samples_for(level, radius)
+        samples = self.samples_for(level.scale)
         now = self.evaluate(level, samples, radius, None, sigma)
         polarity, moved, damping, iterations = now.found.polarity, 0.0, 1e-3, 0
         while iterations < self.options.iterations and damping < 1e4:
@@ -265,12 +255,14 @@ class _Fitter:
             sigma = max(floor, sigma * _ANNEAL)
             radius = _radius(sigma)
             if moved > self.options.rerender_px:
-                samples, moved = self.samples_for(level, radius), 0.0
+                samples, moved = self.samples_for(level.scale), 0.0
                 polarity = None
             now = self.evaluate(level, samples, radius, polarity, sigma)
             polarity = now.found.polarity if polarity is None else polarity
         if judge_parts:     # not on the coarsest level: a part may still be off by the search radius there
             self.drop_unsupported(samples, now.weights)
+        if level.scale == 1.0:
+            self.last_full = model.subset(samples, ~self.dropped[samples.group])
         ok = np.isfinite(now.r) & (now.weights > 0)
         rms = float(np.sqrt(np.average(now.r[ok] ** 2, weights=now.weights[ok]))) if np.any(ok) else math.inf
         return LevelReport(level.scale, iterations, len(samples), float(np.mean(now.weights > 0)), rms)
@@ -310,7 +302,7 @@ def refine_pose(scene, camera: Camera, grey: np.ndarray, initial: Camera | None 
         renderer = Renderer(scene)
     try:
         fit = _fit(_Fitter(edges, renderer, camera, grey, options, clock), camera if initial is None else
-                   camera.with_pose(initial.R, initial.t))
+                   camera.with_pose(initial.R, initial.t), grey)
     finally:
         if own:
             renderer.release()
@@ -326,15 +318,27 @@ def _grey(image: np.ndarray) -> np.ndarray:
     return image
 
 
-def _fit(fitter: _Fitter, rough: Camera) -> EdgeFit:
+def _fit(fitter: _Fitter, rough: Camera, grey: np.ndarray) -> EdgeFit:
+    """Coarse (:mod:`mrcheck.mr.edges.coarse`: a search over the view direction, then the
+    oriented chamfer distance) down to the second finest level, then the search along the
+    normal on the two finest levels (sub-pixel)."""
     centre = _edges_centre(fitter.edges, rough)
     fitter.state = solver.PoseState.of(rough, centre)
+    options = fitter.options
     reports = []
-    for index in reversed(range(len(fitter.pyramid))):
-        level = fitter.pyramid[index]
-        # the first level's scale: the rough pose's error, a third of the search radius
-        sigma = fitter.options.search_px * level.scale / solver.TUKEY_C if not reports else _NEXT_LEVEL_SIGMA
-        reports.append(fitter.run_level(level, sigma, judge_parts=bool(reports)))
+    if options.coarse == "normal":
+        for index in reversed(range(len(fitter.pyramid))):
+            # the first level's scale: the rough pose's error, a third of the search radius
+            sigma = options.search_px * fitter.pyramid[index].scale / solver.TUKEY_C if not reports else _NEXT_LEVEL_SIGMA
+            reports.append(fitter.run_level(fitter.pyramid[index], sigma, judge_parts=bool(reports)))
+        return _finish(fitter, rough, reports)
+    start, before = time.perf_counter(), dict(fitter.clock.times)
+    coarse.coarse_align(fitter, grey, len(fitter.pyramid), options.search_px, options.iterations, options.rerender_px)
+    # the coarse stage's own time (chamfer maps, search, solve); its renders count as "render"
+    inner = sum(fitter.clock.times[k] - before[k] for k in before)
+    fitter.clock.times["coarse"] += time.perf_counter() - start - inner
+    for index in reversed(range(min(2, len(fitter.pyramid)))):
+        reports.append(fitter.run_level(fitter.pyramid[index], _NEXT_LEVEL_SIGMA, judge_parts=True))
     return _finish(fitter, rough, reports)
 
 
@@ -348,7 +352,9 @@ def _edges_centre(edges: model.EdgeSet, camera: Camera) -> np.ndarray:
 def _finish(fitter: _Fitter, rough: Camera, reports: list) -> EdgeFit:
     """The full-resolution statistics, the uncertainty, the warnings, or the failure."""
     options, camera = fitter.options, fitter.camera
-    samples = fitter.visible_samples(1.0, 3)
+    # the finest level's samples, found within rerender_px of this pose (a render less per fit:
+    # a video frame's snap is a third render and edge search otherwise)
+    samples = fitter.last_full if fitter.last_full is not None else fitter.visible_samples(1.0)
     r, rows, proj, _ = fitter.match(fitter.pyramid[0], samples, 3, None)
     start = time.perf_counter()
     ok = np.isfinite(r)

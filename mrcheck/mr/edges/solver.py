@@ -103,14 +103,16 @@ def normal_rows(projection: Projection, scale: float) -> np.ndarray:
     return np.einsum("ni,nij->nj", projection.normal, projection.J) * scale
 
 
-def gauss_newton_step(rows: np.ndarray, residuals: np.ndarray, weights: np.ndarray, damping: float = 1e-4):
+def gauss_newton_step(rows: np.ndarray, residuals: np.ndarray, weights: np.ndarray, damping: float = 1e-4,
+                      ridge: float = _RIDGE):
     """The step ``delta`` minimising ``sum w (r + row . delta)^2``, Levenberg-damped (the
-    diagonal times ``1 + damping``), or None when the normal equations are singular."""
+    diagonal times ``1 + damping``), or None when the normal equations are singular.
+    ``ridge``: times the trace, added to the diagonal (see below)."""
     H = rows.T @ (weights[:, None] * rows)
     g = rows.T @ (weights * residuals)
     # Marquardt's diagonal scaling, plus a trace-relative ridge: a direction no edge constrains
     # (all edges parallel) has a zero column, and its step is then zero instead of singular
-    H = H + damping * np.diag(np.diag(H)) + _RIDGE * max(np.trace(H), 1e-30) * np.eye(6)
+    H = H + damping * np.diag(np.diag(H)) + ridge * max(np.trace(H), 1e-30) * np.eye(6)
     try:
         return -np.linalg.solve(H, g)
     except np.linalg.LinAlgError:

@@ -109,10 +109,13 @@ def pose_uncertainty(state: PoseState, camera, cov: np.ndarray, depth: float) ->
 def weak_direction(cov_mm: np.ndarray) -> str | None:
     """The weakest direction of a (6, 6) covariance of the camera's (right, down, forward)
     position and its (tilt, pan, roll) angles, all in mm (angles times the edges' depth), in
-    words with its 1-sigma size; None when no direction is ``WEAK_RATIO`` times the next."""
+    words with its 1-sigma size; None when no direction is ``WEAK_RATIO`` times the third
+    best constrained one. (Not the next: a few long parallel edges -- a bar across the view --
+    leave two or three directions nearly free at once, and the largest of them is still the
+    one to name.)"""
     values, vectors = np.linalg.eigh(cov_mm)
     values = np.maximum(values, 0.0)
-    if values[-1] <= 0 or math.sqrt(values[-1]) < WEAK_RATIO * math.sqrt(max(values[-2], 1e-30)):
+    if values[-1] <= 0 or math.sqrt(values[-1]) < WEAK_RATIO * math.sqrt(max(values[2], 1e-30)):
         return None
     v = vectors[:, -1] ** 2
     order = np.argsort(v)[::-1]

@@ -1,0 +1,99 @@
+"""The edge registration's sample selection and coarse stage (issue 20, second session): which
+CAD edges a photo can show (:func:`mrcheck.mr.edges.model.salient`), the oriented chamfer map
+and the search over the view direction (:mod:`mrcheck.mr.edges.chamfer`), and the outermost
+edge for contours (:func:`mrcheck.mr.edges.photo.search`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import trimesh
+
+from mrcheck.core.camera import Camera
+from mrcheck.mr.edges import chamfer, model, photo
+from mrcheck.mr.edges.refine import render_depth
+from mrcheck.render.renderer import Renderer
+from mrcheck.scene.model import Scene, make_part
+
+
+def _scene(*boxes):
+    parts = []
+    for name, extents, centre in boxes:
+        mesh = trimesh.creation.box(extents=extents)
+        T = np.eye(4)
+        T[:3, 3] = centre
+        parts.append(make_part(name, Path(name), np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces), T[None],
+                               units="m"))
+    return Scene("s", Path("s"), parts)
+
+
+def _salient_share(scene, camera):
+    """Per instance: the share of its visible edge samples that :func:`model.salient` keeps."""
+    edges = model.scene_edges(scene)
+    renderer = Renderer(scene)
+    try:
+        depth, normals = render_depth(renderer, camera, with_normals=True)
+    finally:
+        renderer.release()
+    samples = model.sample_edges(edges, camera, 1.0)
+    samples = model.subset(samples, model.visible(samples, camera, depth))
+    uv, n, local = model.pinhole_samples(camera, samples, depth.shape)
+    keep, outside = model.salient(uv, n, local, depth, normals, camera.K)
+    return {name: float(keep[samples.group == g].mean()) for g, name in enumerate(edges.group_names)}, keep, outside
+
+
+def test_wires_are_not_salient_and_a_crate_is():
+    """A 5 mm wire 4 m away (under a pixel wide: a photo blurs it away) gives no sample; a crate's
+    outline and creases do. Before, every visible mesh edge was a candidate (the generated
+    cell's fence wires took most of the samples and the fit followed them)."""
+    scene = _scene(("crate", (1.0, 0.8, 0.8), (0, 0, 0.4)), ("wire", (3.0, 0.005, 0.005), (0, -0.8, 1.2)))
+    camera = Camera.from_look_at([1.5, -4.0, 2.0], [0, 0, 0.4], [0, 0, 1], 45.0, 320, 240)
+    share, keep, outside = _salient_share(scene, camera)
+    assert share["wire"] == 0.0, share
+    assert share["crate"] > 0.5, share
+    # the outline's samples know their background side; creases are 0
+    assert np.any(outside[keep] != 0) and np.any(outside[keep] == 0)
+
+
+def test_a_column_just_before_a_wall_is_a_contour():
+    """A 40 cm column 20 cm before a wall 12 m away: its sides are contours (a depth jump of under
+    2 %, which a relative depth threshold missed; the plane test sees it)."""
+    scene = _scene(("wall", (8.0, 0.2, 4.0), (0, 0.3, 2.0)), ("column", (0.4, 0.4, 4.0), (0, 0.0, 2.0)))
+    camera = Camera.from_look_at([0.0, -12.0, 2.0], [0, 0, 2.0], [0, 0, 1], 40.0, 640, 480)
+    share, _, _ = _salient_share(scene, camera)
+    assert share["column"] > 0.5, share
+
+
+def _square_photo(shift=(0.0, 0.0)):
+    image = np.full((120, 160), 0.3, np.float32)
+    x0, y0 = 50 + shift[0], 40 + shift[1]
+    cv2.rectangle(image, (int(x0), int(y0)), (int(x0) + 50, int(y0) + 40), 0.8, -1)
+    return image
+
+
+def test_the_shift_search_finds_a_square_moved_by_nine_pixels():
+    cmap = chamfer.chamfer_map(_square_photo((9, -6)), 1.0)
+    t = np.linspace(0, 1, 40)
+    top = np.column_stack([50 + 50 * t, np.full(40, 40.0)])
+    left = np.column_stack([np.full(40, 50.0), 40 + 40 * t])
+    uv = np.vstack([top, top + (0, 40), left, left + (50, 0)])
+    normals = np.vstack([np.tile((0.0, 1.0), (80, 1)), np.tile((1.0, 0.0), (80, 1))])
+    du, dv, cost = chamfer.best_shift(cmap, uv, chamfer.bins_of(normals), 12)
+    assert (du, dv) == (9.0, -6.0) and cost < 1.0     # the filled square's edges lie between pixels
+
+
+def test_a_contour_takes_the_outermost_strong_edge():
+    """A bright object with a dark printed border 4 px inside its outline: the outline's sample
+    (background to the right, +x) takes the outline at x = 100, not the nearer print at 96; a
+    crease (outside 0) keeps the nearest."""
+    image = np.full((60, 200), 0.2, np.float32)
+    image[:, :100] = 0.8
+    image[:, 95:97] = 0.3                    # the print
+    level = photo.pyramid(image, 1)[0]
+    uv = np.array([[96.5, 30.0], [96.5, 30.0]])
+    normals = np.array([[1.0, 0.0], [1.0, 0.0]])
+    found = photo.search(level, uv, normals, 8, outside=np.array([1.0, 0.0]))
+    assert abs(uv[0, 0] + found.offset[0] - 99.5) < 0.6, found.offset
+    assert abs(found.offset[1]) < 1.5, found.offset
