@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mrcheck.apps.bcf.findings import ifc_global_id
 from mrcheck.apps.deviation.coverage import coverage
 from mrcheck.eval.raycast import triangle_owners
 
@@ -50,18 +51,6 @@ ICP_POINTS = 4000
 REFINE_SHARE = 0.3          # instances whose first offset or residual exceeds this share of the tolerance are refined
 QUERY_CHUNK = 1 << 20
 STATUSES = ("out of tolerance", "in tolerance", "no data")
-GLOBALID_CHARS = frozenset("0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz_$")
-
-
-def ifc_global_id(part, k: int) -> str | None:
-    """The instance's IFC GlobalId when it has one: an IFC import names its instances by their
-    element's GlobalId and records the element's IFC class (:mod:`mrcheck.scene.elements`); a
-    STEP import or a manifest names them otherwise."""
-    instance_id = part.instance_ids[k]
-    info = part.instance_info[k] if k < len(part.instance_info) else None
-    if info is None or not info.ifc_class.lower().startswith("ifc"):
-        return None
-    return instance_id if len(instance_id) == 22 and set(instance_id) <= GLOBALID_CHARS else None
 
 
 @dataclass
@@ -245,4 +234,4 @@ def element_status(surface, scene, points, tolerance_mm: float = TOLERANCE_MM, s
 
 
 __all__ = ["element_status", "ElementStatus", "ElementFigures", "element_figures", "element_rows", "fit_offsets",
-           "grouped_quantile", "status_of", "ifc_global_id", "TOLERANCE_MM", "SEARCH_MM", "STATUSES"]
+           "grouped_quantile", "status_of", "TOLERANCE_MM", "SEARCH_MM", "STATUSES"]
