@@ -84,7 +84,7 @@ def tinted(render: np.ndarray, ids: np.ndarray, colours: np.ndarray) -> tuple[np
     shade = render.astype(np.float64).mean(axis=2, keepdims=True) / 255.0
     cad = ids >= 0
     image = render.astype(np.float64).copy()
-    image[cad] = np.clip(colours[ids[cad]] * (0.25 + 0.95 * shade[cad]), 0, 255)
+    image[cad] = np.clip(colours[ids[cad]] * (1.2 * shade[cad]) ** 1.5, 0, 255)   # AO darkens the tint
     return image.astype(np.uint8), cad
 
 
