@@ -120,3 +120,12 @@ def test_globalid_only_for_ifc_elements():
 def test_bad_files_are_one_line_errors(data, message):
     with pytest.raises(MrcheckError, match=message):
         read_bcf_bytes(data)
+
+
+def test_undecodable_file_names_still_give_a_valid_file():
+    """A shot or folder name of non-UTF-8 bytes (surrogate escapes) in a title and a Guid key."""
+    name = b"Halle_S\xfcd".decode("utf-8", "surrogateescape")
+    topic = _topic(guid=topic_guid("discrepancies", f"/tmp/{name}", 0), title=f"moved: conveyor ({name})")
+    data = bcf_bytes([topic])
+    assert validate_bcfzip(data)
+    assert read_bcf_bytes(data)[0].title == "moved: conveyor (Halle_S\ufffdd)"

@@ -19,9 +19,14 @@ FOV_RANGE = (45.0, 60.0)     # visinfo.xsd (2.1): FieldOfView between 45 and 60 
 ZIP_TIME = (2020, 1, 1, 0, 0, 0)
 
 
+def shown(value) -> str:
+    """Text as XML can carry it: a file name's undecodable bytes (surrogate escapes) as U+FFFD."""
+    return str(value).encode("utf-8", "surrogateescape").decode("utf-8", "replace")
+
+
 def _text(parent, tag: str, value) -> ET.Element:
     element = ET.SubElement(parent, tag)
-    element.text = str(value)
+    element.text = shown(value)
     return element
 
 
@@ -39,7 +44,7 @@ def _xml(root: ET.Element) -> bytes:
 
 def markup_xml(topic: BcfTopic) -> bytes:
     root = ET.Element("Markup")
-    t = ET.SubElement(root, "Topic", Guid=topic.guid, TopicType=topic.topic_type, TopicStatus=topic.status)
+    t = ET.SubElement(root, "Topic", Guid=topic.guid, TopicType=shown(topic.topic_type), TopicStatus=shown(topic.status))
     _text(t, "Title", topic.title)
     if topic.priority:
         _text(t, "Priority", topic.priority)
@@ -85,7 +90,7 @@ def visinfo_xml(topic: BcfTopic) -> bytes:
     if topic.components:
         selection = ET.SubElement(components, "Selection")
         for comp in topic.components:
-            e = ET.SubElement(selection, "Component", **({"IfcGuid": comp.ifc_guid} if comp.ifc_guid else {}))
+            e = ET.SubElement(selection, "Component", **({"IfcGuid": shown(comp.ifc_guid)} if comp.ifc_guid else {}))
             _text(e, "OriginatingSystem", "mrcheck")
             _text(e, "AuthoringToolId", comp.tool_id)
     ET.SubElement(components, "Visibility", DefaultVisibility="true")
@@ -102,7 +107,7 @@ def version_xml() -> bytes:
 
 def project_xml(name: str, project_id: str) -> bytes:
     root = ET.Element("ProjectExtension")
-    project = ET.SubElement(root, "Project", ProjectId=project_id)
+    project = ET.SubElement(root, "Project", ProjectId=shown(project_id))
     _text(project, "Name", name)
     ET.SubElement(root, "ExtensionSchema")
     return _xml(root)
@@ -118,7 +123,7 @@ def bcf_bytes(topics: list[BcfTopic], project: str = "mrcheck") -> bytes:
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w") as archive:
         _add(archive, "bcf.version", version_xml())
-        _add(archive, "project.bcfp", project_xml(project, str(uuid.uuid5(uuid.NAMESPACE_URL, "mrcheck:" + project))))
+        _add(archive, "project.bcfp", project_xml(project, str(uuid.uuid5(uuid.NAMESPACE_URL, "mrcheck:" + shown(project)))))
         for topic in topics:
             if topic.viewpoint_guid is None and (topic.camera is not None or topic.components):
                 topic.viewpoint_guid = str(uuid.uuid5(uuid.UUID(topic.guid), "viewpoint"))
