@@ -151,6 +151,17 @@ def test_cli_writes_heatmap_suspects_and_markers(ctx, sample, tmp_path):
     assert markers and {"x", "y", "category", "severity", "note", "part"} <= set(markers[0])
     assert markers[0]["category"] in {"moved", "missing", "extra", "other"} and markers[0]["severity"] in (1, 2, 3)
     assert "conveyor" in (out / "suspects.md").read_text()
+    # the suggested markers as BCF 2.1 topics: schema-valid, the part as component, the shot's camera
+    from mrcheck.apps.bcf import read_bcf_bytes
+
+    from .test_bcf import validate_bcfzip
+
+    data = (out / "suspects.bcfzip").read_bytes()
+    assert validate_bcfzip(data)
+    topics = read_bcf_bytes(data)
+    assert len(topics) == len(markers) and topics[0].components[0].tool_id == markers[0]["part"]
+    assert topics[0].description == markers[0]["note"] and topics[0].snapshot_png.startswith(b"\x89PNG")
+    assert np.allclose(topics[0].camera.viewpoint, camera.center)
 
 
 def test_bad_input_exits_1_with_one_line_and_no_files(sample, tmp_path, capsys):

@@ -120,7 +120,7 @@ def review(target, shots_dir, host, port, token, db, suggestions, max_body, max_
 @click.option("--tolerance-px", type=FINITE, default=None, callback=positive,
               help="How far (px) a photo edge may lie from a CAD edge and still support it [default: automatic].")
 @click.option("-o", "--output", "outdir", required=True, metavar="OUTDIR",
-              help="Folder for heatmap.png, suspects.json (ranked parts, for the review tool) and suspects.md.")
+              help="Folder for heatmap.png, suspects.json (ranked parts, for the review tool), suspects.md and suspects.bcfzip (BCF 2.1).")
 def discrepancies(shot, scene_path, tolerance_px, outdir):
     """Rank the CAD parts the photo disagrees with, with a heat map.
 
@@ -145,22 +145,32 @@ def discrepancies(shot, scene_path, tolerance_px, outdir):
 @click.option("--scene", "scene_path", required=True, metavar="SCENE", help="The planned scene.")
 @click.option("--shot", metavar="SHOT.json", help="Colour the deviations on this shot's render / overlay too.")
 @click.option("--units", type=click.Choice(["mm", "cm", "m", "in", "ft"]), help="Unit of the scan's coordinates [default: the unit of a LAS/LAZ file's CRS, else metres].")
+@click.option("--per-element", is_flag=True,
+              help="Also a status per CAD instance (in / out of tolerance, no data): elements.csv, elements.json, "
+                   "elements.png and elements.bcfzip (BCF 2.1).")
+@click.option("--tolerance-mm", type=FINITE, default=20.0, show_default=True, callback=positive,
+              help="With --per-element: how far (mm) an element may be off and still be in tolerance.")
+@click.option("--search-mm", type=FINITE, default=100.0, show_default=True, callback=positive,
+              help="With --per-element: scan points farther (mm) from every CAD surface are clutter.")
 @click.option("-o", "--output", "outdir", required=True, metavar="OUTDIR", help="Folder for deviations, the coloured images and the per-part list.")
-def deviation(scan, scene_path, shot, units, outdir):
+def deviation(scan, scene_path, shot, units, per_element, tolerance_mm, search_mm, outdir):
     """Signed distances from a laser scan to the planned CAD.
 
     Signed cloud-to-mesh distances from a laser scan (E57 with every scan's pose, LAS/LAZ at
     map coordinates, PLY, PCD, XYZ) to the planned CAD, per point and per part (as
-    CloudCompare's C2M).
+    CloudCompare's C2M); with --per-element a tolerance status per element (docs/discrepancies.md).
 
     \b
     Example:
       mrcheck deviation hall.e57 --scene hall/scene.toml --shot p1.json -o deviation
+      mrcheck deviation hall.e57 --scene hall/scene.toml --per-element --tolerance-mm 10 -o deviation
     """
-    from mrcheck.apps.deviation.command import deviation_command
-    
+    from mrcheck.apps.deviation.command import PerElement, deviation_command
+
+    settings = PerElement(tolerance_mm, search_mm) if per_element else None
     with console():
-        run = deviation_command(scan=scan, scene=scene_path, shot=shot, units=units, outdir=outdir)
+        run = deviation_command(scan=scan, scene=scene_path, shot=shot, units=units, outdir=outdir,
+                                per_element=settings)
     click.echo(run.outdir)
     click.echo(run.summary, err=True)
 

@@ -84,28 +84,55 @@ def check_placement(points: np.ndarray, scene: Scene, path) -> tuple[float, floa
 
 
 # -- distances ----------------------------------------------------------------------------------------
+@dataclass
+class Surface:
+    """What the closest-point query found for every point (:func:`closest_surface`)."""
+    d: np.ndarray                # (N,) float64 signed distance (module docstring), metres
+    owner: np.ndarray            # (N,) int64 instance index into triangle_owners' list
+    normal: np.ndarray | None    # (N, 3) float32 unit normal of the closest triangle (with normals=True)
+    closest: np.ndarray | None   # (N, 3) float32 closest CAD point relative to ``origin`` (with normals=True)
+    origin: np.ndarray           # (3,) float64 the scan's bounding-box centre
+    caster: object = None        # the SceneCaster queried (with normals=True, for further rays)
+
+
+def closest_surface(scene: Scene, points: np.ndarray, normals: bool = False) -> Surface:
+    """Signed distance and owning instance of every point; with ``normals`` also the closest
+    triangle's normal and the closest point (float32, relative to the scan's centre), which the
+    per-element status needs (24 bytes a point more)."""
+    # the scan's centre, not the scene's: one stray element far off (an IFC export's, at the
+    # origin of a model at map coordinates) moves the scene's centre, and float32 there rounds
+    # the CAD near the scan to metres
+    origin = (points.min(axis=0) + points.max(axis=0)) / 2.0
+    caster = build_caster(scene, origin)
+    if caster is None:
+        raise MrcheckError("the scene has no triangles to measure against", scene.source)
+    n = len(points)
+    d, owner = np.empty(n, np.float64), np.empty(n, np.int64)
+    normal = np.empty((n, 3), np.float32) if normals else None
+    closest = np.empty((n, 3), np.float32) if normals else None
+    for start in range(0, n, QUERY_CHUNK):
+        chunk = points[start:start + QUERY_CHUNK]
+        found = caster.closest_points(chunk)
+        end = start + len(chunk)
+        # the closest triangle's normal gives the side, no watertightness needed; a point exactly
+        # on the surface (dot 0) counts as outside
+        sign = np.where(np.einsum("ij,ij->i", found.offset, found.normal) < 0.0, -1.0, 1.0)
+        d[start:end] = sign * np.linalg.norm(found.offset, axis=1)
+        owner[start:end] = found.instance
+        if normals:
+            normal[start:end] = found.normal
+            closest[start:end] = (chunk - origin) - found.offset
+    return Surface(d, owner, normal, closest, origin, caster if normals else None)
+
+
 def signed_distances(scene: Scene, points: np.ndarray):
     """Signed distance (module docstring) and owning instance of every point.
 
     Returns ``(d, owner)``: (N,) float64 metres and (N,) int64 indices into
     :func:`mrcheck.eval.raycast.triangle_owners`'s list.
     """
-    # the scan's centre, not the scene's: one stray element far off (an IFC export's, at the
-    # origin of a model at map coordinates) moves the scene's centre, and float32 there rounds
-    # the CAD near the scan to metres
-    caster = build_caster(scene, (points.min(axis=0) + points.max(axis=0)) / 2.0)
-    if caster is None:
-        raise MrcheckError("the scene has no triangles to measure against", scene.source)
-    d = np.empty(len(points), np.float64)
-    owner = np.empty(len(points), np.int64)
-    for start in range(0, len(points), QUERY_CHUNK):
-        closest = caster.closest_points(points[start:start + QUERY_CHUNK])
-        # the closest triangle's normal gives the side, no watertightness needed; a point exactly
-        # on the surface (dot 0) counts as outside
-        sign = np.where(np.einsum("ij,ij->i", closest.offset, closest.normal) < 0.0, -1.0, 1.0)
-        d[start:start + len(sign)] = sign * np.linalg.norm(closest.offset, axis=1)
-        owner[start:start + len(sign)] = closest.instance
-    return d, owner
+    surface = closest_surface(scene, points)
+    return surface.d, surface.owner
 
 
 @dataclass
@@ -150,19 +177,22 @@ class Deviation:
     distances: np.ndarray        # (N,) float64 signed distance of every point, metres, scan order
     owner: np.ndarray            # (N,) int64 instance index (triangle_owners' order) of every point
     parts: list[PartDeviation]   # ranked
+    surface: Surface | None = None   # the whole query (with normals when asked for)
 
 
-def deviation(points: np.ndarray, scene: Scene, scan=None) -> Deviation:
+def deviation(points: np.ndarray, scene: Scene, scan=None, normals: bool = False) -> Deviation:
     """Check scan points (metres, :func:`~mrcheck.scene.scans.read_scan` ``.points``) against a
-    loaded scene and measure them. ``scan`` names the file in errors."""
+    loaded scene and measure them. ``scan`` names the file in errors; ``normals`` keeps the
+    closest triangles' normals and points (:func:`closest_surface`) in ``surface``."""
     scan_diag, scene_diag = check_placement(points, scene, scan)
-    d, owner = signed_distances(scene, points)
+    surface = closest_surface(scene, points, normals)
+    d, owner = surface.d, surface.owner
     size = max(scan_diag, FAR_SCENE_SHARE * scene_diag, FAR_FLOOR_M)
     median = float(np.median(np.abs(d)))
     # a scan in the scene's box but nowhere on its surfaces: as a hall-sized scan of the wrong cell
     if median > FAR_FACTOR * size:
         _far(median, scan)
-    return Deviation(d, owner, part_statistics(scene, d, owner))
+    return Deviation(d, owner, part_statistics(scene, d, owner), surface)
 
 
-__all__ = ["deviation", "Deviation", "PartDeviation", "signed_distances", "part_statistics", "check_placement"]
+__all__ = ["deviation", "Deviation", "PartDeviation", "signed_distances", "closest_surface", "Surface", "part_statistics", "check_placement"]

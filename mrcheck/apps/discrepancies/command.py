@@ -1,7 +1,8 @@
 """``mrcheck discrepancies``: check the inputs, detect, write ``OUTDIR``'s three files at once.
 
 Outputs (``OUTDIR``, all or none): ``heatmap.png`` (:mod:`mrcheck.apps.discrepancies.heatmap`),
-``suspects.json`` and ``suspects.md`` (:mod:`mrcheck.apps.discrepancies.report`).
+``suspects.json`` and ``suspects.md`` (:mod:`mrcheck.apps.discrepancies.report`), and
+``suspects.bcfzip``: BCF 2.1, one topic per suggested marker (:func:`suspects_bcf`).
 """
 
 from __future__ import annotations
@@ -11,11 +12,13 @@ import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
+from mrcheck.apps.bcf import Finding, bcf_bytes, finding_topic, topic_guid
 from mrcheck.apps.discrepancies.detector import Detection, detect
 from mrcheck.apps.discrepancies.heatmap import heatmap
 from mrcheck.apps.discrepancies.report import (
     HEATMAP,
     OUTPUT_NAMES,
+    SUSPECTS_BCF,
     SUSPECTS_JSON,
     SUSPECTS_MD,
     markdown,
@@ -29,9 +32,11 @@ from mrcheck.core.output import (
     check_not_inputs,
     check_output_dir,
     write_all_or_none,
+    write_bytes,
     write_image,
     write_text,
 )
+from mrcheck.core.images import encode_image
 from mrcheck.scene.manifest import scene_files
 from mrcheck.scene.model import load_scene
 
@@ -78,10 +83,22 @@ def discrepancies_command(shot, scene, tolerance_px=None, outdir=None) -> Discre
     for warning in detection.warnings:
         warnings.warn(MrcheckWarning(warning))
     image = heatmap(photo, detection)
+    bcf = suspects_bcf(detection, loaded, camera, encode_image(HEATMAP, image), Path(shot).stem, outdir)
     paths = write_all_or_none([lambda: write_image(outdir / HEATMAP, image),
                                lambda: write_text(outdir / SUSPECTS_JSON, suspects_json(detection, shot, scene)),
-                               lambda: write_text(outdir / SUSPECTS_MD, markdown(detection, shot))])
+                               lambda: write_text(outdir / SUSPECTS_MD, markdown(detection, shot)),
+                               lambda: write_bytes(outdir / SUSPECTS_BCF, bcf)])
     return DiscrepancyRun(detection, list(paths))
 
 
-__all__ = ["discrepancies_command", "DiscrepancyRun"]
+def suspects_bcf(detection: Detection, scene, camera, snapshot_png: bytes, shot_name: str, outdir: Path) -> bytes:
+    """``suspects.bcfzip``: a topic per suggested marker (its part's IFC GlobalId where the scene
+    has one), with the shot's camera and the heat map as snapshot; ids stable per output folder."""
+    key = str(Path(outdir).resolve())
+    topics = [finding_topic(Finding(topic_guid("discrepancies", key, i), m.category, m.severity, m.note, m.part,
+                                    shot_name), scene, camera, snapshot_png)
+              for i, m in enumerate(detection.suggested_markers)]
+    return bcf_bytes(topics, project=scene.name)
+
+
+__all__ = ["discrepancies_command", "DiscrepancyRun", "suspects_bcf"]

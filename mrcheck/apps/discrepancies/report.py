@@ -19,7 +19,8 @@ from mrcheck.apps.discrepancies.thresholds import (
 )
 
 HEATMAP, SUSPECTS_JSON, SUSPECTS_MD = "heatmap.png", "suspects.json", "suspects.md"   # written into OUTDIR
-OUTPUT_NAMES = (HEATMAP, SUSPECTS_JSON, SUSPECTS_MD)
+SUSPECTS_BCF = "suspects.bcfzip"
+OUTPUT_NAMES = (HEATMAP, SUSPECTS_JSON, SUSPECTS_MD, SUSPECTS_BCF)
 
 
 def suspects_json(detection: Detection, shot, scene) -> str:
@@ -60,4 +61,4 @@ def summary_line(detection: Detection) -> str:
             f"{f' ({top})' if flagged else ''}, {len(detection.regions)} unexplained structure region(s)")
 
 
-__all__ = ["suspects_json", "markdown", "summary_line", "HEATMAP", "SUSPECTS_JSON", "SUSPECTS_MD", "OUTPUT_NAMES"]
+__all__ = ["suspects_json", "markdown", "summary_line", "HEATMAP", "SUSPECTS_JSON", "SUSPECTS_MD", "SUSPECTS_BCF", "OUTPUT_NAMES"]

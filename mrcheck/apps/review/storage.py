@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import sqlite3
 import time
 from pathlib import Path
@@ -15,7 +16,7 @@ MAX_NOTE = 2000
 # images served (at most 1280 wide), and the first review used whatever was reviewed; 1: native
 # pixels, one review per job, export or shots folder (reviews.source: its path relative to the database)
 VERSION = 1
-TABLES = {"reviews", "markers", "imported", "sqlite_sequence"}   # a database with others is another program's
+TABLES = {"reviews", "markers", "imported", "sqlite_sequence", "bcf"}   # a database with others is another program's
 _FIELDS = ("id", "shot", "x", "y", "category", "severity", "note", "part", "distance", "mode", "created", "updated")
 
 SCHEMA = """
@@ -30,6 +31,8 @@ CREATE TABLE IF NOT EXISTS markers (
 CREATE INDEX IF NOT EXISTS markers_shot ON markers(review, shot);
 CREATE TABLE IF NOT EXISTS imported (review INTEGER NOT NULL, shot TEXT NOT NULL, key TEXT NOT NULL,
     PRIMARY KEY (review, shot, key));
+CREATE TABLE IF NOT EXISTS bcf (review INTEGER NOT NULL, marker INTEGER NOT NULL, status TEXT NOT NULL,
+    comments TEXT NOT NULL, PRIMARY KEY (review, marker));
 """
 
 
@@ -143,6 +146,18 @@ class Store:
                 db.execute(f"UPDATE markers SET {sets}, updated = ? WHERE review = ? AND id = ?",
                            (*allowed.values(), time.time(), self.review, marker_id))
         return self.get(marker_id)
+
+    def bcf_states(self) -> dict:
+        """{marker id: {"status": ..., "comments": [...]}} of the markers a BCF import touched."""
+        with self._connect() as db:
+            rows = db.execute("SELECT marker, status, comments FROM bcf WHERE review = ?", (self.review,))
+            return {r["marker"]: {"status": r["status"], "comments": json.loads(r["comments"])} for r in rows}
+
+    def set_bcf_state(self, marker_id: int, status: str, comments: list) -> None:
+        """A marker's BCF status and comments (dicts of date, author, text), as another tool left them."""
+        with self._connect() as db:
+            db.execute("INSERT OR REPLACE INTO bcf(review, marker, status, comments) VALUES (?, ?, ?, ?)",
+                       (self.review, marker_id, status, json.dumps(comments, ensure_ascii=False)))
 
     def delete(self, marker_id: int) -> bool:
         with self._connect() as db:

@@ -1,11 +1,11 @@
 """The review's routes, one router per concern: :mod:`.pages` (the page and its static files),
 :mod:`.shots` (shots, their images, picking the CAD part under a pixel), :mod:`.markers` (the
-markers' CRUD) and :mod:`.exports` (the HTML report and the CSV),
-:mod:`.addphoto` (a photo registered by clicks, saved as a shot). Each takes the app's
+markers' CRUD), :mod:`.exports` (the HTML report and the CSV), :mod:`.bcf` (BCF 2.1 out and in)
+and :mod:`.addphoto` (a photo registered by clicks, saved as a shot). Each takes the app's
 :class:`~mrcheck.apps.review.state.Review` through the ``current`` dependency."""
 
-from mrcheck.apps.review.routes import addphoto, exports, markers, pages, shots
+from mrcheck.apps.review.routes import addphoto, bcf, exports, markers, pages, shots
 
-ROUTERS = (pages.router, shots.router, markers.router, exports.router, addphoto.router)
+ROUTERS = (pages.router, shots.router, markers.router, exports.router, bcf.router, addphoto.router)
 
 __all__ = ["ROUTERS"]

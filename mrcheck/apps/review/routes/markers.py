@@ -6,6 +6,7 @@ from typing import Annotated
 
 from fastapi import APIRouter, Depends, HTTPException
 
+from mrcheck.apps.review.bcf import with_bcf_state
 from mrcheck.apps.review.models import MarkerIn, MarkerPatch
 from mrcheck.apps.review.state import MAX_ID, Review, check_xy, current
 
@@ -17,7 +18,7 @@ Current = Annotated[Review, Depends(current)]
 def list_markers(review: Current, shot: str | None = None):
     if shot is not None:
         review.shot_or_404(shot)
-    return review.store.markers(shot)
+    return with_bcf_state(review, review.store.markers(shot))
 
 
 @router.post("", status_code=201)

@@ -87,6 +87,19 @@ async function exportFile(link) {
   status(`${what}: saved`);
 }
 
+// a BCF file back from a BIM tool: statuses, comments and priorities onto the markers
+async function importBcf(ev) {
+  const file = ev.target.files[0]; ev.target.value = "";
+  if (!file) return;
+  status("Import BCF...");
+  const res = await fetch("api/bcf/import", { method: "POST", body: await file.arrayBuffer(),
+    headers: { "Content-Type": "application/octet-stream" } }).catch(() => null);
+  if (!res || !res.ok) return failed("Import BCF", res);
+  const got = await res.json();
+  S.markers = await api("GET", `api/markers?shot=${enc(S.shot.name)}`); drawMarkers();
+  status(`Import BCF: ${got.matched} marker(s) updated, ${got.unknown} topic(s) of no marker here`);
+}
+
 // -- shots ---------------------------------------------------------------------------------
 async function selectShot(shot) {
   if (!(await saveEdits())) return;
@@ -120,7 +133,10 @@ function drawMarkers() {
   for (const m of S.markers) {
     const li = document.createElement("li");
     li.dataset.id = m.id; li.classList.toggle("selected", S.selected === m.id);
-    li.textContent = `#${m.id} ${m.category} (sev ${m.severity}) ${m.part || "-"}: ${m.note}`; li.title = m.note;
+    // a BCF import's status (when another tool changed it) and comments show on the marker
+    const bcf = (m.status && m.status !== "Open" ? ` [${m.status}]` : "") + (m.comments && m.comments.length ? ` (${m.comments.length} comment${m.comments.length > 1 ? "s" : ""})` : "");
+    li.textContent = `#${m.id} ${m.category} (sev ${m.severity}) ${m.part || "-"}: ${m.note}${bcf}`;
+    li.title = [m.note, ...(m.comments || []).map((c) => `${c.author}: ${c.text}`)].join("\n");
     li.onclick = () => select(m.id);
     list.appendChild(li);
   }
@@ -293,6 +309,7 @@ async function start() {
   S.shots = await api("GET", "api/shots");
   for (const shot of S.shots) addShotItem(shot);
   for (const link of $$("#exports a")) link.onclick = (e) => { e.preventDefault(); exportFile(link); };
+  $("#import-bcf").onchange = importBcf;
   applyView();
   const wanted = new URLSearchParams(location.search).get("shot");
   await selectShot(S.shots.find((s) => s.name === wanted) || S.shots[0]);

@@ -1,0 +1,26 @@
+"""BCF 2.1 (``.bcfzip``, buildingSMART's BIM Collaboration Format): the issues of mrcheck --
+the review's markers, the discrepancy suspects, the per-element deviation findings -- as topics
+the BIM tools (Solibri, BIMcollab, Navisworks, BlenderBIM, Revit plug-ins) read, and back.
+
+Written and read with the standard library (``xml.etree``, ``zipfile``) against the BCF 2.1
+XML schemas (tests/data/bcf21/, validated in tests/test_bcf.py): the maintained Python library,
+IfcOpenShell's ``bcf-client``, is GPL-3.0 (mrcheck is MIT) and pulls in ifcopenshell, xsdata
+and requests for a few hundred lines of XML.
+
+* ``model`` -- :class:`BcfTopic`, :class:`BcfComment`, :class:`BcfCamera` (the file's content);
+* ``write`` -- :func:`bcf_bytes`: topics -> the bytes of a ``.bcfzip``;
+* ``read`` -- :func:`read_bcf`: a ``.bcfzip`` -> topics (statuses and comments another tool changed);
+* ``topics`` -- :class:`Finding` (a marker or a suspect) -> :func:`finding_topic`;
+* ``findings`` -- what mrcheck's results become: :func:`bcf_camera` from a shot's camera,
+  :func:`priority` from a severity, :func:`topic_guid` (stable ids, so a round trip finds its
+  topics again), :func:`element_component` (an IFC GlobalId only where the scene has one).
+"""
+
+from mrcheck.apps.bcf.findings import bcf_camera, element_component, ifc_global_id, priority, severity_of, topic_guid
+from mrcheck.apps.bcf.model import BcfCamera, BcfComment, BcfComponent, BcfTopic
+from mrcheck.apps.bcf.read import read_bcf, read_bcf_bytes
+from mrcheck.apps.bcf.topics import Finding, finding_topic
+from mrcheck.apps.bcf.write import bcf_bytes
+
+__all__ = ["BcfTopic", "BcfComment", "BcfCamera", "BcfComponent", "bcf_bytes", "read_bcf", "read_bcf_bytes",
+           "bcf_camera", "priority", "severity_of", "topic_guid", "element_component", "ifc_global_id", "Finding", "finding_topic"]

@@ -1,0 +1,57 @@
+"""What a BCF topic holds, as mrcheck writes and reads it (BCF 2.1 markup.bcf / viewpoint.bcfv)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from datetime import datetime
+
+
+@dataclass(frozen=True)
+class BcfCamera:
+    """A perspective camera (visinfo.xsd PerspectiveCamera): world metres, unit vectors, the
+    vertical field of view in degrees (BCF 2.1's schema allows 45..60 only)."""
+    viewpoint: tuple
+    direction: tuple
+    up: tuple
+    field_of_view: float
+
+
+@dataclass(frozen=True)
+class BcfComponent:
+    """A selected element: its IFC GlobalId when it has one (``IfcGuid``), else None, and the
+    id mrcheck knows it by (``AuthoringToolId``, with ``OriginatingSystem`` "mrcheck")."""
+    ifc_guid: str | None
+    tool_id: str
+
+
+@dataclass(frozen=True)
+class BcfComment:
+    guid: str
+    date: datetime
+    author: str
+    text: str
+
+
+@dataclass
+class BcfTopic:
+    """One issue. ``status`` (TopicStatus) is free text in BCF 2.1: mrcheck writes "Open";
+    other tools write "In Progress", "Resolved", "Closed", ... and the review shows them."""
+    guid: str
+    title: str
+    status: str = "Open"
+    priority: str = ""
+    description: str = ""
+    topic_type: str = "Issue"
+    labels: list = field(default_factory=list)
+    created: datetime | None = None
+    author: str = "mrcheck"
+    modified: datetime | None = None
+    modified_author: str = ""
+    components: list = field(default_factory=list)   # BcfComponent
+    camera: BcfCamera | None = None
+    snapshot_png: bytes | None = None
+    comments: list = field(default_factory=list)      # BcfComment
+    viewpoint_guid: str | None = None
+
+
+__all__ = ["BcfTopic", "BcfComment", "BcfCamera", "BcfComponent"]

@@ -1,0 +1,117 @@
+"""``elements.png``: the CAD rendered with vector AO, every instance tinted by its tolerance
+status, over the shot's photo when one is given, with a legend.
+
+Colours: in tolerance green, no data grey, out of tolerance from orange (just over the
+tolerance) to red (:data:`RED_AT` x the tolerance or more) by the size of the deviation (the
+offset's length, or the residual when that is larger); the legend's bar gives the mm. The tint
+multiplies the vector-AO render's brightness, so depth stays readable (AO darkens corners and
+contacts). With a shot, the picture is in the photo's (distorted) geometry, blended 50 % over
+it; without one, it is the scene's first viewpoint (or an overview from above the scene's
+box's south-west corner when the scene has none).
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from mrcheck.core.camera import Camera
+
+IN_COLOUR = np.array([70, 190, 90], np.float64)
+NO_DATA_COLOUR = np.array([150, 150, 150], np.float64)
+OUT_LOW, OUT_HIGH = np.array([255, 170, 40], np.float64), np.array([220, 30, 30], np.float64)
+RED_AT = 5.0                 # deviation / tolerance at which the tint is fully red
+PHOTO_ALPHA = 0.5
+OVERVIEW_SIZE = (1024, 768)
+BACKGROUND = (40, 40, 40)
+
+
+def _deviation_mm(row) -> float:
+    return max(row.offset_norm_mm or 0.0, row.residual_mm or 0.0)
+
+
+def status_colours(rows, tolerance_mm: float) -> np.ndarray:
+    """(n, 3) float64 RGB of every row (module docstring)."""
+    out = np.empty((len(rows), 3))
+    for i, row in enumerate(rows):
+        if row.status == "in tolerance":
+            out[i] = IN_COLOUR
+        elif row.status == "no data":
+            out[i] = NO_DATA_COLOUR
+        else:
+            x = np.clip((_deviation_mm(row) / tolerance_mm - 1.0) / (RED_AT - 1.0), 0.0, 1.0)
+            out[i] = OUT_LOW + x * (OUT_HIGH - OUT_LOW)
+    return out
+
+
+def overview_camera(scene) -> Camera:
+    """The scene's first viewpoint, else a view from above one corner of its box."""
+    if scene.viewpoints:
+        return scene.camera(next(iter(scene.viewpoints)), *OVERVIEW_SIZE)
+    lo, hi = scene.bounds()
+    centre, size = (lo + hi) / 2.0, hi - lo
+    eye = centre + np.array([-0.6 * size[0], -0.8 * size[1], 0.5 * max(size[0], size[1])])
+    return Camera.from_look_at(eye, centre, (0, 0, 1), 50.0, *OVERVIEW_SIZE)
+
+
+def legend(height: int, tolerance_mm: float) -> np.ndarray:
+    """The legend panel: swatches for in tolerance / no data, the out-of-tolerance bar in mm."""
+    width = max(170, height // 4)
+    panel = np.full((height, width, 3), BACKGROUND, np.uint8)
+    scale = max(0.4, height / 1500.0)
+    text = dict(fontFace=cv2.FONT_HERSHEY_SIMPLEX, fontScale=scale, color=(240, 240, 240),
+                thickness=max(1, int(round(scale * 1.6))), lineType=cv2.LINE_AA)
+    y, step = int(height * 0.06), int(height * 0.06)
+    for label, colour in (("in tolerance", IN_COLOUR), ("no data", NO_DATA_COLOUR)):
+        cv2.rectangle(panel, (8, y - step // 2), (8 + step // 2, y), tuple(int(c) for c in colour), -1)
+        cv2.putText(panel, label, (16 + step // 2, y), **text)
+        y += step
+    cv2.putText(panel, "out of tolerance", (8, y), **text)
+    cv2.putText(panel, "deviation (mm)", (8, y + step // 2 + 4), **text)
+    top, bottom = y + step, int(height * 0.92)
+    x = np.linspace(1.0, 0.0, max(bottom - top, 1))[:, None]
+    panel[top:bottom, 8:8 + width // 6] = (OUT_LOW + x * (OUT_HIGH - OUT_LOW)).astype(np.uint8)[:, None, :]
+    for fraction in (1.0, 0.5, 0.0):
+        yy = int(round(top + (1.0 - fraction) * (bottom - top - 1)))
+        value = tolerance_mm * (1.0 + fraction * (RED_AT - 1.0))
+        label = (">= " if fraction == 1.0 else "") + f"{value:g}"
+        cv2.putText(panel, label, (14 + width // 6, yy + 5), **text)
+    return panel
+
+
+def tinted(render: np.ndarray, ids: np.ndarray, colours: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The render's brightness times each pixel's instance colour; ``(image, cad mask)``."""
+    shade = render.astype(np.float64).mean(axis=2, keepdims=True) / 255.0
+    cad = ids >= 0
+    image = render.astype(np.float64).copy()
+    image[cad] = np.clip(colours[ids[cad]] * (1.2 * shade[cad]) ** 1.5, 0, 255)   # AO darkens the tint
+    return image.astype(np.uint8), cad
+
+
+def element_image(scene, rows, tolerance_mm: float, camera=None, photo=None) -> np.ndarray:
+    """``elements.png`` (module docstring). ``rows`` in :func:`triangle_owners` order (as
+    :func:`~mrcheck.apps.deviation.elements.element_status` returns them)."""
+    from mrcheck.apps.discrepancies.ids import object_ids
+    from mrcheck.mr.lens import distortion_map
+    from mrcheck.mr.overlay import overlay_images
+    from mrcheck.mr.shot import render_for_photo
+    from mrcheck.render.renderer import Renderer, RenderSettings
+
+    camera = overview_camera(scene) if camera is None else camera
+    maps = distortion_map(camera)
+    renderer = Renderer(scene)
+    try:
+        renders, _, offset, maps = render_for_photo(renderer, camera, ["vector"], RenderSettings(), False, maps)
+    finally:
+        renderer.release()
+    base = np.zeros((camera.height, camera.width, 3), np.uint8) if photo is None else photo
+    cad_only = overlay_images(base, renders, camera, 0.0, None, offset=offset, maps=maps)["vector"]
+    ids, _, _ = object_ids(scene, camera, maps)
+    image, cad = tinted(cad_only, ids, status_colours(rows, tolerance_mm))
+    if photo is not None:
+        blend = PHOTO_ALPHA * photo.astype(np.float64) + (1.0 - PHOTO_ALPHA) * image
+        image = np.where(cad[..., None], blend, photo).astype(np.uint8)
+    return np.hstack([image, legend(image.shape[0], tolerance_mm)])
+
+
+__all__ = ["element_image", "status_colours", "overview_camera", "legend", "tinted"]
