@@ -64,7 +64,7 @@ FIRST_DEMO_IMAGE = "robot_study.png"   # the sample cell's robot in D1 | D2 | D3
 @click.option("--antialias/--no-antialias", default=defaults.DEFAULT_ANTIALIAS, show_default=True,
               help="Anti-aliased edges: geometry and shading 2x2 supersampled, the AO once per pixel.")
 @click.option("--tone", type=click.Choice(defaults.TONES), default=defaults.DEFAULT_TONE, show_default=True,
-              help="filmic: light surfaces roll off below white; clip: linear light clipped at white (renders before 0.21).")
+              help="filmic: light surfaces roll off below white; clip: linear light clipped at white (the renders before the tone curve).")
 @click.option("--light", type=click.Choice(defaults.LIGHTS), default=defaults.DEFAULT_LIGHT, show_default=True,
               help="headlight: a light just above the camera; sun: a fixed direction from above.")
 @click.option("--seed", type=click.IntRange(min=0), default=defaults.DEFAULT_SEED, show_default=True,
