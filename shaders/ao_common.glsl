@@ -25,8 +25,34 @@ float centre_depth(ivec2 ij) {
     return z;
 }
 
+// A sliver: a facet narrower than a pixel (the flank of a rib of corrugated cladding, a few
+// centimetres deep, seen almost face on) that the G-buffer's one sample per pixel caught at this
+// pixel but not at its neighbours on either side, which lie on one surface with another normal at
+// about this depth. Its normal is a point sample of a feature the AO cannot resolve: the flank's
+// hemisphere holds the wall it stands on, so the pixel reads strongly occluded, and the blur
+// spreads that one pixel into a dark dot (the moire of the ribs with the pixel grid puts the dots
+// on rows and arcs: docs/rendering.md, "The D2 pattern"). A sliver takes its neighbours' normal:
+// the surface that covers most of the pixel's footprint.
+const float SLIVER_COS = 0.9;      // normals this close are "the same surface"
+const float SLIVER_DEPTH = 0.02;   // neighbours within this relative depth lie on the same surface
+
+bool same_surface(vec3 na, vec3 nb, float za, float zb, float z) {
+    return dot(na, nb) > SLIVER_COS && abs(za - z) < SLIVER_DEPTH * z && abs(zb - z) < SLIVER_DEPTH * z;
+}
+
 vec3 centre_normal(ivec2 ij) {
-    return texelFetch(u_normal, ij * AO_STRIDE, 0).xyz;
+    ivec2 p = ij * AO_STRIDE;
+    vec3 n = texelFetch(u_normal, p, 0).xyz;
+    float z = texelFetch(u_depth, p, 0).r;
+    ivec2 last = textureSize(u_normal, 0) - 1;
+    for (int axis = 0; axis < 2; ++axis) {
+        ivec2 step = axis == 0 ? ivec2(AO_STRIDE, 0) : ivec2(0, AO_STRIDE);
+        ivec2 a = clamp(p - step, ivec2(0), last), b = clamp(p + step, ivec2(0), last);
+        vec3 na = texelFetch(u_normal, a, 0).xyz, nb = texelFetch(u_normal, b, 0).xyz;
+        if (dot(n, na) < SLIVER_COS && same_surface(na, nb, texelFetch(u_depth, a, 0).r, texelFetch(u_depth, b, 0).r, z))
+            return normalize(na + nb);
+    }
+    return n;
 }
 
 // Camera-space point of pixel (u, v) (OpenCV pixel centres at integers) at depth z.

@@ -28,7 +28,9 @@ def _photo(ctx, scene, camera, supersample=1) -> np.ndarray:
     """A synthetic photo: the ideal render of ``camera`` distorted by its lens (optionally
     rendered at ``supersample`` x the size and area-averaged, for cleaner marker edges)."""
     big = camera.resized(camera.width * supersample, camera.height * supersample)
-    renders, _, offset, maps = render_for_photo(Renderer(scene, ctx=ctx), big, ["phong"], RenderSettings(), False)
+    # the photo's own supersampling and a camera's clipped whites, not the CAD view's filmic look
+    settings = RenderSettings(antialias=False, tone="clip")
+    renders, _, offset, maps = render_for_photo(Renderer(scene, ctx=ctx), big, ["phong"], settings, False)
     photo = distort_to_photo(renders["phong"], maps, offset)
     if supersample > 1:
         photo = cv2.resize(photo, (camera.width, camera.height), interpolation=cv2.INTER_AREA)

@@ -23,7 +23,7 @@ import pytest
 import trimesh
 
 from mrcheck.core.camera import Camera
-from mrcheck.render.composite import Composite
+from mrcheck.render.composite import TONE_CURVE, Composite
 from mrcheck.render.gl import made_current, srgb_texture
 from mrcheck.render.renderer import Renderer, RenderSettings
 
@@ -48,6 +48,15 @@ def _texture(ctx, array: np.ndarray, dtype="f4") -> moderngl.Texture:
 
 def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def _filmic(x: np.ndarray) -> np.ndarray:
+    """The default tone curve of shaders/composite.glsl: exposure, identity to the knee, then a
+    shoulder towards the white point with slope 1 at the knee."""
+    exposure, knee, white = (TONE_CURVE[k] for k in ("EXPOSURE_VALUE", "KNEE_VALUE", "WHITE_VALUE"))
+    x = np.maximum(x * exposure, 0.0)
+    shoulder = knee + (white - knee) * (1.0 - np.exp(-(x - knee) / (white - knee)))
+    return np.where(x >= knee, shoulder, x)
 
 
 def _srgb_bytes(linear: np.ndarray) -> np.ndarray:
@@ -147,7 +156,8 @@ def test_composite_matches_the_shading_model_per_pixel(gl, light, mode):
     albedo = albedo_bytes[..., :3] / 255.0
     expected_linear = _expected_linear(camera, light, depth.astype(np.float64), normal.astype(np.float64),
                                        albedo, ao.astype(np.float64), use_ao, ao_direct)
-    expected = _srgb_bytes(expected_linear)
+    # the tone curve maps the CAD's light, not the background's fixed colour
+    expected = _srgb_bytes(np.where((depth > 0)[..., None], _filmic(expected_linear), expected_linear))
     # the premise: enough highlights (specular term alone > 0.1) to show a changed SPECULAR
     specular_share = _expected_linear(camera, light, depth.astype(np.float64), normal.astype(np.float64),
                                       np.zeros_like(albedo), np.ones_like(ao, np.float64), False, False)[..., 0]
@@ -168,8 +178,9 @@ def test_renderer_passes_ao_direct_to_the_composite(ctx):
     scene = scene_of(box((30, 12, 0.2), (0, 0, -0.1)), box((30, 0.2, 10), (0, 6.1, 5)))
     camera = Camera.from_look_at((0, 0, 2.0), (0, 6, 1.0), (0, 0, 1), 60, 64, 48)
     renderer = Renderer(scene, ctx=ctx)
-    results = [renderer.render(camera, ["vector"], RenderSettings(ao_direct=direct, samples=16, blur=False,
-                                                                   radius_px=6, intensity=2.0), want_ao=True)["vector"]
+    # without anti-aliasing: an edge pixel would mix samples of other AO than its centre's
+    results = [renderer.render(camera, ["vector"], RenderSettings(ao_direct=direct, samples=16, blur=False, radius_px=6,
+                                                                   intensity=2.0, antialias=False), want_ao=True)["vector"]
                for direct in (False, True)]
     ao = results[0].ao
     assert np.array_equal(ao, results[1].ao)

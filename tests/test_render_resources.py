@@ -79,13 +79,18 @@ def test_the_frame_carries_the_depth_of_its_g_buffer(fresh_ctx):
     renderer = Renderer(scene, ctx=fresh_ctx)
     try:
         camera = scene.camera("overview", 80, 60)
-        frame = renderer.render(camera, ["phong", "vector"], RenderSettings(samples=4))
+        # without anti-aliasing, whose edge pixels mix the background's colour with the CAD's
+        frame = renderer.render(camera, ["phong", "vector"], RenderSettings(samples=4, antialias=False))
         assert set(frame) == {"phong", "vector"} and len(frame) == 2 and frame.normals is None
         assert frame.depth.dtype == np.float32 and frame.depth.shape == (60, 80)
         assert 0 < (frame.depth > 0).mean() < 1   # the cell and some background
         # the background pixels of the depth are those painted in the background colour
         background = (frame["phong"].image == frame["phong"].image[frame.depth == 0][0]).all(axis=2)
         assert background[frame.depth == 0].all()
+        # anti-aliased, the depth is that of the pixel centres all the same (mrcheck.render.antialias):
+        # but for a silhouette through a pixel centre, which rasterisation may give either side
+        antialiased = renderer.render(camera, ["phong"], RenderSettings(samples=4))
+        assert (np.abs(antialiased.depth - frame.depth) > 1e-4 * frame.depth.max()).mean() < 0.01
     finally:
         renderer.release()
 

@@ -93,10 +93,13 @@ def register(scene_path, photo, intrinsics, markers, points, initial, refine, ma
 @click.option("--alpha", type=FINITE, default=0.5, show_default=True, help="Photo opacity, 0 (CAD only) .. 1 (photo only).")
 @click.option("--edges", is_flag=True, help="Draw CAD silhouette and crease edges over the photo.")
 @click.option("--edge-color", default="ff00ff", show_default=True, metavar="RRGGBB", help="Colour of the CAD edges.")
-@click.option("--intensity", type=FINITE, default=defaults.DEFAULT_INTENSITY, show_default=True, help="AO strength (0 none ... 2 strong).")
+@click.option("--intensity", type=FINITE, help="AO strength (0 none ... 2 strong) [default: "
+              f"{defaults.MODE_INTENSITIES['vector']:g} for vector, {defaults.DEFAULT_INTENSITY:g} for the other modes].")
+@click.option("--antialias/--no-antialias", default=defaults.DEFAULT_ANTIALIAS, show_default=True,
+              help="Anti-aliased CAD edges (2x2 supersampled geometry and shading).")
 @click.option("--samples", type=int, default=defaults.DEFAULT_SAMPLES, show_default=True, callback=positive, help="AO samples per pixel.")
 @click.option("-o", "--output", required=True, metavar="OUT.png", help="Output image.")
-def overlay(shot, scene_path, mode, alpha, edges, edge_color, intensity, samples, output):
+def overlay(shot, scene_path, mode, alpha, edges, edge_color, intensity, antialias, samples, output):
     """Blend the CAD rendered from a registered shot over its photo.
 
     The planned CAD rendered from the shot's camera, distorted like its lens, blended over the
@@ -111,5 +114,5 @@ def overlay(shot, scene_path, mode, alpha, edges, edge_color, intensity, samples
 
     warn_unused_options(click.get_current_context(), mode)
     image = overlay_shot(shot=shot, scene=scene_path, mode=mode, alpha=alpha, edges=edges, edge_color=edge_color,
-                         intensity=intensity, samples=samples, output=output)
+                         intensity=intensity, samples=samples, output=output, antialias=antialias)
     print(write_image(output, image))

@@ -82,7 +82,7 @@ def render_for_photo(renderer: Renderer, camera: Camera, modes, settings: Render
 
 
 def overlay_shot(shot, scene, mode="vector", alpha=0.5, edges=False, edge_color="ff00ff",
-                 intensity=1.0, samples=16, output=None) -> np.ndarray:
+                 intensity=None, samples=16, output=None, antialias=True) -> np.ndarray:
     """``mrcheck overlay``: the (H, W, 3) uint8 overlay of ``shot`` (the study's sheet for mode
     all). Everything is checked before the work: ``output``, when given, is where the caller
     will write the image (its suffix, its folder, not one of the inputs)."""
@@ -90,7 +90,7 @@ def overlay_shot(shot, scene, mode="vector", alpha=0.5, edges=False, edge_color=
         output = check_output_path(output, IMAGE_SUFFIXES)
     alpha = check_alpha(alpha)
     color = parse_edge_color(edge_color)
-    settings = RenderSettings(samples=samples, intensity=intensity)
+    settings = RenderSettings(samples=samples, intensity=intensity, antialias=antialias)
     camera, photo_path = load_shot(shot)
     check_not_inputs([output] if output is not None else [],
                      [("the shot", shot), ("the shot's photo", photo_path), ("the scene", scene_files(scene))])

@@ -9,10 +9,12 @@ import numpy as np
 
 from mrcheck.core.camera import Camera
 from mrcheck.render.gl import GL_FRAMEBUFFER_SRGB, load_program
-from mrcheck.render.settings import DEFAULT_LIGHT, LIGHTS
+from mrcheck.render.settings import DEFAULT_LIGHT, DEFAULT_TONE, LIGHTS, TONES
 
 SUN_DIRECTION = np.array([0.35, -0.25, 0.90])  # world, towards the sun: high, from one side (z up)
 BACKGROUND = (0.80, 0.84, 0.88)                # linear RGB behind the scene: a pale hall grey
+# the filmic tone curve of shaders/composite.glsl (tone()): exposure, knee and asymptote in linear light
+TONE_CURVE = {"EXPOSURE_VALUE": 0.8, "KNEE_VALUE": 0.40, "WHITE_VALUE": 0.85}
 
 
 def light_direction(camera: Camera, light: str) -> np.ndarray:
@@ -33,7 +35,7 @@ class Composite:
         self.ctx = ctx
         self.variants = {}
         for half in (False, True):
-            program = load_program(ctx, "composite", {"AO_HALF": half})
+            program = load_program(ctx, "composite", {"AO_HALF": half, **TONE_CURVE})
             names = ("u_depth", "u_normal", "u_albedo", "u_ao_half" if half else "u_ao")
             for unit, name in enumerate(names):
                 program[name].value = unit
@@ -42,7 +44,7 @@ class Composite:
 
     def run(self, target: moderngl.Framebuffer, gbuffer, ao: moderngl.Texture, camera: Camera,
             use_ao: bool, light: str = DEFAULT_LIGHT, ao_direct: bool = False,
-            ao_half: bool = False) -> None:
+            ao_half: bool = False, tone: str = DEFAULT_TONE) -> None:
         """Shade into ``target``; ``ao`` holds (AO, depth) texels, at half resolution when
         ``ao_half``."""
         p, vao = self.variants[ao_half]
@@ -50,6 +52,7 @@ class Composite:
         p["u_light_dir"].value = tuple(light_direction(camera, light))
         p["u_ao_weight"].value = 1.0 if use_ao else 0.0
         p["u_ao_direct"].value = 1.0 if ao_direct else 0.0
+        p["u_tone"].value = TONES.index(tone)
         textures = [gbuffer.depth, gbuffer.normal, gbuffer.albedo, ao]
         if ao_half:
             p["u_size_half"].value = ao.size

@@ -18,6 +18,13 @@ import numpy as np
 
 from mrcheck.core.camera import Camera
 from mrcheck.core.errors import MrcheckError
+from mrcheck.render.antialias import (
+    AA_FACTOR,
+    Resolve,
+    aa_camera,
+    aa_settings,
+    uses_supersampling,
+)
 from mrcheck.render.ao import AO_METHODS
 from mrcheck.render.blur import BilateralBlur
 from mrcheck.render.composite import Composite
@@ -31,6 +38,7 @@ from mrcheck.render.settings import (  # re-exported: the names callers have imp
     DEFAULT_RADIUS_FRACTION,
     DEFAULT_RADIUS_WORLD,
     DEFAULT_SAMPLES,
+    DEFAULT_TONE,
     MODES,
     STUDY_LABELS,
     RenderSettings,
@@ -139,13 +147,19 @@ class FramePasses:
             self.renderer._blur(size).run(ao.raw[0], ao.scratch[1], ao.blurred[1])
 
     def composite(self, scale: float, blurred: bool = True, use_ao: bool = True, light: str = DEFAULT_LIGHT,
-                  ao_direct: bool = False) -> None:
+                  ao_direct: bool = False, tone: str = DEFAULT_TONE) -> None:
         """Shade into the colour target with the AO at ``scale`` (its blurred or raw buffer)."""
         with made_current(self.ctx):
             ao = self.targets.ao_buffers(scale)
             texture = ao.blurred[0] if blurred else ao.raw[0]
             self.renderer.composite.run(self.targets.color_fbo, self.targets.gbuffer, texture, self.camera,
-                                        use_ao=use_ao, light=light, ao_direct=ao_direct, ao_half=ao.half)
+                                        use_ao=use_ao, light=light, ao_direct=ao_direct, ao_half=ao.half, tone=tone)
+
+    def resolve(self) -> None:
+        """Anti-aliasing: the last composite, on :func:`mrcheck.render.antialias.aa_camera`'s grid,
+        resolved to the output's size (:meth:`read_rgb` ``antialiased``)."""
+        with made_current(self.ctx):
+            self.renderer.resolve.run(self.targets.color)
 
     def scratch(self, scale: float) -> moderngl.Framebuffer:
         """The scratch AO buffer at ``scale``, with the depth buffer that skips the background (at
@@ -155,10 +169,10 @@ class FramePasses:
             self.coverage()
         return self.targets.ao_buffers(scale).scratch[1]
 
-    def read_rgb(self) -> np.ndarray:
-        """(H, W, 3) uint8 sRGB of the last composite."""
+    def read_rgb(self, antialiased: bool = False) -> np.ndarray:
+        """(H, W, 3) uint8 sRGB of the last composite (``antialiased``: of the last anti-aliased one)."""
         with made_current(self.ctx):
-            return self.targets.read_rgb()
+            return self.renderer.resolve.read_rgb() if antialiased else self.targets.read_rgb()
 
     def read_depth(self) -> np.ndarray:
         """(H, W) float32 linear depth of the G-buffer (scene units, 0 = background)."""
@@ -169,11 +183,15 @@ class FramePasses:
         with made_current(self.ctx):
             return self.targets.read_normals()
 
-    def read_ao(self, scale: float, blurred: bool) -> np.ndarray:
-        """(H, W) float32 AO at the output resolution; half-resolution AO is upsampled first."""
+    def read_ao(self, scale: float, blurred: bool, upsample: bool = True) -> np.ndarray:
+        """(H, W) float32 AO at the output resolution; half-resolution AO is upsampled first
+        (``upsample`` False: at its own resolution, what an anti-aliased frame returns)."""
         with made_current(self.ctx):
             ao = self.targets.ao_buffers(scale)
             texture = ao.blurred[0] if blurred else ao.raw[0]
+            if not upsample:
+                w, h = texture.size
+                return np.frombuffer(texture.read(), np.float32).reshape(h, w, 2)[..., 0].copy()
             if ao.half:
                 self.renderer._screen_pass("ao_upsample", self.targets.full.scratch[1],
                                            {"u_ao_half": texture, "u_depth_full": self.targets.gbuffer.depth},
@@ -203,6 +221,7 @@ class Renderer:
         with made_current(self.ctx):
             self.geometry = GeometryPass(self.ctx, scene)
             self.composite = Composite(self.ctx)
+            self.resolve = Resolve(self.ctx)       # anti-aliasing's last pass (mrcheck.render.antialias)
             self.max_size = int(self.ctx.info["GL_MAX_TEXTURE_SIZE"])
 
     # -- public ----------------------------------------------------------------------------
@@ -215,14 +234,24 @@ class Renderer:
         unknown = [m for m in modes if m not in MODES]
         if unknown:
             raise MrcheckError(f"unknown mode(s) {', '.join(unknown)} (use {', '.join(MODES)})")
-        if max(camera.width, camera.height) > self.max_size:
-            raise MrcheckError(f"image size {camera.width}x{camera.height} exceeds this GPU's limit of {self.max_size}")
+        # anti-aliased: the passes run on the supersampled camera, the AO at the output size
+        supersample = uses_supersampling(settings)
+        inner_camera, inner = ((aa_camera(camera), aa_settings(settings)) if supersample
+                               else (camera, settings))
+        if max(inner_camera.width, inner_camera.height) > self.max_size:
+            hint = f" ({AA_FACTOR}x{AA_FACTOR} anti-aliasing: try --no-antialias)" if supersample else ""
+            raise MrcheckError(f"image size {inner_camera.width}x{inner_camera.height} exceeds this GPU's limit "
+                               f"of {self.max_size}{hint}")
         with made_current(self.ctx):
-            passes = self.passes(camera)
-            t_geometry = passes.timed(lambda: passes.geometry(DrawOptions(lod_px=settings.lod_px)))
-            check_camera_outside(self.geometry, passes.targets.gbuffer, camera, self.scene.source)
-            results = {mode: self._render_mode(passes, mode, settings, want_ao, t_geometry) for mode in modes}
-            return Frame(results, passes.read_depth(), passes.read_normals() if want_normals else None)
+            passes = self.passes(inner_camera)
+            t_geometry = passes.timed(lambda: passes.geometry(DrawOptions(lod_px=inner.lod_px)))
+            check_camera_outside(self.geometry, passes.targets.gbuffer, inner_camera, self.scene.source)
+            results = {mode: self._render_mode(passes, mode, inner, want_ao, t_geometry, supersample)
+                       for mode in modes}
+            step = AA_FACTOR if supersample else 1   # sample (2i, 2j) of a pixel: the AO's own
+            depth = passes.read_depth()[::step, ::step].copy()
+            normals = passes.read_normals()[::step, ::step].copy() if want_normals else None
+            return Frame(results, depth, normals)
 
     def passes(self, camera: Camera) -> FramePasses:
         """The passes of a frame from ``camera``, one at a time (see :class:`FramePasses`)."""
@@ -240,6 +269,7 @@ class Renderer:
             self._ao_passes.clear()
             self._blurs.clear()
             self._screen_vaos.clear()
+            self.resolve.release()
             if self._targets is not None:
                 self._targets.release()
                 self._targets = None
@@ -249,7 +279,7 @@ class Renderer:
 
     # -- the frame -------------------------------------------------------------------------
     def _render_mode(self, passes: FramePasses, mode: str, settings: RenderSettings, want_ao: bool,
-                     t_geometry: float) -> RenderResult:
+                     t_geometry: float, supersample: bool = False) -> RenderResult:
         timings = {"geometry": t_geometry}
         scale = settings.ao_scale if mode != "phong" else 1.0   # phong's AO buffer is never read
         blurred = settings.blur and mode != "phong"
@@ -258,12 +288,16 @@ class Renderer:
             if settings.blur:
                 timings["blur"] = passes.timed(lambda: passes.blur(settings.blur_size, scale))
         timings["composite"] = passes.timed(lambda: passes.composite(
-            scale, blurred, use_ao=mode != "phong", light=settings.light, ao_direct=settings.ao_direct))
-        image = passes.read_rgb()
+            scale, blurred, use_ao=mode != "phong", light=settings.light, ao_direct=settings.ao_direct,
+            tone=settings.tone))
+        if supersample:
+            timings["resolve"] = passes.timed(passes.resolve)
+        image = passes.read_rgb(antialiased=supersample)
         ao = None
         if want_ao:
             h, w = image.shape[:2]
-            ao = np.ones((h, w), np.float32) if mode == "phong" else passes.read_ao(scale, blurred)
+            ao = (np.ones((h, w), np.float32) if mode == "phong"
+                  else passes.read_ao(scale, blurred, upsample=not supersample))
         return RenderResult(mode, image, ao, timings)
 
     # -- what the passes share -------------------------------------------------------------

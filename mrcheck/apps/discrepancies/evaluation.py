@@ -81,8 +81,9 @@ def synthetic_photo(scene: Scene, camera: Camera, renderer=None, seed: int = 0, 
     own = renderer is None
     renderer = Renderer(scene) if own else renderer
     try:
-        renders, _, offset, maps = render_for_photo(renderer, camera, ["phong"], RenderSettings(light="sun", lod_px=0.0),
-                                                  False)  # a photo shows every detail
+        # a photo shows every detail; the look the detector was measured on (no AA, clipped tone)
+        settings = RenderSettings(light="sun", lod_px=0.0, antialias=False, tone="clip")
+        renders, _, offset, maps = render_for_photo(renderer, camera, ["phong"], settings, False)
     finally:
         if own:
             renderer.release()

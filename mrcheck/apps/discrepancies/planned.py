@@ -165,9 +165,10 @@ def planned_view(scene: Scene, camera: Camera, renderer=None) -> PlannedView:
     own = renderer is None
     renderer = Renderer(scene) if own else renderer
     try:
-        # full detail (lod_px=0): the outlines are measured to the pixel, and it is one render
-        renders, edges, offset, maps = render_for_photo(renderer, camera, ["phong"], RenderSettings(lod_px=0.0), True,
-                                                        maps)
+        # full detail (lod_px=0): the outlines are measured to the pixel, and it is one render; the
+        # look the detector's thresholds were measured on (no anti-aliasing, clipped tone)
+        settings = RenderSettings(lod_px=0.0, antialias=False, tone="clip")
+        renders, edges, offset, maps = render_for_photo(renderer, camera, ["phong"], settings, True, maps)
     finally:
         if own:
             renderer.release()

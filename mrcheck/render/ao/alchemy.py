@@ -29,6 +29,7 @@ def disk_kernel(samples: int, seed: int = 0) -> np.ndarray:
 
 class AlchemyAO(AOPass):
     shader = "ao_alchemy"
+    mode = "alchemy"
     offsets = staticmethod(disk_kernel)
 
 

@@ -6,6 +6,7 @@ import moderngl
 
 from mrcheck.render.ao import kernel
 from mrcheck.render.gl import load_program
+from mrcheck.render.settings import intensity_of
 
 
 class AOPass:
@@ -18,6 +19,7 @@ class AOPass:
     """
 
     shader: str = ""
+    mode: str = ""      # the mode's name (MODES): its default strength (settings.default_intensity)
     offsets = staticmethod(kernel.sphere_kernel)
 
     def __init__(self, ctx: moderngl.Context, samples: int, seed: int = 0, stride: int = 1):
@@ -46,7 +48,7 @@ class AOPass:
         fx, fy, cx, cy = intrinsics
         self.program["u_intrinsics"].value = (fx, fy, cx, cy)
         self.program["u_size"].value = target.size
-        self.program["u_intensity"].value = float(settings.intensity)
+        self.program["u_intensity"].value = intensity_of(settings, self.mode)
         self._set_method_uniforms(settings, scale)
         depth.use(0)
         normal.use(1)

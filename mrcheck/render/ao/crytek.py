@@ -30,6 +30,7 @@ def antipodal_kernel(samples: int, seed: int = 0) -> np.ndarray:
 
 class CrytekAO(AOPass):
     shader = "ao_crytek"
+    mode = "crytek"
     offsets = staticmethod(antipodal_kernel)
 
 

@@ -26,6 +26,7 @@ def slices_and_steps(samples: int) -> tuple[int, int]:
 
 class GTAO(AOPass):
     shader = "ao_gtao"
+    mode = "gtao"
 
     def method_defines(self, samples: int) -> dict:
         slices, steps = slices_and_steps(samples)

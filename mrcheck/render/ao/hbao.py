@@ -22,6 +22,7 @@ def directions_and_steps(samples: int) -> tuple[int, int]:
 
 class HBAO(AOPass):
     shader = "ao_hbao"
+    mode = "hbao"
 
     def method_defines(self, samples: int) -> dict:
         dirs, steps = directions_and_steps(samples)

@@ -10,6 +10,7 @@ from mrcheck.render.ao.base import AOPass
 
 class StandardSSAO(AOPass):
     shader = "ao_ssao"
+    mode = "ssao"
 
     def _set_method_uniforms(self, settings, scale: float) -> None:
         super()._set_method_uniforms(settings, scale)  # the world radius

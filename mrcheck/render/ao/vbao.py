@@ -16,6 +16,7 @@ from mrcheck.render.ao.gtao import GTAO
 class VBAO(GTAO):
     """GTAO's slices, sample budget and radius uniforms; its own shader and the thickness."""
     shader = "ao_vbao"
+    mode = "vbao"
 
     def _set_method_uniforms(self, settings, scale: float) -> None:
         super()._set_method_uniforms(settings, scale)
