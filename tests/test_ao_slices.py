@@ -7,7 +7,6 @@ Unblurred AO, fixed seeds."""
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 from mrcheck.core.camera import Camera

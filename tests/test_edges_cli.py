@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 
 from mrcheck.cli import main
-from mrcheck.core.camera import Camera
 from mrcheck.core.camerafiles import load_camera, write_camera
 from mrcheck.eval.edgephotos import make_case, reprojection_error
 from tests.edge_helpers import crate_camera, crate_scene, write_crate_scene
