@@ -67,6 +67,8 @@ OPTIONS = {   # every float option of every command, on a command line that work
     "reference-world": (["reference", "scene.toml", "--camera", "cam.json", "--rays", "4", "--radius-mode", "world",
                          "-o", "out/r.npy"], ["--radius"]),
     "discrepancies": (["discrepancies", "shot.json", "--scene", "scene.toml", "-o", "out/d"], ["--tolerance-px"]),
+    "deviation": (["deviation", "scan.xyz", "--scene", "scene.toml", "--per-element", "-o", "out/v"],
+                  ["--tolerance-mm", "--search-mm"]),
     "track": (["track", "walk.mp4", "--scene", "scene.toml", "--intrinsics", "intr.json", "--initial", "cam.json",
                "-o", "out/t.mp4"], ["--alpha"]),
 }
