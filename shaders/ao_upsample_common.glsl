@@ -1,23 +1,20 @@
-// Depth-aware upsampling of half-resolution AO, shared by ao_upsample.glsl (the AO buffer at
-// full resolution, for --output-ao) and composite.glsl (fused, so no extra full-resolution
-// pass is paid per frame). Full-res pixel p sits at half-res coordinate p / 2 (see
-// ao_common.glsl, AO_STRIDE); the four surrounding half-res values are weighted bilinearly and by
-// depth similarity, so AO does not leak across silhouettes; when no neighbour is on the same
-// surface, the one with the closest depth is taken. Two textureGather calls fetch the 2x2
-// footprint of AO and depth (components x and y of the half-resolution (AO, depth) texels),
-// and the weights are computed four at a time.
-uniform sampler2D u_ao_half;
-uniform ivec2 u_size_half;
-
+// Depth-aware reading of an (AO, depth) buffer between its texels, shared by ao_upsample.glsl
+// (half-resolution AO at full resolution, for --output-ao) and composite.glsl (the same fused
+// into the shading, so no extra full-resolution pass is paid per frame; and the AO of an
+// anti-aliased edge pixel's samples, which lie a quarter pixel off the AO's texel centres).
+// The four texels around the position are weighted bilinearly and by depth similarity, so AO
+// does not leak across silhouettes; when no neighbour is on the same surface, the one with the
+// closest depth is taken. Two textureGather calls fetch the 2x2 footprint of AO and depth
+// (components x and y of the (AO, depth) texels), and the weights are computed four at a time.
 #include "depth_tolerance.glsl"   // DEPTH_TOLERANCE, shared with the bilateral blur
 
-float upsampled_ao(ivec2 ij, float z) {
-    vec2 h = vec2(ij) * 0.5;
+// AO at texel coordinate h of ``ao_depth`` (texel centres at integers), for a surface at depth z.
+float depth_aware_ao(sampler2D ao_depth, ivec2 size, vec2 h, float z) {
     vec2 f = fract(h);
-    vec2 uv = (floor(h) + 1.0) / vec2(u_size_half);  // bilinear footprint starts at floor(h)
+    vec2 uv = (floor(h) + 1.0) / vec2(size);  // bilinear footprint starts at floor(h)
     // gather order: x (0,1), y (1,1), z (1,0), w (0,0) relative to floor(h)
-    vec4 zq = textureGather(u_ao_half, uv, 1);
-    vec4 aq = textureGather(u_ao_half, uv, 0);
+    vec4 zq = textureGather(ao_depth, uv, 1);
+    vec4 aq = textureGather(ao_depth, uv, 0);
     vec4 bilinear = vec4((1.0 - f.x) * f.y, f.x * f.y, f.x * (1.0 - f.y), (1.0 - f.x) * (1.0 - f.y));
     vec4 d = (zq - z) / (max(z, 1e-30) * DEPTH_TOLERANCE);
     vec4 w = bilinear / (1.0 + d * d);
@@ -28,3 +25,13 @@ float upsampled_ao(ivec2 ij, float z) {
     float fallback = dot(aq, pick) / dot(pick, vec4(1.0));
     return weight > 1e-3 ? dot(w, aq) / weight : fallback;
 }
+
+#if AO_HALF
+// Half-resolution AO: full-res pixel p sits at half-res coordinate p / 2 (see ao_common.glsl, AO_STRIDE).
+uniform sampler2D u_ao_half;
+uniform ivec2 u_size_half;
+
+float upsampled_ao(vec2 p, float z) {
+    return depth_aware_ao(u_ao_half, u_size_half, p * 0.5, z);
+}
+#endif

@@ -20,8 +20,15 @@ void main() {
 #elif defined FRAGMENT_SHADER
 in vec3 v_camera;
 uniform vec3 u_albedo;        // linear RGB of the part
+uniform float u_albedo_index; // its entry in the scene's palette (anti-aliasing's packed G-buffer)
+uniform bool u_pack;          // drawing into the anti-aliased, multisampled G-buffer
 
-layout(location = 0) out float g_depth;    // linear camera-space z (> 0); 0 = background
+#include "gbuffer_pack.glsl"
+
+// x: linear camera-space z (> 0); 0 = background. y (u_pack): the packed normal, albedo and
+// face (gbuffer_pack.glsl) for the multisampled G-buffer, whose single RG32F attachment this is;
+// the single-sampled G-buffer's R32F attachment keeps x only.
+layout(location = 0) out vec2 g_depth;
 layout(location = 1) out vec4 g_normal;    // xyz: unit camera-space normal facing the camera
 layout(location = 2) out vec4 g_albedo;    // rgb: albedo; a: 1 front face, 0 back face
 
@@ -30,8 +37,9 @@ void main() {
     // triangles of CAD data, needs no normal attribute (less memory and bandwidth for 10 M
     // triangles) and always faces the camera, whatever the winding of the export.
     // d(P)/du x d(P)/dv points away from the camera for a visible surface, hence the minus.
-    g_normal = vec4(-normalize(cross(dFdx(v_camera), dFdy(v_camera))), 0.0);
-    g_depth = v_camera.z;
+    vec3 n = -normalize(cross(dFdx(v_camera), dFdy(v_camera)));
+    g_normal = vec4(n, 0.0);
+    g_depth = vec2(v_camera.z, u_pack ? pack_surface(n, u_albedo_index, gl_FrontFacing) : 0.0);
     g_albedo = vec4(u_albedo, gl_FrontFacing ? 1.0 : 0.0);
 }
 #endif

@@ -1,101 +1,85 @@
-"""Anti-aliasing: the geometry and the composite supersampled 2x2, the AO at the output resolution.
+"""Anti-aliasing: a 4x multisampled G-buffer, shaded per sample only where a pixel holds an edge.
 
-Chosen by measurement (docs/rendering.md, "Anti-aliasing"): against a 4x4 supersampled render,
-a 2x G-buffer and composite resolved by an area average in linear light
-(``shaders/aa_resolve.glsl``) resolves silhouettes and the sub-pixel wires of mesh fences, which a
-morphological post filter cannot (it only smooths edges it can see at one sample per pixel). The
-AO runs once per output pixel: it is the half-resolution AO of the supersampled G-buffer
-(``ao_scale`` 0.5 of it, :mod:`mrcheck.render.ao.base`), upsampled depth-aware per sample in the
-composite, so the AO pass, its blur and its radius in output pixels stay as without
-anti-aliasing and only the geometry and composite passes see four times the pixels.
+Chosen by measurement (docs/rendering.md, "Anti-aliasing"), on llvmpipe: the geometry pass draws
+into a 4x multisampled G-buffer (MSAA: the fragment shader runs once per pixel, at its centre,
+and its values go to every sample the triangle covers; coverage and depth are per sample). The
+samples sit on the standard 4x pattern, one per row and column of a 4x4 grid, which resolves
+edges near the image axes -- columns, racks, the wires of mesh fences -- to a quarter pixel.
 
-The supersampled grid holds the output's pixel centres (:func:`aa_camera`): sample (2i, 2j)
-is output pixel (i, j)'s centre, samples (2i +- 1, 2j +- 1) lie on its edges and corners. The
-resolve integrates the pixel's area by the trapezoid rule, weights (1/4, 1/2, 1/4) along each
-axis (a tent over the pixel, edge samples shared with the neighbours). So what a frame returns
-besides its image -- the AO, depth and normals of sample (2i, 2j) -- is exactly at the pixel
-centres, where the ray-traced reference and every consumer of a depth map expect it (a depth
-read a quarter pixel off the centre puts a grazing floor's point under the surface).
+* :class:`GBufferResolve` (``shaders/gbuffer_resolve.glsl``) makes the single-sampled G-buffer
+  from it: per pixel the triangle that covers most samples. The AO passes, the blur, the depth
+  and normals a frame returns and the picking read that one, so the AO stays at one sample per
+  pixel and costs what it costs without anti-aliasing.
+* The composite (``shaders/composite.glsl``, ``MSAA``) compares the pixel's four samples: one
+  triangle in all of them (most pixels) is shaded once, as without anti-aliasing; an edge pixel
+  shades each sample with its own triangle's values and the AO read depth-aware at the sample's
+  position, and averages them in linear light into the sRGB output.
+
+An earlier version supersampled the geometry and the composite on a 2x grid (4x the composite's
+pixels and a resolve pass): 1.6-2.35x the frame, against 1.2-1.5x for this one (docs/performance.md).
+The yardstick is :mod:`mrcheck.eval.aa_reference` (the view rendered at 4x4 the pixels, area-averaged);
+its helpers live here because the reference is made of the renderer's own frames.
 """
 
 from __future__ import annotations
-
-from dataclasses import replace
 
 import moderngl
 import numpy as np
 
 from mrcheck.core.camera import Camera
-from mrcheck.render.gl import GL_FRAMEBUFFER_SRGB, load_program, srgb_texture
+from mrcheck.render.gbuffer import GBuffer
+from mrcheck.render.gl import load_program
 from mrcheck.render.settings import RenderSettings
 
-AA_FACTOR = 2   # samples per output pixel along each axis
+MSAA_SAMPLES = 4   # samples per pixel of the anti-aliased G-buffer (llvmpipe's maximum)
+# the samples' offsets from the pixel centre (x right, y down the image): GL's standard 4x pattern,
+# one sample per row and column of a 4x4 grid, as llvmpipe places them (tests/test_antialias.py
+# measures them); the composite reads the AO at these positions
+SAMPLE_OFFSETS = ((-0.125, -0.375), (0.375, -0.125), (-0.375, 0.125), (0.125, 0.375))
 
 
-def supersampled_camera(camera: Camera, factor: int = AA_FACTOR) -> Camera:
-    """``camera`` at ``factor`` times its size, each pixel split into ``factor`` x ``factor``
-    (the area-averaged reference, :func:`area_average`)."""
-    return camera.resized(camera.width * factor, camera.height * factor)
+def sample_offsets_glsl() -> str:
+    """:data:`SAMPLE_OFFSETS` as a GLSL ``vec2[4]`` initialiser (the composite's define)."""
+    return "vec2[4](" + ", ".join(f"vec2({x!r}, {y!r})" for x, y in SAMPLE_OFFSETS) + ")"
 
 
-def aa_camera(camera: Camera) -> Camera:
-    """The anti-aliasing grid: sample (k, l) at output coordinate (k / 2, l / 2), so even samples
-    are the output's pixel centres (OpenCV: centres at integers), odd ones its pixel edges."""
-    K = camera.K.copy()
-    K[:2] *= AA_FACTOR
-    return Camera(camera.width * AA_FACTOR, camera.height * AA_FACTOR, K, camera.R, camera.t, camera.dist)
-
-
-def aa_settings(settings: RenderSettings) -> RenderSettings:
-    """``settings`` (validated, ``radius_px`` resolved) for :func:`aa_camera`: the screen radius
-    and the level-of-detail error in its pixels, the AO at half its size (the output's)."""
-    return replace(settings, radius_px=settings.radius_px * AA_FACTOR, lod_px=settings.lod_px * AA_FACTOR,
-                   ao_scale=0.5, antialias=False)
-
-
-def uses_supersampling(settings: RenderSettings) -> bool:
-    """Whether a frame of ``settings`` is supersampled: anti-aliasing on, and the AO at full
+def uses_antialiasing(settings: RenderSettings) -> bool:
+    """Whether a frame of ``settings`` is anti-aliased: anti-aliasing on, and the AO at full
     resolution (half-resolution AO is a speed option; its frame stays at one sample per pixel)."""
     return settings.antialias and settings.ao_scale == 1.0
 
 
-class Resolve:
-    """The resolve pass (``shaders/aa_resolve.glsl``) into an output-size sRGB target of its own."""
+class GBufferResolve:
+    """The single-sampled G-buffer from the multisampled one (``shaders/gbuffer_resolve.glsl``)."""
 
     def __init__(self, ctx: moderngl.Context):
         self.ctx = ctx
-        self.program = load_program(ctx, "aa_resolve")
-        self.program["u_color"].value = 0
+        self.program = load_program(ctx, "gbuffer_resolve", {"MSAA": MSAA_SAMPLES})
+        for unit, name in enumerate(("u_packed", "u_palette")):
+            self.program[name].value = unit
         self.vao = ctx.vertex_array(self.program, [])
-        self.color = self.fbo = None
 
-    def run(self, source: moderngl.Texture) -> None:
-        """Resolve ``source`` (the sRGB composite on :func:`aa_camera`'s grid) into the output target."""
-        size = (source.size[0] // AA_FACTOR, source.size[1] // AA_FACTOR)
-        if self.color is None or self.color.size != size:
-            self._release_target()
-            self.color = srgb_texture(self.ctx, size)
-            self.fbo = self.ctx.framebuffer([self.color])
-        source.use(0)
-        self.fbo.use()
-        self.ctx.enable_direct(GL_FRAMEBUFFER_SRGB)
+    def run(self, multisampled: GBuffer, target: GBuffer, palette: moderngl.Texture) -> None:
+        """Write ``target`` (single-sampled, with its depth buffer) from ``multisampled``, the
+        packed G-buffer (:meth:`mrcheck.render.gbuffer.GBuffer.create_packed`) with the scene's
+        ``palette`` of part colours."""
+        for unit, texture in enumerate((multisampled.depth, palette)):
+            texture.use(unit)
+        target.fbo.use()
+        target.frame += 1
+        self.ctx.enable(moderngl.DEPTH_TEST)
+        self.ctx.depth_func = "1"    # always: every pixel's depth is written, the background's 0
         self.vao.render(moderngl.TRIANGLES, vertices=3)
-        self.ctx.disable_direct(GL_FRAMEBUFFER_SRGB)
-
-    def read_rgb(self) -> np.ndarray:
-        """(H, W, 3) uint8 sRGB of the last resolve."""
-        w, h = self.color.size
-        return np.frombuffer(self.color.read(), np.uint8).reshape(h, w, 4)[..., :3].copy()
-
-    def _release_target(self) -> None:
-        for obj in (self.fbo, self.color):
-            if obj is not None:
-                obj.release()
-        self.color = self.fbo = None
+        self.ctx.disable(moderngl.DEPTH_TEST)
 
     def release(self) -> None:
-        self._release_target()
         self.vao.release()
+
+
+def supersampled_camera(camera: Camera, factor: int) -> Camera:
+    """``camera`` at ``factor`` times its size, each pixel split into ``factor`` x ``factor``
+    (the area-averaged reference, :func:`area_average`)."""
+    return camera.resized(camera.width * factor, camera.height * factor)
 
 
 def area_average(image: np.ndarray, factor: int) -> np.ndarray:
@@ -120,5 +104,5 @@ def linear_to_srgb(linear: np.ndarray) -> np.ndarray:
     return np.round(s * 255.0).astype(np.uint8)
 
 
-__all__ = ["AA_FACTOR", "Resolve", "aa_camera", "aa_settings", "supersampled_camera", "uses_supersampling",
-           "area_average", "srgb_to_linear", "linear_to_srgb"]
+__all__ = ["MSAA_SAMPLES", "SAMPLE_OFFSETS", "sample_offsets_glsl", "GBufferResolve", "supersampled_camera", "uses_antialiasing", "area_average",
+           "srgb_to_linear", "linear_to_srgb"]

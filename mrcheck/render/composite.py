@@ -4,15 +4,32 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import moderngl
 import numpy as np
 
 from mrcheck.core.camera import Camera
+from mrcheck.render.antialias import sample_offsets_glsl
 from mrcheck.render.gl import GL_FRAMEBUFFER_SRGB, load_program
 from mrcheck.render.settings import DEFAULT_LIGHT, DEFAULT_TONE, LIGHTS, TONES
 
 SUN_DIRECTION = np.array([0.35, -0.25, 0.90])  # world, towards the sun: high, from one side (z up)
 BACKGROUND = (0.80, 0.84, 0.88)                # linear RGB behind the scene: a pale hall grey
+EDGE_PASS_DEPTH = 0.75   # between a surface's 0.5 and an edge pixel's 1 (shaders/gbuffer_resolve.glsl)
+
+
+@dataclass
+class EdgePass:
+    """What anti-aliasing's edge pass reads and writes: the multisampled G-buffer, the scene's
+    palette of part colours, and the colour target with the resolved depth buffer, whose
+    values mark the edge pixels (:mod:`mrcheck.render.antialias`)."""
+
+    multisampled: object        # mrcheck.render.gbuffer.GBuffer, packed
+    palette: moderngl.Texture
+    target: moderngl.Framebuffer
+
+
 # the filmic tone curve of shaders/composite.glsl (tone()): exposure, knee and asymptote in linear light
 TONE_CURVE = {"EXPOSURE_VALUE": 0.8, "KNEE_VALUE": 0.40, "WHITE_VALUE": 0.85}
 
@@ -28,39 +45,59 @@ def light_direction(camera: Camera, light: str) -> np.ndarray:
 
 
 class Composite:
-    """Two program variants: AO at full resolution, or at half resolution upsampled in place
-    (``shaders/ao_upsample_common.glsl``), which saves a whole full-resolution pass."""
+    """Program variants: AO at full resolution, or at half resolution upsampled in place
+    (``shaders/ao_upsample_common.glsl``), which saves a whole full-resolution pass; and
+    anti-aliasing's edge pass, which shades the edge pixels again per sample from the
+    multisampled G-buffer (:mod:`mrcheck.render.antialias`), made on first use."""
 
     def __init__(self, ctx: moderngl.Context):
         self.ctx = ctx
         self.variants = {}
         for half in (False, True):
-            program = load_program(ctx, "composite", {"AO_HALF": half, **TONE_CURVE})
-            names = ("u_depth", "u_normal", "u_albedo", "u_ao_half" if half else "u_ao")
+            self._variant(half, False)
+
+    def _variant(self, half: bool, msaa: bool):
+        if (half, msaa) not in self.variants:
+            defines = {"AO_HALF": half, "MSAA": msaa, **TONE_CURVE}
+            if msaa:
+                defines.update(SCREEN_DEPTH=EDGE_PASS_DEPTH, SAMPLE_OFFSETS=sample_offsets_glsl())
+            program = load_program(self.ctx, "composite", defines)
+            names = ("u_depth", "u_normal", "u_albedo", "u_ao_half" if half else "u_ao", "u_packed", "u_palette")
             for unit, name in enumerate(names):
-                program[name].value = unit
+                if name in program:   # each variant reads some of them
+                    program[name].value = unit
             program["u_background"].value = BACKGROUND
-            self.variants[half] = (program, ctx.vertex_array(program, []))
+            self.variants[half, msaa] = (program, self.ctx.vertex_array(program, []))
+        return self.variants[half, msaa]
 
     def run(self, target: moderngl.Framebuffer, gbuffer, ao: moderngl.Texture, camera: Camera,
             use_ao: bool, light: str = DEFAULT_LIGHT, ao_direct: bool = False,
-            ao_half: bool = False, tone: str = DEFAULT_TONE) -> None:
+            ao_half: bool = False, tone: str = DEFAULT_TONE, edges: EdgePass | None = None) -> None:
         """Shade into ``target``; ``ao`` holds (AO, depth) texels, at half resolution when
-        ``ao_half``."""
-        p, vao = self.variants[ao_half]
-        p["u_intrinsics"].value = (camera.fx, camera.fy, camera.cx, camera.cy)
-        p["u_light_dir"].value = tuple(light_direction(camera, light))
-        p["u_ao_weight"].value = 1.0 if use_ao else 0.0
-        p["u_ao_direct"].value = 1.0 if ao_direct else 0.0
-        p["u_tone"].value = TONES.index(tone)
+        ``ao_half``; ``edges``: anti-aliased, then the edge pixels again per sample."""
         textures = [gbuffer.depth, gbuffer.normal, gbuffer.albedo, ao]
-        if ao_half:
-            p["u_size_half"].value = ao.size
+        if edges is not None:
+            textures += [edges.multisampled.depth, edges.palette]
         for unit, texture in enumerate(textures):
             texture.use(unit)
-        target.use()
         self.ctx.enable_direct(GL_FRAMEBUFFER_SRGB)   # encode into the sRGB target (gl.srgb_texture)
-        vao.render(moderngl.TRIANGLES, vertices=3)
+        variants = [(False, target)] + ([(True, edges.target)] if edges is not None else [])
+        for msaa, fbo in variants:
+            p, vao = self._variant(ao_half, msaa)
+            p["u_intrinsics"].value = (camera.fx, camera.fy, camera.cx, camera.cy)
+            p["u_light_dir"].value = tuple(light_direction(camera, light))
+            p["u_ao_weight"].value = 1.0 if use_ao else 0.0
+            p["u_ao_direct"].value = 1.0 if ao_direct else 0.0
+            p["u_tone"].value = TONES.index(tone)
+            if ao_half:
+                p["u_size_half"].value = ao.size
+            fbo.use()
+            if msaa:   # only where the depth buffer marks an edge pixel (shaders/gbuffer_resolve.glsl)
+                fbo.depth_mask = False
+                self.ctx.enable(moderngl.DEPTH_TEST)
+                self.ctx.depth_func = "<"
+            vao.render(moderngl.TRIANGLES, vertices=3)
+            self.ctx.disable(moderngl.DEPTH_TEST)
         self.ctx.disable_direct(GL_FRAMEBUFFER_SRGB)
 
     def release(self) -> None:
@@ -68,4 +105,4 @@ class Composite:
             vao.release()
 
 
-__all__ = ["Composite", "LIGHTS", "light_direction"]
+__all__ = ["Composite", "EdgePass", "LIGHTS", "light_direction"]

@@ -220,8 +220,8 @@ class HiZ:
 
     def __init__(self, ctx: moderngl.Context):
         self.ctx = ctx
-        self.program = load_program(ctx, "hiz_reduce", {"HIZ_BLOCK": HIZ_BLOCK})
-        self.vao = ctx.vertex_array(self.program, [])
+        # one variant per sample count of the G-buffer (0: single-sampled; 4: anti-aliased)
+        self.variants = {}
         self._target = None
         self.levels: list[np.ndarray] = []
 
@@ -233,13 +233,20 @@ class HiZ:
             self._target = self.ctx.framebuffer([texture])
         return self._target
 
-    def build(self, depth: moderngl.Texture) -> None:
-        """Reduce ``depth`` (R32F linear z, 0 = background) on the GPU, read back, build the pyramid."""
+    def _variant(self, samples: int):
+        if samples not in self.variants:
+            program = load_program(self.ctx, "hiz_reduce", {"HIZ_BLOCK": HIZ_BLOCK, "MSAA": samples})
+            program["u_depth"].value = 0
+            self.variants[samples] = self.ctx.vertex_array(program, [])
+        return self.variants[samples]
+
+    def build(self, depth: moderngl.Texture, samples: int = 0) -> None:
+        """Reduce ``depth`` (R32F linear z, 0 = background; ``samples`` > 1: multisampled, the
+        farthest sample counts) on the GPU, read back, build the pyramid."""
         target = self._target_for(depth.size)
         target.use()
         depth.use(0)
-        self.program["u_depth"].value = 0
-        self.vao.render(moderngl.TRIANGLES, vertices=3)
+        self._variant(samples if samples > 1 else 0).render(moderngl.TRIANGLES, vertices=3)
         w, h = target.size
         level = np.frombuffer(target.color_attachments[0].read(), np.float32).reshape(h, w)
         self.levels = [level]
@@ -276,7 +283,9 @@ class HiZ:
 
     def release(self) -> None:
         self.release_target()
-        self.vao.release()
+        for vao in self.variants.values():
+            vao.release()
+        self.variants.clear()
 
 
 __all__ = ["Batch", "Boxes", "HiZ", "closed_faces", "frustum", "split_occluders", "OCCLUDER_AREA", "MIN_CANDIDATE_TRIANGLES"]

@@ -7,7 +7,8 @@ name       format    content
 =========  ========  ==============================================================
 depth      R32F      linear camera-space z (metres for parts with units); 0 = background
 normal     RGBA16F   xyz: camera-space unit normal, facing the camera
-albedo     RGBA8     rgb: part colour (linear); a: 1 front face, 0 back face
+albedo     RGBA8     rgb: part colour (linear); a: 1 front face, 0 back face (anti-aliased: 0.5
+                     front face + 0.25 an edge pixel, :mod:`mrcheck.render.antialias`)
 zbuffer    D32F      reversed-Z hardware depth near / z, infinite far plane (:func:`near_plane`)
 =========  ========  ==============================================================
 
@@ -34,6 +35,7 @@ from mrcheck.render.settings import DEFAULT_LOD_PX
 from mrcheck.scene.model import Scene
 from mrcheck.scene.precision import float32_tiles
 
+PALETTE_MAX = 512         # part colours the anti-aliased G-buffer tells apart (gbuffer_pack.glsl)
 FLUSH_TRIANGLES = 20_000  # see GeometryPass._submit
 NEAR_SHARE = 0.5          # the near plane at half the nearest box in view (see near_plane)
 NEAR_FLOOR = 2.0 ** -60   # ... or at this share of the farthest one, with the camera inside a box
@@ -65,6 +67,7 @@ class GBuffer:
     zbuffer: moderngl.Texture
     fbo: moderngl.Framebuffer
     frame: int = 0   # counts the geometry passes drawn into it (what is derived from it is per frame)
+    samples: int = 0  # > 1: multisampled (anti-aliasing, mrcheck.render.antialias), read by texelFetch only
 
     @classmethod
     def create(cls, ctx: moderngl.Context, size) -> "GBuffer":
@@ -76,6 +79,14 @@ class GBuffer:
         zbuffer = float_depth_texture(ctx, size)
         fbo = ctx.framebuffer([depth, normal, albedo], zbuffer)
         return cls(tuple(size), depth, normal, albedo, zbuffer, fbo)
+
+    @classmethod
+    def create_packed(cls, ctx: moderngl.Context, size, samples: int) -> "GBuffer":
+        """The anti-aliased G-buffer: ``samples`` per pixel of (depth, packed normal, albedo
+        and face) in one RG32F attachment (``shaders/gbuffer_pack.glsl``); no normal, albedo."""
+        depth = ctx.texture(size, 2, dtype="f4", samples=samples)
+        zbuffer = float_depth_texture(ctx, size, samples)
+        return cls(tuple(size), depth, None, None, zbuffer, ctx.framebuffer([depth], zbuffer), samples=samples)
 
     def read_depth(self) -> np.ndarray:
         """(H, W) float32 linear depth, 0 = background."""
@@ -89,7 +100,31 @@ class GBuffer:
 
     def release(self) -> None:
         for obj in (self.fbo, self.depth, self.normal, self.albedo, self.zbuffer):
-            obj.release()
+            if obj is not None:
+                obj.release()
+
+
+@dataclass
+class Palette:
+    """The scene's distinct part colours, for the anti-aliased G-buffer, which stores a
+    sample's albedo as an index (``shaders/gbuffer_pack.glsl``): ``index`` by colour, and
+    ``texture`` (N x 1 RGBA32F, linear RGB) that the resolve and the composite look them up in."""
+
+    index: dict
+    texture: moderngl.Texture
+
+    @classmethod
+    def of(cls, ctx: moderngl.Context, colors) -> "Palette":
+        distinct = list(dict.fromkeys(tuple(c) for c in colors)) or [(0.0, 0.0, 0.0)]
+        texture = ctx.texture((max(len(distinct), 1), 1), 4, dtype="f4",
+                              data=np.array([[*c, 1.0] for c in distinct], np.float32).tobytes())
+        texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return cls({c: float(i) for i, c in enumerate(distinct)}, texture)
+
+    @property
+    def fits(self) -> bool:
+        """Whether the packed index can hold every colour (9 bits)."""
+        return len(self.index) <= PALETTE_MAX
 
 
 @dataclass
@@ -136,6 +171,7 @@ class GeometryPass:
         self.scene = scene
         self.program = load_program(ctx, "gbuffer")
         self.parts = [gpu for part in scene.parts for gpu in self._upload(part)]
+        self.palette = Palette.of(ctx, [gpu.color for gpu in self.parts])
         self.boxes = culling.Boxes(self.parts)
         self.hiz = culling.HiZ(ctx)
         self.last_stats = {}
@@ -201,6 +237,7 @@ class GeometryPass:
         near, far = near_plane(batches)
         P = gl_projection(camera, near)
         self.program["u_projection"].write(P.T.astype(np.float32).tobytes())
+        self.program["u_pack"].value = gbuffer.samples > 1
 
         gbuffer.fbo.use()
         gbuffer.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0)
@@ -215,7 +252,7 @@ class GeometryPass:
             self._submit(draws, options.flush_triangles)
             drawn = list(occluders)
             for band in culling.depth_bands(candidates, culling.DEPTH_BANDS):
-                self.hiz.build(gbuffer.depth)
+                self.hiz.build(gbuffer.depth, gbuffer.samples)
                 hidden = [self.hiz.occluded(b.rect, b.z_near) for b in band]
                 stats["instances_occluded"] += int(sum(h.sum() for h in hidden))
                 visible = [b.subset(~h) for b, h in zip(band, hidden) if not h.all()]
@@ -283,6 +320,7 @@ class GeometryPass:
             # column-major for GLSL: transpose each 4x4
             mesh.instances.write(np.ascontiguousarray(draw.mv.transpose(0, 2, 1), np.float32).tobytes())
             self.program["u_albedo"].value = draw.color
+            self.program["u_albedo_index"].value = self.palette.index[tuple(draw.color)]
             # closed bodies with back-face culling, the rest (open shells, inconsistent winding:
             # CAD exports have both) without; normals face the camera either way
             culled = 3 * mesh.closed if draw.cull else 0
@@ -313,6 +351,7 @@ class GeometryPass:
             for mesh in gpu.levels:
                 mesh.release()
         self.hiz.release()
+        self.palette.texture.release()
 
 
 @dataclass

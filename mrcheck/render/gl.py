@@ -31,6 +31,7 @@ _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"[^\n]*$', re.MULTILINE)
 
 # GL enums used through ctypes (moderngl does not wrap them)
 _GL_TEXTURE_2D = 0x0DE1
+_GL_TEXTURE_2D_MULTISAMPLE = 0x9100
 _GL_DEPTH_COMPONENT32F = 0x8CAC
 _GL_DEPTH_COMPONENT = 0x1902
 _GL_FLOAT = 0x1406
@@ -100,6 +101,7 @@ class _GLFunctions:
         self.clip_control = lookup("glClipControl", u, u)
         self.bind_texture = lookup("glBindTexture", u, u)
         self.tex_image_2d = lookup("glTexImage2D", u, i, i, i, i, i, u, u, p)
+        self.tex_image_2d_multisample = lookup("glTexImage2DMultisample", u, i, u, i, i, ctypes.c_ubyte)
         self.flush = lookup("glFlush")
 
 
@@ -131,10 +133,15 @@ def _enable_reversed_z(ctx: moderngl.Context) -> None:
     _gl().clip_control(_GL_LOWER_LEFT, _GL_ZERO_TO_ONE)
 
 
-def float_depth_texture(ctx: moderngl.Context, size) -> moderngl.Texture:
-    """A depth attachment stored as GL_DEPTH_COMPONENT32F (moderngl's default is 24-bit fixed)."""
-    texture = ctx.depth_texture(size)
+def float_depth_texture(ctx: moderngl.Context, size, samples: int = 0) -> moderngl.Texture:
+    """A depth attachment stored as GL_DEPTH_COMPONENT32F (moderngl's default is 24-bit fixed);
+    ``samples`` > 1: a multisample one (the anti-aliased G-buffer, :mod:`mrcheck.render.antialias`)."""
+    texture = ctx.depth_texture(size, samples=samples)
     gl = _gl()
+    if samples > 1:
+        gl.bind_texture(_GL_TEXTURE_2D_MULTISAMPLE, texture.glo)
+        gl.tex_image_2d_multisample(_GL_TEXTURE_2D_MULTISAMPLE, samples, _GL_DEPTH_COMPONENT32F, size[0], size[1], 1)
+        return texture
     gl.bind_texture(_GL_TEXTURE_2D, texture.glo)
     gl.tex_image_2d(_GL_TEXTURE_2D, 0, _GL_DEPTH_COMPONENT32F, size[0], size[1], 0, _GL_DEPTH_COMPONENT, _GL_FLOAT, None)
     return texture

@@ -1,7 +1,8 @@
 """The renderer: one public :meth:`Renderer.render` that runs the passes in order.
 
-geometry (G-buffer) -> AO (full or half resolution [-> depth-aware upsampling])
--> bilateral blur (optional) -> composite (Blinn-Phong, AO on the ambient term).
+geometry (G-buffer; anti-aliased: multisampled, then resolved to one sample per pixel)
+-> AO (full or half resolution [-> depth-aware upsampling]) -> bilateral blur (optional)
+-> composite (Blinn-Phong, AO on the ambient term; anti-aliased: edge pixels per sample).
 
 One G-buffer serves every mode of a frame, so ``--mode all`` draws the geometry once. What a
 caller needs of a frame comes back in its :class:`Frame` (images, AO, depth, normals); the passes
@@ -10,6 +11,7 @@ one at a time, for timing them alone, are :meth:`Renderer.passes`.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -17,18 +19,12 @@ import moderngl
 import numpy as np
 
 from mrcheck.core.camera import Camera
-from mrcheck.core.errors import MrcheckError
-from mrcheck.render.antialias import (
-    AA_FACTOR,
-    Resolve,
-    aa_camera,
-    aa_settings,
-    uses_supersampling,
-)
+from mrcheck.core.errors import MrcheckError, MrcheckWarning
+from mrcheck.render.antialias import GBufferResolve, uses_antialiasing
 from mrcheck.render.ao import AO_METHODS
 from mrcheck.render.blur import BilateralBlur
-from mrcheck.render.composite import Composite
-from mrcheck.render.gbuffer import DrawOptions, GeometryPass, check_camera_outside
+from mrcheck.render.composite import Composite, EdgePass
+from mrcheck.render.gbuffer import PALETTE_MAX, DrawOptions, GeometryPass, check_camera_outside
 from mrcheck.render.gl import create_context, load_program, made_current, timed_ms
 from mrcheck.render.settings import (  # re-exported: the names callers have imported from here
     DEFAULT_BLUR_SIZE,
@@ -86,14 +82,18 @@ class FramePasses:
     """The passes of one frame of a :class:`Renderer`, one call each, on the renderer's targets of
     the camera's size: what :meth:`Renderer.render` runs, for timing a pass alone (the bench).
 
-    Passes read what the ones before left: :meth:`ao` the G-buffer of :meth:`geometry`, :meth:`blur`
-    the raw AO of :meth:`ao` at its scale, :meth:`composite` the AO of that scale.
+    Passes read what the ones before left: :meth:`ao` the G-buffer of :meth:`geometry` (and
+    :meth:`resolve`, anti-aliased), :meth:`blur` the raw AO of :meth:`ao` at its scale,
+    :meth:`composite` the AO of that scale. ``antialias``: the geometry goes into the
+    multisampled G-buffer and the composite shades its edge pixels per sample
+    (:mod:`mrcheck.render.antialias`).
     """
 
-    def __init__(self, renderer: "Renderer", camera: Camera):
+    def __init__(self, renderer: "Renderer", camera: Camera, antialias: bool = False):
         self.renderer = renderer
         self.camera = camera
         self.ctx = renderer.ctx
+        self.antialias = antialias
 
     @property
     def targets(self) -> RenderTargets:
@@ -106,9 +106,17 @@ class FramePasses:
             return timed_ms(self.ctx, work)
 
     def geometry(self, options: DrawOptions = DrawOptions()) -> dict:
-        """The G-buffer; returns the geometry pass's stats (what was drawn and culled)."""
+        """The G-buffer (anti-aliased: the multisampled one, :meth:`resolve` makes the other);
+        returns the geometry pass's stats (what was drawn and culled)."""
         with made_current(self.ctx):
-            return self.renderer.geometry.draw(self.targets.gbuffer, self.camera, options)
+            gbuffer = self.targets.multisampled() if self.antialias else self.targets.gbuffer
+            return self.renderer.geometry.draw(gbuffer, self.camera, options)
+
+    def resolve(self) -> None:
+        """Anti-aliasing: the single-sampled G-buffer from the multisampled one."""
+        with made_current(self.ctx):
+            self.renderer.gbuffer_resolve.run(self.targets.multisampled(), self.targets.gbuffer,
+                                              self.renderer.geometry.palette.texture)
 
     def ao(self, mode: str, settings: RenderSettings) -> None:
         """AO into the raw buffer of ``settings.ao_scale``: full resolution, or half resolution
@@ -152,14 +160,11 @@ class FramePasses:
         with made_current(self.ctx):
             ao = self.targets.ao_buffers(scale)
             texture = ao.blurred[0] if blurred else ao.raw[0]
+            edges = (EdgePass(self.targets.multisampled(), self.renderer.geometry.palette.texture,
+                              self.targets.color_edges_fbo) if self.antialias else None)
             self.renderer.composite.run(self.targets.color_fbo, self.targets.gbuffer, texture, self.camera,
-                                        use_ao=use_ao, light=light, ao_direct=ao_direct, ao_half=ao.half, tone=tone)
-
-    def resolve(self) -> None:
-        """Anti-aliasing: the last composite, on :func:`mrcheck.render.antialias.aa_camera`'s grid,
-        resolved to the output's size (:meth:`read_rgb` ``antialiased``)."""
-        with made_current(self.ctx):
-            self.renderer.resolve.run(self.targets.color)
+                                        use_ao=use_ao, light=light, ao_direct=ao_direct, ao_half=ao.half, tone=tone,
+                                        edges=edges)
 
     def scratch(self, scale: float) -> moderngl.Framebuffer:
         """The scratch AO buffer at ``scale``, with the depth buffer that skips the background (at
@@ -169,10 +174,10 @@ class FramePasses:
             self.coverage()
         return self.targets.ao_buffers(scale).scratch[1]
 
-    def read_rgb(self, antialiased: bool = False) -> np.ndarray:
-        """(H, W, 3) uint8 sRGB of the last composite (``antialiased``: of the last anti-aliased one)."""
+    def read_rgb(self) -> np.ndarray:
+        """(H, W, 3) uint8 sRGB of the last composite."""
         with made_current(self.ctx):
-            return self.renderer.resolve.read_rgb() if antialiased else self.targets.read_rgb()
+            return self.targets.read_rgb()
 
     def read_depth(self) -> np.ndarray:
         """(H, W) float32 linear depth of the G-buffer (scene units, 0 = background)."""
@@ -183,15 +188,11 @@ class FramePasses:
         with made_current(self.ctx):
             return self.targets.read_normals()
 
-    def read_ao(self, scale: float, blurred: bool, upsample: bool = True) -> np.ndarray:
-        """(H, W) float32 AO at the output resolution; half-resolution AO is upsampled first
-        (``upsample`` False: at its own resolution, what an anti-aliased frame returns)."""
+    def read_ao(self, scale: float, blurred: bool) -> np.ndarray:
+        """(H, W) float32 AO at the output resolution; half-resolution AO is upsampled first."""
         with made_current(self.ctx):
             ao = self.targets.ao_buffers(scale)
             texture = ao.blurred[0] if blurred else ao.raw[0]
-            if not upsample:
-                w, h = texture.size
-                return np.frombuffer(texture.read(), np.float32).reshape(h, w, 2)[..., 0].copy()
             if ao.half:
                 self.renderer._screen_pass("ao_upsample", self.targets.full.scratch[1],
                                            {"u_ao_half": texture, "u_depth_full": self.targets.gbuffer.depth},
@@ -217,11 +218,12 @@ class Renderer:
         self._ao_passes = {}
         self._blurs = {}
         self._screen_vaos = {}
+        self._warned_palette = False
         # every public entry point makes this renderer's context current (see made_current)
         with made_current(self.ctx):
             self.geometry = GeometryPass(self.ctx, scene)
             self.composite = Composite(self.ctx)
-            self.resolve = Resolve(self.ctx)       # anti-aliasing's last pass (mrcheck.render.antialias)
+            self.gbuffer_resolve = GBufferResolve(self.ctx)   # anti-aliasing (mrcheck.render.antialias)
             self.max_size = int(self.ctx.info["GL_MAX_TEXTURE_SIZE"])
 
     # -- public ----------------------------------------------------------------------------
@@ -234,28 +236,32 @@ class Renderer:
         unknown = [m for m in modes if m not in MODES]
         if unknown:
             raise MrcheckError(f"unknown mode(s) {', '.join(unknown)} (use {', '.join(MODES)})")
-        # anti-aliased: the passes run on the supersampled camera, the AO at the output size
-        supersample = uses_supersampling(settings)
-        inner_camera, inner = ((aa_camera(camera), aa_settings(settings)) if supersample
-                               else (camera, settings))
-        if max(inner_camera.width, inner_camera.height) > self.max_size:
-            hint = f" ({AA_FACTOR}x{AA_FACTOR} anti-aliasing: try --no-antialias)" if supersample else ""
-            raise MrcheckError(f"image size {inner_camera.width}x{inner_camera.height} exceeds this GPU's limit "
-                               f"of {self.max_size}{hint}")
+        if max(camera.width, camera.height) > self.max_size:
+            raise MrcheckError(f"image size {camera.width}x{camera.height} exceeds this GPU's limit "
+                               f"of {self.max_size}")
+        antialias = uses_antialiasing(settings) and self._palette_fits()
         with made_current(self.ctx):
-            passes = self.passes(inner_camera)
-            t_geometry = passes.timed(lambda: passes.geometry(DrawOptions(lod_px=inner.lod_px)))
-            check_camera_outside(self.geometry, passes.targets.gbuffer, inner_camera, self.scene.source)
-            results = {mode: self._render_mode(passes, mode, inner, want_ao, t_geometry, supersample)
-                       for mode in modes}
-            step = AA_FACTOR if supersample else 1   # sample (2i, 2j) of a pixel: the AO's own
-            depth = passes.read_depth()[::step, ::step].copy()
-            normals = passes.read_normals()[::step, ::step].copy() if want_normals else None
-            return Frame(results, depth, normals)
+            passes = self.passes(camera, antialias)
+            timings = {"geometry": passes.timed(lambda: passes.geometry(DrawOptions(lod_px=settings.lod_px)))}
+            if antialias:
+                timings["resolve"] = passes.timed(passes.resolve)
+            check_camera_outside(self.geometry, passes.targets.gbuffer, camera, self.scene.source)
+            results = {mode: self._render_mode(passes, mode, settings, want_ao, timings) for mode in modes}
+            normals = passes.read_normals() if want_normals else None
+            return Frame(results, passes.read_depth(), normals)
 
-    def passes(self, camera: Camera) -> FramePasses:
+    def _palette_fits(self) -> bool:
+        """Whether the anti-aliased G-buffer can tell the scene's part colours apart; if not,
+        frames are rendered without anti-aliasing, with a warning once per renderer."""
+        if not self.geometry.palette.fits and not self._warned_palette:
+            warnings.warn(f"{self.scene.source}: {len(self.geometry.palette.index)} distinct part colours, more than "
+                          f"anti-aliasing's {PALETTE_MAX}: rendered without anti-aliasing", MrcheckWarning, stacklevel=3)
+            self._warned_palette = True
+        return self.geometry.palette.fits
+
+    def passes(self, camera: Camera, antialias: bool = False) -> FramePasses:
         """The passes of a frame from ``camera``, one at a time (see :class:`FramePasses`)."""
-        return FramePasses(self, camera)
+        return FramePasses(self, camera, antialias)
 
     def release(self) -> None:
         """Free every GL object this renderer made; the context too when it created it. A second
@@ -269,7 +275,7 @@ class Renderer:
             self._ao_passes.clear()
             self._blurs.clear()
             self._screen_vaos.clear()
-            self.resolve.release()
+            self.gbuffer_resolve.release()
             if self._targets is not None:
                 self._targets.release()
                 self._targets = None
@@ -279,8 +285,8 @@ class Renderer:
 
     # -- the frame -------------------------------------------------------------------------
     def _render_mode(self, passes: FramePasses, mode: str, settings: RenderSettings, want_ao: bool,
-                     t_geometry: float, supersample: bool = False) -> RenderResult:
-        timings = {"geometry": t_geometry}
+                     frame_timings: dict) -> RenderResult:
+        timings = dict(frame_timings)    # the G-buffer's passes, shared by the frame's modes
         scale = settings.ao_scale if mode != "phong" else 1.0   # phong's AO buffer is never read
         blurred = settings.blur and mode != "phong"
         if mode != "phong":
@@ -290,14 +296,11 @@ class Renderer:
         timings["composite"] = passes.timed(lambda: passes.composite(
             scale, blurred, use_ao=mode != "phong", light=settings.light, ao_direct=settings.ao_direct,
             tone=settings.tone))
-        if supersample:
-            timings["resolve"] = passes.timed(passes.resolve)
-        image = passes.read_rgb(antialiased=supersample)
+        image = passes.read_rgb()
         ao = None
         if want_ao:
             h, w = image.shape[:2]
-            ao = (np.ones((h, w), np.float32) if mode == "phong"
-                  else passes.read_ao(scale, blurred, upsample=not supersample))
+            ao = np.ones((h, w), np.float32) if mode == "phong" else passes.read_ao(scale, blurred)
         return RenderResult(mode, image, ao, timings)
 
     # -- what the passes share -------------------------------------------------------------

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
+from mrcheck.render.antialias import MSAA_SAMPLES
 from mrcheck.render.gbuffer import GBuffer
 from mrcheck.render.gl import float_depth_texture, srgb_texture
 
@@ -56,7 +57,11 @@ class RenderTargets:
         self.full = AOBuffers([_ao_target(ctx, self.size, self.gbuffer.zbuffer) for _ in range(3)], False)
         self.color = srgb_texture(ctx, self.size)
         self.color_fbo = ctx.framebuffer([self.color])
+        # anti-aliasing's edge pass: the colour target, depth-tested against the resolved G-buffer's
+        # depth buffer, which marks the edge pixels (shaders/gbuffer_resolve.glsl)
+        self.color_edges_fbo = ctx.framebuffer([self.color], self.gbuffer.zbuffer)
         self._half = None
+        self._multisampled = None
         self.half_coverage = self.half_coverage_fbo = None
         self.half_coverage_frame = -1    # the G-buffer frame the coverage was made from
 
@@ -69,6 +74,12 @@ class RenderTargets:
             self.half_coverage_fbo = self.ctx.framebuffer([], self.half_coverage)
             self._half = AOBuffers([_ao_target(self.ctx, self.half_size, self.half_coverage) for _ in range(3)], True)
         return self._half
+
+    def multisampled(self) -> GBuffer:
+        """The multisampled G-buffer of anti-aliased frames (:mod:`mrcheck.render.antialias`), made on first use."""
+        if self._multisampled is None:
+            self._multisampled = GBuffer.create_packed(self.ctx, self.size, MSAA_SAMPLES)
+        return self._multisampled
 
     def read_rgb(self) -> np.ndarray:
         """(H, W, 3) uint8 sRGB of the colour target."""
@@ -85,9 +96,11 @@ class RenderTargets:
 
     def release(self) -> None:
         self.gbuffer.release()
+        if self._multisampled is not None:
+            self._multisampled.release()
         ao = self.full.buffers + (self._half.buffers if self._half is not None else [])
         half = [self.half_coverage_fbo, self.half_coverage] if self._half is not None else []
-        for obj in [fbo for _, fbo in ao] + [texture for texture, _ in ao] + half + [self.color_fbo, self.color]:
+        for obj in [fbo for _, fbo in ao] + [texture for texture, _ in ao] + half + [self.color_edges_fbo, self.color_fbo, self.color]:
             obj.release()
 
 
