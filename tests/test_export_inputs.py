@@ -125,3 +125,28 @@ def test_a_job_file_with_a_byte_order_mark_is_read(job, tmp_path, capsys):
     path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())
     code, err = _export(capsys, path, "-o", tmp_path / "out")
     assert code == 0, err
+
+
+def test_antialias_comes_from_the_job_and_the_command_line_overrides_it(job, tmp_path, capsys):
+    """`antialias = false` in the job, or `--no-antialias`, renders without anti-aliasing; the
+    setting is part of the manifest's settings and of the shots' fingerprints, so a switch redoes
+    a shot instead of keeping the other setting's images; a value that is no bool is one line."""
+    path = job()
+    out = tmp_path / "out"
+
+    def run(*options):
+        code, err = _export(capsys, path, "-o", out, *options)
+        assert code == 0, err
+        manifest = json.loads((out / "manifest.json").read_text())
+        return manifest["settings"]["antialias"], (out / manifest["shots"][0]["folder"] / "render_phong.png").read_bytes()
+
+    on, smooth = run()
+    off, plain = run("--no-antialias")
+    assert (on, off) == (True, False) and smooth != plain   # redone, not skipped
+    path.write_text(path.read_text().replace("samples = 4\n", "samples = 4\nantialias = false\n"))
+    assert run() == (False, plain)
+    assert run("--antialias") == (True, smooth)
+    path.write_text(path.read_text().replace("antialias = false", 'antialias = "yes"'))
+    code, err = _export(capsys, path, "-o", tmp_path / "out2")
+    assert code == 1 and "antialias must be true or false" in err and err.count("\n") == 1
+    assert not (tmp_path / "out2").exists()

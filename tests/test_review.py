@@ -377,6 +377,27 @@ def test_render_cache_follows_a_changed_scene(tmp_path):
     assert not gone.exists() and (tmp_path / "cache" / "a" / "notes.txt").exists()
 
 
+def test_the_review_renders_anti_aliased_unless_told_not_to(tmp_path):
+    """`mrcheck review --no-antialias` (create_app antialias=False) renders without anti-aliasing:
+    a render of its own in the cache, so that a switch never serves the other setting's file."""
+    source = _box_review(tmp_path, (0.0, 0.0, 0.0))
+
+    def render(antialias):
+        app = create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache", samples=2,
+                         antialias=antialias)
+        with TestClient(app) as c:
+            assert c.app.state.review.renders.settings(120).antialias is antialias
+            r = c.get("/api/shots/a/render.png")
+            assert r.status_code == 200, r.text
+            return r.content
+
+    smooth = render(True)
+    plain = render(False)
+    assert plain != smooth
+    assert len(list((tmp_path / "cache").rglob("render_*.png"))) == 1   # the other setting's file went
+    assert render(False) == plain and render(True) == smooth
+
+
 @pytest.mark.parametrize("rms", [float("nan"), float("inf")])
 def test_a_registration_error_that_is_no_number_is_n_a(tmp_path, rms):
     """"rms": NaN in a SHOT.json made the shot list a 500 (invalid JSON): the page never loaded."""

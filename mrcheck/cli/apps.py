@@ -20,7 +20,10 @@ from mrcheck.cli.options import FINITE, positive, size
               help="Run the shots on a Dask distributed cluster (e.g. tcp://10.0.0.5:8786) instead of locally; "
                    "workers load the scene themselves from the path the job names.")
 @click.option("--force", is_flag=True, help="Redo shots whose outputs are already complete (default: skip them).")
-def export(job, outdir, workers, scheduler, force):
+@click.option("--antialias/--no-antialias", default=None,
+              help="Anti-aliased renders (4x MSAA) [default: the job's `antialias` key, true]; part of the "
+                   "shots' fingerprints, so a change redoes them.")
+def export(job, outdir, workers, scheduler, force, antialias):
     """Batch overlays, sheets, manifest and report for a whole job.
 
     Register every shot of JOB.toml, render the modes, blend the photo at every alpha and AO
@@ -36,7 +39,7 @@ def export(job, outdir, workers, scheduler, force):
     try:
         with console():
             result = run_export(job=job, outdir=outdir, workers=workers, scheduler=scheduler, force=force,
-                                progress=bar)
+                                progress=bar, antialias=antialias)
     finally:
         bar.close()
     for line in result.summary():
@@ -89,7 +92,9 @@ class _ExportBar:
               help="Refuse request bodies larger than this (413), e.g. 256KiB; at least 64KiB.")
 @click.option("--max-upload", default="64MiB", show_default=True, metavar="SIZE", callback=size,
               help="Refuse photos and camera files uploaded by \"Add photo\" larger than this (413).")
-def review(target, shots_dir, host, port, token, db, suggestions, max_body, max_upload):
+@click.option("--antialias/--no-antialias", default=True, show_default=True,
+              help="Anti-aliased CAD renders (4x MSAA; --no-antialias: about 1.3-1.5x faster).")
+def review(target, shots_dir, host, port, token, db, suggestions, max_body, max_upload, antialias):
     """Review shots in the browser and mark discrepancies.
 
     Photo and CAD blended, modes, zoom, discrepancy markers with a category, severity and note,
@@ -104,7 +109,7 @@ def review(target, shots_dir, host, port, token, db, suggestions, max_body, max_
 
     with console():   # skipped shots and registration warnings at start-up, internal errors while serving
         server = start(target, shots_dir=shots_dir, host=host, port=port, token=token, db=db,
-                       suggestions=suggestions, max_body=max_body, max_upload=max_upload)
+                       suggestions=suggestions, max_body=max_body, max_upload=max_upload, antialias=antialias)
         try:
             for line in server.messages():
                 click.echo(line)

@@ -22,7 +22,7 @@ from mrcheck.render.renderer import DEFAULT_SAMPLES, MODES
 
 SHEET_ALPHA = 0.5   # the photo's opacity in the study sheet's bottom row, and the default alpha
 TOP_KEYS = {"scene", "modes", "alphas", "intensities", "overlay_intensity", "width", "max_registration_error_px",
-            "samples", "edges", "intrinsics", "markers", "points", "shots"}
+            "samples", "edges", "antialias", "intrinsics", "markers", "points", "shots"}
 SHOT_KEYS = {"name", "shot", "photo", "photos", "intrinsics", "markers", "points"}
 _METHODS = ("markers", "points")
 _SHARED = ("intrinsics", *_METHODS)   # shot inputs the job may give once for every shot
@@ -41,13 +41,14 @@ class JobSettings:
     max_error: float | None     # max_registration_error_px; None: no limit
     samples: int
     edges: bool
+    antialias: bool = True      # the renders anti-aliased (mrcheck.render.antialias)
 
     def to_dict(self) -> dict:
         """As the manifest and the shots' fingerprints write them (the job file's key names)."""
         d = asdict(self)
         d["max_registration_error_px"] = d.pop("max_error")
         return {k: d[k] for k in ("scene", "modes", "alphas", "intensities", "overlay_intensity", "width",
-                                  "max_registration_error_px", "samples", "edges")}
+                                  "max_registration_error_px", "samples", "edges", "antialias")}
 
 
 @dataclass(frozen=True)
@@ -198,10 +199,15 @@ def _settings(reader: _Reader, scene: Path) -> JobSettings:
     if max_error is not None:
         max_error = reader.number("max_registration_error_px", max_error, lambda e: e > 0, "not positive")
     samples = _whole(reader, "samples", DEFAULT_SAMPLES, 1, 512, "a whole number 1..512")
-    edges = data.get("edges", False)
-    if not isinstance(edges, bool):
-        reader.fail(f"edges must be true or false, got {edges!r}")
-    return JobSettings(str(scene), modes, alphas, intensities, overlay, width, max_error, samples, edges)
+    edges, antialias = (_flag(reader, key, default) for key, default in (("edges", False), ("antialias", True)))
+    return JobSettings(str(scene), modes, alphas, intensities, overlay, width, max_error, samples, edges, antialias)
+
+
+def _flag(reader: _Reader, key: str, default: bool) -> bool:
+    value = reader.data.get(key, default)
+    if not isinstance(value, bool):
+        reader.fail(f"{key} must be true or false, got {value!r}")
+    return value
 
 
 def _shots(reader: _Reader) -> list:

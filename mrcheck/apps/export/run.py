@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 import time
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable
 
@@ -141,13 +141,16 @@ def _manifest(job: Job, outdir: Path, shots: list, removed: list, executor: str,
 
 
 def run_export(job, outdir, workers: int = 1, scheduler: str | None = None, force: bool = False,
-               progress: Callable[[ShotProgress], None] | None = None) -> ExportResult:
+               progress: Callable[[ShotProgress], None] | None = None, antialias: bool | None = None) -> ExportResult:
     """``mrcheck export``: every shot of the job file ``job`` into ``outdir``, then its
     manifest.json and report.html. A bad job, option or OUTDIR is a :class:`MrcheckError` before
-    anything is written; a bad shot fails alone (``ExportResult.failed``)."""
+    anything is written; a bad shot fails alone (``ExportResult.failed``). ``antialias``: overrides
+    the job's ``antialias`` key (part of the shots' fingerprints: a change redoes them)."""
     started = time.perf_counter()
     progress = progress or (lambda step: None)
     job = load_job(job)
+    if antialias is not None:
+        job = replace(job, settings=replace(job.settings, antialias=antialias))
     outdir = real_path(outdir)
     _check_options(outdir, workers, scheduler)
     tasks, entries, to_run, reads = _plan(job, outdir, scheduler, force)

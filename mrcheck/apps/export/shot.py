@@ -134,7 +134,8 @@ def _images(renderer, camera, photo, settings: JobSettings, timings: dict) -> di
         if not wanted:
             continue
         t = time.perf_counter()
-        render_settings = RenderSettings(samples=settings.samples, intensity=intensity, seed=0)
+        render_settings = RenderSettings(samples=settings.samples, intensity=intensity, seed=0,
+                                         antialias=settings.antialias)
         renders, edges, offset, maps = render_for_photo(renderer, camera, wanted, render_settings, settings.edges, maps)
         render_s += time.perf_counter() - t
         t = time.perf_counter()

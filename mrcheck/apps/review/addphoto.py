@@ -196,10 +196,9 @@ class AddPhoto:
     def view_png(self, name: str) -> bytes:
         view = self.view(name)
         if name not in self._renders:
-            samples = self.review.renders.samples
+            settings = self.review.renders.settings(view.camera.height)
 
             def render(renderer):
-                settings = RenderSettings(samples=samples, seed=0).validated(view.camera.height)
                 return renderer.render(view.camera, ["phong"], settings)["phong"].image
 
             self._renders[name] = encode_image("view.png", self.review.renders.call(render))

@@ -37,16 +37,17 @@ def cache_path(db_path: Path) -> Path:
 
 def create_app(source, db_path: Path | None = None, cache_dir: Path | None = None, token: str | None = None,
                samples: int = 16, suggestions: dict | None = None, host: str | None = None,
-               max_body: int = MAX_BODY, max_upload: int = MAX_UPLOAD) -> FastAPI:
+               max_body: int = MAX_BODY, max_upload: int = MAX_UPLOAD, antialias: bool = True) -> FastAPI:
     """``suggestions``: {shot name: markers} (:func:`.suggestions.load_suggestions`), imported
     into the review's markers once; ``app.state.imported``: {shot name: markers added now}.
     ``host``: the address the server is bound to, whose names alone a request's Host header may
     give (:func:`.guard.host_names`); None checks no Host (an app not on a socket, as in tests).
-    ``max_body``: the largest request body, in bytes; ``max_upload``: the largest upload of "Add photo"."""
+    ``max_body``: the largest request body, in bytes; ``max_upload``: the largest upload of "Add photo".
+    ``antialias``: the CAD renders anti-aliased (mrcheck.render.antialias)."""
     db_path = database_path(source, db_path)
     store = Store(db_path, source.review_name(db_path),
                   served_scales={s.name: s.served_scale() for s in source.shots.values() if s.served_size != s.size})
-    renders = RenderService(source, cache_dir or cache_path(db_path), samples=samples)
+    renders = RenderService(source, cache_dir or cache_path(db_path), samples=samples, antialias=antialias)
     review = Review(source, store, renders)
     review.addphoto = AddPhoto(review, renders.cache)
     review.import_suggestions(suggestions or {})

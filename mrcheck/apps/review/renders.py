@@ -46,10 +46,11 @@ def _write_png(path: Path, image: np.ndarray) -> None:
 class RenderService:
     """``path(shot, kind, mode, intensity)`` -> a cached PNG, rendering it in the worker if needed."""
 
-    def __init__(self, source, cache_dir: Path, samples: int = SAMPLES):
+    def __init__(self, source, cache_dir: Path, samples: int = SAMPLES, antialias: bool = True):
         self.source = source
         self.cache = Path(cache_dir)
         self.samples = samples
+        self.antialias = antialias   # part of the renders' cache names: a switch renders afresh
         self._queue: queue.Queue = queue.Queue()
         self._pending: dict = {}
         self._lock = threading.Lock()
@@ -66,8 +67,7 @@ class RenderService:
         if not self.cache.is_dir():
             return
         stamps = {name: _shot_stamp(shot) for name, shot in self.source.shots.items()}
-        current = {name: (cached_suffix(stamp), cached_suffix(f"{stamp}_{self.source.scene_stamp}"))
-                   for name, stamp in stamps.items()}
+        current = {name: (cached_suffix(stamp), cached_suffix(self._cad_stamp(stamp))) for name, stamp in stamps.items()}
         for folder in (p for p in self.cache.iterdir() if p.is_dir()):
             suffixes = current.get(folder.name, ())
             for path in folder.glob("*.png"):
@@ -75,6 +75,14 @@ class RenderService:
                     path.unlink(missing_ok=True)
             with contextlib.suppress(OSError):   # empty now: the folder of a vanished shot
                 folder.rmdir()
+
+    def _cad_stamp(self, shot_stamp: str) -> str:
+        return f"{shot_stamp}_{self.source.scene_stamp}" + ("" if self.antialias else "_noaa")
+
+    def settings(self, height: int, intensity: float = 1.0) -> RenderSettings:
+        """The render settings of this review's images (validated for an image ``height`` px high)."""
+        return RenderSettings(samples=self.samples, intensity=intensity, seed=0,
+                              antialias=self.antialias).validated(height)
 
     # -- public --------------------------------------------------------------------------
     def file(self, shot_name: str, kind: str, mode: str = "phong", intensity: float = 1.0) -> Path:
@@ -85,7 +93,7 @@ class RenderService:
         # the cache, but read afresh (and refused, when it no longer fits its shot); the scene's
         # stamp is that of start-up, when it was loaded once for the renderer
         stamp = _shot_stamp(shot)
-        cad = f"{stamp}_{self.source.scene_stamp}"  # renders and edges depend on the scene too
+        cad = self._cad_stamp(stamp)  # renders and edges depend on the scene and the render settings too
         if kind == "photo":
             path = folder / cached_name("photo", "", w, stamp)
         elif kind == "thumb":
@@ -169,8 +177,7 @@ class RenderService:
             self._maps[shot_name] = distortion_map(camera)
         maps = self._maps[shot_name]
         render_camera, offset = padded_camera(camera, maps)
-        settings = RenderSettings(samples=self.samples, intensity=intensity, seed=0).validated(camera.height)
-        results = renderer.render(render_camera, [mode], settings)
+        results = renderer.render(render_camera, [mode], self.settings(camera.height, intensity))
         if kind == "edges":
             mask = cad_edges(results.depth, render_camera.fx).astype(np.float32)
             cover = np.minimum(distort_to_photo(mask, maps, offset, photo.shape[:2]) * 2.0, 1.0)

@@ -98,7 +98,7 @@ def _check_options(token, db, max_body) -> None:
 
 
 def start(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=None, suggestions=(),
-          max_body=MAX_BODY, max_upload=MAX_UPLOAD) -> ReviewServer:
+          max_body=MAX_BODY, max_upload=MAX_UPLOAD, antialias: bool = True) -> ReviewServer:
     """Everything but serving: the source opened and checked, the port bound, the app made (its
     database written). A bad input is a :class:`MrcheckError` before the port is bound."""
     from mrcheck.apps.review.source import open_source
@@ -117,7 +117,7 @@ def start(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=No
     sock = listen(host, port)  # before create_app writes the database
     try:
         app = create_app(source, db_path=database, token=token, suggestions=suggested, host=host,
-                         max_body=max_body, max_upload=max_upload)
+                         max_body=max_body, max_upload=max_upload, antialias=antialias)
     except BaseException:
         sock.close()
         raise
