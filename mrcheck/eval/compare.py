@@ -334,7 +334,10 @@ def compare_command(scene, view, samples, rays, width, height, outdir, progress=
     loaded = load_scene(scene, progress=True)
     camera = loaded.camera(view, width, height)
     # full detail: the references are ray-traced on the full-detail scene (REFERENCE_LOD_PX)
-    settings = RenderSettings(samples=samples, lod_px=REFERENCE_LOD_PX).validated(camera.height)
+    # single-sampled: the AO is judged on the G-buffer the reference's rays start from, every pixel
+    # a point of the surface its centre sees (an anti-aliased frame's edge pixels hold the majority
+    # surface's plane at the centre, which may lie just off that surface's triangle)
+    settings = RenderSettings(samples=samples, lod_px=REFERENCE_LOD_PX, antialias=False).validated(camera.height)
     renderer = Renderer(loaded)
     try:
         phong, depth, references, rows = _render_and_judge(renderer, loaded, camera, settings, rays, progress)

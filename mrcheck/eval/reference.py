@@ -279,7 +279,9 @@ def reference_command(scene, view, camera_path, width, height, rays, radius_mode
 
     renderer = Renderer(loaded)
     try:
-        frame = renderer.render(camera, ["phong"], RenderSettings(lod_px=REFERENCE_LOD_PX), want_normals=True)
+        # single-sampled: every pixel's point is on the surface its centre sees (mrcheck.eval.compare)
+        frame = renderer.render(camera, ["phong"], RenderSettings(lod_px=REFERENCE_LOD_PX, antialias=False),
+                                want_normals=True)
         depth, normals = frame.depth, frame.normals
     finally:
         renderer.release()

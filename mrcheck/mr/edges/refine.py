@@ -144,9 +144,10 @@ def _thinned(samples, most: int):
 
 def render_depth(renderer, camera: Camera, with_normals: bool = False):
     """(H, W) float32 linear depth of ``camera`` (0 = background), from the renderer's
-    G-buffer alone (no shading pass; full detail: a simplified mesh moves the edges); with
-    ``with_normals`` also the (H, W, 3) camera-space normals."""
-    frame = renderer.render(camera, [], RenderSettings(lod_px=0.0), want_normals=with_normals)
+    G-buffer alone (no shading pass; full detail: a simplified mesh moves the edges; single-
+    sampled: every pixel's own centre, and no multisampled pass to pay); with ``with_normals``
+    also the (H, W, 3) camera-space normals."""
+    frame = renderer.render(camera, [], RenderSettings(lod_px=0.0, antialias=False), want_normals=with_normals)
     return (frame.depth, frame.normals) if with_normals else frame.depth
 
 

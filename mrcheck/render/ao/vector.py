@@ -11,12 +11,14 @@ large in the world). NOTES n: item n of docs/papers_notes.md.
 from __future__ import annotations
 
 from mrcheck.render.ao.base import AOPass
+from mrcheck.render.ao.kernel import stratified_kernel
 from mrcheck.render.ao.screen_radius import set_screen_radius
 
 
 class VectorAO(AOPass):
     shader = "ao_vector"
     mode = "vector"
+    offsets = staticmethod(stratified_kernel)   # evenly spread directions: less variance (kernel.py)
 
     def _set_method_uniforms(self, settings, scale: float) -> None:
         set_screen_radius(self.program, settings, scale)
