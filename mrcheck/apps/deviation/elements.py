@@ -86,16 +86,19 @@ def fit_offsets(owner, normal, d, count: int, scale: float) -> tuple[np.ndarray,
     """Robust point-to-plane translation per instance (module docstring, step 3): ``(t (count, 3),
     residual (N,))``, metres."""
     n = normal.astype(np.float64)
+    columns = [np.ascontiguousarray(n[:, i]) for i in range(3)]    # contiguous: the products run faster
     w = np.ones(len(d))
     t = np.zeros((count, 3))
     pairs = [(i, j) for i in range(3) for j in range(i, 3)]
     for _ in range(IRLS_ROUNDS):
         A = np.zeros((count, 3, 3))
+        wn = [w * c for c in columns]    # once per round, not per product: (w n_i) n_j as before
         for i, j in pairs:
-            A[:, i, j] = A[:, j, i] = _bin(owner, w * n[:, i] * n[:, j], count)
-        b = np.stack([_bin(owner, w * n[:, i] * d, count) for i in range(3)], axis=1)
+            A[:, i, j] = A[:, j, i] = _bin(owner, wn[i] * columns[j], count)
+        b = np.stack([_bin(owner, wn[i] * d, count) for i in range(3)], axis=1)
         t = _solve(A, b, _bin(owner, w, count))
-        r = d - np.einsum("ij,ij->i", n, t[owner])
+        # np.take: a third of the time of t[owner] at 10 M points, the same numbers
+        r = d - np.einsum("ij,ij->i", n, np.take(t, owner, axis=0))
         w = 1.0 / (1.0 + (r / scale) ** 2)
     return t, r
 
@@ -165,7 +168,7 @@ def refine_offsets(caster, points, rows, owner, t, candidates, scale: float):
         mine, d, n = [], [], []
         for start in range(0, len(index), QUERY_CHUNK):
             part = index[start:start + QUERY_CHUNK]
-            found = caster.closest_points(points[rows[part]] - t[owner[part]])
+            found = caster.closest_points(points[rows[part]] - np.take(t, owner[part], axis=0))
             mine.append(found.instance == owner[part])     # matched to its own instance again
             d.append(_signed(found))
             n.append(found.normal)
