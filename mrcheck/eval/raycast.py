@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mrcheck.core.arrays import bounding_box
 from mrcheck.core.errors import MrcheckError
 from mrcheck.scene.model import Scene
 
@@ -86,7 +87,7 @@ def coherent_order(points: np.ndarray) -> np.ndarray:
     box: points near each other in space come near each other in the order."""
     if len(points) < 2:
         return np.arange(len(points))
-    lo, hi = points.min(axis=0), points.max(axis=0)
+    lo, hi = bounding_box(points)
     scale = ((1 << MORTON_BITS) - 1) / max(float((hi - lo).max()), 1e-12)
     cells = ((points - lo) * scale).astype(np.intp)
     code = _SPREAD[cells[:, 0]] | (_SPREAD[cells[:, 1]] << 1) | (_SPREAD[cells[:, 2]] << 2)

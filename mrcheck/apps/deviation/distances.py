@@ -38,6 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mrcheck.core.arrays import bounding_box
 from mrcheck.core.errors import MrcheckError
 from mrcheck.eval.raycast import build_caster, triangle_owners
 from mrcheck.scene.model import UNITS, Scene
@@ -67,7 +68,7 @@ def check_placement(points: np.ndarray, scene: Scene, path) -> tuple[float, floa
     """Wrong units or a scan far from the scene, from the bounding boxes alone (cheap, first);
     returns the diagonals of the scan's and the scene's boxes (metres), which the later
     "not registered" check also needs."""
-    scan_box = np.stack([points.min(axis=0), points.max(axis=0)])
+    scan_box = np.stack(bounding_box(points))
     scene_box = scene.bounds()
     scan_diag, scene_diag = _diagonal(scan_box), max(_diagonal(scene_box), 1e-9)
     ratio = scan_diag / scene_diag
@@ -102,7 +103,8 @@ def closest_surface(scene: Scene, points: np.ndarray, normals: bool = False) -> 
     # the scan's centre, not the scene's: one stray element far off (an IFC export's, at the
     # origin of a model at map coordinates) moves the scene's centre, and float32 there rounds
     # the CAD near the scan to metres
-    origin = (points.min(axis=0) + points.max(axis=0)) / 2.0
+    lo, hi = bounding_box(points)
+    origin = (lo + hi) / 2.0
     caster = build_caster(scene, origin)
     if caster is None:
         raise MrcheckError("the scene has no triangles to measure against", scene.source)
@@ -161,7 +163,8 @@ def _row(part, k: int, mine: np.ndarray) -> PartDeviation:
 def part_statistics(scene: Scene, d: np.ndarray, owner: np.ndarray) -> list[PartDeviation]:
     """The ranked per-instance list (module docstring), metres."""
     owners, _ = triangle_owners(scene)
-    order = np.argsort(owner, kind="stable")
+    # the same stable order; on 16-bit keys numpy sorts by radix (5x faster at 10 M points)
+    order = np.argsort(owner.astype(np.uint16) if len(owners) <= 1 << 16 else owner, kind="stable")
     bounds = np.searchsorted(owner[order], np.arange(len(owners) + 1))
     rows = [_row(part, k, d[order[bounds[i]:bounds[i + 1]]]) for i, (part, k) in enumerate(owners)]
     # ranked by median |d|, largest first; instances without points last, in scene order

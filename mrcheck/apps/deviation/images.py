@@ -13,6 +13,7 @@ import math
 import cv2
 import numpy as np
 
+from mrcheck.core.arrays import bounding_box
 from mrcheck.scene.model import Scene
 
 VIEW_IMAGES = {"top": "deviation_top.png", "side": "deviation_side.png"}
@@ -105,7 +106,7 @@ def orthographic_image(points: np.ndarray, colours: np.ndarray, view: str, size:
     """A splat image of the scan seen from above (``"top"``: x right, y up, highest on top) or
     from the front (``"side"``: x right, z up, looking along +y, smallest y on top)."""
     across, up, toward = (0, 1, 2) if view == "top" else (0, 2, 1)
-    lo, hi = points.min(axis=0), points.max(axis=0)
+    lo, hi = bounding_box(points)
     extent = max(hi[across] - lo[across], hi[up] - lo[up], 1e-9)
     pixel = extent / (size - 8)
     w = int(math.ceil((hi[across] - lo[across]) / pixel)) + 8
