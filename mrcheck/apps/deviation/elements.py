@@ -31,12 +31,14 @@ Every figure is None (``null`` in JSON, empty in CSV), never NaN, where an insta
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass
 
 import numpy as np
 
 from mrcheck.apps.bcf.findings import ifc_global_id
 from mrcheck.apps.deviation.coverage import coverage
+from mrcheck.core.progress import shown_progress
 from mrcheck.eval.raycast import triangle_owners
 
 TOLERANCE_MM = 20.0
@@ -164,20 +166,27 @@ def refine_offsets(caster, points, rows, owner, t, candidates, scale: float):
     count = len(t)
     index = _icp_subset(np.nonzero(candidates[owner])[0], owner, count)
     residual = np.zeros(len(index))
-    for _ in range(ICP_ROUNDS if len(index) else 0):
-        mine, d, n = [], [], []
-        for start in range(0, len(index), QUERY_CHUNK):
-            part = index[start:start + QUERY_CHUNK]
-            found = caster.closest_points(points[rows[part]] - np.take(t, owner[part], axis=0))
-            mine.append(found.instance == owner[part])     # matched to its own instance again
-            d.append(_signed(found))
-            n.append(found.normal)
-        mine, d, n = np.concatenate(mine), np.concatenate(d), np.concatenate(n)
-        step, r = fit_offsets(owner[index][mine], n[mine], d[mine], count, scale)
-        t[candidates] += step[candidates]
-        residual[:] = np.inf
-        residual[mine] = r
+    rounds = shown_progress()(range(ICP_ROUNDS if len(index) else 0), f"ICP of {int(candidates.sum())} elements", "round")
+    with contextlib.closing(rounds):
+        for _ in rounds:
+            _icp_round(caster, points, rows, owner, t, candidates, scale, index, residual)
     return index, residual
+
+
+def _icp_round(caster, points, rows, owner, t, candidates, scale: float, index, residual) -> None:
+    """One round of :func:`refine_offsets` (``t`` and ``residual`` updated in place)."""
+    mine, d, n = [], [], []
+    for start in range(0, len(index), QUERY_CHUNK):
+        part = index[start:start + QUERY_CHUNK]
+        found = caster.closest_points(points[rows[part]] - np.take(t, owner[part], axis=0))
+        mine.append(found.instance == owner[part])     # matched to its own instance again
+        d.append(_signed(found))
+        n.append(found.normal)
+    mine, d, n = np.concatenate(mine), np.concatenate(d), np.concatenate(n)
+    step, r = fit_offsets(owner[index][mine], n[mine], d[mine], len(t), scale)
+    t[candidates] += step[candidates]
+    residual[:] = np.inf
+    residual[mine] = r
 
 
 def element_figures(surface, scene, points, tolerance: float, search: float, scanners=None) -> ElementFigures:
