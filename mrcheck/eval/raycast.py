@@ -166,13 +166,14 @@ class SceneCaster:
 
         relative = np.asarray(points, np.float64) - self.origin
         order = coherent_order(relative)
-        answer = self._scene.compute_closest_points(o3d.core.Tensor(relative[order].astype(np.float32)))
-        found = np.empty((len(relative), 3)), np.empty((len(relative), 3)), np.empty(len(relative), np.int64)
-        found[0][order] = answer["points"].numpy()
-        found[1][order] = answer["primitive_normals"].numpy()
-        found[2][order] = answer["primitive_ids"].numpy()
-        return ClosestPoints(offset=relative - found[0], normal=found[1],
-                             instance=np.searchsorted(self.first, found[2], side="right") - 1)
+        answer = self._scene.compute_closest_points(o3d.core.Tensor(np.take(relative.astype(np.float32), order, axis=0)))
+        back = np.empty(len(order), np.intp)       # np.take with the inverse order: twice as fast as a scatter
+        back[order] = np.arange(len(order))
+        closest = np.take(answer["points"].numpy(), back, axis=0)
+        primitive = np.take(answer["primitive_ids"].numpy(), back).astype(np.int64)
+        return ClosestPoints(offset=relative - closest,
+                             normal=np.take(answer["primitive_normals"].numpy(), back, axis=0).astype(np.float64),
+                             instance=np.searchsorted(self.first, primitive, side="right") - 1)
 
 
 def build_caster(scene: Scene, origin) -> SceneCaster | None:
