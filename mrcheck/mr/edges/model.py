@@ -64,7 +64,8 @@ class Samples:
     ``edge``: (n,) index of the edge in the :class:`EdgeSet` (the unit whose samples share one
     error: the clusters of the uncertainty, :mod:`mrcheck.mr.edges.solver`); ``outside``: (n,)
     for a contour the side of the background along the image normal (+1 or -1), 0 for a crease
-    or not known (:func:`salient`).
+    or not known (:func:`salient`); ``spacing_px``: the spacing they were made at (pixels of the
+    camera they were sampled for; :func:`sample_edges` widens it for a dense scene).
     """
 
     points: np.ndarray
@@ -72,6 +73,7 @@ class Samples:
     group: np.ndarray
     edge: np.ndarray
     outside: np.ndarray | None = None
+    spacing_px: float = 0.0
 
     def __len__(self) -> int:
         return len(self.points)
@@ -135,13 +137,18 @@ def scene_edges(scene: Scene, crease_deg: float = CREASE_DEG) -> EdgeSet:
 def front_edges(edges: EdgeSet, centre: np.ndarray) -> np.ndarray:
     """(n,) bool: the edges that can be seen from ``centre`` (world): every crease, and the
     contour edges (one face towards it, the other away)."""
-    mid = 0.5 * (edges.a + edges.b)
-    to_eye = centre - mid
-    fa = np.einsum("ij,ij->i", edges.na, to_eye) > 0
-    fb = np.einsum("ij,ij->i", edges.nb, to_eye) > 0
+    return _facing(edges, slice(None), centre)
+
+
+def _facing(edges: EdgeSet, which, centre: np.ndarray) -> np.ndarray:
+    """:func:`front_edges` of the edges ``which`` (an index array or a slice)."""
+    a, b, na, nb = edges.a[which], edges.b[which], edges.na[which], edges.nb[which]
+    to_eye = centre - 0.5 * (a + b)
+    fa = np.einsum("ij,ij->i", na, to_eye) > 0
+    fb = np.einsum("ij,ij->i", nb, to_eye) > 0
     # creases whatever their faces' winding (meshes from CAD exports often mix it; the depth
     # buffer hides the ones behind); a contour needs its faces' sign to change
-    return edges.crease | (fa != fb)
+    return edges.crease[which] | (fa != fb)
 
 
 def project_pinhole(camera: Camera, points: np.ndarray) -> np.ndarray:
@@ -157,13 +164,16 @@ def project_pinhole(camera: Camera, points: np.ndarray) -> np.ndarray:
 
 
 def sample_edges(edges: EdgeSet, camera: Camera, spacing_px: float, near: float = 1e-3,
-                 max_count: int | None = None) -> Samples:
+                 max_count: int | None = None, among: np.ndarray | None = None) -> Samples:
     """Points every ``spacing_px`` pixels (pinhole projection) along the edges that face the
     camera, clipped to the part of each edge in front of the camera and inside the image (a
     margin of one spacing); the spacing is widened so that at most about ``max_count`` points
-    are made (a dense scene at full resolution has millions of edge pixels). Visibility
-    (occlusion) is :func:`visible`'s."""
-    idx = np.flatnonzero(front_edges(edges, camera.center))
+    are made (a dense scene at full resolution has millions of edge pixels). ``among``: edge
+    indices to consider (default: all). Visibility (occlusion) is :func:`visible`'s."""
+    if among is None:
+        idx = np.flatnonzero(front_edges(edges, camera.center))
+    else:
+        idx = among[_facing(edges, among, camera.center)]
     a, b = edges.a[idx], edges.b[idx]
     za, zb = a @ camera.R[2] + camera.t[2], b @ camera.R[2] + camera.t[2]
     ahead = (za > near) | (zb > near)
@@ -193,7 +203,7 @@ def sample_edges(edges: EdgeSet, camera: Camera, spacing_px: float, near: float 
     points = a[edge] + f[:, None] * (b[edge] - a[edge])
     tangents = (b - a)[edge]
     tangents /= np.linalg.norm(tangents, axis=1, keepdims=True)
-    samples = Samples(points, tangents, edges.group[idx][edge], idx[edge])
+    samples = Samples(points, tangents, edges.group[idx][edge], idx[edge], spacing_px=float(spacing_px))
     uv = project_pinhole(camera, samples.points)
     margin = spacing_px
     inside = ((uv[:, 0] > -margin) & (uv[:, 0] < camera.width - 1 + margin)
@@ -203,7 +213,8 @@ def sample_edges(edges: EdgeSet, camera: Camera, spacing_px: float, near: float 
 
 def subset(samples: Samples, mask) -> Samples:
     outside = None if samples.outside is None else samples.outside[mask]
-    return Samples(samples.points[mask], samples.tangents[mask], samples.group[mask], samples.edge[mask], outside)
+    return Samples(samples.points[mask], samples.tangents[mask], samples.group[mask], samples.edge[mask], outside,
+                   samples.spacing_px)
 
 
 def visible(samples: Samples, camera: Camera, depth: np.ndarray) -> np.ndarray:
