@@ -4,10 +4,8 @@ parts -- the others left out as "missing in the hall" -- is a failure, not a res
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import cv2
-import numpy as np
 import pytest
 
 from mrcheck.cli import main
