@@ -48,5 +48,7 @@ def render_ao(ctx, scene, camera, mode, **settings) -> np.ndarray:
 
 
 def render_depth(ctx, scene, camera) -> np.ndarray:
+    """(H, W) depth at the pixel centres (single-sampled: an anti-aliased frame's edge pixels hold
+    the majority surface of their samples)."""
     renderer = Renderer(scene, ctx=ctx)
-    return renderer.render(camera, ["phong"]).depth
+    return renderer.render(camera, ["phong"], RenderSettings(antialias=False)).depth

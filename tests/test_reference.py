@@ -20,7 +20,9 @@ SCENE = str(sample_scene_path())
 def gbuffer(ctx, scene, camera):
     renderer = Renderer(scene, ctx=ctx)
     try:
-        frame = renderer.render(camera, ["phong"], RenderSettings(lod_px=REFERENCE_LOD_PX), want_normals=True)
+        # single-sampled, as `mrcheck reference` renders (every pixel a point of the surface its centre sees)
+        frame = renderer.render(camera, ["phong"], RenderSettings(lod_px=REFERENCE_LOD_PX, antialias=False),
+                                want_normals=True)
         return frame.depth, frame.normals
     finally:
         renderer.release()
