@@ -78,34 +78,62 @@ vec3 shade(ivec2 ij, float z, vec4 albedo) {
 }
 
 #if MSAA
-// An edge pixel: each sample shaded with its own triangle's values (written at the pixel centre
-// by the geometry pass) and the AO read depth-aware at its own position, averaged in linear
-// light (the sRGB target encodes the mean: half white, half black is 50 % linear, not sRGB).
-vec3 shade_samples(ivec2 ij) {
-    vec3 sum = vec3(0.0);
+// A sample of an edge pixel at ``offset`` from its centre, shaded with its own triangle's values
+// (written at the pixel centre by the geometry pass) and the AO read depth-aware at its position.
+vec3 shade_sample(ivec2 ij, vec2 offset, vec2 word) {
+    vec3 n;
+    int albedo_index;
+    bool front;
+    if (!unpack_surface(word.y, n, albedo_index, front)) return u_background;
+    vec3 albedo = texelFetch(u_palette, ivec2(albedo_index, 0), 0).rgb;
+    return lit(ij, word.x, n, albedo, mix(1.0, ao_at(vec2(ij) + offset, word.x), u_ao_weight));
+}
+
+// An edge pixel's samples that its resolved surface does not cover (bits of the normal's fourth
+// channel, gbuffer_resolve.glsl): the first pass shaded that surface, this one adds the others,
+// each surface shaded once at its first sample and weighted by the samples it covers; alpha is
+// the resolved surface's share. Blended (ONE, SRC_ALPHA) into the sRGB target in linear light,
+// the sum is the mean of the four samples' colours (half white, half black is 50 % linear, not
+// sRGB). Two other surfaces are told apart; a fourth (four surfaces in one pixel) counts as the
+// third. Shading one sample per surface instead of all four is what makes the pass cheap; the
+// choice is made with selects, not indices (llvmpipe runs a per-pixel array index slowly).
+vec4 shade_others(ivec2 ij) {
+    int covers = int(texelFetch(u_normal, ij, 0).w + 0.5);
+    vec2 first = vec2(0.0), second = vec2(0.0);
+    vec2 first_at = vec2(0.0), second_at = vec2(0.0);
+    vec3 first_n = vec3(0.0);
+    bool have_first = false, have_second = false;
+    float in_first = 0.0, in_second = 0.0;
     for (int k = 0; k < 4; ++k) {
         vec2 word = texelFetch(u_packed, ij, k).rg;
         vec3 n;
         int albedo_index;
         bool front;
-        if (unpack_surface(word.y, n, albedo_index, front)) {
-            vec3 albedo = texelFetch(u_palette, ivec2(albedo_index, 0), 0).rgb;
-            float a = mix(1.0, ao_at(vec2(ij) + SAMPLE_OFFSET[k], word.x), u_ao_weight);
-            sum += lit(ij, word.x, n, albedo, a);
-        } else {
-            sum += u_background;
-        }
+        unpack_surface(word.y, n, albedo_index, front);
+        bool other = ((covers >> k) & 1) == 0;
+        bool opens = other && !have_first;
+        first = opens ? word : first;
+        first_n = opens ? n : first_n;
+        first_at = opens ? SAMPLE_OFFSET[k] : first_at;
+        have_first = have_first || opens;
+        bool with_first = other && same_surface(first.x, first_n, word.x, n);
+        bool rest = other && !with_first;
+        second = rest && !have_second ? word : second;
+        second_at = rest && !have_second ? SAMPLE_OFFSET[k] : second_at;
+        have_second = have_second || rest;
+        in_first += with_first ? 1.0 : 0.0;
+        in_second += rest ? 1.0 : 0.0;
     }
-    return 0.25 * sum;
+    vec3 sum = in_first * shade_sample(ij, first_at, first);
+    if (have_second) sum += in_second * shade_sample(ij, second_at, second);
+    return vec4(0.25 * sum, 0.25 * float(bitCount(covers)));
 }
-#endif
 
-#if MSAA
 // Anti-aliasing's edge pass: after the pass without MSAA has shaded every pixel once, the
-// pixels that gbuffer_resolve.glsl marked as edges (an early depth test, SCREEN_DEPTH) again
-// per sample. (A branch per pixel in one pass was slower: llvmpipe ran both of its sides.)
+// pixels that gbuffer_resolve.glsl marked as edges (an early depth test, SCREEN_DEPTH) get their
+// other surfaces added. (A branch per pixel in one pass was slower: llvmpipe ran both sides.)
 void main() {
-    color = vec4(shade_samples(ivec2(gl_FragCoord.xy)), 1.0);
+    color = shade_others(ivec2(gl_FragCoord.xy));
 }
 #else
 void main() {

@@ -38,3 +38,14 @@ bool unpack_surface(float bits, out vec3 n, out int albedo_index, out bool front
     front = (word & 0x80000000u) != 0u;
     return (word & 0x20000000u) != 0u;
 }
+
+// Two samples show the same surface when both are background, or their depths (at the centre)
+// agree to SAME_DEPTH relative and their normals to SAME_NORMAL: coplanar triangles of one face
+// are one surface, so the diagonals of a triangulated face are no edge.
+const float SAME_DEPTH = 1e-5;     // float32 noise of two triangles' planes evaluated at one point
+const float SAME_NORMAL = 2e-4;    // squared distance of the normals, 0.8 deg: not two facets
+
+bool same_surface(float za, vec3 na, float zb, vec3 nb) {
+    bool background = za <= 0.0 && zb <= 0.0;
+    return background || (za > 0.0 && zb > 0.0 && abs(za - zb) <= SAME_DEPTH * za && dot(na - nb, na - nb) <= SAME_NORMAL);
+}

@@ -17,7 +17,7 @@ import pytest
 from .conftest import box, scene_of
 from mrcheck.core.camera import Camera
 from mrcheck.core.errors import MrcheckWarning
-from mrcheck.render.antialias import MSAA_SAMPLES, SAMPLE_OFFSETS
+from mrcheck.render.antialias import MSAA_SAMPLES, SAMPLE_OFFSETS, linear_to_srgb, srgb_to_linear
 from mrcheck.render.gbuffer import PALETTE_MAX
 from mrcheck.render.gl import made_current
 from mrcheck.render.renderer import Renderer, RenderSettings
@@ -111,6 +111,38 @@ def test_inside_surfaces_the_frame_is_the_one_without_anti_aliasing(sample_cell)
         # AO also reads the neighbourhood, whose edge pixels now hold their majority surface)
         assert (diff[centre_on_it] <= (2 if mode == "phong" else 6)).mean() > 0.99, mode
         assert (diff > 8).mean() > 0.01   # and the edges did change
+
+
+def test_an_edge_pixel_is_the_mean_of_its_samples_surfaces_in_linear_light(ctx):
+    """Two boxes (red in front, blue behind) whose edges run through pixel centres: each of the
+    pixel's samples shows the surface on its side of the edges (SAMPLE_OFFSETS), and the edge pass
+    (shaders/composite.glsl) makes the pixel the mean in linear light of those surfaces' colours,
+    taken from pixels nearby that one surface covers: on a vertical edge (red | blue), a horizontal
+    one (background over red), and the corner where all three meet (two surfaces besides the
+    resolved one, the case the pass tells apart)."""
+    front, behind = box((2.0, 2.0, 0.2), (-1.0, 1.0, 5.1)), box((2.5, 2.0, 0.2), (0.75, 1.0, 6.1))
+    base = scene_of(front, behind, name="edges")
+    scene = Scene(base.name, base.source, [replace(base.parts[0], color=(0.8, 0.1, 0.1)),
+                                           replace(base.parts[1], color=(0.1, 0.2, 0.8))])
+    # camera at the origin looking down +z: the boxes' sides x = 0 and tops y = 0 are seen edge-on
+    # and project onto the centres of column 16 and row 12
+    camera = Camera(32, 24, np.array([[50.0, 0.0, 16.0], [0.0, 50.0, 12.0], [0.0, 0.0, 1.0]]))
+    renderer = Renderer(scene, ctx=ctx)
+    try:
+        image = renderer.render(camera, ["phong"], RenderSettings(lod_px=0))["phong"].image
+    finally:
+        renderer.release()
+    linear = srgb_to_linear(image)
+    colour = {"background": linear[8, 16], "red": linear[15, 13], "blue": linear[15, 19]}
+
+    def side(dx, dy, v, u):   # the surface a sample of pixel (v, u) sees
+        y, x = v + dy - 12.0, u + dx - 16.0
+        return "background" if y < 0 else ("red" if x < 0 else "blue")
+
+    for v, u in ((16, 16), (12, 10), (12, 16)):
+        expected = np.mean([colour[side(dx, dy, v, u)] for dx, dy in SAMPLE_OFFSETS], axis=0)
+        assert np.abs(image[v, u].astype(int) - linear_to_srgb(expected)).max() <= 3, (v, u)
+    assert len({side(dx, dy, 12, 16) for dx, dy in SAMPLE_OFFSETS}) == 3   # the corner has all three
 
 
 def test_back_faces_stay_back_faces_through_the_packing(ctx):

@@ -33,10 +33,11 @@ def renderers(ctx):
 def test_antialiasing_halves_the_error_against_a_4x4_supersampled_render(renderers, scene, view, record_property):
     """Mean absolute error (grey levels) of the image against the same view rendered at 4x4 the
     pixels and area-averaged, without and with anti-aliasing (4x MSAA, mrcheck.render.antialias).
-    Measured at 256x192 on these views (every view at 512x384: docs/rendering.md): Phong 0.10-0.17
-    of the error without, vector 0.24-0.42, ssao 0.32-0.47 (0.62-0.66 on the two overview views,
-    not tested here: their AO's own noise at one sample per pixel, which the 4x4 render averages
-    away, is most of what is left). Limits: Phong 0.3, vector 0.5, ssao 0.6."""
+    Measured at 256x192 on these views (every view at 512x384 and 1024x768: docs/rendering.md):
+    Phong 0.15-0.18 of the error without, vector 0.24-0.44, ssao 0.27-0.48 (on the two overview
+    views, not tested here, ssao is 0.57-0.59 at this size: its AO's own noise at one sample per
+    pixel, which the 4x4 render averages away; at most 0.49 at the larger sizes). Limits: Phong 0.3,
+    vector and ssao 0.5 (the issue's half)."""
     renderer = renderers[scene]
     camera = renderer.scene.camera(view, 256, 192)
     reference = supersampled_reference(renderer, camera, STUDY)
@@ -46,7 +47,7 @@ def test_antialiasing_halves_the_error_against_a_4x4_supersampled_render(rendere
         before, after = image_mae(without[mode].image, reference[mode]), image_mae(with_aa[mode].image, reference[mode])
         record_property(mode, f"{before:.2f} -> {after:.2f}")
         print(f"{scene} {view} {mode}: MAE {before:.2f} -> {after:.2f} ({after / before:.2f})")
-        assert after / before < {"phong": 0.3, "vector": 0.5, "ssao": 0.6}[mode]
+        assert after / before < {"phong": 0.3, "vector": 0.5, "ssao": 0.5}[mode]
 
 
 # -- light and tone --------------------------------------------------------------------------------

@@ -11,6 +11,7 @@ import numpy as np
 
 from mrcheck.core.camera import Camera
 from mrcheck.render.antialias import sample_offsets_glsl
+from mrcheck.render.ao.base import set_if_present
 from mrcheck.render.gl import GL_FRAMEBUFFER_SRGB, load_program
 from mrcheck.render.settings import DEFAULT_LIGHT, DEFAULT_TONE, LIGHTS, TONES
 
@@ -64,9 +65,8 @@ class Composite:
             program = load_program(self.ctx, "composite", defines)
             names = ("u_depth", "u_normal", "u_albedo", "u_ao_half" if half else "u_ao", "u_packed", "u_palette")
             for unit, name in enumerate(names):
-                if name in program:   # each variant reads some of them
-                    program[name].value = unit
-            program["u_background"].value = BACKGROUND
+                set_if_present(program, name, unit)   # each variant reads some of them
+            set_if_present(program, "u_background", BACKGROUND)
             self.variants[half, msaa] = (program, self.ctx.vertex_array(program, []))
         return self.variants[half, msaa]
 
@@ -84,20 +84,22 @@ class Composite:
         variants = [(False, target)] + ([(True, edges.target)] if edges is not None else [])
         for msaa, fbo in variants:
             p, vao = self._variant(ao_half, msaa)
-            p["u_intrinsics"].value = (camera.fx, camera.fy, camera.cx, camera.cy)
-            p["u_light_dir"].value = tuple(light_direction(camera, light))
-            p["u_ao_weight"].value = 1.0 if use_ao else 0.0
-            p["u_ao_direct"].value = 1.0 if ao_direct else 0.0
-            p["u_tone"].value = TONES.index(tone)
+            uniforms = {"u_intrinsics": (camera.fx, camera.fy, camera.cx, camera.cy),
+                        "u_light_dir": tuple(light_direction(camera, light)), "u_ao_weight": 1.0 if use_ao else 0.0,
+                        "u_ao_direct": 1.0 if ao_direct else 0.0, "u_tone": TONES.index(tone)}
             if ao_half:
-                p["u_size_half"].value = ao.size
+                uniforms["u_size_half"] = ao.size
+            for name, value in uniforms.items():
+                set_if_present(p, name, value)
             fbo.use()
             if msaa:   # only where the depth buffer marks an edge pixel (shaders/gbuffer_resolve.glsl)
                 fbo.depth_mask = False
-                self.ctx.enable(moderngl.DEPTH_TEST)
+                self.ctx.enable(moderngl.DEPTH_TEST | moderngl.BLEND)
                 self.ctx.depth_func = "<"
+                # colour: the other surfaces' share plus the first pass's times its share (alpha)
+                self.ctx.blend_func = moderngl.ONE, moderngl.SRC_ALPHA, moderngl.ZERO, moderngl.ONE
             vao.render(moderngl.TRIANGLES, vertices=3)
-            self.ctx.disable(moderngl.DEPTH_TEST)
+            self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         self.ctx.disable_direct(GL_FRAMEBUFFER_SRGB)
 
     def release(self) -> None:
