@@ -10,10 +10,11 @@ edges near the image axes -- columns, racks, the wires of mesh fences -- to a qu
   from it: per pixel the triangle that covers most samples. The AO passes, the blur, the depth
   and normals a frame returns and the picking read that one, so the AO stays at one sample per
   pixel and costs what it costs without anti-aliasing.
-* The composite (``shaders/composite.glsl``, ``MSAA``) compares the pixel's four samples: one
-  triangle in all of them (most pixels) is shaded once, as without anti-aliasing; an edge pixel
-  shades each sample with its own triangle's values and the AO read depth-aware at the sample's
-  position, and averages them in linear light into the sRGB output.
+* The composite shades every pixel once, as without anti-aliasing, with the resolved surface;
+  its edge pass (``shaders/composite.glsl``, ``MSAA``) then adds, in the pixels whose samples are
+  not all one surface, each other surface once (its own triangle's values, the AO read
+  depth-aware at its first sample's position) weighted by the samples it covers, blended in
+  linear light into the sRGB output: the mean of the four samples' colours.
 
 An earlier version supersampled the geometry and the composite on a 2x grid (4x the composite's
 pixels and a resolve pass): 1.6-2.35x the frame, against 1.2-1.5x for this one (docs/performance.md).
