@@ -38,6 +38,7 @@ from mrcheck.core.errors import MrcheckError
 from mrcheck.core.inputs import check_input
 from mrcheck.core.output import check_not_inputs, check_output_path
 from mrcheck.mr.edges import EdgeFitError, EdgeOptions, refine_pose, scene_edges
+from mrcheck.mr.edges.candidates import CandidateEdges
 from mrcheck.mr.lens import distortion_map
 from mrcheck.mr.overlay import overlay_images
 from mrcheck.mr.shot import render_for_photo
@@ -126,10 +127,13 @@ def predicted(previous: list) -> Camera:
     return last.with_pose(dR @ last.R, dR @ last.t + dt)
 
 
-def snap_frame(scene, camera: Camera, grey, start: Camera, renderer, edges, options: EdgeOptions = TRACK_OPTIONS) -> tuple:
-    """``(camera at the pose, fit or None, reason)`` of one frame from ``start``."""
+def snap_frame(scene, camera: Camera, grey, start: Camera, renderer, edges, options: EdgeOptions = TRACK_OPTIONS,
+               candidates: CandidateEdges | None = None) -> tuple:
+    """``(camera at the pose, fit or None, reason)`` of one frame from ``start``; ``candidates``:
+    the :class:`~mrcheck.mr.edges.candidates.CandidateEdges` kept from the frames before."""
     try:
-        fit = refine_pose(scene, camera, grey, initial=start, options=options, renderer=renderer, edges=edges)
+        fit = refine_pose(scene, camera, grey, initial=start, options=options, renderer=renderer, edges=edges,
+                          candidates=candidates)
     except EdgeFitError as exc:
         return start, None, str(exc)
     if fit.support < LOST_SUPPORT:
@@ -191,6 +195,9 @@ class _Loop:
     def __init__(self, result, scene, intrinsics, initial, renderer, edges, alpha):
         self.result, self.scene, self.intrinsics, self.initial = result, scene, intrinsics, initial
         self.renderer, self.edges, self.alpha = renderer, edges, alpha
+        # the edges seen, kept from frame to frame: on the generated cell (223 000 mesh edges) a
+        # full sampling per frame was the largest stage (see docs/edge-registration.md)
+        self.candidates = CandidateEdges(edges)
         self.camera = self.maps = self.writer = None
         self._maps_job = None
         self.times = result.times_s
@@ -208,7 +215,7 @@ class _Loop:
             self._maps = self._maps_job.submit(distortion_map, self.camera)
             self.writer = BackgroundVideo(tmp_video, rgb.shape[1], rgb.shape[0], rate)
         pose = _track_frame(self.result.frames, self.scene, self.camera, rgb, self.initial, self.renderer,
-                            self.edges, len(self.result.frames), time_s)
+                            (self.edges, self.candidates), len(self.result.frames), time_s)
         for stage, seconds in pose.times_s.items():
             self.times[f"snap {stage}"] = self.times.get(f"snap {stage}", 0.0) + seconds
         self.result.frames.append(pose)
@@ -242,12 +249,13 @@ class _Loop:
             self.writer = None
 
 
-def _track_frame(previous, scene, camera, rgb, initial, renderer, edges, index, time_s) -> FramePose:
+def _track_frame(previous, scene, camera, rgb, initial, renderer, edges_kept, index, time_s) -> FramePose:
     start = camera.with_pose(initial.R, initial.t) if not previous else predicted(previous)
     grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
     began = time.perf_counter()
+    edges, candidates = edges_kept
     pose, fit, reason = snap_frame(scene, camera, grey, start, renderer, edges,
-                                   FIRST_OPTIONS if not previous else TRACK_OPTIONS)
+                                   FIRST_OPTIONS if not previous else TRACK_OPTIONS, candidates)
     corners = list(fit.uncertainty.corner_px) if fit is not None else []
     times = {k: v for k, v in fit.times_s.items() if k != "total"} if fit is not None else {}
     return FramePose(index, time_s, pose, None if fit is None else fit.rms_px, 0.0 if fit is None else fit.support,
