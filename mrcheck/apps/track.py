@@ -195,8 +195,8 @@ class _Loop:
     def __init__(self, result, scene, intrinsics, initial, renderer, edges, alpha):
         self.result, self.scene, self.intrinsics, self.initial = result, scene, intrinsics, initial
         self.renderer, self.edges, self.alpha = renderer, edges, alpha
-        # the edges seen, kept from frame to frame: on the generated cell (223 000 mesh edges) a
-        # full sampling per frame was the largest stage (see docs/edge-registration.md)
+        # the edges seen, kept from frame to frame (not from the first frame's fit: its sample
+        # spacing is that of FIRST_OPTIONS' 3000 samples, four times the candidates to test)
         self.candidates = CandidateEdges(edges)
         self.camera = self.maps = self.writer = None
         self._maps_job = None
@@ -215,7 +215,8 @@ class _Loop:
             self._maps = self._maps_job.submit(distortion_map, self.camera)
             self.writer = BackgroundVideo(tmp_video, rgb.shape[1], rgb.shape[0], rate)
         pose = _track_frame(self.result.frames, self.scene, self.camera, rgb, self.initial, self.renderer,
-                            (self.edges, self.candidates), len(self.result.frames), time_s)
+                            (self.edges, self.candidates if self.result.frames else None), len(self.result.frames),
+                            time_s)
         for stage, seconds in pose.times_s.items():
             self.times[f"snap {stage}"] = self.times.get(f"snap {stage}", 0.0) + seconds
         self.result.frames.append(pose)
