@@ -25,18 +25,20 @@ import math
 import os
 import tempfile
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import cv2
-import numpy as np
 
+from mrcheck.apps.videoout import BackgroundVideo
 from mrcheck.core.camera import Camera
 from mrcheck.core.camerafiles import load_camera, read_camera
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.inputs import check_input
 from mrcheck.core.output import check_not_inputs, check_output_path
 from mrcheck.mr.edges import EdgeFitError, EdgeOptions, refine_pose, scene_edges
+from mrcheck.mr.edges.candidates import CandidateEdges
 from mrcheck.mr.lens import distortion_map
 from mrcheck.mr.overlay import overlay_images
 from mrcheck.mr.shot import render_for_photo
@@ -69,6 +71,7 @@ class FramePose:
     lost: bool
     reason: str = ""
     seconds: float = 0.0
+    times_s: dict = field(default_factory=dict, repr=False)
 
     def to_dict(self) -> dict:
         out = {"frame": self.frame, "time_s": round(self.time_s, 4), "R": self.camera.R.tolist(),
@@ -82,10 +85,14 @@ class FramePose:
 
 @dataclass
 class TrackResult:
-    """``frames``: every frame's :class:`FramePose`; ``seconds``: wall time of the whole run."""
+    """``frames``: every frame's :class:`FramePose`; ``seconds``: wall time of the whole run;
+    ``times_s``: seconds per stage over the run (``decode``, ``snap <stage>`` of
+    :attr:`mrcheck.mr.edges.EdgeFit.times_s`, ``overlay render``, ``writer wait``; ``compose
+    (thread)`` and ``encode (thread)`` ran on the writer's thread beside the others)."""
 
     frames: list = field(default_factory=list)
     seconds: float = 0.0
+    times_s: dict = field(default_factory=dict)
 
     @property
     def lost(self) -> list:
@@ -98,6 +105,11 @@ class TrackResult:
     def summary_line(self) -> str:
         return (f"tracked {len(self.frames)} frames in {self.seconds:.1f} s ({self.fps:.2f} frames/s); "
                 f"lost: {', '.join(map(str, self.lost)) or 'none'}")
+
+    def stage_line(self) -> str:
+        """The stages' seconds, largest first."""
+        stages = sorted(self.times_s.items(), key=lambda kv: -kv[1])
+        return "time per stage (s): " + ", ".join(f"{k} {v:.2f}" for k, v in stages if v >= 0.005)
 
     def lost_lines(self) -> list[str]:
         return [f"  frame {f.frame} lost ({f.reason}): its pose is the prediction, not trusted"
@@ -115,10 +127,13 @@ def predicted(previous: list) -> Camera:
     return last.with_pose(dR @ last.R, dR @ last.t + dt)
 
 
-def snap_frame(scene, camera: Camera, grey, start: Camera, renderer, edges, options: EdgeOptions = TRACK_OPTIONS) -> tuple:
-    """``(camera at the pose, fit or None, reason)`` of one frame from ``start``."""
+def snap_frame(scene, camera: Camera, grey, start: Camera, renderer, edges, options: EdgeOptions = TRACK_OPTIONS,
+               candidates: CandidateEdges | None = None) -> tuple:
+    """``(camera at the pose, fit or None, reason)`` of one frame from ``start``; ``candidates``:
+    the :class:`~mrcheck.mr.edges.candidates.CandidateEdges` kept from the frames before."""
     try:
-        fit = refine_pose(scene, camera, grey, initial=start, options=options, renderer=renderer, edges=edges)
+        fit = refine_pose(scene, camera, grey, initial=start, options=options, renderer=renderer, edges=edges,
+                          candidates=candidates)
     except EdgeFitError as exc:
         return start, None, str(exc)
     if fit.support < LOST_SUPPORT:
@@ -126,66 +141,46 @@ def snap_frame(scene, camera: Camera, grey, start: Camera, renderer, edges, opti
     return fit.camera, fit, ""
 
 
-def _writer(path: Path, width: int, height: int, rate):
-    import av
-
-    container = av.open(str(path), "w", format="mp4")
-    for codec in ("libx264", "h264", "mpeg4"):
-        try:
-            stream = container.add_stream(codec, rate=rate)
-            break
-        except (ValueError, av.error.FFmpegError):   # not in this FFmpeg build
-            continue
-    else:
-        container.close()
-        raise MrcheckError("FFmpeg (PyAV) has no H.264 or MPEG-4 encoder", path)
-    stream.width, stream.height, stream.pix_fmt = width - width % 2, height - height % 2, "yuv420p"
-    return container, stream
-
-
 def track_video(video, scene, intrinsics: Camera, initial: Camera, output, poses_path, alpha: float = 0.5,
                 progress=None) -> TrackResult:
     """Track ``video`` (a path) from the pose of ``initial``; write the overlay video ``output``
-    and ``poses_path`` (JSON lines) atomically; ``progress(done, total)`` after every frame."""
+    and ``poses_path`` (JSON lines) atomically; ``progress(done, total)`` after every frame.
+
+    One renderer (GL context, uploaded scene) and one set of the scene's edges serve the whole
+    video; the overlay's compose and encode run on a thread (:class:`BackgroundVideo`) beside the
+    next frame's snap, and the lens map of the first frame is made on a thread beside its snap."""
     import av
 
     result = TrackResult()
     start_time = time.perf_counter()
     edges = scene_edges(scene)
     renderer = Renderer(scene)
-    folder = Path(output).parent
-    tmp_video = Path(tempfile.mkstemp(suffix=".mp4", dir=folder, prefix=".track-")[1])
+    tmp_video = Path(tempfile.mkstemp(suffix=".mp4", dir=Path(output).parent, prefix=".track-")[1])
+    loop = _Loop(result, scene, intrinsics, initial, renderer, edges, alpha)
     try:
         with av.open(str(video)) as source:
             stream = source.streams.video[0]
             total = stream.frames or 0
-            container = None
-            for index, frame in enumerate(source.decode(stream)):
+            frames = source.decode(stream)
+            while True:
+                began = time.perf_counter()
+                frame = next(frames, None)
+                if frame is None:
+                    break
                 rgb = frame.to_ndarray(format="rgb24")
-                if container is None:
-                    camera, _ = fit_camera(intrinsics, rgb.shape[1], rgb.shape[0], video)
-                    maps = distortion_map(camera)
-                    container, out_stream = _writer(tmp_video, rgb.shape[1], rgb.shape[0], stream.average_rate or 25)
-                pose = _track_frame(result.frames, scene, camera, rgb, initial, renderer, edges, index,
-                                    float(frame.time or 0.0))
-                result.frames.append(pose)
-                image = _overlay(renderer, pose.camera, rgb, alpha, maps)
-                image = image[:out_stream.height, :out_stream.width]
-                for packet in out_stream.encode(av.VideoFrame.from_ndarray(np.ascontiguousarray(image), format="rgb24")):
-                    container.mux(packet)
+                loop.add("decode", began)
+                loop.frame(rgb, float(frame.time or 0.0), video, tmp_video, stream.average_rate or 25)
                 if progress:
-                    progress(index + 1, total)
-            if container is None:
+                    progress(len(result.frames), total)
+            if loop.writer is None:
                 raise MrcheckError("the video has no frames", video)
-            for packet in out_stream.encode():
-                container.mux(packet)
-            container.close()
-        lines = "".join(json.dumps(f.to_dict()) + "\n" for f in result.frames)
-        _write_atomic(Path(poses_path), lines)
+            loop.close()
+        _write_atomic(Path(poses_path), "".join(json.dumps(f.to_dict()) + "\n" for f in result.frames))
         os.replace(tmp_video, output)
     except av.error.FFmpegError as exc:
         raise MrcheckError(f"cannot read the video: {exc}", video) from None
     finally:
+        loop.abort()
         renderer.release()
         if tmp_video.exists():
             tmp_video.unlink()
@@ -193,20 +188,79 @@ def track_video(video, scene, intrinsics: Camera, initial: Camera, output, poses
     return result
 
 
-def _track_frame(previous, scene, camera, rgb, initial, renderer, edges, index, time_s) -> FramePose:
+class _Loop:
+    """The per-frame work of :func:`track_video` and what the frames share (camera, lens map,
+    writer, the stage clock in ``result.times_s``)."""
+
+    def __init__(self, result, scene, intrinsics, initial, renderer, edges, alpha):
+        self.result, self.scene, self.intrinsics, self.initial = result, scene, intrinsics, initial
+        self.renderer, self.edges, self.alpha = renderer, edges, alpha
+        # the edges seen, kept from frame to frame (not from the first frame's fit: its sample
+        # spacing is that of FIRST_OPTIONS' 3000 samples, four times the candidates to test)
+        self.candidates = CandidateEdges(edges)
+        self.camera = self.maps = self.writer = None
+        self._maps_job = None
+        self.times = result.times_s
+
+    def add(self, stage: str, began: float) -> float:
+        now = time.perf_counter()
+        self.times[stage] = self.times.get(stage, 0.0) + now - began
+        return now
+
+    def frame(self, rgb, time_s, video, tmp_video, rate) -> None:
+        if self.camera is None:
+            self.camera, _ = fit_camera(self.intrinsics, rgb.shape[1], rgb.shape[0], video)
+            # the lens map (0.35-0.4 s at 640x480) is made beside the first frame's snap
+            self._maps_job = ThreadPoolExecutor(max_workers=1)
+            self._maps = self._maps_job.submit(distortion_map, self.camera)
+            self.writer = BackgroundVideo(tmp_video, rgb.shape[1], rgb.shape[0], rate)
+        pose = _track_frame(self.result.frames, self.scene, self.camera, rgb, self.initial, self.renderer,
+                            (self.edges, self.candidates if self.result.frames else None), len(self.result.frames),
+                            time_s)
+        for stage, seconds in pose.times_s.items():
+            self.times[f"snap {stage}"] = self.times.get(f"snap {stage}", 0.0) + seconds
+        self.result.frames.append(pose)
+        began = time.perf_counter()
+        if self._maps_job is not None:
+            self.maps = self._maps.result()
+            self._maps_job.shutdown()
+            self._maps_job = None
+            began = self.add("lens map (wait)", began)
+        renders, _, offset, maps = render_for_photo(self.renderer, pose.camera, ["vector"], OVERLAY_SETTINGS, False,
+                                                    self.maps)
+        began = self.add("overlay render", began)
+        camera, alpha = self.camera, self.alpha
+        self.writer.put(lambda: overlay_images(rgb, renders, camera, alpha, offset=offset, maps=maps)["vector"])
+        self.add("writer wait", began)
+
+    def close(self) -> None:
+        began = time.perf_counter()
+        writer, self.writer = self.writer, None
+        writer.close()
+        self.add("writer close", began)
+        for stage, seconds in writer.times_s.items():
+            self.times[f"{stage} (thread)"] = seconds
+
+    def abort(self) -> None:
+        if self._maps_job is not None:
+            self._maps_job.shutdown(wait=True)
+            self._maps_job = None
+        if self.writer is not None:
+            self.writer.abort()
+            self.writer = None
+
+
+def _track_frame(previous, scene, camera, rgb, initial, renderer, edges_kept, index, time_s) -> FramePose:
     start = camera.with_pose(initial.R, initial.t) if not previous else predicted(previous)
     grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
     began = time.perf_counter()
+    edges, candidates = edges_kept
     pose, fit, reason = snap_frame(scene, camera, grey, start, renderer, edges,
-                                   FIRST_OPTIONS if not previous else TRACK_OPTIONS)
+                                   FIRST_OPTIONS if not previous else TRACK_OPTIONS, candidates)
     corners = list(fit.uncertainty.corner_px) if fit is not None else []
+    times = {k: v for k, v in fit.times_s.items() if k != "total"} if fit is not None else {}
     return FramePose(index, time_s, pose, None if fit is None else fit.rms_px, 0.0 if fit is None else fit.support,
-                     corners, bool(reason), reason, time.perf_counter() - began)
-
-
-def _overlay(renderer, camera, rgb, alpha, maps) -> np.ndarray:
-    renders, _, offset, maps = render_for_photo(renderer, camera, ["vector"], OVERLAY_SETTINGS, False, maps)
-    return overlay_images(rgb, renders, camera, alpha, offset=offset, maps=maps)["vector"]
+                     corners, bool(reason), reason, time.perf_counter() - began, times)
 
 
 def _write_atomic(path: Path, text: str) -> None:

@@ -206,6 +206,7 @@ def track(video, scene_path, intrinsics, initial, poses, alpha, output):
         result = track_command(video, scene_path, intrinsics, initial, output, poses=poses, alpha=alpha,
                                progress=lambda done, total: bars("track", done, max(total, done)))
     click.echo(result.summary_line())
+    click.echo(result.stage_line())
     for line in result.lost_lines():
         click.echo(line)
     click.echo(f"wrote {output}")

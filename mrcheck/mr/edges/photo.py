@@ -55,17 +55,22 @@ def pyramid(grey: np.ndarray, levels: int) -> list[Level]:
     return out
 
 
-def _bilinear(image: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """``image`` at float pixel positions (0 outside)."""
-    h, w = image.shape
+def _bilinear(images: tuple, u: np.ndarray, v: np.ndarray) -> list:
+    """Each of the (H, W) ``images`` (one shape) at float pixel positions (0 outside); the
+    positions' indices and weights are computed once for all of them (the search reads the two
+    gradient images at the same points: half the index work of one call per image)."""
+    h, w = images[0].shape
     u0, v0 = np.floor(u), np.floor(v)
     fu, fv = u - u0, v - v0
     u0, v0 = u0.astype(np.int64), v0.astype(np.int64)
     inside = (u0 >= 0) & (v0 >= 0) & (u0 < w - 1) & (v0 < h - 1)
     u0, v0 = np.clip(u0, 0, w - 2), np.clip(v0, 0, h - 2)
-    value = ((1 - fu) * (1 - fv) * image[v0, u0] + fu * (1 - fv) * image[v0, u0 + 1]
-             + (1 - fu) * fv * image[v0 + 1, u0] + fu * fv * image[v0 + 1, u0 + 1])
-    return np.where(inside, value, 0.0)
+    w00, w01, w10, w11 = (1 - fu) * (1 - fv), fu * (1 - fv), (1 - fu) * fv, fu * fv
+    out = []
+    for image in images:
+        value = w00 * image[v0, u0] + w01 * image[v0, u0 + 1] + w10 * image[v0 + 1, u0] + w11 * image[v0 + 1, u0 + 1]
+        out.append(np.where(inside, value, 0.0))
+    return out
 
 
 @dataclass
@@ -84,8 +89,7 @@ def _peaks(level: Level, uv: np.ndarray, normals: np.ndarray, radius: int, polar
     steps = np.arange(-radius - 1, radius + 2, dtype=np.float64)           # one extra each side
     pu = uv[:, 0:1] + steps[None, :] * normals[:, 0:1]
     pv = uv[:, 1:2] + steps[None, :] * normals[:, 1:2]
-    gx = _bilinear(level.gx, pu.ravel(), pv.ravel()).reshape(n, -1)
-    gy = _bilinear(level.gy, pu.ravel(), pv.ravel()).reshape(n, -1)
+    gx, gy = (g.reshape(n, -1) for g in _bilinear((level.gx, level.gy), pu.ravel(), pv.ravel()))
     along = gx * normals[:, 0:1] + gy * normals[:, 1:2]
     a = np.abs(along)
     centre = a[:, 1:-1]

@@ -180,7 +180,7 @@ def level_count(width: int, options: EdgeOptions) -> int:
 class _Fitter:
     """The state of one fit (kept in an object: the levels share the pose, the clock, the parts)."""
 
-    def __init__(self, edges, renderer, camera, grey, options, clock):
+    def __init__(self, edges, renderer, camera, grey, options, clock, candidates=None):
         self.edges, self.renderer, self.camera, self.options, self.clock = edges, renderer, camera, options, clock
         start = time.perf_counter()
         self.pyramid = photo.pyramid(grey, level_count(camera.width, options))
@@ -190,7 +190,7 @@ class _Fitter:
         self.last_full = None     # the full-resolution level's last samples (reused by _finish)
         self.visible_groups = np.zeros(0, np.int64)   # the instance of every visible sample of the last render
         self.all_visible = None   # the last render's visible, salient samples, the left-out parts' too
-        self.candidates = CandidateEdges(edges)
+        self.candidates = candidates if candidates is not None else CandidateEdges(edges)
 
     def visible_samples(self, scale: float, radius: int = 0):
         """Samples of the visible, salient edges at the current pose (:func:`model.salient` on
@@ -311,14 +311,18 @@ class _Fitter:
 
 
 def refine_pose(scene, camera: Camera, grey: np.ndarray, initial: Camera | None = None,
-                options: EdgeOptions | None = None, *, renderer=None, edges=None) -> EdgeFit:
+                options: EdgeOptions | None = None, *, renderer=None, edges=None,
+                candidates: CandidateEdges | None = None) -> EdgeFit:
     """Snap the pose of ``camera`` (or of ``initial``) onto the edges of the photo ``grey``.
 
     ``scene``: the :class:`~mrcheck.scene.model.Scene`; ``camera``: the photo's intrinsics (at the
     photo's size, lens distortion as calibrated) and, without ``initial``, the rough pose;
     ``grey``: (H, W) photo, uint8 or float in 0..1 (colour is converted). ``renderer``: a
     :class:`~mrcheck.render.renderer.Renderer` of ``scene`` to reuse (a video), else one is made
-    and released; ``edges``: :func:`~mrcheck.mr.edges.model.scene_edges` of the scene, to reuse.
+    and released; ``edges``: :func:`~mrcheck.mr.edges.model.scene_edges` of the scene, to reuse;
+    ``candidates``: a :class:`~mrcheck.mr.edges.candidates.CandidateEdges` of those edges kept
+    from the fit of the previous video frame (its edges seen are reused while the view moved
+    less than :data:`~mrcheck.mr.edges.candidates.REUSE_PX` level px).
     Raises :class:`EdgeFitError` when the fit diverges or ends with too little support: below
     ``options.min_support`` of the samples kept, or the parts left out (no support) holding more
     than ``options.max_left_out`` of the visible samples (a wrong pose fitting a few parts).
@@ -338,7 +342,7 @@ def refine_pose(scene, camera: Camera, grey: np.ndarray, initial: Camera | None 
 
         renderer = Renderer(scene)
     try:
-        fit = _fit(_Fitter(edges, renderer, camera, grey, options, clock), camera if initial is None else
+        fit = _fit(_Fitter(edges, renderer, camera, grey, options, clock, candidates), camera if initial is None else
                    camera.with_pose(initial.R, initial.t), grey)
     finally:
         if own:

@@ -1,0 +1,35 @@
+"""``mrcheck track`` keeps the CAD edges seen from frame to frame (refine_pose(candidates=...)):
+the next frame's fit reuses them instead of sampling every mesh edge again, and stays as exact."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from mrcheck.apps.track import TRACK_OPTIONS
+from mrcheck.eval.edgephotos import reprojection_error, scene_points, synthetic_photo
+from mrcheck.eval.edgescenes import crate_camera, crate_scene
+from mrcheck.mr.edges import refine_pose, scene_edges
+from mrcheck.mr.edges.candidates import CandidateEdges
+from mrcheck.render.renderer import Renderer
+
+
+def test_the_next_frame_reuses_the_edges_seen_and_stays_exact():
+    scene, truth = crate_scene(), crate_camera(320, 240)
+    grey, _, _ = synthetic_photo(scene, truth, 0, clutter=0, leave_out=False)
+    points = scene_points(scene, truth)
+    edges = scene_edges(scene)
+    candidates = CandidateEdges(edges)
+    renderer = Renderer(scene)
+    try:
+        errors = []
+        for turn in (0.002, -0.003):          # two frames' starts, 1-2 px off the truth
+            start = truth.with_pose(cv2.Rodrigues(np.array([0.0, turn, 0.0]))[0] @ truth.R, truth.t)
+            fit = refine_pose(scene, truth, grey, initial=start, options=TRACK_OPTIONS, renderer=renderer,
+                              edges=edges, candidates=candidates)
+            errors.append(float(np.median(reprojection_error(truth, fit.camera, points))))
+    finally:
+        renderer.release()
+    # one full sampling for both frames: the second started within REUSE_PX of the first's
+    assert candidates.full_samplings == 1
+    assert max(errors) < 0.5, errors
