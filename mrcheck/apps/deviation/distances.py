@@ -42,7 +42,7 @@ import numpy as np
 from mrcheck.core.arrays import bounding_box
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.progress import shown_progress
-from mrcheck.eval.raycast import build_caster, triangle_owners
+from mrcheck.eval.raycast import build_caster, coherent_order, triangle_owners
 from mrcheck.scene.model import UNITS, Scene
 
 QUERY_CHUNK = 1 << 20            # points per closest-point query (~100 MB of results)
@@ -114,28 +114,31 @@ def closest_surface(scene: Scene, points: np.ndarray, normals: bool = False) -> 
     d, owner = np.empty(n, np.float64), np.empty(n, np.int64)
     normal = np.empty((n, 3), np.float32) if normals else None
     closest = np.empty((n, 3), np.float32) if normals else None
+    # chunks of the whole scan's Morton order, not of the scan's: each chunk is then one compact
+    # region of the hall (a station's sweep crosses all of it), whose BVH nodes stay in the cache;
+    # every query is independent, so the answers are the same
+    order = coherent_order(points)
     steps = shown_progress()(range(0, n, QUERY_CHUNK), "closest CAD points", "Mpt")
     with contextlib.closing(steps):
         for start in steps:
-            _query_chunk(caster, points, start, (d, owner, normal, closest))
+            _query_chunk(caster, points, order[start:start + QUERY_CHUNK], (d, owner, normal, closest))
     return Surface(d, owner, normal, closest, origin, caster if normals else None)
 
 
-def _query_chunk(caster, points, start: int, out) -> None:
-    """One chunk of :func:`closest_surface`'s query into its arrays ``out`` (normal and closest
-    None without normals)."""
+def _query_chunk(caster, points, rows: np.ndarray, out) -> None:
+    """The points ``rows`` of :func:`closest_surface`'s query into its arrays ``out`` (normal
+    and closest None without normals)."""
     d, owner, normal, closest = out
-    chunk = points[start:start + QUERY_CHUNK]
+    chunk = np.take(points, rows, axis=0)
     found = caster.closest_points(chunk)
-    end = start + len(chunk)
     # the closest triangle's normal gives the side, no watertightness needed; a point exactly
     # on the surface (dot 0) counts as outside
     sign = np.where(np.einsum("ij,ij->i", found.offset, found.normal) < 0.0, -1.0, 1.0)
-    d[start:end] = sign * np.linalg.norm(found.offset, axis=1)
-    owner[start:end] = found.instance
+    d[rows] = sign * np.linalg.norm(found.offset, axis=1)
+    owner[rows] = found.instance
     if normal is not None:
-        normal[start:end] = found.normal
-        closest[start:end] = (chunk - caster.origin) - found.offset
+        normal[rows] = found.normal
+        closest[rows] = (chunk - caster.origin) - found.offset
 
 
 def signed_distances(scene: Scene, points: np.ndarray):
