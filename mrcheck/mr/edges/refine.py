@@ -36,7 +36,7 @@ _SIGMA_FLOOR_PX = 0.3      # the robust scale's floor at full resolution (level 
 _ANNEAL = 0.7              # the robust scale shrinks by this after every step kept
 _NEXT_LEVEL_SIGMA = 1.5    # a finer level starts here (level px): the coarser one's floor, doubled
 _RENDER_MAX_WIDTH = 800    # renders for the visible edges at most this wide (see _render_size)
-_MIN_ABOVE_CHANCE = 0.35   # see _check_above_chance (measured figures there)
+_MIN_ABOVE_CHANCE = 0.30   # see _check_above_chance (measured figures there)
 _DIVERGED_SHARE = 0.25     # the pose moved the view by more than this share of the image diagonal
 
 
@@ -453,7 +453,10 @@ def _check_above_chance(fitter: _Fitter) -> float:
     the parts kept); the crate scene's ten fits (0.03-0.28 px): 0.56-0.84; the real box's four:
     0.52-0.62. The cell's good fits fail too (seed 4, 0.18 px off: 0.18; from the true pose:
     0.17-0.38): in that photo a good pose hardly stands out among the edges, and saying so is
-    better than returning a wrong pose as if it were one."""
+    better than returning a wrong pose as if it were one. The limit was 0.35 until the review's
+    add-photo browser test (the sample cell's robot view, snapped from 8 clicks at 0.33 px RMS)
+    measured 0.346 with OpenCV 5.1 (above 0.35 with 5.0) and was refused: 0.30 lies in the gap
+    between the wrong poses measured (at most 0.24) and that good one."""
     samples = fitter.all_visible
     if samples is None or len(samples) == 0:
         return math.nan
