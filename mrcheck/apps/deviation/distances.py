@@ -130,7 +130,7 @@ def _query_chunk(caster, points, rows: np.ndarray, out) -> None:
     and closest None without normals)."""
     d, owner, normal, closest = out
     chunk = np.take(points, rows, axis=0)
-    found = caster.closest_points(chunk)
+    found = caster.closest_points(chunk, coherent=True)   # rows: a run of the whole scan's order
     # the closest triangle's normal gives the side, no watertightness needed; a point exactly
     # on the surface (dot 0) counts as outside
     sign = np.where(np.einsum("ij,ij->i", found.offset, found.normal) < 0.0, -1.0, 1.0)
