@@ -215,8 +215,8 @@ class _Loop:
             self._maps = self._maps_job.submit(distortion_map, self.camera)
             self.writer = BackgroundVideo(tmp_video, rgb.shape[1], rgb.shape[0], rate)
         pose = _track_frame(self.result.frames, self.scene, self.camera, rgb, self.initial, self.renderer,
-                            (self.edges, self.candidates if self.result.frames else None), len(self.result.frames),
-                            time_s)
+                            self.edges, len(self.result.frames), time_s,
+                            candidates=self.candidates if self.result.frames else None)
         for stage, seconds in pose.times_s.items():
             self.times[f"snap {stage}"] = self.times.get(f"snap {stage}", 0.0) + seconds
         self.result.frames.append(pose)
@@ -250,11 +250,10 @@ class _Loop:
             self.writer = None
 
 
-def _track_frame(previous, scene, camera, rgb, initial, renderer, edges_kept, index, time_s) -> FramePose:
+def _track_frame(previous, scene, camera, rgb, initial, renderer, edges, index, time_s, candidates=None) -> FramePose:
     start = camera.with_pose(initial.R, initial.t) if not previous else predicted(previous)
     grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
     began = time.perf_counter()
-    edges, candidates = edges_kept
     pose, fit, reason = snap_frame(scene, camera, grey, start, renderer, edges,
                                    FIRST_OPTIONS if not previous else TRACK_OPTIONS, candidates)
     corners = list(fit.uncertainty.corner_px) if fit is not None else []
