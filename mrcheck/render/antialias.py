@@ -1,4 +1,4 @@
-"""Anti-aliasing: a 4x multisampled G-buffer, shaded per sample only where a pixel holds an edge.
+"""Anti-aliasing: a 4x multisampled G-buffer; where a pixel holds an edge, each surface in it is shaded.
 
 Chosen by measurement (docs/rendering.md, "Anti-aliasing"), on llvmpipe: the geometry pass draws
 into a 4x multisampled G-buffer (MSAA: the fragment shader runs once per pixel, at its centre,

@@ -48,7 +48,7 @@ def light_direction(camera: Camera, light: str) -> np.ndarray:
 class Composite:
     """Program variants: AO at full resolution, or at half resolution upsampled in place
     (``shaders/ao_upsample_common.glsl``), which saves a whole full-resolution pass; and
-    anti-aliasing's edge pass, which shades the edge pixels again per sample from the
+    anti-aliasing's edge pass, which adds the other surfaces of the edge pixels from the
     multisampled G-buffer (:mod:`mrcheck.render.antialias`), made on first use."""
 
     def __init__(self, ctx: moderngl.Context):
@@ -74,21 +74,21 @@ class Composite:
             use_ao: bool, light: str = DEFAULT_LIGHT, ao_direct: bool = False,
             ao_half: bool = False, tone: str = DEFAULT_TONE, edges: EdgePass | None = None) -> None:
         """Shade into ``target``; ``ao`` holds (AO, depth) texels, at half resolution when
-        ``ao_half``; ``edges``: anti-aliased, then the edge pixels again per sample."""
+        ``ao_half``; ``edges``: anti-aliased, then the edge pixels' other surfaces blended on."""
         textures = [gbuffer.depth, gbuffer.normal, gbuffer.albedo, ao]
         if edges is not None:
             textures += [edges.multisampled.depth, edges.palette]
         for unit, texture in enumerate(textures):
             texture.use(unit)
         self.ctx.enable_direct(GL_FRAMEBUFFER_SRGB)   # encode into the sRGB target (gl.srgb_texture)
+        uniforms = {"u_intrinsics": (camera.fx, camera.fy, camera.cx, camera.cy),
+                    "u_light_dir": tuple(light_direction(camera, light)), "u_ao_weight": 1.0 if use_ao else 0.0,
+                    "u_ao_direct": 1.0 if ao_direct else 0.0, "u_tone": TONES.index(tone)}
+        if ao_half:
+            uniforms["u_size_half"] = ao.size
         variants = [(False, target)] + ([(True, edges.target)] if edges is not None else [])
         for msaa, fbo in variants:
             p, vao = self._variant(ao_half, msaa)
-            uniforms = {"u_intrinsics": (camera.fx, camera.fy, camera.cx, camera.cy),
-                        "u_light_dir": tuple(light_direction(camera, light)), "u_ao_weight": 1.0 if use_ao else 0.0,
-                        "u_ao_direct": 1.0 if ao_direct else 0.0, "u_tone": TONES.index(tone)}
-            if ao_half:
-                uniforms["u_size_half"] = ao.size
             for name, value in uniforms.items():
                 set_if_present(p, name, value)
             fbo.use()

@@ -6,9 +6,9 @@ G-buffer (one texture per attachment, image row 0 = texel row 0):
 name       format    content
 =========  ========  ==============================================================
 depth      R32F      linear camera-space z (metres for parts with units); 0 = background
-normal     RGBA16F   xyz: camera-space unit normal, facing the camera
-albedo     RGBA8     rgb: part colour (linear); a: 1 front face, 0 back face (anti-aliased: 0.5
-                     front face + 0.25 an edge pixel, :mod:`mrcheck.render.antialias`)
+normal     RGBA16F   xyz: camera-space unit normal, facing the camera; w (anti-aliased): the
+                     samples the pixel's surface covers, as bits (:mod:`mrcheck.render.antialias`)
+albedo     RGBA8     rgb: part colour (linear); a: 1 front face, 0 back face
 zbuffer    D32F      reversed-Z hardware depth near / z, infinite far plane (:func:`near_plane`)
 =========  ========  ==============================================================
 

@@ -2,7 +2,7 @@
 
 geometry (G-buffer; anti-aliased: multisampled, then resolved to one sample per pixel)
 -> AO (full or half resolution [-> depth-aware upsampling]) -> bilateral blur (optional)
--> composite (Blinn-Phong, AO on the ambient term; anti-aliased: edge pixels per sample).
+-> composite (Blinn-Phong, AO on the ambient term; anti-aliased: edge pixels' other surfaces added).
 
 One G-buffer serves every mode of a frame, so ``--mode all`` draws the geometry once. What a
 caller needs of a frame comes back in its :class:`Frame` (images, AO, depth, normals); the passes
@@ -85,7 +85,7 @@ class FramePasses:
     Passes read what the ones before left: :meth:`ao` the G-buffer of :meth:`geometry` (and
     :meth:`resolve`, anti-aliased), :meth:`blur` the raw AO of :meth:`ao` at its scale,
     :meth:`composite` the AO of that scale. ``antialias``: the geometry goes into the
-    multisampled G-buffer and the composite shades its edge pixels per sample
+    multisampled G-buffer and the composite adds its edge pixels' other surfaces
     (:mod:`mrcheck.render.antialias`).
     """
 
