@@ -45,7 +45,7 @@ FIRST = 20000             # candidates drawn from the prior
 ELITE = 100               # candidates kept per round
 CHILDREN = 40             # neighbours drawn per kept candidate and round
 ROUNDS = (4.0, 8.0, 16.0)  # the rounds' neighbourhood: the search radius over these
-PRIOR = 0.5               # the cost times 1 + PRIOR (motion / radius)^2
+PRIOR = 0.05              # the cost times 1 + PRIOR (motion / radius)^2
 _BATCH = 500              # candidates scored at once (memory: BATCH x SAMPLES x 2 floats)
 _MOTION_SAMPLES = 100     # samples the median image motion of a candidate is measured on
 
