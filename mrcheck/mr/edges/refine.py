@@ -422,7 +422,7 @@ def _finish(fitter: _Fitter, rough: Camera, reports: list) -> EdgeFit:
     _check_left_out(fitter, support)
     above = _check_above_chance(fitter)
     rows_full = rows / fitter.pyramid[0].scale
-    cov = solver.covariance(rows_full, np.where(ok, r, 0.0), weights, samples.edge)
+    cov = solver.covariance(rows_full, np.where(ok, r, 0.0), weights, samples.edge, samples.group)
     depth = float(np.median(proj.depth[weights > 0]))
     uncertainty = pose_uncertainty(fitter.state, camera, cov, depth)
     fitter.clock.add("uncertainty", start)
