@@ -12,7 +12,7 @@ import numpy as np
 import trimesh
 
 from mrcheck.core.camera import Camera
-from mrcheck.mr.edges import chamfer, model, photo
+from mrcheck.mr.edges import chamfer, model, photo, search, solver
 from mrcheck.mr.edges.refine import render_depth
 from mrcheck.render.renderer import Renderer
 from mrcheck.scene.model import Scene, make_part
@@ -73,15 +73,44 @@ def _square_photo(shift=(0.0, 0.0)):
     return image
 
 
-def test_the_shift_search_finds_a_square_moved_by_nine_pixels():
-    cmap = chamfer.chamfer_map(_square_photo((9, -6)), 1.0)
-    t = np.linspace(0, 1, 40)
-    top = np.column_stack([50 + 50 * t, np.full(40, 40.0)])
-    left = np.column_stack([np.full(40, 50.0), 40 + 40 * t])
-    uv = np.vstack([top, top + (0, 40), left, left + (50, 0)])
-    normals = np.vstack([np.tile((0.0, 1.0), (80, 1)), np.tile((1.0, 0.0), (80, 1))])
-    du, dv, cost = chamfer.best_shift(cmap, uv, chamfer.bins_of(normals), 12)
-    assert (du, dv) == (9.0, -6.0) and cost < 1.0     # the filled square's edges lie between pixels
+class _SquareFitter:
+    """What :func:`search.search_pose` needs of a fit: a square's edge samples 5 m ahead of a
+    160x120 camera, at the current pose."""
+
+    def __init__(self):
+        self.camera = Camera.from_look_at([0.0, 0.0, 0.0], [0.0, 5.0, 0.0], [0, 0, 1], 50.0, 160, 120)
+        corners = np.array([[-0.8, 5.0, -0.6], [0.8, 5.0, -0.6], [0.8, 5.0, 0.6], [-0.8, 5.0, 0.6]])
+        t = np.linspace(0, 1, 40, endpoint=False)[:, None]
+        sides = [(corners[i], corners[(i + 1) % 4]) for i in range(4)]
+        points = np.vstack([a + t * (b - a) for a, b in sides])
+        tangents = np.vstack([np.tile((b - a) / np.linalg.norm(b - a), (40, 1)) for a, b in sides])
+        n = len(points)
+        self.samples = model.Samples(points, tangents, np.zeros(n, np.int64), np.repeat(np.arange(4), 40))
+        self.state = solver.PoseState.of(self.camera, corners.mean(axis=0))
+
+    def samples_for(self, scale):
+        return self.samples
+
+
+def test_the_pose_search_finds_a_square_moved_by_twelve_pixels():
+    """The photo shows the square 12 px right and 5 px up of where the start pose puts it: the
+    search moves the pose so that the samples land within a pixel of the photo's square."""
+    fitter = _SquareFitter()
+    uv = fitter.camera.project(fitter.samples.points)
+    lo, hi = uv.min(axis=0) + (12, -5), uv.max(axis=0) + (12, -5)
+    image = np.full((120, 160), 0.3, np.float32)
+    cv2.rectangle(image, tuple(np.rint(lo).astype(int)), tuple(np.rint(hi).astype(int)), 0.8, -1)
+    report = search.search_pose(fitter, chamfer.chamfer_map(image, 1.0), 24.0)
+    moved = fitter.state.camera(fitter.camera).project(fitter.samples.points) - uv
+    assert np.allclose(np.median(moved, axis=0), (12, -5), atol=1.0), np.median(moved, axis=0)
+    assert report.cost < 1.0 < report.start_cost and abs(report.moved_px - 13.0) < 1.5
+
+
+def test_the_search_level_is_the_one_about_320_px_wide_but_not_the_finest():
+    assert search.search_level([640, 320, 160]) == 1
+    assert search.search_level([1280, 640, 320, 160]) == 2
+    assert search.search_level([320, 160]) == 1          # the fine stage needs a coarser level
+    assert search.search_level([200]) == 0
 
 
 def test_a_contour_takes_the_outermost_strong_edge():

@@ -27,7 +27,6 @@ BINS = 8
 TRUNCATE_PX = 4.0          # chamfer distances beyond this (level px) are "no edge here"
 _CANNY_HIGH = 3.0          # Canny's high threshold: this many times the median gradient ...
 _CANNY_LOW = 1.5           # ... and its low one
-_SHIFT_PRIOR = 0.5         # best_shift: the cost times 1 + this (shift / radius)^2
 
 
 @dataclass
@@ -97,21 +96,4 @@ def cost(distance: np.ndarray) -> float:
     return float(np.mean(np.minimum(distance, TRUNCATE_PX) ** 2)) if distance.size else math.inf
 
 
-def best_shift(cmap: ChamferMap, uv: np.ndarray, bins: np.ndarray, radius_px: float, step_px: float = 1.0) -> tuple:
-    """The image shift (level px, within ``radius_px``) that minimises the chamfer cost of the
-    samples at ``uv``: a search over the view direction, for a rough pose whose error is
-    mostly a pan or tilt. Returns ``(du, dv, cost)``."""
-    steps = np.arange(-radius_px, radius_px + 1e-9, step_px)
-    best, score = (0.0, 0.0, cost(lookup(cmap, uv, bins)[0])), math.inf
-    for du in steps:
-        for dv in steps:
-            c = cost(lookup(cmap, uv + (du, dv), bins)[0])
-            # the nearer of two equal fits: parallel or repeated edges (a bar's two sides, a
-            # rack) fit at several shifts, and the start is the best guess between them
-            s = c * (1.0 + _SHIFT_PRIOR * (du * du + dv * dv) / radius_px ** 2)
-            if s < score - 1e-12:
-                best, score = (float(du), float(dv), c), s
-    return best
-
-
-__all__ = ["ChamferMap", "chamfer_map", "bins_of", "lookup", "cost", "best_shift", "BINS", "TRUNCATE_PX"]
+__all__ = ["ChamferMap", "chamfer_map", "bins_of", "lookup", "cost", "BINS", "TRUNCATE_PX"]
