@@ -139,7 +139,6 @@ def covariance(rows: np.ndarray, residuals: np.ndarray, weights: np.ndarray, clu
     """
     used = weights > 0
     rows, residuals, weights, clusters = rows[used], residuals[used], weights[used], clusters[used]
-    n = len(residuals)
     H = rows.T @ (weights[:, None] * rows)
     H = H + _RIDGE * max(np.trace(H), 1e-30) * np.eye(6)   # an unconstrained direction: huge, not singular
     try:
