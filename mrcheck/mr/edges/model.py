@@ -186,15 +186,20 @@ def clip_to_view(camera: Camera, a: np.ndarray, b: np.ndarray, near: float, marg
                        [0.0, -K[1, 1], h - 1 + margin_px - K[1, 2]]])
     offset = np.array([-near, 0.0, 0.0, 0.0, 0.0])
     da, db = xa @ planes.T + offset, xb @ planes.T + offset       # (n, 5)
+    out_a, out_b = da < 0, db < 0
+    keep = ~np.any(out_a & out_b, axis=1)          # both ends beyond one plane: nothing in view
+    cut = keep & np.any(out_a | out_b, axis=1)     # one end beyond some plane: clipped
+    da, db = da[cut], db[cut]
     slope = db - da
     with np.errstate(divide="ignore", invalid="ignore"):
         cross = -da / slope
     lo = np.max(np.where(slope > 0, cross, 0.0), axis=1, initial=0.0)
     hi = np.min(np.where(slope < 0, cross, 1.0), axis=1, initial=1.0)
-    keep = (lo < hi) & ~np.any((slope == 0) & (da < 0), axis=1)
-    lo, hi = lo[keep, None], hi[keep, None]
-    a, b = a[keep], b[keep]
-    return a + lo * (b - a), a + hi * (b - a), keep
+    a, b = a.copy(), b.copy()
+    ca, cb = a[cut], b[cut]
+    a[cut], b[cut] = ca + lo[:, None] * (cb - ca), ca + hi[:, None] * (cb - ca)
+    keep[np.flatnonzero(cut)[lo >= hi]] = False
+    return a[keep], b[keep], keep
 
 
 def sample_edges(edges: EdgeSet, camera: Camera, spacing_px: float, near: float = 1e-3,
