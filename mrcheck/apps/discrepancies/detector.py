@@ -41,7 +41,7 @@ Method
    either, and its absence says nothing. (The headlight render's edges at its own threshold were
    used before: on the unchanged sample cell's robot view and the generated cell's views 10, 6,
    11 and 10 parts were suspects because the sun-lit photo lacked edges the headlight showed;
-   with the relit outline 1, 0, 1, 0.)
+   with the relit outline 1, 0, 0, 0.)
    Each part also reports ``revealed_support``: the share of the edges the "part removed" view
    shows inside its image that the photo shows (evidence of absence; reported, not yet used).
 5. **What the scene without the part would show** (second rule). :func:`behind_ids` re-casts
