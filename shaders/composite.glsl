@@ -22,8 +22,8 @@ uniform float u_ao_weight;     // 0: Phong (D1), 1: AO applied
 uniform float u_ao_direct;     // 0: AO darkens ambient only, 1: also the direct light
 uniform int u_tone;            // index in TONES (mrcheck/render/settings.py): 0 filmic, 1 clip
 
-const float AMBIENT = 0.60;    // share of light that is indirect (a hall under diffuse light): what AO acts on
-const float DIFFUSE = 0.45;
+const float AMBIENT = AMBIENT_VALUE;   // share of light that is indirect (a hall under diffuse light): what AO acts on
+const float DIFFUSE = DIFFUSE_VALUE;   // (both injected from mrcheck/render/composite.py, SHADING)
 const float SPECULAR = 0.12;
 const float SHININESS = 40.0;
 

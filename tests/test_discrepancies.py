@@ -74,20 +74,21 @@ def test_behind_ids_see_past_the_first_instance(sample):
 
 def test_precision_and_recall_on_asbuilt_variants(ctx, tmp_path):
     """Measured (seeds 0-2, views overview + conveyor + far_overview + far_back, 640x480 -- the
-    evaluation's default size --, k1 -0.12, sun light, blur, noise): recall 0.60 (40/67),
-    precision 0.80 (51 true / 13 false), moved >= 0.2 m 11/13, missing 6/11, false suspects on
-    the unchanged scene 1, 1, 0, 0. Before issue 22 (every outline pixel scored, no support cap)
-    the same set gave recall 0.70, precision 0.69 and up to 6 false suspects per view, so the
-    precision and false-suspect asserts fail if the expected-outline rule stops working."""
+    evaluation's default size --, k1 -0.12, sun light, blur, noise): recall 0.64 (43/67),
+    precision 0.82 (54 true / 12 false), moved >= 0.2 m 11/13, missing 8/11, false suspects on
+    the unchanged scene 0, 1, 0, 0. With the outline the headlight render shows (and the support
+    cap it needed) the same set gave recall 0.60, precision 0.80 and missing 6/11; with every
+    outline pixel scored, recall 0.70, precision 0.69 and up to 6 false suspects per view. So the
+    precision, recall and missing asserts fail if the relit expected outline stops working."""
     result = evaluate(SAMPLE, seeds=(0, 1, 2), views=("overview", "conveyor", *SAMPLE_CELL_FAR_VIEWS[:2]), width=640,
                       height=480, workdir=tmp_path, ctx=ctx)
     s = result.summary
     print(json.dumps(s, indent=1))
     kinds = s["per_kind"]
     assert kinds["moved >=0.2 m"]["recall"] >= 0.84
-    assert s["recall"] >= 0.59
-    assert s["precision"] >= 0.79
-    assert kinds["missing"]["recall"] >= 0.54
+    assert s["recall"] >= 0.63
+    assert s["precision"] >= 0.81
+    assert kinds["missing"]["recall"] >= 0.7
     # every truth item in view has a distance band, and the bands add up
     assert sum(kinds.get(b, {"in_view": 0})["in_view"] for b in ("at <10 m", "at 10-20 m", "at >=20 m")) == kinds["all"]["in_view"]
     # the untouched planned scene as the photo: at most one false suspect per view (issue 22)

@@ -58,15 +58,16 @@ def cad_edges(depth: np.ndarray, fx: float, threshold: float = CREASE_THRESHOLD)
     return edges
 
 
-def photo_frame(renderer: Renderer, camera: Camera, modes, settings: RenderSettings, maps=None):
-    """The ideal render (a :class:`mrcheck.render.renderer.Frame`: images, depth) covering the
-    photo's distorted frame. Returns ``(frame, render_camera, offset, maps)``."""
+def photo_frame(renderer: Renderer, camera: Camera, modes, settings: RenderSettings, maps=None,
+                want_normals: bool = False):
+    """The ideal render (a :class:`mrcheck.render.renderer.Frame`: images, depth, the normals
+    when ``want_normals``) covering the photo's distorted frame. Returns ``(frame, render_camera, offset, maps)``."""
     if maps is None:
         maps = distortion_map(camera)
     render_camera, offset = padded_camera(camera, maps)
     # the AO radius stays that of the photo's height, not of the padded render's
     settings = settings.validated(camera.height)
-    return renderer.render(render_camera, modes, settings), render_camera, offset, maps
+    return renderer.render(render_camera, modes, settings, want_normals=want_normals), render_camera, offset, maps
 
 
 def render_for_photo(renderer: Renderer, camera: Camera, modes, settings: RenderSettings, want_edges: bool,

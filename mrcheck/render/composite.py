@@ -31,6 +31,9 @@ class EdgePass:
     target: moderngl.Framebuffer
 
 
+# the Blinn-Phong weights of shaders/composite.glsl: colour = albedo * (AMBIENT * ao + DIFFUSE * max(n . l, 0))
+# + specular (the discrepancy detector relights the planned render with them: mrcheck/apps/discrepancies/light.py)
+SHADING = {"AMBIENT_VALUE": 0.60, "DIFFUSE_VALUE": 0.45}
 # the filmic tone curve of shaders/composite.glsl (tone()): exposure, knee and asymptote in linear light
 TONE_CURVE = {"EXPOSURE_VALUE": 0.8, "KNEE_VALUE": 0.40, "WHITE_VALUE": 0.85}
 
@@ -59,7 +62,7 @@ class Composite:
 
     def _variant(self, half: bool, msaa: bool):
         if (half, msaa) not in self.variants:
-            defines = {"AO_HALF": half, "MSAA": msaa, **TONE_CURVE}
+            defines = {"AO_HALF": half, "MSAA": msaa, **TONE_CURVE, **SHADING}
             if msaa:
                 defines.update(SCREEN_DEPTH=EDGE_PASS_DEPTH, SAMPLE_OFFSETS=sample_offsets_glsl())
             program = load_program(self.ctx, "composite", defines)

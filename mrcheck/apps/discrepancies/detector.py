@@ -32,11 +32,16 @@ Method
    2 (T - 1) px for a tolerance T: fence posts and mesh panels at a distance) are scored but
    never suspects.
    Suspects = the others with score >= :data:`SCORE_THRESHOLD`, ranked by score.
-   **Expected outline** (issue 22): only the outline pixels the planned render *itself* shows
-   as an edge are scored (the same oriented support, computed on the planned Phong render):
-   an outline without contrast in the CAD's own render gives no photo edge either, and its
-   absence says nothing. A part with more than :data:`MAX_SUPPORT` of its expected outline
-   found where planned is never a suspect (in a fence's clutter some shifted copy always fits).
+   **Expected outline** (issue 22): only the outline pixels the photo can be expected to show
+   are scored (:func:`expected_outline`): the edges of the planned view *relit by the photo's
+   own light* (fitted to the photo with the renderer's shading model,
+   :mod:`~mrcheck.apps.discrepancies.light`), found at :data:`EXPECTED_CONTRAST` times the photo's
+   Canny threshold. An outline without that contrast under that light -- grey on grey, a yellow
+   post against a pale wall in the sun, a mesh wire the photo's noise buries -- gives no photo edge
+   either, and its absence says nothing. (The headlight render's edges at its own threshold were
+   used before: on the unchanged sample cell's robot view and the generated cell's views 10, 6,
+   11 and 10 parts were suspects because the sun-lit photo lacked edges the headlight showed;
+   with the relit outline 1, 0, 0, 0.)
    Each part also reports ``revealed_support``: the share of the edges the "part removed" view
    shows inside its image that the photo shows (evidence of absence; reported, not yet used).
 5. **What the scene without the part would show** (second rule). :func:`behind_ids` re-casts
@@ -83,17 +88,19 @@ import cv2
 import numpy as np
 
 from mrcheck.apps.discrepancies.edges import (
+    edge_threshold,
     orientation_bin,
     oriented_support,
     outline_normals,
     photo_edges,
     shifted_support,
 )
+from mrcheck.apps.discrepancies.light import estimate_light, relit
 from mrcheck.apps.discrepancies.planned import PlannedView, planned_view
 from mrcheck.apps.discrepancies.thresholds import (
     DISCRIMINATIVE_FLOOR,
     DISCRIMINATIVE_THRESHOLD,
-    MAX_SUPPORT,
+    EXPECTED_CONTRAST,
     MIN_EDGE_PIXELS,
     MIN_REGION_PIXELS,
     SCORE_THRESHOLD,
@@ -194,8 +201,8 @@ class _Support:
     expected: np.ndarray | None = None   # (H, W) bool outline pixels the planned render itself shows as an edge
 
 
-def _support(photo: np.ndarray, cad: np.ndarray, tol: float) -> _Support:
-    edges, angle = photo_edges(photo)
+def _support(photo: np.ndarray, cad: np.ndarray, tol: float, high: float | None = None) -> _Support:
+    edges, angle = photo_edges(photo, high)
     support_maps = oriented_support(edges, angle, tol)
     cad_bins = orientation_bin(outline_normals(cad))
     supported = cad & np.take_along_axis(support_maps, cad_bins[None], 0)[0]
@@ -267,7 +274,7 @@ def _suspect(planned: PlannedView, index: int, sup: _Support, tol: float, thresh
     disc_score, disc_n = _discriminative_score(planned, index, sup)
     rev_support, rev_n = _revealed_support(planned, index, sup)
     flagged = (score >= threshold or (disc_score is not None and disc_score >= DISCRIMINATIVE_THRESHOLD
-                                      and score >= DISCRIMINATIVE_FLOOR)) and support <= MAX_SUPPORT
+                                      and score >= DISCRIMINATIVE_FLOOR))
     ys, xs = np.nonzero(inside)
     bad_y, bad_x = np.nonzero(mask & ~sup.supported)
     cy, cx = (bad_y.mean(), bad_x.mean()) if len(bad_y) else (ys.mean(), xs.mean())
@@ -349,9 +356,7 @@ def detect(scene: Scene, camera: Camera, photo: np.ndarray, tolerance_px: float 
     tol = default_tolerance(camera) if tolerance_px is None else float(tolerance_px)
     threshold = SCORE_THRESHOLD if threshold is None else float(threshold)
     planned = planned_view(scene, camera, renderer) if planned is None else planned
-    # judged only where the planned render itself shows an edge (issue 22): an outline with no
-    # contrast in the CAD's own render (grey on grey) says nothing when the photo lacks it too
-    sup = replace(_support(photo, planned.cad, tol), expected=_support(planned.render, planned.cad, tol).supported)
+    sup = replace(_support(photo, planned.cad, tol), expected=expected_outline(planned, photo, tol))
     owner = planned.owner
     suspects = [s for index in np.unique(owner[owner >= 0])
                 if (s := _suspect(planned, int(index), sup, tol, threshold)) is not None]
@@ -360,6 +365,21 @@ def detect(scene: Scene, camera: Camera, photo: np.ndarray, tolerance_px: float 
     regions, unexplained = _regions(sup.edges, planned, tol)
     return Detection(tol, threshold, suspects, regions, _markers(suspects, regions, planned), planned, sup.supported,
                      unexplained)
+
+
+def expected_outline(planned: PlannedView, photo: np.ndarray, tol: float) -> np.ndarray:
+    """(H, W) bool: the CAD outline pixels the photo can be expected to show (issue 22) -- the
+    edges of the planned view relit by the photo's own light (:mod:`~mrcheck.apps.discrepancies.light`;
+    the headlight render when no light can be fitted), found at :data:`EXPECTED_CONTRAST` times
+    the photo's Canny threshold. An outline without that contrast under that light (grey on
+    grey, a yellow post against a pale wall in the sun, a faint edge the photo's noise buries)
+    says nothing when the photo lacks it."""
+    predicted = planned.render
+    shaded = planned.shaded
+    light = None if shaded is None else estimate_light(photo, planned.albedo, planned.normals, planned.ids, planned.cad)
+    if light is not None:
+        predicted = shaded.to_photo(relit(shaded.render, shaded.normals, shaded.light, light))
+    return _support(predicted, planned.cad, tol, EXPECTED_CONTRAST * edge_threshold(photo)).supported
 
 
 def _add_elements(scene: Scene, suspects: list[Suspect]) -> None:

@@ -24,6 +24,7 @@ from mrcheck.apps.discrepancies.edges import (
     silhouettes,
 )
 from mrcheck.apps.discrepancies.ids import behind_ids, object_ids, undistorted_pixels
+from mrcheck.apps.discrepancies.light import Light
 from mrcheck.apps.discrepancies.thresholds import (
     FLOOR_BAND,
     GROUND_HEIGHT,
@@ -35,7 +36,9 @@ from mrcheck.apps.discrepancies.thresholds import (
 from mrcheck.core.camera import Camera
 from mrcheck.eval.raycast import build_caster
 from mrcheck.mr.lens import distort_to_photo, distortion_map
-from mrcheck.mr.shot import cad_edges, render_for_photo
+from mrcheck.mr.shot import cad_edges, photo_frame
+from mrcheck.render.composite import BACKGROUND as RENDER_BACKGROUND
+from mrcheck.render.composite import SHADING, light_direction
 from mrcheck.render.renderer import Renderer, RenderSettings
 from mrcheck.scene.model import Scene
 
@@ -63,6 +66,23 @@ class Revealed:
     bins: np.ndarray      # orientation bin of every pixel of the mask's box
 
 
+@dataclass(frozen=True)
+class Shaded:
+    """The planned render before its resampling into the photo's lens geometry, with its G-buffer
+    normals and fitted light: relighting re-shades the render's own pixels there and resamples
+    the result as the render was (a thin wire's pixels stay the rasteriser's, not the ray cast's)."""
+    render: np.ndarray     # (h, w, 3) uint8 the ideal (padded) Phong render
+    normals: np.ndarray    # (h, w, 3) float32 its unit camera-space normals (0: background)
+    light: Light           # the render's own light (the renderer's headlight and Phong weights)
+    maps: tuple | None     # the lens resampling (mrcheck.mr.lens.distort_to_photo)
+    offset: tuple
+    shape: tuple
+
+    def to_photo(self, image: np.ndarray) -> np.ndarray:
+        """An image of the ideal render's frame in the photo's pixels."""
+        return distort_to_photo(image, self.maps, self.offset, self.shape)
+
+
 @dataclass
 class PlannedView:
     """The planned scene through one camera, in the photo's (distorted) pixels."""
@@ -76,6 +96,10 @@ class PlannedView:
     discriminative: dict  # instance index -> BoxMask of its discriminative outline pixels
     revealed: dict = field(default_factory=dict)   # instance index -> Revealed (what its removal uncovers)
     ground: np.ndarray | None = None   # (H, W) bool planned surface at floor level (:func:`ground_pixels`)
+    # for fitting the photo's light (:mod:`~mrcheck.apps.discrepancies.light`) and relighting the view by it
+    albedo: np.ndarray | None = None   # (H, W, 3) float32 linear part colour (the render's background elsewhere)
+    normals: np.ndarray | None = None  # (H, W, 3) float32 unit camera-space normals (OpenCV axes; 0: none)
+    shaded: Shaded | None = None       # the render before the lens resampling, to relight
 
 
 def discriminative_outlines(ids: np.ndarray, depth: np.ndarray, cad: np.ndarray, owner: np.ndarray,
@@ -168,12 +192,13 @@ def planned_view(scene: Scene, camera: Camera, renderer=None) -> PlannedView:
         # full detail (lod_px=0): the outlines are measured to the pixel, and it is one render; the
         # look the detector's thresholds were measured on (no anti-aliasing, clipped tone)
         settings = RenderSettings(lod_px=0.0, antialias=False, tone="clip")
-        renders, edges, offset, maps = render_for_photo(renderer, camera, ["phong"], settings, True, maps)
+        frame, render_camera, offset, maps = photo_frame(renderer, camera, ["phong"], settings, maps, want_normals=True)
     finally:
         if own:
             renderer.release()
     shape = (camera.height, camera.width)
-    render = distort_to_photo(renders["phong"], maps, offset, shape)
+    render = distort_to_photo(frame["phong"].image, maps, offset, shape)
+    edges = cad_edges(frame.depth, render_camera.fx)
     cad = distort_to_photo(edges.astype(np.float32), maps, offset, shape) > 0.25
     caster = build_caster(scene, camera.center)   # one BVH for the visible and the behind pass
     ids, depth, labels = object_ids(scene, camera, maps, caster)
@@ -189,8 +214,27 @@ def planned_view(scene: Scene, camera: Camera, renderer=None) -> PlannedView:
     revealed = {}
     discriminative = discriminative_outlines(ids, depth, cad, owner, behind, camera.fx, default_tolerance(camera),
                                              revealed)
+    # the render's light is known: fitting it as a photo's confuses ambient with diffuse light (a
+    # headlight lights every face it sees about equally), and the relit fence posts' sides came out wrong
+    light = Light(light_direction(render_camera, settings.light), SHADING["AMBIENT_VALUE"], SHADING["DIFFUSE_VALUE"],
+                  0.0)
+    shaded = Shaded(frame["phong"].image, frame.normals, light, maps, offset, shape)
     return PlannedView(render, cad, ids, depth, labels, outline, owner, discriminative, revealed,
-                       ground_pixels(scene, camera, depth, maps))
+                       ground_pixels(scene, camera, depth, maps), _albedo(scene, ids, labels),
+                       _unit(distort_to_photo(frame.normals, maps, offset, shape)), shaded)
 
 
-__all__ = ["PlannedView", "BoxMask", "Revealed", "planned_view", "discriminative_outlines", "ground_pixels"]
+def _albedo(scene: Scene, ids: np.ndarray, labels: list) -> np.ndarray:
+    """(H, W, 3) float32 linear colour of the part each pixel sees (the render's background elsewhere)."""
+    colour = {part.name: part.color[:3] for part in scene.parts}
+    table = np.array([colour[part] for part, _ in labels] + [RENDER_BACKGROUND], np.float32)
+    return table[ids]          # ids.BACKGROUND (-1) picks the last row
+
+
+def _unit(normals: np.ndarray) -> np.ndarray:
+    """Resampled normals made unit again (zero where there is none)."""
+    norm = np.linalg.norm(normals, axis=-1, keepdims=True)
+    return np.where(norm > 0.5, normals / np.maximum(norm, 1e-6), 0.0).astype(np.float32)
+
+
+__all__ = ["PlannedView", "Shaded", "BoxMask", "Revealed", "planned_view", "discriminative_outlines", "ground_pixels"]
