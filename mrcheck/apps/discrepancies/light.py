@@ -10,6 +10,9 @@ max(n . l, 0)), specular ignored), over the planned surfaces the photo sees away
 edge: a grid of directions ``l`` over the sphere, for each the least-squares ambient and diffuse
 weights, the direction of least residual kept. The planned render's own light is fitted the same
 way, and :func:`relit` re-shades the render from it to the photo's.
+
+Limit: the evaluation's photos are renders with the ``sun`` light, i.e. this very model; a real
+hall's light (several lamps, specular metal) fits it less well, which is not measured yet.
 """
 
 from __future__ import annotations
@@ -81,11 +84,6 @@ def estimate_light(photo: np.ndarray, albedo: np.ndarray, normals: np.ndarray, i
         if best is None or rms < best.residual:
             best = Light(direction, float(coef[0]), float(coef[1]), rms)
     return best
-
-
-def shading(normals: np.ndarray, light: Light) -> np.ndarray:
-    """(H, W) float32 ambient + diffuse * max(n . l, 0) of every pixel's normal."""
-    return (light.ambient + light.diffuse * np.maximum(normals @ light.direction, 0.0)).astype(np.float32)
 
 
 def shading(normals: np.ndarray, light: Light) -> np.ndarray:
