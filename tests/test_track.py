@@ -77,3 +77,19 @@ def test_track_writes_the_overlay_video_and_the_poses(video, capsys):
     printed = capsys.readouterr().out
     assert f"tracked {FRAMES} frames" in printed and "frames/s" in printed
     assert f"frame {BLANK} lost" in printed and "not trusted" in printed
+
+
+def test_a_lost_frame_inside_a_part_is_written_without_overlay(video, tmp_path):
+    """A start pose inside a crate (as a lost frame's prediction can coast into a part): every
+    frame is lost, the renderer refuses the pose, and the run still writes its video and log
+    (it ended with "the camera is inside geometry" before), each frame saying why."""
+    folder, manifest, truths, _ = video
+    inside = truths[0].with_pose(truths[0].R, -truths[0].R @ np.array([0.0, 0.0, 0.45]))  # crate-a's middle
+    write_camera(tmp_path / "inside.json", inside)
+    out = tmp_path / "overlay.mp4"
+    code = main(["track", str(folder / "walk.mp4"), "--scene", str(manifest), "--intrinsics", str(folder / "cam.json"),
+                 "--initial", str(tmp_path / "inside.json"), "-o", str(out)])
+    assert code == 0 and out.exists()
+    poses = [json.loads(line) for line in (tmp_path / "overlay.poses.jsonl").read_text().splitlines()]
+    assert len(poses) == FRAMES and all(p["lost"] for p in poses)
+    assert all("no overlay drawn" in p["reason"] and "inside geometry" in p["reason"] for p in poses), poses[0]

@@ -8,7 +8,8 @@ reused). A frame whose fit fails or ends with its
 support below :data:`LOST_SUPPORT` is *lost*: its pose is the prediction, not trusted, the next
 frame starts from it, and ``poses.jsonl`` says so. The overlay (vector AO at half resolution,
 lens distortion as calibrated) is drawn at every frame's pose, lost ones included, so that the
-video shows what the log says.
+video shows what the log says; a lost frame whose predicted pose lies inside a part is written
+without overlay (its ``reason`` says so).
 
 ``poses.jsonl``: one JSON object per frame: ``frame``, ``time_s``, ``R``, ``t``, ``rms_px``,
 ``support``, ``corner_px`` (the four corners' 1-sigma), ``lost`` (bool), ``reason`` (lost only),
@@ -226,8 +227,20 @@ class _Loop:
             self._maps_job.shutdown()
             self._maps_job = None
             began = self.add("lens map (wait)", began)
-        renders, _, offset, maps = render_for_photo(self.renderer, pose.camera, ["vector"], OVERLAY_SETTINGS, False,
-                                                    self.maps)
+        try:
+            renders, _, offset, maps = render_for_photo(self.renderer, pose.camera, ["vector"], OVERLAY_SETTINGS,
+                                                        False, self.maps)
+        except MrcheckError as exc:
+            if not pose.lost:
+                raise
+            # a lost frame's pose is a prediction, which may lie inside a part (measured: a walk
+            # towards the roof coasted into a ceiling pipe): the frame is written without overlay
+            # and the log says so, instead of the whole run ending there
+            pose.reason += f"; no overlay drawn ({exc.problem})"
+            began = self.add("overlay render", began)
+            self.writer.put(lambda: rgb)
+            self.add("writer wait", began)
+            return
         began = self.add("overlay render", began)
         camera, alpha = self.camera, self.alpha
         self.writer.put(lambda: overlay_images(rgb, renders, camera, alpha, offset=offset, maps=maps)["vector"])
