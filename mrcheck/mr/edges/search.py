@@ -79,10 +79,13 @@ class _Candidates:
 
     def __init__(self, cmap: chamfer.ChamferMap, proj: solver.Projection):
         pick = np.unique(np.linspace(0, len(proj.uv) - 1, min(SAMPLES, len(proj.uv))).astype(np.int64))
-        self.cmap = cmap
         self.uv0 = proj.uv[pick] * cmap.scale
         self.J = proj.J[pick] * cmap.scale
         self.bins = chamfer.bins_of(proj.normal[pick])
+        _, self.h, self.w = cmap.distance.shape
+        self.flat = cmap.distance.reshape(-1)
+        self.base = self.bins * (self.h * self.w)       # where each sample's direction bin starts
+        self.rows = self.J.reshape(-1, 6)
         depth = float(np.median(proj.depth))
         self.units = np.array([1.0, 1.0, 1.0, depth, depth, depth])   # radians; metres over the depth
         self.motion_J = self.J[np.unique(np.linspace(0, len(pick) - 1, min(_MOTION_SAMPLES, len(pick))).astype(np.int64))]
@@ -102,12 +105,12 @@ class _Candidates:
         return np.concatenate([self._cost(D[i:i + _BATCH]) for i in range(0, len(D), _BATCH)])
 
     def _cost(self, D: np.ndarray) -> np.ndarray:
-        uv = self.uv0[None] + np.einsum("nki,hi->hnk", self.J, D)
-        _, h, w = self.cmap.distance.shape
-        u = np.clip(np.rint(uv[..., 0]), 0, w - 1).astype(np.int32)
-        v = np.clip(np.rint(uv[..., 1]), 0, h - 1).astype(np.int32)
-        d = self.cmap.distance[self.bins[None], v, u]
-        return np.mean(d * d, axis=1)
+        # one matrix product for all candidates: rows u0, v0, u1, v1, ... of the samples
+        moved = self.rows @ D.T                                          # (2 n, h)
+        u = np.clip(np.rint(moved[0::2] + self.uv0[:, 0:1]), 0, self.w - 1).astype(np.intp)
+        v = np.clip(np.rint(moved[1::2] + self.uv0[:, 1:2]), 0, self.h - 1).astype(np.intp)
+        d = self.flat[self.base[:, None] + v * self.w + u]               # (n, h)
+        return np.mean(d * d, axis=0)
 
 
 def search_pose(fitter, cmap: chamfer.ChamferMap, radius_px: float, seed: int = 0) -> SearchReport:
