@@ -18,7 +18,6 @@ from mrcheck.eval.edgephotos import make_case, reprojection_error, synthetic_pho
 from mrcheck.eval.edgescenes import crate_camera, crate_scene
 from mrcheck.mr.edges import EdgeFitError, EdgeOptions, refine_pose
 from mrcheck.scene.model import Scene, load_scene
-from tests.edge_helpers import write_crate_scene
 
 CELL = factory_scenes_dir() / "cell" / "scene.toml"
 
@@ -59,29 +58,30 @@ def test_options_check_the_left_out_share():
         EdgeOptions(max_left_out=1.5).validated()
 
 
-def _cell_case(seed: int):
+def _cell_case(seed: int | None = None):
     cell = load_scene(CELL)
     camera = cell.camera("overview", 640)
     camera = Camera(camera.width, camera.height, camera.K, camera.R, camera.t, crate_camera(640, 480).dist)
-    return cell, camera, make_case(cell, camera, seed)
+    return cell, camera, None if seed is None else make_case(cell, camera, seed)
 
 
-def _far_crate_case():
-    """The crate scene, 640x480, seed 12, from 80 px off: beyond the 48 px search radius; the
-    snap ends on a wrong pose (measured: 96 px from the truth, 0.05 beyond chance)."""
-    scene, camera = crate_scene(), crate_camera(640, 480)
-    return scene, camera, make_case(scene, camera, 12, offset_px=80.0)
+def _far_cell_case():
+    """The generated cell, 640x480, seed 20, from 55 px off: beyond the 48 px search radius; the
+    snap ends on a wrong pose (measured: 37 px from the truth, 0.03 beyond chance, 79 % of the
+    samples left out)."""
+    cell, camera, _ = _cell_case()
+    return cell, camera, make_case(cell, camera, 20, offset_px=55.0)
 
 
 def test_support_above_chance_tells_wrong_poses_from_good_ones():
-    """The figure behind the failure: a wrong pose (from beyond the search radius) 0.05 above
-    chance, the generated cell's good fits 0.11-0.27, the crates' 0.56-0.83 (measured). (By
-    default the left-out share, 85 %, fails that pose first.)"""
-    scene, camera, case = _far_crate_case()
+    """The figure behind the failure: the generated cell, seed 20, from 55 px off (beyond the
+    search radius) ends 37 px off, 0.03 beyond chance (measured; by default the left-out share,
+    79 %, fails it first); the cell's good fits 0.12-0.28, the crates' 0.56-0.83."""
+    cell, camera, far = _far_cell_case()
     off = EdgeOptions(max_left_out=1.0, min_support=0.0)
     with pytest.raises(EdgeFitError, match="too little support beyond chance"):
-        refine_pose(scene, camera, case.photo, initial=case.rough, options=off)
-    cell, camera, case = _cell_case(0)
+        refine_pose(cell, camera, far.photo, initial=far.rough, options=off)
+    case = make_case(cell, camera, 0)
     fit = refine_pose(cell, camera, case.photo, initial=case.rough)
     assert fit.above_chance >= 0.15
     assert np.median(reprojection_error(case.truth, fit.camera, case.points)) < 1.0
@@ -89,13 +89,12 @@ def test_support_above_chance_tells_wrong_poses_from_good_ones():
 
 def test_a_wrong_pose_fails_through_the_cli(tmp_path, capsys):
     """Exit 1, one line naming the photo and saying why, no SHOT written."""
-    _, camera, case = _far_crate_case()
+    _, camera, case = _far_cell_case()
     cv2.imwrite(str(tmp_path / "photo.png"), case.photo)
     write_camera(tmp_path / "cam.json", camera, pose=False)
     write_camera(tmp_path / "rough.json", case.rough)
     out = tmp_path / "shot.json"
-    scene = write_crate_scene(tmp_path / "crates")
-    code = main(["register", str(scene), "--photo", str(tmp_path / "photo.png"), "--intrinsics",
+    code = main(["register", str(CELL), "--photo", str(tmp_path / "photo.png"), "--intrinsics",
                  str(tmp_path / "cam.json"), "--initial", str(tmp_path / "rough.json"), "-o", str(out)])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 1 and not out.exists()

@@ -41,10 +41,10 @@ import numpy as np
 from mrcheck.mr.edges import chamfer, solver
 
 SEARCH_WIDTH_PX = 320     # the pyramid level searched: the one nearest this width (see search_level)
-SAMPLES = 600             # samples scored per candidate
-FIRST = 20000             # candidates drawn from the prior
+SAMPLES = 400             # samples scored per candidate
+FIRST = 12000             # candidates drawn from the prior
 ELITE = 100               # candidates kept per round
-CHILDREN = 40             # neighbours drawn per kept candidate and round
+CHILDREN = 30             # neighbours drawn per kept candidate and round
 ROUNDS = (4.0, 8.0, 16.0)  # the rounds' neighbourhood: the search radius over these
 NEAR_BEST = 0.02          # of the candidates within this share of the lowest cost, the nearest is taken
 _BATCH = 500              # candidates scored at once (memory: BATCH x SAMPLES x 2 floats)
