@@ -144,8 +144,8 @@ def cell_fits():
 
 
 def test_the_dense_cell_snaps_within_a_pixel_and_its_uncertainty_covers_the_error(cell_fits):
-    """Measured (seeds 0-19, fifth session): all within 1 px but one (1.1 px), 0.09-0.84 px,
-    the true corner error at most 2.3x the reported 1-sigma (0.3-1.9 px); before the whole-pose
+    """Measured (seeds 0-19, fifth session): all within 1 px, 0.14-0.65 px, the true corner
+    error at most 1.9x the reported 1-sigma (0.3-1.9 px); before the whole-pose
     search every seed failed (0 of 10), before the parts as clusters of the covariance the true
     error reached 6x the sigma."""
     for case, fit in cell_fits:
