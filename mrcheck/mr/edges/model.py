@@ -29,7 +29,7 @@ CREASE_DEG = 30.0           # a facet edge of a 12-sided cylinder (30 deg) is no
 _WELD_DIGITS = 6            # vertices within a micrometre (metres) are one vertex
 _VISIBLE_DEPTH_TOL = 0.01   # an edge point up to 1 % behind the visible surface is still on it
 _MIN_EDGE_PX = 2.0          # edges shorter than this on screen give no sample
-_VIEW_MARGIN = 0.05          # sample_edges: edges clipped to the image widened by this share of its width (lens distortion)
+_VIEW_MARGIN = 0.05          # sample_edges: edges clipped to the image widened by this share of its width
 SALIENT_NEAR_PX = 1.0       # salient(): each side of an edge probed this far (level px) ...
 SALIENT_FAR_PX = 2.0        # ... and this far: one surface over that width on both sides
 _ON_PLANE = 0.003           # a point lies in a surface's plane: within 0.3 % of the depth (6 cm at 20 m)
@@ -206,14 +206,16 @@ def sample_edges(edges: EdgeSet, camera: Camera, spacing_px: float, near: float 
                  max_count: int | None = None, among: np.ndarray | None = None) -> Samples:
     """Points every ``spacing_px`` pixels (pinhole projection, evenly on screen) along the edges
     that face the camera, clipped to the part of each edge in front of the camera and inside the
-    image (:func:`clip_to_view`; samples beyond a margin of one spacing dropped); the spacing is widened so that at most about ``max_count`` points
+    image (:func:`clip_to_view`; samples beyond a margin of one spacing dropped); the spacing
+    is widened so that at most about ``max_count`` points
     are made (a dense scene at full resolution has millions of edge pixels). ``among``: edge
     indices to consider (default: all). Visibility (occlusion) is :func:`visible`'s."""
     if among is None:
         idx = np.flatnonzero(front_edges(edges, camera.center))
     else:
         idx = among[_facing(edges, among, camera.center)]
-    a, b, keep = clip_to_view(camera, edges.a[idx], edges.b[idx], near, margin_px=spacing_px + _VIEW_MARGIN * camera.width)
+    room = spacing_px + _VIEW_MARGIN * camera.width      # the lens distortion's room at the border
+    a, b, keep = clip_to_view(camera, edges.a[idx], edges.b[idx], near, margin_px=room)
     idx = idx[keep]
     length = np.linalg.norm(project_pinhole(camera, b) - project_pinhole(camera, a), axis=1)
     keep = np.isfinite(length) & (length >= _MIN_EDGE_PX)

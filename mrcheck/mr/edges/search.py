@@ -90,7 +90,8 @@ class _Candidates:
         self.rows = self.J.reshape(-1, 6)
         depth = float(np.median(proj.depth))
         self.units = np.array([1.0, 1.0, 1.0, depth, depth, depth])   # radians; metres over the depth
-        self.motion_J = self.J[np.unique(np.linspace(0, len(pick) - 1, min(_MOTION_SAMPLES, len(pick))).astype(np.int64))]
+        some = np.linspace(0, len(pick) - 1, min(_MOTION_SAMPLES, len(pick))).astype(np.int64)
+        self.motion_J = self.J[np.unique(some)]
 
     def motion(self, D: np.ndarray) -> np.ndarray:
         """(h,) median image motion (level px) of the pose changes ``D`` (h, 6)."""
