@@ -42,7 +42,7 @@ def test_register_initial_writes_an_edge_shot(project, capsys):
     assert _register(folder, manifest, "--initial", str(folder / "rough.json"), "-o", str(out)) == 0
     shot = json.loads(out.read_text())
     assert shot["method"] == "edges" and shot["start"] == "initial" and shot["photo"] == "photo.png"
-    assert 0 < shot["rms"] < 1.0 and 0.3 < shot["support"] <= 1.0
+    assert 0 < shot["rms"] < 1.0 and 0.3 < shot["support"] <= 1.0 and 0.5 < shot["above_chance"] <= 1.0
     assert set(shot["uncertainty"]["corner_px"]) == {"top_left", "top_right", "bottom_right", "bottom_left"}
     assert len(shot["uncertainty"]["position_mm"]) == 3 and len(shot["uncertainty"]["angle_deg"]) == 3
     assert set(shot["times_s"]) >= {"render", "edges", "match", "solve", "total"}
@@ -50,6 +50,7 @@ def test_register_initial_writes_an_edge_shot(project, capsys):
     assert np.median(reprojection_error(case.truth, fitted, case.points)) < 1.0      # measured 0.06
     printed = capsys.readouterr().out
     assert "from edges (start: initial): edge rms" in printed and "overlay 1-sigma at the corners" in printed
+    assert f"({shot['above_chance']:.2f} beyond chance)" in printed
     assert printed.rstrip().endswith(f"wrote {out}")
 
 
