@@ -356,7 +356,8 @@ def detect(scene: Scene, camera: Camera, photo: np.ndarray, tolerance_px: float 
     tol = default_tolerance(camera) if tolerance_px is None else float(tolerance_px)
     threshold = SCORE_THRESHOLD if threshold is None else float(threshold)
     planned = planned_view(scene, camera, renderer) if planned is None else planned
-    sup = replace(_support(photo, planned.cad, tol), expected=expected_outline(planned, photo, tol))
+    high = edge_threshold(photo)     # Canny's threshold of the photo, for its edges and the expected outline's
+    sup = replace(_support(photo, planned.cad, tol, high), expected=expected_outline(planned, photo, tol, high))
     owner = planned.owner
     suspects = [s for index in np.unique(owner[owner >= 0])
                 if (s := _suspect(planned, int(index), sup, tol, threshold)) is not None]
@@ -367,19 +368,21 @@ def detect(scene: Scene, camera: Camera, photo: np.ndarray, tolerance_px: float 
                      unexplained)
 
 
-def expected_outline(planned: PlannedView, photo: np.ndarray, tol: float) -> np.ndarray:
+def expected_outline(planned: PlannedView, photo: np.ndarray, tol: float, high: float | None = None) -> np.ndarray:
     """(H, W) bool: the CAD outline pixels the photo can be expected to show (issue 22) -- the
     edges of the planned view relit by the photo's own light (:mod:`~mrcheck.apps.discrepancies.light`;
     the headlight render when no light can be fitted), found at :data:`EXPECTED_CONTRAST` times
-    the photo's Canny threshold. An outline without that contrast under that light (grey on
-    grey, a yellow post against a pale wall in the sun, a faint edge the photo's noise buries)
-    says nothing when the photo lacks it."""
+    the photo's Canny threshold (``high``; :func:`edge_threshold` of the photo when not given).
+    An outline without that contrast under that light (grey on grey, a yellow post against a
+    pale wall in the sun, a faint edge the photo's noise buries) says nothing when the photo
+    lacks it."""
     predicted = planned.render
     shaded = planned.shaded
     light = None if shaded is None else estimate_light(photo, planned.albedo, planned.normals, planned.ids, planned.cad)
     if light is not None:
         predicted = shaded.to_photo(relit(shaded.render, shaded.normals, shaded.light, light))
-    return _support(predicted, planned.cad, tol, EXPECTED_CONTRAST * edge_threshold(photo)).supported
+    high = edge_threshold(photo) if high is None else high
+    return _support(predicted, planned.cad, tol, EXPECTED_CONTRAST * high).supported
 
 
 def _add_elements(scene: Scene, suspects: list[Suspect]) -> None:
