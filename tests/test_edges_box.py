@@ -56,16 +56,19 @@ def test_the_outline_reference_is_found_on_the_lit_segments(box_fits):
 
 
 def test_the_snap_from_15_px_off_lies_on_the_outline(box_fits):
-    """Measured (fifth session, seeds 1-4): all four starts end on the same pose, BC 0.17 px,
-    FB 2.6 px, CD 2.8 px (the top face's right side, where the box's rim is only about 25 grey
-    levels brighter than the table and the strong printed border lies 3 px inside). Before the
-    edges were sampled evenly on screen (evenly in 3D, which on this near box weighted each
-    edge's far end more) the four ended on different poses: BC 0.1-0.6, FB 0.4-2.3, CD 1.8-2.8.
-    The target of 1.5 px is met on BC, MISSED on FB and CD: this asserts the level reached, not
-    the target. Before the second session (nearest edge along the normal) the snap moved onto
-    the printed border, 4-13 px inside the outline."""
+    """Measured (sixth session, seeds 1-4, the reference following the weak rim): BC 0.18-0.19
+    px, CD 0.20-0.24 px, FB 1.9-2.8 px (three of the four end on one pose, FB 2.8). The target
+    of 1.5 px is met on BC and CD and MISSED on FB: this asserts the level reached there, not the
+    target. (The fifth session's reference needed a 20-level step, so on CD, whose rim is 10-12
+    levels above the table, it took the printed border 3-5 px inside: CD read 2.8 px.) Why FB is
+    missed (docs/edge-registration.md, Limits): a pose with all six lit segments within 0.65 px
+    exists, but the registration's own robust cost, on the lit edges alone and at every scale
+    from 0.3 to 0.8 px, is lower at the pose that keeps the creases AB, AD, AE within 0.2 px and
+    leaves FB 2.8 px off: through this nominal (uncalibrated) camera the photo's box is not the
+    mesh's cuboid to better than about 1 px. Before the second session (nearest edge along the
+    normal) the snap moved onto the printed border, 4-13 px inside the outline."""
     _, fits = box_fits
     for start, snapped in fits:
-        assert np.median(list(start.values())) > 5.0          # the start is really off
-        # the level reached; the 1.5 px target is missed on CD and FB
-        assert snapped["BC"] <= 1.0 and snapped["FB"] <= 3.0 and snapped["CD"] <= 3.0, snapped
+        assert max(start.values()) > 7.0          # the start is really off (here 7.0-16.4 px on its worst segment)
+        assert snapped["BC"] <= 1.0 and snapped["CD"] <= 1.5, snapped
+        assert snapped["FB"] <= 3.0, snapped                  # the level reached; the 1.5 px target is missed
