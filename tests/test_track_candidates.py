@@ -33,3 +33,35 @@ def test_the_next_frame_reuses_the_edges_seen_and_stays_exact():
     # one full sampling for both frames: the second started within REUSE_PX of the first's
     assert candidates.full_samplings == 1
     assert max(errors) < 0.5, errors
+
+
+def test_a_render_given_to_the_fit_replaces_its_first_render_and_it_stays_exact():
+    """refine_pose(seed=VisibilityRender(...)): the visible edges of the first full-resolution
+    sampling are judged on a render from a nearby pose (a video's frame before), not on one
+    of its own; the fit renders once less and lands where it lands without."""
+    from mrcheck.mr.edges.refine import VisibilityRender, render_depth
+
+    scene, truth = crate_scene(), crate_camera(320, 240)
+    grey, _, _ = synthetic_photo(scene, truth, 0, clutter=0, leave_out=False)
+    points = scene_points(scene, truth)
+    edges = scene_edges(scene)
+    renderer = Renderer(scene)
+    calls = []
+    real = renderer.render
+    renderer.render = lambda *a, **k: (calls.append(1), real(*a, **k))[1]
+    try:
+        before = truth.with_pose(cv2.Rodrigues(np.array([0.0, -0.002, 0.0]))[0] @ truth.R, truth.t)  # the frame before
+        start = truth.with_pose(cv2.Rodrigues(np.array([0.0, 0.002, 0.0]))[0] @ truth.R, truth.t)    # 1-2 px off
+        seed = VisibilityRender(before, *render_depth(renderer, before, with_normals=True))
+        fits, renders = [], []
+        for given in (None, seed):
+            calls.clear()
+            fits.append(refine_pose(scene, truth, grey, initial=start, options=TRACK_OPTIONS, renderer=renderer,
+                                    edges=edges, seed=given))
+            renders.append(len(calls))
+    finally:
+        renderer.release()
+    assert renders[1] == renders[0] - 1, renders
+    errors = [float(np.median(reprojection_error(truth, fit.camera, points))) for fit in fits]
+    assert max(errors) < 0.5, errors
+    assert np.median(reprojection_error(fits[0].camera, fits[1].camera, points)) < 0.1

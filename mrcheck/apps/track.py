@@ -39,10 +39,11 @@ from mrcheck.core.errors import MrcheckError
 from mrcheck.core.inputs import check_input
 from mrcheck.core.output import check_not_inputs, check_output_path
 from mrcheck.mr.edges import EdgeFitError, EdgeOptions, refine_pose, scene_edges
+from mrcheck.mr.edges.refine import VisibilityRender
 from mrcheck.mr.edges.candidates import CandidateEdges
 from mrcheck.mr.lens import distortion_map
 from mrcheck.mr.overlay import overlay_images
-from mrcheck.mr.shot import render_for_photo
+from mrcheck.mr.shot import photo_frame
 from mrcheck.mr.registration import fit_camera
 from mrcheck.render.renderer import Renderer
 from mrcheck.render.settings import RenderSettings
@@ -56,7 +57,9 @@ LOST_SUPPORT = 0.25
 # gets the full snap (FIRST_OPTIONS: coarse to fine from up to 48 px off)
 TRACK_OPTIONS = EdgeOptions(search_px=8.0, levels=1, iterations=4, max_samples=800, min_support=0.0, coarse="normal")
 FIRST_OPTIONS = EdgeOptions(min_support=0.0)
-OVERLAY_SETTINGS = RenderSettings(samples=8, ao_scale=0.5)
+# full detail (lod_px 0): the overlay's depth and normals find the next frame's visible edges
+# (VisibilityRender), and a simplified mesh moves surfaces off the exact edges' planes
+OVERLAY_SETTINGS = RenderSettings(samples=8, ao_scale=0.5, lod_px=0.0)
 
 
 @dataclass
@@ -129,12 +132,13 @@ def predicted(previous: list) -> Camera:
 
 
 def snap_frame(scene, camera: Camera, grey, start: Camera, renderer, edges, options: EdgeOptions = TRACK_OPTIONS,
-               candidates: CandidateEdges | None = None) -> tuple:
+               candidates: CandidateEdges | None = None, seed: VisibilityRender | None = None) -> tuple:
     """``(camera at the pose, fit or None, reason)`` of one frame from ``start``; ``candidates``:
-    the :class:`~mrcheck.mr.edges.candidates.CandidateEdges` kept from the frames before."""
+    the :class:`~mrcheck.mr.edges.candidates.CandidateEdges` kept from the frames before;
+    ``seed``: the frame before's overlay render (its visible edges, see ``refine_pose``)."""
     try:
         fit = refine_pose(scene, camera, grey, initial=start, options=options, renderer=renderer, edges=edges,
-                          candidates=candidates)
+                          candidates=candidates, seed=seed)
     except EdgeFitError as exc:
         return start, None, str(exc)
     if fit.support < LOST_SUPPORT:
@@ -200,6 +204,7 @@ class _Loop:
         # spacing is that of FIRST_OPTIONS' 3000 samples, four times the candidates to test)
         self.candidates = CandidateEdges(edges)
         self.camera = self.maps = self.writer = None
+        self.seed = None     # the last overlay's depth and normals (VisibilityRender), for the next snap
         self._maps_job = None
         self.times = result.times_s
 
@@ -217,7 +222,8 @@ class _Loop:
             self.writer = BackgroundVideo(tmp_video, rgb.shape[1], rgb.shape[0], rate)
         pose = _track_frame(self.result.frames, self.scene, self.camera, rgb, self.initial, self.renderer,
                             self.edges, len(self.result.frames), time_s,
-                            candidates=self.candidates if self.result.frames else None)
+                            candidates=self.candidates if self.result.frames else None, seed=self.seed)
+        self.seed = None
         for stage, seconds in pose.times_s.items():
             self.times[f"snap {stage}"] = self.times.get(f"snap {stage}", 0.0) + seconds
         self.result.frames.append(pose)
@@ -228,8 +234,8 @@ class _Loop:
             self._maps_job = None
             began = self.add("lens map (wait)", began)
         try:
-            renders, _, offset, maps = render_for_photo(self.renderer, pose.camera, ["vector"], OVERLAY_SETTINGS,
-                                                        False, self.maps)
+            frame, view, offset, maps = photo_frame(self.renderer, pose.camera, ["vector"], OVERLAY_SETTINGS, self.maps,
+                                                    want_normals=True)
         except MrcheckError as exc:
             if not pose.lost:
                 raise
@@ -242,7 +248,9 @@ class _Loop:
             self.add("writer wait", began)
             return
         began = self.add("overlay render", began)
-        camera, alpha = self.camera, self.alpha
+        # the next frame's snap finds its visible edges on this render (one render less per frame)
+        self.seed = VisibilityRender(view, frame.depth, frame.normals)
+        renders, camera, alpha = {"vector": frame["vector"].image}, self.camera, self.alpha
         self.writer.put(lambda: overlay_images(rgb, renders, camera, alpha, offset=offset, maps=maps)["vector"])
         self.add("writer wait", began)
 
@@ -263,12 +271,13 @@ class _Loop:
             self.writer = None
 
 
-def _track_frame(previous, scene, camera, rgb, initial, renderer, edges, index, time_s, candidates=None) -> FramePose:
+def _track_frame(previous, scene, camera, rgb, initial, renderer, edges, index, time_s, candidates=None,
+                 seed=None) -> FramePose:
     start = camera.with_pose(initial.R, initial.t) if not previous else predicted(previous)
     grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
     began = time.perf_counter()
     pose, fit, reason = snap_frame(scene, camera, grey, start, renderer, edges,
-                                   FIRST_OPTIONS if not previous else TRACK_OPTIONS, candidates)
+                                   FIRST_OPTIONS if not previous else TRACK_OPTIONS, candidates, seed)
     corners = list(fit.uncertainty.corner_px) if fit is not None else []
     times = {k: v for k, v in fit.times_s.items() if k != "total"} if fit is not None else {}
     return FramePose(index, time_s, pose, None if fit is None else fit.rms_px, 0.0 if fit is None else fit.support,

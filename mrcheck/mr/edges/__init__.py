@@ -3,8 +3,10 @@
 Public API (stable; the review's click registration and the discrepancy check build on it):
 
 * :func:`refine_pose` ``(scene, camera, grey, initial=None, options=None, *, renderer=None,
-  edges=None) -> EdgeFit``: the refined pose, edge RMS, support share, pose uncertainty,
-  warnings and the time per stage; raises :class:`EdgeFitError` on failure.
+  edges=None, candidates=None, seed=None) -> EdgeFit``: the refined pose, edge RMS, support
+  share, pose uncertainty, warnings and the time per stage; raises :class:`EdgeFitError` on
+  failure (``candidates``, ``seed``: what a video's frame before leaves for the next, see
+  :mod:`mrcheck.apps.track`).
 * :class:`EdgeOptions`, :class:`EdgeFit`, :class:`EdgeFitError`, :class:`LevelReport`,
   :class:`~mrcheck.mr.edges.uncertainty.PoseUncertainty`.
 * :func:`~mrcheck.mr.edges.model.scene_edges` (the scene's edges, to reuse between frames).

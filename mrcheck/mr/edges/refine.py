@@ -125,6 +125,21 @@ class EdgeFit:
 
 
 @dataclass
+class VisibilityRender:
+    """A render of the scene from a pose near the fit's start, given to :func:`refine_pose` to
+    find the visible edges without a render of its own (a video's overlay of the frame before).
+
+    ``camera``: the pinhole camera it was rendered with (pose and intrinsics; the same view as
+    the photo's, a padded frame allowed); ``depth``: (H, W) linear depth (0 = background) and
+    ``normals``: (H, W, 3) camera-space normals, at ``camera``'s size, at full detail (a
+    simplified mesh moves surfaces off the exact edges' planes, see :func:`model.salient`)."""
+
+    camera: Camera
+    depth: np.ndarray
+    normals: np.ndarray
+
+
+@dataclass
 class _Evaluation:
     r: np.ndarray
     rows: np.ndarray
@@ -184,7 +199,7 @@ def level_count(width: int, options: EdgeOptions) -> int:
 class _Fitter:
     """The state of one fit (kept in an object: the levels share the pose, the clock, the parts)."""
 
-    def __init__(self, edges, renderer, camera, grey, options, clock, candidates=None):
+    def __init__(self, edges, renderer, camera, grey, options, clock, candidates=None, seed=None):
         self.edges, self.renderer, self.camera, self.options, self.clock = edges, renderer, camera, options, clock
         start = time.perf_counter()
         self.pyramid = photo.pyramid(grey, level_count(camera.width, options))
@@ -195,25 +210,24 @@ class _Fitter:
         self.visible_groups = np.zeros(0, np.int64)   # the instance of every visible sample of the last render
         self.all_visible = None   # the last render's visible, salient samples, the left-out parts' too
         self.candidates = candidates if candidates is not None else CandidateEdges(edges)
+        self.seed = seed          # a VisibilityRender for the first full-resolution sampling
 
     def visible_samples(self, scale: float, radius: int = 0):
         """Samples of the visible, salient edges at the current pose (:func:`model.salient` on
         the render's depth and normals at the level's size, at most :data:`_RENDER_MAX_WIDTH`
-        wide), thinned to ``max_samples``."""
+        wide, or on the :class:`VisibilityRender` given to the fit), thinned to ``max_samples``."""
         start = time.perf_counter()
         cam = self.state.camera(self.camera)
-        level_camera = cam.resized(*_render_size(cam, scale))
-        try:
-            depth, normals = render_depth(self.renderer, level_camera, with_normals=True)
-        except MrcheckError as exc:     # the pose moved into a part (measured on the generated cell)
-            raise EdgeFitError(f"the edge fit diverged: {exc}") from None
+        view, depth, normals = self.render_for(cam, scale)
         start = self.clock.add("render", start)
         samples, fresh = self.candidates.sample(cam, scale, self.options.spacing_px / scale,
                                                 _CANDIDATES * self.options.max_samples)
-        samples = model.subset(samples, model.visible(samples, cam, depth))
+        # seen and salient as judged from the render's viewpoint (the current one, or a given
+        # render's near it): the edges' 3D points projected by the camera that made the buffers
+        samples = model.subset(samples, model.visible(samples, view, depth))
         if len(samples) >= _MIN_SAMPLES:
-            uv, normal, local = model.pinhole_samples(cam, samples, depth.shape)
-            keep, outside = model.salient(uv, normal, local, depth, normals, level_camera.K)
+            uv, normal, local = model.pinhole_samples(view, samples, depth.shape)
+            keep, outside = model.salient(uv, normal, local, depth, normals, view.resized(*depth.shape[::-1]).K)
             samples.outside = outside
             samples = model.subset(samples, keep)
         if fresh:
@@ -244,6 +258,23 @@ class _Fitter:
         cost = solver.tukey_cost(np.where(ok, r, np.inf), sigma)
         self.clock.add("solve", start)
         return _Evaluation(r, rows, proj, found, weights, sigma, cost)
+
+    def render_for(self, cam: Camera, scale: float) -> tuple:
+        """``(camera, depth, normals)`` that find the visible edges at ``cam``'s pose and level
+        ``scale``: the :class:`VisibilityRender` given to the fit (once, on the full-resolution
+        level), else a render at ``cam`` of the level's render size."""
+        seed, self.seed = self.seed, None
+        if seed is not None and scale == 1.0:
+            return seed.camera, seed.depth, seed.normals
+        level_camera = cam.resized(*_render_size(cam, scale))
+        try:
+            return (cam, *render_depth(self.renderer, level_camera, with_normals=True))
+        except MrcheckError as exc:     # the pose moved into a part (measured on the generated cell)
+            raise EdgeFitError(f"the edge fit diverged: {exc}") from None
+
+    def render_ratio(self, scale: float) -> float:
+        """Render pixels per level pixel of the renders for the visible edges at ``scale``."""
+        return _render_size(self.camera, scale)[0] / (self.camera.width * scale)
 
     def samples_for(self, scale: float):
         samples = self.visible_samples(scale)
@@ -293,7 +324,7 @@ class _Fitter:
             sigma = max(floor, sigma * _ANNEAL)
             radius = _radius(sigma)
             # re-render after rerender_px of the render's pixels (a level wider than the render's)
-            if moved * _render_size(self.camera, level.scale)[0] / (self.camera.width * level.scale) > self.options.rerender_px:
+            if moved * self.render_ratio(level.scale) > self.options.rerender_px:
                 samples, moved = self.samples_for(level.scale), 0.0
                 polarity = None
             now = self.evaluate(level, samples, radius, polarity, sigma)
@@ -316,7 +347,7 @@ class _Fitter:
 
 def refine_pose(scene, camera: Camera, grey: np.ndarray, initial: Camera | None = None,
                 options: EdgeOptions | None = None, *, renderer=None, edges=None,
-                candidates: CandidateEdges | None = None) -> EdgeFit:
+                candidates: CandidateEdges | None = None, seed: VisibilityRender | None = None) -> EdgeFit:
     """Snap the pose of ``camera`` (or of ``initial``) onto the edges of the photo ``grey``.
 
     ``scene``: the :class:`~mrcheck.scene.model.Scene`; ``camera``: the photo's intrinsics (at the
@@ -326,7 +357,9 @@ def refine_pose(scene, camera: Camera, grey: np.ndarray, initial: Camera | None 
     and released; ``edges``: :func:`~mrcheck.mr.edges.model.scene_edges` of the scene, to reuse;
     ``candidates``: a :class:`~mrcheck.mr.edges.candidates.CandidateEdges` of those edges kept
     from the fit of the previous video frame (its edges seen are reused while the view moved
-    less than :data:`~mrcheck.mr.edges.candidates.REUSE_PX` level px).
+    less than :data:`~mrcheck.mr.edges.candidates.REUSE_PX` level px); ``seed``: a
+    :class:`VisibilityRender` near the start that finds the visible edges of the first
+    full-resolution sampling instead of a render (the edges' visibility judged from its pose).
     Raises :class:`EdgeFitError` when the fit diverges or ends with too little support: below
     ``options.min_support`` of the samples kept, its support beyond chance too low, or the parts
     left out (no support) holding more than ``options.max_left_out`` of the visible samples (a
@@ -347,7 +380,7 @@ def refine_pose(scene, camera: Camera, grey: np.ndarray, initial: Camera | None 
 
         renderer = Renderer(scene)
     try:
-        fit = _fit(_Fitter(edges, renderer, camera, grey, options, clock, candidates), camera if initial is None else
+        fit = _fit(_Fitter(edges, renderer, camera, grey, options, clock, candidates, seed), camera if initial is None else
                    camera.with_pose(initial.R, initial.t), grey)
     finally:
         if own:
@@ -390,7 +423,7 @@ def _fit(fitter: _Fitter, rough: Camera, grey: np.ndarray) -> EdgeFit:
 
 def _edges_centre(edges: model.EdgeSet, camera: Camera) -> np.ndarray:
     """A centre for the pose's rotation: the mean of the edge midpoints in front of the camera."""
-    mid = 0.5 * (edges.a + edges.b)
+    mid = edges.mid
     ahead = (mid @ camera.R[2] + camera.t[2]) > 0
     return mid[ahead].mean(axis=0) if np.any(ahead) else mid.mean(axis=0)
 
@@ -517,4 +550,5 @@ def _warnings(uncertainty: PoseUncertainty, normals, weights) -> list:
     return out
 
 
-__all__ = ["refine_pose", "EdgeFit", "EdgeOptions", "EdgeFitError", "LevelReport", "render_depth", "level_count"]
+__all__ = ["refine_pose", "EdgeFit", "EdgeOptions", "EdgeFitError", "LevelReport", "VisibilityRender", "render_depth",
+           "level_count"]
