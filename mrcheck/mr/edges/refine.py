@@ -380,8 +380,8 @@ def refine_pose(scene, camera: Camera, grey: np.ndarray, initial: Camera | None 
 
         renderer = Renderer(scene)
     try:
-        fit = _fit(_Fitter(edges, renderer, camera, grey, options, clock, candidates, seed), camera if initial is None else
-                   camera.with_pose(initial.R, initial.t), grey)
+        start_pose = camera if initial is None else camera.with_pose(initial.R, initial.t)
+        fit = _fit(_Fitter(edges, renderer, camera, grey, options, clock, candidates, seed), start_pose, grey)
     finally:
         if own:
             renderer.release()
