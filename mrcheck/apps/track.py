@@ -5,8 +5,9 @@ last motion applied once more) and is snapped onto the frame's edges
 (:func:`mrcheck.mr.edges.refine_pose`: the first frame coarse to fine from ROUGH.json, the others
 on one level with a search radius for frame-to-frame motion, the renderer, the scene's edges and
 the edges seen reused, and the visible edges found on the frame before's overlay render instead
-of a render of their own). A frame whose fit fails or ends with its support below :data:`LOST_SUPPORT` is *lost*: its pose is the prediction, not trusted, the next
-frame starts from it, and ``poses.jsonl`` says so. The overlay (vector AO at half resolution,
+of a render of their own). A frame whose fit fails or ends with its support below
+:data:`LOST_SUPPORT` is *lost*: its pose is the prediction, not trusted, the next frame starts
+from it, and ``poses.jsonl`` says so. The overlay (vector AO at half resolution,
 lens distortion as calibrated) is drawn at every frame's pose, lost ones included, so that the
 video shows what the log says; a lost frame whose predicted pose lies inside a part is written
 without overlay (its ``reason`` says so).
