@@ -98,7 +98,7 @@ def test_a_lost_frame_inside_a_part_is_written_without_overlay(video, tmp_path):
 def test_each_frame_finds_its_visible_edges_on_the_last_overlay(video, tmp_path, monkeypatch):
     """From the second frame on, the snap is given the frame before's overlay render (its depth
     and normals at that frame's pose) instead of rendering at its start: one render less per
-    frame (sixth session: the cell walks 3.5-4.1 -> 4.6-5.3 frames/s)."""
+    frame (sixth session, eight cell walks: the whole run 3.3-4.2 -> 4.3-5.5 frames/s)."""
     import mrcheck.apps.track as track
 
     folder, manifest, _, _ = video

@@ -39,8 +39,7 @@ from mrcheck.core.camerafiles import load_camera, read_camera
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.inputs import check_input
 from mrcheck.core.output import check_not_inputs, check_output_path
-from mrcheck.mr.edges import EdgeFitError, EdgeOptions, refine_pose, scene_edges
-from mrcheck.mr.edges.refine import VisibilityRender
+from mrcheck.mr.edges import EdgeFitError, EdgeOptions, VisibilityRender, refine_pose, scene_edges
 from mrcheck.mr.edges.candidates import CandidateEdges
 from mrcheck.mr.lens import distortion_map
 from mrcheck.mr.overlay import overlay_images

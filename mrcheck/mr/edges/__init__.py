@@ -8,7 +8,7 @@ Public API (stable; the review's click registration and the discrepancy check bu
   failure (``candidates``, ``seed``: what a video's frame before leaves for the next, see
   :mod:`mrcheck.apps.track`).
 * :class:`EdgeOptions`, :class:`EdgeFit`, :class:`EdgeFitError`, :class:`LevelReport`,
-  :class:`~mrcheck.mr.edges.uncertainty.PoseUncertainty`.
+  :class:`VisibilityRender`, :class:`~mrcheck.mr.edges.uncertainty.PoseUncertainty`.
 * :func:`~mrcheck.mr.edges.model.scene_edges` (the scene's edges, to reuse between frames).
 
 Modules: ``model`` (the CAD's visible edges), ``photo`` (the photo's edges, the search along
@@ -17,7 +17,9 @@ degrees, the weak direction), ``refine`` (coarse to fine).
 """
 
 from mrcheck.mr.edges.model import scene_edges
-from mrcheck.mr.edges.refine import EdgeFit, EdgeFitError, EdgeOptions, LevelReport, refine_pose
+from mrcheck.mr.edges.refine import (EdgeFit, EdgeFitError, EdgeOptions, LevelReport, VisibilityRender,
+                                    refine_pose)
 from mrcheck.mr.edges.uncertainty import PoseUncertainty
 
-__all__ = ["refine_pose", "EdgeFit", "EdgeFitError", "EdgeOptions", "LevelReport", "PoseUncertainty", "scene_edges"]
+__all__ = ["refine_pose", "EdgeFit", "EdgeFitError", "EdgeOptions", "LevelReport", "PoseUncertainty",
+           "VisibilityRender", "scene_edges"]
