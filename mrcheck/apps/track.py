@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import cv2
+from threadpoolctl import threadpool_limits
 
 from mrcheck.apps.videoout import BackgroundVideo
 from mrcheck.core.camera import Camera
@@ -154,6 +155,15 @@ def track_video(video, scene, intrinsics: Camera, initial: Camera, output, poses
     One renderer (GL context, uploaded scene) and one set of the scene's edges serve the whole
     video; the overlay's compose and encode run on a thread (:class:`BackgroundVideo`) beside the
     next frame's snap, and the lens map of the first frame is made on a thread beside its snap."""
+    # numpy's OpenBLAS on one thread: its idle threads spin on the second core after every
+    # matrix product, where llvmpipe's rasteriser and the video encoder run (measured on a
+    # 60-frame cell walk: 23 s of CPU in 13-14 s wall with the default two threads, 15 s in 12 s
+    # with one, the poses identical; 3 Dec 2026, see docs/edge-registration.md)
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _track_video(video, scene, intrinsics, initial, output, poses_path, alpha, progress)
+
+
+def _track_video(video, scene, intrinsics, initial, output, poses_path, alpha, progress) -> TrackResult:
     import av
 
     result = TrackResult()
