@@ -44,8 +44,8 @@ from mrcheck.mr.edges import EdgeFitError, EdgeOptions, VisibilityRender, refine
 from mrcheck.mr.edges.candidates import CandidateEdges
 from mrcheck.mr.lens import distortion_map
 from mrcheck.mr.overlay import overlay_images
-from mrcheck.mr.shot import photo_frame
 from mrcheck.mr.registration import fit_camera
+from mrcheck.mr.shot import photo_frame
 from mrcheck.render.renderer import Renderer
 from mrcheck.render.settings import RenderSettings
 from mrcheck.scene.manifest import scene_files
@@ -91,12 +91,15 @@ class FramePose:
 @dataclass
 class TrackResult:
     """``frames``: every frame's :class:`FramePose`; ``seconds``: wall time of the whole run;
+    ``first_s``: of it, the time until the first frame was handed to the writer (the start-up
+    and the first frame's full snap from the rough pose);
     ``times_s``: seconds per stage over the run (``decode``, ``snap <stage>`` of
     :attr:`mrcheck.mr.edges.EdgeFit.times_s`, ``overlay render``, ``writer wait``; ``compose
     (thread)`` and ``encode (thread)`` ran on the writer's thread beside the others)."""
 
     frames: list = field(default_factory=list)
     seconds: float = 0.0
+    first_s: float = 0.0
     times_s: dict = field(default_factory=dict)
 
     @property
@@ -107,8 +110,17 @@ class TrackResult:
     def fps(self) -> float:
         return len(self.frames) / self.seconds if self.seconds > 0 else math.inf
 
+    @property
+    def fps_after_first(self) -> float:
+        """Frames per second after the first frame (the tracking rate; nan for a single frame)."""
+        later = self.seconds - self.first_s
+        return (len(self.frames) - 1) / later if len(self.frames) > 1 and later > 0 else math.nan
+
     def summary_line(self) -> str:
-        return (f"tracked {len(self.frames)} frames in {self.seconds:.1f} s ({self.fps:.2f} frames/s); "
+        rate = f"{self.fps:.2f} frames/s"
+        if len(self.frames) > 1:
+            rate += f"; {self.fps_after_first:.2f} after the first frame, which took {self.first_s:.2f} s"
+        return (f"tracked {len(self.frames)} frames in {self.seconds:.2f} s ({rate}); "
                 f"lost: {', '.join(map(str, self.lost)) or 'none'}")
 
     def stage_line(self) -> str:
@@ -185,6 +197,8 @@ def _track_video(video, scene, intrinsics, initial, output, poses_path, alpha, p
                 rgb = frame.to_ndarray(format="rgb24")
                 loop.add("decode", began)
                 loop.frame(rgb, float(frame.time or 0.0), video, tmp_video, stream.average_rate or 25)
+                if len(result.frames) == 1:
+                    result.first_s = time.perf_counter() - start_time
                 if progress:
                     progress(len(result.frames), total)
             if loop.writer is None:
