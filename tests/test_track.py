@@ -144,7 +144,7 @@ def test_each_frame_finds_its_visible_edges_on_the_last_overlay(video, tmp_path,
 def test_numpy_blas_runs_on_one_thread_while_tracking(video, tmp_path, monkeypatch):
     """OpenBLAS's idle threads spin on the core that llvmpipe and the encoder need: the track
     keeps numpy's BLAS on one thread while it runs and gives the threads back after (measured,
-    seventh session: eight cell walks 2-27 % faster, the poses identical)."""
+    seventh session: 20 interleaved walk pairs, faster in 17, median +10 %, the poses identical)."""
     from threadpoolctl import threadpool_info
 
     import mrcheck.apps.track as track
