@@ -80,8 +80,8 @@ def test_track_writes_the_overlay_video_and_the_poses(video, capsys):
     assert f"tracked {FRAMES} frames" in printed and "frames/s" in printed
     assert f"frame {BLANK} lost" in printed and "not trusted" in printed
     # the whole run's rate and the tracking rate after the first frame, consistent with each other
-    total, whole, after, first = map(float, re.search(
-        r"in ([\d.]+) s \(([\d.]+) frames/s; ([\d.]+) after the first frame, which took ([\d.]+) s\)", printed).groups())
+    rates = r"in ([\d.]+) s \(([\d.]+) frames/s; ([\d.]+) after the first frame, which took ([\d.]+) s\)"
+    total, whole, after, first = map(float, re.search(rates, printed).groups())
     assert 0 < first < total and abs(whole - FRAMES / total) < 0.05 * whole + 0.01
     assert abs(after - (FRAMES - 1) / (total - first)) < 0.1 * after and after > whole
 
@@ -95,7 +95,8 @@ def test_a_single_frame_has_no_rate_after_the_first():
     result = TrackResult(frames=[frame], seconds=2.0, first_s=2.0)
     assert math.isnan(result.fps_after_first) and "after the first" not in result.summary_line()
     result = TrackResult(frames=[frame] * 5, seconds=3.0, first_s=1.0)
-    assert result.fps_after_first == pytest.approx(2.0) and "2.00 after the first frame, which took 1.00 s" in result.summary_line()
+    assert result.fps_after_first == pytest.approx(2.0)
+    assert "2.00 after the first frame, which took 1.00 s" in result.summary_line()
 
 
 def test_a_lost_frame_inside_a_part_is_written_without_overlay(video, tmp_path):
