@@ -54,9 +54,16 @@ from mrcheck.scene.model import load_scene
 LOST_SUPPORT = 0.25
 # frame to frame (after the constant-velocity prediction): one level, the search along the normal,
 # 8 px, 800 samples (measured on the crate walk: 0.13 px, 0.4 s per frame at load 9, against
-# 0.14 px and 0.75-1.5 s with two levels and 1500 samples); the first frame, from ROUGH.json,
+# 0.14 px and 0.75-1.5 s with two levels and 1500 samples); every step kept (descent_only off:
+# iteratively reweighted least squares) and 6 iterations: with the cost test of Levenberg-
+# Marquardt a frame whose prediction was 2.7 px off kept no step at all (re-matching makes the
+# robust cost jump by more than a good step lowers it), the pose stayed at the prediction and
+# the walk drifted 5-7 px for 20 frames; measured on ten walks (4 Dec 2026) per-walk median
+# 0.07-0.45 px, no frame beyond 1.4 px, against 0.14-0.88 and 13 frames beyond 2 px with 4
+# iterations and the cost test (docs/edge-registration.md); the first frame, from ROUGH.json,
 # gets the full snap (FIRST_OPTIONS: coarse to fine from up to 48 px off)
-TRACK_OPTIONS = EdgeOptions(search_px=8.0, levels=1, iterations=4, max_samples=800, min_support=0.0, coarse="normal")
+TRACK_OPTIONS = EdgeOptions(search_px=8.0, levels=1, iterations=6, max_samples=800, min_support=0.0, coarse="normal",
+                            descent_only=False)
 FIRST_OPTIONS = EdgeOptions(min_support=0.0)
 # full detail (lod_px 0): the overlay's depth and normals find the next frame's visible edges
 # (VisibilityRender), and a simplified mesh moves surfaces off the exact edges' planes
