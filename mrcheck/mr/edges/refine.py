@@ -435,7 +435,7 @@ def _edges_centre(edges: model.EdgeSet, camera: Camera) -> np.ndarray:
     """A centre for the pose's rotation: the mean of the edge midpoints in front of the camera."""
     mid = edges.mid
     # the mean as a matrix-vector product of the 0/1 weights (numpy's mean over the rows of a
-    # (n, 3) array took 6 ms of every video frame's 8 ms here)
+    # (n, 3) array took 5.6 ms of the 7.4 ms this took per video frame on the generated cell)
     ahead = ((mid @ camera.R[2] + camera.t[2]) > 0).astype(np.float64)
     if not np.any(ahead):
         ahead[:] = 1.0
