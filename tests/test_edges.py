@@ -171,6 +171,29 @@ def test_stage_times_are_reported(crate_fits):
     assert sum(v for k, v in fit.times_s.items() if k != "total") <= fit.times_s["total"] * 1.01
 
 
+def test_a_pyramid_made_beforehand_gives_the_same_fit_and_a_wrong_one_is_refused():
+    """``refine_pose(pyramid=...)`` (a video's next frame, made on a thread): the pose is bitwise
+    the one fitted to the photo itself; the pyramid of a blank photo is really used (the fit
+    fails), and one of another size or level count is refused."""
+    from mrcheck.core.errors import MrcheckError
+    from mrcheck.mr.edges import EdgeOptions, photo_pyramid
+
+    scene, camera = crate_scene(), crate_camera(320, 240)
+    case = make_case(scene, camera, 0)
+    options = EdgeOptions()
+    own = refine_pose(scene, camera, case.photo, initial=case.rough, options=options)
+    given = refine_pose(scene, camera, case.photo, initial=case.rough, options=options,
+                        pyramid=photo_pyramid(case.photo, options))
+    assert np.array_equal(own.camera.R, given.camera.R) and np.array_equal(own.camera.t, given.camera.t)
+    blank = np.full(case.photo.shape, 0.5, np.float32)
+    with pytest.raises(EdgeFitError):
+        refine_pose(scene, camera, case.photo, initial=case.rough, options=options,
+                    pyramid=photo_pyramid(blank, options))
+    for other in (photo_pyramid(case.photo[::2, ::2], options), photo_pyramid(case.photo, EdgeOptions(levels=1))):
+        with pytest.raises(MrcheckError, match="pyramid"):
+            refine_pose(scene, camera, case.photo, initial=case.rough, options=options, pyramid=other)
+
+
 def test_a_photo_of_something_else_fails_with_a_reason():
     scene, camera = crate_scene(), crate_camera(320, 240)
     blank = np.full((240, 320), 128, np.uint8) + np.random.default_rng(0).integers(0, 6, (240, 320)).astype(np.uint8)

@@ -169,3 +169,65 @@ def test_numpy_blas_runs_on_one_thread_while_tracking(video, tmp_path, monkeypat
     assert code == 0 and len(during) == FRAMES
     assert all(max(threads) == 1 for threads in during), during
     assert blas_threads() == before
+
+
+def test_the_next_frame_is_decoded_and_its_pyramid_made_on_a_thread_beside_the_snap(video, tmp_path, monkeypatch):
+    """The reader (``_Reader``) makes frame k+1's gradient pyramid on its thread while frame k is
+    snapped (each snap below waits until that has happened: without the thread it never would),
+    and every snap is given its own frame's pyramid, made with its own options."""
+    import threading
+
+    import mrcheck.apps.track as track
+    from mrcheck.mr.edges import photo_pyramid
+
+    folder, manifest, _, _ = video
+    made, snaps, real_pyramid, real_refine = [], [], track.photo_pyramid, track.refine_pose
+    ahead = [threading.Event() for _ in range(FRAMES + 1)]
+
+    def pyramid(grey, options):
+        made.append(threading.current_thread().name)
+        ahead[len(made) - 1].set()
+        return real_pyramid(grey, options)
+
+    def refine(scene, camera, grey, *, options, pyramid, **kwargs):
+        k = len(snaps)
+        snaps.append((grey.copy(), options, pyramid))
+        if k + 1 < FRAMES:
+            assert ahead[k + 1].wait(timeout=30), f"frame {k + 1} was not read beside the snap of frame {k}"
+        return real_refine(scene, camera, grey, options=options, pyramid=pyramid, **kwargs)
+
+    monkeypatch.setattr(track, "photo_pyramid", pyramid)
+    monkeypatch.setattr(track, "refine_pose", refine)
+    code = main(["track", str(folder / "walk.mp4"), "--scene", str(manifest), "--intrinsics", str(folder / "cam.json"),
+                 "--initial", str(folder / "rough.json"), "-o", str(tmp_path / "overlay.mp4")])
+    assert code == 0 and len(snaps) == FRAMES == len(made)
+    assert all(name.startswith("mrcheck-video-reader") for name in made), made
+    for k, (grey, options, given) in enumerate(snaps):
+        assert options is (track.FIRST_OPTIONS if k == 0 else track.TRACK_OPTIONS)
+        expected = photo_pyramid(grey, options)
+        assert len(given) == len(expected)
+        assert all(np.array_equal(a.gx, b.gx) and np.array_equal(a.gy, b.gy) for a, b in zip(given, expected))
+
+
+def test_a_frame_that_cannot_be_decoded_is_raised_by_the_reader():
+    """An error on the reader's thread (FFmpeg failing on a frame) reaches the loop at that frame."""
+    from mrcheck.apps.track import _Reader
+
+    class Frame:
+        time = 0.5
+
+        def to_ndarray(self, format):
+            return np.zeros((24, 32, 3), np.uint8)
+
+    def frames():
+        yield Frame()
+        raise av.error.InvalidDataError(1094995529, "corrupt frame")
+
+    reader = _Reader(frames())
+    try:
+        first = reader.next()
+        assert first.time_s == 0.5 and first.grey.shape == (24, 32)
+        with pytest.raises(av.error.FFmpegError):
+            reader.next()
+    finally:
+        reader.close()

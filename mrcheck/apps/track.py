@@ -5,7 +5,8 @@ last motion applied once more) and is snapped onto the frame's edges
 (:func:`mrcheck.mr.edges.refine_pose`: the first frame coarse to fine from ROUGH.json, the others
 on one level with a search radius for frame-to-frame motion, the renderer, the scene's edges and
 the edges seen reused, and the visible edges found on the frame before's overlay render instead
-of a render of their own). A frame whose fit fails or ends with its support below
+of a render of their own; the next frame decoded and its gradient pyramid made on a thread
+beside this one's snap). A frame whose fit fails or ends with its support below
 :data:`LOST_SUPPORT` is *lost*: its pose is the prediction, not trusted, the next frame starts
 from it, and ``poses.jsonl`` says so. The overlay (vector AO at half resolution,
 lens distortion as calibrated) is drawn at every frame's pose, lost ones included, so that the
@@ -32,6 +33,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import cv2
+import numpy as np
 from threadpoolctl import threadpool_limits
 
 from mrcheck.apps.videoout import BackgroundVideo
@@ -40,7 +42,7 @@ from mrcheck.core.camerafiles import load_camera, read_camera
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.inputs import check_input
 from mrcheck.core.output import check_not_inputs, check_output_path
-from mrcheck.mr.edges import EdgeFitError, EdgeOptions, VisibilityRender, refine_pose, scene_edges
+from mrcheck.mr.edges import EdgeFitError, EdgeOptions, VisibilityRender, photo_pyramid, refine_pose, scene_edges
 from mrcheck.mr.edges.candidates import CandidateEdges
 from mrcheck.mr.lens import distortion_map
 from mrcheck.mr.overlay import overlay_images
@@ -100,9 +102,10 @@ class TrackResult:
     """``frames``: every frame's :class:`FramePose`; ``seconds``: wall time of the whole run;
     ``first_s``: of it, the time until the first frame was handed to the writer (the start-up
     and the first frame's full snap from the rough pose);
-    ``times_s``: seconds per stage over the run (``decode``, ``snap <stage>`` of
-    :attr:`mrcheck.mr.edges.EdgeFit.times_s`, ``overlay render``, ``writer wait``; ``compose
-    (thread)`` and ``encode (thread)`` ran on the writer's thread beside the others)."""
+    ``times_s``: seconds per stage over the run (``decode wait``, ``snap <stage>`` of
+    :attr:`mrcheck.mr.edges.EdgeFit.times_s`, ``overlay render``, ``writer wait``; ``decode
+    (thread)`` and ``photo (thread)`` ran on the reader's thread, ``compose (thread)`` and
+    ``encode (thread)`` on the writer's, beside the others)."""
 
     frames: list = field(default_factory=list)
     seconds: float = 0.0
@@ -152,13 +155,15 @@ def predicted(previous: list) -> Camera:
 
 
 def snap_frame(scene, camera: Camera, grey, start: Camera, renderer, edges, options: EdgeOptions = TRACK_OPTIONS,
-               candidates: CandidateEdges | None = None, seed: VisibilityRender | None = None) -> tuple:
+               candidates: CandidateEdges | None = None, seed: VisibilityRender | None = None,
+               pyramid: list | None = None) -> tuple:
     """``(camera at the pose, fit or None, reason)`` of one frame from ``start``; ``candidates``:
     the :class:`~mrcheck.mr.edges.candidates.CandidateEdges` kept from the frames before;
-    ``seed``: the frame before's overlay render (its visible edges, see ``refine_pose``)."""
+    ``seed``: the frame before's overlay render (its visible edges); ``pyramid``: the frame's
+    gradient pyramid made beforehand (see ``refine_pose``)."""
     try:
         fit = refine_pose(scene, camera, grey, initial=start, options=options, renderer=renderer, edges=edges,
-                          candidates=candidates, seed=seed)
+                          candidates=candidates, seed=seed, pyramid=pyramid)
     except EdgeFitError as exc:
         return start, None, str(exc)
     if fit.support < LOST_SUPPORT:
@@ -187,41 +192,98 @@ def _track_video(video, scene, intrinsics, initial, output, poses_path, alpha, p
 
     result = TrackResult()
     start_time = time.perf_counter()
-    edges = scene_edges(scene)
-    renderer = Renderer(scene)
-    tmp_video = Path(tempfile.mkstemp(suffix=".mp4", dir=Path(output).parent, prefix=".track-")[1])
-    loop = _Loop(result, scene, intrinsics, initial, renderer, edges, alpha)
+    renderer = loop = tmp_video = None
     try:
         with av.open(str(video)) as source:
             stream = source.streams.video[0]
             total = stream.frames or 0
-            frames = source.decode(stream)
-            while True:
-                began = time.perf_counter()
-                frame = next(frames, None)
-                if frame is None:
-                    break
-                rgb = frame.to_ndarray(format="rgb24")
-                loop.add("decode", began)
-                loop.frame(rgb, float(frame.time or 0.0), video, tmp_video, stream.average_rate or 25)
-                if len(result.frames) == 1:
-                    result.first_s = time.perf_counter() - start_time
-                if progress:
-                    progress(len(result.frames), total)
+            # the first frame is decoded and its pyramid made beside the start-up below
+            reader = _Reader(source.decode(stream))
+            try:
+                edges = scene_edges(scene)
+                renderer = Renderer(scene)
+                tmp_video = Path(tempfile.mkstemp(suffix=".mp4", dir=Path(output).parent, prefix=".track-")[1])
+                loop = _Loop(result, scene, intrinsics, initial, renderer, edges, alpha)
+                while True:
+                    began = time.perf_counter()
+                    photo = reader.next()
+                    if photo is None:
+                        break
+                    loop.add("decode wait", began)
+                    loop.frame(photo, video, tmp_video, stream.average_rate or 25)
+                    if len(result.frames) == 1:
+                        result.first_s = time.perf_counter() - start_time
+                    if progress:
+                        progress(len(result.frames), total)
+            finally:
+                reader.close()
             if loop.writer is None:
                 raise MrcheckError("the video has no frames", video)
             loop.close()
+            for stage, seconds in reader.times_s.items():
+                result.times_s[f"{stage} (thread)"] = seconds
         _write_atomic(Path(poses_path), "".join(json.dumps(f.to_dict()) + "\n" for f in result.frames))
         os.replace(tmp_video, output)
     except av.error.FFmpegError as exc:
         raise MrcheckError(f"cannot read the video: {exc}", video) from None
     finally:
-        loop.abort()
-        renderer.release()
-        if tmp_video.exists():
+        if loop is not None:
+            loop.abort()
+        if renderer is not None:
+            renderer.release()
+        if tmp_video is not None and tmp_video.exists():
             tmp_video.unlink()
     result.seconds = time.perf_counter() - start_time
     return result
+
+
+@dataclass
+class _Photo:
+    """A decoded frame: its RGB image, time, grey photo and the snap's gradient pyramid of it."""
+
+    rgb: np.ndarray
+    time_s: float
+    grey: np.ndarray
+    pyramid: list
+
+
+class _Reader:
+    """The video's frames, each decoded, made grey and turned into the snap's gradient pyramid
+    (:func:`~mrcheck.mr.edges.photo_pyramid`) one frame ahead on a thread. Why: FFmpeg's decode
+    and OpenCV's filters release the GIL, so the next frame's 15 ms of them (the cell's walks:
+    decode 4-6 ms, pyramid 10) run on the second core beside this frame's snap (mostly numpy on
+    one core) instead of before the next one (measured: docs/edge-registration.md, Figures).
+    ``times_s``: the thread's ``decode`` and ``photo`` seconds; an error on the thread (a corrupt
+    frame) is raised by :meth:`next`."""
+
+    def __init__(self, frames):
+        self._frames = frames
+        self.times_s = {"decode": 0.0, "photo": 0.0}
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mrcheck-video-reader")
+        self._next = self._pool.submit(self._read, FIRST_OPTIONS)
+
+    def _read(self, options: EdgeOptions) -> _Photo | None:
+        began = time.perf_counter()
+        frame = next(self._frames, None)
+        if frame is None:
+            return None
+        rgb = frame.to_ndarray(format="rgb24")
+        decoded = time.perf_counter()
+        self.times_s["decode"] += decoded - began
+        grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
+        photo = _Photo(rgb, float(frame.time or 0.0), grey, photo_pyramid(grey, options))
+        self.times_s["photo"] += time.perf_counter() - decoded
+        return photo
+
+    def next(self) -> _Photo | None:
+        """The next frame (None after the last); the one after it is started on the thread."""
+        photo = self._next.result()
+        self._next = self._pool.submit(self._read, TRACK_OPTIONS) if photo is not None else None
+        return photo
+
+    def close(self) -> None:
+        """Wait for the thread (the video is closed after this)."""
+        self._pool.shutdown(wait=True)
 
 
 class _Loop:
@@ -244,15 +306,16 @@ class _Loop:
         self.times[stage] = self.times.get(stage, 0.0) + now - began
         return now
 
-    def frame(self, rgb, time_s, video, tmp_video, rate) -> None:
+    def frame(self, photo: _Photo, video, tmp_video, rate) -> None:
+        rgb = photo.rgb
         if self.camera is None:
             self.camera, _ = fit_camera(self.intrinsics, rgb.shape[1], rgb.shape[0], video)
             # the lens map (0.35-0.4 s at 640x480) is made beside the first frame's snap
             self._maps_job = ThreadPoolExecutor(max_workers=1)
             self._maps = self._maps_job.submit(distortion_map, self.camera)
             self.writer = BackgroundVideo(tmp_video, rgb.shape[1], rgb.shape[0], rate)
-        pose = _track_frame(self.result.frames, self.scene, self.camera, rgb, self.initial, self.renderer,
-                            self.edges, len(self.result.frames), time_s,
+        pose = _track_frame(self.result.frames, self.scene, self.camera, photo, self.initial, self.renderer,
+                            self.edges, len(self.result.frames),
                             candidates=self.candidates if self.result.frames else None, seed=self.seed)
         self.seed = None
         for stage, seconds in pose.times_s.items():
@@ -302,17 +365,18 @@ class _Loop:
             self.writer = None
 
 
-def _track_frame(previous, scene, camera, rgb, initial, renderer, edges, index, time_s, candidates=None,
+def _track_frame(previous, scene, camera, photo: _Photo, initial, renderer, edges, index, candidates=None,
                  seed=None) -> FramePose:
     start = camera.with_pose(initial.R, initial.t) if not previous else predicted(previous)
-    grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
     began = time.perf_counter()
-    pose, fit, reason = snap_frame(scene, camera, grey, start, renderer, edges,
-                                   FIRST_OPTIONS if not previous else TRACK_OPTIONS, candidates, seed)
+    pose, fit, reason = snap_frame(scene, camera, photo.grey, start, renderer, edges,
+                                   FIRST_OPTIONS if not previous else TRACK_OPTIONS, candidates, seed,
+                                   pyramid=photo.pyramid)
     corners = list(fit.uncertainty.corner_px) if fit is not None else []
     times = {k: v for k, v in fit.times_s.items() if k != "total"} if fit is not None else {}
-    return FramePose(index, time_s, pose, None if fit is None else fit.rms_px, 0.0 if fit is None else fit.support,
-                     corners, bool(reason), reason, time.perf_counter() - began, times)
+    rms, support = (None, 0.0) if fit is None else (fit.rms_px, fit.support)
+    return FramePose(index, photo.time_s, pose, rms, support, corners, bool(reason), reason,
+                     time.perf_counter() - began, times)
 
 
 def _write_atomic(path: Path, text: str) -> None:

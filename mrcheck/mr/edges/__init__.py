@@ -3,9 +3,10 @@
 Public API (stable; the review's click registration and the discrepancy check build on it):
 
 * :func:`refine_pose` ``(scene, camera, grey, initial=None, options=None, *, renderer=None,
-  edges=None, candidates=None, seed=None) -> EdgeFit``: the refined pose, edge RMS, support
-  share, pose uncertainty, warnings and the time per stage; raises :class:`EdgeFitError` on
-  failure (``candidates``, ``seed``: what a video's frame before leaves for the next, see
+  edges=None, candidates=None, seed=None, pyramid=None) -> EdgeFit``: the refined pose, edge
+  RMS, support share, pose uncertainty, warnings and the time per stage; raises
+  :class:`EdgeFitError` on failure (``candidates``, ``seed``: what a video's frame before leaves
+  for the next; ``pyramid``: :func:`photo_pyramid` of the photo made beforehand; see
   :mod:`mrcheck.apps.track`).
 * :class:`EdgeOptions`, :class:`EdgeFit`, :class:`EdgeFitError`, :class:`LevelReport`,
   :class:`VisibilityRender`, :class:`~mrcheck.mr.edges.uncertainty.PoseUncertainty`.
@@ -18,8 +19,8 @@ degrees, the weak direction), ``refine`` (coarse to fine).
 
 from mrcheck.mr.edges.model import scene_edges
 from mrcheck.mr.edges.refine import (EdgeFit, EdgeFitError, EdgeOptions, LevelReport, VisibilityRender,
-                                    refine_pose)
+                                    photo_pyramid, refine_pose)
 from mrcheck.mr.edges.uncertainty import PoseUncertainty
 
 __all__ = ["refine_pose", "EdgeFit", "EdgeFitError", "EdgeOptions", "LevelReport", "PoseUncertainty",
-           "VisibilityRender", "scene_edges"]
+           "VisibilityRender", "photo_pyramid", "scene_edges"]

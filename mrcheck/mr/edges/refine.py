@@ -205,13 +205,21 @@ def level_count(width: int, options: EdgeOptions) -> int:
     return max(1, 1 + int(math.floor(math.log2(max(width, 1) / _COARSEST_WIDTH))))
 
 
+def photo_pyramid(grey: np.ndarray, options: EdgeOptions) -> list:
+    """The gradient pyramid (:func:`photo.pyramid`) of the photo ``grey`` that :func:`refine_pose`
+    fits the CAD's edges to with ``options``; made beforehand and given to it as ``pyramid=``
+    where the photo is known early (a video's next frame, on a thread beside this one's fit)."""
+    grey = _grey(grey)
+    return photo.pyramid(grey, level_count(grey.shape[1], options))
+
+
 class _Fitter:
     """The state of one fit (kept in an object: the levels share the pose, the clock, the parts)."""
 
-    def __init__(self, edges, renderer, camera, grey, options, clock, candidates=None, seed=None):
+    def __init__(self, edges, renderer, camera, grey, options, clock, candidates=None, seed=None, pyramid=None):
         self.edges, self.renderer, self.camera, self.options, self.clock = edges, renderer, camera, options, clock
         start = time.perf_counter()
-        self.pyramid = photo.pyramid(grey, level_count(camera.width, options))
+        self.pyramid = pyramid if pyramid is not None else photo_pyramid(grey, options)
         clock.add("photo", start)
         self.dropped = np.zeros(len(edges.group_names), bool)
         self.state = None
@@ -357,7 +365,8 @@ class _Fitter:
 
 def refine_pose(scene, camera: Camera, grey: np.ndarray, initial: Camera | None = None,
                 options: EdgeOptions | None = None, *, renderer=None, edges=None,
-                candidates: CandidateEdges | None = None, seed: VisibilityRender | None = None) -> EdgeFit:
+                candidates: CandidateEdges | None = None, seed: VisibilityRender | None = None,
+                pyramid: list | None = None) -> EdgeFit:
     """Snap the pose of ``camera`` (or of ``initial``) onto the edges of the photo ``grey``.
 
     ``scene``: the :class:`~mrcheck.scene.model.Scene`; ``camera``: the photo's intrinsics (at the
@@ -369,7 +378,8 @@ def refine_pose(scene, camera: Camera, grey: np.ndarray, initial: Camera | None 
     from the fit of the previous video frame (its edges seen are reused while the view moved
     less than :data:`~mrcheck.mr.edges.candidates.REUSE_PX` level px); ``seed``: a
     :class:`VisibilityRender` near the start that finds the visible edges of the first
-    full-resolution sampling instead of a render (the edges' visibility judged from its pose).
+    full-resolution sampling instead of a render (the edges' visibility judged from its pose);
+    ``pyramid``: :func:`photo_pyramid` of ``grey`` with these options, made beforehand.
     Raises :class:`EdgeFitError` when the fit diverges or ends with too little support: below
     ``options.min_support`` of the samples kept, its support beyond chance too low, or the parts
     left out (no support) holding more than ``options.max_left_out`` of the visible samples (a
@@ -379,6 +389,10 @@ def refine_pose(scene, camera: Camera, grey: np.ndarray, initial: Camera | None 
     grey = _grey(grey)
     if grey.shape != (camera.height, camera.width):
         raise MrcheckError(f"photo is {grey.shape[1]}x{grey.shape[0]} but the camera is {camera.width}x{camera.height}")
+    if pyramid is not None and (len(pyramid) != level_count(camera.width, options) or
+                                pyramid[0].gx.shape != grey.shape):
+        raise MrcheckError(f"the photo's pyramid ({len(pyramid)} levels of {pyramid[0].gx.shape[::-1]}) is not "
+                           f"this photo's with these options ({level_count(camera.width, options)} levels)")
     start_total = time.perf_counter()
     clock = _Clock()
     start = time.perf_counter()
@@ -391,7 +405,7 @@ def refine_pose(scene, camera: Camera, grey: np.ndarray, initial: Camera | None 
         renderer = Renderer(scene)
     try:
         start_pose = camera if initial is None else camera.with_pose(initial.R, initial.t)
-        fit = _fit(_Fitter(edges, renderer, camera, grey, options, clock, candidates, seed), start_pose, grey)
+        fit = _fit(_Fitter(edges, renderer, camera, grey, options, clock, candidates, seed, pyramid), start_pose, grey)
     finally:
         if own:
             renderer.release()
@@ -564,5 +578,5 @@ def _warnings(uncertainty: PoseUncertainty, normals, weights) -> list:
     return out
 
 
-__all__ = ["refine_pose", "EdgeFit", "EdgeOptions", "EdgeFitError", "LevelReport", "VisibilityRender", "render_depth",
-           "level_count"]
+__all__ = ["refine_pose", "photo_pyramid", "EdgeFit", "EdgeOptions", "EdgeFitError", "LevelReport", "VisibilityRender",
+           "render_depth", "level_count"]
