@@ -75,6 +75,12 @@ FIRST_OPTIONS = EdgeOptions(min_support=0.0, max_samples=1500)
 OVERLAY_SETTINGS = RenderSettings(samples=8, ao_scale=0.5, lod_px=0.0)
 
 
+def frame_options(index: int) -> EdgeOptions:
+    """The snap's options of frame ``index`` (0: from ROUGH.json; the reader makes each frame's
+    pyramid with them too)."""
+    return FIRST_OPTIONS if index == 0 else TRACK_OPTIONS
+
+
 @dataclass
 class FramePose:
     """The pose of one frame and how it was found (see the module docstring)."""
@@ -263,13 +269,16 @@ class _Reader:
         self._frames = frames
         self.times_s = {"decode": 0.0, "photo": 0.0}
         self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mrcheck-video-reader")
-        self._next = self._pool.submit(self._read, FIRST_OPTIONS)
+        self._read_count = 0
+        self._next = self._pool.submit(self._read)
 
-    def _read(self, options: EdgeOptions) -> _Photo | None:
+    def _read(self) -> _Photo | None:
         began = time.perf_counter()
         frame = next(self._frames, None)
         if frame is None:
             return None
+        options = frame_options(self._read_count)
+        self._read_count += 1
         rgb = frame.to_ndarray(format="rgb24")
         decoded = time.perf_counter()
         self.times_s["decode"] += decoded - began
@@ -281,7 +290,7 @@ class _Reader:
     def next(self) -> _Photo | None:
         """The next frame (None after the last); the one after it is started on the thread."""
         photo = self._next.result()
-        self._next = self._pool.submit(self._read, TRACK_OPTIONS) if photo is not None else None
+        self._next = self._pool.submit(self._read) if photo is not None else None
         return photo
 
     def close(self) -> None:
@@ -297,7 +306,7 @@ class _Loop:
         self.result, self.scene, self.intrinsics, self.initial = result, scene, intrinsics, initial
         self.renderer, self.edges, self.alpha = renderer, edges, alpha
         # the edges seen, kept from frame to frame (not from the first frame's fit: its sample
-        # spacing is that of FIRST_OPTIONS' 3000 samples, four times the candidates to test)
+        # spacing is that of FIRST_OPTIONS' 1500 samples, about twice the candidates to test)
         self.candidates = CandidateEdges(edges)
         self.camera = self.maps = self.writer = None
         self.seed = None     # the last overlay's depth and normals (VisibilityRender), for the next snap
@@ -373,7 +382,7 @@ def _track_frame(previous, scene, camera, photo: _Photo, initial, renderer, edge
     start = camera.with_pose(initial.R, initial.t) if not previous else predicted(previous)
     began = time.perf_counter()
     pose, fit, reason = snap_frame(scene, camera, photo.grey, start, renderer, edges,
-                                   FIRST_OPTIONS if not previous else TRACK_OPTIONS, candidates, seed,
+                                   frame_options(index), candidates, seed,
                                    pyramid=photo.pyramid)
     corners = list(fit.uncertainty.corner_px) if fit is not None else []
     times = {k: v for k, v in fit.times_s.items() if k != "total"} if fit is not None else {}

@@ -389,10 +389,10 @@ def refine_pose(scene, camera: Camera, grey: np.ndarray, initial: Camera | None 
     grey = _grey(grey)
     if grey.shape != (camera.height, camera.width):
         raise MrcheckError(f"photo is {grey.shape[1]}x{grey.shape[0]} but the camera is {camera.width}x{camera.height}")
-    if pyramid is not None and (len(pyramid) != level_count(camera.width, options) or
-                                pyramid[0].gx.shape != grey.shape):
+    levels = level_count(camera.width, options)
+    if pyramid is not None and (len(pyramid) != levels or pyramid[0].gx.shape != grey.shape):
         raise MrcheckError(f"the photo's pyramid ({len(pyramid)} levels of {pyramid[0].gx.shape[::-1]}) is not "
-                           f"this photo's with these options ({level_count(camera.width, options)} levels)")
+                           f"this photo's with these options ({levels} levels)")
     start_total = time.perf_counter()
     clock = _Clock()
     start = time.perf_counter()
