@@ -13,7 +13,7 @@ import pytest
 from mrcheck.cli import main
 from mrcheck.core.camerafiles import load_camera, write_camera
 from mrcheck.eval.edgephotos import make_case, reprojection_error
-from tests.edge_helpers import crate_camera, crate_scene, write_crate_scene
+from mrcheck.eval.edgescenes import crate_camera, crate_scene, write_crate_scene
 
 BOX = Path(__file__).parent / "data" / "pose" / "box"
 

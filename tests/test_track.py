@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
+import stat
 
 import av
 import cv2
@@ -13,22 +15,13 @@ import numpy as np
 import pytest
 
 from mrcheck.cli import main
-from mrcheck.core.camera import Camera
 from mrcheck.core.camerafiles import write_camera
 from mrcheck.eval.edgephotos import reprojection_error, scene_points, synthetic_photo
-from mrcheck.eval.edgescenes import crate_camera, crate_scene
-from tests.edge_helpers import write_crate_scene
+from mrcheck.eval.edgescenes import crate_camera, crate_scene, write_crate_scene
+from mrcheck.eval.walks import walk_camera, write_video
 
 FRAMES = 6
 BLANK = 3
-
-
-def _path(camera: Camera, k: int) -> Camera:
-    """The camera walked sideways 4 cm and turned 0.2 degrees per frame."""
-    turn = cv2.Rodrigues(np.array([0.0, np.radians(0.2) * k, 0.0]))[0]
-    R = turn @ camera.R
-    centre = camera.center + np.array([0.04 * k, 0.0, 0.0])
-    return camera.with_pose(R, -R @ centre)
 
 
 @pytest.fixture(scope="module")
@@ -36,20 +29,11 @@ def video(tmp_path_factory):
     folder = tmp_path_factory.mktemp("track")
     manifest = write_crate_scene(folder / "scene")
     scene, camera = crate_scene(), crate_camera(480, 360)
-    truths = [_path(camera, k) for k in range(FRAMES)]
+    # the camera walked sideways 4 cm and turned 0.2 degrees per frame
+    truths = [walk_camera(camera, "side", k) for k in range(FRAMES)]
     path = folder / "walk.mp4"
-    with av.open(str(path), "w") as container:
-        stream = container.add_stream("mpeg4", rate=10)
-        stream.width, stream.height, stream.pix_fmt, stream.bit_rate = 480, 360, "yuv420p", 8_000_000
-        for k, truth in enumerate(truths):
-            grey, _, _ = synthetic_photo(scene, truth, 0, clutter=0, leave_out=False)
-            if k == BLANK:
-                grey = np.full_like(grey, 128)
-            frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(np.repeat(grey[..., None], 3, axis=2)), format="rgb24")
-            for packet in stream.encode(frame):
-                container.mux(packet)
-        for packet in stream.encode():
-            container.mux(packet)
+    photos = (synthetic_photo(scene, truth, 0, clutter=0, leave_out=False)[0] for truth in truths)
+    write_video(path, (np.full_like(grey, 128) if k == BLANK else grey for k, grey in enumerate(photos)))
     write_camera(folder / "cam.json", camera, pose=False)
     # the first frame's rough pose: 6 px off
     rough = truths[0].with_pose(cv2.Rodrigues(np.array([0.004, -0.006, 0.002]))[0] @ truths[0].R, truths[0].t)
@@ -84,6 +68,13 @@ def test_track_writes_the_overlay_video_and_the_poses(video, capsys):
     total, whole, after, first = map(float, re.search(rates, printed).groups())
     assert 0 < first < total and abs(whole - FRAMES / total) < 0.05 * whole + 0.01
     assert abs(after - (FRAMES - 1) / (total - first)) < 0.1 * after and after > whole
+    # the usual permissions of a new file (the video is encoded into a mkstemp file, 0600) and no
+    # temporary file left beside it
+    umask = os.umask(0)
+    os.umask(umask)
+    for path in (out, folder / "overlay.poses.jsonl"):
+        assert stat.S_IMODE(path.stat().st_mode) == 0o666 & ~umask, path
+    assert not [p.name for p in folder.iterdir() if p.name.startswith(".")]
 
 
 def test_a_single_frame_has_no_rate_after_the_first():

@@ -41,7 +41,7 @@ from mrcheck.core.camera import Camera
 from mrcheck.core.camerafiles import load_camera, read_camera
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.inputs import check_input
-from mrcheck.core.output import check_not_inputs, check_output_path
+from mrcheck.core.output import check_not_inputs, check_output_path, replace_output, write_text
 from mrcheck.mr.edges import EdgeFitError, EdgeOptions, VisibilityRender, photo_pyramid, refine_pose, scene_edges
 from mrcheck.mr.edges.candidates import CandidateEdges
 from mrcheck.mr.lens import distortion_map
@@ -63,9 +63,15 @@ LOST_SUPPORT = 0.25
 # the walk drifted 5-7 px for 20 frames; measured on ten walks (4 Dec 2026) per-walk median
 # 0.07-0.45 px, no frame beyond 1.4 px, against 0.14-0.88 and 13 frames beyond 2 px with 4
 # iterations and the cost test (docs/edge-registration.md); the first frame, from ROUGH.json,
-# gets the full snap (FIRST_OPTIONS: coarse to fine from up to 48 px off)
+# gets the full snap (FIRST_OPTIONS: coarse to fine from up to 48 px off). The visible edges are
+# found again after 3 px of steps, not register's 1.5: the frame before's overlay render, which
+# serves the start, is already a frame's motion (2-5 px) away; measured on the six 24-frame cell
+# walks of `mrcheck bench --track`, three interleaved rounds (4 Dec 2026): 18 of 18 runs faster
+# (+8 to +29 %, median +17 %; the snap's renders 1.27 -> 0.66 s a run), per-walk median error
+# 0.11-0.37 -> 0.12-0.45 px (larger on five of six), the worst frame of all 1.64 -> 1.41 px, none
+# lost: a little accuracy for the speed target (docs/edge-registration.md)
 TRACK_OPTIONS = EdgeOptions(search_px=8.0, levels=1, iterations=6, max_samples=800, min_support=0.0, coarse="normal",
-                            descent_only=False)
+                            descent_only=False, rerender_px=3.0)
 # the first frame: 1500 samples instead of register's 3000 (the generated cell from 15-40 px off,
 # seeds 0-9 at 640x480: 10 of 10 within 1 px, 0.06-0.37 px, 0.70 s per fit median, against
 # 0.06-0.45 px and 0.81 s; the crates the same, they have fewer; 4 Dec 2026)
@@ -211,7 +217,9 @@ def _track_video(video, scene, intrinsics, initial, output, poses_path, alpha, p
             try:
                 edges = scene_edges(scene)
                 renderer = Renderer(scene)
-                tmp_video = Path(tempfile.mkstemp(suffix=".mp4", dir=Path(output).parent, prefix=".track-")[1])
+                handle, name = tempfile.mkstemp(suffix=".mp4", dir=Path(output).parent, prefix=".track-")
+                os.close(handle)      # the encoder opens the file by its name
+                tmp_video = Path(name)
                 loop = _Loop(result, scene, intrinsics, initial, renderer, edges, alpha)
                 while True:
                     began = time.perf_counter()
@@ -231,8 +239,8 @@ def _track_video(video, scene, intrinsics, initial, output, poses_path, alpha, p
             loop.close()
             for stage, seconds in reader.times_s.items():
                 result.times_s[f"{stage} (thread)"] = seconds
-        _write_atomic(Path(poses_path), "".join(json.dumps(f.to_dict()) + "\n" for f in result.frames))
-        os.replace(tmp_video, output)
+        write_text(poses_path, "".join(json.dumps(f.to_dict()) + "\n" for f in result.frames))
+        replace_output(tmp_video, output)
     except av.error.FFmpegError as exc:
         raise MrcheckError(f"cannot read the video: {exc}", video) from None
     finally:
@@ -389,12 +397,6 @@ def _track_frame(previous, scene, camera, photo: _Photo, initial, renderer, edge
     rms, support = (None, 0.0) if fit is None else (fit.rms_px, fit.support)
     return FramePose(index, photo.time_s, pose, rms, support, corners, bool(reason), reason,
                      time.perf_counter() - began, times)
-
-
-def _write_atomic(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
 
 
 def track_command(video, scene, intrinsics, initial, output, poses=None, alpha=0.5, progress=None) -> TrackResult:

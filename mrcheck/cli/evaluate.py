@@ -16,12 +16,18 @@ from mrcheck.render import settings as defaults
                    "computed, its verdict indicative.")
 @click.option("--json", "json_path", metavar="OUT.json",
               help="Also write every raw figure (with its peak memory) and the ratios (with their per-round ratios) as "
-                   "JSON, before the table is printed; missing folders are created, an existing file is replaced.")
+                   "JSON (with --track: every run), before the table is printed; missing folders are created, an "
+                   "existing file is replaced.")
 @click.option("--repeat", type=int, default=None, callback=positive, help="Timed runs per figure after one warm-up [default: 5, --quick: 3].")
 @click.option("--edges", is_flag=True,
               help="Only the edge registration against OpenCV's RAPID tracker (cv2.rapid) on Open3D photos of the "
                    "crate scene and the generated cell: accuracy and time side by side (--quick: 3 cases each, else 10).")
-def bench(quick, json_path, repeat, edges):
+@click.option("--track", is_flag=True,
+              help="Only `mrcheck track` on walk videos made here (Open3D photos, 640x480): the cell's robot_cell and "
+                   "overview views walked three ways and the crates, 24 frames each, --repeat rounds [default: 3] "
+                   "(--quick: two walks of 12 frames, one round): frames/s, the first frame's seconds, the errors "
+                   "against the true path.")
+def bench(quick, json_path, repeat, edges, track):
     """Measure the AO passes and frames on this machine.
 
     Every AO mode at full and half resolution, over
@@ -41,7 +47,13 @@ def bench(quick, json_path, repeat, edges):
     Example:
       mrcheck bench --quick --json bench.json
       mrcheck bench --edges --quick
+      mrcheck bench --track --json track.json
     """
+    if edges and track:
+        raise click.UsageError("--edges and --track are separate benches: give one of them")
+    if track:
+        _track_bench(quick, repeat, json_path)
+        return
     if edges:
         from mrcheck.eval.edgebench import edge_bench
 
@@ -57,6 +69,14 @@ def bench(quick, json_path, repeat, edges):
         click.echo(result.json_path)
 
 
+def _track_bench(quick, repeat, json_path) -> None:
+    from mrcheck.apps.trackbench import track_bench
+
+    _, lines = track_bench(quick=quick, rounds=repeat, json_path=json_path, progress=_progress_bar("frame"))
+    for line in lines:
+        click.echo(line)
+
+
 def _hall_generator():
     """The bench's halls come from the factory_scenes generator, which only the CLI imports."""
     from pathlib import Path
@@ -69,8 +89,8 @@ def _hall_generator():
     return HallGenerator(generator.generate, Path(generator.__file__).parent, write_ifc)
 
 
-def _progress_bar():
-    """The bench's progress as a tqdm bar on stderr: (figures measured, planned, the last one)."""
+def _progress_bar(unit: str = "figure"):
+    """The bench's progress as a tqdm bar on stderr: (how many ``unit`` done, planned, the last label)."""
     import sys
 
     from tqdm import tqdm
@@ -80,7 +100,7 @@ def _progress_bar():
     def progress(done: int, total: int, label: str) -> None:
         nonlocal bar
         if bar is None:
-            bar = tqdm(total=total, desc="bench", unit="figure", file=sys.stderr)
+            bar = tqdm(total=total, desc="bench", unit=unit, file=sys.stderr)
         bar.total = total
         if label:
             bar.set_postfix_str(label, refresh=False)

@@ -121,13 +121,21 @@ def _atomic_write(path: Path, write) -> None:
     try:
         with os.fdopen(fd, "wb") as handle:
             write(handle)
-        os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp makes 0600; outputs get the usual permissions
-        os.replace(tmp, path)
+        replace_output(tmp, path)
     except BaseException as exc:
         Path(tmp).unlink(missing_ok=True)
         if isinstance(exc, OSError):
             raise MrcheckError(f"cannot write output ({exc.strerror})", path) from None
         raise
+
+
+def replace_output(tmp, path) -> Path:
+    """Move the finished temporary file ``tmp`` (made with ``tempfile.mkstemp`` beside ``path``)
+    into place, with the permissions a new file would get (mkstemp makes 0600: a colleague could
+    not open a video or sheet written into a shared project folder)."""
+    os.chmod(tmp, 0o666 & ~_UMASK)
+    os.replace(tmp, path)
+    return Path(path)
 
 
 def write_bytes(path, data: bytes) -> Path:
@@ -246,5 +254,5 @@ def labelled_sheet(images, labels) -> np.ndarray:
 
 
 __all__ = ["write_image", "write_bytes", "write_text", "encode_image", "write_ao", "labelled_sheet", "check_output_path",
-           "check_output_dir", "check_writable_ancestor", "check_not_inputs", "write_all_or_none", "IMAGE_SUFFIXES",
-           "AO_SUFFIXES"]
+           "replace_output", "check_output_dir", "check_writable_ancestor", "check_not_inputs", "write_all_or_none",
+           "IMAGE_SUFFIXES", "AO_SUFFIXES"]

@@ -1,6 +1,7 @@
 """A small scene for the edge registration's tests and bench: a floor, a back wall, a column and
 crates (boxes only: every edge a crease), built in memory so that a photo of it can leave a
-crate out and add clutter without files. Photos of it come from :mod:`mrcheck.eval.edgephotos`.
+crate out and add clutter without files (:func:`write_crate_scene` writes it as files for the
+commands). Photos of it come from :mod:`mrcheck.eval.edgephotos`.
 """
 
 from __future__ import annotations
@@ -44,4 +45,23 @@ def crate_camera(width=320, height=240, dist=(-0.1, 0.04, 0.0005, -0.0003, 0.0))
     return Camera(cam.width, cam.height, cam.K, cam.R, cam.t, np.asarray(dist, float))
 
 
-__all__ = ["CRATES", "crate_scene", "crate_camera"]
+def write_crate_scene(folder: Path) -> Path:
+    """The crate scene as files (one PLY per part, metres) with a ``scene.toml``; a ``front``
+    viewpoint at :func:`crate_camera`'s pose. Returns the manifest's path."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    lines = ['format = 1', 'name = "crates"', '']
+    for part in crate_scene().parts:
+        mesh = trimesh.Trimesh(part.vertices.astype(np.float64) @ part.transforms[0][:3, :3].T
+                               + part.transforms[0][:3, 3], part.faces, process=False)
+        mesh.export(folder / f"{part.name}.ply")
+        lines += ["[[parts]]", f'name = "{part.name}"', f'mesh = "{part.name}.ply"', 'units = "m"',
+                  f"color = {list(part.color)}", ""]
+    lines += ["[[viewpoints]]", 'name = "front"', "eye = [-3.2, -4.6, 2.4]", "target = [0.3, 0.8, 0.5]",
+              "up = [0.0, 0.0, 1.0]", "fov_y_deg = 55.0", "width = 640", "height = 480", ""]
+    manifest = folder / "scene.toml"
+    manifest.write_text("\n".join(lines))
+    return manifest
+
+
+__all__ = ["CRATES", "crate_scene", "crate_camera", "write_crate_scene"]
