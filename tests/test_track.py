@@ -109,15 +109,16 @@ def test_a_lost_frame_inside_a_part_is_written_without_overlay(video, tmp_path):
 def test_each_frame_finds_its_visible_edges_on_the_last_overlay(video, tmp_path, monkeypatch):
     """From the second frame on, the snap is given the frame before's overlay render (its depth
     and normals at that frame's pose) instead of rendering at its start: one render less per
-    frame (sixth session, eight cell walks: the whole run 3.3-4.2 -> 4.3-5.5 frames/s)."""
+    frame (sixth session, eight cell walks: the whole run 3.3-4.2 -> 4.3-5.5 frames/s); since the
+    thirteenth session it serves the whole fit, and only a frame that would be lost renders."""
     import mrcheck.apps.track as track
 
     folder, manifest, _, _ = video
-    seen, real = [], track.refine_pose
+    seen, retried, real = [], [], track.refine_pose
 
-    def recording(*args, seed=None, **kwargs):
-        seen.append(seed)
-        return real(*args, seed=seed, **kwargs)
+    def recording(*args, seed=None, options=None, **kwargs):
+        (retried if options is track.RETRY_OPTIONS else seen).append(seed)
+        return real(*args, seed=seed, options=options, **kwargs)
 
     monkeypatch.setattr(track, "refine_pose", recording)
     out = tmp_path / "overlay.mp4"
@@ -126,11 +127,41 @@ def test_each_frame_finds_its_visible_edges_on_the_last_overlay(video, tmp_path,
     assert code == 0
     poses = [json.loads(line) for line in (tmp_path / "overlay.poses.jsonl").read_text().splitlines()]
     assert len(seen) == FRAMES and seen[0] is None
+    # the blank frame, lost, was snapped once more with a render of its own (RETRY_OPTIONS)
+    assert retried == [None] and [p["frame"] for p in poses if p["lost"]] == [BLANK]
     for seed, before in zip(seen[1:], poses):
         assert seed is not None
         assert np.allclose(seed.camera.R, before["R"]) and np.allclose(seed.camera.t, before["t"])
         assert seed.depth.shape == (seed.camera.height, seed.camera.width)
         assert seed.normals.shape == (*seed.depth.shape, 3) and np.any(seed.depth > 0)
+
+
+def test_a_frame_lost_on_the_last_overlay_is_snapped_again_with_a_render_of_its_own(video, tmp_path, monkeypatch):
+    """A later frame whose snap on the frame before's overlay fails is snapped once more from the
+    same start with RETRY_OPTIONS and no seed (a render at its start, re-renders after 3 px), and
+    kept when that one succeeds. Here frame 2's first snap is made to fail."""
+    import mrcheck.apps.track as track
+    from mrcheck.mr.edges import EdgeFitError
+
+    folder, manifest, truths, points = video
+    calls, real = [], track.refine_pose
+
+    def failing_once(*args, options=None, seed=None, initial=None, **kwargs):
+        calls.append((options, seed, initial))
+        if len(calls) == 3:
+            raise EdgeFitError("made to fail")
+        return real(*args, options=options, seed=seed, initial=initial, **kwargs)
+
+    monkeypatch.setattr(track, "refine_pose", failing_once)
+    result = track.track_command(folder / "walk.mp4", manifest, folder / "cam.json", folder / "rough.json",
+                                 tmp_path / "overlay.mp4")
+    (first, seed, start), (again, no_seed, same_start) = calls[2], calls[3]
+    assert first is track.TRACK_OPTIONS and seed is not None
+    assert again is track.RETRY_OPTIONS and no_seed is None and same_start is start
+    assert again.rerender_px < math.inf and track.TRACK_OPTIONS.rerender_px == math.inf
+    assert result.lost == [BLANK]          # frame 2 kept, the blank frame lost
+    frame = result.frames[2]
+    assert not frame.lost and np.median(reprojection_error(truths[2], frame.camera, points)) < 1.0
 
 
 def test_numpy_blas_runs_on_one_thread_while_tracking(video, tmp_path, monkeypatch):
@@ -155,6 +186,7 @@ def test_numpy_blas_runs_on_one_thread_while_tracking(video, tmp_path, monkeypat
         return real(*args, **kwargs)
 
     monkeypatch.setattr(track, "refine_pose", recording)
+    monkeypatch.setattr(track, "RETRY_OPTIONS", None)      # one snap per frame
     code = main(["track", str(folder / "walk.mp4"), "--scene", str(manifest), "--intrinsics", str(folder / "cam.json"),
                  "--initial", str(folder / "rough.json"), "-o", str(tmp_path / "overlay.mp4")])
     assert code == 0 and len(during) == FRAMES
@@ -189,6 +221,7 @@ def test_the_next_frame_is_decoded_and_its_pyramid_made_on_a_thread_beside_the_s
 
     monkeypatch.setattr(track, "photo_pyramid", pyramid)
     monkeypatch.setattr(track, "refine_pose", refine)
+    monkeypatch.setattr(track, "RETRY_OPTIONS", None)      # one snap per frame
     code = main(["track", str(folder / "walk.mp4"), "--scene", str(manifest), "--intrinsics", str(folder / "cam.json"),
                  "--initial", str(folder / "rough.json"), "-o", str(tmp_path / "overlay.mp4")])
     assert code == 0 and len(snaps) == FRAMES == len(made)

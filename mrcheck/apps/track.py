@@ -29,7 +29,7 @@ import os
 import tempfile
 import time
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import cv2
@@ -63,15 +63,22 @@ LOST_SUPPORT = 0.25
 # the walk drifted 5-7 px for 20 frames; measured on ten walks (4 Dec 2026) per-walk median
 # 0.07-0.45 px, no frame beyond 1.4 px, against 0.14-0.88 and 13 frames beyond 2 px with 4
 # iterations and the cost test (docs/edge-registration.md); the first frame, from ROUGH.json,
-# gets the full snap (FIRST_OPTIONS: coarse to fine from up to 48 px off). The visible edges are
-# found again after 3 px of steps, not register's 1.5: the frame before's overlay render, which
-# serves the start, is already a frame's motion (2-5 px) away; measured on the six 24-frame cell
-# walks of `mrcheck bench --track`, three interleaved rounds (4 Dec 2026): 18 of 18 runs faster
-# (+8 to +29 %, median +17 %; the snap's renders 1.27 -> 0.66 s a run), per-walk median error
-# 0.11-0.37 -> 0.12-0.45 px (larger on five of six), the worst frame of all 1.64 -> 1.41 px, none
-# lost: a little accuracy for the speed target (docs/edge-registration.md)
-TRACK_OPTIONS = EdgeOptions(search_px=8.0, levels=1, iterations=6, max_samples=800, min_support=0.0, coarse="normal",
-                            descent_only=False, rerender_px=3.0)
+# gets the full snap (FIRST_OPTIONS: coarse to fine from up to 48 px off). The visible edges
+# are those of the frame before's overlay render for the whole fit (rerender_px inf: no render of
+# the snap's own), and the render saved pays for 8 iterations instead of 6; a frame that would be
+# lost so is snapped once more with RETRY_OPTIONS. Measured on the six 24-frame cell walks of
+# `mrcheck bench --track` against a re-render after 3 px and 6 iterations (thirteenth session, 4
+# Dec 2026, four interleaved rounds, a process per run): the `robot_cell` walks +5 to +29 %
+# (median +20 %), the `overview` walks -4 to +7 %, the crates the same; over the 144 frames the
+# median error 0.165 -> 0.151 px, the mean 0.242 -> 0.222, frames beyond 1 px 6 -> 3, the worst
+# 1.41 -> 1.49 (docs/edge-registration.md)
+TRACK_OPTIONS = EdgeOptions(search_px=8.0, levels=1, iterations=8, max_samples=800, min_support=0.0, coarse="normal",
+                            descent_only=False, rerender_px=math.inf)
+# a frame lost with TRACK_OPTIONS, snapped again from its start with a render of its own there and
+# the visible edges found again after 3 px of steps (the twelfth session's schedule): the frame
+# before's render is a frame's motion old, and where much comes into view or goes out of it (the
+# 60-frame `robot_cell` walk, frames 38 and 41) the support it gives falls below LOST_SUPPORT
+RETRY_OPTIONS = replace(TRACK_OPTIONS, iterations=6, rerender_px=3.0)
 # the first frame: 1500 samples instead of register's 3000 (the generated cell from 15-40 px off,
 # seeds 0-9 at 640x480: 10 of 10 within 1 px, 0.06-0.37 px, 0.70 s per fit median, against
 # 0.06-0.45 px and 0.81 s; the crates the same, they have fewer; 4 Dec 2026)
@@ -392,11 +399,23 @@ def _track_frame(previous, scene, camera, photo: _Photo, initial, renderer, edge
     pose, fit, reason = snap_frame(scene, camera, photo.grey, start, renderer, edges,
                                    frame_options(index), candidates, seed,
                                    pyramid=photo.pyramid)
+    times = _fit_times(fit, {})
+    if reason and index > 0 and RETRY_OPTIONS is not None:
+        pose, fit, reason = snap_frame(scene, camera, photo.grey, start, renderer, edges, RETRY_OPTIONS, candidates,
+                                       pyramid=photo.pyramid)
+        times = _fit_times(fit, times)
     corners = list(fit.uncertainty.corner_px) if fit is not None else []
-    times = {k: v for k, v in fit.times_s.items() if k != "total"} if fit is not None else {}
     rms, support = (None, 0.0) if fit is None else (fit.rms_px, fit.support)
     return FramePose(index, photo.time_s, pose, rms, support, corners, bool(reason), reason,
                      time.perf_counter() - began, times)
+
+
+def _fit_times(fit, times: dict) -> dict:
+    """``times`` (stage -> seconds) plus the stages of ``fit`` (None: a fit that raised)."""
+    for stage, seconds in (fit.times_s.items() if fit is not None else ()):
+        if stage != "total":
+            times[stage] = times.get(stage, 0.0) + seconds
+    return times
 
 
 def track_command(video, scene, intrinsics, initial, output, poses=None, alpha=0.5, progress=None) -> TrackResult:

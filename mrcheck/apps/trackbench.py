@@ -180,10 +180,10 @@ def summary_lines(runs: list, title: str) -> list[str]:
     after = sum(r.fps_after_first >= TARGET_FPS for r in runs)
     lines.append(f"runs at {TARGET_FPS:g} frames/s or more: {whole} of {len(runs)} (whole run), {after} of {len(runs)} "
                  f"(after the first frame); frames/s {min(r.fps for r in runs):.2f}-{max(r.fps for r in runs):.2f}")
-    stages = {}
+    stages, frames = {}, max(sum(r.frames for r in runs), 1)
     for run in runs:
         for stage, seconds in run.times_s.items():
-            stages[stage] = stages.get(stage, 0.0) + seconds / max(sum(r.frames for r in runs), 1)
+            stages[stage] = stages.get(stage, 0.0) + seconds / frames
     largest = sorted(stages.items(), key=lambda kv: -kv[1])
     lines.append("ms per frame: " + ", ".join(f"{k} {1000 * v:.0f}" for k, v in largest if v >= 0.0005))
     return lines
