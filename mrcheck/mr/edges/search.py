@@ -90,12 +90,16 @@ class _Candidates:
         self.rows = self.J.reshape(-1, 6)
         depth = float(np.median(proj.depth))
         self.units = np.array([1.0, 1.0, 1.0, depth, depth, depth])   # radians; metres over the depth
-        some = np.linspace(0, len(pick) - 1, min(_MOTION_SAMPLES, len(pick))).astype(np.int64)
-        self.motion_J = self.J[np.unique(some)]
+        some = np.unique(np.linspace(0, len(pick) - 1, min(_MOTION_SAMPLES, len(pick))).astype(np.int64))
+        # the u and v rows apart, (6, m) each: two matrix products per batch of candidates (the
+        # einsum into an (h, m, 2) array and its norm over the last axis took 55 of the 75 ms
+        # per 12 000 candidates; the same motions within 1e-15)
+        self.motion_u, self.motion_v = (np.ascontiguousarray(self.J[some, k, :].T) for k in (0, 1))
 
     def motion(self, D: np.ndarray) -> np.ndarray:
         """(h,) median image motion (level px) of the pose changes ``D`` (h, 6)."""
-        return np.median(np.linalg.norm(np.einsum("nki,hi->hnk", self.motion_J, D), axis=2), axis=1)
+        u, v = D @ self.motion_u, D @ self.motion_v
+        return np.median(np.sqrt(u * u + v * v), axis=1)
 
     def directions(self, count: int, rng) -> np.ndarray:
         """(count, 6) random pose changes of one level px of median image motion."""
