@@ -7,7 +7,8 @@ on one level with a search radius for frame-to-frame motion, the renderer, the s
 the edges seen reused, and the visible edges found on the frame before's overlay render instead
 of a render of their own; the next frame decoded and its gradient pyramid made on a thread
 beside this one's snap). A frame whose fit fails or ends with its support below
-:data:`LOST_SUPPORT` is *lost*: its pose is the prediction, not trusted, the next frame starts
+:data:`LOST_SUPPORT` is snapped once more with a render of its own (:data:`RETRY_OPTIONS`);
+failing again it is *lost*: its pose is the prediction, not trusted, the next frame starts
 from it, and ``poses.jsonl`` says so. The overlay (vector AO at half resolution,
 lens distortion as calibrated) is drawn at every frame's pose, lost ones included, so that the
 video shows what the log says; a lost frame whose predicted pose lies inside a part is written
@@ -68,8 +69,9 @@ LOST_SUPPORT = 0.25
 # the snap's own), and the render saved pays for 8 iterations instead of 6; a frame that would be
 # lost so is snapped once more with RETRY_OPTIONS. Measured on the six 24-frame cell walks of
 # `mrcheck bench --track` against a re-render after 3 px and 6 iterations (thirteenth session, 4
-# Dec 2026, four interleaved rounds, a process per run): the `robot_cell` walks +5 to +29 %
-# (median +20 %), the `overview` walks -4 to +7 %, the crates the same; over the 144 frames the
+# Dec 2026, four interleaved rounds, a process per run): the `robot_cell` walks +2 to +39 % per
+# pair (median +14 to +24 % per walk), the `overview` walks -9 to +14 % (medians -4 to +6 %), the
+# crates +5 %; over the 144 frames the
 # median error 0.165 -> 0.151 px, the mean 0.242 -> 0.222, frames beyond 1 px 6 -> 3, the worst
 # 1.41 -> 1.49 (docs/edge-registration.md)
 TRACK_OPTIONS = EdgeOptions(search_px=8.0, levels=1, iterations=8, max_samples=800, min_support=0.0, coarse="normal",
@@ -433,4 +435,5 @@ def track_command(video, scene, intrinsics, initial, output, poses=None, alpha=0
                        alpha=alpha, progress=progress)
 
 
-__all__ = ["FramePose", "TrackResult", "predicted", "snap_frame", "track_video", "track_command", "LOST_SUPPORT"]
+__all__ = ["FramePose", "TrackResult", "predicted", "snap_frame", "track_video", "track_command", "LOST_SUPPORT",
+           "TRACK_OPTIONS", "RETRY_OPTIONS", "FIRST_OPTIONS"]
