@@ -164,6 +164,29 @@ def test_a_frame_lost_on_the_last_overlay_is_snapped_again_with_a_render_of_its_
     assert not frame.lost and np.median(reprojection_error(truths[2], frame.camera, points)) < 1.0
 
 
+def test_no_second_snap_right_after_a_lost_frame(video, tmp_path, monkeypatch):
+    """Within a lost stretch both snaps would start from the same coasting prediction: the frame
+    after the blank (lost) one, made to fail here, is not snapped again and is lost too."""
+    import mrcheck.apps.track as track
+    from mrcheck.mr.edges import EdgeFitError
+
+    folder, manifest, _, _ = video
+    calls, real = [], track.refine_pose
+
+    def failing(*args, options=None, **kwargs):
+        calls.append(options)
+        if len(calls) == 6:           # frames 0-2 one snap each, the blank frame 3 two, frame 4's first
+            raise EdgeFitError("made to fail")
+        return real(*args, options=options, **kwargs)
+
+    monkeypatch.setattr(track, "refine_pose", failing)
+    result = track.track_command(folder / "walk.mp4", manifest, folder / "cam.json", folder / "rough.json",
+                                 tmp_path / "overlay.mp4")
+    assert result.lost == [BLANK, BLANK + 1]
+    assert calls.count(track.RETRY_OPTIONS) == 1 and calls[4] is track.RETRY_OPTIONS   # the blank frame's
+    assert len(calls) == FRAMES + 1
+
+
 def test_numpy_blas_runs_on_one_thread_while_tracking(video, tmp_path, monkeypatch):
     """OpenBLAS's idle threads spin on the core that llvmpipe and the encoder need: the track
     keeps numpy's BLAS on one thread while it runs and gives the threads back after (measured,

@@ -1,18 +1,18 @@
 """``mrcheck track VIDEO``: the CAD snapped onto every frame of a video, and the overlay video.
 
-Each frame starts from the previous frames' poses with a constant-velocity prediction (the
-last motion applied once more) and is snapped onto the frame's edges
-(:func:`mrcheck.mr.edges.refine_pose`: the first frame coarse to fine from ROUGH.json, the others
-on one level with a search radius for frame-to-frame motion, the renderer, the scene's edges and
-the edges seen reused, and the visible edges found on the frame before's overlay render instead
-of a render of their own; the next frame decoded and its gradient pyramid made on a thread
-beside this one's snap). A frame whose fit fails or ends with its support below
-:data:`LOST_SUPPORT` is snapped once more with a render of its own (:data:`RETRY_OPTIONS`);
-failing again it is *lost*: its pose is the prediction, not trusted, the next frame starts
-from it, and ``poses.jsonl`` says so. The overlay (vector AO at half resolution,
-lens distortion as calibrated) is drawn at every frame's pose, lost ones included, so that the
-video shows what the log says; a lost frame whose predicted pose lies inside a part is written
-without overlay (its ``reason`` says so).
+Each frame starts from the previous frames' poses with a constant-velocity prediction (the last
+motion applied once more) and is snapped onto the frame's edges
+(:func:`mrcheck.mr.edges.refine_pose`: the first frame coarse to fine from ROUGH.json, the
+others on one level with a search radius for frame-to-frame motion, the renderer, the scene's
+edges and the edges seen reused, and the visible edges found on the frame before's overlay
+render instead of a render of their own; the next frame decoded and its gradient pyramid made on
+a thread beside this one's snap). A frame whose fit fails or ends with its support below
+:data:`LOST_SUPPORT` is snapped once more with a render of its own (:data:`RETRY_OPTIONS`; not
+when the frame before was lost too); failing again it is *lost*: its pose is the prediction, not
+trusted, the next frame starts from it, and ``poses.jsonl`` says so. The overlay (vector AO at
+half resolution, lens distortion as calibrated) is drawn at every frame's pose, lost ones
+included, so that the video shows what the log says; a lost frame whose predicted pose lies
+inside a part is written without overlay (its ``reason`` says so).
 
 ``poses.jsonl``: one JSON object per frame: ``frame``, ``time_s``, ``R``, ``t``, ``rms_px``,
 ``support``, ``corner_px`` (the four corners' 1-sigma), ``lost`` (bool), ``reason`` (lost only),
@@ -79,7 +79,8 @@ TRACK_OPTIONS = EdgeOptions(search_px=8.0, levels=1, iterations=8, max_samples=8
 # a frame lost with TRACK_OPTIONS, snapped again from its start with a render of its own there and
 # the visible edges found again after 3 px of steps (the twelfth session's schedule): the frame
 # before's render is a frame's motion old, and where much comes into view or goes out of it (the
-# 60-frame `robot_cell` walk, frames 38 and 41) the support it gives falls below LOST_SUPPORT
+# 60-frame `robot_cell` walk, frames 38 and 41) the support it gives falls below LOST_SUPPORT;
+# not after a lost frame (see _track_frame)
 RETRY_OPTIONS = replace(TRACK_OPTIONS, iterations=6, rerender_px=3.0)
 # the first frame: 1500 samples instead of register's 3000 (the generated cell from 15-40 px off,
 # seeds 0-9 at 640x480: 10 of 10 within 1 px, 0.06-0.37 px, 0.70 s per fit median, against
@@ -402,7 +403,9 @@ def _track_frame(previous, scene, camera, photo: _Photo, initial, renderer, edge
                                    frame_options(index), candidates, seed,
                                    pyramid=photo.pyramid)
     times = _fit_times(fit, {})
-    if reason and index > 0 and RETRY_OPTIONS is not None:
+    # not within a lost stretch: there both snaps start from the same coasting prediction (on the
+    # 60-frame `robot_cell` walk sideways, 25 frames of a bare wall, the retries cost a fifth of the run)
+    if reason and index > 0 and not previous[-1].lost and RETRY_OPTIONS is not None:
         pose, fit, reason = snap_frame(scene, camera, photo.grey, start, renderer, edges, RETRY_OPTIONS, candidates,
                                        pyramid=photo.pyramid)
         times = _fit_times(fit, times)
