@@ -71,9 +71,8 @@ LOST_SUPPORT = 0.25
 # `mrcheck bench --track` against a re-render after 3 px and 6 iterations (thirteenth session, 4
 # Dec 2026, four interleaved rounds, a process per run): the `robot_cell` walks +2 to +39 % per
 # pair (median +14 to +24 % per walk), the `overview` walks -9 to +14 % (medians -4 to +6 %), the
-# crates +5 %; over the 144 frames the
-# median error 0.165 -> 0.151 px, the mean 0.242 -> 0.222, frames beyond 1 px 6 -> 3, the worst
-# 1.41 -> 1.49 (docs/edge-registration.md)
+# crates +5 %; over the 144 frames the median error 0.165 -> 0.151 px, the mean 0.242 -> 0.222,
+# frames beyond 1 px 6 -> 3, the worst 1.41 -> 1.49 (docs/edge-registration.md)
 TRACK_OPTIONS = EdgeOptions(search_px=8.0, levels=1, iterations=8, max_samples=800, min_support=0.0, coarse="normal",
                             descent_only=False, rerender_px=math.inf)
 # a frame lost with TRACK_OPTIONS, snapped again from its start with a render of its own there and
