@@ -25,28 +25,35 @@ from mrcheck.scene.model import load_scene
 
 BOX = Path(__file__).parent / "data" / "pose" / "box"
 MEASURED = ("BC", "CD", "FB")
+SIZE = (0.189, 0.258, 0.075)           # box.ply's cuboid, metres
+TALLER = 1.02                          # the diagnosis below: a mesh 2 % taller than box.ply's
 
 
-@pytest.fixture(scope="module")
-def box_fits():
-    scene, camera = load_scene(BOX / "scene.toml"), read_camera(BOX / "canon.json")
-    photo = BOX / "resized_IMG_3875.JPG"
+def _snaps(scene, size) -> tuple:
+    """The photo's outline lines (located around the clicked pose, on the nominal cuboid) and,
+    for four starts 15 px off, ``(start, snapped)`` outline distances of a box ``size``."""
+    camera, photo = read_camera(BOX / "canon.json"), BOX / "resized_IMG_3875.JPG"
     shot = register_photo(photo, camera, points=load_points(BOX / "corners.json"))
     clicked = camera.with_pose(np.array(shot["R"]), np.array(shot["t"]))
     grey = read_photo(photo, grey=True)
-    segments = box_segments((0.189, 0.258, 0.075))
-    lines = [line for line in photo_outline(grey, clicked, segments) if line.name in MEASURED]
-    corners = np.concatenate(list(segments.values()))
+    nominal, segments = box_segments(SIZE), box_segments(size)
+    lines = [line for line in photo_outline(grey, clicked, nominal) if line.name in MEASURED]
+    corners = np.concatenate(list(nominal.values()))
     edges, renderer = scene_edges(scene), Renderer(scene)
     fits = []
     try:
         for seed in (1, 2, 3, 4):
             start = perturbed(clicked, corners, 15.0, np.random.default_rng(seed))
             fit = refine_pose(scene, camera, grey, initial=start, renderer=renderer, edges=edges)
-            fits.append((outline_distances(lines, start, segments), outline_distances(lines, fit.camera, segments)))
+            fits.append((outline_distances(lines, start, nominal), outline_distances(lines, fit.camera, segments)))
     finally:
         renderer.release()
     return lines, fits
+
+
+@pytest.fixture(scope="module")
+def box_fits():
+    return _snaps(load_scene(BOX / "scene.toml"), SIZE)
 
 
 def test_the_outline_reference_is_found_on_the_lit_segments(box_fits):
@@ -65,10 +72,33 @@ def test_the_snap_from_15_px_off_lies_on_the_outline(box_fits):
     exists, but the registration's own robust cost, on the lit edges alone and at every scale
     from 0.3 to 0.8 px, is lower at the pose that keeps the creases AB, AD, AE within 0.2 px and
     leaves FB 2.8 px off: through this nominal (uncalibrated) camera the photo's box is not the
-    mesh's cuboid to better than about 1 px. Before the second session (nearest edge along the
+    mesh's cuboid to better than about 1 px; the next test shows by how much (a mesh 2 % taller
+    meets the target from every start). Before the second session (nearest edge along the
     normal) the snap moved onto the printed border, 4-13 px inside the outline."""
     _, fits = box_fits
     for start, snapped in fits:
         assert max(start.values()) > 7.0          # the start is really off (here 7.0-16.4 px on its worst segment)
         assert snapped["BC"] <= 1.0 and snapped["CD"] <= 1.5, snapped
         assert snapped["FB"] <= 3.0, snapped                  # the level reached; the 1.5 px target is missed
+
+
+def test_a_mesh_two_percent_taller_lies_on_the_outline_from_every_start(tmp_path):
+    """The diagnosis of the miss above (fourteenth session, 6 Dec 2026): the same snap, photo,
+    camera and starts on box.ply stretched in height by 2 % (7.65 cm instead of 7.5, by a
+    part's ``matrix``) put all three segments within 1.5 px from all four starts (measured: BC
+    0.15-0.41, CD 0.18-0.19, FB 0.64-1.07 px). Heights +1.5 % to +3 % gave FB 0.41-1.07 from all
+    four starts (BC and CD within 0.72); +1 %: FB 1.45 from three starts, 2.73 from the fourth;
+    x or y by -1 % to +2 %, or z by -2 %: FB 1.3-3.8; a focal length 0.9-1.1 times the nominal
+    one: no consistent fit (FB 0.7-3.9 by start). So the snap reaches the target when the mesh is
+    the photographed box, and box.ply's nominal sizes are not that box to about 2 % (1.5 mm of
+    height, or the nominal camera's equivalent), which no rigid pose removes. Not a fix: the
+    height is fitted to this very photo, so the test above keeps the shipped mesh."""
+    stretch = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, TALLER, 0], [0, 0, 0, 1]]
+    mesh = (BOX / "box.ply").as_posix()
+    scene_file = tmp_path / "scene.toml"
+    scene_file.write_text(f'format = 1\nname = "box"\n\n[[parts]]\nname = "box"\nmesh = "{mesh}"\nunits = "cm"\n'
+                          f"matrix = {stretch}\n")
+    _, fits = _snaps(load_scene(scene_file), (SIZE[0], SIZE[1], SIZE[2] * TALLER))
+    for start, snapped in fits:
+        assert max(start.values()) > 7.0
+        assert max(snapped.values()) <= 1.5, snapped
