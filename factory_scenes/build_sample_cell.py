@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-if __package__ in (None, ""):            # run as a script: make the factory_scenes package importable
+if __package__ in (None, ""):  # run as a script: make the factory_scenes package importable
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 # the part builders and the writers are shared with the scene generator
@@ -68,22 +68,23 @@ OUT_DIR = Path(__file__).resolve().parent / "sample_cell"
 DEFAULT_PYBULLET_DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "robots" / "pybullet_data"
 ROBOT_DIR = "robots/kuka_iiwa"
 
-SEED = 1234                # carton jitter; fixed so rebuilds are byte-identical
-MAX_TRIANGLES = 200_000    # budget for the whole scene, instances included
+SEED = 1234  # carton jitter; fixed so rebuilds are byte-identical
+MAX_TRIANGLES = 200_000  # budget for the whole scene, instances included
 
 # Layout of the cell, metres (world frame). Shared by several parts, so named once.
 COLUMN_GRID_X = (-9.0, 0.0, 9.0)
-COLUMN_GRID_Y = (-7.0, 7.0)                   # rows close to the slab edges keep views open
+COLUMN_GRID_Y = (-7.0, 7.0)  # rows close to the slab edges keep views open
 COLUMN_HEIGHT = 6.0
-FENCE_RECT = (0.5, -5.0, 5.5, 0.0)            # x0, y0, x1, y1 of the robot cell fence
-FENCE_PITCH = 1.0                             # post spacing
-FENCE_OPENINGS = ((0.5, -2.5), (3.0, -5.0))   # panel midpoints left open: conveyor, door
+FENCE_RECT = (0.5, -5.0, 5.5, 0.0)  # x0, y0, x1, y1 of the robot cell fence
+FENCE_PITCH = 1.0  # post spacing
+FENCE_OPENINGS = ((0.5, -2.5), (3.0, -5.0))  # panel midpoints left open: conveyor, door
 ROBOT_XY = (3.0, -2.5)
-CONVEYOR_START = (-5.8, -2.5)                 # world x, y of the conveyor's upstream end
+CONVEYOR_START = (-5.8, -2.5)  # world x, y of the conveyor's upstream end
 
 # --------------------------------------------------------------------------------------
 # Parts of this cell only (metres); the others come from factory_scenes.generator
 # --------------------------------------------------------------------------------------
+
 
 def floor_slab() -> trimesh.Trimesh:
     """Concrete slab 24 x 16 x 0.2 m, top face at z = 0."""
@@ -98,9 +99,9 @@ def back_wall(length=22.0, height=3.0) -> trimesh.Trimesh:
     """
     hl = length / 2.0
     pieces = [
-        box_between((-hl, 0.0, 0.0), (hl, 0.2, height)),                # wall body
-        box_between((-hl, -0.1, 0.0), (hl, 0.0, 0.4)),                  # plinth step
-        box_between((-hl, -0.06, height), (hl, 0.26, height + 0.06)),   # coping
+        box_between((-hl, 0.0, 0.0), (hl, 0.2, height)),  # wall body
+        box_between((-hl, -0.1, 0.0), (hl, 0.0, 0.4)),  # plinth step
+        box_between((-hl, -0.06, height), (hl, 0.26, height + 0.06)),  # coping
     ]
     for x in np.arange(-hl + 0.15, hl, 0.3):
         pieces.append(box_between((x - 0.03, -0.04, 0.4), (x + 0.03, 0.0, height)))
@@ -117,7 +118,7 @@ def hall_beam(length=18.3) -> trimesh.Trimesh:
 # Scene description
 # --------------------------------------------------------------------------------------
 
-ROBOT_JOINTS = {                   # radians: arm turned towards the conveyor end, elbow up
+ROBOT_JOINTS = {  # radians: arm turned towards the conveyor end, elbow up
     "lbr_iiwa_joint_1": 0.25,
     "lbr_iiwa_joint_2": 0.95,
     "lbr_iiwa_joint_3": 0.2,
@@ -128,20 +129,32 @@ ROBOT_JOINTS = {                   # radians: arm turned towards the conveyor en
 }
 
 VIEWPOINTS = [
-    {   # from the south-west corner, diagonally across the whole cell
+    {  # from the south-west corner, diagonally across the whole cell
         "name": "overview",
-        "eye": [-11.4, -6.2, 1.7], "target": [4.0, -0.5, 0.3], "up": [0.0, 0.0, 1.0],
-        "fov_y_deg": 60.0, "width": 1024, "height": 768,
+        "eye": [-11.4, -6.2, 1.7],
+        "target": [4.0, -0.5, 0.3],
+        "up": [0.0, 0.0, 1.0],
+        "fov_y_deg": 60.0,
+        "width": 1024,
+        "height": 768,
     },
-    {   # outside the fence, looking through the open door at the robot on its pedestal
+    {  # outside the fence, looking through the open door at the robot on its pedestal
         "name": "robot",
-        "eye": [3.4, -6.2, 1.7], "target": [3.0, -2.5, 0.75], "up": [0.0, 0.0, 1.0],
-        "fov_y_deg": 35.0, "width": 1024, "height": 768,
+        "eye": [3.4, -6.2, 1.7],
+        "target": [3.0, -2.5, 0.75],
+        "up": [0.0, 0.0, 1.0],
+        "fov_y_deg": 35.0,
+        "width": 1024,
+        "height": 768,
     },
-    {   # behind the conveyor's upstream end, looking along the rollers into the cell
+    {  # behind the conveyor's upstream end, looking along the rollers into the cell
         "name": "conveyor",
-        "eye": [-7.3, -2.8, 1.7], "target": [2.2, -2.5, 0.8], "up": [0.0, 0.0, 1.0],
-        "fov_y_deg": 60.0, "width": 1024, "height": 768,
+        "eye": [-7.3, -2.8, 1.7],
+        "target": [2.2, -2.5, 0.8],
+        "up": [0.0, 0.0, 1.0],
+        "fov_y_deg": 60.0,
+        "width": 1024,
+        "height": 768,
     },
 ]
 
@@ -157,37 +170,69 @@ def build_parts() -> list[Part]:
     return [
         Part("floor", (0.55, 0.55, 0.52), floor_slab()),
         Part("back_wall", (0.70, 0.70, 0.68), back_wall(), translate=(0.0, 7.4, 0.0)),
-        Part("column", (0.35, 0.42, 0.52), steel_column(),
-             instances=[place(x, y) for y in COLUMN_GRID_Y for x in COLUMN_GRID_X]),
-        Part("hall_beam", (0.35, 0.42, 0.52), hall_beam(),
-             instances=[place(0.0, y, COLUMN_HEIGHT) for y in COLUMN_GRID_Y]),
+        Part(
+            "column",
+            (0.35, 0.42, 0.52),
+            steel_column(),
+            instances=[place(x, y) for y in COLUMN_GRID_Y for x in COLUMN_GRID_X],
+        ),
+        Part(
+            "hall_beam",
+            (0.35, 0.42, 0.52),
+            hall_beam(),
+            instances=[place(0.0, y, COLUMN_HEIGHT) for y in COLUMN_GRID_Y],
+        ),
         Part("conveyor", (0.40, 0.45, 0.50), roller_conveyor(), units="mm", translate=(cx, cy, 0.0)),
-        Part("pallet", (0.55, 0.40, 0.25), eur_pallet(),
-             instances=pallets_full + pallets_partial + pallets_empty),
+        Part("pallet", (0.55, 0.40, 0.25), eur_pallet(), instances=pallets_full + pallets_partial + pallets_empty),
         Part("cartons_full", (0.70, 0.52, 0.33), carton_stack(3, 0, rng), instances=pallets_full),
         Part("cartons_partial", (0.70, 0.52, 0.33), carton_stack(1, 4, rng), instances=pallets_partial),
-        Part("fence_post", (0.90, 0.75, 0.10), fence_post(),
-             instances=[place(float(x), float(y)) for x, y in posts]),
-        Part("fence_panel", (0.90, 0.75, 0.10), fence_panel(),
-             instances=[place(float(m[0]), float(m[1]), 0.0, float(h)) for m, h in panels]),
+        Part("fence_post", (0.90, 0.75, 0.10), fence_post(), instances=[place(float(x), float(y)) for x, y in posts]),
+        Part(
+            "fence_panel",
+            (0.90, 0.75, 0.10),
+            fence_panel(),
+            instances=[place(float(m[0]), float(m[1]), 0.0, float(h)) for m, h in panels],
+        ),
         Part("robot_pedestal", (0.30, 0.30, 0.32), robot_pedestal(), translate=(*ROBOT_XY, 0.0)),
-        Part("robot", (0.95, 0.45, 0.10), path=f"{ROBOT_DIR}/model.urdf",
-             translate=(*ROBOT_XY, PEDESTAL_TOP), rotate_deg=(0.0, 0.0, 180.0), joints=ROBOT_JOINTS),
+        Part(
+            "robot",
+            (0.95, 0.45, 0.10),
+            path=f"{ROBOT_DIR}/model.urdf",
+            translate=(*ROBOT_XY, PEDESTAL_TOP),
+            rotate_deg=(0.0, 0.0, 180.0),
+            joints=ROBOT_JOINTS,
+        ),
         Part("workbench", (0.35, 0.45, 0.40), workbench(), translate=(2.2, 6.9, 0.0)),
-        Part("machine", (0.75, 0.76, 0.78), machining_centre(), translate=(8.2, -2.5, 0.0),
-             rotate_deg=(0.0, 0.0, -90.0)),                  # front towards the cell
-        Part("control_cabinet", (0.78, 0.78, 0.75), control_cabinet(), translate=(6.8, 0.6, 0.0),
-             rotate_deg=(0.0, 0.0, 180.0)),
-        Part("bollard", (0.95, 0.80, 0.05), bollard(), instances=[
-            place(0.2, -5.3), place(5.8, -5.3), place(0.2, 0.3), place(5.8, 0.3),
-            place(-6.3, -3.2), place(-10.2, -6.4),
-        ]),
+        Part(
+            "machine", (0.75, 0.76, 0.78), machining_centre(), translate=(8.2, -2.5, 0.0), rotate_deg=(0.0, 0.0, -90.0)
+        ),  # front towards the cell
+        Part(
+            "control_cabinet",
+            (0.78, 0.78, 0.75),
+            control_cabinet(),
+            translate=(6.8, 0.6, 0.0),
+            rotate_deg=(0.0, 0.0, 180.0),
+        ),
+        Part(
+            "bollard",
+            (0.95, 0.80, 0.05),
+            bollard(),
+            instances=[
+                place(0.2, -5.3),
+                place(5.8, -5.3),
+                place(0.2, 0.3),
+                place(5.8, 0.3),
+                place(-6.3, -3.2),
+                place(-10.2, -6.4),
+            ],
+        ),
     ]
 
 
 # --------------------------------------------------------------------------------------
 # Output
 # --------------------------------------------------------------------------------------
+
 
 def copy_robot(source: Path, dest: Path) -> None:
     """Copy the URDF, its visual meshes (+ their .mtl files) and the licence.
@@ -222,7 +267,6 @@ def urdf_triangles(path: Path, joints: dict) -> int:
         raise ValueError(f"unknown joints in manifest: {sorted(unknown)}")
     urdf.update_cfg(joints)
     return sum(len(urdf.scene.geometry[n].faces) for n in urdf.scene.graph.nodes_geometry)
-
 
 
 def readme_text(rows: list[tuple[str, str, int, int]], total: int) -> str:
@@ -316,8 +360,12 @@ licence; see `robots/kuka_iiwa/SOURCE.md` and `robots/kuka_iiwa/LICENSE.txt`.
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--pybullet-data", type=Path, default=DEFAULT_PYBULLET_DATA,
-                        help="pybullet_data folder to copy the KUKA iiwa from")
+    parser.add_argument(
+        "--pybullet-data",
+        type=Path,
+        default=DEFAULT_PYBULLET_DATA,
+        help="pybullet_data folder to copy the KUKA iiwa from",
+    )
     args = parser.parse_args(argv)
 
     OUT_DIR.mkdir(parents=True, exist_ok=True)
@@ -326,14 +374,13 @@ def main(argv=None) -> None:
     if (args.pybullet_data / "kuka_iiwa" / "model.urdf").is_file():
         copy_robot(args.pybullet_data, robot_dest)
     elif (robot_dest / "model.urdf").is_file():
-        print(f"note: {args.pybullet_data} not found; keeping the robot already in {robot_dest}",
-              file=sys.stderr)
+        print(f"note: {args.pybullet_data} not found; keeping the robot already in {robot_dest}", file=sys.stderr)
     else:
         sys.exit(f"error: no kuka_iiwa/model.urdf under {args.pybullet_data} (use --pybullet-data)")
 
     mesh_dir = OUT_DIR / "meshes"
     if mesh_dir.exists():
-        shutil.rmtree(mesh_dir)            # drop meshes of parts that no longer exist
+        shutil.rmtree(mesh_dir)  # drop meshes of parts that no longer exist
     mesh_dir.mkdir()
 
     parts = build_parts()

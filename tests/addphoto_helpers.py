@@ -20,7 +20,7 @@ from .mr_helpers import _camera, _photo
 
 SIZE = (480, 360)
 TRUTH_EYE, TRUTH_TARGET = np.array([2.6, -6.6, 2.0]), np.array([3.2, -2.4, 0.8])
-VIEW = "view:robot"          # the CAD view clicked on: the sample cell's named viewpoint "robot"
+VIEW = "view:robot"  # the CAD view clicked on: the sample cell's named viewpoint "robot"
 
 
 def truth_camera() -> Camera:

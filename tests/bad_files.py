@@ -46,8 +46,10 @@ def correspondences(cam: Camera) -> dict:
 
 
 def manifest(mesh: str = "box.stl") -> str:
-    return (f'format = 1\n[[parts]]\nname = "box"\nmesh = "{mesh}"\nunits = "m"\n'
-            f'[[viewpoints]]\nname = "v"\neye = [3, 2, 1.5]\ntarget = [0, 0, 0]\nwidth = {W}\nheight = {H}\n')
+    return (
+        f'format = 1\n[[parts]]\nname = "box"\nmesh = "{mesh}"\nunits = "m"\n'
+        f'[[viewpoints]]\nname = "v"\neye = [3, 2, 1.5]\ntarget = [0, 0, 0]\nwidth = {W}\nheight = {H}\n'
+    )
 
 
 def scan_text() -> str:
@@ -63,13 +65,24 @@ def write_workspace(folder: Path, prefix: str = "") -> dict:
     """Every good input, named ``prefix`` + its plain name (``prefix`` may hold surrogate escapes:
     a name that is not valid UTF-8). Returns {role: file name}."""
     cam = camera()
-    names = {role: prefix + plain for role, plain in (
-        ("mesh", "box.stl"), ("manifest", "scene.toml"), ("camera", "cam.json"), ("intrinsics", "intr.json"),
-        ("photo", "photo.png"), ("shot", "shot.json"), ("points", "corr.json"), ("scan", "scan.xyz"),
-        ("job", "job.toml"), ("shots", "shots"))}
+    names = {
+        role: prefix + plain
+        for role, plain in (
+            ("mesh", "box.stl"),
+            ("manifest", "scene.toml"),
+            ("camera", "cam.json"),
+            ("intrinsics", "intr.json"),
+            ("photo", "photo.png"),
+            ("shot", "shot.json"),
+            ("points", "corr.json"),
+            ("scan", "scan.xyz"),
+            ("job", "job.toml"),
+            ("shots", "shots"),
+        )
+    }
     file = lambda role: folder / names[role]  # noqa: E731
     trimesh.creation.box().export(file("mesh"))
-    file("manifest").write_text(manifest())   # TOML is UTF-8: it names the plain box.stl
+    file("manifest").write_text(manifest())  # TOML is UTF-8: it names the plain box.stl
     if prefix:
         trimesh.creation.box().export(folder / "box.stl")
     file("camera").write_text(json.dumps(cam.to_dict()))
@@ -84,8 +97,10 @@ def write_workspace(folder: Path, prefix: str = "") -> dict:
     # the job names plain files (TOML is UTF-8); its shot's SHOT.json names the photo
     if prefix:
         (folder / "shot.json").write_text(json.dumps({**cam.to_dict(), "photo": names["photo"]}))
-    file("job").write_text(f'scene = "box.stl"\nmodes = ["phong"]\nalphas = [0.5]\nwidth = {W}\nsamples = 4\n'
-                           '[[shots]]\nname = "a"\nshot = "shot.json"\n')
+    file("job").write_text(
+        f'scene = "box.stl"\nmodes = ["phong"]\nalphas = [0.5]\nwidth = {W}\nsamples = 4\n'
+        '[[shots]]\nname = "a"\nshot = "shot.json"\n'
+    )
     for i, source in enumerate(CHESS):
         shutil.copyfile(source, folder / f"{prefix}view{i}.jpg")
     names["views"] = [f"{prefix}view{i}.jpg" for i in range(len(CHESS))]
@@ -100,13 +115,49 @@ def command(name: str, n: dict, out: str = "out") -> list:
         "render": ["render", n["mesh"], "--camera", n["camera"], "-o", f"{out}/r.png", "--output-ao", f"{out}/ao.npy"],
         "render-manifest": ["render", n["manifest"], "--view", "v", "--mode", "phong", "-o", f"{out}/r.png"],
         "overlay": ["overlay", n["shot"], "--scene", n["mesh"], "--mode", "phong", "-o", f"{out}/o.png"],
-        "register": ["register", n["mesh"], "--photo", n["photo"], "--intrinsics", n["intrinsics"], "--points",
-                     n["points"], "-o", f"{out}/shot.json"],
+        "register": [
+            "register",
+            n["mesh"],
+            "--photo",
+            n["photo"],
+            "--intrinsics",
+            n["intrinsics"],
+            "--points",
+            n["points"],
+            "-o",
+            f"{out}/shot.json",
+        ],
         "calibrate": ["calibrate", *n["views"], "--board", BOARD, "-o", f"{out}/cam.json"],
-        "reference": ["reference", n["mesh"], "--camera", n["camera"], "--width", "16", "--height", "12", "--rays", "4",
-                      "-o", f"{out}/ref.npy"],
-        "compare": ["compare", n["manifest"], "--view", "v", "--width", "32", "--height", "24", "--rays", "4",
-                    "--samples", "4", "-o", f"{out}/compare"],
+        "reference": [
+            "reference",
+            n["mesh"],
+            "--camera",
+            n["camera"],
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--rays",
+            "4",
+            "-o",
+            f"{out}/ref.npy",
+        ],
+        "compare": [
+            "compare",
+            n["manifest"],
+            "--view",
+            "v",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--rays",
+            "4",
+            "--samples",
+            "4",
+            "-o",
+            f"{out}/compare",
+        ],
         "export": ["export", n["job"], "-o", f"{out}/export"],
         "discrepancies": ["discrepancies", n["shot"], "--scene", n["mesh"], "-o", f"{out}/discrepancies"],
         "deviation": ["deviation", n["scan"], "--scene", n["mesh"], "--shot", n["shot"], "-o", f"{out}/deviation"],
@@ -137,6 +188,7 @@ def no_serving(monkeypatch):
 @pytest.fixture
 def time_limit():
     """A reader blocked on a FIFO (no writer) fails the test after 60 s instead of hanging it."""
+
     def expired(signum, frame):
         raise TimeoutError("blocked for 60 s (reading a FIFO?)")
 

@@ -35,8 +35,10 @@ def scene_of(*meshes, offset=(0.0, 0.0, 0.0), name="test") -> Scene:
     """A scene of trimesh meshes (metres), each a part, all moved by ``offset``."""
     T = np.eye(4)
     T[:3, 3] = offset
-    parts = [make_part(f"part{i}", name, np.asarray(m.vertices, np.float64), np.asarray(m.faces), T)
-             for i, m in enumerate(meshes)]
+    parts = [
+        make_part(f"part{i}", name, np.asarray(m.vertices, np.float64), np.asarray(m.faces), T)
+        for i, m in enumerate(meshes)
+    ]
     return Scene(name, name, parts)
 
 

@@ -76,5 +76,7 @@ def _marker_parts(markers):
         faces = np.concatenate([m.faces + o for m, o in zip(meshes, offsets)])
         return make_part(name, "markers", vertices, faces, np.eye(4), color=color)
 
-    return [part("marker_plates", white, (1.0, 1.0, 1.0)), part("marker_cells", black, (0.0, 0.0, 0.0))], \
-        {"dictionary": DICTIONARY, "markers": entries}
+    return [part("marker_plates", white, (1.0, 1.0, 1.0)), part("marker_cells", black, (0.0, 0.0, 0.0))], {
+        "dictionary": DICTIONARY,
+        "markers": entries,
+    }

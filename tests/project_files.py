@@ -19,8 +19,8 @@ from mrcheck.core.camera import Camera
 from mrcheck.core.output import write_image
 
 W, H = 64, 48
-VIEW = 'eye = [3, 2, 1.5]\ntarget = [0, 0, 0]\nwidth = 64\nheight = 48'
-PHOTO = object()   # as a file's content: a grey photo of the shot's size
+VIEW = "eye = [3, 2, 1.5]\ntarget = [0, 0, 0]\nwidth = 64\nheight = 48"
+PHOTO = object()  # as a file's content: a grey photo of the shot's size
 
 
 class Link:
@@ -37,8 +37,10 @@ def camera() -> Camera:
 
 def manifest(mesh: str = "box.stl", part: str = "", view: str = "") -> str:
     """A manifest of one part ``mesh`` (``part``: more lines of its table) and the viewpoint "v"."""
-    return (f'format = 1\n[[parts]]\nname = "box"\nmesh = "{mesh}"\nunits = "m"\n{part}\n'
-            f'[[viewpoints]]\nname = "v"\n{VIEW}\n{view}\n')
+    return (
+        f'format = 1\n[[parts]]\nname = "box"\nmesh = "{mesh}"\nunits = "m"\n{part}\n'
+        f'[[viewpoints]]\nname = "v"\n{VIEW}\n{view}\n'
+    )
 
 
 def shot(photo: str = "photo.png", **changes) -> dict:
@@ -57,8 +59,12 @@ def correspondences() -> dict:
 
 
 def marker_map() -> dict:
-    return {"dictionary": "DICT_6X6_250", "markers": [
-        {"id": 1, "corners": [[-0.2, -0.51, 0.2], [0.2, -0.51, 0.2], [0.2, -0.51, -0.2], [-0.2, -0.51, -0.2]]}]}
+    return {
+        "dictionary": "DICT_6X6_250",
+        "markers": [
+            {"id": 1, "corners": [[-0.2, -0.51, 0.2], [0.2, -0.51, 0.2], [0.2, -0.51, -0.2], [-0.2, -0.51, -0.2]]}
+        ],
+    }
 
 
 def job(shots: str = '[[shots]]\nname = "s"\nshot = "shot.json"\n', extra: str = "") -> str:
@@ -69,12 +75,22 @@ def make_project() -> None:
     """The project's files in the current folder; ``linkdir`` links to the folder itself,
     ``linkout`` to ``out``, ``alias.json`` to corr.json."""
     trimesh.creation.box().export("box.stl")
-    write_files({
-        "scene.toml": manifest(), "cam.json": camera().to_dict(), "photo.png": PHOTO, "shot.json": shot(),
-        "intr.json": intrinsics(), "corr.json": correspondences(), "markers.json": marker_map(),
-        "job.toml": job(), "shots/s.json": shot("../photo.png"),
-        "linkdir": Link("."), "linkout": Link("out"), "alias.json": Link("corr.json"),
-    })
+    write_files(
+        {
+            "scene.toml": manifest(),
+            "cam.json": camera().to_dict(),
+            "photo.png": PHOTO,
+            "shot.json": shot(),
+            "intr.json": intrinsics(),
+            "corr.json": correspondences(),
+            "markers.json": marker_map(),
+            "job.toml": job(),
+            "shots/s.json": shot("../photo.png"),
+            "linkdir": Link("."),
+            "linkout": Link("out"),
+            "alias.json": Link("corr.json"),
+        }
+    )
     np.savetxt("scan.xyz", trimesh.sample.sample_surface(trimesh.creation.box(), 300, seed=0)[0])
 
 

@@ -14,7 +14,6 @@ import moderngl
 import numpy as np
 import pytest
 
-from .conftest import box, scene_of
 from mrcheck.core.camera import Camera
 from mrcheck.core.errors import MrcheckWarning
 from mrcheck.render.antialias import MSAA_SAMPLES, SAMPLE_OFFSETS, linear_to_srgb, srgb_to_linear
@@ -22,6 +21,8 @@ from mrcheck.render.gbuffer import PALETTE_MAX
 from mrcheck.render.gl import made_current
 from mrcheck.render.renderer import Renderer, RenderSettings
 from mrcheck.scene.model import Scene, load_scene
+
+from .conftest import box, scene_of
 
 COVER = """
 in vec2 in_p;
@@ -42,11 +43,15 @@ def _covered_samples(ctx, x1: float, y1: float) -> np.ndarray:
     n = 8
     target = ctx.texture((n, n), 1, dtype="f4", samples=MSAA_SAMPLES)
     fbo = ctx.framebuffer([target])
-    fill = ctx.program(vertex_shader="#version 450 core\n" + COVER,
-                       fragment_shader="#version 450 core\nout float v; void main() { v = 1.0; }")
-    read = ctx.program(vertex_shader="#version 450 core\nvoid main() { vec2 p = vec2((gl_VertexID << 1) & 2, "
-                       "gl_VertexID & 2); gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0); }",
-                       fragment_shader="#version 450 core\n" + READ)
+    fill = ctx.program(
+        vertex_shader="#version 450 core\n" + COVER,
+        fragment_shader="#version 450 core\nout float v; void main() { v = 1.0; }",
+    )
+    read = ctx.program(
+        vertex_shader="#version 450 core\nvoid main() { vec2 p = vec2((gl_VertexID << 1) & 2, "
+        "gl_VertexID & 2); gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0); }",
+        fragment_shader="#version 450 core\n" + READ,
+    )
     X, Y = x1 / n * 2 - 1, y1 / n * 2 - 1
     vbo = ctx.buffer(np.array([-1, -1, X, -1, X, Y, -1, -1, X, Y, -1, Y], "f4").tobytes())
     out = ctx.texture((n, n), 4, dtype="f4")
@@ -92,25 +97,29 @@ def test_inside_surfaces_the_frame_is_the_one_without_anti_aliasing(sample_cell)
     plain = sample_cell.render(camera, modes, RenderSettings(antialias=False, lod_px=0), want_normals=True)
     smooth = sample_cell.render(camera, modes, RenderSettings(lod_px=0), want_normals=True)
     # a pixel inside a surface: all 16 sub-pixels of a 4x4 supersampled render on one plane
-    fine = sample_cell.render(camera.resized(640, 480), ["phong"], RenderSettings(antialias=False, lod_px=0),
-                              want_normals=True)
+    fine = sample_cell.render(
+        camera.resized(640, 480), ["phong"], RenderSettings(antialias=False, lod_px=0), want_normals=True
+    )
     z = fine.depth.reshape(120, 4, 160, 4).transpose(0, 2, 1, 3).reshape(120, 160, 16)
     n = fine.normals.reshape(120, 4, 160, 4, 3).transpose(0, 2, 1, 3, 4).reshape(120, 160, 16, 3)
-    one_normal = (np.abs(n - n[:, :, :1]).max(axis=(2, 3)) < 2e-3)
+    one_normal = np.abs(n - n[:, :, :1]).max(axis=(2, 3)) < 2e-3
     inside = (z.min(axis=2) > 0) & one_normal & (z.max(axis=2) - z.min(axis=2) < 0.02 * z.min(axis=2))
     # (not the 1x render's normals: its centre sample may hit a grazing sliver the pixel hardly shows)
     assert inside.mean() > 0.3
     unit = [n / np.maximum(np.linalg.norm(n, axis=2, keepdims=True), 1e-9) for n in (smooth.normals, n[:, :, 0])]
-    cos = np.clip((unit[0] * unit[1]).sum(axis=2), -1, 1)   # (the G-buffer's f16 normals are unit to 1e-4)
+    cos = np.clip((unit[0] * unit[1]).sum(axis=2), -1, 1)  # (the G-buffer's f16 normals are unit to 1e-4)
     assert np.degrees(np.arccos(cos[inside])).max() < 0.15
-    centre_on_it = (inside & (np.abs(plain.normals - n[:, :, 0]).max(axis=2) < 2e-3)
-                    & (np.abs(plain.depth - z.mean(axis=2)) < 0.02 * z.min(axis=2)))
+    centre_on_it = (
+        inside
+        & (np.abs(plain.normals - n[:, :, 0]).max(axis=2) < 2e-3)
+        & (np.abs(plain.depth - z.mean(axis=2)) < 0.02 * z.min(axis=2))
+    )
     for mode in modes:
         diff = np.abs(smooth[mode].image.astype(int) - plain[mode].image).max(axis=2)
         # (but for a few pixels where two coplanar parts overlap, whose samples show either; the
         # AO also reads the neighbourhood, whose edge pixels now hold their majority surface)
         assert (diff[centre_on_it] <= (2 if mode == "phong" else 6)).mean() > 0.99, mode
-        assert (diff > 8).mean() > 0.01   # and the edges did change
+        assert (diff > 8).mean() > 0.01  # and the edges did change
 
 
 def test_an_edge_pixel_is_the_mean_of_its_samples_surfaces_in_linear_light(ctx):
@@ -122,8 +131,11 @@ def test_an_edge_pixel_is_the_mean_of_its_samples_surfaces_in_linear_light(ctx):
     resolved one, the case the pass tells apart)."""
     front, behind = box((2.0, 2.0, 0.2), (-1.0, 1.0, 5.1)), box((2.5, 2.0, 0.2), (0.75, 1.0, 6.1))
     base = scene_of(front, behind, name="edges")
-    scene = Scene(base.name, base.source, [replace(base.parts[0], color=(0.8, 0.1, 0.1)),
-                                           replace(base.parts[1], color=(0.1, 0.2, 0.8))])
+    scene = Scene(
+        base.name,
+        base.source,
+        [replace(base.parts[0], color=(0.8, 0.1, 0.1)), replace(base.parts[1], color=(0.1, 0.2, 0.8))],
+    )
     # camera at the origin looking down +z: the boxes' sides x = 0 and tops y = 0 are seen edge-on
     # and project onto the centres of column 16 and row 12
     camera = Camera(32, 24, np.array([[50.0, 0.0, 16.0], [0.0, 50.0, 12.0], [0.0, 0.0, 1.0]]))
@@ -135,14 +147,14 @@ def test_an_edge_pixel_is_the_mean_of_its_samples_surfaces_in_linear_light(ctx):
     linear = srgb_to_linear(image)
     colour = {"background": linear[8, 16], "red": linear[15, 13], "blue": linear[15, 19]}
 
-    def side(dx, dy, v, u):   # the surface a sample of pixel (v, u) sees
+    def side(dx, dy, v, u):  # the surface a sample of pixel (v, u) sees
         y, x = v + dy - 12.0, u + dx - 16.0
         return "background" if y < 0 else ("red" if x < 0 else "blue")
 
     for v, u in ((16, 16), (12, 10), (12, 16)):
         expected = np.mean([colour[side(dx, dy, v, u)] for dx, dy in SAMPLE_OFFSETS], axis=0)
         assert np.abs(image[v, u].astype(int) - linear_to_srgb(expected)).max() <= 3, (v, u)
-    assert len({side(dx, dy, 12, 16) for dx, dy in SAMPLE_OFFSETS}) == 3   # the corner has all three
+    assert len({side(dx, dy, 12, 16) for dx, dy in SAMPLE_OFFSETS}) == 3  # the corner has all three
 
 
 def test_back_faces_stay_back_faces_through_the_packing(ctx):

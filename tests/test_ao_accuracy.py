@@ -29,16 +29,24 @@ from mrcheck.render.renderer import Renderer, RenderSettings
 from .conftest import box, scene_of
 
 W, H = 128, 96
-RADIUS_PX = 0.1 * H      # large enough for a wide band to measure at this small size
-RAYS = 256               # reference: 256 and 1024 rays agree within 0.01 (test_reference.py)
+RADIUS_PX = 0.1 * H  # large enough for a wide band to measure at this small size
+RAYS = 256  # reference: 256 and 1024 rays agree within 0.01 (test_reference.py)
 
 
 def _render(ctx, scene, camera, **settings):
     """Unblurred vector AO at full detail, with the depth and normals of the same frame."""
     # intensity 1: the estimator's own strength, unbiased on these simple scenes (the vector
     # mode's default of 1.25 matches the reference on the shipped scenes: tests/test_light_tone.py)
-    settings = RenderSettings(**{"blur": False, "samples": 64, "radius_px": RADIUS_PX,
-                                 "lod_px": REFERENCE_LOD_PX, "intensity": 1.0, **settings})
+    settings = RenderSettings(
+        **{
+            "blur": False,
+            "samples": 64,
+            "radius_px": RADIUS_PX,
+            "lod_px": REFERENCE_LOD_PX,
+            "intensity": 1.0,
+            **settings,
+        }
+    )
     renderer = Renderer(scene, ctx=ctx)
     try:
         frame = renderer.render(camera, ["vector"], settings, want_ao=True, want_normals=True)
@@ -76,15 +84,20 @@ def _world_points(camera, depth):
 
 # -- scenes: a large floor (top at z = 0) and something standing on it -------------------------
 
+
 def _box_on_floor():
-    return (scene_of(box((20, 20, 0.2), (0, 0, -0.1)), box((1, 1, 1), (0, 0, 0.5))),
-            Camera.from_look_at((0, -3, 2.5), (0, 0, 0.3), (0, 0, 1), 60, W, H))
+    return (
+        scene_of(box((20, 20, 0.2), (0, 0, -0.1)), box((1, 1, 1), (0, 0, 0.5))),
+        Camera.from_look_at((0, -3, 2.5), (0, 0, 0.3), (0, 0, 1), 60, W, H),
+    )
 
 
 def _crease():
     # floor meeting a wall at y = 6: a 90-degree crease along x
-    return (scene_of(box((30, 12, 0.2), (0, 0, -0.1)), box((30, 0.2, 10), (0, 6.1, 5))),
-            Camera.from_look_at((0, 3, 1.5), (0, 6, 0.5), (0, 0, 1), 60, W, H))
+    return (
+        scene_of(box((30, 12, 0.2), (0, 0, -0.1)), box((30, 0.2, 10), (0, 6.1, 5))),
+        Camera.from_look_at((0, 3, 1.5), (0, 6, 0.5), (0, 0, 1), 60, W, H),
+    )
 
 
 def _stairs():
@@ -92,8 +105,10 @@ def _stairs():
     # edge at the other within the radius (about 0.25 m here), so samples fall on both sides
     # of the tangent plane
     steps = [box((6, 0.3, 0.2 * (k + 1)), (0, 0.3 * k + 0.15, 0.1 * (k + 1))) for k in range(8)]
-    return (scene_of(box((20, 20, 0.2), (0, 0, -0.1)), *steps),
-            Camera.from_look_at((0, -2, 2), (0, 1, 0.6), (0, 0, 1), 60, W, H))
+    return (
+        scene_of(box((20, 20, 0.2), (0, 0, -0.1)), *steps),
+        Camera.from_look_at((0, -2, 2), (0, 1, 0.6), (0, 0, 1), 60, W, H),
+    )
 
 
 SCENES = {"box on floor": _box_on_floor, "crease": _crease, "stairs": _stairs}
@@ -106,8 +121,12 @@ SCENES = {"box on floor": _box_on_floor, "crease": _crease, "stairs": _stairs}
 # 0.183; no factor 2 0.047 / 0.072 / 0.108; attenuation (|v|/r)^4 instead of ^2: box 0.041, and
 # 0.037 at c = 4; |v|/r instead of (|v|/r)^2: stairs 0.062 at c = 4.
 MAE_LIMITS = {
-    ("box on floor", 1.0): 0.036, ("crease", 1.0): 0.055, ("stairs", 1.0): 0.063,
-    ("box on floor", 4.0): 0.030, ("crease", 4.0): 0.035, ("stairs", 4.0): 0.050,
+    ("box on floor", 1.0): 0.036,
+    ("crease", 1.0): 0.055,
+    ("stairs", 1.0): 0.063,
+    ("box on floor", 4.0): 0.030,
+    ("crease", 4.0): 0.035,
+    ("stairs", 4.0): 0.050,
 }
 # darkening ratio vector / reference over the three scenes, seeds 0..5:
 #   c = 1: 0.967-1.093 (seed 0: 0.983, 0.994, 1.025); c = 4: 0.866-1.012 (seed 0: 0.885, 0.902, 0.868)
@@ -138,7 +157,7 @@ def test_vector_ao_matches_the_ray_traced_reference(ctx, name, falloff, record_p
     ref = reference_ao(scene, camera, depth, normals, RAYS, "screen", RADIUS_PX, falloff=falloff, seed=1)
     covered = depth > 0
     assert covered.mean() > 0.8
-    assert ((ref < 0.9) & covered).sum() > 150          # there is occlusion to compare
+    assert ((ref < 0.9) & covered).sum() > 150  # there is occlusion to compare
     mae, ratio = _compare(ao, ref, depth)
     record_property("mae", mae)
     record_property("ratio", ratio)
@@ -155,7 +174,7 @@ def _shelf(with_floor):
     background (below it) within the sampling radius."""
     parts = [box((6, 0.2, 0.05), (0, 5.9, 0.975)), box((6, 0.2, 3), (0, 6.1, 2.5))]
     if with_floor:
-        parts.append(box((30, 30, 0.2), (0, 5, 0.5)))   # top at z = 0.6
+        parts.append(box((30, 30, 0.2), (0, 5, 0.5)))  # top at z = 0.6
     return scene_of(*parts), Camera.from_look_at((0, 4, 2.2), (0, 5.8, 0.8), (0, 0, 1), 60, W, H)
 
 
@@ -178,20 +197,23 @@ def test_geometry_below_the_tangent_plane_changes_no_ao(ctx):
         X = _world_points(camera, depth)
         up = (normals.astype(np.float64) @ camera.R)[..., 2]
         top = (depth > 0) & (np.abs(X[..., 2] - 1.0) < 1e-3) & (up > 0.99) & (np.abs(X[..., 0]) < 2.5)
-        ref = reference_ao(scene, camera, np.where(top, depth, 0).astype(np.float32), normals, 64, "screen",
-                           RADIUS_PX, seed=1)
+        ref = reference_ao(
+            scene, camera, np.where(top, depth, 0).astype(np.float32), normals, 64, "screen", RADIUS_PX, seed=1
+        )
         results.append((top, ao, ref, depth))
     (top, ao0, ref0, depth0), (top1, ao1, ref1, depth1) = results
     assert np.array_equal(top, top1) and top.sum() > 300
     # the premises: the wall occludes the shelf, and the floor is seen right past its front edge
     assert np.median(ao0[top]) < 0.9 and ao0[top].min() < 0.6
     floor = (depth1 > 0) & (depth0 == 0)
-    reach = int(RADIUS_PX)                                  # floor pixels a shelf sample can land on
+    reach = int(RADIUS_PX)  # floor pixels a shelf sample can land on
     near_edge = cv2.dilate(top.astype(np.uint8), np.ones((2 * reach + 1, 2 * reach + 1), np.uint8)) > 0
     print(f"floor pixels within the radius of the shelf: {(floor & near_edge).sum()}")
     assert floor.sum() > 1000 and (floor & near_edge).sum() > 200
-    print(f"shelf: {top.sum()} pixels, max |AO difference| {np.abs(ao1 - ao0)[top].max():.4f}, "
-          f"reference {np.abs(ref1 - ref0)[top].max():.4f}")
+    print(
+        f"shelf: {top.sum()} pixels, max |AO difference| {np.abs(ao1 - ao0)[top].max():.4f}, "
+        f"reference {np.abs(ref1 - ref0)[top].max():.4f}"
+    )
     assert np.array_equal(ref0[top], ref1[top])
     assert np.abs(ao1 - ao0)[top].max() < 1e-5
 
@@ -220,7 +242,7 @@ def test_anisotropic_pixels_give_the_same_ao(ctx, name):
     wide = _stretched(camera)
     ao, depth, _ = _render(ctx, scene, camera)
     ao_w, depth_w, _ = _render(ctx, scene, wide)
-    pairs = ao_w.reshape(H, W, 2).mean(axis=2)              # back on the square-pixel grid
+    pairs = ao_w.reshape(H, W, 2).mean(axis=2)  # back on the square-pixel grid
     covered = (depth > 0) & (depth_w.reshape(H, W, 2) > 0).all(axis=2)
     assert covered.mean() > 0.8 and ((ao < 0.9) & covered).sum() > 150
     ratio = float((1.0 - pairs[covered]).sum() / (1.0 - ao[covered]).sum())
@@ -233,8 +255,10 @@ def test_anisotropic_pixels_give_the_same_ao(ctx, name):
 
 def _distant_box_on_floor():
     # a 1.5 m box on a 14 m floor, seen from 11 m away, above and in front: depths 9-16 m
-    return (scene_of(box((14, 14, 0.2), (0, 0, -0.1)), box((1.5, 1.5, 1.5), (0, 0, 0.75))),
-            Camera.from_look_at((0, -7, 9), (0, 0, 0.5), (0, 0, 1), 40, W, H))
+    return (
+        scene_of(box((14, 14, 0.2), (0, 0, -0.1)), box((1.5, 1.5, 1.5), (0, 0, 0.75))),
+        Camera.from_look_at((0, -7, 9), (0, 0, 0.5), (0, 0, 1), 40, W, H),
+    )
 
 
 def test_min_world_radius_grows_the_ao_to_the_world_reference(ctx):
@@ -255,11 +279,11 @@ def test_min_world_radius_grows_the_ao_to_the_world_reference(ctx):
     grow = float((1.0 - clamped[covered]).sum() / max((1.0 - ao[covered]).sum(), 1e-9))
     ref = reference_ao(scene, camera, depth, normals, RAYS, "world", minimum, seed=1)
     mae, ratio = _compare(clamped, ref, depth)
-    natural = radius_px * depth[covered] / camera.fy         # the unclamped world radius per pixel
+    natural = radius_px * depth[covered] / camera.fy  # the unclamped world radius per pixel
     print(f"natural r_S {natural.min():.3f}-{natural.max():.3f} m, coverage {covered.mean():.2f}")
     print(f"min world radius: darkening x{grow:.2f}, against the world reference: MAE {mae:.4f}, ratio {ratio:.3f}")
     assert covered.mean() > 0.8
-    assert natural.max() < 0.5 * minimum                   # the clamp bites everywhere
+    assert natural.max() < 0.5 * minimum  # the clamp bites everywhere
     assert grow > 2.0
     assert 0.7 < ratio < 1.3
     assert mae < 0.05

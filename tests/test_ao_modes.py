@@ -38,14 +38,15 @@ def test_sample_scene_ao_contract(sample, mode, scale):
     ao, depth = result.ao, frame.depth
     assert ao.shape == (H, W) and ao.dtype == np.float32 and np.isfinite(ao).all()
     assert ao.min() >= 0.0 and ao.max() <= 1.0
-    assert (ao[depth <= 0] == 1.0).all()          # background unoccluded
-    assert ao[depth > 0].mean() < 0.999           # some occlusion somewhere in the cell
+    assert (ao[depth <= 0] == 1.0).all()  # background unoccluded
+    assert ao[depth > 0].mean() < 0.999  # some occlusion somewhere in the cell
     assert result.image.shape == (H, W, 3)
 
 
 def _floor():
-    return scene_of(box((400, 400, 0.2), (0, 150, -0.1))), \
-        Camera.from_look_at((0, 0, 1.7), (0, 8, 0), (0, 0, 1), 60, 320, 240)
+    return scene_of(box((400, 400, 0.2), (0, 150, -0.1))), Camera.from_look_at(
+        (0, 0, 1.7), (0, 8, 0), (0, 0, 1), 60, 320, 240
+    )
 
 
 def _frontal():
@@ -60,12 +61,18 @@ def test_flat_plane(ctx, mode, record_property):
     front_scene, front_camera = _frontal()
     front = render_ao(ctx, front_scene, front_camera, mode, samples=16)
     front_half = render_ao(ctx, front_scene, front_camera, mode, samples=16, ao_scale=0.5)
-    for name, value in (("floor_min", floor.min()), ("floor_mean", floor.mean()),
-                        ("frontal_min", front.min()), ("frontal_mean", front.mean()),
-                        ("frontal_half_mean", front_half.mean())):
+    for name, value in (
+        ("floor_min", floor.min()),
+        ("floor_mean", floor.mean()),
+        ("frontal_min", front.min()),
+        ("frontal_mean", front.mean()),
+        ("frontal_half_mean", front_half.mean()),
+    ):
         record_property(f"{mode}_{name}", float(value))
-    print(f"{mode} flat plane: floor min {floor.min():.3f} mean {floor.mean():.3f}, "
-          f"frontal min {front.min():.3f} mean {front.mean():.3f}, half res mean {front_half.mean():.3f}")
+    print(
+        f"{mode} flat plane: floor min {floor.min():.3f} mean {floor.mean():.3f}, "
+        f"frontal min {front.min():.3f} mean {front.mean():.3f}, half res mean {front_half.mean():.3f}"
+    )
     if mode == "crytek":
         # the known artefact: half of the sphere lies behind any plane (antipodal kernel pairs)
         assert front.mean() == pytest.approx(0.5, abs=0.02)
@@ -87,7 +94,7 @@ def test_crease_is_darker_than_open_floor(ctx, mode, record_property):
     ao = render_ao(ctx, _corner_scene(), camera, mode, samples=36, radius_px=12, radius_world=0.5)
     crease = camera.project(np.array([[x, 6.0, 0.0] for x in np.linspace(-2, 2, 9)]))
     row = int(round(crease[:, 1].mean()))
-    band = ao[row - 3: row + 4, 80:240].min(axis=0).mean()     # darkest across the crease
+    band = ao[row - 3 : row + 4, 80:240].min(axis=0).mean()  # darkest across the crease
     open_floor = ao[230:, 80:240].mean()
     record_property(f"{mode}_crease", float(band))
     record_property(f"{mode}_open_floor", float(open_floor))
@@ -98,8 +105,13 @@ def test_crease_is_darker_than_open_floor(ctx, mode, record_property):
 @pytest.mark.parametrize("mode", AO_MODES)
 def test_translation_by_a_million_metres_changes_nothing(ctx, mode):
     def cell(offset):
-        return scene_of(box((12, 12, 0.2), (0, 0, -0.1)), box((12, 0.3, 4), (0, 4, 2)),
-                        box((1.2, 0.8, 1.0), (-1, 2, 0.5)), box((0.5, 2.0, 2.5), (2.0, 1.5, 1.25)), offset=offset)
+        return scene_of(
+            box((12, 12, 0.2), (0, 0, -0.1)),
+            box((12, 0.3, 4), (0, 4, 2)),
+            box((1.2, 0.8, 1.0), (-1, 2, 0.5)),
+            box((0.5, 2.0, 2.5), (2.0, 1.5, 1.25)),
+            offset=offset,
+        )
 
     def camera(offset):
         o = np.asarray(offset)
@@ -125,7 +137,7 @@ def test_half_resolution_coverage_follows_the_geometry(sample, ctx):
         fresh_renderer.release()
     for mode in ("vector", "ssao"):
         np.testing.assert_array_equal(after[mode].ao, fresh[mode].ao)
-        assert (after[mode].ao < 0.9).mean() > 0.01     # AO was computed, not skipped
+        assert (after[mode].ao < 0.9).mean() > 0.01  # AO was computed, not skipped
 
 
 def test_a_new_image_size_frees_the_old_render_targets():

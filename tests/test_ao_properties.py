@@ -41,8 +41,10 @@ def test_flat_plane_is_unoccluded_in_vector_mode_and_ssao_is_reported(ctx, recor
     record_property("ssao_plane_min", float(ssao[plane].min()))
     record_property("ssao_plane_mean", float(ssao[plane].mean()))
     record_property("ssao_plane_share_below_0.99", float((ssao[plane] < 0.99).mean()))
-    print(f"ssao on a flat floor: min {ssao[plane].min():.3f}, mean {ssao[plane].mean():.4f}, "
-          f"{(ssao[plane] < 0.99).mean():.1%} of pixels below 0.99")
+    print(
+        f"ssao on a flat floor: min {ssao[plane].min():.3f}, mean {ssao[plane].mean():.4f}, "
+        f"{(ssao[plane] < 0.99).mean():.1%} of pixels below 0.99"
+    )
 
 
 # sample counts: the sample loop is unrolled by the binary digits of the count up to 128
@@ -67,10 +69,10 @@ def test_concave_corner_is_clearly_occluded(ctx, samples):
     # the crease line projected from the world, and the AO across it in the middle half
     crease = camera.project(np.array([[x, 6.0, 0.0] for x in np.linspace(-2, 2, 9)]))
     row = int(round(crease[:, 1].mean()))
-    band = ao[row - 3: row + 4, W // 4: 3 * W // 4]
-    assert band.min(axis=0).mean() < 0.6     # darkest across the crease, column by column
+    band = ao[row - 3 : row + 4, W // 4 : 3 * W // 4]
+    assert band.min(axis=0).mean() < 0.6  # darkest across the crease, column by column
     assert band.mean() < 0.85
-    assert ao[H - 10:, W // 4: 3 * W // 4].min() >= 0.999   # open floor near the camera
+    assert ao[H - 10 :, W // 4 : 3 * W // 4].min() >= 0.999  # open floor near the camera
 
 
 def _band_width_px(ao, depth, wall_depth):
@@ -89,8 +91,10 @@ def bands_at_2_and_200_m(ctx, mode, **settings):
     widths, totals = {}, {}
     for distance in (2.0, 200.0):
         s = distance / 2.0
-        scene = scene_of(box((20 * s, 0.1 * s, 20 * s), (0, distance + 0.05 * s, 0)),
-                         box((0.6 * s, 0.1 * s, 0.6 * s), (0, distance - 0.05 * s, 0)))
+        scene = scene_of(
+            box((20 * s, 0.1 * s, 20 * s), (0, distance + 0.05 * s, 0)),
+            box((0.6 * s, 0.1 * s, 0.6 * s), (0, distance - 0.05 * s, 0)),
+        )
         ao = render_ao(ctx, scene, camera, mode, samples=64, **settings)
         widths[distance], totals[distance] = _band_width_px(ao, render_depth(ctx, scene, camera), distance)
     return widths, totals
@@ -152,7 +156,7 @@ def test_distance_retention_vector_keeps_ao_far_away_ssao_loses_it(ctx, record_p
     # screen-space method sees a crease at all.) The ssao radius equals the vector one at 5 m.
     camera, scene, slabs, near_mask, far_mask = blocks_at_5_and_100_m(ctx)
     radius_px = DEFAULT_RADIUS_FRACTION * camera.height  # the default screen radius
-    radius_world = radius_px * 5.0 / camera.fy    # ssao: the same radius at 5 m
+    radius_world = radius_px * 5.0 / camera.fy  # ssao: the same radius at 5 m
     ratios = {}
     for mode in ("vector", "ssao"):
         settings = dict(samples=36, radius_px=radius_px, radius_world=radius_world)

@@ -51,7 +51,7 @@ def test_projected_sampling_radius_is_constant_with_depth(ctx, mode):
     # a band to measure at 2 m (narrower than vector's: a horizon's elevation falls off with
     # distance from the step, and the steps are denser near the pixel)
     assert widths[2.0] > 1.0 and totals[2.0] > 10.0
-    if mode.endswith("clamped"):   # the world clamp turns it into a world radius, as vector's
+    if mode.endswith("clamped"):  # the world clamp turns it into a world radius, as vector's
         assert totals[200.0] < 0.05 * totals[2.0]
     else:
         assert widths[200.0] == pytest.approx(widths[2.0], rel=0.05)

@@ -44,8 +44,8 @@ MODULES = dict(_modules())
 
 
 def _module_name(path: str) -> str:
-    name = path[:-len(".py")].replace("/", ".")
-    return name[:-len(".__init__")] if name.endswith(".__init__") else name
+    name = path[: -len(".py")].replace("/", ".")
+    return name[: -len(".__init__")] if name.endswith(".__init__") else name
 
 
 def _private(name: str) -> bool:
@@ -64,11 +64,18 @@ def _defined_private(tree: ast.AST) -> set:
                 for leaf in ast.walk(target):
                     if isinstance(leaf, ast.Name):
                         names.add(leaf.id)
-                    elif isinstance(leaf, ast.Attribute) and isinstance(leaf.value, ast.Name) and leaf.value.id == "self":
+                    elif (
+                        isinstance(leaf, ast.Attribute) and isinstance(leaf.value, ast.Name) and leaf.value.id == "self"
+                    ):
                         names.add(leaf.attr)
-        elif isinstance(node, ast.Call) and getattr(node.func, "attr", "") == "__setattr__" and node.args[1:] \
-                and isinstance(node.args[1], ast.Constant) and isinstance(node.args[1].value, str):
-            names.add(node.args[1].value)   # object.__setattr__(self, "_charuco", ...) of a frozen dataclass
+        elif (
+            isinstance(node, ast.Call)
+            and getattr(node.func, "attr", "") == "__setattr__"
+            and node.args[1:]
+            and isinstance(node.args[1], ast.Constant)
+            and isinstance(node.args[1].value, str)
+        ):
+            names.add(node.args[1].value)  # object.__setattr__(self, "_charuco", ...) of a frozen dataclass
     return {name for name in names if _private(name)}
 
 
@@ -137,15 +144,22 @@ def test_no_module_uses_another_modules_private_names():
 
 
 def test_nothing_below_the_command_line_prints():
-    found = set().union(*(_printing(path, tree) for path, tree in MODULES.items()
-                          if path.startswith("mrcheck/") and not path.startswith("mrcheck/cli/")))
+    found = set().union(
+        *(
+            _printing(path, tree)
+            for path, tree in MODULES.items()
+            if path.startswith("mrcheck/") and not path.startswith("mrcheck/cli/")
+        )
+    )
     _compare(found, KNOWN_PRINTING, "printing below mrcheck/cli/")
 
 
 def test_the_checks_see_what_they_look_for():
     """Not vacuous: each check finds its offence in a module written to break it."""
-    bad = ast.parse("from mrcheck.render.renderer import _helper\nimport click\n"
-                    "def f(r):\n    r._timed()\n    click.echo('x')\n    print('y')\n")
+    bad = ast.parse(
+        "from mrcheck.render.renderer import _helper\nimport click\n"
+        "def f(r):\n    r._timed()\n    click.echo('x')\n    print('y')\n"
+    )
     DEFINED["x.py"] = set()
     try:
         assert _private_uses("x.py", bad) == {("x.py", "_helper"), ("x.py", "_timed")}

@@ -21,8 +21,8 @@ from mrcheck.scene.asbuilt import KINDS, make_asbuilt
 from mrcheck.scene.model import load_scene
 
 SAMPLE = sample_scene_path()
-TOL = 1e-6          # of values the variant computes (written with 9 decimals)
-EXACT = 1e-9        # of values it copies
+TOL = 1e-6  # of values the variant computes (written with 9 decimals)
+EXACT = 1e-9  # of values it copies
 
 
 # -- the check of a variant against its plan -----------------------------------------------------
@@ -73,10 +73,10 @@ def check_variant(planned_path, outdir) -> dict:
             assert d["id"] not in before and mag is None and d["unit"] is None
             template_part, T0, box0 = before[d["detail"]["template"]]
             assert part.name == d["part"] == template_part.name
-            assert np.allclose(T[:3, :3], T0[:3, :3], atol=EXACT)            # a copy, shifted horizontally
+            assert np.allclose(T[:3, :3], T0[:3, :3], atol=EXACT)  # a copy, shifted horizontally
             assert abs(T[2, 3] - T0[2, 3]) < EXACT
             assert np.allclose(_base(box), d["detail"]["position"], atol=TOL)
-            assert abs(box[0, 2] - box0[0, 2]) < TOL                          # on the floor like its template
+            assert abs(box[0, 2] - box0[0, 2]) < TOL  # on the floor like its template
             continue
         old_part, T0, box0 = before[d["id"]]
         assert d["part"] == old_part.name
@@ -90,7 +90,7 @@ def check_variant(planned_path, outdir) -> dict:
         elif kind == "rotated":
             turn = T[:3, :3] @ np.linalg.inv(T0[:3, :3])
             angle = np.degrees(np.arctan2(turn[1, 0], turn[0, 0]))
-            assert np.allclose(turn, _rz(angle), atol=TOL)                     # about the vertical axis
+            assert np.allclose(turn, _rz(angle), atol=TOL)  # about the vertical axis
             assert abs(angle - d["detail"]["angle_deg"]) < TOL and abs(abs(angle) - mag) < TOL
             assert d["unit"] == "deg" and 5.0 <= mag <= 90.0
             assert np.allclose(T, _about(d["detail"]["pivot"], _rz(angle)) @ T0, atol=TOL)
@@ -98,9 +98,9 @@ def check_variant(planned_path, outdir) -> dict:
         elif kind == "replaced":
             assert d["unit"] is None and 0.7 <= mag <= 1.4 and abs(mag - 1.0) >= 0.1 - EXACT
             assert np.allclose(T, _about(d["detail"]["pivot"], mag * np.eye(3)) @ T0, atol=TOL)
-            assert np.allclose(_base(box), d["detail"]["pivot"], atol=TOL)   # scaled about its base
+            assert np.allclose(_base(box), d["detail"]["pivot"], atol=TOL)  # scaled about its base
             assert part.name == d["detail"]["new_part"] != old_part.name
-            assert np.array_equal(part.vertices, old_part.vertices)          # same mesh, other size
+            assert np.array_equal(part.vertices, old_part.vertices)  # same mesh, other size
     for iid, (part, T0, _) in before.items():
         if iid not in listed:
             new_part, T, _ = after[iid]
@@ -209,7 +209,7 @@ def test_other_seeds_match_the_geometry_and_put_nothing_into_anything(tmp_path, 
             continue
         box = built[d["id"]][2]
         assert np.all(box[0, :2] >= floor[0, :2]) and np.all(box[1, :2] <= floor[1, :2])  # on the slab
-        assert abs(box[0, 2]) < 1e-6                                                      # standing on it
+        assert abs(box[0, 2]) < 1e-6  # standing on it
         hits = [i for i, (_, _, other) in built.items() if i != d["id"] and _overlap(box, other)]
         assert hits == [], f"{d['id']} {d['kind']} into {hits}"
     assert set(planned) - {d["id"] for d in report["discrepancies"]} <= set(built) | {"floor"}
@@ -245,13 +245,19 @@ def test_small_manifest_in_mm_and_matrix_instances(tmp_path):
         assert {e["part"] for e in report["excluded_parts"]} == {"ground", "north_wall"}
         assert len(report["discrepancies"]) == 5 and {d["kind"] for d in report["discrepancies"]} == set(KINDS)
     # across the seeds, the matrix instances and the mm part have been changed as well
-    changed = {d["id"] for s in range(4) for d in json.loads((tmp_path / f"v{s}" / "discrepancies.json").read_text())["discrepancies"]}
+    changed = {
+        d["id"]
+        for s in range(4)
+        for d in json.loads((tmp_path / f"v{s}" / "discrepancies.json").read_text())["discrepancies"]
+    }
     assert changed & {"rack-A", "rack-B", "machine"}
 
 
 def test_companion_files_and_meshes_outside_the_scene_folder_are_copied(tmp_path):
     plan = tmp_path / "plan"
-    planned = small_scene(plan, extra="""
+    planned = small_scene(
+        plan,
+        extra="""
 [[parts]]
 name = "shared_bin"
 mesh = "../shared/bin.gltf"
@@ -263,7 +269,8 @@ name = "lamp"
 mesh = "meshes/lamp.obj"
 units = "m"
 translate = [8.0, -8.0, 0.0]
-""")
+""",
+    )
     box_file(tmp_path / "shared" / "bin.gltf", (0.5, 0.5, 0.5))  # glTF with external .bin buffers
     (plan / "meshes" / "lamp.obj").write_text("mtllib lamp.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\n")
     (plan / "meshes" / "lamp.mtl").write_text("newmtl a\nKd 1 1 1\nmap_Kd textures/lamp.png\n")
@@ -273,7 +280,11 @@ translate = [8.0, -8.0, 0.0]
     make_asbuilt(planned, out, seed=3)
     # the scene's own files keep their paths; the outside one goes to external/1/ with its buffers
     assert (out / "meshes" / "textures" / "lamp.png").is_file()
-    assert sorted(p.name for p in (out / "external" / "1").iterdir()) == ["bin.gltf", "gltf_buffer_0.bin", "gltf_buffer_1.bin"]
+    assert sorted(p.name for p in (out / "external" / "1").iterdir()) == [
+        "bin.gltf",
+        "gltf_buffer_0.bin",
+        "gltf_buffer_1.bin",
+    ]
     assert 'mesh = "external/1/bin.gltf"' in (out / "scene.toml").read_text()
     check_variant(planned, out)
     away = tmp_path / "away"
@@ -292,9 +303,11 @@ def test_absolute_mesh_paths_go_to_numbered_external_folders_with_their_package_
     package = tmp_path / "data" / "robot_pkg"
     urdf = robots.copy_robot("kuka_iiwa", package)
     (urdf.parent / "LICENSE.txt").rename(package / "LICENSE.txt")
-    (package / "README.md").write_text("about the whole package")      # not a licence: stays behind
+    (package / "README.md").write_text("about the whole package")  # not a licence: stays behind
     box_file(tmp_path / "elsewhere" / "bin.glb", (0.5, 0.5, 0.5))
-    planned = small_scene(tmp_path / "plan", extra=f"""
+    planned = small_scene(
+        tmp_path / "plan",
+        extra=f"""
 [[parts]]
 name = "arm"
 mesh = "{urdf}"
@@ -303,15 +316,18 @@ translate = [-7.0, 7.0, 0.0]
 
 [[parts]]
 name = "bin"
-mesh = "{tmp_path / 'elsewhere' / 'bin.glb'}"
+mesh = "{tmp_path / "elsewhere" / "bin.glb"}"
 units = "m"
 translate = [-8.0, -8.0, 0.0]
-""")
+""",
+    )
     out = tmp_path / "out"
     make_asbuilt(planned, out, seed=1)
     text = (out / "scene.toml").read_text()
     assert 'mesh = "external/1/kuka_iiwa/robot.urdf"' in text and 'mesh = "external/2/bin.glb"' in text
-    assert (out / "external" / "1" / "LICENSE.txt").is_file() and (out / "external" / "1" / "kuka_iiwa" / "SOURCE.md").is_file()
+    assert (out / "external" / "1" / "LICENSE.txt").is_file() and (
+        out / "external" / "1" / "kuka_iiwa" / "SOURCE.md"
+    ).is_file()
     assert not (out / "external" / "1" / "README.md").exists()
     assert sorted(p.name for p in out.iterdir()) == ["discrepancies.json", "external", "meshes", "scene.toml"]
     check_variant(planned, out)
@@ -326,9 +342,12 @@ def test_a_tiny_scene_gets_one_change(tmp_path):
     box_file(tmp_path / "crate.stl", (1, 1, 1))
     (tmp_path / "scene.toml").write_text(
         '[[parts]]\nname = "slab"\nmesh = "slab.stl"\nunits = "m"\n\n'
-        '[[parts]]\nname = "crate"\nmesh = "crate.stl"\nunits = "m"\ninstances = [{ translate = [-2.0, 0.0, 0.0] }, { translate = [2.0, 0.0, 0.0] }]\n')
+        '[[parts]]\nname = "crate"\nmesh = "crate.stl"\nunits = "m"\ninstances = [{ translate = [-2.0, 0.0, 0.0] }, { translate = [2.0, 0.0, 0.0] }]\n'
+    )
     for seed in range(3):
-        report = check_variant(tmp_path / "scene.toml", make_asbuilt(tmp_path / "scene.toml", tmp_path / f"o{seed}", seed)[0].parent)
+        report = check_variant(
+            tmp_path / "scene.toml", make_asbuilt(tmp_path / "scene.toml", tmp_path / f"o{seed}", seed)[0].parent
+        )
         assert len(report["discrepancies"]) == 1
 
 
@@ -353,12 +372,18 @@ def test_refuses_the_planned_folder_and_folders_of_other_files(tmp_path):
     (variant / "notes.txt").write_text("mine")
     (variant / "photos").mkdir()
     (variant / "photos" / "a.jpg").write_bytes(b"jpeg")
-    (variant / "meshes" / "stale.glb").write_text("from before")     # inside what the variant writes
+    (variant / "meshes" / "stale.glb").write_text("from before")  # inside what the variant writes
     make_asbuilt(planned, variant, seed=1)
     assert json.loads((variant / "discrepancies.json").read_text())["seed"] == 1
     assert (variant / "notes.txt").read_text() == "mine" and (variant / "photos" / "a.jpg").read_bytes() == b"jpeg"
     assert not (variant / "meshes" / "stale.glb").exists()
-    assert sorted(p.name for p in variant.iterdir()) == ["discrepancies.json", "meshes", "notes.txt", "photos", "scene.toml"]
+    assert sorted(p.name for p in variant.iterdir()) == [
+        "discrepancies.json",
+        "meshes",
+        "notes.txt",
+        "photos",
+        "scene.toml",
+    ]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["notes", "plan", "variant"]  # no temp folders left
     fresh = tmp_path / "fresh"
     make_asbuilt(planned, fresh, seed=1)
@@ -419,11 +444,13 @@ def test_cli_writes_the_variant_and_prints_its_two_files(tmp_path, capsys):
 @pytest.mark.parametrize("case", ["missing scene", "mesh file", "planned folder", "unwritable folder", "negative seed"])
 def test_cli_bad_input_is_one_error_line_and_no_output(tmp_path, capsys, case):
     box_file(tmp_path / "crate.stl", (1, 1, 1))
-    scene, out = {"missing scene": (tmp_path / "nope.toml", tmp_path / "out"),
-                  "mesh file": (tmp_path / "crate.stl", tmp_path / "out"),
-                  "planned folder": (SAMPLE, SAMPLE.parent),
-                  "unwritable folder": (SAMPLE, Path("/proc/variant")),
-                  "negative seed": (SAMPLE, tmp_path / "out")}[case]
+    scene, out = {
+        "missing scene": (tmp_path / "nope.toml", tmp_path / "out"),
+        "mesh file": (tmp_path / "crate.stl", tmp_path / "out"),
+        "planned folder": (SAMPLE, SAMPLE.parent),
+        "unwritable folder": (SAMPLE, Path("/proc/variant")),
+        "negative seed": (SAMPLE, tmp_path / "out"),
+    }[case]
     before = sorted(os.listdir(tmp_path))
     # a negative seed would silently make the same variant as its positive twin (random.Random)
     seed = ["--seed", "-1"] if case == "negative seed" else []
@@ -438,11 +465,15 @@ def test_unnamed_parts_keep_their_ids_when_a_part_goes(tmp_path):
     # unnamed parts are named by position (part1, part2 ...): the variant must name them explicitly
     box_file(tmp_path / "slab.stl", (12, 12, 0.1), lift=False)
     box_file(tmp_path / "crate.stl", (1, 1, 1))
-    crates = "".join(f'\n[[parts]]\nmesh = "crate.stl"\nunits = "m"\ntranslate = [{x}.0, 0.0, 0.0]\n' for x in (-4, 0, 4))
+    crates = "".join(
+        f'\n[[parts]]\nmesh = "crate.stl"\nunits = "m"\ntranslate = [{x}.0, 0.0, 0.0]\n' for x in (-4, 0, 4)
+    )
     (tmp_path / "scene.toml").write_text('[[parts]]\nmesh = "slab.stl"\nunits = "m"\n' + crates)
     kinds = set()
     for seed in range(8):
-        report = check_variant(tmp_path / "scene.toml", make_asbuilt(tmp_path / "scene.toml", tmp_path / f"o{seed}", seed)[0].parent)
+        report = check_variant(
+            tmp_path / "scene.toml", make_asbuilt(tmp_path / "scene.toml", tmp_path / f"o{seed}", seed)[0].parent
+        )
         kinds |= {d["kind"] for d in report["discrepancies"]}
     assert "missing" in kinds
 
@@ -480,11 +511,13 @@ instances = [{{ id = "bottom", translate = [5.0, 5.0, 0.0] }}, {{ id = "top", tr
 """)
     seen = {}
     for seed in range(12):
-        report = check_variant(tmp_path / "scene.toml", make_asbuilt(tmp_path / "scene.toml", tmp_path / f"o{seed}", seed)[0].parent)
+        report = check_variant(
+            tmp_path / "scene.toml", make_asbuilt(tmp_path / "scene.toml", tmp_path / f"o{seed}", seed)[0].parent
+        )
         for d in report["discrepancies"]:
             seen.setdefault(d["id"] if d["kind"] != "added" else d["detail"]["template"], set()).add(d["kind"])
-    assert not {"post#0", "post#1", "bottom"} & set(seen)             # they carry or hold something
-    assert seen.get("panel", {"missing"}) == {"missing"}                # held by its posts: only removed
+    assert not {"post#0", "post#1", "bottom"} & set(seen)  # they carry or hold something
+    assert seen.get("panel", {"missing"}) == {"missing"}  # held by its posts: only removed
     assert seen.get("top", set()) <= {"rotated", "missing", "replaced"}  # on the crate below: never moved
     assert "top" in seen and "panel" in seen  # both had their turn: the rules were exercised
 
@@ -507,7 +540,7 @@ def test_shows_progress_for_loading_choosing_and_copying(tmp_path, monkeypatch):
     from mrcheck.cli.messages import progress_bar
     from mrcheck.core.progress import no_progress
 
-    make_asbuilt(planned, tmp_path / "v", seed=0, progress=progress_bar)   # as `mrcheck scene asbuilt` does
+    make_asbuilt(planned, tmp_path / "v", seed=0, progress=progress_bar)  # as `mrcheck scene asbuilt` does
     assert shown == ["loading scene", "choosing changes", "copying meshes"]
     shown.clear()
     make_asbuilt(planned, tmp_path / "w", seed=0, progress=no_progress)

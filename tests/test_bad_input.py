@@ -24,7 +24,7 @@ from mrcheck.core.errors import MrcheckError
 
 W, H = 64, 48
 SIZE = ["--width", str(W), "--height", str(H)]
-BOX = ["box.stl", "--camera", "cam.json", *SIZE]   # a good scene and camera; cases vary one thing
+BOX = ["box.stl", "--camera", "cam.json", *SIZE]  # a good scene and camera; cases vary one thing
 OUT, OUT_AO = "out/render.png", "out/ao.npy"
 DIR = object()  # as a file's content: make a folder of that name
 
@@ -61,7 +61,7 @@ end_header
 3 0 1 2
 """
 
-VIEW = 'eye = [3, 2, 1.5]\ntarget = [0, 0, 0]\nwidth = 64\nheight = 48'
+VIEW = "eye = [3, 2, 1.5]\ntarget = [0, 0, 0]\nwidth = 64\nheight = 48"
 
 
 def case(id, files, args, problem, names="", marks=()):
@@ -95,16 +95,30 @@ def option_case(id, args, problem, names=""):
 CASES = [
     # -- mesh files ---------------------------------------------------------------------------
     case("mesh-missing", {}, "gone.stl", "not found", "gone.stl"),
-    case("mesh-is-folder", {"scene.toml": manifest().replace("box.stl", "dir.stl"), "dir.stl": DIR}, "scene.toml",
-         "is a folder", "dir.stl"),
-    mesh_case("mesh-unreadable", "locked.stl", lambda p: (p.write_text("solid x\n"), p.chmod(0)), "cannot read mesh",
-              marks=pytest.mark.skipif(os.geteuid() == 0, reason="root reads any file")),
+    case(
+        "mesh-is-folder",
+        {"scene.toml": manifest().replace("box.stl", "dir.stl"), "dir.stl": DIR},
+        "scene.toml",
+        "is a folder",
+        "dir.stl",
+    ),
+    mesh_case(
+        "mesh-unreadable",
+        "locked.stl",
+        lambda p: (p.write_text("solid x\n"), p.chmod(0)),
+        "cannot read mesh",
+        marks=pytest.mark.skipif(os.geteuid() == 0, reason="root reads any file"),
+    ),
     mesh_case("mesh-empty-file", "empty.stl", b"", "file is empty"),
     mesh_case("mesh-empty-glb", "empty.glb", b"", "file is empty"),
     mesh_case("mesh-no-faces", "points.obj", obj("0 0 0,1 0 0,0 1 0", ""), "no triangles"),
     mesh_case("mesh-corrupt-glb", "bad.glb", np.random.default_rng(0).bytes(600), "cannot read mesh"),
-    mesh_case("mesh-ply-cut-in-vertices", "cut.ply", NAN_PLY.split("1 nan 0")[0] + "1 0\n",
-              "cannot read mesh: corrupt, truncated or not a mesh"),
+    mesh_case(
+        "mesh-ply-cut-in-vertices",
+        "cut.ply",
+        NAN_PLY.split("1 nan 0")[0] + "1 0\n",
+        "cannot read mesh: corrupt, truncated or not a mesh",
+    ),
     mesh_case("mesh-unknown-suffix", "model.xyz", "1 2 3\n", "unsupported mesh format"),
     mesh_case("mesh-nan-obj", "nan.obj", obj("0 0 0,1 0 0,0 nan 0,0 0 1", "1 2 3,1 2 4"), "NaN"),
     mesh_case("mesh-inf-obj", "inf.obj", obj("0 0 0,1 0 0,0 inf 0", "1 2 3"), "infinite"),
@@ -116,7 +130,12 @@ CASES = [
     # -- scene ------------------------------------------------------------------------------------
     case("scene-folder-no-manifest", {"hall": DIR}, "hall", "no scene manifest", "hall"),
     case("scene-camera-inside", {}, ["bigbox.stl", "--camera", "inside.json"], "inside geometry", "bigbox.stl"),
-    toml_case("scene-units-with-manifest", manifest(), "--units applies", ["scene.toml", "--camera", "cam.json", "--units", "mm"]),
+    toml_case(
+        "scene-units-with-manifest",
+        manifest(),
+        "--units applies",
+        ["scene.toml", "--camera", "cam.json", "--units", "mm"],
+    ),
     # -- manifest -----------------------------------------------------------------------------------
     toml_case("toml-malformed", "[[parts]\nname = ", "malformed manifest"),
     toml_case("toml-not-utf8", b"\xff\xfe\x00bad", "cannot read manifest"),
@@ -125,27 +144,51 @@ CASES = [
     toml_case("toml-format-2", manifest().replace("format = 1", "format = 2"), "format 2"),
     toml_case("toml-unit-unknown", manifest().replace('"m"', '"furlong"'), "unknown units 'furlong'"),
     toml_case("toml-unit-not-a-string", manifest().replace('"m"', '["m"]'), "unknown units"),
-    case("toml-mesh-missing", {"scene.toml": manifest().replace("box.stl", "meshes/gone.glb")}, "scene.toml",
-         "not found (part 'box' of ", "gone.glb"),    # the manifest entry that asked for it, too
-    case("toml-mesh-nan", {"scene.toml": manifest().replace("box.stl", "nan.ply"), "nan.ply": NAN_PLY}, "scene.toml",
-         "NaN", "nan.ply"),
+    case(
+        "toml-mesh-missing",
+        {"scene.toml": manifest().replace("box.stl", "meshes/gone.glb")},
+        "scene.toml",
+        "not found (part 'box' of ",
+        "gone.glb",
+    ),  # the manifest entry that asked for it, too
+    case(
+        "toml-mesh-nan",
+        {"scene.toml": manifest().replace("box.stl", "nan.ply"), "nan.ply": NAN_PLY},
+        "scene.toml",
+        "NaN",
+        "nan.ply",
+    ),
     toml_case("toml-mesh-entry-missing", manifest().replace('mesh = "box.stl"', ""), "needs a mesh"),
     toml_case("toml-duplicate-names", manifest() + manifest().replace("format = 1", ""), "two parts are named"),
     toml_case("toml-unknown-key", manifest("colour = [1, 0, 0]"), "unknown key(s) colour"),
-    toml_case("toml-unknown-instance-key", manifest("instances = [{ translte = [0, 1, 0] }]"), "unknown key(s) translte"),
+    toml_case(
+        "toml-unknown-instance-key", manifest("instances = [{ translte = [0, 1, 0] }]"), "unknown key(s) translte"
+    ),
     toml_case("toml-instances-empty", manifest("instances = []"), "instances is empty"),
-    toml_case("toml-instance-id-twice", manifest('instances = [{ id = "A" }, { id = "A" }]'),
-              "instance id 'A' is used twice in part 'box'"),
+    toml_case(
+        "toml-instance-id-twice",
+        manifest('instances = [{ id = "A" }, { id = "A" }]'),
+        "instance id 'A' is used twice in part 'box'",
+    ),
     # ids name one object in the whole scene: across parts, and generated ids (NAME#i) included
-    toml_case("toml-instance-id-two-parts", manifest('instances = [{}, { id = "X" }]') +
-              manifest('instances = [{ id = "X" }]').replace("format = 1", "").replace('"box"', '"post"'),
-              "instance id 'X' is used by parts 'box' and 'post'"),
-    toml_case("toml-instance-id-generated", manifest('instances = [{}, {}]') +
-              manifest('instances = [{ id = "box#1" }]').replace("format = 1", "").replace('"box"', '"post"'),
-              "instance id 'box#1' is used by parts 'box' and 'post'"),
-    toml_case("toml-instance-id-part-name", manifest() +
-              manifest('instances = [{ id = "box" }]').replace("format = 1", "").replace('name = "box"', 'name = "post"'),
-              "instance id 'box' is used by parts 'box' and 'post'"),
+    toml_case(
+        "toml-instance-id-two-parts",
+        manifest('instances = [{}, { id = "X" }]')
+        + manifest('instances = [{ id = "X" }]').replace("format = 1", "").replace('"box"', '"post"'),
+        "instance id 'X' is used by parts 'box' and 'post'",
+    ),
+    toml_case(
+        "toml-instance-id-generated",
+        manifest("instances = [{}, {}]")
+        + manifest('instances = [{ id = "box#1" }]').replace("format = 1", "").replace('"box"', '"post"'),
+        "instance id 'box#1' is used by parts 'box' and 'post'",
+    ),
+    toml_case(
+        "toml-instance-id-part-name",
+        manifest()
+        + manifest('instances = [{ id = "box" }]').replace("format = 1", "").replace('name = "box"', 'name = "post"'),
+        "instance id 'box' is used by parts 'box' and 'post'",
+    ),
     toml_case("toml-scale-negative", manifest("scale = -1.0"), "scale must be positive"),
     toml_case("toml-scale-text", manifest('scale = "big"'), "must be numbers"),
     toml_case("toml-instance-scale-zero", manifest("instances = [{ scale = 0 }]"), "scale must be positive"),
@@ -153,18 +196,28 @@ CASES = [
     toml_case("toml-translate-nan", manifest("translate = [1, nan, 0]"), "finite"),
     toml_case("toml-rotate-text", manifest('rotate_deg = "xyz"'), "rotate_deg"),
     toml_case("toml-matrix-3x3", manifest("matrix = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]"), "4x4"),
-    toml_case("toml-matrix-singular", manifest("matrix = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 0, 0], [0, 0, 0, 1]]"),
-              "singular"),
-    toml_case("toml-matrix-projective", manifest("matrix = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 1, 1]]"),
-              "bottom row"),
-    toml_case("toml-matrix-and-translate", manifest("translate = [0, 0, 0]\nmatrix = [[1, 0, 0, 0], [0, 1, 0, 0], "
-                                                    "[0, 0, 1, 0], [0, 0, 0, 1]]"), "not both"),
+    toml_case(
+        "toml-matrix-singular",
+        manifest("matrix = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 0, 0], [0, 0, 0, 1]]"),
+        "singular",
+    ),
+    toml_case(
+        "toml-matrix-projective",
+        manifest("matrix = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 1, 1]]"),
+        "bottom row",
+    ),
+    toml_case(
+        "toml-matrix-and-translate",
+        manifest("translate = [0, 0, 0]\nmatrix = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]"),
+        "not both",
+    ),
     toml_case("toml-color-text", manifest('color = "red"'), "color"),
     toml_case("toml-color-range", manifest("color = [2, 0, 0]"), "color"),
     toml_case("toml-viewpoints-not-array", manifest(top='viewpoints = "v"'), "viewpoints"),
     toml_case("toml-view-unknown", manifest(view=VIEW), "no viewpoint named 'nope'", ["scene.toml", "--view", "nope"]),
-    toml_case("toml-view-duplicate", manifest(view=VIEW) + f'[[viewpoints]]\nname = "v"\n{VIEW}\n',
-              "two viewpoints are named"),
+    toml_case(
+        "toml-view-duplicate", manifest(view=VIEW) + f'[[viewpoints]]\nname = "v"\n{VIEW}\n', "two viewpoints are named"
+    ),
     view_case("toml-view-no-eye", "target = [0, 0, 0]", "eye"),
     view_case("toml-view-width-zero", VIEW.replace("64", "0"), "positive"),
     view_case("toml-view-width-negative", VIEW.replace("64", "-5"), "positive"),
@@ -220,13 +273,21 @@ CASES = [
     case("output-is-folder", {OUT: DIR}, BOX, "is a directory", OUT),
     option_case("output-parent-is-file", ["-o", "box.stl/render.png"], "is a file, not a folder", "box.stl"),
     # /proc takes no new files, even from root (whom permission bits never stop)
-    option_case("output-folder-unwritable", ["-o", "/proc/render.png"], "folder /proc is not writable", "/proc/render.png"),
-    option_case("output-ao-folder-unwritable", ["--output-ao", "/proc/ao.npy"], "cannot write AO output", "/proc/ao.npy"),
+    option_case(
+        "output-folder-unwritable", ["-o", "/proc/render.png"], "folder /proc is not writable", "/proc/render.png"
+    ),
+    option_case(
+        "output-ao-folder-unwritable", ["--output-ao", "/proc/ao.npy"], "cannot write AO output", "/proc/ao.npy"
+    ),
     option_case("output-ao-suffix", ["--output-ao", "out/ao.txt"], "AO output must end in", "ao.txt"),
     option_case("output-ao-with-phong", ["--mode", "phong", "--output-ao", OUT_AO], "not phong"),
     option_case("output-ao-same-as-image", ["-o", "out/x.png", "--output-ao", "out/x.png"], "same file", "x.png"),
-    option_case("output-ao-all-clashes", ["--mode", "all", "-o", "out/ao_vector.png", "--output-ao", "out/ao.png"],
-                "same file", "ao_vector.png"),
+    option_case(
+        "output-ao-all-clashes",
+        ["--mode", "all", "-o", "out/ao_vector.png", "--output-ao", "out/ao.png"],
+        "same file",
+        "ao_vector.png",
+    ),
 ]
 
 
@@ -291,11 +352,18 @@ def test_bad_input(folder, capsys, files, args, problem, names):
     assert outputs_left(before) == []
 
 
-@pytest.mark.parametrize("files, args, warning", [
-    pytest.param({}, [*BOX, "--mode", "all"], None, id="good-box"),
-    pytest.param({"some.obj": obj("0 0 0,1 0 0,2 0 0,0 1 0", "1 2 3,1 2 4")}, ["some.obj", "--camera", "cam.json", *SIZE],
-                 "dropped 1 degenerate triangles of 2", id="some-degenerate"),
-])
+@pytest.mark.parametrize(
+    "files, args, warning",
+    [
+        pytest.param({}, [*BOX, "--mode", "all"], None, id="good-box"),
+        pytest.param(
+            {"some.obj": obj("0 0 0,1 0 0,2 0 0,0 1 0", "1 2 3,1 2 4")},
+            ["some.obj", "--camera", "cam.json", *SIZE],
+            "dropped 1 degenerate triangles of 2",
+            id="some-degenerate",
+        ),
+    ],
+)
 def test_good_input_renders(folder, capsys, files, args, warning):
     """The harness is not vacuous: the good scene renders, and a mesh with only some degenerate
     triangles renders too, with a one-line warning."""
@@ -331,8 +399,14 @@ def test_usage_error_exits_2(folder, capsys):
 def test_real_process(folder):
     """The contract holds for a real process: exit status 1, one stderr line (no progress bar
     either, stderr being a pipe), no output file."""
-    write_files({"scene.toml": manifest().replace("box.stl", "nan.obj"), "nan.obj": obj("0 0 0,1 0 0,0 nan 0", "1 2 3")})
-    result = subprocess.run([sys.executable, "-m", "mrcheck.cli", *with_outputs(["scene.toml", "--camera", "cam.json"])],
-                            capture_output=True, text=True, timeout=120)
+    write_files(
+        {"scene.toml": manifest().replace("box.stl", "nan.obj"), "nan.obj": obj("0 0 0,1 0 0,0 nan 0", "1 2 3")}
+    )
+    result = subprocess.run(
+        [sys.executable, "-m", "mrcheck.cli", *with_outputs(["scene.toml", "--camera", "cam.json"])],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     check_error(result.returncode, result.stderr, result.stdout, "NaN", "nan.obj")
     assert not Path("out").exists()

@@ -11,14 +11,28 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mrcheck.apps.bcf import (BcfComment, BcfComponent, BcfTopic, bcf_bytes, bcf_camera, element_component,
-                              priority, read_bcf_bytes, severity_of, topic_guid)
+from mrcheck.apps.bcf import (
+    BcfComment,
+    BcfComponent,
+    BcfTopic,
+    bcf_bytes,
+    bcf_camera,
+    element_component,
+    priority,
+    read_bcf_bytes,
+    severity_of,
+    topic_guid,
+)
 from mrcheck.core.camera import Camera
 from mrcheck.core.errors import MrcheckError
 
 XSD = Path(__file__).parent / "data" / "bcf21"
-SCHEMAS = {"markup.bcf": "markup.xsd", "viewpoint.bcfv": "visinfo.xsd", "bcf.version": "version.xsd",
-           "project.bcfp": "project.xsd"}
+SCHEMAS = {
+    "markup.bcf": "markup.xsd",
+    "viewpoint.bcfv": "visinfo.xsd",
+    "bcf.version": "version.xsd",
+    "project.bcfp": "project.xsd",
+}
 PNG = b"\x89PNG\r\n\x1a\n" + b"\x00" * 16
 
 
@@ -38,18 +52,30 @@ def validate_bcfzip(data: bytes) -> list[str]:
 
 def _topic(**extra) -> BcfTopic:
     camera = Camera.from_look_at((4.0, -6.0, 2.5), (0.0, 0.0, 0.8), (0, 0, 1), 50.0, 640, 480)
-    values = dict(guid=topic_guid("db", 7), title="moved? conveyor", priority=priority(3),
-                  description="moved 3 cm towards the aisle; Übergang prüfen", labels=["moved"],
-                  created=datetime(2026, 1, 2, 3, 4, 5, tzinfo=timezone.utc),
-                  components=[BcfComponent("2O2Fr$t4X7Zf8NOew3FLOH", "2O2Fr$t4X7Zf8NOew3FLOH")],
-                  camera=bcf_camera(camera), snapshot_png=PNG)
+    values = dict(
+        guid=topic_guid("db", 7),
+        title="moved? conveyor",
+        priority=priority(3),
+        description="moved 3 cm towards the aisle; Übergang prüfen",
+        labels=["moved"],
+        created=datetime(2026, 1, 2, 3, 4, 5, tzinfo=timezone.utc),
+        components=[BcfComponent("2O2Fr$t4X7Zf8NOew3FLOH", "2O2Fr$t4X7Zf8NOew3FLOH")],
+        camera=bcf_camera(camera),
+        snapshot_png=PNG,
+    )
     values.update(extra)
     return BcfTopic(**values)
 
 
 def test_written_file_validates_against_the_bcf21_schemas():
-    data = bcf_bytes([_topic(), _topic(guid=topic_guid("db", 8), components=[BcfComponent(None, "pallet#3")],
-                                       camera=None, snapshot_png=None)])
+    data = bcf_bytes(
+        [
+            _topic(),
+            _topic(
+                guid=topic_guid("db", 8), components=[BcfComponent(None, "pallet#3")], camera=None, snapshot_png=None
+            ),
+        ]
+    )
     checked = validate_bcfzip(data)
     assert "bcf.version" in checked and "project.bcfp" in checked
     assert sum(n.endswith("markup.bcf") for n in checked) == 2
@@ -68,13 +94,24 @@ def test_a_schema_violation_is_caught():
 
 
 def test_round_trip_keeps_every_field():
-    topic = _topic(comments=[BcfComment(topic_guid("c", 1), datetime(2026, 1, 3, tzinfo=timezone.utc), "anna",
-                                        "checked on site")])
+    topic = _topic(
+        comments=[BcfComment(topic_guid("c", 1), datetime(2026, 1, 3, tzinfo=timezone.utc), "anna", "checked on site")]
+    )
     back = read_bcf_bytes(bcf_bytes([topic]))
     assert len(back) == 1
     got = back[0]
-    for name in ("guid", "title", "status", "priority", "description", "labels", "created", "author",
-                 "components", "snapshot_png"):
+    for name in (
+        "guid",
+        "title",
+        "status",
+        "priority",
+        "description",
+        "labels",
+        "created",
+        "author",
+        "components",
+        "snapshot_png",
+    ):
         assert getattr(got, name) == getattr(topic, name), name
     assert got.comments == topic.comments
     assert np.allclose(got.camera.viewpoint, topic.camera.viewpoint)
@@ -106,10 +143,23 @@ def test_globalid_only_for_ifc_elements():
     from mrcheck.scene.model import Part, Scene
 
     tri = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
-    ifc = Part("wall", Path("w"), tri, np.array([[0, 1, 2]], np.uint32), np.eye(4)[None],
-               instance_ids=["2O2Fr$t4X7Zf8NOew3FLOH"], instance_info=[ElementInfo("W1", "IfcWall", "EG")])
-    plain = Part("pallet", Path("p"), tri, np.array([[0, 1, 2]], np.uint32), np.eye(4)[None],
-                 instance_ids=["2O2Fr$t4X7Zf8NOew3FLOX"])   # 22 characters, but no IFC class
+    ifc = Part(
+        "wall",
+        Path("w"),
+        tri,
+        np.array([[0, 1, 2]], np.uint32),
+        np.eye(4)[None],
+        instance_ids=["2O2Fr$t4X7Zf8NOew3FLOH"],
+        instance_info=[ElementInfo("W1", "IfcWall", "EG")],
+    )
+    plain = Part(
+        "pallet",
+        Path("p"),
+        tri,
+        np.array([[0, 1, 2]], np.uint32),
+        np.eye(4)[None],
+        instance_ids=["2O2Fr$t4X7Zf8NOew3FLOX"],
+    )  # 22 characters, but no IFC class
     scene = Scene("s", Path("s"), [ifc, plain])
     assert element_component(scene, "2O2Fr$t4X7Zf8NOew3FLOH")[0].ifc_guid == "2O2Fr$t4X7Zf8NOew3FLOH"
     assert element_component(scene, "2O2Fr$t4X7Zf8NOew3FLOX")[0].ifc_guid is None

@@ -45,9 +45,24 @@ def quick(tmp_path_factory):
 
 def _figures(report) -> list:
     """The report's figures as the measuring step returned them."""
-    return [bench.Figure(f["name"], f["mode"], f["width"], f["height"], f["samples"], f["scale"], f["scene"],
-                         f["triangles"], f["paper_gtx285_ms"], list(f["runs_ms"]), f["stats"],
-                         f["timed_in_turns_with"], peak_rss_mb=f["peak_rss_mb"]) for f in report["figures"]]
+    return [
+        bench.Figure(
+            f["name"],
+            f["mode"],
+            f["width"],
+            f["height"],
+            f["samples"],
+            f["scale"],
+            f["scene"],
+            f["triangles"],
+            f["paper_gtx285_ms"],
+            list(f["runs_ms"]),
+            f["stats"],
+            f["timed_in_turns_with"],
+            peak_rss_mb=f["peak_rss_mb"],
+        )
+        for f in report["figures"]
+    ]
 
 
 def _kind(scene: str) -> str:
@@ -57,8 +72,9 @@ def _kind(scene: str) -> str:
 
 def _one(report, **match) -> dict:
     """The one figure of the report that matches, e.g. ``_one(report, name="ao", kind="sample", ...)``."""
-    hits = [f for f in report["figures"] if all((_kind(f["scene"]) if k == "kind" else f[k]) == v
-                                                for k, v in match.items())]
+    hits = [
+        f for f in report["figures"] if all((_kind(f["scene"]) if k == "kind" else f[k]) == v for k, v in match.items())
+    ]
     assert len(hits) == 1, f"{len(hits)} figures for {match}"
     return hits[0]
 
@@ -84,10 +100,14 @@ def test_bench_quick_ratios_are_the_named_figures(quick):
         "half_over_full": ao(scale=0.5) / ao(),
         "ao_10m_over_1m": ao(kind="terrain", triangles=10_000_000) / ao(kind="terrain", triangles=1_000_000),
         "vector_over_fetch_floor_covered": ao(kind="terrain", triangles=1_000_000) / floor(kind="terrain"),
-        "geometry_20m_over_1m": (ms(name="geometry", kind="hall", triangles=20_000_000, width=1280)
-                                 / ms(name="geometry", kind="hall", triangles=1_000_000, width=1280)),
+        "geometry_20m_over_1m": (
+            ms(name="geometry", kind="hall", triangles=20_000_000, width=1280)
+            / ms(name="geometry", kind="hall", triangles=1_000_000, width=1280)
+        ),
     }
-    ours = {scale: ms(name="frame", mode="vector", kind="line", width=1024, samples=32, scale=scale) for scale in (1.0, 0.5)}
+    ours = {
+        scale: ms(name="frame", mode="vector", kind="line", width=1024, samples=32, scale=scale) for scale in (1.0, 0.5)
+    }
     for peer in bench_peers.PEERS:
         if report["ratios"][f"{peer}_over_mrcheck_frame"] is not None:
             theirs = ms(name="frame", mode=peer, kind="line", width=1024)
@@ -96,13 +116,21 @@ def test_bench_quick_ratios_are_the_named_figures(quick):
     assert {k: v for k, v in report["ratios"].items() if k in expected} == pytest.approx(expected, rel=1e-12)
     for n, ratios in report["ratios_by_samples"].items():
         n = int(n)
-        assert ratios == pytest.approx({"vector_over_ssao": ao(samples=n) / ao("ssao", n),
-                                        "vector_over_fetch_floor": ao(samples=n) / floor(n),
-                                        "half_over_full": ao(samples=n, scale=0.5) / ao(samples=n)}, rel=1e-12)
+        assert ratios == pytest.approx(
+            {
+                "vector_over_ssao": ao(samples=n) / ao("ssao", n),
+                "vector_over_fetch_floor": ao(samples=n) / floor(n),
+                "half_over_full": ao(samples=n, scale=0.5) / ao(samples=n),
+            },
+            rel=1e-12,
+        )
     for f in report["figures"]:  # every AO figure of the sample scene over the floor of its settings
         if f["name"] == "ao" and _kind(f["scene"]) == "sample":
-            assert f["over_fetch_floor"] == pytest.approx(f["runs_ms"][0] / ms(
-                name="fetch_floor", kind="sample", width=f["width"], samples=f["samples"], scale=f["scale"]), rel=1e-12)
+            assert f["over_fetch_floor"] == pytest.approx(
+                f["runs_ms"][0]
+                / ms(name="fetch_floor", kind="sample", width=f["width"], samples=f["samples"], scale=f["scale"]),
+                rel=1e-12,
+            )
 
 
 def test_bench_quick_measures_every_item_of_the_issue(quick):
@@ -111,34 +139,51 @@ def test_bench_quick_measures_every_item_of_the_issue(quick):
     both blurs and the composite at
     both; the height fields; the halls at both sizes; the frames; peak memory. A peer that is installed runs."""
     report, printed = quick
-    have = Counter((f["name"], f["mode"], _kind(f["scene"]), f["width"], f["height"], f["samples"], f["scale"],
-                    f["triangles"]) for f in report["figures"])
+    have = Counter(
+        (f["name"], f["mode"], _kind(f["scene"]), f["width"], f["height"], f["samples"], f["scale"], f["triangles"])
+        for f in report["figures"]
+    )
     assert max(have.values()) == 1  # nothing measured twice
     want = set()
     for samples in (16, 64):
         for scale in (1.0, 0.5):
-            want |= {(name, mode, "sample", 1280, 1024, samples, scale, None) for mode in bench_figures.AO_MODES
-                     for name in ("ao", "frame")}
+            want |= {
+                (name, mode, "sample", 1280, 1024, samples, scale, None)
+                for mode in bench_figures.AO_MODES
+                for name in ("ao", "frame")
+            }
             want.add(("fetch_floor", None, "sample", 1280, 1024, samples, scale, None))
     for scale in (1.0, 0.5):
-        want |= {(name, None, "sample", 1280, 1024, None, scale, None) for name in ("blur_9x9", "blur_13x13", "composite")}
+        want |= {
+            (name, None, "sample", 1280, 1024, None, scale, None) for name in ("blur_9x9", "blur_13x13", "composite")
+        }
     for triangles in (1_000_000, 10_000_000):
-        want |= {("geometry", None, "terrain", 1280, 1024, None, None, triangles),
-                 ("ao", "vector", "terrain", 1280, 1024, 16, 1.0, triangles)}
+        want |= {
+            ("geometry", None, "terrain", 1280, 1024, None, None, triangles),
+            ("ao", "vector", "terrain", 1280, 1024, 16, 1.0, triangles),
+        }
     want.add(("fetch_floor", None, "terrain", 1280, 1024, 16, 1.0, 1_000_000))
-    want |= {("geometry", None, "hall", *size, None, None, n) for n in (1_000_000, 20_000_000)
-             for size in ((1280, 1024), (1024, 768))}
+    want |= {
+        ("geometry", None, "hall", *size, None, None, n)
+        for n in (1_000_000, 20_000_000)
+        for size in ((1280, 1024), (1024, 768))
+    }
     line = _one(report, name="frame", mode="vector", width=1280, kind="line")["triangles"]
     assert 1.45e6 < line < 1.55e6  # not the issue's 1 M triangles, and labelled as what it is:
     assert all(f["scene"].startswith("line_1.5M:") for f in report["figures"] if _kind(f["scene"]) == "line")
     assert f"{line:,} triangles (the issue names a 1 M-triangle line scene)" in printed
     assert bench.Figure("frame", "vector", 1024, 768, 32, 1.0, "line", line).describe().endswith(" 1.5M triangles")
-    want |= {("frame", "vector", "line", 1280, 1024, 16, 1.0, line), ("frame", "vector", "line", 1024, 768, 32, 1.0, line),
-             ("frame", "vector", "line", 1024, 768, 32, 0.5, line)}
+    want |= {
+        ("frame", "vector", "line", 1280, 1024, 16, 1.0, line),
+        ("frame", "vector", "line", 1024, 768, 32, 1.0, line),
+        ("frame", "vector", "line", 1024, 768, 32, 0.5, line),
+    }
     for peer in bench_peers.PEERS:
         key = f"{peer}_over_mrcheck_frame"
         if report["ratios"][key] is None:  # only a peer that is not installed may be missing
-            assert report["ratios"][key + "_reason"].startswith(bench_peers.NOT_INSTALLED), report["ratios"][key + "_reason"]
+            assert report["ratios"][key + "_reason"].startswith(bench_peers.NOT_INSTALLED), report["ratios"][
+                key + "_reason"
+            ]
         else:
             want.add(("frame", peer, "line", 1024, 768, None, None, line))
     assert set(have) == want
@@ -169,13 +214,20 @@ def test_the_progress_total_is_the_figures_measured(quick):
 def test_the_papers_column_is_beside_its_own_method_only(quick):
     """Scheer & Keutel timed their vector method alone (Tables 1 and 2, GTX 285, 1280x1024)."""
     report, _ = quick
-    paper = {(f["name"], f["mode"], _kind(f["scene"]), f["width"], f["samples"], f["scale"]): f["paper_gtx285_ms"]
-             for f in report["figures"] if f["paper_gtx285_ms"] is not None}
-    assert paper == {("ao", "vector", "sample", 1280, 16, 1.0): 12.4, ("ao", "vector", "sample", 1280, 16, 0.5): 1.6,
-                     ("ao", "vector", "sample", 1280, 64, 1.0): 47.0, ("ao", "vector", "sample", 1280, 64, 0.5): 6.1,
-                     ("blur_9x9", None, "sample", 1280, None, 1.0): 2.8,
-                     ("blur_13x13", None, "sample", 1280, None, 1.0): 3.6,
-                     ("frame", "vector", "line", 1280, 16, 1.0): 19.6}  # 16 samples, 13x13 blur: Table 2
+    paper = {
+        (f["name"], f["mode"], _kind(f["scene"]), f["width"], f["samples"], f["scale"]): f["paper_gtx285_ms"]
+        for f in report["figures"]
+        if f["paper_gtx285_ms"] is not None
+    }
+    assert paper == {
+        ("ao", "vector", "sample", 1280, 16, 1.0): 12.4,
+        ("ao", "vector", "sample", 1280, 16, 0.5): 1.6,
+        ("ao", "vector", "sample", 1280, 64, 1.0): 47.0,
+        ("ao", "vector", "sample", 1280, 64, 0.5): 6.1,
+        ("blur_9x9", None, "sample", 1280, None, 1.0): 2.8,
+        ("blur_13x13", None, "sample", 1280, None, 1.0): 3.6,
+        ("frame", "vector", "line", 1280, 16, 1.0): 19.6,
+    }  # 16 samples, 13x13 blur: Table 2
 
 
 def test_bench_quick_timings_are_plausible(quick):
@@ -194,14 +246,24 @@ def test_bench_quick_timings_are_plausible(quick):
     over_ao = []
     for f in report["figures"]:
         if f["name"] == "frame" and _kind(f["scene"]) == "sample":
-            ao = _one(report, name="ao", kind="sample", mode=f["mode"], width=f["width"], samples=f["samples"],
-                      scale=f["scale"])
+            ao = _one(
+                report,
+                name="ao",
+                kind="sample",
+                mode=f["mode"],
+                width=f["width"],
+                samples=f["samples"],
+                scale=f["scale"],
+            )
             over_ao.append(f["min_ms"] / ao["min_ms"])
             assert over_ao[-1] > 0.2, (f, ao)
     # every AO mode x 2 scales x 2 sample counts (7 modes since gtao and vbao: 28)
     assert len(over_ao) == len(bench_figures.AO_MODES) * 2 * 2 and np.median(over_ao) > 0.8, over_ao
-    line = {(f["width"], f["scale"]): f["median_ms"] for f in report["figures"] if f["name"] == "frame"
-            and f["mode"] == "vector" and _kind(f["scene"]) == "line"}
+    line = {
+        (f["width"], f["scale"]): f["median_ms"]
+        for f in report["figures"]
+        if f["name"] == "frame" and f["mode"] == "vector" and _kind(f["scene"]) == "line"
+    }
     assert line[1024, 0.5] < line[1024, 1.0]  # the half-resolution AO frame does less work
     for peer in bench_peers.PEERS:
         if report["ratios"][f"{peer}_over_mrcheck_frame"] is not None:
@@ -234,8 +296,11 @@ def test_a_ratio_keeps_its_rounds(quick):
     figures = _figures(report)
     for f in figures:  # three rounds, the vector pass's second twice as slow and its third twice as fast
         f.times_ms = f.times_ms * 3
-    vector = next(f for f in figures if (f.name, f.mode, f.width, f.samples, f.scale, f.triangles)
-                  == ("ao", "vector", 1280, 16, 1.0, None))
+    vector = next(
+        f
+        for f in figures
+        if (f.name, f.mode, f.width, f.samples, f.scale, f.triangles) == ("ao", "vector", 1280, 16, 1.0, None)
+    )
     vector.times_ms = [vector.times_ms[0], 2 * vector.times_ms[0], 0.5 * vector.times_ms[0]]
     measured = bench_report.ratios(figures)
     r = measured["ratios"]["vector_over_ssao"]
@@ -252,21 +317,32 @@ def test_vector_over_ssao_is_judged_at_every_sample_count(quick):
     """The target is "at equal samples": a miss at 64 samples shows, though 16 meets it; the
     floor and half/full targets are the issue's at 16 samples only, and say so elsewhere."""
     report, printed = quick
-    assert report["target_samples"] == {"vector_over_ssao": "every", "vector_over_fetch_floor": 16,
-                                        "half_over_full": 16}
+    assert report["target_samples"] == {
+        "vector_over_ssao": "every",
+        "vector_over_fetch_floor": 16,
+        "half_over_full": 16,
+    }
     for n in report["ratios_by_samples"]:
-        assert any(line.split()[:2] == ["vector_over_ssao", n] and "target <= 1.20" in line for line in printed.splitlines())
+        assert any(
+            line.split()[:2] == ["vector_over_ssao", n] and "target <= 1.20" in line for line in printed.splitlines()
+        )
     figures = _figures(report)
     ssao = {(f.samples, f.scale): f for f in figures if f.name == "ao" and f.mode == "ssao" and f.width == 1280}
-    vector = {(f.samples, f.scale): f for f in figures if f.name == "ao" and f.mode == "vector" and f.width == 1280
-              and f.triangles is None}
-    ssao[16, 1.0].times_ms = [vector[16, 1.0].times_ms[0]]       # vector / ssao = 1.0 at 16 samples
+    vector = {
+        (f.samples, f.scale): f
+        for f in figures
+        if f.name == "ao" and f.mode == "vector" and f.width == 1280 and f.triangles is None
+    }
+    ssao[16, 1.0].times_ms = [vector[16, 1.0].times_ms[0]]  # vector / ssao = 1.0 at 16 samples
     ssao[64, 1.0].times_ms = [vector[64, 1.0].times_ms[0] / 1.5]  # and 1.5 at 64
     lines = bench_report.format_ratios(bench_report.ratios(figures), report["run"]).splitlines()
     assert next(line for line in lines if line.split()[0] == "vector_over_ssao").endswith(
-        "meets at 16; MISSES at 64 samples")
-    assert [line.split()[1:3] + [line.split()[-1]] for line in lines if line.split()[0] == "vector_over_ssao"][1:] == \
-        [["16", "1.000", "meets"], ["64", "1.500", "MISSES"]]
+        "meets at 16; MISSES at 64 samples"
+    )
+    assert [line.split()[1:3] + [line.split()[-1]] for line in lines if line.split()[0] == "vector_over_ssao"][1:] == [
+        ["16", "1.000", "meets"],
+        ["64", "1.500", "MISSES"],
+    ]
     floor_64 = next(line for line in lines if line.split()[:2] == ["vector_over_fetch_floor", "64"])
     assert floor_64.endswith("(target at 16 only)")
 
@@ -315,9 +391,16 @@ def test_a_hung_peer_holds_the_bench_up_two_minutes_at_most():
 def test_bench_help_says_what_quick_leaves_out_and_where_files_go(capsys):
     assert main(["bench", "--help"]) == 0
     text = " ".join(capsys.readouterr().out.split())
-    for said in ("1024x768 figures", "36- and 128-sample counts", "10 M-triangle hall", "3 rounds instead of 5",
-                 "missing folders are created, an existing file is replaced", "mrcheck-bench/",
-                 "mrcheck-bench-peers/", "replaced by each run"):
+    for said in (
+        "1024x768 figures",
+        "36- and 128-sample counts",
+        "10 M-triangle hall",
+        "3 rounds instead of 5",
+        "missing folders are created, an existing file is replaced",
+        "mrcheck-bench/",
+        "mrcheck-bench-peers/",
+        "replaced by each run",
+    ):
         assert said in text
 
 
@@ -337,7 +420,7 @@ def test_peak_memory_is_reset_before_an_entry():
     before.close()
     if not bench_peers.reset_peak_rss():
         pytest.skip("/proc/self/clear_refs cannot be written here")
-    floor = bench_peers.peak_rss_mb()   # the peak now is what the process holds now
+    floor = bench_peers.peak_rss_mb()  # the peak now is what the process holds now
     assert floor < high - 150
     after = _touched(100)
     # measured from the reset, not from ``high``: an earlier test may have left a higher peak than
@@ -350,10 +433,13 @@ def test_bench_writes_the_json_before_printing(quick, tmp_path, monkeypatch):
     """A reader that goes away (`mrcheck bench --json X | head`) costs the printout, not the run."""
     report, _ = quick
     measured = _figures(report)
-    monkeypatch.setattr(bench, "measure_plan",
-                        lambda quick, repeat, hall, progress: (measured, report["machine"], {}, {"peak_rss_mb": 1.0}))
-    monkeypatch.setattr(bench, "scan_reading", lambda quick, repeat: ([], []))   # nor the scan reads
-    monkeypatch.setattr(bench, "import_figures", lambda quick, hall: None)   # nor the imports
+    monkeypatch.setattr(
+        bench,
+        "measure_plan",
+        lambda quick, repeat, hall, progress: (measured, report["machine"], {}, {"peak_rss_mb": 1.0}),
+    )
+    monkeypatch.setattr(bench, "scan_reading", lambda quick, repeat: ([], []))  # nor the scan reads
+    monkeypatch.setattr(bench, "import_figures", lambda quick, hall: None)  # nor the imports
 
     class Closed(io.StringIO):
         def write(self, text):
@@ -380,8 +466,10 @@ def _fake_worker(tmp_path, body: str) -> list:
     return [sys.executable, str(script)]
 
 
-READY = ('print(json.dumps({"ready": True, "version": "fake 1", "settings": {}, "png": "x.png", '
-         '"ao_effect": {}, "setup_ms": 1.0}), flush=True)')
+READY = (
+    'print(json.dumps({"ready": True, "version": "fake 1", "settings": {}, "png": "x.png", '
+    '"ao_effect": {}, "setup_ms": 1.0}), flush=True)'
+)
 
 
 def test_peer_not_installed_gives_its_reason(tmp_path, monkeypatch):
@@ -393,11 +481,14 @@ def test_peer_not_installed_gives_its_reason(tmp_path, monkeypatch):
 
 
 def test_peer_worker_that_dies_at_start_gives_a_one_line_reason(tmp_path, monkeypatch):
-    command = _fake_worker(tmp_path, """
+    command = _fake_worker(
+        tmp_path,
+        """
         import sys
         sys.stderr.write("loading the peer\\nvkCreateInstance failed: no Vulkan driver\\n")
         sys.exit(3)
-    """)
+    """,
+    )
 
     class Crashing(PeerWorker):
         def __init__(self, peer, mesh, png):
@@ -413,18 +504,31 @@ def test_peer_worker_that_dies_at_start_gives_a_one_line_reason(tmp_path, monkey
 
 
 def test_peer_error_answer_and_garbage_are_reasons(tmp_path):
-    error = PeerWorker("vtk", tmp_path / "m.npz", tmp_path / "vtk.png", command=_fake_worker(tmp_path, """
+    error = PeerWorker(
+        "vtk",
+        tmp_path / "m.npz",
+        tmp_path / "vtk.png",
+        command=_fake_worker(
+            tmp_path,
+            """
         import json
         print(json.dumps({"error": "ImportError: libvulkan.so.1"}), flush=True)
-    """)).start()
+    """,
+        ),
+    ).start()
     with pytest.raises(PeerError, match="libvulkan"):
         error.wait_ready(timeout=60)
-    garbage = PeerWorker("vtk", tmp_path / "m.npz", tmp_path / "vtk2.png",
-                         command=[sys.executable, "-c", "print('FEngine created'); import time; time.sleep(60)"])
+    garbage = PeerWorker(
+        "vtk",
+        tmp_path / "m.npz",
+        tmp_path / "vtk2.png",
+        command=[sys.executable, "-c", "print('FEngine created'); import time; time.sleep(60)"],
+    )
     with pytest.raises(PeerError, match="answered"):
         garbage.start().wait_ready(timeout=60)
-    silent = PeerWorker("vtk", tmp_path / "m.npz", tmp_path / "vtk3.png",
-                        command=[sys.executable, "-c", "import time; time.sleep(60)"])
+    silent = PeerWorker(
+        "vtk", tmp_path / "m.npz", tmp_path / "vtk3.png", command=[sys.executable, "-c", "import time; time.sleep(60)"]
+    )
     with pytest.raises(PeerError, match="no answer within"):
         silent.start().wait_ready(timeout=1)
     assert error.proc is None and garbage.proc is None and silent.proc is None  # stopped, not left running
@@ -433,7 +537,9 @@ def test_peer_error_answer_and_garbage_are_reasons(tmp_path):
 def test_peer_worker_that_crashes_mid_run_gives_null_and_reason(ctx, tmp_path):
     """A worker that segfaults on its second frame: the bench goes on, the peer has no figure,
     its ratio is null and its reason names the crash."""
-    command = _fake_worker(tmp_path, f"""
+    command = _fake_worker(
+        tmp_path,
+        f"""
         import json, os, signal, sys
         {READY}
         for n, line in enumerate(sys.stdin):
@@ -441,7 +547,8 @@ def test_peer_worker_that_crashes_mid_run_gives_null_and_reason(ctx, tmp_path):
                 sys.stderr.write("Segmentation fault in the driver\\n"); sys.stderr.flush()
                 os.kill(os.getpid(), signal.SIGSEGV)
             print(json.dumps({{"ms": 5.0}}), flush=True)
-    """)
+    """,
+    )
     worker = PeerWorker("vtk", tmp_path / "m.npz", tmp_path / "vtk.png", command=command).start()
     worker.wait_ready(timeout=60)
     reasons = {}
@@ -457,8 +564,10 @@ def test_peer_worker_that_crashes_mid_run_gives_null_and_reason(ctx, tmp_path):
 
     ours = bench.Figure("frame", "vector", *bench_figures.PEER_SIZE, bench_figures.PEER_SAMPLES, 1.0, "fake", 1)
     theirs = bench.Figure("frame", "vtk", *bench_figures.PEER_SIZE, None, None, "fake", 1)
-    entry = [(Ours(), bench_timing.Job(ours, lambda: None, lambda: None)),
-             (peer, bench_timing.Job(theirs, lambda: None, lambda: None))]
+    entry = [
+        (Ours(), bench_timing.Job(ours, lambda: None, lambda: None)),
+        (peer, bench_timing.Job(theirs, lambda: None, lambda: None)),
+    ]
     figures = bench_timing.measure(entry, repeat=3)
     assert figures == [ours] and ours.times_ms == [10.0] * 3
     assert "exit code -11" in reasons["vtk"] and "Segmentation fault" in reasons["vtk"]
@@ -472,9 +581,10 @@ def test_a_peer_that_cannot_be_imported_is_not_installed_one_that_breaks_fails(t
     """The real worker with stand-ins for pyvista and vtk first ahead on the path: one whose
     import fails (a shared library missing) is not installed; one that imports but is broken
     is a failure, not a reason to skip."""
-    mesh = bench_client.write_mesh(tmp_path / "mesh.npz", *bench_scenes.flattened_mesh(_box_on_floor()), VIEW, (160, 120))
-    for case, body in (("missing", "raise ImportError('libGL.so.1: cannot open shared object file')"),
-                       ("broken", "")):
+    mesh = bench_client.write_mesh(
+        tmp_path / "mesh.npz", *bench_scenes.flattened_mesh(_box_on_floor()), VIEW, (160, 120)
+    )
+    for case, body in (("missing", "raise ImportError('libGL.so.1: cannot open shared object file')"), ("broken", "")):
         (tmp_path / case).mkdir()
         for package in ("pyvista", "vtk"):
             (tmp_path / case / f"{package}.py").write_text(body)

@@ -34,7 +34,7 @@ def test_bench_command_measures_the_hall_as_ifc(tmp_path, monkeypatch):
     from mrcheck.eval.bench import run as bench
     from mrcheck.eval.bench.scenes import HallGenerator, hall_ifc_path
 
-    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))          # the bench's cache of halls: this test's
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))  # the bench's cache of halls: this test's
     source = tmp_path / "source"
     source.mkdir()
     (source / "stand_in.py").write_text("# a generator of its own: its own cache key\n")
@@ -45,7 +45,7 @@ def test_bench_command_measures_the_hall_as_ifc(tmp_path, monkeypatch):
     hall = HallGenerator(small, source, write_ifc)
     path = hall_ifc_path(hall, 1_000_000)
     assert path.name == "hall.ifc" and path.stat().st_size > 0
-    assert hall_ifc_path(hall, 1_000_000) == path                     # written once
+    assert hall_ifc_path(hall, 1_000_000) == path  # written once
     report = bench.import_figures(True, hall)
     data = report.to_json()
     assert data["ifc"]["elements"] > 100 and set(data["ifc"]["seconds"]) == {1, 2}

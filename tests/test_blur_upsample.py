@@ -97,7 +97,7 @@ def test_blur_keeps_constant_ao_constant_over_any_depth_and_ignores_the_backgrou
     rng = np.random.default_rng(7)
     h, w = 32, 48
     depth = np.kron(rng.uniform(1.0, 20.0, (8, 12)), np.ones((4, 4))).astype(np.float32)
-    depth[rng.random((h, w)) < 0.1] = 0.0                  # scattered background texels
+    depth[rng.random((h, w)) < 0.1] = 0.0  # scattered background texels
     ao = np.where(depth > 0, 0.37, 1.0).astype(np.float32)
     blurred, z = _blur(gl, ao, depth)
     assert np.array_equal(z, depth)
@@ -125,7 +125,7 @@ def test_blur_does_not_carry_ao_across_a_depth_step(gl):
     ao, depth, inside = _step_scene()
     blurred, _ = _blur(gl, ao, depth)
     ring = np.zeros_like(inside)
-    ring[8:32, 8:32] = True                                 # the kernel's reach (radius 4) around the square
+    ring[8:32, 8:32] = True  # the kernel's reach (radius 4) around the square
     wall_near_edge = ring & ~inside
     # measured: wall 1.0 exactly, square 0.2 (both within 1e-7)
     assert blurred[wall_near_edge].min() > 0.995
@@ -148,7 +148,7 @@ def test_blur_smooths_an_ao_step_on_a_continuous_surface(gl):
     # measured: 0.480 and 0.720 beside the step (unblurred: 0.2 and 1.0); 0.2 / 1.0 at 6-7 px away
     assert 0.35 < row[19] < 0.6 and 0.6 < row[20] < 0.85
     assert abs(row[13] - 0.2) < 1e-3 and abs(row[26] - 1.0) < 1e-3
-    assert np.allclose(flat, flat[12], atol=1e-6)          # a vertical step stays vertical
+    assert np.allclose(flat, flat[12], atol=1e-6)  # a vertical step stays vertical
     # measured: max difference 0.0022 (at 1 % per pixel it would be 0.013)
     assert np.abs(slanted - flat).max() < 0.01
 
@@ -164,7 +164,7 @@ def test_upsampling_on_one_surface_is_bilinear_with_half_texel_i_at_full_pixel_2
     fallback averages all four taps). Odd full size: the last half-res texel is clamped."""
     rng = np.random.default_rng(3)
     h, w = 17, 23
-    hh, wh = (h + 1) // 2, (w + 1) // 2                      # as the renderer sizes it
+    hh, wh = (h + 1) // 2, (w + 1) // 2  # as the renderer sizes it
     ao_half = rng.random((hh, wh)).astype(np.float32)
     up = _upsample(gl, ao_half, np.full((hh, wh), 4.0), np.full((h, w), 4.0))
     # measured: max error 6e-8; the mutants above err by 0.64 (fallback) to 0.93 (+ 0.0)
@@ -183,15 +183,15 @@ def test_upsampling_keeps_each_side_of_a_silhouette(gl):
     hh, wh = 14, 16
     h, w = 2 * hh, 2 * wh
     near_half = np.zeros((hh, wh), bool)
-    near_half[4:10, 5:11] = True                            # half-res texels i in [5, 11), j in [4, 10)
+    near_half[4:10, 5:11] = True  # half-res texels i in [5, 11), j in [4, 10)
     near_full = np.zeros((h, w), bool)
-    near_full[2 * 4 - 1:2 * 10 - 1, 2 * 5 - 1:2 * 11 - 1] = True   # full-res: 2i, plus one pixel left / top
+    near_full[2 * 4 - 1 : 2 * 10 - 1, 2 * 5 - 1 : 2 * 11 - 1] = True  # full-res: 2i, plus one pixel left / top
     ao_half = np.where(near_half, 0.2, 1.0).astype(np.float32)
     up = _upsample(gl, ao_half, np.where(near_half, 5.0, 10.0), np.where(near_full, 5.0, 10.0))
 
     # the pixels whose footprint straddles the silhouette (both surfaces' texels in it)
     straddle = np.abs(_bilinear(near_half.astype(np.float32), (h, w)) - 0.5) < 0.49
-    assert straddle[near_full].sum() >= 20 and straddle[~near_full].sum() >= 20   # the test's premise
+    assert straddle[near_full].sum() >= 20 and straddle[~near_full].sum() >= 20  # the test's premise
     # measured: wall >= 0.9922 (the near texels keep 1/101 of their weight), square <= 0.2059
     assert up[~near_full].min() > 0.98
     assert up[near_full].max() < 0.22
@@ -207,7 +207,7 @@ def test_upsampling_with_no_neighbour_on_the_surface_takes_the_nearest_depth(gl)
     depth_half = np.where(np.arange(wh) < 4, 5.0, 10.0)[None, :].repeat(hh, 0)
     ao_half = np.where(depth_half < 7, 0.3, 1.0).astype(np.float32)
     depth_full = np.where(np.arange(w) < 8, 5.0, 10.0)[None, :].repeat(h, 0)
-    depth_full[:, 7] = 1.0      # odd column: between half texels 3 (5 m) and 4 (10 m)
+    depth_full[:, 7] = 1.0  # odd column: between half texels 3 (5 m) and 4 (10 m)
     up = _upsample(gl, ao_half, depth_half, depth_full)
     # measured: 0.3 exactly (the weighted mix, fallback never taken: 0.4155)
     assert np.abs(up[:, 7] - 0.3).max() < 1e-4
@@ -227,9 +227,10 @@ def test_composite_shades_with_the_same_upsampled_ao_as_the_ao_output(gl):
 
     camera = Camera.from_look_at((0, 0, 0), (0, 1, 0), (0, 0, 1), 60, w, h)
     facing = np.zeros((h, w, 4))
-    facing[..., 2] = -1.0                                   # camera-space normals towards the camera
-    gbuffer = SimpleNamespace(depth=_texture(gl, depth_full), normal=_texture(gl, facing),
-                              albedo=_texture(gl, np.full((h, w, 4), 0.8)))
+    facing[..., 2] = -1.0  # camera-space normals towards the camera
+    gbuffer = SimpleNamespace(
+        depth=_texture(gl, depth_full), normal=_texture(gl, facing), albedo=_texture(gl, np.full((h, w, 4), 0.8))
+    )
     composite = Composite(gl)
     images = []
     inputs = ((_ao_depth(gl, ao_half, depth_half), True), (_ao_depth(gl, ao_full, depth_full), False))
@@ -237,7 +238,7 @@ def test_composite_shades_with_the_same_upsampled_ao_as_the_ao_output(gl):
         color = gl.texture((w, h), 4, dtype="f1")
         composite.run(gl.framebuffer([color]), gbuffer, texture, camera, use_ao=True, ao_half=half, tone="clip")
         images.append(np.frombuffer(color.read(), np.uint8).reshape(h, w, 4)[..., :3].astype(int))
-    assert images[0].std() > 20                             # the AO shows in the image (measured: 29)
+    assert images[0].std() > 20  # the AO shows in the image (measured: 29)
     # measured: identical (max difference 0)
     assert np.abs(images[0] - images[1]).max() <= 1
 
@@ -260,7 +261,7 @@ def test_half_resolution_ao_lands_where_full_resolution_ao_puts_it(ctx):
 
     def centroid(ao, axis):
         darkness = 1.0 - ao
-        assert darkness.sum(axis).min() > 0.5               # a band to locate in every line
+        assert darkness.sum(axis).min() > 0.5  # a band to locate in every line
         position = np.arange(ao.shape[axis]).reshape((-1, 1) if axis == 0 else (1, -1))
         return (darkness * position).sum(axis) / darkness.sum(axis)
 

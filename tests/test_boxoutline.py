@@ -25,6 +25,6 @@ def test_the_crossing_lies_on_a_weak_rim_not_on_the_print_inside():
 
 
 def test_a_step_within_the_tables_noise_is_not_taken_for_the_rim():
-    profile, outline = _profile(3.0)       # below the table's measured 4 levels peak to peak
+    profile, outline = _profile(3.0)  # below the table's measured 4 levels peak to peak
     crossing = _crossing(profile)
-    assert crossing is not None and (outline - crossing) * _STEP >= 2.5    # the print's edge instead
+    assert crossing is not None and (outline - crossing) * _STEP >= 2.5  # the print's edge instead

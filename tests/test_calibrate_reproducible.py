@@ -23,8 +23,24 @@ def calibrate(tmp_path, name, photos, spec, min_views) -> bytes:
     out = tmp_path / f"{name}.json"
     # four OpenCV threads whatever the machine has: the race among them is what made runs differ
     env = dict(os.environ, OPENCV_FOR_THREADS_NUM="4")
-    result = subprocess.run([sys.executable, "-m", "mrcheck.cli", "calibrate", *map(str, photos), "--board", spec,
-                             "--min-views", str(min_views), "-o", str(out)], env=env, capture_output=True, text=True)
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "mrcheck.cli",
+            "calibrate",
+            *map(str, photos),
+            "--board",
+            spec,
+            "--min-views",
+            str(min_views),
+            "-o",
+            str(out),
+        ],
+        env=env,
+        capture_output=True,
+        text=True,
+    )
     assert result.returncode == 0, result.stderr
     return out.read_bytes()
 

@@ -45,8 +45,11 @@ def plain_opencv(images):
         gray = cv2.imread(name, cv2.IMREAD_GRAYSCALE)
         found, corners = cv2.findChessboardCorners(gray, (9, 6))
         assert found, name
-        points.append(cv2.cornerSubPix(gray, corners, (11, 11), (-1, -1),
-                                       (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.001)))
+        points.append(
+            cv2.cornerSubPix(
+                gray, corners, (11, 11), (-1, -1), (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.001)
+            )
+        )
     rms, K, _, _, _, _, _, per_view = cv2.calibrateCameraExtended([grid] * len(points), points, (640, 480), None, None)
     return rms, K, per_view.ravel()
 
@@ -109,7 +112,9 @@ def test_json_output_is_a_camera(tmp_path, capsys):
 
 
 def test_yaml_round_trip(tmp_path):
-    camera = Camera(640, 480, [[500.5, 0, 320.25], [0, 501.5, 240.75], [0, 0, 1]], dist=[-0.1, 0.01, 0.001, -0.002, 0.05])
+    camera = Camera(
+        640, 480, [[500.5, 0, 320.25], [0, 501.5, 240.75], [0, 0, 1]], dist=[-0.1, 0.01, 0.001, -0.002, 0.05]
+    )
     path = write_camera(tmp_path / "c.yaml", camera, {"rms": 0.3, "board": CHESS_SPEC})
     back = read_camera(path)
     assert np.array_equal(back.K, camera.K) and np.array_equal(back.dist, camera.dist)
@@ -121,8 +126,10 @@ def test_yaml_round_trip(tmp_path):
 
 def test_yaml_without_size_asks_for_json(tmp_path):
     path = tmp_path / "k.yml"
-    path.write_text("%YAML:1.0\n---\ncamera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
-                    "   data: [ 500., 0., 320., 0., 500., 240., 0., 0., 1. ]\n")
+    path.write_text(
+        "%YAML:1.0\n---\ncamera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+        "   data: [ 500., 0., 320., 0., 500., 240., 0., 0., 1. ]\n"
+    )
     with pytest.raises(Exception, match="image_width.*JSON"):
         read_camera(path)
 
@@ -186,7 +193,7 @@ def test_progress_bar_on_a_terminal(tmp_path, monkeypatch):
     cv2.imwrite(str(noise), np.random.default_rng(0).integers(0, 256, (480, 640), np.uint8))
     terminal = _Terminal()
     monkeypatch.setattr(sys, "stderr", terminal)
-    with warning_lines():   # as the command line shows them
+    with warning_lines():  # as the command line shows them
         views = detect_views([*CHESS[:3], noise, CHESS[3]], parse_board(CHESS_SPEC), progress=progress_bar)[0]
     assert len(views) == 4
     text = terminal.getvalue()
@@ -200,8 +207,11 @@ def upscaled(images, folder, factor=6.3):
     paths = []
     for name in images:
         path = folder / Path(name).name
-        cv2.imwrite(str(path), cv2.resize(cv2.imread(name), None, fx=factor, fy=factor, interpolation=cv2.INTER_CUBIC),
-                    [cv2.IMWRITE_JPEG_QUALITY, 90])
+        cv2.imwrite(
+            str(path),
+            cv2.resize(cv2.imread(name), None, fx=factor, fy=factor, interpolation=cv2.INTER_CUBIC),
+            [cv2.IMWRITE_JPEG_QUALITY, 90],
+        )
         paths.append(path)
     return paths
 
@@ -215,7 +225,9 @@ def test_large_photos_match_the_originals(tmp_path, capsys):
     small = json.loads((tmp_path / "small.json").read_text())
     big_dir = tmp_path / "big"
     big_dir.mkdir()
-    code, stdout, err = run(capsys, *upscaled(images, big_dir, factor), "--board", CHESS_SPEC, "-o", tmp_path / "big.json")
+    code, stdout, err = run(
+        capsys, *upscaled(images, big_dir, factor), "--board", CHESS_SPEC, "-o", tmp_path / "big.json"
+    )
     assert code == 0, err
     big = json.loads((tmp_path / "big.json").read_text())
     assert (big["width"], big["height"]) == (4032, 3024) and f"{len(images)} of {len(images)} images used" in stdout
@@ -285,14 +297,17 @@ def test_squares_counted_for_inner_corners_hints_the_spec(tmp_path, capsys):
     code, _, err = run(capsys, stray, *CHESS[:5], "--board", "chessboard:10x7:0.025", "-o", tmp_path / "c.json")
     assert code == 1
     error = err.splitlines()[-1]
-    assert error.startswith("error: board found in only 0 of 6 images, need at least 5 (--min-views); chessboard "
-                            "COLSxROWS counts the inner corners")
+    assert error.startswith(
+        "error: board found in only 0 of 6 images, need at least 5 (--min-views); chessboard "
+        "COLSxROWS counts the inner corners"
+    )
     assert error.endswith(f"; --board chessboard:9x6:0.025 finds a board in {CHESS[0]}")
 
 
 def test_charuco_size_swapped_hints_the_spec(tmp_path, capsys):
-    code, _, err = run(capsys, *CHARUCO, "--board", "charuco:7x5:0.04:0.02:DICT_6X6_250", "--min-views", 4,
-                       "-o", tmp_path / "c.json")
+    code, _, err = run(
+        capsys, *CHARUCO, "--board", "charuco:7x5:0.04:0.02:DICT_6X6_250", "--min-views", 4, "-o", tmp_path / "c.json"
+    )
     assert code == 1 and "charuco COLSxROWS counts the squares" in err
     assert err.rstrip().endswith(f"; --board {CHARUCO_SPEC} finds a board in {CHARUCO[0]}")
 
@@ -304,20 +319,25 @@ def test_board_in_few_of_the_photos_is_warned(tmp_path, capsys):
         cv2.imwrite(str(others[-1]), np.random.default_rng(seed).integers(0, 256, (120, 160), np.uint8))
     code, _, err = run(capsys, *CHESS[:5], *others, "--board", CHESS_SPEC, "-o", tmp_path / "c.json")
     assert code == 0
-    assert (f"warning: board {CHESS_SPEC}: found in only 5 of 11 readable images; chessboard COLSxROWS counts the "
-            "inner corners") in err
+    assert (
+        f"warning: board {CHESS_SPEC}: found in only 5 of 11 readable images; chessboard COLSxROWS counts the "
+        "inner corners"
+    ) in err
 
 
-@pytest.mark.parametrize("spec, problem", [
-    ("checkerboard:9x6:0.025", "unknown board type"),
-    ("chessboard:9x6", "expected chessboard:COLSxROWS:SQUARE"),
-    ("chessboard:9by6:0.025", "not COLSxROWS"),
-    ("chessboard:2x6:0.025", "at least 3x3"),
-    ("chessboard:9x6:-1", "positive length"),
-    ("chessboard:9x6:nan", "positive length"),
-    ("charuco:5x7:0.04:0.05:DICT_6X6_250", "smaller than the square"),
-    ("charuco:5x7:0.04:0.02:DICT_9X9_1", "unknown ArUco dictionary"),
-])
+@pytest.mark.parametrize(
+    "spec, problem",
+    [
+        ("checkerboard:9x6:0.025", "unknown board type"),
+        ("chessboard:9x6", "expected chessboard:COLSxROWS:SQUARE"),
+        ("chessboard:9by6:0.025", "not COLSxROWS"),
+        ("chessboard:2x6:0.025", "at least 3x3"),
+        ("chessboard:9x6:-1", "positive length"),
+        ("chessboard:9x6:nan", "positive length"),
+        ("charuco:5x7:0.04:0.05:DICT_6X6_250", "smaller than the square"),
+        ("charuco:5x7:0.04:0.02:DICT_9X9_1", "unknown ArUco dictionary"),
+    ],
+)
 def test_bad_spec(tmp_path, capsys, spec, problem):
     code, _, err = run(capsys, *CHESS, "--board", spec, "-o", tmp_path / "c.json")
     assert code == 1 and err.startswith("error: board SPEC") and problem in err and err.count("\n") == 1

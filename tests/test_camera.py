@@ -47,7 +47,9 @@ def test_rendered_pixels_are_exactly_those_opencv_projects_inside(ctx):
             if abs(d) > 0.02:  # pixel centres right on an edge may go either way
                 assert covered[j, i] == (d > 0), (centre, i, j, d)
         assert covered.sum() > 50
-    assert np.allclose(camera.project(np.eye(3)), cv2.projectPoints(np.eye(3), rvec, camera.t, camera.K, None)[0].reshape(-1, 2))
+    assert np.allclose(
+        camera.project(np.eye(3)), cv2.projectPoints(np.eye(3), rvec, camera.t, camera.K, None)[0].reshape(-1, 2)
+    )
 
 
 def test_depth_buffer_holds_linear_camera_z(ctx):
@@ -68,7 +70,12 @@ def test_look_at_puts_the_target_at_the_image_centre_and_keeps_up_up():
 
 def test_camera_json_round_trip_and_shot_files(tmp_path):
     camera = _off_centre_camera()
-    shot = camera.to_dict() | {"dist": [0.1, -0.05, 0.001, 0.0, 0.01], "photo": "IMG_1.jpg", "rms": 0.4, "method": "markers"}
+    shot = camera.to_dict() | {
+        "dist": [0.1, -0.05, 0.001, 0.0, 0.01],
+        "photo": "IMG_1.jpg",
+        "rms": 0.4,
+        "method": "markers",
+    }
     path = tmp_path / "shot.json"
     path.write_text(json.dumps(shot))
     loaded = load_camera(path)
@@ -87,13 +94,16 @@ def test_resize_scales_about_the_pixel_grid():
     assert hu == pytest.approx((u + 0.5) / 2 - 0.5) and hv == pytest.approx((v + 0.5) / 2 - 0.5)
 
 
-@pytest.mark.parametrize("change, message", [
-    ({"width": 0}, "positive"),
-    ({"K": [[0, 0, 1], [0, 100, 1], [0, 0, 1]]}, "focal"),
-    ({"K": [[1, 2], [3, 4]]}, "shape"),
-    ({"R": [[1, 0, 0], [0, 1, 0], [0, 0, 2]]}, "rotation"),
-    ({"t": [0, float("nan"), 0]}, "NaN"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        ({"width": 0}, "positive"),
+        ({"K": [[0, 0, 1], [0, 100, 1], [0, 0, 1]]}, "focal"),
+        ({"K": [[1, 2], [3, 4]]}, "shape"),
+        ({"R": [[1, 0, 0], [0, 1, 0], [0, 0, 2]]}, "rotation"),
+        ({"t": [0, float("nan"), 0]}, "NaN"),
+    ],
+)
 def test_bad_cameras_are_refused_with_a_reason(change, message):
     data = _off_centre_camera().to_dict() | change
     with pytest.raises(MrcheckError, match=message):

@@ -51,8 +51,11 @@ def register_inputs(tmp_path):
     """A photo and five correspondences: enough for register to reach the pose solve."""
     photo, points = tmp_path / "p.png", tmp_path / "C.json"
     cv2.imwrite(str(photo), np.zeros((480, 640), np.uint8))
-    points.write_text(json.dumps({"points": [{"pixel": [100 + 50 * i, 100 + 80 * (i % 2)], "world": [i, i % 2, 0]}
-                                             for i in range(5)]}))
+    points.write_text(
+        json.dumps(
+            {"points": [{"pixel": [100 + 50 * i, 100 + 80 * (i % 2)], "world": [i, i % 2, 0]} for i in range(5)]}
+        )
+    )
     return ["--photo", photo, "--points", points, "-o", tmp_path / "S.json"]
 
 
@@ -68,7 +71,7 @@ def test_empty_yaml_intrinsics_is_one_line_error(tmp_path, capsys, register_inpu
 def test_truncated_yaml_intrinsics_is_one_line_error(tmp_path, capsys, register_inputs, cut):
     text = intrinsics_yaml(tmp_path / "whole.yml").read_text()
     truncated = tmp_path / "cam.yml"
-    truncated.write_text(text[:text.index(cut) + len(cut) // 2])
+    truncated.write_text(text[: text.index(cut) + len(cut) // 2])
     result = run(capsys, "register", SCENE, "--intrinsics", truncated, *register_inputs)
     assert_one_line_error(result, truncated, "cannot read OpenCV YAML camera")
 
@@ -89,8 +92,10 @@ def test_yaml_text_is_not_a_number(tmp_path):
     # OpenCV reads a string as DBL_MAX (a huge "focal length") or asserts in FileNode.mat()
     text = intrinsics_yaml(tmp_path / "whole.yml").read_text()
     letters = "camera_matrix: [a, b, c, d, e, f, g, h, i]\nx: !!opencv-matrix"
-    for old, new, words in (("image_width: 640", 'image_width: "640"', "width"),
-                            ("camera_matrix: !!opencv-matrix", letters, "K contains NaN")):
+    for old, new, words in (
+        ("image_width: 640", 'image_width: "640"', "width"),
+        ("camera_matrix: !!opencv-matrix", letters, "K contains NaN"),
+    ):
         path = tmp_path / "bad.yml"
         path.write_text(text.replace(old, new))
         with pytest.raises(MrcheckError, match=words):
@@ -156,8 +161,21 @@ def test_render_and_reference_take_a_yaml_camera(tmp_path, capsys):
         assert code == 0, err
         images[camera.suffix] = cv2.imread(str(out))
     assert np.array_equal(images[".json"], images[".yml"]) and images[".yml"].shape == (48, 64, 3)
-    code, _, err = run(capsys, "reference", SCENE, "--camera", yml, "--width", "32", "--height", "24",
-                       "--rays", "4", "-o", tmp_path / "ref.npy")
+    code, _, err = run(
+        capsys,
+        "reference",
+        SCENE,
+        "--camera",
+        yml,
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--rays",
+        "4",
+        "-o",
+        tmp_path / "ref.npy",
+    )
     assert code == 0, err
     assert np.load(tmp_path / "ref.npy").shape == (24, 32)
 
@@ -194,16 +212,21 @@ def test_a_bad_camera_file_fails_before_the_scene_loads(tmp_path, capsys, monkey
     path = tmp_path / "cam.json"
     path.write_text('{"width": 64,')
     out = tmp_path / ("r.png" if command == "render" else "r.npy")
-    assert_one_line_error(run(capsys, command, SCENE, "--camera", path, *TINY, "-o", out), path, "malformed camera JSON")
+    assert_one_line_error(
+        run(capsys, command, SCENE, "--camera", path, *TINY, "-o", out), path, "malformed camera JSON"
+    )
 
 
 # -- 4. a K the pinhole renderer cannot draw -------------------------------------------------
-@pytest.mark.parametrize("row, col, value, words", [
-    (0, 1, 100.0, "skew K[0][1] = 100"),
-    (1, 0, 5.0, "K[1][0] = 5"),
-    (2, 0, 0.001, "bottom row"),
-    (2, 2, 2.0, "bottom row"),
-])
+@pytest.mark.parametrize(
+    "row, col, value, words",
+    [
+        (0, 1, 100.0, "skew K[0][1] = 100"),
+        (1, 0, 5.0, "K[1][0] = 5"),
+        (2, 0, 0.001, "bottom row"),
+        (2, 2, 2.0, "bottom row"),
+    ],
+)
 def test_a_k_with_skew_or_another_bottom_row_is_refused(tmp_path, capsys, row, col, value, words):
     """Only fx, fy, cx, cy are drawn: a skewed or unnormalised K rendered as if it were the plain
     pinhole, an image that does not match the camera, with exit 0."""
@@ -237,7 +260,20 @@ def test_width_and_height_within_a_pixel_of_the_aspect_ratio_are_accepted(tmp_pa
     # 65x48 and 64x49 are 64x48 up to the rounding of one side (what --width alone rounds too)
     for size in (("65", "48"), ("64", "49")):
         out = tmp_path / "r.png"
-        code, _, err = run(capsys, "render", SCENE, "--camera", CONVEYOR, "--mode", "phong",
-                           "--width", size[0], "--height", size[1], "-o", out)
+        code, _, err = run(
+            capsys,
+            "render",
+            SCENE,
+            "--camera",
+            CONVEYOR,
+            "--mode",
+            "phong",
+            "--width",
+            size[0],
+            "--height",
+            size[1],
+            "-o",
+            out,
+        )
         assert code == 0, err
         assert cv2.imread(str(out)).shape[:2] == (int(size[1]), int(size[0]))

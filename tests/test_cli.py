@@ -43,8 +43,24 @@ def test_output_ao_npy_contract(tmp_path):
 
 def test_output_ao_png_is_16_bit_and_all_mode_writes_one_per_ao_mode(tmp_path):
     out = tmp_path / "all.png"
-    assert main(["render", SCENE, "--view", "robot", "--mode", "all", *SMALL, "-o", str(out),
-                 "--output-ao", str(tmp_path / "ao.png")]) == 0
+    assert (
+        main(
+            [
+                "render",
+                SCENE,
+                "--view",
+                "robot",
+                "--mode",
+                "all",
+                *SMALL,
+                "-o",
+                str(out),
+                "--output-ao",
+                str(tmp_path / "ao.png"),
+            ]
+        )
+        == 0
+    )
     for mode in ("vector", "ssao"):
         ao = cv2.imread(str(tmp_path / f"ao_{mode}.png"), cv2.IMREAD_UNCHANGED)
         assert ao.dtype == np.uint16 and ao.shape == (120, 160) and ao.max() == 65535
@@ -58,8 +74,10 @@ def test_background_is_unoccluded_and_camera_json_works(tmp_path):
     cam_path = tmp_path / "sky.json"
     cam_path.write_text(json.dumps(cam.to_dict() | {"photo": "x.jpg", "rms": 0.3}))
     ao_path = tmp_path / "ao.npy"
-    assert main(["render", SCENE, "--camera", str(cam_path), "-o", str(tmp_path / "s.png"),
-                 "--output-ao", str(ao_path)]) == 0
+    assert (
+        main(["render", SCENE, "--camera", str(cam_path), "-o", str(tmp_path / "s.png"), "--output-ao", str(ao_path)])
+        == 0
+    )
     assert np.all(np.load(ao_path) == 1.0)
 
 
@@ -99,28 +117,50 @@ def test_demo_writes_every_view_and_mode(tmp_path, capsys, monkeypatch):
 def test_help_explains_every_option(capsys):
     assert main(["render", "--help"]) == 0
     text = capsys.readouterr().out
-    for option in ("--view", "--camera", "--mode", "--samples", "--radius-px", "--radius", "--falloff",
-                   "--intensity", "--blur", "--ao-scale", "--output-ao", "--seed", "--units"):
+    for option in (
+        "--view",
+        "--camera",
+        "--mode",
+        "--samples",
+        "--radius-px",
+        "--radius",
+        "--falloff",
+        "--intensity",
+        "--blur",
+        "--ao-scale",
+        "--output-ao",
+        "--seed",
+        "--units",
+    ):
         assert option in text
 
 
 def test_wheel_carries_shaders_and_sample_scene_and_renders_installed(tmp_path):
     # A non-editable install must find its shaders and the sample scene inside the package.
     wheel_dir, site = tmp_path / "wheel", tmp_path / "site"
-    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheel_dir), str(REPO)],
-                   check=True, capture_output=True)
+    subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheel_dir), str(REPO)],
+        check=True,
+        capture_output=True,
+    )
     wheel = next(wheel_dir.glob("mrcheck-*.whl"))
     names = zipfile.ZipFile(wheel).namelist()
     assert "mrcheck/_data/shaders/ao_vector.glsl" in names
     assert "factory_scenes/sample_cell/scene.toml" in names
     assert "factory_scenes/sample_cell/robots/kuka_iiwa/LICENSE.txt" in names
-    subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target", str(site), str(wheel)],
-                   check=True, capture_output=True)
-    code = ("import sys; sys.path.insert(0, sys.argv[1]); import mrcheck.core.resources as r, mrcheck.cli as c;"
-            "assert r.shader_dir().is_relative_to(sys.argv[1]), r.shader_dir();"
-            "sys.exit(c.main(['demo', '-o', sys.argv[2], '--width', '64', '--height', '48']))")
-    run = subprocess.run([sys.executable, "-c", code, str(site), str(tmp_path / "demo")], cwd=tmp_path,
-                         capture_output=True, text=True)
+    subprocess.run(
+        [sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target", str(site), str(wheel)],
+        check=True,
+        capture_output=True,
+    )
+    code = (
+        "import sys; sys.path.insert(0, sys.argv[1]); import mrcheck.core.resources as r, mrcheck.cli as c;"
+        "assert r.shader_dir().is_relative_to(sys.argv[1]), r.shader_dir();"
+        "sys.exit(c.main(['demo', '-o', sys.argv[2], '--width', '64', '--height', '48']))"
+    )
+    run = subprocess.run(
+        [sys.executable, "-c", code, str(site), str(tmp_path / "demo")], cwd=tmp_path, capture_output=True, text=True
+    )
     assert run.returncode == 0, run.stderr
     assert (tmp_path / "demo" / "robot_study.png").exists()
 
@@ -169,10 +209,13 @@ def test_one_side_of_a_view_keeps_its_aspect_ratio(tmp_path):
     assert cv2.imread(str(out)).shape[:2] == (round(h * 160 / w), 160)
 
 
-@pytest.mark.parametrize("args", [
-    ["bench", "--quick", "--json", "/proc/bench.json"],       # before minutes of benchmarking
-    ["demo", "-o", "/proc/demo"],
-])
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["bench", "--quick", "--json", "/proc/bench.json"],  # before minutes of benchmarking
+        ["demo", "-o", "/proc/demo"],
+    ],
+)
 def test_unwritable_outputs_fail_before_the_work(capsys, args):
     assert main(args) == 1
     err = capsys.readouterr().err
@@ -198,13 +241,16 @@ def test_a_bug_is_one_line_and_its_traceback_is_one_variable_away(tmp_path, caps
         main(args)
 
 
-@pytest.mark.parametrize("mode, options, warned", [
-    ("ssao", ["--radius-px", "5"], ["--radius-px"]),
-    ("vector", ["--radius", "0.5", "--min-world-radius", "0.1"], ["--radius "]),
-    ("phong", ["--samples", "8", "--no-blur"], ["--samples", "--blur/--no-blur"]),
-    ("all", ["--radius-px", "5", "--radius", "0.5"], []),       # D2 reads the one, D3 the other
-    ("vector", ["--samples", "8"], []),
-])
+@pytest.mark.parametrize(
+    "mode, options, warned",
+    [
+        ("ssao", ["--radius-px", "5"], ["--radius-px"]),
+        ("vector", ["--radius", "0.5", "--min-world-radius", "0.1"], ["--radius "]),
+        ("phong", ["--samples", "8", "--no-blur"], ["--samples", "--blur/--no-blur"]),
+        ("all", ["--radius-px", "5", "--radius", "0.5"], []),  # D2 reads the one, D3 the other
+        ("vector", ["--samples", "8"], []),
+    ],
+)
 def test_an_option_no_chosen_mode_reads_is_a_warning(tmp_path, capsys, mode, options, warned):
     out = tmp_path / "r.png"
     assert main(["render", SCENE, "--view", "robot", "--mode", mode, *SMALL, *options, "-o", str(out)]) == 0
@@ -258,8 +304,23 @@ def test_render_warns_about_parts_without_declared_units(tmp_path, capsys):
     for path in sample_scene_path().parent.iterdir():
         if path.name != "scene.toml":
             (tmp_path / path.name).symlink_to(path)
-    assert main(["render", str(tmp_path / "scene.toml"), "--view", "robot", "--mode", "phong", "--width", "64",
-                 "-o", str(tmp_path / "r.png")]) == 0
+    assert (
+        main(
+            [
+                "render",
+                str(tmp_path / "scene.toml"),
+                "--view",
+                "robot",
+                "--mode",
+                "phong",
+                "--width",
+                "64",
+                "-o",
+                str(tmp_path / "r.png"),
+            ]
+        )
+        == 0
+    )
     warnings = [line for line in capsys.readouterr().err.splitlines() if line.startswith("warning:")]
     assert len(warnings) == 1 and "1 part(s) without declared units" in warnings[0], warnings
 
@@ -285,7 +346,7 @@ def test_blur_size_has_a_stated_maximum_checked_before_the_work(tmp_path, capsys
         assert len(err) == 1 and f"must be odd, 3 to {MAX_BLUR_SIZE}, got {size}" in err[0], err
     assert not out.exists()
     assert main(["render", "--help"]) == 0
-    assert f"odd, 3 to {MAX_BLUR_SIZE}" in " ".join(capsys.readouterr().out.split())   # the help states it
+    assert f"odd, 3 to {MAX_BLUR_SIZE}" in " ".join(capsys.readouterr().out.split())  # the help states it
 
 
 @pytest.mark.parametrize("width", [40, 100, 160])
@@ -300,8 +361,8 @@ def test_sheet_labels_fit_their_panels_at_small_widths(width):
     bar = sheet.shape[0] - h
     gap = (sheet.shape[1] - 3 * width) // 2
     for i in range(3):
-        panel = sheet[:bar, i * (width + gap):i * (width + gap) + width]
+        panel = sheet[:bar, i * (width + gap) : i * (width + gap) + width]
         text = np.nonzero((panel > 32).any(axis=(0, 2)))[0]
         assert text.size and text.max() < width - 2, f"panel {i}: label reaches column {text.max()} of {width}"
         rows = np.nonzero((panel > 32).any(axis=(1, 2)))[0]
-        assert rows.min() > 0 and rows.max() < bar - 1      # nor cut at the top or bottom of its bar
+        assert rows.min() > 0 and rows.max() < bar - 1  # nor cut at the top or bottom of its bar

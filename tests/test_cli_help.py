@@ -34,9 +34,24 @@ def _summary(command: click.Command) -> str:
 
 def test_every_command_is_covered():
     names = {" ".join(path) for path, _ in COMMANDS}
-    assert {"render", "demo", "calibrate", "register", "overlay", "export", "review", "discrepancies",
-            "deviation", "bench", "reference", "compare", "scene", "scene generate", "scene asbuilt",
-            "scene info"} <= names
+    assert {
+        "render",
+        "demo",
+        "calibrate",
+        "register",
+        "overlay",
+        "export",
+        "review",
+        "discrepancies",
+        "deviation",
+        "bench",
+        "reference",
+        "compare",
+        "scene",
+        "scene generate",
+        "scene asbuilt",
+        "scene info",
+    } <= names
 
 
 @pytest.mark.parametrize("group_path", [(), ("scene",)], ids=["mrcheck", "scene"])
@@ -48,7 +63,7 @@ def test_the_command_list_shows_each_summary_in_full(capsys, group_path):
         if path[:-1] == group_path:
             summary = _summary(command)
             assert f"{path[-1]} {summary}" in listing
-            assert not summary.endswith("...") and len(summary) <= 62, summary   # one line of an 80-column list
+            assert not summary.endswith("...") and len(summary) <= 62, summary  # one line of an 80-column list
 
 
 @pytest.mark.parametrize("path", [path for path, _ in COMMANDS], ids=" ".join)
@@ -60,7 +75,7 @@ def test_every_command_help_has_an_example_the_command_line_accepts(capsys, path
     words = shlex.split(example)
     assert words[0] == "mrcheck", example
     # a group's example runs one of its commands; a command's example runs that command
-    assert tuple(words[1:1 + len(path)]) == path or (path and words[1] == path[0]), example
+    assert tuple(words[1 : 1 + len(path)]) == path or (path and words[1] == path[0]), example
     # click parses it: every option exists and every value has its type (files are not opened)
     command, args = cli, words[1:]
     while isinstance(command, click.Group):
@@ -72,5 +87,5 @@ def test_demo_says_which_image_to_open_first(tmp_path, capsys):
     assert main(["demo", "-o", str(tmp_path), "--width", "64", "--height", "48"]) == 0
     err = capsys.readouterr().err.strip().splitlines()
     first = Path(err[-1].split("open ", 1)[1].split(" first:", 1)[0])
-    assert first == tmp_path.resolve() / "robot_study.png" and first.is_file()   # the one README.md names first
+    assert first == tmp_path.resolve() / "robot_study.png" and first.is_file()  # the one README.md names first
     assert "D1 | D2 | D3" in err[-1]

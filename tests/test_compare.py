@@ -46,7 +46,7 @@ def test_false_occlusion_only_counts_pixels_the_reference_calls_unoccluded():
 
 
 def test_distance_retention_on_constructed_depth_quartiles():
-    depth = np.arange(1, 9, dtype=np.float32).reshape(2, 4)   # 1..8: Q1 = 2.75, Q3 = 6.25
+    depth = np.arange(1, 9, dtype=np.float32).reshape(2, 4)  # 1..8: Q1 = 2.75, Q3 = 6.25
     ao = np.array([[0.6, 0.8, 1.0, 1.0], [1.0, 1.0, 0.9, 0.7]], np.float32)
     near, far = metrics.depth_quartiles(depth)
     assert near.sum() == 2 and far.sum() == 2
@@ -83,8 +83,22 @@ def test_no_covered_pixel_is_undefined_everywhere():
 # -- the command -----------------------------------------------------------------------------------
 def test_compare_writes_figure_and_metrics(tmp_path, capsys):
     out = tmp_path / "cmp"
-    argv = ["compare", str(sample_scene_path()), "--view", "robot", "--width", str(W), "--height", str(H),
-            "--rays", "32", "--samples", "8", "-o", str(out)]
+    argv = [
+        "compare",
+        str(sample_scene_path()),
+        "--view",
+        "robot",
+        "--width",
+        str(W),
+        "--height",
+        str(H),
+        "--rays",
+        "32",
+        "--samples",
+        "8",
+        "-o",
+        str(out),
+    ]
     assert main(argv) == 0
     stdout = capsys.readouterr().out
     assert sorted(p.name for p in out.iterdir()) == ["figure.png", "metrics.json", "metrics.md"]
@@ -92,8 +106,13 @@ def test_compare_writes_figure_and_metrics(tmp_path, capsys):
         assert str(out / name) in stdout
 
     report = json.loads((out / "metrics.json").read_text())
-    assert {k: report[k] for k in ("view", "width", "height", "samples", "rays")} == \
-        {"view": "robot", "width": W, "height": H, "samples": 8, "rays": 32}
+    assert {k: report[k] for k in ("view", "width", "height", "samples", "rays")} == {
+        "view": "robot",
+        "width": W,
+        "height": H,
+        "samples": 8,
+        "rays": 32,
+    }
     assert report["scene"].endswith("scene.toml")
     assert list(report["modes"]) == AO_MODES
     for mode, values in report["modes"].items():
@@ -127,18 +146,31 @@ def test_compare_writes_figure_and_metrics(tmp_path, capsys):
 
 def test_compare_unknown_view_is_one_line_error_and_no_output(tmp_path, capsys):
     out = tmp_path / "cmp"
-    argv = ["compare", str(sample_scene_path()), "--view", "nowhere", "--width", str(W), "--height", str(H),
-            "-o", str(out)]
+    argv = [
+        "compare",
+        str(sample_scene_path()),
+        "--view",
+        "nowhere",
+        "--width",
+        str(W),
+        "--height",
+        str(H),
+        "-o",
+        str(out),
+    ]
     assert main(argv) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error:") and "nowhere" in err[0]
     assert not out.exists()
 
 
-@pytest.mark.parametrize("args, message", [
-    (["--rays", "100000", "-o", "{tmp}/cmp"], "rays must be in [1, 4096]"),
-    (["-o", "/proc/cmp"], "folder /proc is not writable"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--rays", "100000", "-o", "{tmp}/cmp"], "rays must be in [1, 4096]"),
+        (["-o", "/proc/cmp"], "folder /proc is not writable"),
+    ],
+)
 def test_compare_bad_option_or_unwritable_output_fails_before_rendering(tmp_path, capsys, args, message):
     args = [a.replace("{tmp}", str(tmp_path)) for a in args]
     assert main(["compare", str(sample_scene_path()), "--view", "robot", *args]) == 1

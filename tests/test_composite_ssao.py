@@ -68,17 +68,17 @@ def _srgb_bytes(linear: np.ndarray) -> np.ndarray:
 
 # the model, written out independently of mrcheck/composite.py and shaders/composite.glsl
 AMBIENT, DIFFUSE, SPECULAR, SHININESS = 0.60, 0.45, 0.12, 40.0
-HEADLIGHT_CAMERA = np.array([-0.2, -0.35, -1.0])        # camera space: up-left, towards the viewer
-SUN_WORLD = np.array([0.35, -0.25, 0.90])               # world space, z up
-BACKGROUND = np.array([0.80, 0.84, 0.88])               # linear
+HEADLIGHT_CAMERA = np.array([-0.2, -0.35, -1.0])  # camera space: up-left, towards the viewer
+SUN_WORLD = np.array([0.35, -0.25, 0.90])  # world space, z up
+BACKGROUND = np.array([0.80, 0.84, 0.88])  # linear
 
 
 def _expected_linear(camera, light, depth, normal, albedo, ao, use_ao, ao_direct):
     """(H, W, 3) linear colour of the shading model (float64)."""
     h, w = depth.shape
     fx, fy, cx, cy = camera.K[0, 0], camera.K[1, 1], camera.K[0, 2], camera.K[1, 2]
-    j, i = np.mgrid[0:h, 0:w].astype(np.float64)          # row, column = OpenCV pixel centre
-    z = np.where(depth > 0, depth, 1.0)                   # the background is masked below
+    j, i = np.mgrid[0:h, 0:w].astype(np.float64)  # row, column = OpenCV pixel centre
+    z = np.where(depth > 0, depth, 1.0)  # the background is masked below
     P = np.dstack([(i - cx) / fx * z, (j - cy) / fy * z, z])
     L = _unit(HEADLIGHT_CAMERA if light == "headlight" else camera.R @ SUN_WORLD)
     V = _unit(-P)
@@ -87,7 +87,7 @@ def _expected_linear(camera, light, depth, normal, albedo, ao, use_ao, ao_direct
     n_dot_l = normal @ L
     diffuse = np.maximum(n_dot_l, 0.0)
     specular = np.where(n_dot_l > 0.0, np.maximum((normal * H).sum(-1), 0.0) ** SHININESS, 0.0)
-    direct = (DIFFUSE * diffuse[..., None] * albedo + SPECULAR * specular[..., None])
+    direct = DIFFUSE * diffuse[..., None] * albedo + SPECULAR * specular[..., None]
     if ao_direct:
         direct = direct * a[..., None]
     colour = np.clip(AMBIENT * a[..., None] * albedo + direct, 0.0, 1.0)
@@ -111,7 +111,7 @@ def _composite_inputs(camera, light, seed):
     kind = rng.integers(0, 3, (h, w))
     jitter = rng.normal(size=(h, w, 3)) * rng.choice([0.0, 0.05, 0.15], (h, w))[..., None]
     random = _unit(rng.normal(size=(h, w, 3)))
-    random = np.where(((random * V).sum(-1) < 0)[..., None], -random, random)   # facing the camera
+    random = np.where(((random * V).sum(-1) < 0)[..., None], -random, random)  # facing the camera
     normal = _unit(np.where((kind == 0)[..., None], H + jitter, random))
     # albedo below 200/255 keeps every pixel below 1 (1.05 * 0.78 + 0.12), no clamping
     albedo_bytes = rng.integers(0, 200, (h, w, 4)).astype(np.uint8)
@@ -144,25 +144,44 @@ def test_composite_matches_the_shading_model_per_pixel(gl, light, mode):
     depth, normal, albedo_bytes, ao = _composite_inputs(camera, light, seed=11)
     use_ao, ao_direct = mode != "phong", mode == "ao_direct"
 
-    gbuffer = SimpleNamespace(depth=_texture(gl, depth[..., None]),
-                              normal=_texture(gl, np.dstack([normal, np.zeros((h, w))])),
-                              albedo=_texture(gl, albedo_bytes, "f1"))
+    gbuffer = SimpleNamespace(
+        depth=_texture(gl, depth[..., None]),
+        normal=_texture(gl, np.dstack([normal, np.zeros((h, w))])),
+        albedo=_texture(gl, albedo_bytes, "f1"),
+    )
     ao_texture = _texture(gl, np.dstack([ao, depth]))
     color = srgb_texture(gl, (w, h))
-    Composite(gl).run(gl.framebuffer([color]), gbuffer, ao_texture, camera, use_ao=use_ao,
-                      light=light, ao_direct=ao_direct)
+    Composite(gl).run(
+        gl.framebuffer([color]), gbuffer, ao_texture, camera, use_ao=use_ao, light=light, ao_direct=ao_direct
+    )
     image = np.frombuffer(color.read(), np.uint8).reshape(h, w, 4)[..., :3].astype(int)
 
     albedo = albedo_bytes[..., :3] / 255.0
-    expected_linear = _expected_linear(camera, light, depth.astype(np.float64), normal.astype(np.float64),
-                                       albedo, ao.astype(np.float64), use_ao, ao_direct)
+    expected_linear = _expected_linear(
+        camera,
+        light,
+        depth.astype(np.float64),
+        normal.astype(np.float64),
+        albedo,
+        ao.astype(np.float64),
+        use_ao,
+        ao_direct,
+    )
     # the tone curve maps the CAD's light, not the background's fixed colour
     expected = _srgb_bytes(np.where((depth > 0)[..., None], _filmic(expected_linear), expected_linear))
     # the premise: enough highlights (specular term alone > 0.1) to show a changed SPECULAR
-    specular_share = _expected_linear(camera, light, depth.astype(np.float64), normal.astype(np.float64),
-                                      np.zeros_like(albedo), np.ones_like(ao, np.float64), False, False)[..., 0]
-    assert (specular_share[depth > 0] > 0.1).sum() >= 100     # measured: 153-156 of 768 pixels
-    assert (depth == 0).sum() >= 10                           # background pixels
+    specular_share = _expected_linear(
+        camera,
+        light,
+        depth.astype(np.float64),
+        normal.astype(np.float64),
+        np.zeros_like(albedo),
+        np.ones_like(ao, np.float64),
+        False,
+        False,
+    )[..., 0]
+    assert (specular_share[depth > 0] > 0.1).sum() >= 100  # measured: 153-156 of 768 pixels
+    assert (depth == 0).sum() >= 10  # background pixels
     # measured: max difference 1 level in all six cases (about 160 of 2304 channels off by 1);
     # SPECULAR 0.06: 25-28 levels, sqrt(AO): 49, --ao-direct ignored: 149-150
     difference = np.abs(image - expected)
@@ -179,14 +198,20 @@ def test_renderer_passes_ao_direct_to_the_composite(ctx):
     camera = Camera.from_look_at((0, 0, 2.0), (0, 6, 1.0), (0, 0, 1), 60, 64, 48)
     renderer = Renderer(scene, ctx=ctx)
     # without anti-aliasing: an edge pixel would mix samples of other AO than its centre's
-    results = [renderer.render(camera, ["vector"], RenderSettings(ao_direct=direct, samples=16, blur=False, radius_px=6,
-                                                                   intensity=2.0, antialias=False), want_ao=True)["vector"]
-               for direct in (False, True)]
+    results = [
+        renderer.render(
+            camera,
+            ["vector"],
+            RenderSettings(ao_direct=direct, samples=16, blur=False, radius_px=6, intensity=2.0, antialias=False),
+            want_ao=True,
+        )["vector"]
+        for direct in (False, True)
+    ]
     ao = results[0].ao
     assert np.array_equal(ao, results[1].ao)
     darker = results[0].image.astype(int) - results[1].image.astype(int)
     dark, open_ = ao < 0.8, ao > 0.999
-    assert dark.sum() >= 50 and open_.sum() >= 500          # measured: 185 and 2000+ of 3072 pixels
+    assert dark.sum() >= 50 and open_.sum() >= 500  # measured: 185 and 2000+ of 3072 pixels
     # measured: at least 5 levels darker in every channel where AO < 0.8 (mean 50), identical
     # where it is open; --ao-direct dropped on the way: 0 everywhere
     assert darker[dark].min() >= 3
@@ -226,14 +251,14 @@ def test_ssao_range_check_ignores_occluders_more_than_r_in_front(ctx):
 
     def beside(post_depth):
         columns = np.flatnonzero(np.isclose(row, post_depth, atol=1e-3))
-        assert len(columns) >= 5                            # the post is seen (measured: 9 and 7 columns)
+        assert len(columns) >= 5  # the post is seen (measured: 9 and 7 columns)
         near = np.zeros(camera.width, bool)
         for c in columns:
-            near[max(c - reach, 0):c + reach + 1] = True
+            near[max(c - reach, 0) : c + reach + 1] = True
         return wall & near[None, :]
 
     beside_a, beside_b = beside(5.0 - 3.0 * radius), beside(5.0 - 0.75 * radius)
-    assert beside_a.sum() >= 400 and beside_b.sum() >= 400   # measured: 640 each (reach 5 px)
+    assert beside_a.sum() >= 400 and beside_b.sum() >= 400  # measured: 640 each (reach 5 px)
     # measured: 1.0 exactly beside post A (without the range check: min 0.53, mean 0.91)
     assert ao[beside_a].min() >= 0.999
     # measured: beside post B min 0.66, mean 0.93 (unchanged without the range check)
@@ -272,7 +297,7 @@ def test_ssao_bias_removes_self_occlusion_of_a_tilted_plane(ctx, seed):
     assert (depth > 0).all()
     half_step = 0.5 * np.maximum(np.abs(np.gradient(depth, axis=0)), np.abs(np.gradient(depth, axis=1)))
     within_bias = half_step < 0.02 * radius
-    assert 0.2 < within_bias.mean() < 0.8                   # measured: 0.40
+    assert 0.2 < within_bias.mean() < 0.8  # measured: 0.40
     # measured: 1.0 exactly (seeds 0 and 3); bias 0: min 0.94 / 0.91
     assert ao[within_bias].min() >= 0.999
     # measured: 0.0019 (seed 0), 0.0019 (seed 3); bias 0: 0.011, 0.014

@@ -36,8 +36,11 @@ def _scene(sphere_subdivisions=2) -> tuple[Scene, Camera]:
     wall = trimesh.creation.box((12, 0.3, 6), trimesh.transformations.translation_matrix((0, 10, 3)))
     sphere = trimesh.creation.icosphere(sphere_subdivisions, radius=0.5)
     hidden = _grid(np.linspace(-4, 4, 16), np.linspace(14, 30, 10))
-    beside = [trimesh.transformations.translation_matrix((sx * x, y, 1.0))
-              for sx in (-1, 1) for x, y in ((11.0, 16.0), (12.5, 16.0), (14.5, 22.0), (16.0, 22.0))]
+    beside = [
+        trimesh.transformations.translation_matrix((sx * x, y, 1.0))
+        for sx in (-1, 1)
+        for x, y in ((11.0, 16.0), (12.5, 16.0), (14.5, 22.0), (16.0, 22.0))
+    ]
     parts = [
         make_part("floor", Path("floor"), floor.vertices, floor.faces, [np.eye(4)]),
         make_part("wall", Path("wall"), wall.vertices, wall.faces, [np.eye(4)]),
@@ -47,14 +50,23 @@ def _scene(sphere_subdivisions=2) -> tuple[Scene, Camera]:
     return Scene("culling-test", Path("culling-test"), parts), camera
 
 
-def _draw(renderer: Renderer, camera: Camera, occlusion: bool, lod_px: float, prepare: bool = True,
-          backface: bool = True, size=(W, H), flush_triangles: int = FLUSH_TRIANGLES):
+def _draw(
+    renderer: Renderer,
+    camera: Camera,
+    occlusion: bool,
+    lod_px: float,
+    prepare: bool = True,
+    backface: bool = True,
+    size=(W, H),
+    flush_triangles: int = FLUSH_TRIANGLES,
+):
     with made_current(renderer.ctx):
         if prepare:
             renderer.geometry.prepare_levels()
         gbuffer = GBuffer.create(renderer.ctx, size)
-        options = DrawOptions(lod_px=lod_px, occlusion_culling=occlusion, backface_culling=backface,
-                              flush_triangles=flush_triangles)
+        options = DrawOptions(
+            lod_px=lod_px, occlusion_culling=occlusion, backface_culling=backface, flush_triangles=flush_triangles
+        )
         stats = renderer.geometry.draw(gbuffer, camera, options)
         depth = gbuffer.read_depth().copy()
         gbuffer.release()
@@ -84,10 +96,10 @@ def test_closed_faces_finds_closed_outward_bodies_only():
     # flat-shaded exports repeat every vertex per face: the same box, still closed
     flat = box.vertices[box.faces.reshape(-1)]
     assert culling.closed_faces(flat, np.arange(len(flat)).reshape(-1, 3)).all()
-    assert not culling.closed_faces(box.vertices, box.faces[:, ::-1]).any()      # wound inwards
-    assert not culling.closed_faces(box.vertices, box.faces[1:]).any()           # a hole
+    assert not culling.closed_faces(box.vertices, box.faces[:, ::-1]).any()  # wound inwards
+    assert not culling.closed_faces(box.vertices, box.faces[1:]).any()  # a hole
     sheet = np.array([[0, 1, 2], [0, 2, 3]])
-    two_sided = np.concatenate([sheet, sheet[:, ::-1]])                           # closed, no volume
+    two_sided = np.concatenate([sheet, sheet[:, ::-1]])  # closed, no volume
     assert not culling.closed_faces(box.vertices[[0, 1, 3, 2]], two_sided).any()
     # one part, two bodies: the closed one qualifies, the open one does not
     other = box.copy()
@@ -105,8 +117,13 @@ def _closed_scene() -> tuple[Scene, Camera]:
     floor = trimesh.creation.box((40, 40, 0.1), move((0, 10, -0.05)))
     parts = [
         make_part("floor", Path("floor"), floor.vertices, floor.faces, [np.eye(4)]),
-        make_part("boxes", Path("boxes"), box.vertices, box.faces,
-                  [move((-2, 6, 0.5)), move((0, 7, 0.5)) @ mirror, move((2, 6, 0.5)) @ np.diag([1, 2, 1, 1.0])]),
+        make_part(
+            "boxes",
+            Path("boxes"),
+            box.vertices,
+            box.faces,
+            [move((-2, 6, 0.5)), move((0, 7, 0.5)) @ mirror, move((2, 6, 0.5)) @ np.diag([1, 2, 1, 1.0])],
+        ),
         make_part("inward", Path("inward"), box.vertices, box.faces[:, ::-1], [move((-1, 9, 1.5))]),
         make_part("open", Path("open"), box.vertices, box.faces[2:], [move((1, 9, 1.5))]),
     ]
@@ -145,7 +162,7 @@ def test_backface_culling_on_the_line_scene_changes_only_crack_pixels(view):
         renderer.release()
     assert culled["triangles_with_backface_culling"] > 0.5 * culled["triangles_drawn"]
     changed = depth_culled != depth_plain
-    assert changed.mean() < 1e-3   # 26 of 76,800 pixels here; 53 of 786,432 at 1024x768
+    assert changed.mean() < 1e-3  # 26 of 76,800 pixels here; 53 of 786,432 at 1024x768
     relative = np.abs(depth_culled - depth_plain)[changed] / depth_plain[changed]
     assert relative.max(initial=0.0) < 1e-3
 
@@ -169,14 +186,19 @@ def test_hiz_test_is_conservative_at_block_edges():
     try:
         with made_current(renderer.ctx):
             depth = np.full((H, W), 5.0, np.float32)
-            depth[:, 200:] = 0.0             # background from x = 200 on: nothing hidden there
-            depth[100, 50] = 20.0            # one far pixel in an otherwise near block
+            depth[:, 200:] = 0.0  # background from x = 200 on: nothing hidden there
+            depth[100, 50] = 20.0  # one far pixel in an otherwise near block
             texture = renderer.ctx.texture((W, H), 1, depth.tobytes(), dtype="f4")
             renderer.geometry.hiz.build(texture)
-            rects = np.array([[10, 10, 40, 40],      # all near: hidden behind 5 m
-                              [190, 10, 205, 40],    # reaches the background: visible
-                              [45, 95, 55, 105],     # covers the far pixel: visible at 10 m
-                              [100, 150, 110, 160]], float)
+            rects = np.array(
+                [
+                    [10, 10, 40, 40],  # all near: hidden behind 5 m
+                    [190, 10, 205, 40],  # reaches the background: visible
+                    [45, 95, 55, 105],  # covers the far pixel: visible at 10 m
+                    [100, 150, 110, 160],
+                ],
+                float,
+            )
             hidden = renderer.geometry.hiz.occluded(rects, np.full(4, 10.0))
             texture.release()
     finally:
@@ -196,7 +218,7 @@ def test_levels_have_measured_errors_and_remove_flat_subdivisions():
     levels = lod.build_levels(sphere.vertices, sphere.faces)
     errors = [level.error for level in levels]
     assert len(levels) >= 3 and errors[-1] > errors[0] > 0
-    for level in levels:   # the error is at least the distance of the level's vertices from the sphere
+    for level in levels:  # the error is at least the distance of the level's vertices from the sphere
         assert level.error >= np.abs(np.linalg.norm(level.vertices, axis=1) - 1.0).max() - 1e-4
 
 
@@ -210,7 +232,7 @@ def test_choose_picks_the_coarsest_level_within_the_allowed_error():
 
 
 def test_levels_of_detail_cut_triangles_and_move_silhouettes_by_less_than_a_pixel():
-    scene, camera = _scene(sphere_subdivisions=4)   # 5120 triangles per sphere
+    scene, camera = _scene(sphere_subdivisions=4)  # 5120 triangles per sphere
     renderer = Renderer(scene)
     try:
         full, depth_full = _draw(renderer, camera, occlusion=False, lod_px=0.0)
@@ -220,7 +242,7 @@ def test_levels_of_detail_cut_triangles_and_move_silhouettes_by_less_than_a_pixe
     assert coarse["triangles_drawn"] < full["triangles_drawn"] / 4
     assert coarse["triangles_full_detail"] == full["triangles_drawn"]
     both = (depth_full > 0) & (depth_lod > 0)
-    assert ((depth_full > 0) != (depth_lod > 0)).mean() < 0.002    # coverage: silhouette pixels only
+    assert ((depth_full > 0) != (depth_lod > 0)).mean() < 0.002  # coverage: silhouette pixels only
     relative = np.abs(depth_lod - depth_full)[both] / depth_full[both]
     assert np.mean(relative > 0.01) < 0.005
 
@@ -234,11 +256,11 @@ def test_which_parts_get_levels_depends_on_the_scene_alone():
         two, depth_two = _draw(first, camera, occlusion=False, lod_px=lod.LOD_PIXELS, prepare=False)
     finally:
         first.release()
-    assert one["triangles_drawn"] < one["triangles_full_detail"]   # 168 spheres: levels from the first frame
+    assert one["triangles_drawn"] < one["triangles_full_detail"]  # 168 spheres: levels from the first frame
     assert two == one
     np.testing.assert_array_equal(depth_two, depth_one)
     assert not lod.eligible(20_000, 1) and lod.eligible(20_000, lod.MIN_INSTANCES)
-    assert lod.eligible(lod.MIN_SINGLE_TRIANGLES, 1)   # a robot
+    assert lod.eligible(lod.MIN_SINGLE_TRIANGLES, 1)  # a robot
     assert not lod.eligible(10, 1000) and not lod.eligible(2_000_000, 100)
 
 
@@ -290,5 +312,5 @@ def test_building_levels_shows_progress_and_loading_them_does_not(tmp_path, monk
         bar = bars[0]
         assert bar["desc"] == f"building levels of detail (robot_2, {len(sphere.faces):,} triangles)"
         assert bar["closed"] and bar["n"] == len(levels) > 0
-        lod.levels_for(sphere.vertices, sphere.faces)   # from the cache: milliseconds, no bar
+        lod.levels_for(sphere.vertices, sphere.faces)  # from the cache: milliseconds, no bar
         assert len(bars) == 1

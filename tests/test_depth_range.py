@@ -30,7 +30,7 @@ from .conftest import box
 
 W, H = 160, 120
 SETTINGS = RenderSettings(samples=8, blur=False)
-FAR = 3e7                          # the second copy, this much further along the view direction
+FAR = 3e7  # the second copy, this much further along the view direction
 
 
 def _part(name, mesh: trimesh.Trimesh, offset=(0.0, 0.0, 0.0)):
@@ -51,7 +51,7 @@ def _assert_same_render(ctx, parts, reference_parts, camera, camera_ref=None, co
     """``parts`` seen from ``camera`` render what ``reference_parts`` do from ``camera_ref``."""
     got, depth = _render(ctx, parts, camera)
     want, depth_ref = _render(ctx, reference_parts, camera_ref or camera)
-    assert (depth_ref > 0).mean() > covered           # there is something to compare
+    assert (depth_ref > 0).mean() > covered  # there is something to compare
     assert np.array_equal(depth > 0, depth_ref > 0)
     np.testing.assert_allclose(depth, depth_ref, rtol=1e-5)
     for mode in ("phong", "vector"):
@@ -83,8 +83,21 @@ def test_a_copy_far_along_the_view_direction_through_the_cli(tmp_path, capsys):
     images = {}
     for name in ("alone", "both"):
         out = tmp_path / f"{name}.png"
-        assert main(["render", str(tmp_path / f"{name}.toml"), "--camera", str(tmp_path / "cam.json"),
-                     "--mode", "phong", "-o", str(out)]) == 0
+        assert (
+            main(
+                [
+                    "render",
+                    str(tmp_path / f"{name}.toml"),
+                    "--camera",
+                    str(tmp_path / "cam.json"),
+                    "--mode",
+                    "phong",
+                    "-o",
+                    str(out),
+                ]
+            )
+            == 0
+        )
         assert "no CAD part is in view" not in capsys.readouterr().err
         images[name] = cv2.imread(str(out)).astype(float)
     assert np.abs(images["both"] - images["alone"]).mean() < 0.5
@@ -97,13 +110,23 @@ HALL_AT = np.array([5e6, 0.0, 0.0])
 def _hall(offset):
     """A small hall of boxes: floor, walls and roof as one part (the camera stands inside its
     bounds), 3 x 4 columns, two rows of racks; everything moved by ``offset``."""
-    shell = trimesh.util.concatenate([
-        box((40, 60, 0.3), (0, 0, -0.15)), box((40, 60, 0.3), (0, 0, 8.15)),
-        box((0.3, 60, 8), (-20.15, 0, 4)), box((0.3, 60, 8), (20.15, 0, 4)),
-        box((40, 0.3, 8), (0, -30.15, 4)), box((40, 0.3, 8), (0, 30.15, 4))])
+    shell = trimesh.util.concatenate(
+        [
+            box((40, 60, 0.3), (0, 0, -0.15)),
+            box((40, 60, 0.3), (0, 0, 8.15)),
+            box((0.3, 60, 8), (-20.15, 0, 4)),
+            box((0.3, 60, 8), (20.15, 0, 4)),
+            box((40, 0.3, 8), (0, -30.15, 4)),
+            box((40, 0.3, 8), (0, 30.15, 4)),
+        ]
+    )
     columns = trimesh.util.concatenate([box((0.4, 0.4, 8), (x, y, 4)) for x in (-10, 0, 10) for y in (-20, -5, 10, 25)])
-    racks = trimesh.util.concatenate([box((12, 1.2, 3 + 0.5 * i), (x, y, 1.5 + 0.25 * i))
-                                      for i, (x, y) in enumerate([(-8, -12), (8, -12), (-8, 3), (8, 3), (-8, 18)])])
+    racks = trimesh.util.concatenate(
+        [
+            box((12, 1.2, 3 + 0.5 * i), (x, y, 1.5 + 0.25 * i))
+            for i, (x, y) in enumerate([(-8, -12), (8, -12), (-8, 3), (8, 3), (-8, 18)])
+        ]
+    )
     return [_part("shell", shell, offset), _part("columns", columns, offset), _part("racks", racks, offset)]
 
 
@@ -114,21 +137,23 @@ def _column_camera(offset) -> Camera:
 
 
 def test_a_hall_at_5e6_m_renders_as_at_the_origin(ctx):
-    _assert_same_render(ctx, _hall(HALL_AT), _hall(np.zeros(3)), _column_camera(HALL_AT), _column_camera(np.zeros(3)),
-                        covered=0.99)
+    _assert_same_render(
+        ctx, _hall(HALL_AT), _hall(np.zeros(3)), _column_camera(HALL_AT), _column_camera(np.zeros(3)), covered=0.99
+    )
 
 
 def _merged(name, parts):
     """One part of the world-space geometry of ``parts`` (one mesh file of a whole model)."""
-    meshes = [trimesh.Trimesh(p.vertices.astype(np.float64) + p.transforms[0, :3, 3], p.faces, process=False)
-              for p in parts]
+    meshes = [
+        trimesh.Trimesh(p.vertices.astype(np.float64) + p.transforms[0, :3, 3], p.faces, process=False) for p in parts
+    ]
     whole = trimesh.util.concatenate(meshes)
     return make_part(name, name, np.asarray(whole.vertices, np.float64), np.asarray(whole.faces), np.eye(4))
 
 
 def _in_view(camera, point) -> bool:
     z = (camera.R @ point + camera.t)[2]
-    (u, v), = camera.project([point])
+    ((u, v),) = camera.project([point])
     return z > 0 and 0 <= u < camera.width and 0 <= v < camera.height
 
 
@@ -180,7 +205,7 @@ def test_a_mesh_spanning_1e12_m_keeps_and_renders_its_small_box(ctx, tmp_path, c
     _, alone = _render(ctx, [_part("box", CUBE)], LOOK, ["phong"])
     on_box = alone > 0
     assert on_box.mean() > 0.05
-    np.testing.assert_allclose(depth[on_box], alone[on_box], rtol=1e-5)   # the box, where it is alone
+    np.testing.assert_allclose(depth[on_box], alone[on_box], rtol=1e-5)  # the box, where it is alone
     if far_part != "ground":
         assert np.array_equal(depth, alone)
 
@@ -201,7 +226,7 @@ def _with_far(how, offset):
 
 
 HOWS = ["parts", "one mesh"]
-OFF_GRID = 3.3e7 + 0.73     # float32 rounds the cell's coordinates around a centre halfway there
+OFF_GRID = 3.3e7 + 0.73  # float32 rounds the cell's coordinates around a centre halfway there
 
 
 @pytest.mark.parametrize("how", HOWS)
@@ -225,13 +250,15 @@ def test_discrepancies_ids_and_overlay_edges_of_the_far_scene(ctx, how):
     from mrcheck.apps.discrepancies import object_ids
     from mrcheck.mr.shot import cad_edges
 
-    (ids, depth, _), (ids_alone, depth_alone, _) = (object_ids(Scene("t", "t", p), LOOK)
-                                                    for p in _with_far(how, FAR * VIEW_DIR))
+    (ids, depth, _), (ids_alone, depth_alone, _) = (
+        object_ids(Scene("t", "t", p), LOOK) for p in _with_far(how, FAR * VIEW_DIR)
+    )
     assert (ids_alone >= 0).mean() > 0.05
     assert np.array_equal(ids, ids_alone)
     np.testing.assert_allclose(depth, depth_alone, rtol=1e-5)
-    edges, edges_alone = (cad_edges(_render(ctx, p, LOOK, ["phong"])[1], LOOK.fx)
-                          for p in _with_far(how, FAR * VIEW_DIR))
+    edges, edges_alone = (
+        cad_edges(_render(ctx, p, LOOK, ["phong"])[1], LOOK.fx) for p in _with_far(how, FAR * VIEW_DIR)
+    )
     assert edges_alone.sum() > 100 and np.array_equal(edges, edges_alone)
 
 

@@ -45,10 +45,10 @@ def test_bunny_scan_against_its_mesh(tmp_path, capsys):
     assert code == 0, err
     report = json.loads((out / "parts.json").read_text())
     d = np.load(out / "deviations.npy")
-    assert d.dtype == np.float32 and d.shape == (40256,)     # the range-grid lines are not points
+    assert d.dtype == np.float32 and d.shape == (40256,)  # the range-grid lines are not points
     median = float(np.median(np.abs(d)))
     print(f"bunny bun000 vs mesh: median |d| {median * 1000:.3f} mm")
-    assert 0.1e-3 < median < 0.6e-3                             # the data's README: about 0.3 mm
+    assert 0.1e-3 < median < 0.6e-3  # the data's README: about 0.3 mm
     assert report["median_abs"] == pytest.approx(median, rel=1e-5)
     (part,) = report["parts"]
     assert part["points"] == 40256 and part["rank"] == 1
@@ -70,14 +70,14 @@ def asbuilt_scan(tmp_path_factory):
         mesh = trimesh.Trimesh(part.vertices.astype(np.float64), part.faces, process=False)
         for k, T in enumerate(part.transforms):
             area = mesh.area * abs(np.linalg.det(T[:3, :3])) ** (2.0 / 3.0)
-            count = int(np.clip(area * 1000, 2000, 20000))   # small parts still get a few thousand
+            count = int(np.clip(area * 1000, 2000, 20000))  # small parts still get a few thousand
             local, _ = trimesh.sample.sample_surface(mesh, count, seed=int(rng.integers(1 << 31)))
             points.append(local @ T[:3, :3].T + T[:3, 3])
     points = np.concatenate(points)
     points += rng.normal(0.0, NOISE, points.shape)
     scan = folder / "scan.ply"
     cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
-    assert o3d.io.write_point_cloud(str(scan), cloud)       # binary PLY: the Open3D reader
+    assert o3d.io.write_point_cloud(str(scan), cloud)  # binary PLY: the Open3D reader
     report = json.loads((folder / "variant" / "discrepancies.json").read_text())
     return scan, report, len(points)
 
@@ -133,7 +133,7 @@ def _bad(tmp_path, kind) -> Path:
     elif kind == "garbage":
         path.write_text("x y z\n1 2 3\n")
     elif kind == "unsupported":
-        path = tmp_path / "scan.rcp"       # Autodesk ReCap: not read
+        path = tmp_path / "scan.rcp"  # Autodesk ReCap: not read
         path.write_bytes(b"RCP")
     elif kind == "millimetres":
         np.savetxt(path, _bunny_points() * 1000.0)
@@ -148,22 +148,25 @@ def _bad(tmp_path, kind) -> Path:
         cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(_bunny_points()))
         o3d.io.write_point_cloud(str(path), cloud, write_ascii=False)
         data = path.read_bytes()
-        path.write_bytes(data[:len(data) // 2 + 3])
+        path.write_bytes(data[: len(data) // 2 + 3])
     return path
 
 
-@pytest.mark.parametrize("kind, message", [
-    ("missing", "scan file not found"),
-    ("empty", "scan file is empty"),
-    ("no points", "scan has no points"),
-    ("nan", "1 points with NaN"),
-    ("garbage", "not a text x y z point file"),
-    ("unsupported", "unsupported scan format .rcp"),
-    ("millimetres", "the scan looks like millimetres; pass --units mm"),
-    ("far", "m away from the scene: wrong units or not registered"),
-    ("truncated ply", "cannot read scan, corrupt or truncated"),
-    ("truncated pcd", "cannot read scan, corrupt or truncated"),
-])
+@pytest.mark.parametrize(
+    "kind, message",
+    [
+        ("missing", "scan file not found"),
+        ("empty", "scan file is empty"),
+        ("no points", "scan has no points"),
+        ("nan", "1 points with NaN"),
+        ("garbage", "not a text x y z point file"),
+        ("unsupported", "unsupported scan format .rcp"),
+        ("millimetres", "the scan looks like millimetres; pass --units mm"),
+        ("far", "m away from the scene: wrong units or not registered"),
+        ("truncated ply", "cannot read scan, corrupt or truncated"),
+        ("truncated pcd", "cannot read scan, corrupt or truncated"),
+    ],
+)
 def test_bad_scans(tmp_path, capsys, kind, message):
     out = tmp_path / "out"
     code, stdout, err = _run(capsys, _bad(tmp_path, kind), "--scene", MESH, "-o", out)
@@ -198,11 +201,11 @@ def test_shot_overlay_with_legend(ctx, asbuilt_scan, tmp_path, capsys):
     assert code == 0, err
     for name in ("deviation_overlay.png", "deviation_render.png"):
         image = cv2.imread(str(out / name))[..., ::-1]
-        assert image.shape[0] == 240 and image.shape[1] > 320           # the photo + the legend panel
+        assert image.shape[0] == 240 and image.shape[1] > 320  # the photo + the legend panel
         legend = image[:, 320:].reshape(-1, 3).astype(int)
-        assert np.any((legend[:, 0] > 150) & (legend[:, 2] < 80))       # the red end of the bar
-        assert np.any((legend[:, 2] > 150) & (legend[:, 0] < 80))       # the blue end
-        assert np.any(np.abs(image[:, :320].astype(int) - photo).sum(axis=2) > 60)   # splats drawn
+        assert np.any((legend[:, 0] > 150) & (legend[:, 2] < 80))  # the red end of the bar
+        assert np.any((legend[:, 2] > 150) & (legend[:, 0] < 80))  # the blue end
+        assert np.any(np.abs(image[:, :320].astype(int) - photo).sum(axis=2) > 60)  # splats drawn
 
 
 def test_shot_errors_come_first(tmp_path, capsys):
@@ -224,7 +227,8 @@ def test_a_small_scan_close_to_the_scene_is_not_refused_as_unregistered(tmp_path
     patch = np.column_stack((rng.uniform(-0.01, 0.01, (50, 2)) + [3.0, 5.0], np.full(50, 0.10)))
     scene = load_scene(sample_scene_path())
     from mrcheck.apps.deviation import signed_distances
-    assert np.median(np.abs(signed_distances(scene, patch)[0])) > 0.06   # > twice its own diagonal
+
+    assert np.median(np.abs(signed_distances(scene, patch)[0])) > 0.06  # > twice its own diagonal
     np.savetxt(tmp_path / "patch.xyz", patch)
     code, _, err = _run(capsys, tmp_path / "patch.xyz", "--scene", sample_scene_path(), "-o", tmp_path / "out2")
     assert code == 0, err

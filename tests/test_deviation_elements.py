@@ -67,8 +67,23 @@ def test_simulation_is_reproducible(sample):
 
 def _box() -> tuple[np.ndarray, np.ndarray]:
     v = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)], np.float32)
-    f = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
-                  [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]], np.uint32)
+    f = np.array(
+        [
+            [0, 1, 3],
+            [0, 3, 2],
+            [4, 6, 7],
+            [4, 7, 5],
+            [0, 4, 5],
+            [0, 5, 1],
+            [2, 3, 7],
+            [2, 7, 6],
+            [0, 2, 6],
+            [0, 6, 4],
+            [1, 5, 7],
+            [1, 7, 3],
+        ],
+        np.uint32,
+    )
     return v, f
 
 
@@ -90,7 +105,7 @@ def test_offset_of_a_moved_box_and_no_data_for_an_unscanned_one():
     assert moved.status == "out of tolerance" and unscanned.status == "no data"
     assert np.allclose(moved.offset_mm, (30.0, -15.0, 0.0), atol=1.5)
     assert unscanned.points == 0 and unscanned.median_mm is None and unscanned.offset_mm is None
-    assert 0.7 < moved.coverage <= 1.0        # the bottom rests on nothing but is still "open": see docs
+    assert 0.7 < moved.coverage <= 1.0  # the bottom rests on nothing but is still "open": see docs
 
 
 def test_unconstrained_direction_gets_no_offset():
@@ -119,8 +134,19 @@ def test_cli_writes_the_table_picture_and_bcf(sample, simulated, tmp_path, capsy
     path = tmp_path / "scan.ply"
     o3d.io.write_point_cloud(str(path), o3d.geometry.PointCloud(o3d.utility.Vector3dVector(scan.points)))
     out = tmp_path / "out"
-    code = main(["deviation", str(path), "--scene", str(sample_scene_path()), "--per-element", "--tolerance-mm", "10",
-                 "-o", str(out)])
+    code = main(
+        [
+            "deviation",
+            str(path),
+            "--scene",
+            str(sample_scene_path()),
+            "--per-element",
+            "--tolerance-mm",
+            "10",
+            "-o",
+            str(out),
+        ]
+    )
     err = capsys.readouterr().err
     assert code == 0, err
     assert "out of tolerance" in err
@@ -129,9 +155,11 @@ def test_cli_writes_the_table_picture_and_bcf(sample, simulated, tmp_path, capsy
     assert [e["id"] for e in doc["elements"]] == ids and doc["tolerance_mm"] == 10.0
     with open(out / "elements.csv", newline="") as f:
         rows = list(csv.DictReader(f))
-    assert [r["id"] for r in rows] == ids and all(r["status"] in ("in tolerance", "out of tolerance", "no data") for r in rows)
+    assert [r["id"] for r in rows] == ids and all(
+        r["status"] in ("in tolerance", "out of tolerance", "no data") for r in rows
+    )
     out_ids = {r["id"] for r in rows if r["status"] == "out of tolerance"}
-    moved = {s.id for s in shifts if math.hypot(*s.vector[:2]) > 0.012}   # clearly beyond 10 mm
+    moved = {s.id for s in shifts if math.hypot(*s.vector[:2]) > 0.012}  # clearly beyond 10 mm
     assert len(moved & out_ids) >= 0.8 * len(moved)
     from mrcheck.apps.bcf import read_bcf_bytes
 
@@ -141,4 +169,4 @@ def test_cli_writes_the_table_picture_and_bcf(sample, simulated, tmp_path, capsy
     import cv2
 
     picture = cv2.imread(str(out / "elements.png"))
-    assert picture is not None and picture.shape[1] > 1024     # the view and the legend beside it
+    assert picture is not None and picture.shape[1] > 1024  # the view and the legend beside it

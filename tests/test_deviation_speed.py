@@ -38,7 +38,7 @@ def test_splat_is_a_z_buffer(radius):
     rng = np.random.default_rng(radius)
     n, h, w = 3000, 23, 31
     uv = rng.uniform(-4, 35, (n, 2))
-    depth = np.round(rng.normal(size=n), 1)              # many exact ties: the first point wins
+    depth = np.round(rng.normal(size=n), 1)  # many exact ties: the first point wins
     colours = rng.integers(0, 256, (n, 3)).astype(np.uint8)
     ours = splat(np.zeros((h, w, 3), np.uint8), uv, depth, colours, radius)
     assert np.array_equal(ours, _reference_splat(np.zeros((h, w, 3), np.uint8), uv, depth, colours, radius))
@@ -54,7 +54,9 @@ def _scene() -> Scene:
     parts = []
     for k, (size, at) in enumerate([((20, 20, 0.2), (0, 0, -0.6)), ((1, 1, 1), (0, 0, 0)), ((0.3, 2, 1.5), (3, 1, 0))]):
         mesh = box(size, at)
-        parts.append(make_part(f"p{k}", "t", np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces), [np.eye(4)]))
+        parts.append(
+            make_part(f"p{k}", "t", np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces), [np.eye(4)])
+        )
     return Scene("t", "t", parts)
 
 
@@ -93,8 +95,18 @@ def test_bounding_box_is_min_and_max():
 
 def test_bcf_snapshots_are_stored_and_the_xml_deflated():
     png = b"\x89PNG\r\n\x1a\n" + bytes(range(256)) * 40
-    data = bcf_bytes([BcfTopic(guid=topic_guid("speed", 1), title="t", components=[], snapshot_png=png,
-                               camera=None, viewpoint_guid="0b3c6a7e-5f0e-4f7e-9c53-1f0d3b9a7c11")])
+    data = bcf_bytes(
+        [
+            BcfTopic(
+                guid=topic_guid("speed", 1),
+                title="t",
+                components=[],
+                snapshot_png=png,
+                camera=None,
+                viewpoint_guid="0b3c6a7e-5f0e-4f7e-9c53-1f0d3b9a7c11",
+            )
+        ]
+    )
     with zipfile.ZipFile(io.BytesIO(data)) as archive:
         methods = {info.filename.rsplit("/", 1)[-1]: info.compress_type for info in archive.infolist()}
         assert archive.read(next(n for n in archive.namelist() if n.endswith("snapshot.png"))) == png

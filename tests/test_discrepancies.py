@@ -80,8 +80,15 @@ def test_precision_and_recall_on_asbuilt_variants(ctx, tmp_path):
     cap it needed) the same set gave recall 0.60, precision 0.80 and missing 6/11; with every
     outline pixel scored, recall 0.70, precision 0.69 and up to 6 false suspects per view. So the
     precision, recall and missing asserts fail if the relit expected outline stops working."""
-    result = evaluate(SAMPLE, seeds=(0, 1, 2), views=("overview", "conveyor", *SAMPLE_CELL_FAR_VIEWS[:2]), width=640,
-                      height=480, workdir=tmp_path, ctx=ctx)
+    result = evaluate(
+        SAMPLE,
+        seeds=(0, 1, 2),
+        views=("overview", "conveyor", *SAMPLE_CELL_FAR_VIEWS[:2]),
+        width=640,
+        height=480,
+        workdir=tmp_path,
+        ctx=ctx,
+    )
     s = result.summary
     print(json.dumps(s, indent=1))
     kinds = s["per_kind"]
@@ -90,7 +97,10 @@ def test_precision_and_recall_on_asbuilt_variants(ctx, tmp_path):
     assert s["precision"] >= 0.81
     assert kinds["missing"]["recall"] >= 0.7
     # every truth item in view has a distance band, and the bands add up
-    assert sum(kinds.get(b, {"in_view": 0})["in_view"] for b in ("at <10 m", "at 10-20 m", "at >=20 m")) == kinds["all"]["in_view"]
+    assert (
+        sum(kinds.get(b, {"in_view": 0})["in_view"] for b in ("at <10 m", "at 10-20 m", "at >=20 m"))
+        == kinds["all"]["in_view"]
+    )
     # the untouched planned scene as the photo: at most one false suspect per view (issue 22)
     assert max(s["false_suspects_planned"]) <= 1
 
@@ -103,8 +113,14 @@ def test_planned_scene_as_photo_gives_few_suspects(ctx, sample):
     assert len(scored) > 10
     flagged = [s for s in scored if s.suspect]
     assert len(flagged) <= 0.1 * len(scored)
-    assert all(not s.thin and (s.score >= SCORE_THRESHOLD or (s.score >= DISCRIMINATIVE_FLOOR and
-               s.discriminative_score >= DISCRIMINATIVE_THRESHOLD)) for s in flagged)
+    assert all(
+        not s.thin
+        and (
+            s.score >= SCORE_THRESHOLD
+            or (s.score >= DISCRIMINATIVE_FLOOR and s.discriminative_score >= DISCRIMINATIVE_THRESHOLD)
+        )
+        for s in flagged
+    )
     solid = [s for s in scored if not s.thin]
     assert np.median([s.support for s in solid]) > 0.85
     # unshifted is (about) the best match of a part that is where it was planned
@@ -143,11 +159,11 @@ def test_cli_writes_heatmap_suspects_and_markers(ctx, sample, tmp_path):
     out = tmp_path / "out"
     assert main(["discrepancies", str(shot), "--scene", str(SAMPLE), "-o", str(out)]) == 0
     heat = cv2.imread(str(out / "heatmap.png"))
-    assert heat.shape[1:] == (W, 3) and H + 10 <= heat.shape[0] <= H + 20   # the photo, a legend under it
-    assert (heat[H + 2:] == 32).mean() > 0.5                                   # a dark strip with text
+    assert heat.shape[1:] == (W, 3) and H + 10 <= heat.shape[0] <= H + 20  # the photo, a legend under it
+    assert (heat[H + 2 :] == 32).mean() > 0.5  # a dark strip with text
     doc = json.loads((out / "suspects.json").read_text())
     ids = [s["id"] for s in doc["suspects"] if s["suspect"]]
-    assert ids and ids[0] == "conveyor"           # seed 2 removed the conveyor: the top suspect
+    assert ids and ids[0] == "conveyor"  # seed 2 removed the conveyor: the top suspect
     markers = doc["suggested_markers"]
     assert markers and {"x", "y", "category", "severity", "note", "part"} <= set(markers[0])
     assert markers[0]["category"] in {"moved", "missing", "extra", "other"} and markers[0]["severity"] in (1, 2, 3)

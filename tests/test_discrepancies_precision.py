@@ -32,8 +32,23 @@ def _view_camera(scene, view, w, h, k1):
 @pytest.fixture(scope="module")
 def box_detection(tmp_path_factory):
     shot = tmp_path_factory.mktemp("box") / "SHOT.json"
-    assert main(["register", str(BOX / "scene.toml"), "--photo", str(BOX / "resized_IMG_3875.JPG"), "--intrinsics",
-                 str(BOX / "canon.json"), "--points", str(BOX / "corners.json"), "-o", str(shot)]) == 0
+    assert (
+        main(
+            [
+                "register",
+                str(BOX / "scene.toml"),
+                "--photo",
+                str(BOX / "resized_IMG_3875.JPG"),
+                "--intrinsics",
+                str(BOX / "canon.json"),
+                "--points",
+                str(BOX / "corners.json"),
+                "-o",
+                str(shot),
+            ]
+        )
+        == 0
+    )
     camera, photo_path = load_shot(shot)
     photo = read_photo(photo_path, camera)
     return detect(load_scene(BOX / "scene.toml"), camera, photo)
@@ -48,10 +63,13 @@ def test_the_box_artwork_is_texture_not_structure(box_detection):
     on_box = d.planned.ids >= 0
     assert not np.any(d.unexplained & on_box)
     ys, xs = np.nonzero(on_box)
-    inside = [r for r in d.regions if r.bbox[0] > xs.min() and r.bbox[2] < xs.max() and r.bbox[1] > ys.min()
-              and r.bbox[3] < ys.max()]
-    assert len(inside) <= 1          # measured: 1, the box's shadow on the table below its left side
-    assert not d.planned.ground.any()   # the box scene has no floor
+    inside = [
+        r
+        for r in d.regions
+        if r.bbox[0] > xs.min() and r.bbox[2] < xs.max() and r.bbox[1] > ys.min() and r.bbox[3] < ys.max()
+    ]
+    assert len(inside) <= 1  # measured: 1, the box's shadow on the table below its left side
+    assert not d.planned.ground.any()  # the box scene has no floor
     # the box is still as planned (texture did not disturb the outline score)
     (box,) = d.suspects
     assert not box.suspect and box.support > 0.85
@@ -89,7 +107,7 @@ def test_suggested_markers_lie_on_their_own_part(ctx, tmp_path):
                 assert d.planned.ids[int(m.y), int(m.x)] == index[m.part], (view, m)
                 checked += 1
     assert checked >= 2
-    json.dumps([m.__dict__ for m in d.suggested_markers])   # still a plain JSON record
+    json.dumps([m.__dict__ for m in d.suggested_markers])  # still a plain JSON record
 
 
 def test_the_light_fitted_to_a_sun_lit_photo_is_the_sun(ctx):

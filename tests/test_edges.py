@@ -13,12 +13,11 @@ import trimesh
 
 from mrcheck.core.camera import Camera
 from mrcheck.eval.edgephotos import corner_errors, make_case, reprojection_error, synthetic_photo
-from mrcheck.mr.edges import EdgeFitError, refine_pose, scene_edges
-from mrcheck.mr.edges import model
+from mrcheck.eval.edgescenes import crate_camera, crate_scene
+from mrcheck.mr.edges import EdgeFitError, model, refine_pose, scene_edges
 from mrcheck.mr.edges.refine import render_depth
 from mrcheck.render.renderer import Renderer
 from mrcheck.scene.model import Scene, make_part
-from mrcheck.eval.edgescenes import crate_camera, crate_scene
 
 SEEDS = range(10)
 
@@ -26,7 +25,7 @@ SEEDS = range(10)
 def _box(extents=(1.0, 2.0, 0.5), flip_every_other=False):
     mesh = trimesh.creation.box(extents=extents)
     faces = np.asarray(mesh.faces).copy()
-    if flip_every_other:             # a CAD export that winds half the triangles the other way
+    if flip_every_other:  # a CAD export that winds half the triangles the other way
         faces[::2] = faces[::2, ::-1]
     return np.asarray(mesh.vertices, np.float64), faces
 
@@ -58,7 +57,7 @@ def test_only_visible_edges_are_sampled():
         seen = model.visible(samples, camera, render_depth(renderer, camera))
     finally:
         renderer.release()
-    hidden_corner = np.array([-0.5, 1.0, -0.25])       # the corner farthest from the camera
+    hidden_corner = np.array([-0.5, 1.0, -0.25])  # the corner farthest from the camera
     touches = np.linalg.norm(edges.a - hidden_corner, axis=1) < 1e-6
     touches |= np.linalg.norm(edges.b - hidden_corner, axis=1) < 1e-6
     hidden = np.isin(samples.edge, np.flatnonzero(touches & edges.crease))
@@ -137,8 +136,10 @@ def cell_fits():
     edges, renderer = scene_edges(cell), Renderer(cell)
     try:
         cases = [make_case(cell, camera, seed) for seed in CELL_SEEDS]
-        return [(case, refine_pose(cell, camera, case.photo, initial=case.rough, edges=edges, renderer=renderer))
-                for case in cases]
+        return [
+            (case, refine_pose(cell, camera, case.photo, initial=case.rough, edges=edges, renderer=renderer))
+            for case in cases
+        ]
     finally:
         renderer.release()
 
@@ -182,13 +183,15 @@ def test_a_pyramid_made_beforehand_gives_the_same_fit_and_a_wrong_one_is_refused
     case = make_case(scene, camera, 0)
     options = EdgeOptions()
     own = refine_pose(scene, camera, case.photo, initial=case.rough, options=options)
-    given = refine_pose(scene, camera, case.photo, initial=case.rough, options=options,
-                        pyramid=photo_pyramid(case.photo, options))
+    given = refine_pose(
+        scene, camera, case.photo, initial=case.rough, options=options, pyramid=photo_pyramid(case.photo, options)
+    )
     assert np.array_equal(own.camera.R, given.camera.R) and np.array_equal(own.camera.t, given.camera.t)
     blank = np.full(case.photo.shape, 0.5, np.float32)
     with pytest.raises(EdgeFitError):
-        refine_pose(scene, camera, case.photo, initial=case.rough, options=options,
-                    pyramid=photo_pyramid(blank, options))
+        refine_pose(
+            scene, camera, case.photo, initial=case.rough, options=options, pyramid=photo_pyramid(blank, options)
+        )
     for other in (photo_pyramid(case.photo[::2, ::2], options), photo_pyramid(case.photo, EdgeOptions(levels=1))):
         with pytest.raises(MrcheckError, match="pyramid"):
             refine_pose(scene, camera, case.photo, initial=case.rough, options=options, pyramid=other)
@@ -210,7 +213,6 @@ def test_parallel_edges_warn_and_name_the_weak_direction():
     fit = refine_pose(scene, camera, photo)
     assert any("parallel" in w for w in fit.warnings), fit.warnings
     assert any("poorly constrained" in w and "sideways" in w for w in fit.warnings), fit.warnings
-
 
 
 def test_a_rough_pose_looking_away_fails_with_a_reason():

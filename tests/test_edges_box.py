@@ -25,8 +25,8 @@ from mrcheck.scene.model import load_scene
 
 BOX = Path(__file__).parent / "data" / "pose" / "box"
 MEASURED = ("BC", "CD", "FB")
-SIZE = (0.189, 0.258, 0.075)           # box.ply's cuboid, metres
-TALLER = 1.02                          # the diagnosis below: a mesh 2 % taller than box.ply's
+SIZE = (0.189, 0.258, 0.075)  # box.ply's cuboid, metres
+TALLER = 1.02  # the diagnosis below: a mesh 2 % taller than box.ply's
 
 
 def _snaps(scene, size) -> tuple:
@@ -77,9 +77,9 @@ def test_the_snap_from_15_px_off_lies_on_the_outline(box_fits):
     normal) the snap moved onto the printed border, 4-13 px inside the outline."""
     _, fits = box_fits
     for start, snapped in fits:
-        assert max(start.values()) > 7.0          # the start is really off (here 7.0-16.4 px on its worst segment)
+        assert max(start.values()) > 7.0  # the start is really off (here 7.0-16.4 px on its worst segment)
         assert snapped["BC"] <= 1.0 and snapped["CD"] <= 1.5, snapped
-        assert snapped["FB"] <= 3.0, snapped                  # the level reached; the 1.5 px target is missed
+        assert snapped["FB"] <= 3.0, snapped  # the level reached; the 1.5 px target is missed
 
 
 def test_a_mesh_two_percent_taller_lies_on_the_outline_from_every_start(tmp_path):
@@ -96,8 +96,9 @@ def test_a_mesh_two_percent_taller_lies_on_the_outline_from_every_start(tmp_path
     stretch = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, TALLER, 0], [0, 0, 0, 1]]
     mesh = (BOX / "box.ply").as_posix()
     scene_file = tmp_path / "scene.toml"
-    scene_file.write_text(f'format = 1\nname = "box"\n\n[[parts]]\nname = "box"\nmesh = "{mesh}"\nunits = "cm"\n'
-                          f"matrix = {stretch}\n")
+    scene_file.write_text(
+        f'format = 1\nname = "box"\n\n[[parts]]\nname = "box"\nmesh = "{mesh}"\nunits = "cm"\nmatrix = {stretch}\n'
+    )
     _, fits = _snaps(load_scene(scene_file), (SIZE[0], SIZE[1], SIZE[2] * TALLER))
     for start, snapped in fits:
         assert max(start.values()) > 7.0

@@ -32,8 +32,17 @@ def project(tmp_path_factory):
 
 
 def _register(folder, manifest, *extra):
-    return main(["register", str(manifest), "--photo", str(folder / "photo.png"), "--intrinsics",
-                 str(folder / "cam.json"), *extra])
+    return main(
+        [
+            "register",
+            str(manifest),
+            "--photo",
+            str(folder / "photo.png"),
+            "--intrinsics",
+            str(folder / "cam.json"),
+            *extra,
+        ]
+    )
 
 
 def test_register_initial_writes_an_edge_shot(project, capsys):
@@ -47,7 +56,7 @@ def test_register_initial_writes_an_edge_shot(project, capsys):
     assert len(shot["uncertainty"]["position_mm"]) == 3 and len(shot["uncertainty"]["angle_deg"]) == 3
     assert set(shot["times_s"]) >= {"render", "edges", "match", "solve", "total"}
     fitted = load_camera(out)
-    assert np.median(reprojection_error(case.truth, fitted, case.points)) < 1.0      # measured 0.06
+    assert np.median(reprojection_error(case.truth, fitted, case.points)) < 1.0  # measured 0.06
     printed = capsys.readouterr().out
     assert "from edges (start: initial): edge rms" in printed and "overlay 1-sigma at the corners" in printed
     assert f"({shot['above_chance']:.2f} beyond chance)" in printed
@@ -59,8 +68,20 @@ def test_a_failed_snap_exits_1_and_writes_nothing(project, tmp_path, capsys):
     blank = tmp_path / "blank.png"
     cv2.imwrite(str(blank), np.full((480, 640), 120, np.uint8))
     out = tmp_path / "shot.json"
-    code = main(["register", str(manifest), "--photo", str(blank), "--intrinsics", str(folder / "cam.json"),
-                 "--initial", str(folder / "rough.json"), "-o", str(out)])
+    code = main(
+        [
+            "register",
+            str(manifest),
+            "--photo",
+            str(blank),
+            "--intrinsics",
+            str(folder / "cam.json"),
+            "--initial",
+            str(folder / "rough.json"),
+            "-o",
+            str(out),
+        ]
+    )
     assert code == 1 and not out.exists()
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "edge registration failed" in err[0] and "blank.png" in err[0]
@@ -68,8 +89,9 @@ def test_a_failed_snap_exits_1_and_writes_nothing(project, tmp_path, capsys):
 
 def test_no_refine_needs_markers_or_points(project, tmp_path, capsys):
     folder, manifest, _ = project
-    code = _register(folder, manifest, "--initial", str(folder / "rough.json"), "--no-refine", "-o",
-                     str(tmp_path / "s.json"))
+    code = _register(
+        folder, manifest, "--initial", str(folder / "rough.json"), "--no-refine", "-o", str(tmp_path / "s.json")
+    )
     assert code != 0 and "--no-refine needs --markers or --points" in capsys.readouterr().err
 
 
@@ -78,8 +100,21 @@ def test_points_then_edges_on_the_real_photo(tmp_path, capsys):
     method edges starting from the points. (Its accuracy on the photo's outline is measured in
     tests/test_edges_box.py; see docs/edge-registration.md.)"""
     out = tmp_path / "shot.json"
-    code = main(["register", str(BOX / "scene.toml"), "--photo", str(BOX / "resized_IMG_3875.JPG"), "--intrinsics",
-                 str(BOX / "canon.json"), "--points", str(BOX / "corners.json"), "--refine", "-o", str(out)])
+    code = main(
+        [
+            "register",
+            str(BOX / "scene.toml"),
+            "--photo",
+            str(BOX / "resized_IMG_3875.JPG"),
+            "--intrinsics",
+            str(BOX / "canon.json"),
+            "--points",
+            str(BOX / "corners.json"),
+            "--refine",
+            "-o",
+            str(out),
+        ]
+    )
     assert code == 0
     shot = json.loads(out.read_text())
     assert shot["method"] == "edges" and shot["start"] == "points"
@@ -88,8 +123,22 @@ def test_points_then_edges_on_the_real_photo(tmp_path, capsys):
 def test_scene_camera_writes_the_viewpoint_with_the_photo_intrinsics(project, tmp_path, capsys):
     folder, manifest, _ = project
     out = tmp_path / "rough.json"
-    assert main(["scene", "camera", str(manifest), "--view", "front", "--intrinsics", str(folder / "cam.json"),
-                 "-o", str(out)]) == 0
+    assert (
+        main(
+            [
+                "scene",
+                "camera",
+                str(manifest),
+                "--view",
+                "front",
+                "--intrinsics",
+                str(folder / "cam.json"),
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
     written = load_camera(out)
     camera = crate_camera(640, 480)
     assert np.allclose(written.K, camera.K) and np.allclose(written.dist, camera.dist)

@@ -5,7 +5,6 @@ in the hall" -- is a failure, not a result."""
 
 from __future__ import annotations
 
-
 import cv2
 import numpy as np
 import pytest
@@ -94,8 +93,20 @@ def test_a_wrong_pose_fails_through_the_cli(tmp_path, capsys):
     write_camera(tmp_path / "cam.json", camera, pose=False)
     write_camera(tmp_path / "rough.json", case.rough)
     out = tmp_path / "shot.json"
-    code = main(["register", str(CELL), "--photo", str(tmp_path / "photo.png"), "--intrinsics",
-                 str(tmp_path / "cam.json"), "--initial", str(tmp_path / "rough.json"), "-o", str(out)])
+    code = main(
+        [
+            "register",
+            str(CELL),
+            "--photo",
+            str(tmp_path / "photo.png"),
+            "--intrinsics",
+            str(tmp_path / "cam.json"),
+            "--initial",
+            str(tmp_path / "rough.json"),
+            "-o",
+            str(out),
+        ]
+    )
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 1 and not out.exists()
     assert len(err) == 1 and "photo.png" in err[0] and "too little support" in err[0], err

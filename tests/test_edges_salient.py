@@ -24,8 +24,11 @@ def _scene(*boxes):
         mesh = trimesh.creation.box(extents=extents)
         T = np.eye(4)
         T[:3, 3] = centre
-        parts.append(make_part(name, Path(name), np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces), T[None],
-                               units="m"))
+        parts.append(
+            make_part(
+                name, Path(name), np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces), T[None], units="m"
+            )
+        )
     return Scene("s", Path("s"), parts)
 
 
@@ -109,7 +112,7 @@ def test_the_pose_search_finds_a_square_moved_by_twelve_pixels():
 def test_the_search_level_is_the_one_about_320_px_wide_but_not_the_finest():
     assert search.search_level([640, 320, 160]) == 1
     assert search.search_level([1280, 640, 320, 160]) == 2
-    assert search.search_level([320, 160]) == 1          # the fine stage needs a coarser level
+    assert search.search_level([320, 160]) == 1  # the fine stage needs a coarser level
     assert search.search_level([200]) == 0
 
 
@@ -119,7 +122,7 @@ def test_a_contour_takes_the_outermost_strong_edge():
     crease (outside 0) keeps the nearest."""
     image = np.full((60, 200), 0.2, np.float32)
     image[:, :100] = 0.8
-    image[:, 95:97] = 0.3                    # the print
+    image[:, 95:97] = 0.3  # the print
     level = photo.pyramid(image, 1)[0]
     uv = np.array([[96.5, 30.0], [96.5, 30.0]])
     normals = np.array([[1.0, 0.0], [1.0, 0.0]])

@@ -33,8 +33,17 @@ EYE, TARGET = np.array([-11.4, -6.2, 1.7]), np.array([-5.0, -4.2, 0.9])
 OFFSETS = [(0.0, 0.0, 0.0), (0.3, -0.2, 0.1), (-0.3, 0.2, -0.1), (0.2, 0.3, 0.0), (-0.2, -0.3, 0.1)]
 GOOD = ["cam-0", "cam-1", "cam-2", "cam-3", "given"]
 BROKEN = "cam-4"
-PER_SHOT = {"SHOT.json", "render_phong.png", "render_vector_i0.5.png", "render_vector_i1.png", "overlay_phong_a0.png",
-            "overlay_phong_a0.5.png", "overlay_vector_i1_a0.png", "overlay_vector_i1_a0.5.png", "sheet.png"}
+PER_SHOT = {
+    "SHOT.json",
+    "render_phong.png",
+    "render_vector_i0.5.png",
+    "render_vector_i1.png",
+    "overlay_phong_a0.png",
+    "overlay_phong_a0.5.png",
+    "overlay_vector_i1_a0.png",
+    "overlay_vector_i1_a0.5.png",
+    "sheet.png",
+}
 
 
 def _markers():
@@ -42,7 +51,9 @@ def _markers():
     side = np.cross(fwd, (0, 0, 1.0))
     side /= np.linalg.norm(side)
     markers = []
-    for marker_id, (d, s, z) in zip((7, 23, 42, 61), ((4.5, -1.6, 1.2), (5.5, 1.7, 1.0), (6.5, -0.7, 2.6), (6.0, 1.1, 2.4))):
+    for marker_id, (d, s, z) in zip(
+        (7, 23, 42, 61), ((4.5, -1.6, 1.2), (5.5, 1.7, 1.0), (6.5, -0.7, 2.6), (6.0, 1.1, 2.4))
+    ):
         centre = EYE + fwd * d + side * s
         centre[2] = z
         to_cam = EYE - centre
@@ -101,8 +112,10 @@ def _export(capsys, job, out, *extra):
 
 
 def _pngs(out) -> dict:
-    return {p.relative_to(out).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(out.glob("shots/*/*.png"))}
+    return {
+        p.relative_to(out).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in sorted(out.glob("shots/*/*.png"))
+    }
 
 
 @pytest.fixture(scope="module")
@@ -151,10 +164,14 @@ def test_six_shots_five_done_one_failed(first_run, capsys):
     overlay = cv2.imread(str(out / "shots" / "cam-0" / "overlay_vector_i1_a0.5.png"))
     assert overlay.shape == (180, 240, 3)
     # the render at alpha 0 is the overlay at alpha 0; the AO intensities differ
-    assert np.array_equal(cv2.imread(str(out / "shots/cam-0/render_vector_i1.png")),
-                          cv2.imread(str(out / "shots/cam-0/overlay_vector_i1_a0.png")))
-    assert not np.array_equal(cv2.imread(str(out / "shots/cam-0/render_vector_i1.png")),
-                              cv2.imread(str(out / "shots/cam-0/render_vector_i0.5.png")))
+    assert np.array_equal(
+        cv2.imread(str(out / "shots/cam-0/render_vector_i1.png")),
+        cv2.imread(str(out / "shots/cam-0/overlay_vector_i1_a0.png")),
+    )
+    assert not np.array_equal(
+        cv2.imread(str(out / "shots/cam-0/render_vector_i1.png")),
+        cv2.imread(str(out / "shots/cam-0/render_vector_i0.5.png")),
+    )
 
     report = (out / "report.html").read_text()
     order = sorted(GOOD, key=lambda n: shots[n]["registration_error_px"]) + [BROKEN]
@@ -178,10 +195,16 @@ def test_rerun_skips_and_force_redoes_byte_identically(first_run, job_dir, capsy
     print(f"rerun: {seconds:.2f} s (first run {first_seconds:.1f} s)")
     assert code == 1  # the broken shot is retried and fails again
     assert "5 skipped" in stdout and "1 failed" in stdout and "failed cam-4" in stdout
-    assert json.loads((out / "manifest.json").read_text())["summary"] == {"shots": 6, "done": 0, "skipped": 5, "failed": 1}
+    assert json.loads((out / "manifest.json").read_text())["summary"] == {
+        "shots": 6,
+        "done": 0,
+        "skipped": 5,
+        "failed": 1,
+    }
     # nothing of the skipped shots was touched (the retried failure rewrote its record only)
-    assert {p: t for p, t in mtimes.items() if p.parent.name != "cam-4"} == \
-        {p: p.stat().st_mtime_ns for p in out.glob("shots/*/*") if p.parent.name != "cam-4"}
+    assert {p: t for p, t in mtimes.items() if p.parent.name != "cam-4"} == {
+        p: p.stat().st_mtime_ns for p in out.glob("shots/*/*") if p.parent.name != "cam-4"
+    }
     assert seconds < 3.0
 
     # a shot whose output vanished is redone, the others still skipped
@@ -207,8 +230,9 @@ def test_two_workers_give_the_same_bytes(first_run, job_dir, capsys):
 def test_dask_local_cluster_gives_the_same_bytes(first_run, job_dir, capsys):
     distributed = pytest.importorskip("distributed")
     out = job_dir / "out_dask"
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                  dashboard_address=None) as cluster:
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None
+    ) as cluster:
         code, stdout, _, seconds = _export(capsys, job_dir / "job.toml", out, "--scheduler", cluster.scheduler_address)
     print(f"dask, 2 workers: {seconds:.1f} s")
     assert code == 1 and "5 done" in stdout
@@ -258,8 +282,10 @@ def small_job(job_dir, tmp_path):
 
     def write(alphas="[0.0, 0.5]", shots='[[shots]]\nshot = "given.json"\n'):
         job = tmp_path / "job.toml"
-        job.write_text(f'scene = "scene/scene.toml"\nmodes = ["phong"]\nalphas = {alphas}\nwidth = 64\nsamples = 4\n'
-                       f'[[shots]]\nphoto = "cam-0.png"\nintrinsics = "camera.json"\nmarkers = "markers.json"\n{shots}')
+        job.write_text(
+            f'scene = "scene/scene.toml"\nmodes = ["phong"]\nalphas = {alphas}\nwidth = 64\nsamples = 4\n'
+            f'[[shots]]\nphoto = "cam-0.png"\nintrinsics = "camera.json"\nmarkers = "markers.json"\n{shots}'
+        )
         return job
 
     return write
@@ -283,9 +309,14 @@ def test_rerun_redoes_shots_whose_input_files_changed(small_job, capsys):
     _touch(manifest)
     assert "2 done, 0 skipped" in _export(capsys, job, out)[1]
     assert (out / "shots/cam-0/sheet.png").read_bytes() != sheet  # the part moved in the new outputs too
-    for changed, redone in [("scene/meshes/pallet.glb", "2 done, 0 skipped"), ("cam-0.png", "1 done, 1 skipped"),
-                            ("camera.json", "1 done, 1 skipped"), ("markers.json", "1 done, 1 skipped"),
-                            ("given.json", "1 done, 1 skipped"), ("given.png", "1 done, 1 skipped")]:
+    for changed, redone in [
+        ("scene/meshes/pallet.glb", "2 done, 0 skipped"),
+        ("cam-0.png", "1 done, 1 skipped"),
+        ("camera.json", "1 done, 1 skipped"),
+        ("markers.json", "1 done, 1 skipped"),
+        ("given.json", "1 done, 1 skipped"),
+        ("given.png", "1 done, 1 skipped"),
+    ]:
         _touch(job.parent / changed)
         assert redone in _export(capsys, job, out)[1], changed
     assert "0 done, 2 skipped" in _export(capsys, job, out)[1]
@@ -344,15 +375,15 @@ def test_a_failed_shot_keeps_no_earlier_outputs_and_goes_when_dropped(small_job,
     job = small_job()
     out = job.parent / "out"
     assert _export(capsys, job, out)[0] == 0
-    cv2.imwrite(str(job.parent / "cam-0.png"), np.full((240, 320, 3), 128, np.uint8))   # no markers any more
+    cv2.imwrite(str(job.parent / "cam-0.png"), np.full((240, 320, 3), 128, np.uint8))  # no markers any more
     code, stdout, _, _ = _export(capsys, job, out)
     assert code == 1 and "1 failed" in stdout
     folder = out / "shots" / "cam-0"
     assert [p.name for p in folder.iterdir()] == ["record.json"]
     assert json.loads((folder / "record.json").read_text())["status"] == "failed"
-    assert _export(capsys, job, out)[0] == 1                      # a failed record is never finished
-    job = small_job(shots="")                                      # cam-0 stays, given goes ...
-    job.write_text(job.read_text().replace('photo = "cam-0.png"', 'photo = "given.png"'))   # ... cam-0 too
+    assert _export(capsys, job, out)[0] == 1  # a failed record is never finished
+    job = small_job(shots="")  # cam-0 stays, given goes ...
+    job.write_text(job.read_text().replace('photo = "cam-0.png"', 'photo = "given.png"'))  # ... cam-0 too
     job.write_text(job.read_text().replace("[[shots]]\nphoto", '[[shots]]\nname = "other"\nphoto'))
     _export(capsys, job, out)
     assert not folder.exists() and not (out / "shots" / "given").exists()
@@ -369,13 +400,20 @@ def test_outputs_the_job_no_longer_produces_are_removed(small_job, capsys):
     job = small_job("[0.5]", f'[[shots]]\nname = "again"\nshot = "{out}/shots/given/SHOT.json"\n')
     code, stdout, _, _ = _export(capsys, job, out)
     assert code == 0 and "2 done" in stdout and "removed 6 file(s) of earlier runs" in stdout
-    assert "including the outputs of 1 shot(s) no longer in the job" in stdout   # given
+    assert "including the outputs of 1 shot(s) no longer in the job" in stdout  # given
     removed = json.loads((out / "manifest.json").read_text())["removed"]
     assert sorted(removed) == ["shots/cam-0/overlay_phong_a0.png"] + [
-        f"shots/given/{name}" for name in ("overlay_phong_a0.5.png", "overlay_phong_a0.png", "record.json",
-                                           "render_phong.png", "sheet.png")]
-    assert sorted(p.name for p in (out / "shots" / "cam-0").iterdir()) == \
-        ["SHOT.json", "notes.txt", "overlay_phong_a0.5.png", "record.json", "render_phong.png", "sheet.png"]
+        f"shots/given/{name}"
+        for name in ("overlay_phong_a0.5.png", "overlay_phong_a0.png", "record.json", "render_phong.png", "sheet.png")
+    ]
+    assert sorted(p.name for p in (out / "shots" / "cam-0").iterdir()) == [
+        "SHOT.json",
+        "notes.txt",
+        "overlay_phong_a0.5.png",
+        "record.json",
+        "render_phong.png",
+        "sheet.png",
+    ]
     assert [p.name for p in (out / "shots" / "given").iterdir()] == ["SHOT.json"]
     assert (out / "shots" / "mine" / "sheet.png").read_bytes() == b"mine"
     assert (out / "shots" / "again" / "record.json").is_file()

@@ -27,7 +27,9 @@ def job(tmp_path):
 
     def write(scene=str(sample_scene_path())):
         path = tmp_path / "job.toml"
-        path.write_text(f'scene = "{scene}"\nmodes = ["phong"]\nwidth = 64\nsamples = 4\n[[shots]]\nshot = "shot.json"\n')
+        path.write_text(
+            f'scene = "{scene}"\nmodes = ["phong"]\nwidth = 64\nsamples = 4\n[[shots]]\nshot = "shot.json"\n'
+        )
         return path
 
     return write
@@ -138,11 +140,13 @@ def test_antialias_comes_from_the_job_and_the_command_line_overrides_it(job, tmp
         code, err = _export(capsys, path, "-o", out, *options)
         assert code == 0, err
         manifest = json.loads((out / "manifest.json").read_text())
-        return manifest["settings"]["antialias"], (out / manifest["shots"][0]["folder"] / "render_phong.png").read_bytes()
+        return manifest["settings"]["antialias"], (
+            out / manifest["shots"][0]["folder"] / "render_phong.png"
+        ).read_bytes()
 
     on, smooth = run()
     off, plain = run("--no-antialias")
-    assert (on, off) == (True, False) and smooth != plain   # redone, not skipped
+    assert (on, off) == (True, False) and smooth != plain  # redone, not skipped
     path.write_text(path.read_text().replace("samples = 4\n", "samples = 4\nantialias = false\n"))
     assert run() == (False, plain)
     assert run("--antialias") == (True, smooth)

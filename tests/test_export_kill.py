@@ -30,8 +30,10 @@ def _job(folder: Path) -> Path:
     (folder / "shot.json").write_text(json.dumps(dict(camera.to_dict(), photo="photo.png")))
     shots = "".join(f'[[shots]]\nname = "s{i:02d}"\nshot = "shot.json"\n' for i in range(SHOTS))
     job = folder / "job.toml"
-    job.write_text(f'scene = "{sample_scene_path()}"\nmodes = ["phong", "vector"]\nalphas = [0.5]\nwidth = 64\n'
-                   f'samples = 4\n{shots}')
+    job.write_text(
+        f'scene = "{sample_scene_path()}"\nmodes = ["phong", "vector"]\nalphas = [0.5]\nwidth = 64\n'
+        f"samples = 4\n{shots}"
+    )
     return job
 
 
@@ -74,12 +76,15 @@ def _wait_for(condition, timeout: float, step: float = 0.05) -> bool:
 def test_kill_9_of_the_parent_ends_its_workers_and_a_rerun_resumes(tmp_path, capsys):
     job, out = _job(tmp_path), tmp_path / "out"
     log = (tmp_path / "export.log").open("wb")
-    parent = subprocess.Popen([sys.executable, "-m", "mrcheck.cli", "export", str(job), "-o", str(out), "--workers", "2"],
-                              stdout=log, stderr=subprocess.STDOUT)
+    parent = subprocess.Popen(
+        [sys.executable, "-m", "mrcheck.cli", "export", str(job), "-o", str(out), "--workers", "2"],
+        stdout=log,
+        stderr=subprocess.STDOUT,
+    )
     workers = set()
     try:
         assert _wait_for(lambda: _records(out) >= 3 or parent.poll() is not None, 120), "no shot finished in 120 s"
-        workers = _descendants(parent.pid)   # the two workers (and multiprocessing's resource tracker)
+        workers = _descendants(parent.pid)  # the two workers (and multiprocessing's resource tracker)
         assert parent.poll() is None and _records(out) < SHOTS, "the export finished before it could be killed"
         assert len(workers) >= 2, f"expected two worker processes, found {sorted(workers)}"
         os.kill(parent.pid, signal.SIGKILL)
@@ -105,7 +110,7 @@ def test_kill_9_of_the_parent_ends_its_workers_and_a_rerun_resumes(tmp_path, cap
         assert record["status"] == "done" and record["name"] == folder.name
         for output in record["outputs"]:
             if not output["file"].endswith(".png"):
-                json.loads((folder / output["file"]).read_text())   # SHOT.json
+                json.loads((folder / output["file"]).read_text())  # SHOT.json
                 continue
             image = cv2.imread(str(folder / output["file"]), cv2.IMREAD_UNCHANGED)
             assert image is not None, f"{folder / output['file']} does not decode"

@@ -24,8 +24,8 @@ from mrcheck.core.resources import sample_scene_path
 
 from .bad_files import check_one_error, command, run, write_workspace
 
-PREFIX = os.fsdecode(b"Halle_S\xfcd_")   # str with the surrogate escape of byte 0xFC
-SHOWN = "Halle_S\\xfcd_"                   # as messages and text files show it
+PREFIX = os.fsdecode(b"Halle_S\xfcd_")  # str with the surrogate escape of byte 0xFC
+SHOWN = "Halle_S\\xfcd_"  # as messages and text files show it
 
 
 def _allows_non_utf8_names(folder: Path) -> bool:
@@ -60,8 +60,9 @@ def _read_json(path) -> dict:
 
 
 # -- every command works on such names ---------------------------------------------------------------
-@pytest.mark.parametrize("name", ["render", "render-manifest", "overlay", "reference", "compare", "scene-info",
-                                  "scene-info-manifest"])
+@pytest.mark.parametrize(
+    "name", ["render", "render-manifest", "overlay", "reference", "compare", "scene-info", "scene-info-manifest"]
+)
 def test_renders_and_scene_commands(ws, capfd, name):
     out_dir = f"{PREFIX}out"
     out, _ = _ok(command(name, ws, out_dir), capfd)
@@ -76,7 +77,7 @@ def test_renders_and_scene_commands(ws, capfd, name):
 def test_register_writes_a_shot_that_names_the_photo(ws, capfd):
     out, _ = _ok(command("register", ws, f"{PREFIX}out"), capfd)
     shot = _read_json(f"{PREFIX}out/shot.json")
-    assert shot["photo"] == f"../{ws['photo']}"    # relative to the shot: the same file, byte for byte
+    assert shot["photo"] == f"../{ws['photo']}"  # relative to the shot: the same file, byte for byte
     assert (Path(f"{PREFIX}out") / shot["photo"]).is_file()
 
 
@@ -88,7 +89,7 @@ def test_calibrate_names_the_views(ws, capfd, suffix):
     written = Path(args[-1])
     if suffix == ".json":
         assert set(_read_json(written)["per_view_errors"]) == set(ws["views"])
-    else:   # OpenCV's YAML is UTF-8 text: the names as messages show them
+    else:  # OpenCV's YAML is UTF-8 text: the names as messages show them
         text = written.read_bytes().decode("utf-8")
         assert f"{SHOWN}view0.jpg" in text.replace("\\\\", "\\")
         from mrcheck.core.camerafiles import read_camera
@@ -117,8 +118,13 @@ def test_deviation_texts_show_the_names(ws, capfd):
     folder = Path(f"{PREFIX}out/deviation")
     assert _read_json(folder / "parts.json")["scan"] == ws["scan"]
     assert f"{SHOWN}scan.xyz" in (folder / "parts.md").read_bytes().decode("utf-8")
-    assert {"deviation_top.png", "deviation_side.png", "deviation_render.png", "deviation_overlay.png",
-            "deviations.npy"} <= set(os.listdir(folder))
+    assert {
+        "deviation_top.png",
+        "deviation_side.png",
+        "deviation_render.png",
+        "deviation_overlay.png",
+        "deviations.npy",
+    } <= set(os.listdir(folder))
 
 
 def test_export_of_a_photo_with_such_a_name(ws, capfd):
@@ -167,14 +173,17 @@ def test_review_serves_shots_of_such_names(ws, tmp_path):
 
 
 # -- and says them in messages --------------------------------------------------------------------------
-@pytest.mark.parametrize("name, role, content, problem", [
-    ("overlay", "photo", b"just some text\n", "cannot read photo: a text file, not an image"),
-    ("register", "photo", b"", "photo is empty"),
-    ("render", "mesh", b"", "mesh file is empty"),
-    ("deviation", "scan", b"\xff\xfe\x00binary", "not a text x y z point file"),
-    ("discrepancies", "shot", b"{", "malformed shot JSON"),
-    ("export", "job", b"scene = ", "malformed job TOML"),
-])
+@pytest.mark.parametrize(
+    "name, role, content, problem",
+    [
+        ("overlay", "photo", b"just some text\n", "cannot read photo: a text file, not an image"),
+        ("register", "photo", b"", "photo is empty"),
+        ("render", "mesh", b"", "mesh file is empty"),
+        ("deviation", "scan", b"\xff\xfe\x00binary", "not a text x y z point file"),
+        ("discrepancies", "shot", b"{", "malformed shot JSON"),
+        ("export", "job", b"scene = ", "malformed job TOML"),
+    ],
+)
 def test_a_bad_file_of_such_a_name_is_named_as_xfc(ws, capfd, name, role, content, problem):
     Path(ws[role]).write_bytes(content)
     before = set(os.listdir("."))
@@ -190,22 +199,45 @@ def test_a_real_process_prints_such_names(ws, tmp_path):
     locale such as en_US.UTF-8), where print() raised UnicodeEncodeError after the work."""
     env = {**os.environ, "PYTHONIOENCODING": "utf-8"}
     output = f"{PREFIX}out/{PREFIX}render.png"
-    result = subprocess.run([sys.executable, "-m", "mrcheck.cli", "render", ws["mesh"], "--camera", ws["camera"],
-                             "--mode", "phong", "-o", output], capture_output=True, env=env, timeout=120)
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "mrcheck.cli",
+            "render",
+            ws["mesh"],
+            "--camera",
+            ws["camera"],
+            "--mode",
+            "phong",
+            "-o",
+            output,
+        ],
+        capture_output=True,
+        env=env,
+        timeout=120,
+    )
     assert result.returncode == 0, result.stderr
     assert result.stdout == os.fsencode(output) + b"\n"
     Path(ws["camera"]).write_text("{")
-    result = subprocess.run([sys.executable, "-m", "mrcheck.cli", "render", ws["mesh"], "--camera", ws["camera"],
-                             "-o", output], capture_output=True, env=env, timeout=120)
+    result = subprocess.run(
+        [sys.executable, "-m", "mrcheck.cli", "render", ws["mesh"], "--camera", ws["camera"], "-o", output],
+        capture_output=True,
+        env=env,
+        timeout=120,
+    )
     assert result.returncode == 1
-    assert result.stderr.decode("utf-8") == f"error: {SHOWN}cam.json: malformed camera JSON: Expecting property name " \
-                                            "enclosed in double quotes at line 1\n"
+    assert (
+        result.stderr.decode("utf-8") == f"error: {SHOWN}cam.json: malformed camera JSON: Expecting property name "
+        "enclosed in double quotes at line 1\n"
+    )
 
 
 def test_overlay_in_a_real_process_does_not_crash(ws):
     """The crash itself: cv2.imread on the photo's name was SIGSEGV (exit 139)."""
-    result = subprocess.run([sys.executable, "-m", "mrcheck.cli", *command("overlay", ws)], capture_output=True,
-                            timeout=120)
+    result = subprocess.run(
+        [sys.executable, "-m", "mrcheck.cli", *command("overlay", ws)], capture_output=True, timeout=120
+    )
     assert result.returncode == 0, (result.returncode, result.stderr)
     image = np.frombuffer(Path("out/o.png").read_bytes(), np.uint8)
     assert image.size > 0

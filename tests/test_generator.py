@@ -44,8 +44,11 @@ def scene_dir(tmp_path_factory):
 
 
 def file_hashes(folder: Path) -> dict:
-    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(folder.rglob("*")) if p.is_file()}
+    return {
+        str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in sorted(folder.rglob("*"))
+        if p.is_file()
+    }
 
 
 def manifest(folder: Path, name="scene.toml") -> dict:
@@ -80,7 +83,7 @@ def test_preset_default_target_works_for_seeds_whose_robot_is_heavy(tmp_path, ca
     generate("cell", out, seed=1, progress=False)
     scene = load_scene(out / "scene.toml")
     assert abs(scene.triangle_count - 150_000) <= 15_000, scene.triangle_count
-    assert "pallet" in {p.name for p in scene.parts}         # not met by dropping every pallet
+    assert "pallet" in {p.name for p in scene.parts}  # not met by dropping every pallet
     assert capsys.readouterr().err == ""
 
 
@@ -89,9 +92,12 @@ def test_missed_default_target_is_a_warning_an_explicit_one_an_error(tmp_path, c
     out = tmp_path / "big"
     generate("cell", out, size_m=(300.0, 250.0, 6.0), progress=False)
     err = capsys.readouterr().err
-    assert err.startswith("warning: the cell preset's default of 150,000 triangles is out of reach") and err.count("\n") == 1
+    assert (
+        err.startswith("warning: the cell preset's default of 150,000 triangles is out of reach")
+        and err.count("\n") == 1
+    )
     header = (out / "scene.toml").read_text().splitlines()[0]
-    assert "--size-m 300 250 6" in header and "--target-triangles" not in header   # the command that rebuilds it
+    assert "--size-m 300 250 6" in header and "--target-triangles" not in header  # the command that rebuilds it
     assert "out of reach" in (out / "README.md").read_text()
     with pytest.raises(MrcheckError, match="cannot build a cell of 150,000 triangles"):
         generate("cell", tmp_path / "strict", size_m=(300.0, 250.0, 6.0), target_triangles=150_000, progress=False)
@@ -122,7 +128,7 @@ def test_units_mix_loads_to_the_same_metres(scene_dir):
         assert np.allclose(world_vertices(part), world_vertices(other), atol=1e-5 * max(extent, 1.0)), part.name
     # the GLB coordinates really are in the declared unit
     conveyor = trimesh.load(mixed_dir / "meshes" / "conveyor.glb", force="mesh")
-    assert 3900 < np.ptp(conveyor.vertices[:, 0]) < 4100           # a 4 m segment, in mm
+    assert 3900 < np.ptp(conveyor.vertices[:, 0]) < 4100  # a 4 m segment, in mm
 
 
 def test_unit_missing_variant_forgets_one_mm_part(scene_dir):
@@ -131,7 +137,9 @@ def test_unit_missing_variant_forgets_one_mm_part(scene_dir):
     forgot = {p["name"]: p for p in manifest(folder, "scene_unit_missing.toml")["parts"]}
     missing = [name for name, p in forgot.items() if "units" not in p]
     assert missing == ["machining_centre"] and declared["machining_centre"]["units"] == "mm"
-    assert {k: v for k, v in forgot.items() if k not in missing} == {k: v for k, v in declared.items() if k not in missing}
+    assert {k: v for k, v in forgot.items() if k not in missing} == {
+        k: v for k, v in declared.items() if k not in missing
+    }
     good = {p.name: p for p in load_scene(folder / "scene.toml").parts}["machining_centre"]
     bad = {p.name: p for p in load_scene(folder / "scene_unit_missing.toml").parts}["machining_centre"]
     ratio = np.ptp(bad.vertices, axis=0) / np.ptp(good.vertices, axis=0)
@@ -146,7 +154,7 @@ def test_twenty_million_triangle_hall_is_instanced(tmp_path):
     folder = tmp_path / "hall20m"
     generate("hall", folder, target_triangles=target, progress=False)
     generated = sum(p.stat().st_size for p in (folder / "meshes").iterdir()) + (folder / "scene.toml").stat().st_size
-    everything = sum(p.stat().st_size for p in folder.rglob("*") if p.is_file())     # robots copied too
+    everything = sum(p.stat().st_size for p in folder.rglob("*") if p.is_file())  # robots copied too
     # the least a flat mesh of 20 M triangles takes: float32 positions of 3 corners each,
     # unindexed and without normals (an indexed GLB with normals is larger)
     flat = target * 3 * 3 * 4
@@ -194,8 +202,8 @@ def test_robots_are_real_posed_on_pedestals_inside_fences(scene_dir):
         fence = np.array([xy for i, xy in posts.items() if i.startswith(f"cell-{n}-post-")])[:, :2]
         lo, hi = fence.min(axis=0), fence.max(axis=0)
         bounds = scene[table["name"]].instance_bounds()[0]
-        assert np.all(bounds[0, :2] > lo) and np.all(bounds[1, :2] < hi), table["name"]   # inside its fence
-        assert bounds[0, 2] >= PEDESTAL_TOP - 0.005                                       # on its pedestal
+        assert np.all(bounds[0, :2] > lo) and np.all(bounds[1, :2] < hi), table["name"]  # inside its fence
+        assert bounds[0, 2] >= PEDESTAL_TOP - 0.005  # on its pedestal
     poses = [tuple(sorted(t["joints"].items())) for t in robots]
     assert len(set(poses)) == len(poses)
 
@@ -209,7 +217,9 @@ def test_nothing_sinks_into_the_floor(scene_dir):
 
 
 # -- viewpoints ------------------------------------------------------------------------------------
-@pytest.mark.parametrize("preset, target, far", [("cell", 50_000, 12.0), ("line", 200_000, 40.0), ("hall", 1_000_000, 150.0)])
+@pytest.mark.parametrize(
+    "preset, target, far", [("cell", 50_000, 12.0), ("line", 200_000, 40.0), ("hall", 1_000_000, 150.0)]
+)
 def test_viewpoints_see_near_and_far(ctx, scene_dir, preset, target, far):
     scene = load_scene(scene_dir(preset, target) / "scene.toml")
     expected = {"aisle", "overview", "robot_cell"} | ({"mezzanine"} if preset == "hall" else set())
@@ -239,7 +249,7 @@ def test_failed_generation_leaves_the_old_folder(scene_dir, tmp_path, monkeypatc
     with pytest.raises(MrcheckError, match="disk full"):
         generate("cell", out, seed=5, target_triangles=50_000, progress=False)
     assert file_hashes(out) == before
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["scene"]      # no partial folder left
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["scene"]  # no partial folder left
 
 
 def test_regenerating_replaces_only_the_generated_files(tmp_path):
@@ -248,14 +258,21 @@ def test_regenerating_replaces_only_the_generated_files(tmp_path):
     (out / "photos").mkdir()
     (out / "photos" / "a.jpg").write_bytes(b"jpeg")
     (out / "notes.txt").write_text("mine")
-    (out / "meshes" / "old.glb").write_text("stale")        # inside what the generator writes
+    (out / "meshes" / "old.glb").write_text("stale")  # inside what the generator writes
     generate("cell", out, target_triangles=50_000, progress=False)
     assert (out / "photos" / "a.jpg").read_bytes() == b"jpeg" and (out / "notes.txt").read_text() == "mine"
-    assert sorted(p.name for p in out.iterdir()) == ["README.md", "meshes", "notes.txt", "photos", "robots", "scene.toml"]
+    assert sorted(p.name for p in out.iterdir()) == [
+        "README.md",
+        "meshes",
+        "notes.txt",
+        "photos",
+        "robots",
+        "scene.toml",
+    ]
     fresh = tmp_path / "fresh"
     generate("cell", fresh, target_triangles=50_000, progress=False)
     theirs = {k: v for k, v in file_hashes(out).items() if not k.startswith(("photos", "notes"))}
-    assert theirs == file_hashes(fresh)                      # no scene_unit_missing.toml, no old.glb
+    assert theirs == file_hashes(fresh)  # no scene_unit_missing.toml, no old.glb
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c", "fresh"]
 
 
@@ -268,8 +285,23 @@ def test_output_given_relative_to_a_folder_inside_it(tmp_path, monkeypatch, caps
     (out / "notes.txt").write_text("mine")
     monkeypatch.chdir(out)
     for seed, target in ((1, "."), (2, "../c")):
-        assert main(["scene", "generate", "--preset", "cell", "--seed", str(seed), "--target-triangles", "50000",
-                     "-o", target]) == 0
+        assert (
+            main(
+                [
+                    "scene",
+                    "generate",
+                    "--preset",
+                    "cell",
+                    "--seed",
+                    str(seed),
+                    "--target-triangles",
+                    "50000",
+                    "-o",
+                    target,
+                ]
+            )
+            == 0
+        )
         assert f"--seed {seed} " in (out / "scene.toml").read_text().splitlines()[0]
         assert Path.cwd() == out and (out / "notes.txt").read_text() == "mine"
     capsys.readouterr()
@@ -284,7 +316,7 @@ def test_failed_regeneration_keeps_the_scene_and_the_other_files(tmp_path, monke
     before = file_hashes(out)
     real_rename, renames = __import__("os").rename, []
 
-    def failing_rename(a, b):       # fails moving the second new entry in, after the old ones went aside
+    def failing_rename(a, b):  # fails moving the second new entry in, after the old ones went aside
         renames.append(a)
         if ".mrcheck-partial-" in str(a) and sum(".mrcheck-partial-" in str(r) for r in renames) == 2:
             raise OSError(28, "No space left on device")
@@ -298,16 +330,19 @@ def test_failed_regeneration_keeps_the_scene_and_the_other_files(tmp_path, monke
     assert sorted(p.name for p in tmp_path.iterdir()) == ["scene"]
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    (dict(preset="warehouse"), "unknown preset"),
-    (dict(size_m=(0.0, 80.0, 12.0)), "positive"),
-    (dict(size_m=(200.0, -80.0, 12.0)), "positive"),
-    (dict(size_m=(200.0, math.nan, 12.0)), "positive"),
-    (dict(size_m=(20.0, 10.0, 3.0)), "too small"),
-    (dict(target_triangles=49_999), "between 50,000"),
-    (dict(target_triangles=0), "between 50,000"),
-    (dict(seed=-1), "seed"),
-])
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(preset="warehouse"), "unknown preset"),
+        (dict(size_m=(0.0, 80.0, 12.0)), "positive"),
+        (dict(size_m=(200.0, -80.0, 12.0)), "positive"),
+        (dict(size_m=(200.0, math.nan, 12.0)), "positive"),
+        (dict(size_m=(20.0, 10.0, 3.0)), "too small"),
+        (dict(target_triangles=49_999), "between 50,000"),
+        (dict(target_triangles=0), "between 50,000"),
+        (dict(seed=-1), "seed"),
+    ],
+)
 def test_bad_arguments_raise_one_line(tmp_path, kwargs, message):
     args = dict(preset="hall", outdir=tmp_path / "out", progress=False) | kwargs
     with pytest.raises(MrcheckError, match=message) as err:
@@ -325,10 +360,13 @@ def test_refuses_to_replace_a_folder_that_is_no_generated_scene(tmp_path):
     assert (precious / "chapter1.tex").read_text() == "..."
 
 
-@pytest.mark.parametrize("args, message", [
-    (["--target-triangles", "1000", "-o", "{tmp}/x"], "between 50,000"),
-    (["-o", "/proc/x"], "folder /proc is not writable"),     # checked before the generation
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--target-triangles", "1000", "-o", "{tmp}/x"], "between 50,000"),
+        (["-o", "/proc/x"], "folder /proc is not writable"),  # checked before the generation
+    ],
+)
 def test_cli_reports_bad_input_in_one_line(tmp_path, capsys, args, message):
     from mrcheck.cli import main
 

@@ -38,7 +38,12 @@ CASES = {
     "robot_vector_ao_raw": ("robot", "vector", {"blur": False, "samples": 36}, "ao"),
     "robot_ssao_ao_raw": ("robot", "ssao", {"blur": False, "samples": 36}, "ao"),
     "robot_vector_half_res": ("robot", "vector", {"ao_scale": 0.5, "blur_size": 13}, "image"),
-    "conveyor_vector_sun_direct": ("conveyor", "vector", {"light": "sun", "ao_direct": True, "intensity": 2.0}, "image"),
+    "conveyor_vector_sun_direct": (
+        "conveyor",
+        "vector",
+        {"light": "sun", "ao_direct": True, "intensity": 2.0},
+        "image",
+    ),
     "overview_crytek": ("overview", "crytek", {}, "image"),
     "overview_hbao": ("overview", "hbao", {}, "image"),
     "overview_alchemy": ("overview", "alchemy", {}, "image"),
@@ -66,7 +71,7 @@ def test_golden(renderer, name):
     view, mode, settings, what = CASES[name]
     # an earlier failed run's images of this case would read as a current failure
     for stale in FAILURES.glob(f"{name}_*.png"):
-        if stale.stem.rsplit("_", 1)[0] == name:   # overview_vector_*, not overview_vector_sun_*
+        if stale.stem.rsplit("_", 1)[0] == name:  # overview_vector_*, not overview_vector_sun_*
             stale.unlink()
     camera = renderer.scene.camera(view, W, H)
     result = renderer.render(camera, [mode], RenderSettings(**settings), want_ao=what == "ao")[mode]
@@ -83,10 +88,15 @@ def test_golden(renderer, name):
     mean, share = diff.mean() / 255.0, (diff > 8).mean()
     if mean > TOLERANCE[0] or share > TOLERANCE[1]:
         FAILURES.mkdir(exist_ok=True)
-        for suffix, image in (("actual", actual), ("golden", golden), ("diff", np.clip(diff * 8, 0, 255).astype(np.uint8))):
+        for suffix, image in (
+            ("actual", actual),
+            ("golden", golden),
+            ("diff", np.clip(diff * 8, 0, 255).astype(np.uint8)),
+        ):
             cv2.imwrite(str(FAILURES / f"{name}_{suffix}.png"), image)
-        pytest.fail(f"{name}: mean difference {mean:.4f}, {share:.2%} of pixels off by > 8/255; "
-                    f"see {FAILURES}/{name}_diff.png")
+        pytest.fail(
+            f"{name}: mean difference {mean:.4f}, {share:.2%} of pixels off by > 8/255; see {FAILURES}/{name}_diff.png"
+        )
 
 
 def test_golden_comparison_catches_a_change(renderer):

@@ -47,13 +47,19 @@ def _assert_same_image(a, b):
 
 def _shifted_camera(scene, view, shift) -> Camera:
     vp = scene.viewpoints[view]
-    return Camera.from_look_at(np.asarray(vp["eye"]) + shift, np.asarray(vp["target"]) + shift,
-                               vp.get("up", (0, 0, 1)), vp.get("fov_y_deg", 60.0), W, H)
+    return Camera.from_look_at(
+        np.asarray(vp["eye"]) + shift,
+        np.asarray(vp["target"]) + shift,
+        vp.get("up", (0, 0, 1)),
+        vp.get("fov_y_deg", 60.0),
+        W,
+        H,
+    )
 
 
 def test_round_trip_renders_the_glb_scenes_image(ctx, generated):
     manifest, own, _ = generated
-    glb, ifc = load_scene(manifest), load_scene(own)        # the .ifc itself, through the import cache
+    glb, ifc = load_scene(manifest), load_scene(own)  # the .ifc itself, through the import cache
     # a robot's float32 mesh has a couple of triangles that float32 made zero-area: written to
     # the IFC as they are, the loader drops them on the way back (invisible either way)
     assert abs(ifc.triangle_count - glb.triangle_count) <= 1e-4 * glb.triangle_count
@@ -71,8 +77,8 @@ def test_generated_ifc_classes_and_ids(generated):
     scene = load_scene(own)
     column = next(p for p in scene.parts if p.name == "column")
     assert column.ifc_class == "IfcColumn" and column.storey == STOREY
-    assert all(len(i) == 22 for i in column.instance_ids)                 # GlobalIds
-    assert {info.name for info in column.instance_info} >= {"column-A01"}   # the generator's ids as names
+    assert all(len(i) == 22 for i in column.instance_ids)  # GlobalIds
+    assert {info.name for info in column.instance_info} >= {"column-A01"}  # the generator's ids as names
     assert scene.element(column.instance_ids[0])[2].ifc_class == "IfcColumn"
 
 
@@ -82,7 +88,7 @@ def test_generated_ifc_is_the_same_bytes_for_the_same_arguments(generated, tmp_p
     manifest, own, _ = generated
     header = own.read_bytes().split(b"FILE_DESCRIPTION(('", 1)[1].split(b"'", 1)[0].decode()
     again = write_ifc(load_scene(manifest), tmp_path / "again.ifc", 2, header)
-    assert again.read_bytes() == own.read_bytes()   # GlobalIds, relationship order, time stamp: all fixed
+    assert again.read_bytes() == own.read_bytes()  # GlobalIds, relationship order, time stamp: all fixed
 
 
 def test_map_coordinates_render_the_same_image_from_the_same_relative_camera(ctx, generated, tmp_path):
@@ -90,14 +96,15 @@ def test_map_coordinates_render_the_same_image_from_the_same_relative_camera(ctx
     glb = load_scene(manifest)
     at_map = load_scene(import_scene(mapped, tmp_path / "map", ImportSettings(coordinates="map")).manifest)
     at_own = load_scene(import_scene(mapped, tmp_path / "own", ImportSettings(coordinates="model")).manifest)
-    assert tuple(at_map.origin) == tuple(SHIFT) and at_map.crs == "EPSG:25832"   # float64, exact
+    assert tuple(at_map.origin) == tuple(SHIFT) and at_map.crs == "EPSG:25832"  # float64, exact
     np.testing.assert_allclose(at_map.bounds() - SHIFT, at_own.bounds(), atol=1e-6)
     near = _image(ctx, at_own, glb.camera("overview", W, H))
     far = _image(ctx, at_map, _shifted_camera(glb, "overview", SHIFT))
     _assert_same_image(near, far)
     # the manifest's viewpoint is relative to its origin: in world coordinates it is at the map
-    np.testing.assert_allclose(np.asarray(at_map.viewpoints["overview"]["eye"]) - SHIFT,
-                               at_own.viewpoints["overview"]["eye"], atol=1e-6)
+    np.testing.assert_allclose(
+        np.asarray(at_map.viewpoints["overview"]["eye"]) - SHIFT, at_own.viewpoints["overview"]["eye"], atol=1e-6
+    )
 
 
 def test_a_camera_json_in_map_coordinates_works_unchanged(generated, tmp_path, capsys):
@@ -110,12 +117,29 @@ def test_a_camera_json_in_map_coordinates_works_unchanged(generated, tmp_path, c
     from mrcheck.core.camerafiles import write_camera
 
     write_camera(path, camera)
-    assert np.abs(camera.center - SHIFT).max() < 1e3          # the file holds map coordinates
+    assert np.abs(camera.center - SHIFT).max() < 1e3  # the file holds map coordinates
     scene = import_scene(mapped, tmp_path / "map", ImportSettings(coordinates="map")).manifest
     out_map, out_own = tmp_path / "map.png", tmp_path / "own.png"
     assert main(["render", str(scene), "--camera", str(path), "--mode", "vector", "-o", str(out_map)]) == 0
-    assert main(["render", str(manifest), "--view", "overview", "--width", str(W), "--height", str(H),
-                 "--mode", "vector", "-o", str(out_own)]) == 0
+    assert (
+        main(
+            [
+                "render",
+                str(manifest),
+                "--view",
+                "overview",
+                "--width",
+                str(W),
+                "--height",
+                str(H),
+                "--mode",
+                "vector",
+                "-o",
+                str(out_own),
+            ]
+        )
+        == 0
+    )
     from mrcheck.core.images import read_image
 
     _assert_same_image(read_image(out_map), read_image(out_own))

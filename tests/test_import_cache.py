@@ -49,9 +49,9 @@ def test_the_key_is_the_content_not_the_name_and_the_settings_count(tmp_path, co
     cached_manifest(WALL)
     renamed = tmp_path / "renamed.ifc"
     shutil.copyfile(WALL, renamed)
-    assert cached_manifest(renamed).cached                     # same bytes: a hit
+    assert cached_manifest(renamed).cached  # same bytes: a hit
     renamed.write_text(renamed.read_text().replace("5000.0,270.0", "4000.0,270.0"))
-    assert not cached_manifest(renamed).cached                 # edited: a miss
+    assert not cached_manifest(renamed).cached  # edited: a miss
     assert not cached_manifest(WALL, ImportSettings(coordinates="map")).cached
     assert len(counted) == 3
 
@@ -102,7 +102,7 @@ def test_many_instances_go_to_a_json_file_beside_the_mesh(tmp_path):
     box = trimesh.creation.box()
     T = np.tile(np.eye(4), (40, 1, 1))
     T[:, 0, 3] = np.arange(40) * 3.0
-    T[:, 1, 3] = 5e6                                    # far out: the matrices keep it exactly
+    T[:, 1, 3] = 5e6  # far out: the matrices keep it exactly
     scene = Scene("rows", tmp_path, [make_part("column", tmp_path, np.asarray(box.vertices), np.asarray(box.faces), T)])
     model = write_ifc(scene, tmp_path / "rows.ifc", 0, "rows")
     out = tmp_path / "rows"
@@ -114,7 +114,7 @@ def test_many_instances_go_to_a_json_file_beside_the_mesh(tmp_path):
     assert np.all(loaded.parts[0].transforms[:, 1, 3] == 5e6)
     from mrcheck.scene.manifest import read_manifest
 
-    assert len(read_manifest(out / "scene.toml")["parts"][0]["instances"]) == 40   # what asbuilt & co. read
+    assert len(read_manifest(out / "scene.toml")["parts"][0]["instances"]) == 40  # what asbuilt & co. read
     (out / "meshes" / "column.instances.json").write_text("[{")
     with pytest.raises(MrcheckError, match=r"column\.instances\.json: malformed instances file"):
         load_scene(out)

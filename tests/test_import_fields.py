@@ -15,7 +15,7 @@ def test_hover_pick_names_the_element():
 
     scene = load_scene(WALL)
     camera = scene.camera("overview", 320, 240)
-    hit = Picker(scene).pick(camera, 160, 120)   # the overview looks at the wall's centre
+    hit = Picker(scene).pick(camera, 160, 120)  # the overview looks at the wall's centre
     assert hit["instance"] == "0czCsOQ5z4dg8QGBRFInu2" and hit["ifc_class"] == "IfcWallStandardCase"
 
 

@@ -23,12 +23,15 @@ def _extent(model) -> np.ndarray:
     return np.ptp(points, axis=0)
 
 
-@pytest.mark.parametrize("name, extent", [
-    ("wall-standard-case.ifc", (5.0, 0.27, 2.0)),                 # mm file: 5000 x 270 x 2000
-    ("beam-extruded-solid.ifc", (0.22, 10.0, 0.6)),               # metre file: IPE600, 10 m along y
-    ("tessellation-with-individual-colors.ifc", (1.0, 1.0, 2.0)),  # a vertex at (1000, 1, 2000) mm
-    ("bath-csg-solid.ifc", (2.0, 0.8, 0.8)),                      # CSG: block minus an extrusion
-])
+@pytest.mark.parametrize(
+    "name, extent",
+    [
+        ("wall-standard-case.ifc", (5.0, 0.27, 2.0)),  # mm file: 5000 x 270 x 2000
+        ("beam-extruded-solid.ifc", (0.22, 10.0, 0.6)),  # metre file: IPE600, 10 m along y
+        ("tessellation-with-individual-colors.ifc", (1.0, 1.0, 2.0)),  # a vertex at (1000, 1, 2000) mm
+        ("bath-csg-solid.ifc", (2.0, 0.8, 0.8)),  # CSG: block minus an extrusion
+    ],
+)
 def test_sample_files_land_in_metres(name, extent):
     model = read_model(DATA / name, ImportSettings(threads=1))
     np.testing.assert_allclose(_extent(model), extent, atol=2e-3)
@@ -39,9 +42,9 @@ def test_every_instance_is_its_element_with_globalid_class_and_type_name():
     model = read_model(DATA / "wall-standard-case.ifc")
     (part,) = model.parts
     (instance,) = part.instances
-    assert instance.id == "0czCsOQ5z4dg8QGBRFInu2"          # the element's GlobalId
+    assert instance.id == "0czCsOQ5z4dg8QGBRFInu2"  # the element's GlobalId
     assert instance.ifc_class == part.ifc_class == "IfcWallStandardCase"
-    assert part.name == "Double_Brick_-_270"                 # its type's name, safe as a file name
+    assert part.name == "Double_Brick_-_270"  # its type's name, safe as a file name
 
 
 def test_mapped_type_shape_is_one_part():
@@ -69,8 +72,9 @@ def _two_element_model(tmp_path, bad_second: bool) -> Path:
     project = ifcopenshell.api.root.create_entity(f, ifc_class="IfcProject", name="two")
     ifcopenshell.api.unit.assign_unit(f, length={"is_metric": True, "raw": "METERS"})
     model = ifcopenshell.api.context.add_context(f, context_type="Model")
-    body = ifcopenshell.api.context.add_context(f, context_type="Model", context_identifier="Body",
-                                                target_view="MODEL_VIEW", parent=model)
+    body = ifcopenshell.api.context.add_context(
+        f, context_type="Model", context_identifier="Body", target_view="MODEL_VIEW", parent=model
+    )
     site = ifcopenshell.api.root.create_entity(f, ifc_class="IfcSite", name="site")
     storey = ifcopenshell.api.root.create_entity(f, ifc_class="IfcBuildingStorey", name="Level 2")
     ifcopenshell.api.aggregate.assign_object(f, products=[site], relating_object=project)
@@ -83,7 +87,7 @@ def _two_element_model(tmp_path, bad_second: bool) -> Path:
     if bad_second:
         proxy = ifcopenshell.api.root.create_entity(f, ifc_class="IfcBuildingElementProxy", name="broken")
         points = f.createIfcCartesianPointList3D([[0.0, 0.0, 0.0]])
-        bad = f.createIfcTriangulatedFaceSet(points, None, None, [[1, 7, 9]], None)   # indices past the points
+        bad = f.createIfcTriangulatedFaceSet(points, None, None, [[1, 7, 9]], None)  # indices past the points
         shape = f.createIfcShapeRepresentation(body, "Body", "Tessellation", [bad])
         ifcopenshell.api.geometry.assign_representation(f, product=proxy, representation=shape)
         ifcopenshell.api.geometry.edit_object_placement(f, product=proxy, matrix=np.eye(4))
@@ -98,7 +102,8 @@ def test_storey_and_a_failed_element_is_counted_the_rest_imports(tmp_path):
     model = read_model(_two_element_model(tmp_path, bad_second=True))
     assert [i.storey for p in model.parts for i in p.instances] == ["Level 2"]
     assert [(f.ifc_class, f.id) for f in model.failed] == [
-        ("IfcBuildingElementProxy", next(e.id for e in model.failed))]
+        ("IfcBuildingElementProxy", next(e.id for e in model.failed))
+    ]
     assert model.element_count == 1
 
 
@@ -149,22 +154,28 @@ def test_model_without_body_representation(tmp_path):
         read_model(path)
 
 
-@pytest.mark.parametrize("name, source, message", [
-    ("part.ifc", "../step/red_cube_blue_cylinder.step", r"STEP AP214 CAD file .* not IFC: rename it to \.step"),
-    ("model.step", "wall-standard-case.ifc", r"IFC model \(IFC4\), not a STEP part: rename it to \.ifc"),
-])
+@pytest.mark.parametrize(
+    "name, source, message",
+    [
+        ("part.ifc", "../step/red_cube_blue_cylinder.step", r"STEP AP214 CAD file .* not IFC: rename it to \.step"),
+        ("model.step", "wall-standard-case.ifc", r"IFC model \(IFC4\), not a STEP part: rename it to \.ifc"),
+    ],
+)
 def test_wrong_extension_for_the_content(tmp_path, name, source, message):
     path = _with(tmp_path, name, (DATA / source).read_bytes())
     with pytest.raises(MrcheckError, match=message):
         read_model(path)
 
 
-@pytest.mark.parametrize("content, message", [
-    (b"glTF\x02\x00\x00\x00", "GLB mesh"),
-    (b"PK\x03\x04rest", "ZIP archive"),
-    (b"<?xml version='1.0'?><ifcXML/>", "XML"),
-    (b"", "model file is empty"),
-])
+@pytest.mark.parametrize(
+    "content, message",
+    [
+        (b"glTF\x02\x00\x00\x00", "GLB mesh"),
+        (b"PK\x03\x04rest", "ZIP archive"),
+        (b"<?xml version='1.0'?><ifcXML/>", "XML"),
+        (b"", "model file is empty"),
+    ],
+)
 def test_not_a_step_physical_file(tmp_path, content, message):
     with pytest.raises(MrcheckError, match=message):
         read_model(_with(tmp_path, "model.ifc", content))
@@ -179,16 +190,24 @@ def test_map_conversion_rotation_and_the_project_unit(tmp_path):
     model = ifcopenshell.open(str(DATA / "wall-standard-case.ifc"))
     ifcopenshell.api.georeference.add_georeferencing(model, name="EPSG:25832")
     ifcopenshell.api.georeference.edit_georeferencing(
-        model, projected_crs={"Name": "EPSG:25832"},
-        coordinate_operation={"Eastings": 458658780.0, "Northings": 5438232790.0, "OrthogonalHeight": 113700.0,
-                              "XAxisAbscissa": 0.0, "XAxisOrdinate": 1.0, "Scale": 1.0})
+        model,
+        projected_crs={"Name": "EPSG:25832"},
+        coordinate_operation={
+            "Eastings": 458658780.0,
+            "Northings": 5438232790.0,
+            "OrthogonalHeight": 113700.0,
+            "XAxisAbscissa": 0.0,
+            "XAxisOrdinate": 1.0,
+            "Scale": 1.0,
+        },
+    )
     path = tmp_path / "wall_map.ifc"
     model.write(str(path))
     at_map = read_model(path, ImportSettings(coordinates="map"))
     assert tuple(at_map.origin) == (458658.78, 5438232.79, 113.7) and at_map.crs == "EPSG:25832"
     (part,) = at_map.parts
     matrix = part.instances[0].matrix
-    world = part.vertices @ matrix[:3, :3].T + matrix[:3, 3]      # relative to the origin
+    world = part.vertices @ matrix[:3, :3].T + matrix[:3, 3]  # relative to the origin
     # the wall runs 5 m along the model's x: rotated by 90 degrees it runs along the map's north
     np.testing.assert_allclose(np.ptp(world, axis=0), [0.27, 5.0, 2.0], atol=1e-6)
     np.testing.assert_allclose(world.min(axis=0), [-0.27, 0.0, 0.0], atol=1e-6)

@@ -20,7 +20,7 @@ def _extent(part) -> np.ndarray:
 
 
 def test_metre_file_two_products_with_their_colours():
-    model = read_model(DATA / "red_cube_blue_cylinder.step")      # AP214, CONVERSION_BASED_UNIT('METRE')
+    model = read_model(DATA / "red_cube_blue_cylinder.step")  # AP214, CONVERSION_BASED_UNIT('METRE')
     parts = {p.name: p for p in model.parts}
     assert set(parts) == {"red_cube", "blue_cylinder"}
     np.testing.assert_allclose(_extent(parts["red_cube"]), [0.01, 0.01, 0.01], atol=1e-6)
@@ -29,11 +29,14 @@ def test_metre_file_two_products_with_their_colours():
     assert parts["red_cube"].instances[0].id == "red_cube"
 
 
-@pytest.mark.parametrize("name, longest", [
-    ("nist_ctc_01_asme1_rd.stp", 0.8),            # AP203 ed.2, mm
-    ("nist_ctc_03_asme1_ap242-e2.stp", 0.4854),   # AP242 ed.2, mm (an inch unit declared too)
-    ("M6-1x12-countersunk-screw.step", 0.012),    # AP214 from OpenCascade, mm, B-splines
-])
+@pytest.mark.parametrize(
+    "name, longest",
+    [
+        ("nist_ctc_01_asme1_rd.stp", 0.8),  # AP203 ed.2, mm
+        ("nist_ctc_03_asme1_ap242-e2.stp", 0.4854),  # AP242 ed.2, mm (an inch unit declared too)
+        ("M6-1x12-countersunk-screw.step", 0.012),  # AP214 from OpenCascade, mm, B-splines
+    ],
+)
 def test_millimetre_files_land_in_metres(name, longest):
     model = read_model(DATA / name)
     assert max(_extent(p).max() for p in model.parts) == pytest.approx(longest, rel=0.02)
@@ -41,7 +44,7 @@ def test_millimetre_files_land_in_metres(name, longest):
 
 
 def test_wireframe_only_shapes_are_left_out_with_a_note():
-    model = read_model(DATA / "nist_ctc_01_asme1_rd.stp")   # a solid and a bounded wireframe
+    model = read_model(DATA / "nist_ctc_01_asme1_rd.stp")  # a solid and a bounded wireframe
     assert len(model.parts) == 1 and model.parts[0].instances[0].id == "nist_ctc_01_asme1_rd/SOLID"
     assert any("without faces" in note for note in model.notes)
 
@@ -90,7 +93,7 @@ def test_assembly_repeats_are_instances_with_assembly_paths(tmp_path):
     assert part.name == "block" and len(part.instances) == 2
     assert all(i.id.startswith("rig/") for i in part.instances) and len({i.id for i in part.instances}) == 2
     offsets = sorted(i.matrix[0, 3] for i in part.instances)
-    np.testing.assert_allclose(offsets, [0.0, 0.1], atol=1e-9)          # 100 mm
+    np.testing.assert_allclose(offsets, [0.0, 0.1], atol=1e-9)  # 100 mm
     np.testing.assert_allclose(_extent(part), [0.02, 0.01, 0.005], atol=1e-9)
 
 

@@ -29,7 +29,12 @@ def _cell() -> trimesh.Trimesh:
         trimesh.creation.box((1.2, 0.8, 1.0), T((-1, 2, 0.5))),
         trimesh.creation.box((0.6, 0.6, 0.6), T((-0.6, 2.1, 1.3))),
         trimesh.creation.box((0.5, 2.0, 2.5), T((2.0, 1.5, 1.25))),
-        trimesh.creation.cylinder(0.15, 10, sections=24, transform=T((0, 3.5, 3.0)) @ trimesh.transformations.rotation_matrix(np.pi / 2, (0, 1, 0))),
+        trimesh.creation.cylinder(
+            0.15,
+            10,
+            sections=24,
+            transform=T((0, 3.5, 3.0)) @ trimesh.transformations.rotation_matrix(np.pi / 2, (0, 1, 0)),
+        ),
     ]
     return trimesh.util.concatenate(pieces)
 

@@ -22,7 +22,7 @@ def _per_direction(q, w, d):
 def _pixels(rng, count=3000):
     n = rng.normal(size=(count, 3))
     n /= np.linalg.norm(n, axis=1, keepdims=True)
-    n[:, 2] = -np.abs(n[:, 2])                       # facing the camera (OpenCV: towards -z)
+    n[:, 2] = -np.abs(n[:, 2])  # facing the camera (OpenCV: towards -z)
     return n
 
 
@@ -34,8 +34,8 @@ def test_the_joint_fit_matches_least_squares_per_direction():
     q = 0.4 + 0.6 * np.maximum(n @ sun, 0.0) + rng.normal(0, 0.02, len(n))
     directions = light._directions(light.LIGHT_DIRECTIONS)
     d = np.maximum(n @ directions.T, 0.0)
-    d[:, 7] = 0.0                                     # a direction that faces no pixel
-    d[:, 8] = 0.25                                    # one that lights every pixel alike
+    d[:, 7] = 0.0  # a direction that faces no pixel
+    d[:, 8] = 0.25  # one that lights every pixel alike
     got, want = np.array(light._fit_all(q, w, d)), _per_direction(q, w, d)
     assert np.allclose(got, want, rtol=1e-7, atol=1e-9), np.abs(got - want).max(axis=1)
     assert np.argmin(got[2]) == np.argmin(want[2])
@@ -51,7 +51,8 @@ def test_the_estimated_light_is_the_one_that_lit_the_pixels():
     from mrcheck.render.antialias import linear_to_srgb
 
     photo = linear_to_srgb(linear.astype(np.float32))
-    found = light.estimate_light(photo, albedo.astype(np.float32), normals, np.zeros((h, w), np.int32),
-                                 np.zeros((h, w), bool))
+    found = light.estimate_light(
+        photo, albedo.astype(np.float32), normals, np.zeros((h, w), np.int32), np.zeros((h, w), bool)
+    )
     assert found is not None and np.dot(found.direction, sun) > 0.99
     assert abs(found.ambient - 0.5) < 0.03 and abs(found.diffuse - 0.5) < 0.03

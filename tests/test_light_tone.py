@@ -15,8 +15,11 @@ from mrcheck.eval.reference import REFERENCE_LOD_PX, reference_ao
 from mrcheck.render.renderer import Renderer, RenderSettings
 from mrcheck.scene.model import load_scene
 
-SCENES = {"sample": sample_scene_path(), "cell": factory_scenes_dir() / "cell" / "scene.toml",
-          "line": factory_scenes_dir() / "line" / "scene.toml"}
+SCENES = {
+    "sample": sample_scene_path(),
+    "cell": factory_scenes_dir() / "cell" / "scene.toml",
+    "line": factory_scenes_dir() / "line" / "scene.toml",
+}
 STUDY = ["phong", "vector", "ssao"]
 
 
@@ -78,7 +81,7 @@ def test_light_surfaces_stay_below_saturation_and_the_modes_differ(renderers, sc
         print(f"{scene} {view}: saturated {saturated:.2%} (clip {clipped[-1]:.2%}), |D2-D1| {d2:.2f}, |D3-D1| {d3:.2f}")
         assert saturated == 0.0
         assert d2 >= 1.2 and d3 >= 1.2
-    assert max(clipped) > 0.0     # the premise: without the curve, light surfaces saturate
+    assert max(clipped) > 0.0  # the premise: without the curve, light surfaces saturate
 
 
 # -- the vector mode's default strength --------------------------------------------------------------
@@ -95,8 +98,17 @@ def test_default_vector_darkening_matches_the_ray_traced_reference(renderers, sc
         camera = renderer.scene.camera(view, 512, 384)
         settings = RenderSettings(antialias=False, lod_px=REFERENCE_LOD_PX).validated(camera.height)
         frame = renderer.render(camera, ["vector"], settings, want_ao=True, want_normals=True)
-        ref = reference_ao(renderer.scene, camera, frame.depth, frame.normals, 16, "screen", settings.radius_px,
-                           falloff=settings.falloff, seed=1)
+        ref = reference_ao(
+            renderer.scene,
+            camera,
+            frame.depth,
+            frame.normals,
+            16,
+            "screen",
+            settings.radius_px,
+            falloff=settings.falloff,
+            seed=1,
+        )
         covered = frame.depth > 0
         mode_sum += float((1.0 - frame["vector"].ao[covered]).sum())
         reference_sum += float((1.0 - ref[covered]).sum())

@@ -92,7 +92,7 @@ def test_distortion_map_inverts_the_lens():
     back, _ = cv2.projectPoints(rays, np.zeros(3), np.zeros(3), camera.K, camera.dist)
     assert np.abs(back.reshape(-1, 2) - photo_px).max() < 0.01
     assert distortion_map(_camera(32, 24, 20.0)) is None
-    assert padded_camera(_camera(32, 24, 20.0)) [1] == (0, 0)
+    assert padded_camera(_camera(32, 24, 20.0))[1] == (0, 0)
 
 
 def test_edges_flat_faces_are_quiet_at_grazing_angles():
@@ -101,8 +101,8 @@ def test_edges_flat_faces_are_quiet_at_grazing_angles():
     v = np.arange(h)[:, None] - 20.0
     depth = np.where(v > 0, 1.6 * f / np.maximum(v, 1e-9), 0.0) * np.ones((1, w))
     edges = cad_edges(depth.astype(np.float32), f)
-    assert not edges[21:].any()   # the floor itself: no edges, right up to the horizon
-    assert edges[20].all()        # where it meets the background (row 20, v = 0): a silhouette
+    assert not edges[21:].any()  # the floor itself: no edges, right up to the horizon
+    assert edges[20].all()  # where it meets the background (row 20, v = 0): a silhouette
     assert not edges[:20].any()
 
 
@@ -136,9 +136,9 @@ def marker_shot(ctx):
         return p
 
     markers = []
-    for marker_id, (d, s, z, yaw, tilt, size) in zip((7, 23, 42), ((4.5, -1.3, 1.5, 25, 0, 0.5),
-                                                                  (5.5, 1.2, 1.1, -20, 10, 0.6),
-                                                                  (6.5, -0.2, 2.3, 0, -15, 0.5))):
+    for marker_id, (d, s, z, yaw, tilt, size) in zip(
+        (7, 23, 42), ((4.5, -1.3, 1.5, 25, 0, 0.5), (5.5, 1.2, 1.1, -20, 10, 0.6), (6.5, -0.2, 2.3, 0, -15, 0.5))
+    ):
         markers.append((marker_id, at(d, s, z), *facing(at(d, s, z), yaw, tilt), size))
     # one lying on the floor, read from the camera (top edge away from it)
     floor_centre = at(4.2, 0.4, 0.012)
@@ -204,7 +204,9 @@ def test_marker_round_trip_with_register_markers(marker_shot):
     registration = pytest.importorskip("mrcheck.mr.registration")
     scene, truth, photo, marker_map = marker_shot
     intrinsics = truth.with_pose(np.eye(3), np.zeros(3))  # registration must not see the true pose
-    shot = registration.register_markers(np.ascontiguousarray(photo[..., ::-1]), intrinsics, marker_map)  # BGR, as imread
+    shot = registration.register_markers(
+        np.ascontiguousarray(photo[..., ::-1]), intrinsics, marker_map
+    )  # BGR, as imread
     assert (shot["width"], shot["height"]) == (truth.width, truth.height)
     _assert_round_trip(scene, truth, Camera.from_dict(shot))
 
@@ -254,16 +256,20 @@ def test_alpha_zero_is_the_render_and_one_the_photo(shot_files, tmp_path, capsys
 def test_mode_all_writes_the_two_row_sheet(shot_files, tmp_path, capsys):
     shot, _ = shot_files
     out = tmp_path / "all.png"
-    assert _run(capsys, shot, "--scene", sample_scene_path(), "--mode", "all", "--edges", "--samples", 4, "-o", out)[0] == 0
+    assert (
+        _run(capsys, shot, "--scene", sample_scene_path(), "--mode", "all", "--edges", "--samples", 4, "-o", out)[0]
+        == 0
+    )
     sheet = cv2.imread(str(out))
     # three panels side by side, two rows, each panel under its label bar
     assert sheet.shape[1] > 3 * 160 and sheet.shape[0] > 2 * 120 + 2 * 24
-    top, bottom = sheet[: sheet.shape[0] // 2], sheet[sheet.shape[0] // 2:]
+    top, bottom = sheet[: sheet.shape[0] // 2], sheet[sheet.shape[0] // 2 :]
     assert not np.array_equal(top, bottom)
 
 
-@pytest.mark.parametrize("problem", ["missing", "corrupt", "size", "alpha_high", "alpha_low", "alpha_nan", "color",
-                                     "no_photo_key"])
+@pytest.mark.parametrize(
+    "problem", ["missing", "corrupt", "size", "alpha_high", "alpha_low", "alpha_nan", "color", "no_photo_key"]
+)
 def test_bad_input_is_one_line_and_no_file(problem, shot_files, tmp_path, capsys):
     shot, _ = shot_files
     data = json.loads(shot.read_text())
@@ -284,8 +290,19 @@ def test_bad_input_is_one_line_and_no_file(problem, shot_files, tmp_path, capsys
         del data["photo"]
     shot.write_text(json.dumps(data))
     out = tmp_path / "out.png"
-    code, err = _run(capsys, shot, "--scene", sample_scene_path(), "--alpha", args["alpha"], "--edges",
-                     "--edge-color", args["edge"], "-o", out)
+    code, err = _run(
+        capsys,
+        shot,
+        "--scene",
+        sample_scene_path(),
+        "--alpha",
+        args["alpha"],
+        "--edges",
+        "--edge-color",
+        args["edge"],
+        "-o",
+        out,
+    )
     assert code == 1
     assert err.startswith("error: ") and err.count("\n") == 1, err
     assert not out.exists() and not list(tmp_path.glob("*.part"))
@@ -295,8 +312,9 @@ def test_ao_options_with_the_phong_mode_warn(shot_files, tmp_path, capsys):
     """As for render: options the chosen mode does not read are a warning, not silence."""
     shot, _ = shot_files
     out = tmp_path / "phong.png"
-    code, err = _run(capsys, shot, "--scene", sample_scene_path(), "--mode", "phong", "--samples", 8,
-                     "--intensity", 2, "-o", out)
+    code, err = _run(
+        capsys, shot, "--scene", sample_scene_path(), "--mode", "phong", "--samples", 8, "--intensity", 2, "-o", out
+    )
     warnings = [line for line in err.splitlines() if line.startswith("warning:")]
     assert code == 0 and out.exists()
     assert [w.split()[1] for w in warnings] == ["--intensity", "--samples"]

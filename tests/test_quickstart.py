@@ -31,7 +31,7 @@ README = ROOT / "README.md"
 # what the quick start reads; copied, so that its outputs (quickstart/, mrcheck-demo/) land in a
 # temporary folder and a run can never write into the repository
 NEEDED = ["examples", "tests/data/calibration"]
-DEMO_STUDY = "mrcheck-demo/robot_study.png"   # the sheet the quick start says to open first
+DEMO_STUDY = "mrcheck-demo/robot_study.png"  # the sheet the quick start says to open first
 
 
 def quickstart_lines(text: str) -> list[str]:
@@ -39,8 +39,12 @@ def quickstart_lines(text: str) -> list[str]:
     match = re.search(r"<!-- quickstart -->(.*?)<!-- /quickstart -->", text, re.S)
     assert match, "README.md has no <!-- quickstart --> ... <!-- /quickstart --> section"
     blocks = re.findall(r"```sh\n(.*?)```", match.group(1), re.S)
-    return [line.strip() for block in blocks for line in block.splitlines()
-            if line.strip() and not line.strip().startswith("#")]
+    return [
+        line.strip()
+        for block in blocks
+        for line in block.splitlines()
+        if line.strip() and not line.strip().startswith("#")
+    ]
 
 
 def outputs_named(argv: list[str]) -> list[str]:
@@ -79,8 +83,14 @@ def run_line(argv: list[str], outputs: list[str], workdir: Path, env: dict) -> N
 def review_once(argv: list[str], workdir: Path, env: dict) -> None:
     """Start the review server, fetch its page and the shots it serves, stop it with Ctrl-C."""
     port = free_port()
-    server = subprocess.Popen([*argv, "--port", str(port)], cwd=workdir, env=dict(env, PYTHONUNBUFFERED="1"), text=True,
-                              stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    server = subprocess.Popen(
+        [*argv, "--port", str(port)],
+        cwd=workdir,
+        env=dict(env, PYTHONUNBUFFERED="1"),
+        text=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
     try:
         url = None
         deadline = time.monotonic() + 120
@@ -108,9 +118,15 @@ def test_the_quick_start_runs_end_to_end(workdir, env):
     lines = quickstart_lines(README.read_text())
     commands = [shlex.split(line) for line in lines]
     assert [c[:2] for c in commands] == [
-        ["./bootstrap.sh", "demo"], ["source", ".venv/bin/activate"], ["mrcheck", "calibrate"],
-        ["mrcheck", "register"], ["mrcheck", "overlay"], ["mrcheck", "discrepancies"],
-        ["mrcheck", "export"], ["mrcheck", "review"]], lines
+        ["./bootstrap.sh", "demo"],
+        ["source", ".venv/bin/activate"],
+        ["mrcheck", "calibrate"],
+        ["mrcheck", "register"],
+        ["mrcheck", "overlay"],
+        ["mrcheck", "discrepancies"],
+        ["mrcheck", "export"],
+        ["mrcheck", "review"],
+    ], lines
     # bootstrap.sh's demo is `mrcheck demo` with the same arguments, run where it was called
     assert 'demo) cd "$caller" && exec "$repo/.venv/bin/mrcheck" demo "$@"' in (ROOT / "bootstrap.sh").read_text()
     for line, argv in zip(lines, commands):
@@ -119,7 +135,7 @@ def test_the_quick_start_runs_end_to_end(workdir, env):
             continue
         if argv[0] == "./bootstrap.sh":
             argv = ["mrcheck", "demo", *argv[2:], "--width", "160"]
-        if argv[:2] == ["mrcheck", "calibrate"]:      # the shell expands the glob for the user
+        if argv[:2] == ["mrcheck", "calibrate"]:  # the shell expands the glob for the user
             argv = ["bash", "-c", line]
         if argv[:2] == ["mrcheck", "review"]:
             review_once(argv, workdir, env)
@@ -138,8 +154,10 @@ def test_set_up_is_two_commands_as_its_heading_says():
     text = README.read_text()
     section = text.split("## Set-up: two commands", 1)[1].split("\n## ", 1)[0]
     first_block = re.search(r"```sh\n(.*?)```", section, re.S).group(1)
-    assert [line.split("#")[0].strip() for line in first_block.strip().splitlines()] == \
-        ["./bootstrap.sh demo", "./bootstrap.sh test"]
+    assert [line.split("#")[0].strip() for line in first_block.strip().splitlines()] == [
+        "./bootstrap.sh demo",
+        "./bootstrap.sh test",
+    ]
     assert "exec ./bootstrap.sh test" in (ROOT / ".ci" / "run").read_text()
 
 
@@ -147,8 +165,14 @@ def test_the_example_box_is_the_box_the_tests_measure():
     """examples/box/ is a copy of tests/data/pose/box/ (test_real_photo.py measures that one):
     the quick start's figures hold only while the two are the same."""
     example, tested = ROOT / "examples" / "box", ROOT / "tests" / "data" / "pose" / "box"
-    pairs = {"resized_IMG_3875.JPG": "resized_IMG_3875.JPG", "box.ply": "box.ply", "LICENSE": "LICENSE",
-             "scene.toml": "scene.toml", "corners.json": "corners.json", "camera.json": "canon.json"}
+    pairs = {
+        "resized_IMG_3875.JPG": "resized_IMG_3875.JPG",
+        "box.ply": "box.ply",
+        "LICENSE": "LICENSE",
+        "scene.toml": "scene.toml",
+        "corners.json": "corners.json",
+        "camera.json": "canon.json",
+    }
     for mine, theirs in pairs.items():
         assert (example / mine).read_bytes() == (tested / theirs).read_bytes(), mine
 
@@ -160,8 +184,10 @@ def markdown_files() -> list[Path]:
 def anchors(page: Path) -> set[str]:
     """The #fragments of a Markdown page's headings, as GitHub makes them."""
     text = re.sub(r"```.*?```", "", page.read_text(), flags=re.S)
-    return {re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
-            for heading in re.findall(r"^#+ (.*)$", text, re.M)}
+    return {
+        re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+        for heading in re.findall(r"^#+ (.*)$", text, re.M)
+    }
 
 
 @pytest.mark.parametrize("page", markdown_files(), ids=lambda p: str(p.relative_to(ROOT)))

@@ -30,9 +30,17 @@ def _scene(offset=(0.0, 0.0, 0.0)) -> Scene:
     """A floor plate (top at z = -0.5) and a 1 m cube at two instances, x = 0 and x = 3."""
     o = np.asarray(offset, np.float64)
     plate, cube = box((20, 20, 0.2), (0, 0, -0.6)), box((1, 1, 1), (0, 0, 0))
-    parts = [make_part("plate", "t", np.asarray(plate.vertices, np.float64), np.asarray(plate.faces), [_translation(o)]),
-             make_part("cube", "t", np.asarray(cube.vertices, np.float64), np.asarray(cube.faces),
-                       [_translation(o), _translation(o + (3, 0, 0))], instance_ids=["left", "right"])]
+    parts = [
+        make_part("plate", "t", np.asarray(plate.vertices, np.float64), np.asarray(plate.faces), [_translation(o)]),
+        make_part(
+            "cube",
+            "t",
+            np.asarray(cube.vertices, np.float64),
+            np.asarray(cube.faces),
+            [_translation(o), _translation(o + (3, 0, 0))],
+            instance_ids=["left", "right"],
+        ),
+    ]
     return Scene("t", "t", parts)
 
 
@@ -53,13 +61,13 @@ def test_hits_name_the_instance_its_triangle_and_the_distance(offset):
     assert hits.hit.tolist() == [True, True, False]
     assert [caster.label(i) for i in hits.instance[:2]] == [("cube", "left"), ("cube", "right")]
     assert hits.instance[2] == NO_HIT and hits.triangle[2] == NO_HIT and np.isinf(hits.t[2])
-    assert hits.t[0] == pytest.approx(4.5, abs=1e-4)                       # the face at y = -0.5
-    assert hits.t[1] == pytest.approx(0.9 * np.hypot(3.0, 5.0), abs=1e-4)   # enters the front face at x = 2.7
+    assert hits.t[0] == pytest.approx(4.5, abs=1e-4)  # the face at y = -0.5
+    assert hits.t[1] == pytest.approx(0.9 * np.hypot(3.0, 5.0), abs=1e-4)  # enters the front face at x = 2.7
     cube = scene.parts[1]
     for triangle in hits.triangle[:2]:
         assert 0 <= triangle < len(cube.faces)
-        corners = cube.vertices[cube.faces[triangle]].astype(np.float64)   # part-local: centred on the cube
-        np.testing.assert_allclose(corners[:, 1], -0.5, atol=1e-6)          # a triangle of the front face
+        corners = cube.vertices[cube.faces[triangle]].astype(np.float64)  # part-local: centred on the cube
+        np.testing.assert_allclose(corners[:, 1], -0.5, atol=1e-6)  # a triangle of the front face
 
 
 def test_occlusion_stops_at_tfar():
@@ -74,7 +82,9 @@ def test_closest_points_give_the_offset_the_normal_and_the_instance(offset):
     scene = _scene(offset)
     o = np.asarray(offset)
     caster = build_caster(scene, o + (3.0, 0.0, 1.0))
-    points = o + np.array([[3.0, 0.1, 0.75], [0.2, 0.0, 0.3], [8.0, 8.0, -0.4]])   # above right, inside left, over the floor
+    points = o + np.array(
+        [[3.0, 0.1, 0.75], [0.2, 0.0, 0.3], [8.0, 8.0, -0.4]]
+    )  # above right, inside left, over the floor
     closest = caster.closest_points(points)
     np.testing.assert_allclose(closest.offset, [[0, 0, 0.25], [0, 0, -0.2], [0, 0, 0.1]], atol=1e-4)
     np.testing.assert_allclose(closest.normal, [[0, 0, 1], [0, 0, 1], [0, 0, 1]], atol=1e-6)
@@ -94,9 +104,9 @@ def test_reference_ao_reports_its_rays_through_the_callback():
     v, u = np.mgrid[0:12, 0:16].astype(np.float64)
     dirs = np.stack(((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, np.ones_like(u)), -1).reshape(-1, 3)
     cast = hits.cast(np.column_stack((np.zeros_like(dirs), dirs @ camera.R)).astype(np.float32))
-    depth = np.where(cast.hit, cast.t, 0.0).astype(np.float32).reshape(12, 16)   # camera z: the ray's z is 1
+    depth = np.where(cast.hit, cast.t, 0.0).astype(np.float32).reshape(12, 16)  # camera z: the ray's z is 1
     normals = np.zeros((12, 16, 3), np.float32)
-    normals[..., 2] = -1.0                                                      # facing the camera
+    normals[..., 2] = -1.0  # facing the camera
     calls = []
     reference_ao(scene, camera, depth, normals, 8, "world", 0.5, progress=lambda *a: calls.append(a))
     covered = int(np.count_nonzero(depth > 0))
@@ -108,7 +118,7 @@ def test_reference_ao_reports_its_rays_through_the_callback():
 def test_mrcheck_warnings_become_one_line_each_time_and_others_stay_as_python_shows_them(capsys):
     # pytest.warns outside: a library's warning goes on to the handler that was there before
     with pytest.warns(UserWarning, match="a library's own warning"), warning_lines():
-        for _ in range(2):   # the same place twice: both shown (no "once per location" filter)
+        for _ in range(2):  # the same place twice: both shown (no "once per location" filter)
             warnings.warn(MrcheckWarning("--radius has no effect"))
         warnings.warn("a library's own warning", UserWarning)
     assert capsys.readouterr().err.splitlines() == ["warning: --radius has no effect"] * 2

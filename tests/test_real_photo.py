@@ -24,12 +24,24 @@ from mrcheck.mr.pose import solve_pose
 
 BOX = Path(__file__).resolve().parent / "data" / "pose" / "box"
 PHOTO, SCENE = BOX / "resized_IMG_3875.JPG", BOX / "scene.toml"
-GOOD, MISCLICKS = [0, 1, 2, 3, 4], [5, 6]   # corners.json: the last two are 11 and 22 px off
+GOOD, MISCLICKS = [0, 1, 2, 3, 4], [5, 6]  # corners.json: the last two are 11 and 22 px off
 
 
 def _register(points: Path, out: Path) -> int:
-    return main(["register", str(SCENE), "--photo", str(PHOTO), "--intrinsics", str(BOX / "canon.json"),
-                 "--points", str(points), "-o", str(out)])
+    return main(
+        [
+            "register",
+            str(SCENE),
+            "--photo",
+            str(PHOTO),
+            "--intrinsics",
+            str(BOX / "canon.json"),
+            "--points",
+            str(points),
+            "-o",
+            str(out),
+        ]
+    )
 
 
 def _points_in_mm(folder: Path) -> Path:
@@ -53,8 +65,8 @@ def test_registration_rejects_the_two_misclicks(shot):
     data = json.loads(shot.read_text())
     assert sorted(p["index"] for p in data["used"]) == GOOD
     assert sorted(p["index"] for p in data["rejected"]) == MISCLICKS
-    assert min(p["error_px"] for p in data["rejected"]) > 5        # measured 11.2 and 21.9
-    assert data["rms"] < 1.0                                       # measured 0.51
+    assert min(p["error_px"] for p in data["rejected"]) > 5  # measured 11.2 and 21.9
+    assert data["rms"] < 1.0  # measured 0.51
     # where the pose puts the mis-clicked corners: the left one lies on the boundary between the
     # box's yellow side and the table (looked at in an 8x zoom; the right one is in deep shadow)
     world = np.array([p["world"] for p in data["rejected"]])
@@ -68,13 +80,13 @@ def test_a_third_bad_click_does_not_let_the_misclicks_win(tmp_path):
     it met (the mis-clicks, 1.0 px RMS, the overlay 20 px off); the better fit must win, and
     the shot says that only the minimum agrees and that the data were ambiguous."""
     points = json.loads((BOX / "corners.json").read_text())
-    points["points"][0]["pixel"] = [700.0, 20.0]      # inside the photo, nowhere near the corner
+    points["points"][0]["pixel"] = [700.0, 20.0]  # inside the photo, nowhere near the corner
     path = tmp_path / "corners_bad0.json"
     path.write_text(json.dumps(points))
     assert _register(path, tmp_path / "SHOT.json") == 0
     data = json.loads((tmp_path / "SHOT.json").read_text())
     assert sorted(p["index"] for p in data["used"]) == [1, 2, 3, 4]
-    assert data["rms"] < 0.5                                         # measured 0.35
+    assert data["rms"] < 0.5  # measured 0.35
     assert any("only 4 of 7 points agree" in w for w in data["warnings"])
     assert any("ambiguous" in w and "1, 4, 5, 6" in w for w in data["warnings"])
 
@@ -94,7 +106,7 @@ def test_each_good_corner_is_predicted_by_the_other_four():
     for i in range(len(GOOD)):
         keep = np.arange(len(GOOD)) != i
         pose = solve_pose(camera, pixels[keep], world[keep])
-        predicted = camera.with_pose(pose.R, pose.t).project(world[i:i + 1])[0]
+        predicted = camera.with_pose(pose.R, pose.t).project(world[i : i + 1])[0]
         errors.append(float(np.linalg.norm(predicted - pixels[i])))
     assert max(errors) < 3.0, errors
 
@@ -115,19 +127,19 @@ def test_overlay_and_the_photo_edges_agree_and_a_moved_pose_is_seen(shot, tmp_pa
     assert cv2.imread(str(out)).shape == (480, 718, 3)
 
     box = _discrepancy(shot, tmp_path / "disc")
-    assert not box["suspect"] and box["support"] > 0.85             # measured 0.899
-    assert np.hypot(*box["best_shift"]) <= 3.0                       # measured (-2, 2)
+    assert not box["suspect"] and box["support"] > 0.85  # measured 0.899
+    assert np.hypot(*box["best_shift"]) <= 3.0  # measured (-2, 2)
 
     data = json.loads(shot.read_text())
     camera = load_camera(shot)
-    centre = np.array([0.0945, 0.129, 0.0375])                       # the box's centre, metres
+    centre = np.array([0.0945, 0.129, 0.0375])  # the box's centre, metres
     z = float((camera.R @ centre + camera.t)[2])
     moved = dict(data, t=(camera.t + np.array([4 * z / camera.fx, 0.0, 0.0])).tolist())
     moved_path = tmp_path / "moved.json"
     moved_path.write_text(json.dumps(moved))
     moved_box = _discrepancy(moved_path, tmp_path / "disc_moved")
-    assert moved_box["best_shift"][0] - box["best_shift"][0] == pytest.approx(-4, abs=1)   # measured -4
-    assert moved_box["support"] < box["support"]                      # measured 0.810 < 0.899
+    assert moved_box["best_shift"][0] - box["best_shift"][0] == pytest.approx(-4, abs=1)  # measured -4
+    assert moved_box["support"] < box["support"]  # measured 0.810 < 0.899
 
 
 def test_world_points_in_millimetres_are_a_warning(tmp_path, capsys):
@@ -147,8 +159,10 @@ def test_the_right_units_give_no_such_warning(shot):
 def test_the_summary_names_the_rejected_clicks_with_their_errors(tmp_path, capsys):
     assert _register(BOX / "corners.json", tmp_path / "SHOT.json") == 0
     out = capsys.readouterr().out
-    assert "from points (0-based positions in the points file): used 0, 1, 2, 3, 4; " \
-           "rejected 5 (11.2 px), 6 (21.9 px)" in out
+    assert (
+        "from points (0-based positions in the points file): used 0, 1, 2, 3, 4; "
+        "rejected 5 (11.2 px), 6 (21.9 px)" in out
+    )
 
 
 def test_a_pose_that_sees_no_part_is_not_reported_as_all_clear(shot, tmp_path, capsys):
@@ -157,8 +171,11 @@ def test_a_pose_that_sees_no_part_is_not_reported_as_all_clear(shot, tmp_path, c
     capsys.readouterr()
     _discrepancy(shot, good)
     assert "Checked 1 part instance(s) in view; 1 supported as planned." in (good / "suspects.md").read_text()
-    assert re.search(r"^checked 1 part instance\(s\): 0 suspect\(s\), \d+ unexplained structure region\(s\)$",
-                     capsys.readouterr().out, re.M)
+    assert re.search(
+        r"^checked 1 part instance\(s\): 0 suspect\(s\), \d+ unexplained structure region\(s\)$",
+        capsys.readouterr().out,
+        re.M,
+    )
     data = json.loads(shot.read_text())
     behind = tmp_path / "behind.json"
     behind.write_text(json.dumps(dict(data, t=[0.0, 0.0, -5.0])))
@@ -166,8 +183,11 @@ def test_a_pose_that_sees_no_part_is_not_reported_as_all_clear(shot, tmp_path, c
     assert main(["discrepancies", str(behind), "--scene", str(SCENE), "-o", str(tmp_path / "disc")]) == 0
     assert "warning: no CAD part is in view of this shot, so nothing was checked" in capsys.readouterr().err
     doc = json.loads((tmp_path / "disc" / "suspects.json").read_text())
-    assert doc["suspects"] == [] and doc["warnings"] and "nothing was checked" in \
-        (tmp_path / "disc" / "suspects.md").read_text()
+    assert (
+        doc["suspects"] == []
+        and doc["warnings"]
+        and "nothing was checked" in (tmp_path / "disc" / "suspects.md").read_text()
+    )
     # the overlay of that shot would be the bare photo: it says so too
     assert main(["overlay", str(behind), "--scene", str(SCENE), "--mode", "phong", "-o", str(tmp_path / "o.png")]) == 0
     assert f"warning: {behind}: no CAD part is in view of this shot" in capsys.readouterr().err
@@ -180,8 +200,10 @@ def test_the_export_warns_about_millimetre_points_too(tmp_path, capsys):
     its photos without `mrcheck register`, gets the same warning in the shot it writes."""
     _points_in_mm(tmp_path)
     job = tmp_path / "job.toml"
-    job.write_text(f'scene = "{SCENE}"\nmodes = ["phong"]\n[[shots]]\nname = "box"\nphoto = "{PHOTO}"\n'
-                   f'intrinsics = "{BOX / "canon.json"}"\npoints = "corners_mm.json"\n')
+    job.write_text(
+        f'scene = "{SCENE}"\nmodes = ["phong"]\n[[shots]]\nname = "box"\nphoto = "{PHOTO}"\n'
+        f'intrinsics = "{BOX / "canon.json"}"\npoints = "corners_mm.json"\n'
+    )
     assert main(["export", str(job), "-o", str(tmp_path / "out")]) == 0
     warnings = json.loads((tmp_path / "out" / "shots" / "box" / "SHOT.json").read_text())["warnings"]
     assert any("outside the scene" in w for w in warnings), warnings

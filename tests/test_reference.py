@@ -21,8 +21,9 @@ def gbuffer(ctx, scene, camera):
     renderer = Renderer(scene, ctx=ctx)
     try:
         # single-sampled, as `mrcheck reference` renders (every pixel a point of the surface its centre sees)
-        frame = renderer.render(camera, ["phong"], RenderSettings(lod_px=REFERENCE_LOD_PX, antialias=False),
-                                want_normals=True)
+        frame = renderer.render(
+            camera, ["phong"], RenderSettings(lod_px=REFERENCE_LOD_PX, antialias=False), want_normals=True
+        )
         return frame.depth, frame.normals
     finally:
         renderer.release()
@@ -34,7 +35,7 @@ def world_points(camera, depth):
     v, u = np.mgrid[0:H, 0:W].astype(np.float64)
     z = np.where(depth > 0, depth.astype(np.float64), np.nan)
     p_cam = np.stack(((u - camera.cx) * z / camera.fx, (v - camera.cy) * z / camera.fy, z), -1)
-    return (p_cam - camera.t) @ camera.R          # R^T (p - t), row-vector form
+    return (p_cam - camera.t) @ camera.R  # R^T (p - t), row-vector form
 
 
 def crease_ao_expected(x, r, c, steps=1500):
@@ -43,9 +44,9 @@ def crease_ao_expected(x, r, c, steps=1500):
     weighted: AO = 1 - (1/pi) * integral(hit * att * cos(theta) sin(theta) dtheta dphi).
     Written from the definition, independent of the implementation under test."""
     theta = (np.arange(steps) + 0.5) * (np.pi / 2) / steps
-    phi = (np.arange(2 * steps) + 0.5) * np.pi / (2 * steps)      # only sin(phi) > 0 faces the wall
+    phi = (np.arange(2 * steps) + 0.5) * np.pi / (2 * steps)  # only sin(phi) > 0 faces the wall
     th, ph = np.meshgrid(theta, phi, indexing="ij")
-    toward = np.sin(th) * np.sin(ph)                               # direction component toward the wall
+    toward = np.sin(th) * np.sin(ph)  # direction component toward the wall
     with np.errstate(divide="ignore"):
         d = np.where(toward > 0, x / toward, np.inf)
     weight = np.where(d < r, 1.0 / (1.0 + c * (d / r) ** 2), 0.0)
@@ -73,7 +74,7 @@ def _wall_camera(offset=(0.0, 0.0, 0.0), width=160, height=120):
 def _floor_pixels(camera, depth, normals):
     """Floor pixels (world z = 0, normal up) and their distance to the wall face y = 6."""
     X = world_points(camera, depth)
-    up = (normals.astype(np.float64) @ camera.R)[..., 2]          # world z of the normal
+    up = (normals.astype(np.float64) @ camera.R)[..., 2]  # world z of the normal
     floor = (depth > 0) & (np.abs(X[..., 2]) < 1e-3) & (up > 0.99) & (np.abs(X[..., 0]) < 1)
     return floor, 6.0 - X[..., 1]
 
@@ -95,7 +96,7 @@ def test_floor_and_crease_match_the_analytic_values(ctx):
     j, i = np.unravel_index(np.argmin(candidates), candidates.shape)
     assert abs(x[j, i] - 0.3 * r) < 0.05
     expected = crease_ao_expected(x[j, i], r, c)
-    assert 0.6 < expected < 0.95                                   # a real test, not 0.5 or 1
+    assert 0.6 < expected < 0.95  # a real test, not 0.5 or 1
     assert ao[j, i] == pytest.approx(expected, abs=0.02)
     # the whole band 0.1 r .. 0.8 r from the wall, pixel by pixel
     band = floor & (x > 0.1 * r) & (x < 0.8 * r)
@@ -121,7 +122,7 @@ def test_converges_on_the_sample_scene(ctx):
         coarse = reference_ao(scene, camera, depth, normals, 256, mode, radius, seed=0)
         fine = reference_ao(scene, camera, depth, normals, 1024, mode, radius, seed=1)
         assert coarse.dtype == np.float32 and coarse.shape == (72, 96)
-        assert (fine < 0.9).mean() > 0.02                          # there is occlusion to converge on
+        assert (fine < 0.9).mean() > 0.02  # there is occlusion to converge on
         assert np.abs(coarse - fine).mean() < 0.01
         assert np.array_equal(reference_ao(scene, camera, depth, normals, 256, mode, radius, seed=0), coarse)
 
@@ -140,8 +141,25 @@ def test_translation_by_a_million_metres_gives_the_same_reference(ctx):
 
 def test_cli_writes_the_ao_contract(ctx, tmp_path, capsys):
     out = tmp_path / "sub" / "ref.npy"
-    assert main(["reference", SCENE, "--view", "overview", "--width", "64", "--height", "48", "--rays", "32",
-                 "-o", str(out)]) == 0
+    assert (
+        main(
+            [
+                "reference",
+                SCENE,
+                "--view",
+                "overview",
+                "--width",
+                "64",
+                "--height",
+                "48",
+                "--rays",
+                "32",
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
     captured = capsys.readouterr()
     assert str(out) in captured.out and "rays/s" in captured.err
     ao = np.load(out)
@@ -149,19 +167,33 @@ def test_cli_writes_the_ao_contract(ctx, tmp_path, capsys):
     assert 0.0 <= ao.min() < 1.0 and ao.max() <= 1.0
     scene = load_scene(SCENE)
     depth, _ = gbuffer(ctx, scene, scene.camera("overview", 64, 48))
-    assert (depth == 0).any() and np.all(ao[depth == 0] == 1.0)    # background is 1.0
+    assert (depth == 0).any() and np.all(ao[depth == 0] == 1.0)  # background is 1.0
 
 
-@pytest.mark.parametrize("args", [
-    ["--width", "32", "--height", "24", "-o", "{tmp}/ref.npy"],                         # neither view nor camera
-    ["--view", "robot", "--width", "32", "--height", "24", "-o", "{tmp}/ref.txt"],      # bad suffix
-    ["--view", "robot", "--camera", "{tmp}/cam.json", "-o", "{tmp}/ref.npy"],           # both
-    ["--view", "nowhere", "--width", "32", "--height", "24", "-o", "{tmp}/ref.npy"],     # unknown view
-    ["--view", "robot", "--width", "32", "--height", "24", "--falloff", "-1", "-o", "{tmp}/ref.npy"],
-    ["--view", "robot", "--width", "32", "--height", "24", "--seed", "-1", "-o", "{tmp}/ref.npy"],
-    ["--view", "robot", "--width", "32", "--height", "24", "--rays", "100000", "-o", "{tmp}/ref.npy"],   # a typo, hours
-    ["--view", "robot", "--width", "32", "--height", "24", "-o", "/proc/ref.npy"],      # unwritable: before the rays
-])
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["--width", "32", "--height", "24", "-o", "{tmp}/ref.npy"],  # neither view nor camera
+        ["--view", "robot", "--width", "32", "--height", "24", "-o", "{tmp}/ref.txt"],  # bad suffix
+        ["--view", "robot", "--camera", "{tmp}/cam.json", "-o", "{tmp}/ref.npy"],  # both
+        ["--view", "nowhere", "--width", "32", "--height", "24", "-o", "{tmp}/ref.npy"],  # unknown view
+        ["--view", "robot", "--width", "32", "--height", "24", "--falloff", "-1", "-o", "{tmp}/ref.npy"],
+        ["--view", "robot", "--width", "32", "--height", "24", "--seed", "-1", "-o", "{tmp}/ref.npy"],
+        [
+            "--view",
+            "robot",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--rays",
+            "100000",
+            "-o",
+            "{tmp}/ref.npy",
+        ],  # a typo, hours
+        ["--view", "robot", "--width", "32", "--height", "24", "-o", "/proc/ref.npy"],  # unwritable: before the rays
+    ],
+)
 def test_cli_bad_input_is_one_error_line_and_no_file(tmp_path, capsys, args):
     args = [a.replace("{tmp}", str(tmp_path)) for a in args]
     assert main(["reference", SCENE, *args]) == 1
@@ -170,12 +202,21 @@ def test_cli_bad_input_is_one_error_line_and_no_file(tmp_path, capsys, args):
     assert list(tmp_path.iterdir()) == []
 
 
-@pytest.mark.parametrize("options, warned", [
-    (["--radius-mode", "world", "--radius-px", "5"], "--radius-px has no effect in radius mode world (it applies to screen)"),
-    (["--radius-mode", "screen", "--radius", "0.5"], "--radius has no effect in radius mode screen (it applies to world)"),
-    (["--radius-mode", "world", "--radius", "0.5"], None),
-    (["--radius-px", "5"], None),
-])
+@pytest.mark.parametrize(
+    "options, warned",
+    [
+        (
+            ["--radius-mode", "world", "--radius-px", "5"],
+            "--radius-px has no effect in radius mode world (it applies to screen)",
+        ),
+        (
+            ["--radius-mode", "screen", "--radius", "0.5"],
+            "--radius has no effect in radius mode screen (it applies to world)",
+        ),
+        (["--radius-mode", "world", "--radius", "0.5"], None),
+        (["--radius-px", "5"], None),
+    ],
+)
 def test_cli_warns_about_the_radius_its_radius_mode_ignores(tmp_path, capsys, options, warned):
     """As render warns about an option its mode does not read: the user meant one or the other."""
     out = tmp_path / "ref.npy"

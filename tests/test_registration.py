@@ -22,21 +22,35 @@ from mrcheck.mr.registration import register_markers, register_points, summary_l
 
 
 def read_photo(path):
-    return read_rgb_photo(path, grey=True)   # what registration reads: the photo in grey
+    return read_rgb_photo(path, grey=True)  # what registration reads: the photo in grey
+
 
 DATA = Path(__file__).parent / "data"
 CHARUCO = DATA / "calibration" / "opencv_charuco"
 APRILTAG = DATA / "markers" / "apriltag"
-BOARD_MAP = {"charuco_boards": [{"squares": [5, 7], "square": 0.04, "marker": 0.02, "dictionary": "DICT_6X6_250",
-                                 "pose": {"R": np.eye(3).tolist(), "t": [0.0, 0.0, 0.0]}}]}
+BOARD_MAP = {
+    "charuco_boards": [
+        {
+            "squares": [5, 7],
+            "square": 0.04,
+            "marker": 0.02,
+            "dictionary": "DICT_6X6_250",
+            "pose": {"R": np.eye(3).tolist(), "t": [0.0, 0.0, 0.0]},
+        }
+    ]
+}
 # the 70 deg photo is too oblique for OpenCV's AprilTag detector; every other angle is detected
 ANGLES = [0, 10, 20, 30, 40, 50, 60, -10, -20, -30, -40, -50, -60, -70]
 
 
 def charuco_camera() -> Camera:
     fs = cv2.FileStorage(str(CHARUCO / "tutorial_camera_charuco.yml"), cv2.FILE_STORAGE_READ)
-    return Camera(fs.getNode("image_width").real(), fs.getNode("image_height").real(),
-                  fs.getNode("camera_matrix").mat(), dist=fs.getNode("distortion_coefficients").mat().ravel())
+    return Camera(
+        fs.getNode("image_width").real(),
+        fs.getNode("image_height").real(),
+        fs.getNode("camera_matrix").mat(),
+        dist=fs.getNode("distortion_coefficients").mat().ravel(),
+    )
 
 
 def apriltag_setup():
@@ -45,8 +59,10 @@ def apriltag_setup():
     value = lambda key: re.search(rf"{key}: (\S.*)", text).group(1)  # noqa: E731 (no PyYAML here)
     camera = Camera(int(value("width")), int(value("height")), np.reshape(json.loads(value("K")), (3, 3)))
     s = float(value("tag_size")) / 2.0
-    marker_map = {"dictionary": "DICT_APRILTAG_36h11",
-                  "markers": [{"id": 76, "corners": [[-s, s, 0], [s, s, 0], [s, -s, 0], [-s, -s, 0]]}]}
+    marker_map = {
+        "dictionary": "DICT_APRILTAG_36h11",
+        "markers": [{"id": 76, "corners": [[-s, s, 0], [s, s, 0], [s, -s, 0], [-s, -s, 0]]}],
+    }
     return camera, marker_map
 
 
@@ -63,8 +79,19 @@ def files(tmp_path):
 
 
 def run(files, *extra, photo=CHARUCO / "choriginal.jpg", intrinsics="cam.json"):
-    return main(["register", str(files / "scene.obj"), "--photo", str(photo), "--intrinsics",
-                 str(files / intrinsics), "-o", str(files / "SHOT.json"), *extra])
+    return main(
+        [
+            "register",
+            str(files / "scene.obj"),
+            "--photo",
+            str(photo),
+            "--intrinsics",
+            str(files / intrinsics),
+            "-o",
+            str(files / "SHOT.json"),
+            *extra,
+        ]
+    )
 
 
 def test_charuco_photo_registers_sub_pixel():
@@ -79,9 +106,10 @@ def test_charuco_photo_registers_sub_pixel():
 FAR = [1.0e6, -2.0e6, 3.0e5]  # a factory's survey coordinates: a million metres from the origin
 # board-to-world poses: face-up on the floor (README), and seeded random rotations, near and far
 FACE_UP = np.diag([1.0, -1.0, -1.0])
-BOARD_POSES = ([("face_up", FACE_UP, [0.0, 0.0, 0.0]), ("face_up_far", FACE_UP, FAR)]
-               + [(f"random{k}{'_far' if k % 2 else ''}", R, FAR if k % 2 else [0.0, 0.0, 0.0])
-                  for k, R in enumerate(Rotation.random(10, random_state=20240611).as_matrix())])
+BOARD_POSES = [("face_up", FACE_UP, [0.0, 0.0, 0.0]), ("face_up_far", FACE_UP, FAR)] + [
+    (f"random{k}{'_far' if k % 2 else ''}", R, FAR if k % 2 else [0.0, 0.0, 0.0])
+    for k, R in enumerate(Rotation.random(10, random_state=20240611).as_matrix())
+]
 
 
 def _board_map(R, t):
@@ -132,9 +160,23 @@ def test_a_shot_moves_with_its_photo(tmp_path, files):
     project = tmp_path / "project"
     (project / "photos").mkdir(parents=True)
     shutil.copy(CHARUCO / "choriginal.jpg", project / "photos" / "p.jpg")
-    assert main(["register", str(files / "scene.obj"), "--photo", str(project / "photos" / "p.jpg"), "--intrinsics",
-                 str(files / "cam.json"), "--markers", str(files / "map.json"), "-o",
-                 str(project / "shots" / "SHOT.json")]) == 0
+    assert (
+        main(
+            [
+                "register",
+                str(files / "scene.obj"),
+                "--photo",
+                str(project / "photos" / "p.jpg"),
+                "--intrinsics",
+                str(files / "cam.json"),
+                "--markers",
+                str(files / "map.json"),
+                "-o",
+                str(project / "shots" / "SHOT.json"),
+            ]
+        )
+        == 0
+    )
     assert json.loads((project / "shots" / "SHOT.json").read_text())["photo"] == "../photos/p.jpg"
     moved = shutil.copytree(project, tmp_path / "elsewhere")
     shutil.rmtree(project)
@@ -244,15 +286,20 @@ def _unknown_ids(files):
     marker_map["markers"][0]["id"] = 5
     (files / "tags.json").write_text(json.dumps(marker_map))
     (files / "tagcam.json").write_text(json.dumps(camera.to_dict()))
-    return {"photo": APRILTAG / "test_image_rotation_30.png", "intrinsics": "tagcam.json",
-            "extra": ["--markers", str(files / "tags.json")]}
+    return {
+        "photo": APRILTAG / "test_image_rotation_30.png",
+        "intrinsics": "tagcam.json",
+        "extra": ["--markers", str(files / "tags.json")],
+    }
 
 
 def _small_board(files):
     """The board photo at half size: the detector finds 4 of its 24 corners (the pose cannot be
     checked); the error says so instead of only blaming the survey and the intrinsics."""
-    cv2.imwrite(str(files / "small.png"), cv2.resize(cv2.imread(str(CHARUCO / "choriginal.jpg")), (320, 240),
-                                                     interpolation=cv2.INTER_AREA))
+    cv2.imwrite(
+        str(files / "small.png"),
+        cv2.resize(cv2.imread(str(CHARUCO / "choriginal.jpg")), (320, 240), interpolation=cv2.INTER_AREA),
+    )
     return {"photo": files / "small.png", "extra": ["--markers", str(files / "map.json"), "--max-error", "20"]}
 
 
@@ -267,18 +314,33 @@ def _corner_order(files):
 
 
 BAD = {
-    "three_pairs": (lambda f: {"extra": ["--points", _points_file(f, [[0, 0, 0], [1, 0, 0], [0, 1, 0]])]},
-                    "at least 4"),
-    "collinear": (lambda f: {"extra": ["--points", _points_file(f, [[i, 2 * i, 0.5 * i] for i in range(6)])]},
-                  "corr.json: the world points are collinear"),
-    "pixel_outside": (lambda f: {"extra": ["--points", _points_file(f, [[i % 3, i // 3, 0] for i in range(6)],
-                                                                    [[10, 10]] * 5 + [[-5000, 10]])]},
-                      "corr.json: point #5: pixel (-5000, 10) lies outside the 640x480 photo"),
-    "boolean_coordinate": (lambda f: {"extra": ["--points", _points_file(f, [[True, 0, 0]] + [[i, i * i, 0] for i in range(5)])]},
-                           "corr.json: point #0 needs"),
+    "three_pairs": (
+        lambda f: {"extra": ["--points", _points_file(f, [[0, 0, 0], [1, 0, 0], [0, 1, 0]])]},
+        "at least 4",
+    ),
+    "collinear": (
+        lambda f: {"extra": ["--points", _points_file(f, [[i, 2 * i, 0.5 * i] for i in range(6)])]},
+        "corr.json: the world points are collinear",
+    ),
+    "pixel_outside": (
+        lambda f: {
+            "extra": [
+                "--points",
+                _points_file(f, [[i % 3, i // 3, 0] for i in range(6)], [[10, 10]] * 5 + [[-5000, 10]]),
+            ]
+        },
+        "corr.json: point #5: pixel (-5000, 10) lies outside the 640x480 photo",
+    ),
+    "boolean_coordinate": (
+        lambda f: {"extra": ["--points", _points_file(f, [[True, 0, 0]] + [[i, i * i, 0] for i in range(5)])]},
+        "corr.json: point #0 needs",
+    ),
     "corrupt_photo": (_corrupt, "cannot read photo: truncated JPEG"),
     "small_board_photo": (_small_board, "(detected: board 0: 4 corners)"),
-    "corner_order": (_corner_order, "(detected: marker 76; a map's marker corners go top-left, top-right, bottom-right"),
+    "corner_order": (
+        _corner_order,
+        "(detected: marker 76; a map's marker corners go top-left, top-right, bottom-right",
+    ),
     "no_markers": (_blank, "no marker of the map"),
     "unknown_ids_only": (_unknown_ids, "not in the map: [76]"),
     "other_aspect": (_other_aspect, "another aspect ratio"),
@@ -302,8 +364,23 @@ def test_a_scene_argument_that_is_no_scene_is_one_line(files, capsys):
     """The shot only names its scene; a photo given by mistake is caught here, not in every
     later command that renders the shot."""
     photo = CHARUCO / "choriginal.jpg"
-    assert main(["register", str(photo), "--photo", str(photo), "--intrinsics", str(files / "cam.json"),
-                 "-o", str(files / "SHOT.json"), "--markers", str(files / "map.json")]) == 1
+    assert (
+        main(
+            [
+                "register",
+                str(photo),
+                "--photo",
+                str(photo),
+                "--intrinsics",
+                str(files / "cam.json"),
+                "-o",
+                str(files / "SHOT.json"),
+                "--markers",
+                str(files / "map.json"),
+            ]
+        )
+        == 1
+    )
     err = capsys.readouterr().err
     assert err.startswith(f"error: {photo}: not a scene") and err.count("\n") == 1
     assert not (files / "SHOT.json").exists()
@@ -312,7 +389,14 @@ def test_a_scene_argument_that_is_no_scene_is_one_line(files, capsys):
 def test_the_summary_counts_many_points_instead_of_listing_them(capsys):
     """54 chessboard corners as clicks: "used 52 of 54", the rejected ones listed."""
     entry = lambda i, error=0.2: {"index": i, "pixel": [0, 0], "world": [0, 0, 0], "error_px": error}  # noqa: E731
-    shot = {"method": "points", "photo": "p.jpg", "camera_position": [0, 0, 0], "rms": 0.3,
-            "expected_overlay_error_px": 0.5, "warnings": [],
-            "used": [entry(i) for i in range(54) if i not in (7, 40)], "rejected": [entry(7, 9.0), entry(40, 12.5)]}
+    shot = {
+        "method": "points",
+        "photo": "p.jpg",
+        "camera_position": [0, 0, 0],
+        "rms": 0.3,
+        "expected_overlay_error_px": 0.5,
+        "warnings": [],
+        "used": [entry(i) for i in range(54) if i not in (7, 40)],
+        "rejected": [entry(7, 9.0), entry(40, 12.5)],
+    }
     assert "used 52 of 54; rejected 7 (9.0 px), 40 (12.5 px)" in "\n".join(summary_lines(shot, "SHOT.json"))

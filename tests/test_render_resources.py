@@ -16,7 +16,7 @@ from mrcheck.scene.model import load_scene
 
 # the object kinds a renderer makes (programs excluded: they belong to the context's program cache)
 KINDS = ("glIsTexture", "glIsBuffer", "glIsFramebuffer", "glIsVertexArray", "glIsRenderbuffer")
-MAX_NAME = 4096   # a fresh context hands out small names
+MAX_NAME = 4096  # a fresh context hands out small names
 
 
 def live_gl_objects(ctx) -> dict[str, set[int]]:
@@ -44,8 +44,13 @@ def _every_pass(renderer: Renderer, camera) -> None:
     upsampling pass) and the normals: every GL object the renderer makes."""
     for scale in (1.0, 0.5):
         for blur in (True, False):
-            frame = renderer.render(camera, list(MODES), RenderSettings(samples=4, ao_scale=scale, blur=blur),
-                                    want_ao=True, want_normals=True)
+            frame = renderer.render(
+                camera,
+                list(MODES),
+                RenderSettings(samples=4, ao_scale=scale, blur=blur),
+                want_ao=True,
+                want_normals=True,
+            )
             assert frame.depth.shape == frame.normals.shape[:2] == (camera.height, camera.width)
 
 
@@ -83,7 +88,7 @@ def test_the_frame_carries_the_depth_of_its_g_buffer(fresh_ctx):
         frame = renderer.render(camera, ["phong", "vector"], RenderSettings(samples=4, antialias=False))
         assert set(frame) == {"phong", "vector"} and len(frame) == 2 and frame.normals is None
         assert frame.depth.dtype == np.float32 and frame.depth.shape == (60, 80)
-        assert 0 < (frame.depth > 0).mean() < 1   # the cell and some background
+        assert 0 < (frame.depth > 0).mean() < 1  # the cell and some background
         # the background pixels of the depth are those painted in the background colour
         background = (frame["phong"].image == frame["phong"].image[frame.depth == 0][0]).all(axis=2)
         assert background[frame.depth == 0].all()
@@ -126,8 +131,8 @@ def test_a_compile_error_names_the_file_and_line_across_includes(tmp_path, fresh
         load_program(fresh_ctx, "broken", directory=tmp_path)
     message = str(error.value)
     assert "\n" not in message and message.startswith("shader broken.glsl does not compile: ")
-    assert "helper.glsl:3(" in message and "undefined_thing" in message       # in the included file
-    assert "broken.glsl:7(" in message and "also_undefined" in message        # in the file itself, after it
+    assert "helper.glsl:3(" in message and "undefined_thing" in message  # in the included file
+    assert "broken.glsl:7(" in message and "also_undefined" in message  # in the file itself, after it
 
 
 def test_a_shader_that_compiles_from_another_folder(tmp_path, fresh_ctx):
@@ -145,8 +150,9 @@ def test_hbao_compiles_at_every_split_of_its_budget(fresh_ctx, samples):
     scene = load_scene(sample_scene_path())
     renderer = Renderer(scene, ctx=fresh_ctx)
     try:
-        ao = renderer.render(scene.camera("robot", 64, 48), ["hbao"], RenderSettings(samples=samples, blur=False),
-                             want_ao=True)["hbao"].ao
+        ao = renderer.render(
+            scene.camera("robot", 64, 48), ["hbao"], RenderSettings(samples=samples, blur=False), want_ao=True
+        )["hbao"].ao
     finally:
         renderer.release()
     assert ao.min() >= 0.0 and ao.max() <= 1.0 and ao.min() < 1.0

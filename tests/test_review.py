@@ -26,8 +26,8 @@ from mrcheck.cli import main  # noqa: E402
 from mrcheck.cli.messages import console  # noqa: E402
 from mrcheck.core.errors import MrcheckError  # noqa: E402
 from mrcheck.core.output import write_image  # noqa: E402
-from mrcheck.render.settings import MODES  # noqa: E402
 from mrcheck.core.resources import sample_scene_path  # noqa: E402
+from mrcheck.render.settings import MODES  # noqa: E402
 from mrcheck.scene.model import load_scene  # noqa: E402
 
 from .mr_helpers import _camera, _photo  # noqa: E402
@@ -45,7 +45,9 @@ def outdir(ctx, tmp_path_factory):
         write_image(root / f"shot{i}.png", _photo(ctx, scene, cam))
         (root / f"shot{i}.json").write_text(json.dumps({**cam.to_dict(), "photo": f"shot{i}.png", "rms": 0.1 + i}))
     shots = "".join(f'\n[[shots]]\nshot = "shot{i}.json"\n' for i in range(2))
-    (root / "job.toml").write_text(f'scene = "{sample_scene_path()}"\nmodes = ["phong", "vector"]\nsamples = 4\n{shots}')
+    (root / "job.toml").write_text(
+        f'scene = "{sample_scene_path()}"\nmodes = ["phong", "vector"]\nsamples = 4\n{shots}'
+    )
     assert main(["export", str(root / "job.toml"), "-o", str(root / "out")]) == 0
     return root / "out"
 
@@ -67,10 +69,19 @@ def test_shots_images_and_pick(client):
     assert hit["part"] and 1.0 < hit["distance"] < 30.0
 
 
-@pytest.mark.parametrize("url", [
-    "/api/shots/../../etc/passwd/photo.png", "/api/shots/..%2F..%2Fetc%2Fpasswd/photo.png",
-    "/api/shots/%2e%2e%2f%2e%2e%2fetc%2fpasswd/photo.png", "/static/..%2F..%2Fcli.py", "/static/../app.py",
-    "/static/%2e%2e/app.py", "/api/shots/shot0/..%2F..%2FSHOT.json.png", "/api/shots/shot0/passwd.png"])
+@pytest.mark.parametrize(
+    "url",
+    [
+        "/api/shots/../../etc/passwd/photo.png",
+        "/api/shots/..%2F..%2Fetc%2Fpasswd/photo.png",
+        "/api/shots/%2e%2e%2f%2e%2e%2fetc%2fpasswd/photo.png",
+        "/static/..%2F..%2Fcli.py",
+        "/static/../app.py",
+        "/static/%2e%2e/app.py",
+        "/api/shots/shot0/..%2F..%2FSHOT.json.png",
+        "/api/shots/shot0/passwd.png",
+    ],
+)
 def test_path_traversal_is_refused(client, url):
     r = client.get(url)
     assert r.status_code == 404 and b"root:" not in r.content and b"import" not in r.content
@@ -78,8 +89,15 @@ def test_path_traversal_is_refused(client, url):
 
 def test_bad_input_is_a_clear_4xx(client):
     base = {"shot": "shot0", "x": 10, "y": 10, "category": "missing", "severity": 2, "note": "x"}
-    for bad, status in [({"category": "broken"}, 422), ({"severity": 4}, 422), ({"note": "n" * 2001}, 422),
-                        ({"x": 320}, 422), ({"y": -1}, 422), ({"shot": "nope"}, 404), ({"mode": "fancy"}, 422)]:
+    for bad, status in [
+        ({"category": "broken"}, 422),
+        ({"severity": 4}, 422),
+        ({"note": "n" * 2001}, 422),
+        ({"x": 320}, 422),
+        ({"y": -1}, 422),
+        ({"shot": "nope"}, 404),
+        ({"mode": "fancy"}, 422),
+    ]:
         r = client.post("/api/markers", json={**base, **bad})
         assert r.status_code == status, (bad, r.text)
         assert "error" in r.json()
@@ -92,8 +110,15 @@ def test_wrong_types_and_unknown_fields_are_a_422(client):
     """PATCH ignored mode and unknown fields (a typo such as "severty" answered 200, nothing
     changed); a severity true was stored as 1."""
     base = {"shot": "shot0", "x": 10, "y": 10, "category": "missing", "severity": 2}
-    for bad in ({"severity": True}, {"severity": "2"}, {"severity": 2.0}, {"x": "10"}, {"note": None},
-                {"severty": 3}, {"mode": 1}):
+    for bad in (
+        {"severity": True},
+        {"severity": "2"},
+        {"severity": 2.0},
+        {"x": "10"},
+        {"note": None},
+        {"severty": 3},
+        {"mode": 1},
+    ):
         r = client.post("/api/markers", json={**base, **bad})
         assert r.status_code == 422 and "error" in r.json(), (bad, r.text)
     m = client.post("/api/markers", json={**base, "mode": "vector"}).json()
@@ -106,14 +131,18 @@ def test_wrong_types_and_unknown_fields_are_a_422(client):
 
 
 def test_marker_crud_and_persistence(client, outdir, tmp_path):
-    r = client.post("/api/markers", json={"shot": "shot1", "x": 160, "y": 150, "category": "moved", "severity": 3,
-                                          "note": "pillar 20 cm off"})
+    r = client.post(
+        "/api/markers",
+        json={"shot": "shot1", "x": 160, "y": 150, "category": "moved", "severity": 3, "note": "pillar 20 cm off"},
+    )
     assert r.status_code == 201
     m = r.json()
     assert m["part"] and m["distance"] > 0
     m2 = client.patch(f"/api/markers/{m['id']}", json={"note": "pillar 25 cm off", "x": 100}).json()
     assert m2["note"] == "pillar 25 cm off" and m2["x"] == 100
-    gone = client.post("/api/markers", json={"shot": "shot1", "x": 5, "y": 5, "category": "other", "severity": 1}).json()
+    gone = client.post(
+        "/api/markers", json={"shot": "shot1", "x": 5, "y": 5, "category": "other", "severity": 1}
+    ).json()
     assert client.delete(f"/api/markers/{gone['id']}").status_code == 200
     # a second app on the same database (another planner, or after a kill) sees the change
     app2 = create_app(open_source(outdir), db_path=tmp_path / "review.sqlite", cache_dir=outdir / ".cache", samples=4)
@@ -123,7 +152,9 @@ def test_marker_crud_and_persistence(client, outdir, tmp_path):
         exported = other.get("/api/export/markers.csv")
         assert "pillar 25 cm off" in exported.text
         # a byte-order mark, so that Excel reads the UTF-8 notes as UTF-8
-        assert exported.content.startswith(b"\xef\xbb\xbfid,shot,") and "charset=utf-8" in exported.headers["content-type"]
+        assert (
+            exported.content.startswith(b"\xef\xbb\xbfid,shot,") and "charset=utf-8" in exported.headers["content-type"]
+        )
         report = other.get("/api/export/report.html").text
         assert "pillar 25 cm off" in report and report.count("data:image/png") == 1 + len(MODES)  # photo + every mode
     assert (tmp_path / "review.sqlite-wal").exists() or (tmp_path / "review.sqlite").stat().st_size > 0
@@ -149,20 +180,47 @@ def test_suggested_markers_of_a_discrepancies_run(outdir, tmp_path, monkeypatch)
     entry = next(e for e in manifest["shots"] if e["name"] == "shot1")
     shot_json = outdir / entry.get("folder", "shots/shot1") / "SHOT.json"
     suspects = tmp_path / "suspects.json"
-    suspects.write_text(json.dumps({"shot": str(shot_json), "suggested_markers": [
-        {"x": 100.0, "y": 80.5, "category": "moved", "severity": 3, "note": "workbench: 12 % of its CAD outline found",
-         "part": "workbench"},
-        {"x": 200.0, "y": 120.0, "category": "extra", "severity": 1, "note": "photo structure no CAD part explains",
-         "part": None}]}))
+    suspects.write_text(
+        json.dumps(
+            {
+                "shot": str(shot_json),
+                "suggested_markers": [
+                    {
+                        "x": 100.0,
+                        "y": 80.5,
+                        "category": "moved",
+                        "severity": 3,
+                        "note": "workbench: 12 % of its CAD outline found",
+                        "part": "workbench",
+                    },
+                    {
+                        "x": 200.0,
+                        "y": 120.0,
+                        "category": "extra",
+                        "severity": 1,
+                        "note": "photo structure no CAD part explains",
+                        "part": None,
+                    },
+                ],
+            }
+        )
+    )
 
     def app_with(specs):
-        return create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=outdir / ".cache", samples=4,
-                          suggestions=load_suggestions(source, specs))
+        return create_app(
+            source,
+            db_path=tmp_path / "r.sqlite",
+            cache_dir=outdir / ".cache",
+            samples=4,
+            suggestions=load_suggestions(source, specs),
+        )
 
     with TestClient(app_with([str(suspects)])) as c:
         markers = c.get("/api/markers", params={"shot": "shot1"}).json()
         assert [(m["category"], m["x"], m["y"], m["severity"]) for m in markers] == [
-            ("suggested", 100.0, 80.5, 3), ("suggested", 200.0, 120.0, 1)]
+            ("suggested", 100.0, 80.5, 3),
+            ("suggested", 200.0, 120.0, 1),
+        ]
         # the detector's part is the marker's part, whatever lies under its point (issue 22:
         # review replaced it by the pick); a marker without a part gets the CAD part under it and
         # its distance, like a marker the planner places; a distance is only ever the part's own
@@ -172,12 +230,15 @@ def test_suggested_markers_of_a_discrepancies_run(outdir, tmp_path, monkeypatch)
             assert (m["part"], m["distance"]) == (part, hit["distance"] if hit["instance"] == part else None)
         assert markers[0]["part"] == "workbench"
         assert any(m["distance"] is not None for m in markers)
-        assert markers[0]["note"].startswith("moved? workbench") and c.get("/api/markers", params={"shot": "shot0"}).json() == []
+        assert (
+            markers[0]["note"].startswith("moved? workbench")
+            and c.get("/api/markers", params={"shot": "shot0"}).json() == []
+        )
         assert "suggested" in c.get("/api/info").json()["categories"]
         kept = c.patch(f"/api/markers/{markers[0]['id']}", json={"category": "moved", "note": "confirmed"}).json()
         assert (kept["category"], kept["note"]) == ("moved", "confirmed")
         assert c.delete(f"/api/markers/{markers[1]['id']}").status_code == 200
-    with TestClient(app_with([str(suspects), f"shot0={suspects}"])) as c:   # a restart, plus a named shot
+    with TestClient(app_with([str(suspects), f"shot0={suspects}"])) as c:  # a restart, plus a named shot
         assert [m["note"] for m in c.get("/api/markers", params={"shot": "shot1"}).json()] == ["confirmed"]
         assert len(c.get("/api/markers", params={"shot": "shot0"}).json()) == 2
 
@@ -185,8 +246,9 @@ def test_suggested_markers_of_a_discrepancies_run(outdir, tmp_path, monkeypatch)
         raise AssertionError("a restart with nothing new to import loaded the scene for the picker")
 
     import mrcheck.apps.review.pick
+
     monkeypatch.setattr(mrcheck.apps.review.pick, "Picker", no_picker)
-    with TestClient(app_with([str(suspects), f"shot0={suspects}"])) as c:   # nothing new
+    with TestClient(app_with([str(suspects), f"shot0={suspects}"])) as c:  # nothing new
         assert len(c.get("/api/markers").json()) == 3
     with pytest.raises(MrcheckError, match="no shot named 'nope'"):
         load_suggestions(source, [f"nope={suspects}"])
@@ -207,25 +269,50 @@ def test_a_rerun_of_discrepancies_does_not_add_its_parts_again(outdir, tmp_path)
     def run(markers):
         path = tmp_path / f"suspects{len(markers)}.json"
         path.write_text(json.dumps({"shot": str(shot_json), "suggested_markers": markers}))
-        app = create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=outdir / ".cache",
-                         suggestions=load_suggestions(source, [str(path)]))
+        app = create_app(
+            source,
+            db_path=tmp_path / "r.sqlite",
+            cache_dir=outdir / ".cache",
+            suggestions=load_suggestions(source, [str(path)]),
+        )
         return app.state.imported
 
-    first = [{"x": 100.0, "y": 80.0, "category": "moved", "note": "workbench: 12 % found", "part": "workbench"},
-             {"x": 200.0, "y": 120.0, "category": "extra", "note": "structure (50 edge px)", "part": None}]
+    first = [
+        {"x": 100.0, "y": 80.0, "category": "moved", "note": "workbench: 12 % found", "part": "workbench"},
+        {"x": 200.0, "y": 120.0, "category": "extra", "note": "structure (50 edge px)", "part": None},
+    ]
     assert run(first) == {"shot1": 2}
-    again = [{"x": 104.0, "y": 82.0, "category": "missing", "note": "workbench: 9 % found", "part": "workbench"},
-             {"x": 201.0, "y": 120.0, "category": "extra", "note": "structure (48 edge px)", "part": None},
-             {"x": 50.0, "y": 50.0, "category": "moved", "note": "shelf: 20 % found", "part": "shelf"}]
+    again = [
+        {"x": 104.0, "y": 82.0, "category": "missing", "note": "workbench: 9 % found", "part": "workbench"},
+        {"x": 201.0, "y": 120.0, "category": "extra", "note": "structure (48 edge px)", "part": None},
+        {"x": 50.0, "y": 50.0, "category": "moved", "note": "shelf: 20 % found", "part": "shelf"},
+    ]
     assert run(again) == {"shot1": 1}
-    assert sorted(m["note"] for m in Store(tmp_path / "r.sqlite", source.review_name(tmp_path / "r.sqlite")).markers()) == [
-        "extra? structure (50 edge px)", "moved? shelf: 20 % found", "moved? workbench: 12 % found"]
+    assert sorted(
+        m["note"] for m in Store(tmp_path / "r.sqlite", source.review_name(tmp_path / "r.sqlite")).markers()
+    ) == ["extra? structure (50 edge px)", "moved? shelf: 20 % found", "moved? workbench: 12 % found"]
     # a review of before recorded x, y (served pixels) and the note: not imported twice either
     legacy = Store(tmp_path / "old.sqlite", source.review_name(tmp_path / "old.sqlite"))
-    legacy.import_suggestions("shot1", [{"shot": "shot1", "x": 1.0, "y": 2.0, "category": "suggested", "severity": 2,
-                                         "note": "moved? shelf: 20 % found", "key": "50.0,50.0,moved? shelf: 20 % found"}])
-    app = create_app(source, db_path=tmp_path / "old.sqlite", cache_dir=outdir / ".cache",
-                     suggestions=load_suggestions(source, [str(tmp_path / "suspects3.json")]))
+    legacy.import_suggestions(
+        "shot1",
+        [
+            {
+                "shot": "shot1",
+                "x": 1.0,
+                "y": 2.0,
+                "category": "suggested",
+                "severity": 2,
+                "note": "moved? shelf: 20 % found",
+                "key": "50.0,50.0,moved? shelf: 20 % found",
+            }
+        ],
+    )
+    app = create_app(
+        source,
+        db_path=tmp_path / "old.sqlite",
+        cache_dir=outdir / ".cache",
+        suggestions=load_suggestions(source, [str(tmp_path / "suspects3.json")]),
+    )
     assert app.state.imported == {"shot1": 2}
 
 
@@ -238,8 +325,13 @@ def test_one_database_keeps_the_reviews_of_two_exports_apart(outdir, tmp_path):
         with TestClient(create_app(source, db_path=db, cache_dir=tmp_path / "cache", samples=2)) as c:
             shot = next(iter(source.shots))
             assert c.get("/api/markers").json() == []
-            assert c.post("/api/markers", json={"shot": shot, "x": 5, "y": 5, "category": "other", "severity": 1,
-                                                "note": name}).status_code == 201
+            assert (
+                c.post(
+                    "/api/markers",
+                    json={"shot": shot, "x": 5, "y": 5, "category": "other", "severity": 1, "note": name},
+                ).status_code
+                == 201
+            )
     for name, source in reviews.items():
         app = create_app(source, db_path=db, cache_dir=tmp_path / "cache")
         assert [m["note"] for m in app.state.store.markers()] == [name]
@@ -247,7 +339,9 @@ def test_one_database_keeps_the_reviews_of_two_exports_apart(outdir, tmp_path):
     # the name is relative to the database: an export moved or copied with its review.sqlite keeps its review
     shutil.copytree(outdir.parent, tmp_path / "one", ignore=shutil.ignore_patterns(".cache", "*.sqlite*"))
     with TestClient(create_app(open_source(tmp_path / "one" / "out"), cache_dir=tmp_path / "cache")) as c:
-        c.post("/api/markers", json={"shot": "shot0", "x": 5, "y": 5, "category": "other", "severity": 1, "note": "own db"})
+        c.post(
+            "/api/markers", json={"shot": "shot0", "x": 5, "y": 5, "category": "other", "severity": 1, "note": "own db"}
+        )
     shutil.copytree(tmp_path / "one", tmp_path / "two")
     moved = create_app(open_source(tmp_path / "two" / "out"), cache_dir=tmp_path / "cache").state.store
     assert [m["note"] for m in moved.markers()] == ["own db"] and moved.others == []
@@ -261,7 +355,8 @@ def _box_review(folder, centre, size=(64, 48)):
 
     folder.mkdir(exist_ok=True)
     trimesh.creation.box(extents=(1, 1, 1), transform=trimesh.transformations.translation_matrix(centre)).export(
-        folder / "box.stl")
+        folder / "box.stl"
+    )
     (folder / "shots").mkdir(exist_ok=True)
     camera = Camera.from_look_at((4.0, 0.0, 0.5), (0.0, 0.0, 0.0), (0, 0, 1), 60.0, *size)
     write_image(folder / "shots" / "photo.png", np.full((size[1], size[0], 3), 128, np.uint8))
@@ -281,10 +376,12 @@ def test_review_of_a_job(tmp_path, capsys):
         p["world"] = [1000 * c for c in p["world"]]
     (tmp_path / "corners_mm.json").write_text(json.dumps(points))
     job = tmp_path / "job.toml"
-    job.write_text(f'scene = "{BOX / "scene.toml"}"\n[[shots]]\nname = "box"\nphoto = "{BOX / "resized_IMG_3875.JPG"}"\n'
-                   f'intrinsics = "{BOX / "canon.json"}"\npoints = "corners_mm.json"\n'
-                   '[[shots]]\nname = "gone"\nshot = "gone.json"\n')
-    with console():   # warnings as the command shows them: lines on stderr
+    job.write_text(
+        f'scene = "{BOX / "scene.toml"}"\n[[shots]]\nname = "box"\nphoto = "{BOX / "resized_IMG_3875.JPG"}"\n'
+        f'intrinsics = "{BOX / "canon.json"}"\npoints = "corners_mm.json"\n'
+        '[[shots]]\nname = "gone"\nshot = "gone.json"\n'
+    )
+    with console():  # warnings as the command shows them: lines on stderr
         source = open_source(job)
     out, err = capsys.readouterr()
     assert list(source.shots) == ["box"] and source.shots["box"].size == (718, 480)
@@ -314,22 +411,43 @@ def test_coordinates_are_the_photos_pixels_when_it_is_served_smaller(tmp_path, s
 
     source = _box_review(tmp_path, (0.0, 0.0, 0.0), size=(160, 120))
     suspects = tmp_path / "suspects.json"
-    suspects.write_text(json.dumps({"shot": str(tmp_path / "shots" / "a.json"), "suggested_markers": [
-        {"x": 80.0, "y": 60.0, "category": "moved", "severity": 2, "note": "box: 3 % found", "part": "box"}]}))
-    app = create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache", samples=2,
-                     suggestions=load_suggestions(source, [str(suspects)]))
+    suspects.write_text(
+        json.dumps(
+            {
+                "shot": str(tmp_path / "shots" / "a.json"),
+                "suggested_markers": [
+                    {"x": 80.0, "y": 60.0, "category": "moved", "severity": 2, "note": "box: 3 % found", "part": "box"}
+                ],
+            }
+        )
+    )
+    app = create_app(
+        source,
+        db_path=tmp_path / "r.sqlite",
+        cache_dir=tmp_path / "cache",
+        samples=2,
+        suggestions=load_suggestions(source, [str(suspects)]),
+    )
     with TestClient(app) as c:
         assert [(s["width"], s["height"]) for s in c.get("/api/shots").json()] == [(160, 120)]
         photo = cv2.imdecode(np.frombuffer(c.get("/api/shots/a/photo.png").content, np.uint8), cv2.IMREAD_COLOR)
-        assert photo.shape[:2] == (60, 80)   # served downscaled
+        assert photo.shape[:2] == (60, 80)  # served downscaled
         [m] = c.get("/api/markers").json()
         hit = c.get("/api/shots/a/pick", params={"x": 80, "y": 60}).json()
         assert (m["x"], m["y"]) == (80.0, 60.0) and hit["instance"] and m["part"] == hit["instance"]
         assert c.get("/api/shots/a/pick", params={"x": 150, "y": 110}).json()["instance"] is None  # beside the box
-        assert c.post("/api/markers", json={"shot": "a", "x": 150, "y": 110, "category": "other",
-                                            "severity": 1}).status_code == 201
-        assert c.post("/api/markers", json={"shot": "a", "x": 160, "y": 110, "category": "other",
-                                            "severity": 1}).status_code == 422
+        assert (
+            c.post(
+                "/api/markers", json={"shot": "a", "x": 150, "y": 110, "category": "other", "severity": 1}
+            ).status_code
+            == 201
+        )
+        assert (
+            c.post(
+                "/api/markers", json={"shot": "a", "x": 160, "y": 110, "category": "other", "severity": 1}
+            ).status_code
+            == 422
+        )
         assert ",a,80.0,60.0,suggested," in c.get("/api/export/markers.csv").text
         report = c.get("/api/export/report.html").text
         assert "photo pixel (80, 60)" in report and "photo pixel (150, 110)" in report
@@ -345,16 +463,19 @@ def test_a_database_of_served_pixels_is_upgraded(tmp_path, served_small):
     with contextlib.closing(sqlite3.connect(tmp_path / "r.sqlite")) as db:
         db.executescript(SCHEMA)
         db.execute("INSERT INTO reviews(source, created) VALUES ('old', 0)")
-        db.execute("INSERT INTO markers(review, shot, x, y, category, severity, created, updated) "
-                   "VALUES (1, 'a', 40, 30.5, 'moved', 2, 0, 0)")
+        db.execute(
+            "INSERT INTO markers(review, shot, x, y, category, severity, created, updated) "
+            "VALUES (1, 'a', 40, 30.5, 'moved', 2, 0, 0)"
+        )
         db.commit()
-    for _ in range(2):   # once: a restart does not scale again
+    for _ in range(2):  # once: a restart does not scale again
         with TestClient(create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache")) as c:
             assert [(m["x"], m["y"]) for m in c.get("/api/markers").json()] == [(80.0, 61.0)]
 
 
 def test_render_cache_follows_a_changed_scene(tmp_path):
     """Re-exporting into the same folder with a changed scene must not serve the old render."""
+
     def render(source):
         app = create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache", samples=2)
         with TestClient(app) as c:
@@ -383,8 +504,9 @@ def test_the_review_renders_anti_aliased_unless_told_not_to(tmp_path):
     source = _box_review(tmp_path, (0.0, 0.0, 0.0))
 
     def render(antialias):
-        app = create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache", samples=2,
-                         antialias=antialias)
+        app = create_app(
+            source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache", samples=2, antialias=antialias
+        )
         with TestClient(app) as c:
             assert c.app.state.review.renders.settings(120).antialias is antialias
             r = c.get("/api/shots/a/render.png")
@@ -394,13 +516,13 @@ def test_the_review_renders_anti_aliased_unless_told_not_to(tmp_path):
     smooth = render(True)
     plain = render(False)
     assert plain != smooth
-    assert len(list((tmp_path / "cache").rglob("render_*.png"))) == 1   # the other setting's file went
+    assert len(list((tmp_path / "cache").rglob("render_*.png"))) == 1  # the other setting's file went
     assert render(False) == plain and render(True) == smooth
 
 
 @pytest.mark.parametrize("rms", [float("nan"), float("inf")])
 def test_a_registration_error_that_is_no_number_is_n_a(tmp_path, rms):
-    """"rms": NaN in a SHOT.json made the shot list a 500 (invalid JSON): the page never loaded."""
+    """ "rms": NaN in a SHOT.json made the shot list a 500 (invalid JSON): the page never loaded."""
     _box_review(tmp_path, (0.0, 0.0, 0.0))
     shot = tmp_path / "shots" / "a.json"
     shot.write_text(json.dumps({**json.loads(shot.read_text()), "rms": rms}))
@@ -412,17 +534,22 @@ def test_a_registration_error_that_is_no_number_is_n_a(tmp_path, rms):
 
 def test_an_unexpected_error_has_the_apis_error_shape(client, monkeypatch, capsys):
     """A bug answered a plain-text 500 and printed a traceback."""
+
     def boom(*args):
         raise ZeroDivisionError("division by zero")
 
     monkeypatch.delenv("MRCHECK_DEBUG", raising=False)
     monkeypatch.setattr(client.app.state.store, "markers", boom)
-    with console():   # the server's console, as `mrcheck review` shows it
+    with console():  # the server's console, as `mrcheck review` shows it
         r = client.get("/api/markers")
-    assert r.status_code == 500 and r.json() == {"error": "internal error, please report it: ZeroDivisionError: division by zero"}
+    assert r.status_code == 500 and r.json() == {
+        "error": "internal error, please report it: ZeroDivisionError: division by zero"
+    }
     err = capsys.readouterr().err
-    assert err == ("error: internal error in GET /api/markers, please report it: ZeroDivisionError: division by zero "
-                   "(MRCHECK_DEBUG=1 shows the traceback)\n"), err
+    assert err == (
+        "error: internal error in GET /api/markers, please report it: ZeroDivisionError: division by zero "
+        "(MRCHECK_DEBUG=1 shows the traceback)\n"
+    ), err
 
 
 def test_a_photo_gone_after_start_is_a_json_404(tmp_path):
@@ -438,9 +565,14 @@ def test_a_photo_replaced_after_start_breaks_its_shot_not_the_report(tmp_path):
     served, and the HTML report failed (404) for every shot because of this one."""
     source = _box_review(tmp_path, (0.0, 0.0, 0.0))
     with TestClient(create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache", samples=2)) as c:
-        assert c.get("/api/shots/a/photo.png").status_code == 200   # now in the cache
-        assert c.post("/api/markers", json={"shot": "a", "x": 30, "y": 20, "category": "moved", "severity": 2,
-                                            "note": "still listed"}).status_code == 201
+        assert c.get("/api/shots/a/photo.png").status_code == 200  # now in the cache
+        assert (
+            c.post(
+                "/api/markers",
+                json={"shot": "a", "x": 30, "y": 20, "category": "moved", "severity": 2, "note": "still listed"},
+            ).status_code
+            == 201
+        )
         photo = tmp_path / "shots" / "photo.png"
         write_image(photo, np.full((24, 32, 3), 90, np.uint8))
         problem = f"{photo}: photo is 32x24 but the shot was registered at 64x48"
@@ -452,7 +584,7 @@ def test_a_photo_replaced_after_start_breaks_its_shot_not_the_report(tmp_path):
         assert "data:image/png" not in report.text
 
 
-@pytest.mark.parametrize("marker_id", [10**23, -10**23, 2**63, 0])
+@pytest.mark.parametrize("marker_id", [10**23, -(10**23), 2**63, 0])
 def test_marker_ids_beyond_sqlite_are_404(client, marker_id):
     for method in ("patch", "delete"):
         r = client.request(method, f"/api/markers/{marker_id}", json={"note": "x"})
@@ -465,19 +597,23 @@ def test_markers_of_a_shot_the_review_no_longer_has(outdir, tmp_path):
 
     source = open_source(outdir)
     orphan = Store(tmp_path / "r.sqlite", source.review_name(tmp_path / "r.sqlite")).add(
-        {"shot": "wall-5", "x": 10.0, "y": 10.0, "category": "moved", "severity": 2, "note": "old wall"})
+        {"shot": "wall-5", "x": 10.0, "y": 10.0, "category": "moved", "severity": 2, "note": "old wall"}
+    )
     with TestClient(create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=outdir / ".cache")) as c:
         r = c.patch(f"/api/markers/{orphan['id']}", json={"x": 50})
         assert r.status_code == 409 and "wall-5" in r.json()["error"]
         assert c.patch(f"/api/markers/{orphan['id']}", json={"note": "old wall, gone"}).status_code == 200
         report = c.get("/api/export/report.html")
-        assert report.status_code == 200 and "old wall, gone" in report.text and "no longer has this shot" in report.text
+        assert (
+            report.status_code == 200 and "old wall, gone" in report.text and "no longer has this shot" in report.text
+        )
         assert "wall-5" in c.get("/api/export/markers.csv").text
 
 
 def test_the_report_says_in_which_mode_a_marker_was_placed(client):
-    m = client.post("/api/markers", json={"shot": "shot0", "x": 20, "y": 20, "category": "moved", "severity": 2,
-                                          "mode": "vector"}).json()
+    m = client.post(
+        "/api/markers", json={"shot": "shot0", "x": 20, "y": 20, "category": "moved", "severity": 2, "mode": "vector"}
+    ).json()
     report = client.get("/api/export/report.html").text
     assert "; placed in D2 vector SSAO 20" in report and "last changed" not in report
     client.patch(f"/api/markers/{m['id']}", json={"note": "later"})
@@ -490,9 +626,23 @@ def test_csv_defuses_spreadsheet_formulas():
 
     from mrcheck.apps.review.report import markers_csv
 
-    notes = ["=HYPERLINK(\"http://x\")", "+1", "-2+3", "@SUM(A1)", "\tx", "fine = ok"]
-    markers = [{"id": i, "shot": "s", "x": 1.0, "y": 2.0, "category": "other", "severity": 1, "note": n,
-                "part": "=cmd", "distance": None, "mode": None, "updated": 0.0} for i, n in enumerate(notes)]
+    notes = ['=HYPERLINK("http://x")', "+1", "-2+3", "@SUM(A1)", "\tx", "fine = ok"]
+    markers = [
+        {
+            "id": i,
+            "shot": "s",
+            "x": 1.0,
+            "y": 2.0,
+            "category": "other",
+            "severity": 1,
+            "note": n,
+            "part": "=cmd",
+            "distance": None,
+            "mode": None,
+            "updated": 0.0,
+        }
+        for i, n in enumerate(notes)
+    ]
     rows = list(csv.DictReader(io.StringIO(markers_csv(markers))))
     assert [r["note"] for r in rows] == ["'" + n for n in notes[:-1]] + ["fine = ok"]
     assert {r["part"] for r in rows} == {"'=cmd"}
@@ -514,8 +664,12 @@ def _free_port():
 
 def _start(outdir, db, port):
     env = dict(os.environ, PYTHONUNBUFFERED="1")
-    proc = subprocess.Popen([sys.executable, "-m", "mrcheck.cli", "review", str(outdir), "--port", str(port),
-                             "--db", str(db)], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "mrcheck.cli", "review", str(outdir), "--port", str(port), "--db", str(db)],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+    )
     deadline = time.time() + 60
     while time.time() < deadline:
         try:
@@ -536,16 +690,31 @@ def test_ctrl_c_stops_the_server_quietly(outdir, tmp_path):
     assert proc.returncode == 0 and b"error" not in out, out
 
 
-needs_chromium = pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="needs Debian's chromium (bootstrap.sh installs it)")
+needs_chromium = pytest.mark.skipif(
+    not Path(CHROMIUM).exists(), reason="needs Debian's chromium (bootstrap.sh installs it)"
+)
 
 
 def _browser(pw, tmp_path):
     """Headless Debian chromium driven by Playwright (a persistent profile in ``tmp_path``)."""
-    args = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-            "--disable-background-networking", "--disable-component-update", "--disable-sync"]
-    return pw.chromium.launch_persistent_context(str(tmp_path / "profile"), executable_path=CHROMIUM, args=args,
-                                                 headless=True, viewport={"width": 1280, "height": 720},
-                                                 accept_downloads=True)
+    args = [
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-quic",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+    ]
+    return pw.chromium.launch_persistent_context(
+        str(tmp_path / "profile"),
+        executable_path=CHROMIUM,
+        args=args,
+        headless=True,
+        viewport={"width": 1280, "height": 720},
+        accept_downloads=True,
+    )
 
 
 @contextlib.contextmanager
@@ -574,8 +743,12 @@ def _served(app):
 def _box_page(tmp_path, size=(64, 48)):
     """A box review (:func:`_box_review`) served, and a page in headless chromium: (app, page, url)."""
     sync_api = pytest.importorskip("playwright.sync_api")
-    app = create_app(_box_review(tmp_path, (0.0, 0.0, 0.0), size=size), db_path=tmp_path / "r.sqlite",
-                     cache_dir=tmp_path / "cache", samples=2)
+    app = create_app(
+        _box_review(tmp_path, (0.0, 0.0, 0.0), size=size),
+        db_path=tmp_path / "r.sqlite",
+        cache_dir=tmp_path / "cache",
+        samples=2,
+    )
     with _served(app) as url, sync_api.sync_playwright() as pw:
         browser = _browser(pw, tmp_path)
         yield app, browser.new_page(), url
@@ -612,7 +785,7 @@ def test_the_page_says_why_an_export_failed(tmp_path, monkeypatch):
         page.click("#export-html")
         page.wait_for_function("document.querySelector('#status').textContent.includes('failed: ')", timeout=30000)
         assert "Export report (HTML) failed: no space left on the device" in page.text_content("#status")
-        with page.expect_download() as info:          # the CSV still downloads, under the server's name
+        with page.expect_download() as info:  # the CSV still downloads, under the server's name
             page.click("#export-csv")
         assert info.value.suggested_filename == "review.csv"
 
@@ -644,19 +817,19 @@ def test_editing_markers_loses_nothing_and_adds_nothing_by_accident(tmp_path):
         click(0.5, 0.5)
         page.wait_for_selector("#editor:not([hidden])")
         page.fill("#ed-note", "unsaved note text")
-        click(0.3, 0.3)   # closes the editor, saving the note; no marker
+        click(0.3, 0.3)  # closes the editor, saving the note; no marker
         page.wait_for_selector("#editor[hidden]", state="attached")
         page.wait_for_selector("#marker-list li:has-text('unsaved note text')")
         assert [m["note"] for m in store.markers()] == ["unsaved note text"]
-        click(0.3, 0.3)   # nothing selected: this click places a marker
+        click(0.3, 0.3)  # nothing selected: this click places a marker
         page.wait_for_selector("#marker-list li:nth-child(2)")
         page.fill("#ed-note", "second")
-        page.click("#marker-list li:nth-child(1)")   # another marker: the typed note is saved first
+        page.click("#marker-list li:nth-child(1)")  # another marker: the typed note is saved first
         page.wait_for_selector("#marker-list li:has-text('second')")
         assert page.input_value("#ed-note") == "unsaved note text"
         assert [m["note"] for m in store.markers()] == ["unsaved note text", "second"]
         page.fill("#ed-note", "first")
-        page.click("#marker-list li:nth-child(1)")   # the same marker: the editor keeps what was typed
+        page.click("#marker-list li:nth-child(1)")  # the same marker: the editor keeps what was typed
         page.wait_for_selector("#marker-list li:has-text('first')")
         assert page.input_value("#ed-note") == "first" and [m["note"] for m in store.markers()] == ["first", "second"]
         page.once("dialog", lambda dialog: dialog.dismiss())
@@ -680,7 +853,9 @@ def test_the_page_keeps_long_notes_in_the_sidebar(tmp_path):
         _open(page, url)
         item = page.locator("#marker-list li").first
         assert item.bounding_box()["height"] < 60 and item.get_attribute("title") == note
-        assert page.evaluate("(() => { const s = document.querySelector('#side'); return s.scrollWidth <= s.clientWidth; })()")
+        assert page.evaluate(
+            "(() => { const s = document.querySelector('#side'); return s.scrollWidth <= s.clientWidth; })()"
+        )
         assert page.is_visible("#opacity")
         page.select_option("#view", "side")
         assert not page.is_visible("#opacity")

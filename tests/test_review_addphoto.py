@@ -35,8 +35,13 @@ def shots(folder, tmp_path):
 
 
 def _app(shots, tmp_path, **options):
-    return create_app(open_source(sample_scene_path(), shots), db_path=tmp_path / "r.sqlite",
-                      cache_dir=tmp_path / "cache", samples=2, **options)
+    return create_app(
+        open_source(sample_scene_path(), shots),
+        db_path=tmp_path / "r.sqlite",
+        cache_dir=tmp_path / "cache",
+        samples=2,
+        **options,
+    )
 
 
 @pytest.fixture()
@@ -59,8 +64,12 @@ def clicks():
 
 def _upload(client, kind, filename, data):
     """POST an upload as the page does (the file's bytes as application/octet-stream)."""
-    return client.post("/api/addphoto/upload", params={"kind": kind, "filename": filename}, content=data,
-                       headers={"Content-Type": "application/octet-stream"})
+    return client.post(
+        "/api/addphoto/upload",
+        params={"kind": kind, "filename": filename},
+        content=data,
+        headers={"Content-Type": "application/octet-stream"},
+    )
 
 
 def _pairs(photo, cad):
@@ -68,8 +77,10 @@ def _pairs(photo, cad):
 
 
 def _solve(client, pairs, photo="folder:photo.png", intrinsics="folder:cam.json", snap=True, view=VIEW):
-    return client.post("/api/addphoto/solve", json={"photo": photo, "intrinsics": intrinsics, "view": view,
-                                                    "pairs": pairs, "snap": snap})
+    return client.post(
+        "/api/addphoto/solve",
+        json={"photo": photo, "intrinsics": intrinsics, "view": view, "pairs": pairs, "snap": snap},
+    )
 
 
 def test_clicks_snapped_and_saved_as_a_shot(client, shots, clicks):
@@ -96,8 +107,8 @@ def test_clicks_snapped_and_saved_as_a_shot(client, shots, clicks):
     # the truth is known: the saved pose within 0.5 px (median) of it on the clicked scene points
     assert median_error_px(camera, world) < 0.5
     assert client.get(f"/api/shots/{name}/render.png").status_code == 200
-    assert client.post(f"/api/addphoto/results/{result['id']}/save").status_code == 422   # saved once
-    assert "photo" in open_source(sample_scene_path(), shots).shots    # and at the next start
+    assert client.post(f"/api/addphoto/results/{result['id']}/save").status_code == 422  # saved once
+    assert "photo" in open_source(sample_scene_path(), shots).shots  # and at the next start
 
 
 def test_without_the_snap_the_click_pose_is_saved(client, clicks):
@@ -133,7 +144,7 @@ def test_the_planners_mistakes_are_one_line_errors_and_nothing_is_saved(client, 
         return r.json()["error"]
 
     assert "3 pair(s) of clicks: at least 4 are needed" in error(_pairs(photo[:3], cad[:3]))
-    sky = [3.0, 2.0]   # the top left of the overview: above the hall's wall, nothing
+    sky = [3.0, 2.0]  # the top left of the overview: above the hall's wall, nothing
     assert "CAD click 1 at (3, 2) hits no CAD part" in error(_pairs(photo[:5], [sky] * 5), view="view:overview")
     line = [[100.0 + 40 * i, 200.0] for i in range(5)]
     assert "collinear" in error(_pairs(line, cad[:5]))
@@ -168,7 +179,7 @@ def test_an_uploaded_photo_is_copied_under_a_new_name(client, shots, clicks):
     assert not (shots / "photo.json").exists()
     staged = client.app.state.review.addphoto.uploads
     assert len(list(staged.iterdir())) == 2
-    _app(shots, client.app.state.review.renders.cache.parent)   # the next start: the staged uploads are gone
+    _app(shots, client.app.state.review.renders.cache.parent)  # the next start: the staged uploads are gone
     assert list(staged.iterdir()) == []
 
 
@@ -177,8 +188,11 @@ def test_the_upload_has_its_own_limit_and_the_guards(shots, tmp_path):
     with TestClient(small) as c:
         r = _upload(c, "photo", "big.png", b"x" * (300 << 10))
         assert r.status_code == 413 and "over the limit of 256 KiB (--max-upload)" in r.json()["error"]
-        chunked = c.post("/api/addphoto/upload?kind=photo&filename=big.png", content=iter([b"x" * (100 << 10)] * 3),
-                         headers={"Content-Type": "application/octet-stream"})
+        chunked = c.post(
+            "/api/addphoto/upload?kind=photo&filename=big.png",
+            content=iter([b"x" * (100 << 10)] * 3),
+            headers={"Content-Type": "application/octet-stream"},
+        )
         assert chunked.status_code == 413 and "256 KiB (--max-upload)" in chunked.json()["error"], chunked.text
         r = c.post("/api/markers", content=b"x" * (80 << 10), headers={"Content-Type": "application/json"})
         assert r.status_code == 413 and "(--max-body)" in r.json()["error"]
@@ -187,7 +201,7 @@ def test_the_upload_has_its_own_limit_and_the_guards(shots, tmp_path):
     with TestClient(_app(shots, tmp_path, token="s3cret")) as c:
         assert _upload(c, "photo", "p.png", b"x").status_code == 401
         assert c.get("/api/addphoto/files").status_code == 401
-    with TestClient(_app(shots, tmp_path, host="127.0.0.1")) as c:   # TestClient's Host is "testserver"
+    with TestClient(_app(shots, tmp_path, host="127.0.0.1")) as c:  # TestClient's Host is "testserver"
         assert _upload(c, "photo", "p.png", b"x").status_code == 403
 
 
@@ -231,7 +245,7 @@ def test_a_forgotten_upload_is_a_one_line_error_at_save(client, shots, clicks, m
     world, photo, cad = clicks
     up = _upload(client, "photo", "new.png", (shots / "photo.png").read_bytes()).json()
     result = _solve(client, _pairs(photo, cad), photo=up["ref"], snap=False).json()
-    for _ in range(2):   # two more uploads: the photo's is the oldest of three, forgotten
+    for _ in range(2):  # two more uploads: the photo's is the oldest of three, forgotten
         _upload(client, "intrinsics", "cam.json", (shots / "cam.json").read_bytes())
     r = client.post(f"/api/addphoto/results/{result['id']}/save")
     assert r.status_code == 422 and "the uploaded photo new.png is no longer kept: upload it again" in r.json()["error"]

@@ -21,7 +21,7 @@ from mrcheck.scene.model import load_scene  # noqa: E402
 from .addphoto_helpers import VIEW, make_folder, median_error_px, project, scene_points, truth_camera  # noqa: E402
 from .test_review import _browser, _served, needs_chromium  # noqa: E402
 
-TOLERANCE_PX, TOLERANCE_M = 1.0, 0.02   # 1 px: the edge registration's accuracy target (issue 20)
+TOLERANCE_PX, TOLERANCE_M = 1.0, 0.02  # 1 px: the edge registration's accuracy target (issue 20)
 
 
 def _click(page, pane: str, side: str, pixel) -> None:
@@ -38,8 +38,9 @@ def test_add_a_photo_by_clicking_in_the_browser(ctx, tmp_path):
     scene = load_scene(sample_scene_path())
     world = scene_points(scene, scene.camera("robot", 800))
     photo_px, cad_px = project(truth_camera(), world), project(scene.camera("robot", 800), world)
-    app = create_app(open_source(sample_scene_path(), shots), db_path=tmp_path / "r.sqlite",
-                     cache_dir=tmp_path / "cache", samples=2)
+    app = create_app(
+        open_source(sample_scene_path(), shots), db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache", samples=2
+    )
     with _served(app) as url, sync_api.sync_playwright() as pw:
         browser = _browser(pw, tmp_path)
         page = browser.new_page()
@@ -48,7 +49,7 @@ def test_add_a_photo_by_clicking_in_the_browser(ctx, tmp_path):
         page.click("#add-photo")
         page.wait_for_selector("body[data-ap-open='1']", timeout=60000)
         page.select_option("#ap-intrinsics", "folder:cam.json")
-        page.set_input_files("#ap-photo-file", str(shots / "photo.png"))   # uploaded, though it is in the folder
+        page.set_input_files("#ap-photo-file", str(shots / "photo.png"))  # uploaded, though it is in the folder
         page.wait_for_function("document.querySelector('#ap-photo-img').naturalWidth > 0", timeout=30000)
         page.select_option("#ap-view", VIEW)
         page.wait_for_function("document.querySelector('#ap-cad-img').naturalWidth > 0", timeout=60000)
@@ -56,7 +57,7 @@ def test_add_a_photo_by_clicking_in_the_browser(ctx, tmp_path):
             _click(page, "#ap-left", "photo", p)
             _click(page, "#ap-right", "cad", c)
             page.wait_for_selector(f"body[data-ap-pairs='{i + 1}']", timeout=30000)
-            if i == 2:   # 3 pairs: the page says what is missing, nothing is solved
+            if i == 2:  # 3 pairs: the page says what is missing, nothing is solved
                 page.click("#ap-solve")
                 page.wait_for_selector("#ap-msg.error", timeout=30000)
                 assert "3 pair(s) of clicks: at least 4 are needed" in page.text_content("#ap-msg")

@@ -38,8 +38,12 @@ def shots(ctx, tmp_path_factory):
 
 @pytest.fixture()
 def client(shots, tmp_path):
-    app = create_app(open_source(sample_scene_path(), shots), db_path=tmp_path / "review.sqlite",
-                     cache_dir=tmp_path / ".cache", samples=4)
+    app = create_app(
+        open_source(sample_scene_path(), shots),
+        db_path=tmp_path / "review.sqlite",
+        cache_dir=tmp_path / ".cache",
+        samples=4,
+    )
     with TestClient(app) as c:
         yield c
 
@@ -52,16 +56,21 @@ def _changed(data: bytes) -> bytes:
             body = src.read(name)
             if name.endswith("markup.bcf") and b"Priority>Low<" in body:
                 body = body.replace(b'TopicStatus="Open"', b'TopicStatus="Closed"').replace(b">Low<", b">High<")
-                body = body.replace(b"</Topic>", b"</Topic><Comment Guid=\"0b8ac9f6-1d5e-4b5f-9a44-6c2f3e1d0a11\">"
-                                    b"<Date>2026-02-01T10:00:00Z</Date><Author>site@example.com</Author>"
-                                    b"<Comment>fixed on site</Comment></Comment>")
+                body = body.replace(
+                    b"</Topic>",
+                    b'</Topic><Comment Guid="0b8ac9f6-1d5e-4b5f-9a44-6c2f3e1d0a11">'
+                    b"<Date>2026-02-01T10:00:00Z</Date><Author>site@example.com</Author>"
+                    b"<Comment>fixed on site</Comment></Comment>",
+                )
             dst.writestr(name, body)
     return out.getvalue()
 
 
 def test_markers_out_as_bcf_and_back(client):
-    a = client.post("/api/markers", json={"shot": "p1", "x": 160, "y": 150, "category": "moved", "severity": 1,
-                                          "note": "conveyor 3 cm off"}).json()
+    a = client.post(
+        "/api/markers",
+        json={"shot": "p1", "x": 160, "y": 150, "category": "moved", "severity": 1, "note": "conveyor 3 cm off"},
+    ).json()
     b = client.post("/api/markers", json={"shot": "p1", "x": 40, "y": 40, "category": "missing", "severity": 3}).json()
     r = client.get("/api/bcf/markers.bcfzip")
     assert r.status_code == 200 and 'filename="review.bcfzip"' in r.headers["content-disposition"]
@@ -72,7 +81,9 @@ def test_markers_out_as_bcf_and_back(client):
     assert first.components and first.components[0].tool_id == a["part"] and first.components[0].ifc_guid is None
     assert np.allclose(first.camera.viewpoint, EYE)
     # the same markers give the same topic ids: the round trip finds them again
-    assert {t.guid for t in read_bcf_bytes(client.get("/api/bcf/markers.bcfzip").content)} == {t.guid for t in topics.values()}
+    assert {t.guid for t in read_bcf_bytes(client.get("/api/bcf/markers.bcfzip").content)} == {
+        t.guid for t in topics.values()
+    }
 
     got = client.post("/api/bcf/import", content=_changed(r.content))
     assert got.status_code == 200 and got.json() == {"matched": 2, "unknown": 0}

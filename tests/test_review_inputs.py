@@ -39,9 +39,17 @@ def outdir(tmp_path):
     out = tmp_path / "out"
     camera = Camera.from_look_at((-11.4, -6.2, 1.7), (-5.0, -4.2, 0.9), (0, 0, 1), 60.0, 64, 48)
     write_image(out / "shots" / "shot" / "photo.png", np.full((48, 64, 3), 128, np.uint8))
-    (out / "shots" / "shot" / "SHOT.json").write_text(json.dumps({**camera.to_dict(), "photo": "photo.png", "rms": 0.1}))
-    (out / "manifest.json").write_text(json.dumps({"settings": {"scene": str(sample_scene_path())},
-                                                   "shots": [{"name": "shot", "status": "done", "folder": "shots/shot"}]}))
+    (out / "shots" / "shot" / "SHOT.json").write_text(
+        json.dumps({**camera.to_dict(), "photo": "photo.png", "rms": 0.1})
+    )
+    (out / "manifest.json").write_text(
+        json.dumps(
+            {
+                "settings": {"scene": str(sample_scene_path())},
+                "shots": [{"name": "shot", "status": "done", "folder": "shots/shot"}],
+            }
+        )
+    )
     return out
 
 
@@ -115,10 +123,15 @@ def test_missing_suggestions_file_is_not_found(outdir, tmp_path, capsys):
     assert not (outdir / "review.sqlite").exists()
 
 
-@pytest.mark.parametrize("text, problem", [
-    ('{"settings": {"sce', "cannot read the export manifest ("), ("[]", "not an export manifest (no settings.scene)"),
-    ('{"format": 1, "shots": []}', "not an export manifest (no settings.scene)"),
-    ('{"settings": {"scene": "s.toml"}, "shots": [{"status": "done"}]}', "not an export manifest (shots must be")])
+@pytest.mark.parametrize(
+    "text, problem",
+    [
+        ('{"settings": {"sce', "cannot read the export manifest ("),
+        ("[]", "not an export manifest (no settings.scene)"),
+        ('{"format": 1, "shots": []}', "not an export manifest (no settings.scene)"),
+        ('{"settings": {"scene": "s.toml"}, "shots": [{"status": "done"}]}', "not an export manifest (shots must be"),
+    ],
+)
 def test_corrupt_export_manifest_is_named(outdir, capsys, text, problem):
     (outdir / "manifest.json").write_text(text)
     code, out, err = _review(capsys, outdir, "--port", _free_port())
@@ -150,12 +163,17 @@ def test_suggestions_from_a_photo_of_another_size_are_refused(outdir, tmp_path, 
     suspects = tmp_path / "suspects.json"
     suspects.write_text(json.dumps({"shot": str(tmp_path / "big.json"), "suggested_markers": [{"x": 30, "y": 20}]}))
     code, out, err = _review(capsys, outdir, "--port", _free_port(), "--suggestions", f"shot={suspects}")
-    assert code == 1 and err == (f"error: {suspects}: made on a 640x480 shot ({tmp_path / 'big.json'}), "
-                                 "but shot 'shot' is 64x48\n"), err
+    assert code == 1 and err == (
+        f"error: {suspects}: made on a 640x480 shot ({tmp_path / 'big.json'}), but shot 'shot' is 64x48\n"
+    ), err
     # its shot file gone: a marker outside the image gives it away
     suspects.write_text(json.dumps({"shot": str(tmp_path / "gone.json"), "suggested_markers": [{"x": 500, "y": 400}]}))
     code, out, err = _review(capsys, outdir, "--port", _free_port(), "--suggestions", f"shot={suspects}")
-    assert code == 1 and err.startswith(f"error: {suspects}: a suggested marker at (500, 400) lies outside") and err.count("\n") == 1, err
+    assert (
+        code == 1
+        and err.startswith(f"error: {suspects}: a suggested marker at (500, 400) lies outside")
+        and err.count("\n") == 1
+    ), err
     assert not (outdir / "review.sqlite").exists()
 
 
@@ -177,11 +195,12 @@ def test_suggestions_for_a_photo_two_shots_share_need_a_name(outdir, tmp_path, c
     manifest["shots"].append({"name": "again", "status": "done", "folder": "shots/again"})
     (outdir / "manifest.json").write_text(json.dumps(manifest))
     again = json.loads((outdir / "shots" / "again" / "SHOT.json").read_text())
-    again["photo"] = str(outdir / "shots" / "shot" / "photo.png")    # the same photo file
+    again["photo"] = str(outdir / "shots" / "shot" / "photo.png")  # the same photo file
     (outdir / "shots" / "again" / "SHOT.json").write_text(json.dumps(again))
     suspects = tmp_path / "suspects.json"
-    suspects.write_text(json.dumps({"shot": str(outdir / "shots" / "shot" / "SHOT.json"),
-                                    "suggested_markers": [{"x": 30, "y": 20}]}))
+    suspects.write_text(
+        json.dumps({"shot": str(outdir / "shots" / "shot" / "SHOT.json"), "suggested_markers": [{"x": 30, "y": 20}]})
+    )
     code, out, err = _review(capsys, outdir, "--port", _free_port(), "--suggestions", suspects)
     assert code == 1 and err.count("\n") == 1, err
     assert err.startswith(f"error: {suspects}: its photo is the photo of shots again, shot; pass NAME=FILE")
@@ -211,12 +230,18 @@ def test_a_job_or_an_export_given_as_scene_says_so(outdir, tmp_path, capsys):
     job.write_text(f'scene = "{sample_scene_path()}"\n[[shots]]\nshot = "{shots / "a.json"}"\n')
     for target, kind in ((job, "a job file"), (outdir, "an export folder")):
         code, out, err = _review(capsys, target, "--shots", shots, "--port", _free_port())
-        assert code == 1 and out == "" and err == f"error: {target}: is {kind}, not a scene: review it without --shots\n"
+        assert (
+            code == 1 and out == "" and err == f"error: {target}: is {kind}, not a scene: review it without --shots\n"
+        )
 
 
-@pytest.mark.parametrize("photo, problem", [
-    (b"garbage\n", "cannot read photo: a text file, not an image"),
-    (np.full((24, 32, 3), 128, np.uint8), "photo is 32x24 but the shot was registered at 64x48")])
+@pytest.mark.parametrize(
+    "photo, problem",
+    [
+        (b"garbage\n", "cannot read photo: a text file, not an image"),
+        (np.full((24, 32, 3), 128, np.uint8), "photo is 32x24 but the shot was registered at 64x48"),
+    ],
+)
 def test_a_photo_that_does_not_fit_its_shot_is_reported_before_the_url(outdir, capsys, photo, problem):
     """A corrupt photo, or one of another size than its SHOT.json: the server started, and the
     shot failed only when it was looked at."""
@@ -237,12 +262,16 @@ def _suspects(outdir, folder, markers):
     return path
 
 
-@pytest.mark.parametrize("marker, problem", [
-    ({"x": 1, "y": 1, "severity": "high"}, "severity must be 1, 2 or 3, got 'high'"),
-    ({"x": 1, "y": 1, "severity": 9}, "severity must be 1, 2 or 3, got 9"),
-    ({"x": 1, "y": 1, "severity": True}, "severity must be 1, 2 or 3, got True"),
-    ({"x": "1", "y": 1}, "x (photo pixels): '1' is not a number"),
-    ({"x": 1, "y": 1, "note": 5}, "note must be a string, got 5")])
+@pytest.mark.parametrize(
+    "marker, problem",
+    [
+        ({"x": 1, "y": 1, "severity": "high"}, "severity must be 1, 2 or 3, got 'high'"),
+        ({"x": 1, "y": 1, "severity": 9}, "severity must be 1, 2 or 3, got 9"),
+        ({"x": 1, "y": 1, "severity": True}, "severity must be 1, 2 or 3, got True"),
+        ({"x": "1", "y": 1}, "x (photo pixels): '1' is not a number"),
+        ({"x": 1, "y": 1, "note": 5}, "note must be a string, got 5"),
+    ],
+)
 def test_a_bad_suggested_marker_is_named(outdir, tmp_path, capsys, marker, problem):
     """A severity "high" was an internal error; 9 was imported, which the page cannot show."""
     suspects = _suspects(outdir, tmp_path, [{"x": 2, "y": 2}, marker])
@@ -253,11 +282,12 @@ def test_a_bad_suggested_marker_is_named(outdir, tmp_path, capsys, marker, probl
 
 def test_the_suggestions_count_is_what_was_imported(outdir, tmp_path, capsys, monkeypatch):
     """Every start printed the file's count, also when nothing was new; the same file twice counted twice."""
-    monkeypatch.setattr(uvicorn.Server, "run", lambda self, sockets=None: None)   # start, print, stop
+    monkeypatch.setattr(uvicorn.Server, "run", lambda self, sockets=None: None)  # start, print, stop
     suspects = _suspects(outdir, tmp_path, [{"x": 20, "y": 20, "part": "floor"}, {"x": 40, "y": 30}])
     for expected in ("2 new marker(s) on 1 shot(s)", "0 new marker(s) on 0 shot(s)"):
-        code, out, err = _review(capsys, outdir, "--port", _free_port(), "--suggestions", suspects,
-                                 "--suggestions", suspects)
+        code, out, err = _review(
+            capsys, outdir, "--port", _free_port(), "--suggestions", suspects, "--suggestions", suspects
+        )
         assert code == 0 and f"suggestions: {expected} " in out, out + err
 
 
@@ -268,15 +298,19 @@ def test_a_shots_folder_skips_what_is_not_a_shot(outdir, tmp_path, capsys):
 
     shots = _shots_folder(outdir, tmp_path / "shots")
     (shots / "Halle_Süd.json").write_text((shots / "a.json").read_text())
-    (shots / "canon.json").write_text(json.dumps({"width": 64, "height": 48, "K": [[50, 0, 32], [0, 50, 24], [0, 0, 1]]}))
+    (shots / "canon.json").write_text(
+        json.dumps({"width": 64, "height": 48, "K": [[50, 0, 32], [0, 50, 24], [0, 0, 1]]})
+    )
     (shots / "corners.json").write_text(json.dumps({"points": [{"pixel": [1, 2], "world": [0, 0, 0]}]}))
     (shots / "broken.json").write_text('{"width": 64,')
-    with console():   # warnings as the command shows them: lines on stderr
+    with console():  # warnings as the command shows them: lines on stderr
         source = open_source(sample_scene_path(), shots)
     out, err = capsys.readouterr()
     assert sorted(source.shots) == ["Halle_S_d", "a"] and out == ""
-    assert err.count("\n") == 3 and all(f"warning: {shots / name}: " in err for name in ("canon.json", "corners.json", "broken.json"))
-    assert f"warning: {shots / 'canon.json'}: shot JSON has no \"photo\" path (skipped: not a usable shot)\n" in err
+    assert err.count("\n") == 3 and all(
+        f"warning: {shots / name}: " in err for name in ("canon.json", "corners.json", "broken.json")
+    )
+    assert f'warning: {shots / "canon.json"}: shot JSON has no "photo" path (skipped: not a usable shot)\n' in err
 
 
 def test_an_export_says_which_shots_it_cannot_review(outdir, capsys):
@@ -298,14 +332,18 @@ def test_an_export_says_which_shots_it_cannot_review(outdir, capsys):
     manifest["shots"] = [{**e, "status": "failed"} for e in manifest["shots"]]
     (outdir / "manifest.json").write_text(json.dumps(manifest))
     code, out, err = _review(capsys, outdir, "--port", _free_port())
-    assert code == 1 and err == (f"error: {outdir}: no usable shots to review: every shot (2) failed in the export; "
-                                 "its report.html says why\n"), err
+    assert code == 1 and err == (
+        f"error: {outdir}: no usable shots to review: every shot (2) failed in the export; its report.html says why\n"
+    ), err
 
 
 def test_an_empty_shots_folder_is_named(tmp_path, capsys):
     (tmp_path / "empty").mkdir()
     code, out, err = _review(capsys, sample_scene_path(), "--shots", tmp_path / "empty", "--port", _free_port())
-    assert code == 1 and err == f"error: {tmp_path / 'empty'}: no usable shots to review: it has no SHOT.json files (*.json)\n"
+    assert (
+        code == 1
+        and err == f"error: {tmp_path / 'empty'}: no usable shots to review: it has no SHOT.json files (*.json)\n"
+    )
 
 
 def test_a_corrupt_shot_json_is_said_once(tmp_path, capsys):
@@ -315,8 +353,10 @@ def test_a_corrupt_shot_json_is_said_once(tmp_path, capsys):
     (tmp_path / "a.json").write_text('{"photo": "a\nb.png"}')
     with pytest.raises(MrcheckError) as info, console():
         open_source(sample_scene_path(), tmp_path)
-    assert f"warning: {tmp_path / 'a.json'}: malformed shot JSON: Invalid control character at line 1 (skipped" \
+    assert (
+        f"warning: {tmp_path / 'a.json'}: malformed shot JSON: Invalid control character at line 1 (skipped"
         in capsys.readouterr().err
+    )
     assert "at at" not in str(info.value)
 
 
@@ -330,7 +370,10 @@ def test_another_programs_database_is_refused(outdir, tmp_path, capsys):
     db.close()
     before = other.read_bytes()
     code, out, err = _review(capsys, outdir, "--port", _free_port(), "--db", other)
-    assert code == 1 and err == f"error: {other}: not a review database (it has the table(s) foo): give a new file with --db\n"
+    assert (
+        code == 1
+        and err == f"error: {other}: not a review database (it has the table(s) foo): give a new file with --db\n"
+    )
     assert other.read_bytes() == before and "open http" not in out
 
 
@@ -342,17 +385,20 @@ def test_an_empty_db_is_refused(outdir, capsys):
 
 
 def test_a_database_with_other_reviews_says_so(outdir, tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr(uvicorn.Server, "run", lambda self, sockets=None: None)   # start, print, stop
+    monkeypatch.setattr(uvicorn.Server, "run", lambda self, sockets=None: None)  # start, print, stop
     db = tmp_path / "team.sqlite"
     shots = _shots_folder(outdir, tmp_path / "shots")
     assert _review(capsys, outdir, "--port", _free_port(), "--db", db)[0] == 0
     code, out, err = _review(capsys, sample_scene_path(), "--shots", shots, "--port", _free_port(), "--db", db)
-    assert code == 0 and f"review database {db}: a new review of {shots}; its other review(s), kept apart: {outdir}\n" in out, out
+    assert (
+        code == 0
+        and f"review database {db}: a new review of {shots}; its other review(s), kept apart: {outdir}\n" in out
+    ), out
 
 
 def test_the_url_for_every_interface_names_the_machine(outdir, capsys, monkeypatch):
     """--host 0.0.0.0 printed http://0.0.0.0:PORT/, which cannot be sent to a colleague."""
-    monkeypatch.setattr(uvicorn.Server, "run", lambda self, sockets=None: None)   # start, print, stop
+    monkeypatch.setattr(uvicorn.Server, "run", lambda self, sockets=None: None)  # start, print, stop
     port = _free_port()
     code, out, err = _review(capsys, outdir, "--host", "0.0.0.0", "--port", port)
     assert code == 0 and f"open http://{socket.gethostname()}:{port}/?token=" in out, out

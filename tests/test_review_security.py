@@ -27,7 +27,7 @@ from mrcheck.cli import main  # noqa: E402
 
 from .test_review import _box_review, _free_port  # noqa: E402
 
-CSV = "/api/export/markers.csv"   # what a rebinding page would read: every marker and its note
+CSV = "/api/export/markers.csv"  # what a rebinding page would read: every marker and its note
 MARKER = {"shot": "a", "x": 10.0, "y": 10.0, "category": "other", "severity": 1}
 
 
@@ -45,13 +45,37 @@ def _client(box, tmp_path, host="127.0.0.1", **options):
 
 # -- the Host header ------------------------------------------------------------------------------
 ANSWERS = {  # bound address: (Host headers it answers, Host headers it refuses)
-    "127.0.0.1": (["127.0.0.1", "127.0.0.1:8765", "localhost", "LocalHost:8765", "localhost.", "[::1]", "[::1]:8765",
-                   "[0:0::1]:8765", "127.0.0.1:9000"],   # another port: an SSH tunnel (ssh -L 9000:localhost:8765)
-                  ["attacker.example", "attacker.example:8765", "127.0.0.1.attacker.example", "localhost.attacker.example",
-                   "127.0.0.2", "10.0.0.5", "[::2]:8765", "", "::1", "[::1", "localhost:8765:1"]),
+    "127.0.0.1": (
+        [
+            "127.0.0.1",
+            "127.0.0.1:8765",
+            "localhost",
+            "LocalHost:8765",
+            "localhost.",
+            "[::1]",
+            "[::1]:8765",
+            "[0:0::1]:8765",
+            "127.0.0.1:9000",
+        ],  # another port: an SSH tunnel (ssh -L 9000:localhost:8765)
+        [
+            "attacker.example",
+            "attacker.example:8765",
+            "127.0.0.1.attacker.example",
+            "localhost.attacker.example",
+            "127.0.0.2",
+            "10.0.0.5",
+            "[::2]:8765",
+            "",
+            "::1",
+            "[::1",
+            "localhost:8765:1",
+        ],
+    ),
     "::1": (["[::1]:8765", "localhost", "127.0.0.1:8765"], ["attacker.example", "[::2]"]),
-    "0.0.0.0": ([socket.gethostname(), f"{socket.gethostname()}:8765", "10.1.2.3:8765", "[fe80::1]", "localhost"],
-                ["attacker.example", "10.1.2.3.nip.io", "fe80::1"]),
+    "0.0.0.0": (
+        [socket.gethostname(), f"{socket.gethostname()}:8765", "10.1.2.3:8765", "[fe80::1]", "localhost"],
+        ["attacker.example", "10.1.2.3.nip.io", "fe80::1"],
+    ),
 }
 
 
@@ -79,7 +103,9 @@ def test_a_foreign_host_is_refused_before_the_token_is_looked_at(box, tmp_path):
 def test_loopback_means_a_loopback_address_not_a_name_starting_with_127():
     # a name such as 127.attacker.example was taken for loopback: served without a token
     assert all(map(is_loopback, ["127.0.0.1", "127.3.4.5", "::1", "[::1]", "localhost", "LOCALHOST."]))
-    assert not any(map(is_loopback, ["127.attacker.example", "localhost.attacker.example", "0.0.0.0", "::", "10.0.0.1"]))
+    assert not any(
+        map(is_loopback, ["127.attacker.example", "localhost.attacker.example", "0.0.0.0", "::", "10.0.0.1"])
+    )
 
 
 # -- the body's size ------------------------------------------------------------------------------
@@ -87,13 +113,15 @@ def test_a_declared_body_over_the_limit_is_refused_before_any_route_runs(box, tm
     with _client(box, tmp_path) as client:
         r = client.post("/api/markers", content=b"x" * (MAX_BODY + 1), headers={"Content-Type": "application/json"})
         assert r.status_code == 413, r.text
-        assert r.json() == {"error": f"request body too large: {MAX_BODY + 1} bytes, over the limit of 1 MiB (--max-body)"}
+        assert r.json() == {
+            "error": f"request body too large: {MAX_BODY + 1} bytes, over the limit of 1 MiB (--max-body)"
+        }
         assert client.request("GET", "/api/info", content=b"x" * (MAX_BODY + 1)).status_code == 413
         assert client.get("/api/markers").json() == []
 
 
 def test_a_chunked_body_is_refused_once_past_the_limit(box, tmp_path):
-    def chunks():   # no Content-Length: httpx sends a generator chunked
+    def chunks():  # no Content-Length: httpx sends a generator chunked
         yield b'{"note": "'
         for _ in range(80):
             yield b"x" * 1024
@@ -107,17 +135,23 @@ def test_a_chunked_body_is_refused_once_past_the_limit(box, tmp_path):
 def test_the_smallest_limit_takes_the_largest_marker(box, tmp_path):
     """2000 characters outside the BMP, each escaped as two \\uXXXX (12 bytes): the largest body
     a marker can have is within MIN_MAX_BODY."""
-    body = json.dumps({**MARKER, "note": "\U0001F600" * 2000}).encode()
+    body = json.dumps({**MARKER, "note": "\U0001f600" * 2000}).encode()
     assert len(body) > 24000
     with _client(box, tmp_path, max_body=MIN_MAX_BODY) as client:
         r = client.post("/api/markers", content=body, headers={"Content-Type": "application/json"})
         assert r.status_code == 201, r.text
-        assert client.get("/api/markers").json()[0]["note"] == "\U0001F600" * 2000
+        assert client.get("/api/markers").json()[0]["note"] == "\U0001f600" * 2000
 
 
 def test_sizes():
-    assert [parse_size(s) for s in ("1MiB", "64KiB", "2M", "1 mib", "1048576", "1g")] == \
-        [1 << 20, 64 << 10, 2 << 20, 1 << 20, 1048576, 1 << 30]
+    assert [parse_size(s) for s in ("1MiB", "64KiB", "2M", "1 mib", "1048576", "1g")] == [
+        1 << 20,
+        64 << 10,
+        2 << 20,
+        1 << 20,
+        1048576,
+        1 << 30,
+    ]
     for bad in ("lots", "1.5MiB", "-1", "1TiB", ""):
         with pytest.raises(ValueError):
             parse_size(bad)
@@ -138,10 +172,26 @@ def server(tmp_path):
     folder = tmp_path / "box"
     _box_review(folder, (0.0, 0.0, 0.0))
     port = _free_port()
-    proc = subprocess.Popen([sys.executable, "-m", "mrcheck.cli", "review", str(folder / "box.stl"), "--shots",
-                             str(folder / "shots"), "--port", str(port), "--db", str(tmp_path / "r.sqlite"),
-                             "--max-body", "64KiB"], env=dict(os.environ, PYTHONUNBUFFERED="1"),
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "mrcheck.cli",
+            "review",
+            str(folder / "box.stl"),
+            "--shots",
+            str(folder / "shots"),
+            "--port",
+            str(port),
+            "--db",
+            str(tmp_path / "r.sqlite"),
+            "--max-body",
+            "64KiB",
+        ],
+        env=dict(os.environ, PYTHONUNBUFFERED="1"),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+    )
     try:
         deadline = time.monotonic() + 60
         while True:
@@ -167,8 +217,9 @@ def _exchange(port, head: str, body=(), timeout=10.0):
         answer = http.client.HTTPResponse(sock)
         answer.begin()
         text = answer.read().decode()
-        return answer.status, json.loads(text) if answer.getheader("content-type", "").startswith("application/json") \
-            else text
+        return answer.status, json.loads(text) if answer.getheader("content-type", "").startswith(
+            "application/json"
+        ) else text
 
 
 def test_the_real_server_answers_only_its_own_names(server):
@@ -176,7 +227,7 @@ def test_the_real_server_answers_only_its_own_names(server):
     status, error = _exchange(port, f"GET {CSV} HTTP/1.1\r\nHost: attacker.example")
     assert status == 403 and "attacker.example" in error["error"]
     assert _exchange(port, f"GET {CSV} HTTP/1.1\r\nHost: localhost:{port}")[0] == 200
-    status, error = _exchange(port, f"GET {CSV} HTTP/1.0")   # HTTP/1.0 needs no Host; a browser always sends one
+    status, error = _exchange(port, f"GET {CSV} HTTP/1.0")  # HTTP/1.0 needs no Host; a browser always sends one
     assert status == 403 and error["error"].startswith("no Host header")
 
 
@@ -184,8 +235,12 @@ def test_the_real_server_refuses_a_huge_declared_body_without_reading_it(server)
     port, _ = server
     start = time.perf_counter()
     # a 1 GiB note announced, not one byte of it sent: a server that reads it first times out here
-    status, error = _exchange(port, f"POST /api/markers HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n"
-                                    f"Content-Type: application/json\r\nContent-Length: {1 << 30}", timeout=5)
+    status, error = _exchange(
+        port,
+        f"POST /api/markers HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n"
+        f"Content-Type: application/json\r\nContent-Length: {1 << 30}",
+        timeout=5,
+    )
     assert status == 413 and "1073741824 bytes, over the limit of 64 KiB" in error["error"]
     assert time.perf_counter() - start < 5
 
@@ -195,8 +250,13 @@ def test_the_real_server_stops_reading_a_chunked_body_at_the_limit(server):
     # 64 KiB + 1 byte in chunks and no last chunk: a server that waits for the end times out here
     data = [b'{"note": "', b"x" * (MIN_MAX_BODY - 10), b"x"]
     chunks = [b"%x\r\n%s\r\n" % (len(d), d) for d in data]
-    status, error = _exchange(port, f"POST /api/markers HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n"
-                                    "Content-Type: application/json\r\nTransfer-Encoding: chunked", chunks, timeout=5)
+    status, error = _exchange(
+        port,
+        f"POST /api/markers HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n"
+        "Content-Type: application/json\r\nTransfer-Encoding: chunked",
+        chunks,
+        timeout=5,
+    )
     assert status == 413 and error == {"error": "request body too large: over the limit of 64 KiB (--max-body)"}
     assert _exchange(port, f"GET /api/markers HTTP/1.1\r\nHost: 127.0.0.1:{port}") == (200, [])
     assert proc.poll() is None

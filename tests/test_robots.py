@@ -32,8 +32,10 @@ BASE_TOLERANCE = 0.005  # m: the UR base mesh reaches 3 mm below its origin
 
 def _part(name, mesh, joints, translate=(0.0, 0.0, 0.0)) -> str:
     table = ", ".join(f"{k} = {v!r}" for k, v in joints.items())
-    return (f'\n[[parts]]\nname = "{name}"\nmesh = "{mesh}"\nunits = "m"\n'
-            f"translate = [{translate[0]}, {translate[1]}, {translate[2]}]\njoints = {{ {table} }}\n")
+    return (
+        f'\n[[parts]]\nname = "{name}"\nmesh = "{mesh}"\nunits = "m"\n'
+        f"translate = [{translate[0]}, {translate[1]}, {translate[2]}]\njoints = {{ {table} }}\n"
+    )
 
 
 @pytest.fixture(scope="module")
@@ -86,22 +88,30 @@ def test_sampled_poses_are_seeded_within_limits_and_above_the_base(copies, name)
         assert np.linalg.norm(vertices, axis=1).max() < MAX_DISTANCE[name]
 
 
-@pytest.mark.parametrize("value, message", [
-    ("50.0", "joint 'lbr_iiwa_joint_2' = 50 is outside its limits -2.094 .. 2.094 rad in robot.urdf"),
-    ("90", "= 90 is outside its limits -2.094 .. 2.094 rad in robot.urdf; degrees? joint values are radians "
-           "(90 deg = 1.571 rad)"),
-    ("-2.1", "= -2.1 is outside its limits"),
-    ("nan", "joint 'lbr_iiwa_joint_2' must be a finite number"),
-    ("inf", "must be a finite number"),
-    ("true", "must be a finite number (radians, or metres for a prismatic joint), got True"),
-    ('"a"', "must be a finite number (radians, or metres for a prismatic joint), got 'a'"),
-    ("[1.0]", "must be a finite number"),
-])
+@pytest.mark.parametrize(
+    "value, message",
+    [
+        ("50.0", "joint 'lbr_iiwa_joint_2' = 50 is outside its limits -2.094 .. 2.094 rad in robot.urdf"),
+        (
+            "90",
+            "= 90 is outside its limits -2.094 .. 2.094 rad in robot.urdf; degrees? joint values are radians "
+            "(90 deg = 1.571 rad)",
+        ),
+        ("-2.1", "= -2.1 is outside its limits"),
+        ("nan", "joint 'lbr_iiwa_joint_2' must be a finite number"),
+        ("inf", "must be a finite number"),
+        ("true", "must be a finite number (radians, or metres for a prismatic joint), got True"),
+        ('"a"', "must be a finite number (radians, or metres for a prismatic joint), got 'a'"),
+        ("[1.0]", "must be a finite number"),
+    ],
+)
 def test_bad_joint_values_are_errors_of_the_manifest(copies, value, message):
     folder, urdfs = copies
     manifest = folder / "bad_joint.toml"
     mesh = urdfs["kuka_iiwa"].relative_to(folder).as_posix()
-    manifest.write_text("format = 1\n" + _part("arm", mesh, {}).replace("joints = {  }", f"joints = {{ lbr_iiwa_joint_2 = {value} }}"))
+    manifest.write_text(
+        "format = 1\n" + _part("arm", mesh, {}).replace("joints = {  }", f"joints = {{ lbr_iiwa_joint_2 = {value} }}")
+    )
     with pytest.raises(MrcheckError) as err:
         load_scene(manifest)
     assert str(err.value).startswith(f"{manifest}: part 'arm': ") and message in str(err.value), str(err.value)
@@ -113,8 +123,12 @@ def test_joint_values_at_their_limits_and_unknown_joints(copies):
     lo, hi = robots.joint_limits("kuka_iiwa")["lbr_iiwa_joint_2"]
     assert _load_posed(copies, "kuka_iiwa", {"lbr_iiwa_joint_2": round(hi, 6), "lbr_iiwa_joint_4": round(lo, 6)}).parts
     manifest = folder / "bad_joint.toml"
-    manifest.write_text("format = 1\n" + _part("arm", urdfs["kuka_iiwa"].relative_to(folder).as_posix(), {"elbow": 0.5}))
-    with pytest.raises(MrcheckError, match=r"part 'arm': unknown joint\(s\) elbow \(the robot robot.urdf has: lbr_iiwa_joint_1,"):
+    manifest.write_text(
+        "format = 1\n" + _part("arm", urdfs["kuka_iiwa"].relative_to(folder).as_posix(), {"elbow": 0.5})
+    )
+    with pytest.raises(
+        MrcheckError, match=r"part 'arm': unknown joint\(s\) elbow \(the robot robot.urdf has: lbr_iiwa_joint_1,"
+    ):
         load_scene(manifest)
 
 
@@ -152,9 +166,17 @@ def test_joint_limits_come_from_the_urdf():
     assert robots.joint_limits("ur5")["elbow_joint"] == pytest.approx((-math.pi, math.pi))
 
 
-@pytest.mark.parametrize("call", [robots.robot_dir, robots.joint_limits, robots.base_footprint,
-                                  lambda n: robots.sample_joints(n, np.random.default_rng(0)),
-                                  lambda n: robots.copy_robot(n, "/nonexistent"), robots.robot_mesh])
+@pytest.mark.parametrize(
+    "call",
+    [
+        robots.robot_dir,
+        robots.joint_limits,
+        robots.base_footprint,
+        lambda n: robots.sample_joints(n, np.random.default_rng(0)),
+        lambda n: robots.copy_robot(n, "/nonexistent"),
+        robots.robot_mesh,
+    ],
+)
 def test_unknown_robot_names_list_the_known_ones(call):
     with pytest.raises(MrcheckError) as caught:
         call("kuka_kr16")
@@ -164,8 +186,12 @@ def test_unknown_robot_names_list_the_known_ones(call):
 def test_the_four_robots_render_side_by_side(ctx, copies):
     """Smoke test: a floor and the four robots in a row, upright, seen level from the front."""
     folder, urdfs = copies
-    upright = {"kuka_iiwa": {}, "ur5": {"shoulder_lift_joint": -math.pi / 2},
-               "ur10": {"shoulder_lift_joint": -math.pi / 2}, "abb_irb140": {}}
+    upright = {
+        "kuka_iiwa": {},
+        "ur5": {"shoulder_lift_joint": -math.pi / 2},
+        "ur10": {"shoulder_lift_joint": -math.pi / 2},
+        "abb_irb140": {},
+    }
     xs = [-2.4, -0.8, 0.8, 2.4]
     floor = trimesh.creation.box((7.0, 3.0, 0.1), trimesh.transformations.translation_matrix((0, 0, -0.05)))
     floor.export(folder / "floor.stl")
@@ -183,7 +209,7 @@ def test_the_four_robots_render_side_by_side(ctx, copies):
     assert depth.shape == (120, 160)
     for x, name in zip(xs, robots.ROBOT_NAMES):
         u, v = camera.project(np.array([[x, 0.0, 0.6]]))[0]
-        window = depth[int(v) - 8:int(camera.cy) - 1, int(u) - 6:int(u) + 7]  # above the horizon
+        window = depth[int(v) - 8 : int(camera.cy) - 1, int(u) - 6 : int(u) + 7]  # above the horizon
         assert (window > 0).sum() >= 10, name
-    assert (depth[int(camera.cy) + 2:] > 0).mean() > 0.1  # the floor in front
+    assert (depth[int(camera.cy) + 2 :] > 0).mean() > 0.1  # the floor in front
     assert not depth[:5].any()  # sky above the robots

@@ -25,7 +25,7 @@ from mrcheck.scene.scans import read_scan
 from .conftest import box, scene_of
 
 DATA = Path(__file__).parent / "data" / "scans" / "formats"
-MAP = np.array([458658.78, 5438232.79, 113.7])   # UTM-like survey coordinates (issue 19)
+MAP = np.array([458658.78, 5438232.79, 113.7])  # UTM-like survey coordinates (issue 19)
 
 
 def _rotation_z(deg: float) -> np.ndarray:
@@ -63,14 +63,14 @@ def test_e57_scaled_integers_read_as_float64_metres():
 
 def test_e57_with_16_bit_colours_and_fields_pye57_refuses():
     path = DATA / "ColourRepresentation.e57"
-    with pytest.raises(ValueError, match="Unsupported point fields"):   # what pye57 alone does
+    with pytest.raises(ValueError, match="Unsupported point fields"):  # what pye57 alone does
         pye57.E57(str(path)).read_scan_raw(0)
     with pytest.warns(Warning, match=r"skipped per-point fields.*las:pointSourceId.*returnCount.*returnIndex"):
         cloud = read_scan(path)
     assert len(cloud) == 153
     np.testing.assert_allclose(cloud.points.min(axis=0), -0.5, atol=1e-3)
     np.testing.assert_allclose(cloud.points.max(axis=0), 0.5, atol=1e-3)
-    assert cloud.colours.dtype == np.uint16 and cloud.colours.max() == 65280   # not clipped to 8 bits
+    assert cloud.colours.dtype == np.uint16 and cloud.colours.max() == 65280  # not clipped to 8 bits
     assert len(np.unique(cloud.colours, axis=0)) > 2
     assert set(cloud.skipped_fields) == {"las:pointSourceId", "returnCount", "returnIndex"}
 
@@ -78,28 +78,33 @@ def test_e57_with_16_bit_colours_and_fields_pye57_refuses():
 def test_e57_every_scan_with_its_pose_at_map_coordinates(tmp_path):
     rng = np.random.default_rng(1)
     a, b = rng.uniform(-5, 5, (700, 3)), rng.uniform(-5, 5, (300, 3))
-    half = np.radians(60) / 2   # 60 degrees about z as a unit quaternion
+    half = np.radians(60) / 2  # 60 degrees about z as a unit quaternion
     q = np.array([np.cos(half), 0.0, 0.0, np.sin(half)])
     _write_e57(tmp_path / "two.e57", [(a, None, None, {}), (b, q, MAP, {})])
     cloud = read_scan(tmp_path / "two.e57")
     assert [(s.name, s.start, s.count) for s in cloud.scans] == [("station 0", 0, 700), ("station 1", 700, 300)]
     np.testing.assert_allclose(cloud.points[:700], a, atol=1e-9)
     want = b @ _rotation_z(60).T + MAP
-    assert np.abs(cloud.points[700:] - want).max() < 1e-6      # float64: micrometres at 5e6 m
+    assert np.abs(cloud.points[700:] - want).max() < 1e-6  # float64: micrometres at 5e6 m
     np.testing.assert_allclose(cloud.scans[1].pose[:3, 3], MAP)
     # pye57's own reader, whole scans at once, agrees
     theirs = pye57.E57(str(tmp_path / "two.e57")).read_scan(1, ignore_missing_fields=True)
-    np.testing.assert_allclose(np.stack([theirs[k] for k in ("cartesianX", "cartesianY", "cartesianZ")], 1),
-                               cloud.points[700:], atol=1e-6)
+    np.testing.assert_allclose(
+        np.stack([theirs[k] for k in ("cartesianX", "cartesianY", "cartesianZ")], 1), cloud.points[700:], atol=1e-6
+    )
 
 
 def test_e57_intensity_and_8_bit_colours_and_invalid_points(tmp_path):
     points = np.random.default_rng(2).uniform(0, 1, (50, 3))
     invalid = np.zeros(50, np.int8)
     invalid[[3, 7]] = 2
-    extra = {"intensity": np.linspace(0.0, 4.0, 50), "colorRed": np.full(50, 255, np.uint8),
-             "colorGreen": np.arange(50, dtype=np.uint8), "colorBlue": np.zeros(50, np.uint8),
-             "cartesianInvalidState": invalid}
+    extra = {
+        "intensity": np.linspace(0.0, 4.0, 50),
+        "colorRed": np.full(50, 255, np.uint8),
+        "colorGreen": np.arange(50, dtype=np.uint8),
+        "colorBlue": np.zeros(50, np.uint8),
+        "cartesianInvalidState": invalid,
+    }
     _write_e57(tmp_path / "c.e57", [(points, None, None, extra)])
     cloud = read_scan(tmp_path / "c.e57")
     keep = invalid == 0
@@ -115,7 +120,7 @@ def test_las_and_laz_give_the_same_points_and_16_bit_colours():
     assert len(las) == len(laz) == 1065
     np.testing.assert_array_equal(las.points, laz.points)
     raw = laspy.read(str(DATA / "simple.las"))
-    np.testing.assert_array_equal(las.points[:, 0], raw.X * 0.01)      # scale 0.01, offset 0
+    np.testing.assert_array_equal(las.points[:, 0], raw.X * 0.01)  # scale 0.01, offset 0
     # simple.las stores 8-bit colours in the 16-bit fields: read as 16-bit
     np.testing.assert_array_equal(las.colours[:, 0], np.asarray(raw.red) * 257)
     assert las.crs is None and las.units is None
@@ -132,11 +137,11 @@ def test_georeferenced_laz_reports_its_crs_and_feet():
 
 
 def test_las_at_map_coordinates_keeps_millimetres(tmp_path):
-    grid = np.random.default_rng(3).integers(-50_000, 50_000, (2000, 3)) / 1000.0   # a 1 mm grid
+    grid = np.random.default_rng(3).integers(-50_000, 50_000, (2000, 3)) / 1000.0  # a 1 mm grid
     _write_las(tmp_path / "map.laz", grid + MAP, scale=0.001, offset=MAP.round())
     cloud = read_scan(tmp_path / "map.laz")
     assert np.abs(cloud.points - (grid + MAP)).max() < 1e-6
-    assert np.abs(cloud.points.astype(np.float32) - (grid + MAP)).max() > 0.1   # what float32 would do
+    assert np.abs(cloud.points.astype(np.float32) - (grid + MAP)).max() > 0.1  # what float32 would do
 
 
 def test_chunked_reads_match_one_read_and_show_progress(monkeypatch):
@@ -178,10 +183,20 @@ def test_deviation_command_reads_a_laz_and_reports_the_crs(tmp_path, capsys):
     # a block under the airborne scan, placed at its (feet -> metres) map coordinates by the manifest
     centre = read_scan(DATA / "autzen_trim.laz").points.mean(axis=0)
     trimesh.creation.box(extents=(400, 200, 60)).export(tmp_path / "block.stl")
-    (tmp_path / "scene.toml").write_text('format = 1\n[[parts]]\nname = "block"\nmesh = "block.stl"\n'
-                                         f'units = "m"\ntranslate = {list(map(float, centre))}\n')
-    code = main(["deviation", str(DATA / "autzen_trim.laz"), "--scene", str(tmp_path / "scene.toml"),
-                 "-o", str(tmp_path / "out")])
+    (tmp_path / "scene.toml").write_text(
+        'format = 1\n[[parts]]\nname = "block"\nmesh = "block.stl"\n'
+        f'units = "m"\ntranslate = {list(map(float, centre))}\n'
+    )
+    code = main(
+        [
+            "deviation",
+            str(DATA / "autzen_trim.laz"),
+            "--scene",
+            str(tmp_path / "scene.toml"),
+            "-o",
+            str(tmp_path / "out"),
+        ]
+    )
     out, err = capsys.readouterr()
     assert code == 0, err
     report = json.loads((tmp_path / "out" / "parts.json").read_text())
@@ -199,26 +214,32 @@ def _bad(tmp_path: Path, kind: str) -> Path:
         return tmp_path / "none.las"
     if kind == "truncated laz":
         data = (DATA / "autzen_trim.laz").read_bytes()
-        (tmp_path / "cut.laz").write_bytes(data[:len(data) // 2])
+        (tmp_path / "cut.laz").write_bytes(data[: len(data) // 2])
         return tmp_path / "cut.laz"
     if kind == "truncated e57":
         data = (DATA / "bunnyInt32.e57").read_bytes()
-        (tmp_path / "cut.e57").write_bytes(data[:len(data) // 2])
+        (tmp_path / "cut.e57").write_bytes(data[: len(data) // 2])
         return tmp_path / "cut.e57"
-    source, name = {"las named .e57": ("simple.las", "scan.e57"), "e57 named .laz": ("bunnyInt32.e57", "scan.laz"),
-                    "e57 named .xyz": ("bunnyInt32.e57", "scan.xyz"), "las named .ply": ("simple.las", "scan.ply")}[kind]
+    source, name = {
+        "las named .e57": ("simple.las", "scan.e57"),
+        "e57 named .laz": ("bunnyInt32.e57", "scan.laz"),
+        "e57 named .xyz": ("bunnyInt32.e57", "scan.xyz"),
+        "las named .ply": ("simple.las", "scan.ply"),
+    }[kind]
     shutil.copy(DATA / source, tmp_path / name)
     return tmp_path / name
 
 
-BAD = [("e57 without points", "scan has no points"),
-       ("las without points", "scan has no points"),
-       ("truncated laz", "truncated or corrupt LAS/LAZ: cannot read past point"),
-       ("truncated e57", "cannot read scan"),
-       ("las named .e57", "the file's content is LAS/LAZ, not E57 as its .e57 suffix says (rename it to .las or .laz)"),
-       ("e57 named .laz", "the file's content is E57, not LAS/LAZ as its .laz suffix says (rename it to .e57)"),
-       ("e57 named .xyz", "the file's content is E57, not text"),
-       ("las named .ply", "the file's content is LAS/LAZ, not PLY")]
+BAD = [
+    ("e57 without points", "scan has no points"),
+    ("las without points", "scan has no points"),
+    ("truncated laz", "truncated or corrupt LAS/LAZ: cannot read past point"),
+    ("truncated e57", "cannot read scan"),
+    ("las named .e57", "the file's content is LAS/LAZ, not E57 as its .e57 suffix says (rename it to .las or .laz)"),
+    ("e57 named .laz", "the file's content is E57, not LAS/LAZ as its .laz suffix says (rename it to .e57)"),
+    ("e57 named .xyz", "the file's content is E57, not text"),
+    ("las named .ply", "the file's content is LAS/LAZ, not PLY"),
+]
 
 
 @pytest.mark.parametrize("kind, message", BAD, ids=[k for k, _ in BAD])
@@ -238,7 +259,7 @@ def test_laz_without_a_laz_backend(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(laspy.LazBackend, "detect_available", staticmethod(lambda: ()))
     with pytest.raises(MrcheckError, match="LAZ-compressed but no LAZ backend is installed"):
         read_scan(DATA / "simple.laz")
-    assert len(read_scan(DATA / "simple.las")) == 1065    # an uncompressed LAS needs none
+    assert len(read_scan(DATA / "simple.las")) == 1065  # an uncompressed LAS needs none
 
 
 # -- the bench's scan figures ----------------------------------------------------------------------
@@ -250,5 +271,5 @@ def test_bench_scan_figures_read_what_they_wrote(tmp_path):
     for f in figures:
         assert f.runs_s[0] > 0 and f.points_per_s == 60_000 / f.runs_s[0]
         assert f.result_mb == pytest.approx(60_000 * 34 / 2**20) and f.peak_rss_mb[0] > f.result_mb
-    assert not list(tmp_path.iterdir())                 # the synthetic scans are not kept
+    assert not list(tmp_path.iterdir())  # the synthetic scans are not kept
     assert "M points/s" in scan_figures_text(figures)[0]

@@ -40,20 +40,25 @@ def test_float32_big_endian_with_extra_properties(tmp_path):
     rows = np.zeros(100, dtype=[("intensity", ">u2"), ("x", ">f4"), ("y", ">f4"), ("z", ">f4"), ("red", "u1")])
     for name in "xyz":
         rows[name] = rng.uniform(-10, 10, 100)
-    header = ("ply\r\nformat binary_big_endian 1.0\r\ncomment made by hand\r\nelement vertex 100\r\n"
-              "property ushort intensity\r\nproperty float x\r\nproperty float y\r\nproperty float z\r\n"
-              "property uchar red\r\nelement face 0\r\nproperty list uchar int vertex_indices\r\nend_header\r\n")
+    header = (
+        "ply\r\nformat binary_big_endian 1.0\r\ncomment made by hand\r\nelement vertex 100\r\n"
+        "property ushort intensity\r\nproperty float x\r\nproperty float y\r\nproperty float z\r\n"
+        "property uchar red\r\nelement face 0\r\nproperty list uchar int vertex_indices\r\nend_header\r\n"
+    )
     points = read_binary_ply(_write(tmp_path / "scan.ply", header, rows.tobytes()))
     expected = np.column_stack([rows[n].astype(np.float64) for n in "xyz"])
     assert np.array_equal(points, expected)
 
 
-@pytest.mark.parametrize("header", [
-    "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n",
-    "ply\nformat binary_little_endian 1.0\nelement face 0\nproperty list uchar int vertex_indices\n"
-    "element vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n",
-    "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n",
-])
+@pytest.mark.parametrize(
+    "header",
+    [
+        "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n",
+        "ply\nformat binary_little_endian 1.0\nelement face 0\nproperty list uchar int vertex_indices\n"
+        "element vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n",
+        "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n",
+    ],
+)
 def test_other_cases_left_to_open3d(tmp_path, header):
     assert read_binary_ply(_write(tmp_path / "scan.ply", header, b"\0" * 12)) is None
 
@@ -62,7 +67,7 @@ def test_truncated_is_an_error(tmp_path):
     path = tmp_path / "scan.ply"
     assert o3d.io.write_point_cloud(str(path), _cloud(colours=False))
     data = path.read_bytes()
-    path.write_bytes(data[:len(data) // 2])
+    path.write_bytes(data[: len(data) // 2])
     with pytest.raises(MrcheckError, match="corrupt or truncated"):
         read_binary_ply(path)
     with pytest.raises(MrcheckError, match="corrupt or truncated"):

@@ -25,10 +25,13 @@ def test_every_mesh_format_loads_to_the_same_geometry(tmp_path, suffix):
 @pytest.mark.parametrize("unit", sorted(UNITS))
 def test_a_part_in_any_unit_lands_at_the_right_place_and_size_in_metres(tmp_path, unit):
     size = 1.0 / UNITS[unit]  # one metre, in that unit
-    trimesh.creation.box((size, size, size), trimesh.transformations.translation_matrix((size, 0, 0))).export(tmp_path / "box.stl")
+    trimesh.creation.box((size, size, size), trimesh.transformations.translation_matrix((size, 0, 0))).export(
+        tmp_path / "box.stl"
+    )
     (tmp_path / "scene.toml").write_text(
         f'[[parts]]\nname = "box"\nmesh = "box.stl"\nunits = "{unit}"\ntranslate = [10.0, 0.0, 0.0]\n'
-        'instances = [{}, { translate = [0.0, 5.0, 0.0] }]\n')
+        "instances = [{}, { translate = [0.0, 5.0, 0.0] }]\n"
+    )
     scene = load_scene(tmp_path / "scene.toml")
     boxes = scene.parts[0].instance_bounds()
     assert np.allclose(boxes[0], [[10.5, -0.5, -0.5], [11.5, 0.5, 0.5]], atol=1e-5)
@@ -60,12 +63,19 @@ def test_missing_opengl_is_one_line_naming_what_to_install(monkeypatch):
     assert "\n" not in message and "libegl1" in message and "libgl1-mesa-dri" in message
 
 
-@pytest.mark.parametrize("urdf, message", [
-    ('<robot name="r"><link name="a"><visual><geometry><mesh filename="nope.stl"/></geometry></visual></link></robot>',
-     "URDF mesh file(s) not found: nope.stl"),
-    ('<robot name="r"><link name="a"><visual><geometry><mesh/></geometry></visual></link></robot>',
-     "cannot read URDF"),
-])
+@pytest.mark.parametrize(
+    "urdf, message",
+    [
+        (
+            '<robot name="r"><link name="a"><visual><geometry><mesh filename="nope.stl"/></geometry></visual></link></robot>',
+            "URDF mesh file(s) not found: nope.stl",
+        ),
+        (
+            '<robot name="r"><link name="a"><visual><geometry><mesh/></geometry></visual></link></robot>',
+            "cannot read URDF",
+        ),
+    ],
+)
 def test_a_broken_urdf_is_one_line(tmp_path, capsys, urdf, message):
     """yourdfpy logs what is wrong and carries on; mrcheck says it in its one error line instead
     of printing the logger's lines around it."""
@@ -87,7 +97,7 @@ def test_a_manifest_with_a_utf8_bom_loads(tmp_path):
     text = '[[parts]]\r\nname = "box"\r\nmesh = "box.stl"\r\nunits = "m"\r\n'
     (tmp_path / "scene.toml").write_bytes(b"\xef\xbb\xbf" + text.encode())
     assert load_scene(tmp_path / "scene.toml").triangle_count == 12
-    assert read_manifest(tmp_path / "scene.toml")["parts"][0]["name"] == "box"   # as `scene asbuilt` reads it
+    assert read_manifest(tmp_path / "scene.toml")["parts"][0]["name"] == "box"  # as `scene asbuilt` reads it
 
 
 def test_the_readme_instance_example_does_what_it_says(tmp_path):
@@ -98,18 +108,19 @@ def test_the_readme_instance_example_does_what_it_says(tmp_path):
     from pathlib import Path
 
     readme = (Path(__file__).parents[1] / "docs" / "formats.md").read_text()
-    section = readme[readme.index("## Scene manifest (TOML)"):]
+    section = readme[readme.index("## Scene manifest (TOML)") :]
     example = tomllib.loads(re.search(r"```toml\n(.*?)```", section, re.S).group(1))
     part = next(p for p in example["parts"] if p.get("instances"))
-    trimesh.creation.box((4000.0, 1000.0, 500.0)).export(tmp_path / "conveyor.stl")   # 4 x 1 m in mm, centred
+    trimesh.creation.box((4000.0, 1000.0, 500.0)).export(tmp_path / "conveyor.stl")  # 4 x 1 m in mm, centred
     part = {**part, "mesh": "conveyor.stl"}
     lines = [f"{k} = {v!r}".replace("'", '"') for k, v in part.items() if k != "instances"]
-    instances = ", ".join("{ " + ", ".join(f"{k} = {v!r}".replace("'", '"') for k, v in i.items()) + " }"
-                          for i in part["instances"])
+    instances = ", ".join(
+        "{ " + ", ".join(f"{k} = {v!r}".replace("'", '"') for k, v in i.items()) + " }" for i in part["instances"]
+    )
     (tmp_path / "scene.toml").write_text("[[parts]]\n" + "\n".join(lines) + f"\ninstances = [{instances}]\n")
     loaded = load_scene(tmp_path / "scene.toml").parts[0]
     assert loaded.instance_ids[1] == "C-2"
     centres = loaded.instance_bounds().mean(axis=1)
     assert np.allclose(centres[:, :2], [[-5.8, -2.5], [-5.8, 3.5]], atol=1e-6)
     sizes = np.ptp(loaded.instance_bounds(), axis=1)
-    assert np.allclose(sizes[:, :2], [[1.0, 4.0], [1.0, 4.0]], atol=1e-6)       # turned 90 and 270 degrees
+    assert np.allclose(sizes[:, :2], [[1.0, 4.0], [1.0, 4.0]], atol=1e-6)  # turned 90 and 270 degrees

@@ -27,17 +27,45 @@ def test_scene_import_writes_a_scene_every_command_reads(tmp_path, capsys):
 
 def test_render_takes_the_step_file_itself(tmp_path, capsys):
     image = tmp_path / "parts.png"
-    assert main(["render", str(DATA / "step" / "red_cube_blue_cylinder.step"), "--view", "overview",
-                 "--width", "160", "--height", "120", "--mode", "phong", "-o", str(image)]) == 0
+    assert (
+        main(
+            [
+                "render",
+                str(DATA / "step" / "red_cube_blue_cylinder.step"),
+                "--view",
+                "overview",
+                "--width",
+                "160",
+                "--height",
+                "120",
+                "--mode",
+                "phong",
+                "-o",
+                str(image),
+            ]
+        )
+        == 0
+    )
     assert image.stat().st_size > 0
 
 
-@pytest.mark.parametrize("make, message", [
-    (lambda d: (d / "cut.ifc").write_bytes((DATA / "ifc" / "wall-standard-case.ifc").read_bytes()[:2000]) and d / "cut.ifc",
-     "truncated IFC4 file"),
-    (lambda d: shutil.copyfile(DATA / "step" / "red_cube_blue_cylinder.step", d / "part.ifc"), "not IFC: rename it"),
-    (lambda d: DATA / "ifc" / "reinforcing-stirrup.ifc", "IfcReinforcingBar 381QpY9RP89gKaSFbzIfbP"),
-])
+@pytest.mark.parametrize(
+    "make, message",
+    [
+        (
+            lambda d: (
+                (d / "cut.ifc").write_bytes((DATA / "ifc" / "wall-standard-case.ifc").read_bytes()[:2000])
+                and d / "cut.ifc"
+            ),
+            "truncated IFC4 file",
+        ),
+        (
+            lambda d: shutil.copyfile(DATA / "step" / "red_cube_blue_cylinder.step", d / "part.ifc"),
+            "not IFC: rename it",
+        ),
+        (lambda d: DATA / "ifc" / "reinforcing-stirrup.ifc", "IfcReinforcingBar 381QpY9RP89gKaSFbzIfbP"),
+    ],
+)
 def test_bad_model_is_one_line_exit_1_and_nothing_written(tmp_path, capsys, make, message):
     model = Path(make(tmp_path))
     out = tmp_path / "out"
@@ -48,7 +76,10 @@ def test_bad_model_is_one_line_exit_1_and_nothing_written(tmp_path, capsys, make
 
 
 def test_generate_ifc_refuses_mixed_units(tmp_path, capsys):
-    assert main(["scene", "generate", "--preset", "cell", "--format", "ifc", "--units-mix", "-o", str(tmp_path / "x")]) == 1
+    assert (
+        main(["scene", "generate", "--preset", "cell", "--format", "ifc", "--units-mix", "-o", str(tmp_path / "x")])
+        == 1
+    )
     assert "an IFC file declares one unit" in capsys.readouterr().err
 
 
@@ -56,7 +87,9 @@ def test_package_path_option(tmp_path, capsys):
     src = tmp_path / "src"
     shutil.copytree(UR5 / "meshes", src / "ur_description" / "meshes")
     urdf = tmp_path / "ur5.urdf"
-    urdf.write_text((UR5 / "robot.urdf").read_text().replace('filename="meshes/', 'filename="package://ur_description/meshes/'))
+    urdf.write_text(
+        (UR5 / "robot.urdf").read_text().replace('filename="meshes/', 'filename="package://ur_description/meshes/')
+    )
     assert main(["scene", "info", str(urdf)]) == 1
     assert "give --package-path DIR" in capsys.readouterr().err
     assert main(["--package-path", str(src), "scene", "info", str(urdf)]) == 0

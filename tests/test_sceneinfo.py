@@ -17,8 +17,18 @@ from mrcheck.scene.info import describe, format_info
 from mrcheck.scene.model import load_scene
 
 SAMPLE = sample_scene_path()
-KEYS = {"scene", "source", "triangles", "unique_triangles", "bounds_m", "parts", "viewpoints", "units_declared",
-        "parts_without_units", "files_bytes"}
+KEYS = {
+    "scene",
+    "source",
+    "triangles",
+    "unique_triangles",
+    "bounds_m",
+    "parts",
+    "viewpoints",
+    "units_declared",
+    "parts_without_units",
+    "files_bytes",
+}
 PART_KEYS = {"name", "mesh", "units", "instances", "triangles", "triangles_drawn", "bounds_m"}
 VIEW_KEYS = {"name", "eye", "target", "fov_y_deg", "width", "height"}
 
@@ -42,11 +52,19 @@ def test_sample_numbers_add_up_and_match_the_loaded_scene(sample_info):
     assert info["units_declared"] == ["m", "mm"] and info["parts_without_units"] == []
     # every part's bounds are inside the scene's, and the floor's are the slab's
     lo, hi = np.array(info["bounds_m"])
-    assert all(np.all(np.array(p["bounds_m"][0]) >= lo) and np.all(np.array(p["bounds_m"][1]) <= hi) for p in info["parts"])
+    assert all(
+        np.all(np.array(p["bounds_m"][0]) >= lo) and np.all(np.array(p["bounds_m"][1]) <= hi) for p in info["parts"]
+    )
     assert np.allclose(parts["floor"]["bounds_m"], [[-12, -8, -0.2], [12, 8, 0]], atol=1e-5)
     assert [v["name"] for v in info["viewpoints"]] == ["overview", "robot", "conveyor"]
-    assert info["viewpoints"][1] == {"name": "robot", "eye": [3.4, -6.2, 1.7], "target": [3.0, -2.5, 0.75],
-                                     "fov_y_deg": 35.0, "width": 1024, "height": 768}
+    assert info["viewpoints"][1] == {
+        "name": "robot",
+        "eye": [3.4, -6.2, 1.7],
+        "target": [3.0, -2.5, 0.75],
+        "fov_y_deg": 35.0,
+        "width": 1024,
+        "height": 768,
+    }
     json.dumps(info)  # JSON-ready as it is
 
 
@@ -67,8 +85,15 @@ def test_a_mesh_file_with_units_mm(tmp_path):
     info = describe(mesh, units="mm")
     assert info["triangles"] == info["unique_triangles"] == 12
     assert np.allclose(info["bounds_m"], [[-0.5, -0.25, 0.0], [0.5, 0.25, 0.25]], atol=1e-6)
-    assert info["parts"][0] | {"bounds_m": None} == {"name": "crate", "mesh": str(mesh), "units": "mm", "instances": 1,
-                                                     "triangles": 12, "triangles_drawn": 12, "bounds_m": None}
+    assert info["parts"][0] | {"bounds_m": None} == {
+        "name": "crate",
+        "mesh": str(mesh),
+        "units": "mm",
+        "instances": 1,
+        "triangles": 12,
+        "triangles_drawn": 12,
+        "bounds_m": None,
+    }
     assert info["units_declared"] == ["mm"] and info["parts_without_units"] == [] and info["viewpoints"] == []
     assert info["files_bytes"] == mesh.stat().st_size
     assert "WARNING" not in format_info(info)
@@ -84,14 +109,25 @@ def test_a_part_without_units_is_flagged(tmp_path):
         'name = "forgot"\n\n'
         '[[parts]]\nname = "crate_mm"\nmesh = "crate.glb"\nunits = "mm"\ninstances = [{}, { translate = [3.0, 0.0, 0.0] }]\n\n'
         '[[parts]]\nname = "crate_raw"\nmesh = "crate.glb"\ntranslate = [0.0, 5.0, 0.0]\n\n'
-        '[[viewpoints]]\nname = "v"\neye = [5.0, 5.0, 5.0]\ntarget = [0.0, 0.0, 0.0]\n')
+        '[[viewpoints]]\nname = "v"\neye = [5.0, 5.0, 5.0]\ntarget = [0.0, 0.0, 0.0]\n'
+    )
     info = describe(tmp_path / "scene.toml")
-    assert info["scene"] == "forgot" and info["parts_without_units"] == ["crate_raw"] and info["units_declared"] == ["mm"]
+    assert (
+        info["scene"] == "forgot" and info["parts_without_units"] == ["crate_raw"] and info["units_declared"] == ["mm"]
+    )
     assert [p["units"] for p in info["parts"]] == ["mm", None]
     assert info["triangles"] == 36 and info["unique_triangles"] == 24
     assert info["files_bytes"] == (tmp_path / "crate.glb").stat().st_size  # one file, two parts: counted once
-    assert info["viewpoints"] == [{"name": "v", "eye": [5.0, 5.0, 5.0], "target": [0.0, 0.0, 0.0],
-                                   "fov_y_deg": 60.0, "width": 1024, "height": 768}]
+    assert info["viewpoints"] == [
+        {
+            "name": "v",
+            "eye": [5.0, 5.0, 5.0],
+            "target": [0.0, 0.0, 0.0],
+            "fov_y_deg": 60.0,
+            "width": 1024,
+            "height": 768,
+        }
+    ]
     text = format_info(info)
     warnings = [line for line in text.splitlines() if line.startswith("WARNING")]
     assert len(warnings) == 1 and "crate_raw" in warnings[0] and "crate_mm" not in warnings[0]
@@ -103,7 +139,7 @@ def test_report_is_an_aligned_table_with_totals_bounds_and_views(sample_info):
     assert "53,633" in text and "29,045" in text
     assert any(line.startswith("extent") and "24.000 x 16.000 x 6.600 m" in line for line in lines)
     header = next(i for i, line in enumerate(lines) if line.startswith("part "))
-    rows = lines[header + 2: header + 2 + 16]
+    rows = lines[header + 2 : header + 2 + 16]
     assert [r.split()[0] for r in rows] == [p["name"] for p in sample_info["parts"]]
     # right-aligned numbers: every row's "drawn" column ends where the header's does
     end = lines[header].index("drawn") + len("drawn")
@@ -127,6 +163,8 @@ def test_cli_missing_scene_is_one_error_line(tmp_path, capsys):
 
 
 def test_describe_needs_no_gl():
-    code = ("import sys; from mrcheck.scene.info import describe; from mrcheck.core.resources import sample_scene_path; "
-            "describe(sample_scene_path()); assert 'moderngl' not in sys.modules, 'GL imported'")
+    code = (
+        "import sys; from mrcheck.scene.info import describe; from mrcheck.core.resources import sample_scene_path; "
+        "describe(sample_scene_path()); assert 'moderngl' not in sys.modules, 'GL imported'"
+    )
     subprocess.run([sys.executable, "-c", code], check=True, timeout=60)

@@ -44,8 +44,20 @@ def video(tmp_path_factory):
 def test_track_writes_the_overlay_video_and_the_poses(video, capsys):
     folder, manifest, truths, points = video
     out = folder / "overlay.mp4"
-    code = main(["track", str(folder / "walk.mp4"), "--scene", str(manifest), "--intrinsics", str(folder / "cam.json"),
-                 "--initial", str(folder / "rough.json"), "-o", str(out)])
+    code = main(
+        [
+            "track",
+            str(folder / "walk.mp4"),
+            "--scene",
+            str(manifest),
+            "--intrinsics",
+            str(folder / "cam.json"),
+            "--initial",
+            str(folder / "rough.json"),
+            "-o",
+            str(out),
+        ]
+    )
     assert code == 0
     with av.open(str(out)) as written:
         frames = [f.to_ndarray(format="rgb24") for f in written.decode(video=0)]
@@ -98,8 +110,20 @@ def test_a_lost_frame_inside_a_part_is_written_without_overlay(video, tmp_path):
     inside = truths[0].with_pose(truths[0].R, -truths[0].R @ np.array([0.0, 0.0, 0.45]))  # crate-a's middle
     write_camera(tmp_path / "inside.json", inside)
     out = tmp_path / "overlay.mp4"
-    code = main(["track", str(folder / "walk.mp4"), "--scene", str(manifest), "--intrinsics", str(folder / "cam.json"),
-                 "--initial", str(tmp_path / "inside.json"), "-o", str(out)])
+    code = main(
+        [
+            "track",
+            str(folder / "walk.mp4"),
+            "--scene",
+            str(manifest),
+            "--intrinsics",
+            str(folder / "cam.json"),
+            "--initial",
+            str(tmp_path / "inside.json"),
+            "-o",
+            str(out),
+        ]
+    )
     assert code == 0 and out.exists()
     poses = [json.loads(line) for line in (tmp_path / "overlay.poses.jsonl").read_text().splitlines()]
     assert len(poses) == FRAMES and all(p["lost"] for p in poses)
@@ -122,8 +146,20 @@ def test_each_frame_finds_its_visible_edges_on_the_last_overlay(video, tmp_path,
 
     monkeypatch.setattr(track, "refine_pose", recording)
     out = tmp_path / "overlay.mp4"
-    code = main(["track", str(folder / "walk.mp4"), "--scene", str(manifest), "--intrinsics", str(folder / "cam.json"),
-                 "--initial", str(folder / "rough.json"), "-o", str(out)])
+    code = main(
+        [
+            "track",
+            str(folder / "walk.mp4"),
+            "--scene",
+            str(manifest),
+            "--intrinsics",
+            str(folder / "cam.json"),
+            "--initial",
+            str(folder / "rough.json"),
+            "-o",
+            str(out),
+        ]
+    )
     assert code == 0
     poses = [json.loads(line) for line in (tmp_path / "overlay.poses.jsonl").read_text().splitlines()]
     assert len(seen) == FRAMES and seen[0] is None
@@ -153,13 +189,14 @@ def test_a_frame_lost_on_the_last_overlay_is_snapped_again_with_a_render_of_its_
         return real(*args, options=options, seed=seed, initial=initial, **kwargs)
 
     monkeypatch.setattr(track, "refine_pose", failing_once)
-    result = track.track_command(folder / "walk.mp4", manifest, folder / "cam.json", folder / "rough.json",
-                                 tmp_path / "overlay.mp4")
+    result = track.track_command(
+        folder / "walk.mp4", manifest, folder / "cam.json", folder / "rough.json", tmp_path / "overlay.mp4"
+    )
     (first, seed, start), (again, no_seed, same_start) = calls[2], calls[3]
     assert first is track.TRACK_OPTIONS and seed is not None
     assert again is track.RETRY_OPTIONS and no_seed is None and same_start is start
     assert again.rerender_px < math.inf and track.TRACK_OPTIONS.rerender_px == math.inf
-    assert result.lost == [BLANK]          # frame 2 kept, the blank frame lost
+    assert result.lost == [BLANK]  # frame 2 kept, the blank frame lost
     frame = result.frames[2]
     assert not frame.lost and np.median(reprojection_error(truths[2], frame.camera, points)) < 1.0
 
@@ -175,15 +212,16 @@ def test_no_second_snap_right_after_a_lost_frame(video, tmp_path, monkeypatch):
 
     def failing(*args, options=None, **kwargs):
         calls.append(options)
-        if len(calls) == 6:           # frames 0-2 one snap each, the blank frame 3 two, frame 4's first
+        if len(calls) == 6:  # frames 0-2 one snap each, the blank frame 3 two, frame 4's first
             raise EdgeFitError("made to fail")
         return real(*args, options=options, **kwargs)
 
     monkeypatch.setattr(track, "refine_pose", failing)
-    result = track.track_command(folder / "walk.mp4", manifest, folder / "cam.json", folder / "rough.json",
-                                 tmp_path / "overlay.mp4")
+    result = track.track_command(
+        folder / "walk.mp4", manifest, folder / "cam.json", folder / "rough.json", tmp_path / "overlay.mp4"
+    )
     assert result.lost == [BLANK, BLANK + 1]
-    assert calls.count(track.RETRY_OPTIONS) == 1 and calls[4] is track.RETRY_OPTIONS   # the blank frame's
+    assert calls.count(track.RETRY_OPTIONS) == 1 and calls[4] is track.RETRY_OPTIONS  # the blank frame's
     assert len(calls) == FRAMES + 1
 
 
@@ -209,9 +247,21 @@ def test_numpy_blas_runs_on_one_thread_while_tracking(video, tmp_path, monkeypat
         return real(*args, **kwargs)
 
     monkeypatch.setattr(track, "refine_pose", recording)
-    monkeypatch.setattr(track, "RETRY_OPTIONS", None)      # one snap per frame
-    code = main(["track", str(folder / "walk.mp4"), "--scene", str(manifest), "--intrinsics", str(folder / "cam.json"),
-                 "--initial", str(folder / "rough.json"), "-o", str(tmp_path / "overlay.mp4")])
+    monkeypatch.setattr(track, "RETRY_OPTIONS", None)  # one snap per frame
+    code = main(
+        [
+            "track",
+            str(folder / "walk.mp4"),
+            "--scene",
+            str(manifest),
+            "--intrinsics",
+            str(folder / "cam.json"),
+            "--initial",
+            str(folder / "rough.json"),
+            "-o",
+            str(tmp_path / "overlay.mp4"),
+        ]
+    )
     assert code == 0 and len(during) == FRAMES
     assert all(max(threads) == 1 for threads in during), during
     assert blas_threads() == before
@@ -244,9 +294,21 @@ def test_the_next_frame_is_decoded_and_its_pyramid_made_on_a_thread_beside_the_s
 
     monkeypatch.setattr(track, "photo_pyramid", pyramid)
     monkeypatch.setattr(track, "refine_pose", refine)
-    monkeypatch.setattr(track, "RETRY_OPTIONS", None)      # one snap per frame
-    code = main(["track", str(folder / "walk.mp4"), "--scene", str(manifest), "--intrinsics", str(folder / "cam.json"),
-                 "--initial", str(folder / "rough.json"), "-o", str(tmp_path / "overlay.mp4")])
+    monkeypatch.setattr(track, "RETRY_OPTIONS", None)  # one snap per frame
+    code = main(
+        [
+            "track",
+            str(folder / "walk.mp4"),
+            "--scene",
+            str(manifest),
+            "--intrinsics",
+            str(folder / "cam.json"),
+            "--initial",
+            str(folder / "rough.json"),
+            "-o",
+            str(tmp_path / "overlay.mp4"),
+        ]
+    )
     assert code == 0 and len(snaps) == FRAMES == len(made)
     assert all(name.startswith("mrcheck-video-reader") for name in made), made
     for k, (grey, options, given) in enumerate(snaps):

@@ -23,10 +23,18 @@ def test_the_next_frame_reuses_the_edges_seen_and_stays_exact():
     renderer = Renderer(scene)
     try:
         errors = []
-        for turn in (0.002, -0.003):          # two frames' starts, 1-2 px off the truth
+        for turn in (0.002, -0.003):  # two frames' starts, 1-2 px off the truth
             start = truth.with_pose(cv2.Rodrigues(np.array([0.0, turn, 0.0]))[0] @ truth.R, truth.t)
-            fit = refine_pose(scene, truth, grey, initial=start, options=TRACK_OPTIONS, renderer=renderer,
-                              edges=edges, candidates=candidates)
+            fit = refine_pose(
+                scene,
+                truth,
+                grey,
+                initial=start,
+                options=TRACK_OPTIONS,
+                renderer=renderer,
+                edges=edges,
+                candidates=candidates,
+            )
             errors.append(float(np.median(reprojection_error(truth, fit.camera, points))))
     finally:
         renderer.release()
@@ -52,13 +60,16 @@ def test_a_render_given_to_the_fit_replaces_its_first_render_and_it_stays_exact(
     renderer.render = lambda *a, **k: (calls.append(1), real(*a, **k))[1]
     try:
         before = truth.with_pose(cv2.Rodrigues(np.array([0.0, -0.002, 0.0]))[0] @ truth.R, truth.t)  # the frame before
-        start = truth.with_pose(cv2.Rodrigues(np.array([0.0, 0.002, 0.0]))[0] @ truth.R, truth.t)    # 1-2 px off
+        start = truth.with_pose(cv2.Rodrigues(np.array([0.0, 0.002, 0.0]))[0] @ truth.R, truth.t)  # 1-2 px off
         seed = VisibilityRender(before, *render_depth(renderer, before, with_normals=True))
         fits, renders = [], []
         for given in (None, seed):
             calls.clear()
-            fits.append(refine_pose(scene, truth, grey, initial=start, options=TRACK_OPTIONS, renderer=renderer,
-                                    edges=edges, seed=given))
+            fits.append(
+                refine_pose(
+                    scene, truth, grey, initial=start, options=TRACK_OPTIONS, renderer=renderer, edges=edges, seed=given
+                )
+            )
             renders.append(len(calls))
     finally:
         renderer.release()
@@ -81,8 +92,10 @@ def test_a_video_frame_keeps_every_step_and_lands_on_the_truth():
     start = truth.with_pose(cv2.Rodrigues(np.array([0.001, 0.004, -0.002]))[0] @ truth.R, truth.t)
     renderer = Renderer(scene)
     try:
-        fits = [refine_pose(scene, truth, grey, initial=start, options=options, renderer=renderer)
-                for options in (TRACK_OPTIONS, dataclasses.replace(TRACK_OPTIONS, descent_only=True))]
+        fits = [
+            refine_pose(scene, truth, grey, initial=start, options=options, renderer=renderer)
+            for options in (TRACK_OPTIONS, dataclasses.replace(TRACK_OPTIONS, descent_only=True))
+        ]
     finally:
         renderer.release()
     kept, tested = (fit.levels[0] for fit in fits)

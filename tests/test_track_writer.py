@@ -15,7 +15,7 @@ from mrcheck.apps.videoout import BackgroundVideo
 
 def _frame(k: int) -> np.ndarray:
     image = np.zeros((48, 64, 3), np.uint8)
-    image[:, 4 * k:4 * k + 8] = 255        # a bright bar moving right: the order is visible
+    image[:, 4 * k : 4 * k + 8] = 255  # a bright bar moving right: the order is visible
     return image
 
 
@@ -50,10 +50,10 @@ def test_an_error_on_the_thread_is_raised_by_close(tmp_path):
     writer.put(broken)
     with pytest.raises(ValueError, match="compose failed"):
         try:
-            for k in range(20):          # a later put may raise it already
+            for k in range(20):  # a later put may raise it already
                 writer.put(lambda k=k: _frame(k % 10))
         except ValueError:
-            writer.abort()           # what track_video does when a put fails
+            writer.abort()  # what track_video does when a put fails
             raise
         writer.close()
 

@@ -23,8 +23,9 @@ def small_walk(tmp_path_factory):
     return make_walk(scene, crate_camera(320, 240), "side", 4, folder), scene, folder
 
 
-def test_a_walk_is_tracked_in_a_process_of_its_own_and_measured_against_its_true_path(small_walk, tmp_path,
-                                                                                     monkeypatch):
+def test_a_walk_is_tracked_in_a_process_of_its_own_and_measured_against_its_true_path(
+    small_walk, tmp_path, monkeypatch
+):
     import mrcheck.apps.trackbench as bench
 
     # a fresh process imports the module anew: this replacement is not what it runs
@@ -39,14 +40,15 @@ def test_a_walk_is_tracked_in_a_process_of_its_own_and_measured_against_its_true
     # the crates from 0.4 degrees off, then frame to frame: well within a pixel
     assert run.error_max_px < 1.0 and run.error_median_px <= run.error_max_px
     assert "overlay render" in run.times_s
-    assert not list(out.iterdir())     # the overlay video, poses and cameras are not left behind
+    assert not list(out.iterdir())  # the overlay video, poses and cameras are not left behind
 
 
 def test_a_walk_is_made_once_and_again_when_what_it_depends_on_changes(tmp_path, monkeypatch):
     scene, camera = crate_scene(), crate_camera(160, 120)
     walk = make_walk(scene, camera, "side", 2, tmp_path)
-    assert [c.center.round(6).tolist() for c in walk.truths] == \
-        [walk_camera(camera, "side", k).center.round(6).tolist() for k in range(2)]
+    assert [c.center.round(6).tolist() for c in walk.truths] == [
+        walk_camera(camera, "side", k).center.round(6).tolist() for k in range(2)
+    ]
 
     def no_photos(*args, **kwargs):
         raise AssertionError("the walk was made again")
@@ -55,10 +57,10 @@ def test_a_walk_is_made_once_and_again_when_what_it_depends_on_changes(tmp_path,
     assert make_walk(scene, camera, "side", 2, tmp_path).video == walk.video
     with pytest.raises(AssertionError, match="made again"):
         make_walk(scene, camera, "side", 2, tmp_path, key=b"another scene file")
-    assert [p.name for p in tmp_path.iterdir()] == [walk.video.name]    # no half-written video left
+    assert [p.name for p in tmp_path.iterdir()] == [walk.video.name]  # no half-written video left
     monkeypatch.undo()
     other = make_walk(scene, camera, "side", 2, tmp_path, key=b"another scene file")
-    assert [p.name for p in tmp_path.iterdir()] == [other.video.name] != [walk.video.name]   # the stale one gone
+    assert [p.name for p in tmp_path.iterdir()] == [other.video.name] != [walk.video.name]  # the stale one gone
 
 
 def test_the_summary_counts_the_runs_at_the_target_and_spreads_the_rounds():
@@ -71,7 +73,7 @@ def test_the_summary_counts_the_runs_at_the_target_and_spreads_the_rounds():
     assert "5.10 (4.90-5.30)" in table["a"] and table["a"].split()[-2] == "0.90"
     assert "5.50 (5.00-6.00)    4.70 (4.60-4.80)" in table["b"]
     assert "3 of 4 (whole run), 2 of 4 (after the first frame); frames/s 4.90-6.00" in lines[4]
-    assert lines[5] == "ms per frame: overlay render 50"     # 4 x 1.2 s over 96 frames
+    assert lines[5] == "ms per frame: overlay render 50"  # 4 x 1.2 s over 96 frames
 
 
 def test_the_track_bench_refuses_a_second_bench_and_a_bad_json_path_before_any_work(tmp_path, capsys, monkeypatch):
@@ -86,12 +88,20 @@ def test_the_track_bench_refuses_a_second_bench_and_a_bad_json_path_before_any_w
 def test_the_track_bench_makes_its_walks_once_and_writes_its_runs_as_json(tmp_path, monkeypatch):
     import mrcheck.apps.trackbench as bench
 
-    plan = [bench.WalkPlan("crates-side", crate_scene(), write_crate_scene(tmp_path / "scene"), crate_camera(320, 240),
-                           "side", 3)]
+    plan = [
+        bench.WalkPlan(
+            "crates-side", crate_scene(), write_crate_scene(tmp_path / "scene"), crate_camera(320, 240), "side", 3
+        )
+    ]
     monkeypatch.setattr(bench, "bench_plan", lambda quick, folder: plan)
     seen = []
-    runs, lines = bench.track_bench(quick=True, rounds=2, json_path=tmp_path / "track.json", folder=tmp_path / "walks",
-                                    progress=lambda done, total, label: seen.append((done, total, label)))
+    runs, lines = bench.track_bench(
+        quick=True,
+        rounds=2,
+        json_path=tmp_path / "track.json",
+        folder=tmp_path / "walks",
+        progress=lambda done, total, label: seen.append((done, total, label)),
+    )
     record = json.loads((tmp_path / "track.json").read_text())
     assert record["rounds"] == 2 and len(record["runs"]) == 2 == len(runs)
     assert [r["fps"] for r in record["runs"]] == [r.fps for r in runs]
@@ -101,4 +111,4 @@ def test_the_track_bench_makes_its_walks_once_and_writes_its_runs_as_json(tmp_pa
     assert [done for done, _, _ in seen] == [1, 2, 3, 3, 6, 9] and {total for _, total, _ in seen} == {9}
     seen.clear()
     bench.track_bench(quick=True, rounds=1, folder=tmp_path / "walks", progress=lambda *a: seen.append(a))
-    assert seen[0] == (3, 6, "crates-side ready")      # found made: no photos
+    assert seen[0] == (3, 6, "crates-side ready")  # found made: no photos

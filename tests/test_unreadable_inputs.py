@@ -46,7 +46,7 @@ def make_bad(path: Path, kind: str) -> None:
     data = path.read_bytes() if path.is_file() else b""
     path.unlink()
     if kind == "loop":
-        os.symlink(path.name, path)           # a link to itself
+        os.symlink(path.name, path)  # a link to itself
     elif kind == "folder":
         path.mkdir()
     elif kind == "fifo":
@@ -59,25 +59,57 @@ def make_bad(path: Path, kind: str) -> None:
     elif kind == "text":
         path.write_text("Notes on the north wall, photo taken 9:30\n")
     elif kind == "truncated":
-        path.write_bytes(data[:len(data) // 2])
+        path.write_bytes(data[: len(data) // 2])
 
 
 # (command, role of the bad file): a scene argument (a mesh here, or a manifest) that is a folder
 # is a scene folder, whose manifest is missing; review names a shot it skips in a warning
-SCENE_ARGUMENT = {"render", "overlay", "register", "reference", "discrepancies", "deviation", "scene-info",
-                  "review-shots", "export"}
-CASES = [("render", "mesh"), ("render", "camera"), ("render-manifest", "manifest"), ("render-manifest", "mesh"),
-         ("overlay", "shot"), ("overlay", "photo"), ("overlay", "mesh"),
-         ("register", "mesh"), ("register", "photo"), ("register", "intrinsics"), ("register", "points"),
-         ("calibrate", "view"),
-         ("reference", "mesh"), ("reference", "camera"),
-         ("compare", "manifest"), ("compare", "mesh"),
-         ("export", "job"), ("export", "mesh"),
-         ("review-job", "job"), ("review-job", "shot"), ("review-shots", "mesh"), ("review-shots", "photo"),
-         ("review-shots", "shots-file"),
-         ("discrepancies", "shot"), ("discrepancies", "photo"), ("discrepancies", "mesh"),
-         ("deviation", "scan"), ("deviation", "mesh"), ("deviation", "shot"), ("deviation", "photo"),
-         ("scene-info", "mesh"), ("scene-info-manifest", "manifest"), ("scene-asbuilt", "manifest")]
+SCENE_ARGUMENT = {
+    "render",
+    "overlay",
+    "register",
+    "reference",
+    "discrepancies",
+    "deviation",
+    "scene-info",
+    "review-shots",
+    "export",
+}
+CASES = [
+    ("render", "mesh"),
+    ("render", "camera"),
+    ("render-manifest", "manifest"),
+    ("render-manifest", "mesh"),
+    ("overlay", "shot"),
+    ("overlay", "photo"),
+    ("overlay", "mesh"),
+    ("register", "mesh"),
+    ("register", "photo"),
+    ("register", "intrinsics"),
+    ("register", "points"),
+    ("calibrate", "view"),
+    ("reference", "mesh"),
+    ("reference", "camera"),
+    ("compare", "manifest"),
+    ("compare", "mesh"),
+    ("export", "job"),
+    ("export", "mesh"),
+    ("review-job", "job"),
+    ("review-job", "shot"),
+    ("review-shots", "mesh"),
+    ("review-shots", "photo"),
+    ("review-shots", "shots-file"),
+    ("discrepancies", "shot"),
+    ("discrepancies", "photo"),
+    ("discrepancies", "mesh"),
+    ("deviation", "scan"),
+    ("deviation", "mesh"),
+    ("deviation", "shot"),
+    ("deviation", "photo"),
+    ("scene-info", "mesh"),
+    ("scene-info-manifest", "manifest"),
+    ("scene-asbuilt", "manifest"),
+]
 IMAGES = {"photo", "view"}
 
 
@@ -111,13 +143,13 @@ def test_an_unreadable_input_is_one_line_naming_it(ws, capfd, name, role, kind):
     make_bad(bad, kind)
     args = command(name, ws)
     if name == "calibrate":
-        args = ["calibrate", bad, *args[len(ws["views"]) + 1:]]   # the bad photo alone
+        args = ["calibrate", bad, *args[len(ws["views"]) + 1 :]]  # the bad photo alone
     before = files_under(Path("."))
     code, out, err = run(args, capfd)
     problem = PROBLEMS[kind]
     if kind == "folder" and (role == "manifest" or (role == "mesh" and name in SCENE_ARGUMENT)):
         problem = "no scene manifest"
-    if kind == "folder" and name == "review-job" and role == "job":   # a folder to review is an export's
+    if kind == "folder" and name == "review-job" and role == "job":  # a folder to review is an export's
         problem = "not an export folder"
     if role in ("shots-file",) or (name == "review-job" and role == "shot"):
         # a shot that cannot be used is skipped with a warning naming it; no shot left is the error
@@ -137,7 +169,7 @@ def test_five_empty_photos_are_named(tmp_path, capfd):
         photo.write_bytes(b"")
     code, out, err = run(["calibrate", *photos, "--board", "chessboard:9x6:0.025", "-o", tmp_path / "cam.json"], capfd)
     line = check_one_error(code, err, [p.name for p in photos], "5 images cannot be used (image is empty (0 bytes)")
-    assert "board found in only 0 of 5 images" in line    # five photos, not one (their bytes are alike)
+    assert "board found in only 0 of 5 images" in line  # five photos, not one (their bytes are alike)
     assert not (tmp_path / "cam.json").exists()
 
 
@@ -147,24 +179,34 @@ def test_a_good_photo_set_with_bad_ones_calibrates_and_warns(ws, capfd):
     for name, data in extra.items():
         Path(name).write_bytes(data)
     os.symlink("loop.jpg", "loop.jpg")
-    code, out, err = run(["calibrate", *ws["views"], *extra, "loop.jpg", "--board", "chessboard:9x6:0.025",
-                          "-o", "cam.json"], capfd)
+    code, out, err = run(
+        ["calibrate", *ws["views"], *extra, "loop.jpg", "--board", "chessboard:9x6:0.025", "-o", "cam.json"], capfd
+    )
     assert code == 0, err
     warnings = {line.split(": ", 2)[1]: line.split(": ", 2)[2] for line in err.splitlines()}
-    assert warnings == {"empty.jpg": "image is empty (0 bytes), skipped",
-                        "notes.jpg": "cannot read image: a text file, not an image, skipped",
-                        "cut.jpg": "cannot read image: truncated JPEG (the file ends before the image does: an "
-                                   "interrupted copy or download?), skipped",
-                        "loop.jpg": "cannot read image: symlink loop (the link leads back to itself, directly or "
-                                    "through other links), skipped"}
+    assert warnings == {
+        "empty.jpg": "image is empty (0 bytes), skipped",
+        "notes.jpg": "cannot read image: a text file, not an image, skipped",
+        "cut.jpg": "cannot read image: truncated JPEG (the file ends before the image does: an "
+        "interrupted copy or download?), skipped",
+        "loop.jpg": "cannot read image: symlink loop (the link leads back to itself, directly or "
+        "through other links), skipped",
+    }
     assert json.loads(Path("cam.json").read_text())["skipped_views"] == [*extra, "loop.jpg"]
 
 
 # -- export: only the shot fails -------------------------------------------------------------------------
 @pytest.mark.usefixtures("time_limit")
-@pytest.mark.parametrize("role, kind", [(role, kind) for role in ("photo", "shot") for kind in PROBLEMS
-                                        if kind != "unreadable" and (role == "photo" or kind not in ("text", "truncated"))]
-                         + [pytest.param("photo", "unreadable", marks=pytest.mark.skipif(ROOT, reason="root reads any file"))])
+@pytest.mark.parametrize(
+    "role, kind",
+    [
+        (role, kind)
+        for role in ("photo", "shot")
+        for kind in PROBLEMS
+        if kind != "unreadable" and (role == "photo" or kind not in ("text", "truncated"))
+    ]
+    + [pytest.param("photo", "unreadable", marks=pytest.mark.skipif(ROOT, reason="root reads any file"))],
+)
 def test_export_fails_only_the_shot_that_cannot_be_read(ws, capfd, role, kind):
     shutil.copyfile(ws["photo"], "bad.png")
     Path("bad.json").write_text(json.dumps({**json.loads(Path(ws["shot"]).read_text()), "photo": "bad.png"}))
@@ -184,9 +226,19 @@ def test_export_fails_only_the_shot_that_cannot_be_read(ws, capfd, role, kind):
 
 
 @pytest.mark.usefixtures("no_serving")
-@pytest.mark.parametrize("name, role", [("render", "mesh"), ("overlay", "photo"), ("register", "points"),
-                                        ("calibrate", "view"), ("deviation", "scan"), ("export", "job"),
-                                        ("review-shots", "photo"), ("scene-info-manifest", "manifest")])
+@pytest.mark.parametrize(
+    "name, role",
+    [
+        ("render", "mesh"),
+        ("overlay", "photo"),
+        ("register", "points"),
+        ("calibrate", "view"),
+        ("deviation", "scan"),
+        ("export", "job"),
+        ("review-shots", "photo"),
+        ("scene-info-manifest", "manifest"),
+    ],
+)
 def test_permission_denied_is_said_by_every_reader(ws, capfd, monkeypatch, name, role):
     """What chmod 000 gives a user who is not root (the cases above are skipped for root, whom
     no permission stops): os.access says no for the one file, and every reader says so first."""
@@ -195,6 +247,6 @@ def test_permission_denied_is_said_by_every_reader(ws, capfd, monkeypatch, name,
     monkeypatch.setattr(os, "access", lambda path, mode, **kw: Path(path).resolve() != bad and access(path, mode, **kw))
     args = command(name, ws)
     if name == "calibrate":
-        args = ["calibrate", bad.name, *args[len(ws["views"]) + 1:]]
+        args = ["calibrate", bad.name, *args[len(ws["views"]) + 1 :]]
     code, out, err = run(args, capfd)
     check_one_error(code, err, bad.name, "permission denied")

@@ -29,15 +29,20 @@ def _workspace(tmp_path, package="ur_description", prefix="") -> tuple[Path, Pat
     shutil.copytree(UR5 / "meshes", src / package.replace("-", "_") / "meshes")
     urdf = tmp_path / "elsewhere" / "ur5.urdf"
     urdf.parent.mkdir()
-    text = (UR5 / "robot.urdf").read_text().replace('filename="meshes/', f'filename="package://{package}/{prefix}meshes/')
+    text = (
+        (UR5 / "robot.urdf").read_text().replace('filename="meshes/', f'filename="package://{package}/{prefix}meshes/')
+    )
     urdf.write_text(text)
     return src, urdf
 
 
 def test_unresolved_package_says_how_to_give_its_folder(tmp_path):
     _, urdf = _workspace(tmp_path)
-    with pytest.raises(MrcheckError, match=r"not found: package://ur_description/meshes/visual/base\.dae.*"
-                                           r"give --package-path DIR .*ROS_PACKAGE_PATH"):
+    with pytest.raises(
+        MrcheckError,
+        match=r"not found: package://ur_description/meshes/visual/base\.dae.*"
+        r"give --package-path DIR .*ROS_PACKAGE_PATH",
+    ):
         load_scene(urdf)
 
 
@@ -56,7 +61,9 @@ def test_ros_package_path(tmp_path, monkeypatch):
 def test_manifest_package_path_relative_to_the_manifest(tmp_path):
     _, urdf = _workspace(tmp_path)
     manifest = tmp_path / "scene.toml"
-    manifest.write_text('package_path = ["ws/src"]\n\n[[parts]]\nname = "arm"\nmesh = "elsewhere/ur5.urdf"\nunits = "m"\n')
+    manifest.write_text(
+        'package_path = ["ws/src"]\n\n[[parts]]\nname = "arm"\nmesh = "elsewhere/ur5.urdf"\nunits = "m"\n'
+    )
     assert load_scene(manifest).triangle_count > 10_000
 
 

@@ -13,14 +13,14 @@ import numpy as np
 
 from mrcheck.scene import robots
 
-ROBOT_COLORS = {                 # linear RGB, the makers' paint
+ROBOT_COLORS = {  # linear RGB, the makers' paint
     "kuka_iiwa": (0.85, 0.85, 0.82),
     "ur5": (0.55, 0.62, 0.7),
     "ur10": (0.55, 0.62, 0.7),
     "abb_irb140": (0.95, 0.45, 0.05),
 }
-POSE_TRIES = 20                  # poses drawn before settling for the closest one
-MIN_TOP = 0.5                    # m above its base the posed robot reaches at least (arm up, not lying flat)
+POSE_TRIES = 20  # poses drawn before settling for the closest one
+MIN_TOP = 0.5  # m above its base the posed robot reaches at least (arm up, not lying flat)
 
 
 @lru_cache(maxsize=None)

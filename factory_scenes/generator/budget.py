@@ -29,18 +29,18 @@ from .plan import MeshCache, Plan
 from .presets import Preset
 
 FILL_RANGE = (0.5, 0.85)  # share of pallet places filled that looks like a working plant
-CLOSE = 0.02             # a level whose best fill is this close to the target counts as a hit
-MIN_AMOUNT = 0.002       # below this a plan holds one line of two bays, one rack row: nothing left to drop
-AMOUNT_STEP = 0.7        # factor by which the amount shrinks while the fixed part is too large
-TOLERANCE = 0.1          # the promise: within 10 % of the target
+CLOSE = 0.02  # a level whose best fill is this close to the target counts as a hit
+MIN_AMOUNT = 0.002  # below this a plan holds one line of two bays, one rack row: nothing left to drop
+AMOUNT_STEP = 0.7  # factor by which the amount shrinks while the fixed part is too large
+TOLERANCE = 0.1  # the promise: within 10 % of the target
 
 
 @dataclass
 class Solution:
     plan: Plan
     detail: Detail
-    filled: int          # pallet places filled (the first ones in the plan's order)
-    triangles: int       # as rendered
+    filled: int  # pallet places filled (the first ones in the plan's order)
+    triangles: int  # as rendered
 
 
 def solve(preset: Preset, size, seed: int, target: int, cache: MeshCache) -> Solution:
@@ -57,7 +57,7 @@ def solve(preset: Preset, size, seed: int, target: int, cache: MeshCache) -> Sol
         d = detail(level)
         fixed = plan.fixed_triangles(d, cache)
         if fixed > target and best is not None and not best[0][0]:
-            break                                   # a hit already; finer levels only grow the fixed part
+            break  # a hit already; finer levels only grow the fixed part
         slots = plan.slot_triangles(d, cache)
         totals = fixed + np.concatenate([[0], np.cumsum(slots)])
         if fixed > target:
@@ -70,11 +70,14 @@ def solve(preset: Preset, size, seed: int, target: int, cache: MeshCache) -> Sol
             filled = int(np.argmin(np.abs(totals - target)))
         share = filled / max(1, len(slots))
         # close to the target first, then racks neither nearly empty nor full
-        score = (abs(int(totals[filled]) - target) > CLOSE * target, max(0.0, FILL_RANGE[0] - share, share - FILL_RANGE[1]))
+        score = (
+            abs(int(totals[filled]) - target) > CLOSE * target,
+            max(0.0, FILL_RANGE[0] - share, share - FILL_RANGE[1]),
+        )
         if best is None or score <= best[0]:
             best = (score, Solution(plan, d, filled, int(totals[filled])))
         if fixed + FILL_RANGE[0] * slots.sum() > target:
-            break                                   # finer levels leave the racks emptier still
+            break  # finer levels leave the racks emptier still
     return best[1]
 
 

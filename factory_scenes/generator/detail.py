@@ -17,13 +17,13 @@ class Detail:
     """One level of detail (frozen: it keys the builders' caches)."""
 
     level: int
-    sections: int               # sides of small round parts (bolts, rollers, pipes); bollards 1.5x
-    bolts: bool                 # anchor and flange bolts drawn at all
-    roller_pitch: float         # mm, conveyor roller spacing
-    wire_pitch: float | None    # m, welded mesh of fence panels; None: a plain infill sheet
-    carton_divisions: int       # faces of a carton split into n x n quads
-    rib_pitch: float | None     # m, ribs of wall cladding and roof deck; None: flat sheets
-    truss_bays: bool            # roof trusses with diagonals (else solid girders)
+    sections: int  # sides of small round parts (bolts, rollers, pipes); bollards 1.5x
+    bolts: bool  # anchor and flange bolts drawn at all
+    roller_pitch: float  # mm, conveyor roller spacing
+    wire_pitch: float | None  # m, welded mesh of fence panels; None: a plain infill sheet
+    carton_divisions: int  # faces of a carton split into n x n quads
+    rib_pitch: float | None  # m, ribs of wall cladding and roof deck; None: flat sheets
+    truss_bays: bool  # roof trusses with diagonals (else solid girders)
 
 
 # level 4 is what the hand-built sample cell uses (16-sided cylinders, M20 bolts, 100 mm
@@ -33,14 +33,14 @@ class Detail:
 # whose fixed part leaves a fair share to the pallets.
 _TABLE = (
     # sections bolts roller wire   cartons ribs  truss
-    (6,  False, 200.0, None, 1, None, False),
-    (8,  False, 200.0, 0.10, 1, None, True),
-    (8,  False, 150.0, 0.10, 1, 0.6,  True),
-    (12, True,  100.0, 0.10, 1, 0.3,  True),
-    (16, True,  100.0, 0.05, 1, 0.3,  True),
-    (20, True,  75.0,  0.05, 2, 0.25, True),
-    (24, True,  75.0,  0.05, 3, 0.2,  True),
-    (32, True,  60.0,  0.05, 4, 0.2,  True),
+    (6, False, 200.0, None, 1, None, False),
+    (8, False, 200.0, 0.10, 1, None, True),
+    (8, False, 150.0, 0.10, 1, 0.6, True),
+    (12, True, 100.0, 0.10, 1, 0.3, True),
+    (16, True, 100.0, 0.05, 1, 0.3, True),
+    (20, True, 75.0, 0.05, 2, 0.25, True),
+    (24, True, 75.0, 0.05, 3, 0.2, True),
+    (32, True, 60.0, 0.05, 4, 0.2, True),
 )
 SAMPLE_LEVEL = 4
 

@@ -23,8 +23,8 @@ from .geometry import (
     cylinder_between,
 )
 
-FENCE_HEIGHT = 2.2          # m, post height of the guard fence (ISO 14120 asks >= 1.4 m; 2.2 is common)
-PEDESTAL_TOP = 0.70         # m, top of the sample cell's robot pedestal
+FENCE_HEIGHT = 2.2  # m, post height of the guard fence (ISO 14120 asks >= 1.4 m; 2.2 is common)
+PEDESTAL_TOP = 0.70  # m, top of the sample cell's robot pedestal
 
 
 def roller_conveyor(length=8000.0, detail: Detail = SAMPLE_DETAIL, motor=True) -> trimesh.Trimesh:
@@ -37,32 +37,35 @@ def roller_conveyor(length=8000.0, detail: Detail = SAMPLE_DETAIL, motor=True) -
     downstream end. Segments of a longer line are this mesh repeated end to end.
     """
     pitch, roller_r, axis_z = detail.roller_pitch, 30.0, 770.0
-    inner = 300.0                         # inner face of the side frame webs
+    inner = 300.0  # inner face of the side frame webs
     pieces = []
-    for s in (-1.0, 1.0):                 # side frames: web + top and bottom flange
+    for s in (-1.0, 1.0):  # side frames: web + top and bottom flange
         web, lip = s * (inner + 4.0), s * (inner + 50.0)
         pieces.append(box_between((0.0, s * inner, 680.0), (length, web, 790.0)))
         pieces.append(box_between((0.0, web, 786.0), (length, lip, 790.0)))
         pieces.append(box_between((0.0, web, 680.0), (length, lip, 684.0)))
     for x in np.arange(pitch / 2.0, length, pitch):
         pieces.append(cylinder_between((x, -295.0, axis_z), (x, 295.0, axis_z), roller_r, detail.sections))
-        if detail.bolts:                  # axle stubs through the side frames
-            pieces.append(cylinder_between((x, -inner - 6.0, axis_z), (x, inner + 6.0, axis_z), 6.0,
-                                           detail.sections // 2))
-    for x in (20.0, length - 20.0):      # end cross members below the first/last roller
+        if detail.bolts:  # axle stubs through the side frames
+            pieces.append(
+                cylinder_between((x, -inner - 6.0, axis_z), (x, inner + 6.0, axis_z), 6.0, detail.sections // 2)
+            )
+    for x in (20.0, length - 20.0):  # end cross members below the first/last roller
         pieces.append(box_between((x - 20.0, -inner, 690.0), (x + 20.0, inner, 730.0)))
     legs = [100.0, *np.arange(2000.0, length - 100.0, 2000.0), length - 100.0]
-    for x in legs:                        # leg stations
+    for x in legs:  # leg stations
         for s in (-1.0, 1.0):
             y = s * 327.0
-            pieces.append(box_at((x, y, 355.0), (50.0, 50.0, 650.0)))             # leg
-            pieces.append(cylinder_between((x, y, 10.0), (x, y, 30.0), 12.0, detail.sections * 3 // 4))  # levelling screw
-            pieces.append(box_at((x, y, 5.0), (120.0, 120.0, 10.0)))               # foot plate
-        pieces.append(box_at((x, 0.0, 200.0), (40.0, 604.0, 40.0)))                # cross brace
-    if motor:                             # gear motor under the downstream end: gearbox + motor
+            pieces.append(box_at((x, y, 355.0), (50.0, 50.0, 650.0)))  # leg
+            pieces.append(
+                cylinder_between((x, y, 10.0), (x, y, 30.0), 12.0, detail.sections * 3 // 4)
+            )  # levelling screw
+            pieces.append(box_at((x, y, 5.0), (120.0, 120.0, 10.0)))  # foot plate
+        pieces.append(box_at((x, 0.0, 200.0), (40.0, 604.0, 40.0)))  # cross brace
+    if motor:  # gear motor under the downstream end: gearbox + motor
         x = length - 1050.0
-        pieces.append(box_between((x, -inner, 660.0), (x + 100.0, inner, 680.0)))          # mount
-        pieces.append(box_between((x - 50.0, -125.0, 480.0), (x + 150.0, 125.0, 660.0)))   # gearbox
+        pieces.append(box_between((x, -inner, 660.0), (x + 100.0, inner, 680.0)))  # mount
+        pieces.append(box_between((x - 50.0, -125.0, 480.0), (x + 150.0, 125.0, 660.0)))  # gearbox
         pieces.append(cylinder_between((x + 150.0, 0.0, 570.0), (x + 450.0, 0.0, 570.0), 75.0, detail.sections))
     return combine(pieces)
 
@@ -88,8 +91,8 @@ def fence_panel(pitch=1.0, z0=0.15, z1=2.05, detail: Detail = SAMPLE_DETAIL) -> 
     brackets that reach the post faces. Centred on x = 0. Without a wire pitch (coarsest
     level) the frame holds a plain sheet.
     """
-    hw = pitch / 2.0 - 0.04                 # 30 mm post half-width + 10 mm clearance
-    t = 0.02                                # frame tube section
+    hw = pitch / 2.0 - 0.04  # 30 mm post half-width + 10 mm clearance
+    t = 0.02  # frame tube section
     pieces = [
         box_between((-hw, -t / 2, z0), (-hw + t, t / 2, z1)),
         box_between((hw - t, -t / 2, z0), (hw, t / 2, z1)),
@@ -143,7 +146,7 @@ def robot_pedestal(top=PEDESTAL_TOP, detail: Detail = SAMPLE_DETAIL, scale=1.0) 
         box_between((-0.25 * s, -0.25 * s, plate), (0.25 * s, 0.25 * s, top - plate)),
         box_between((-0.3 * s, -0.3 * s, top - plate), (0.3 * s, 0.3 * s, top)),
     ]
-    for sign in (-1.0, 1.0):               # gussets on all four faces
+    for sign in (-1.0, 1.0):  # gussets on all four faces
         pieces.append(box_between((sign * 0.25 * s, -0.008, plate), (sign * 0.38 * s, 0.008, plate + 0.25)))
         pieces.append(box_between((-0.008, sign * 0.25 * s, plate), (0.008, sign * 0.38 * s, plate + 0.25)))
     if detail.bolts:
@@ -157,29 +160,29 @@ def workbench(detail: Detail = SAMPLE_DETAIL) -> trimesh.Trimesh:
 
     Legs, rails, lower shelf, drawer unit, pegboard with a shelf, a vise and a few bins.
     """
-    pieces = [box_between((-1.0, -0.4, 0.86), (1.0, 0.4, 0.90))]           # worktop
+    pieces = [box_between((-1.0, -0.4, 0.86), (1.0, 0.4, 0.90))]  # worktop
     for sx in (-1.0, 1.0):
         for sy in (-1.0, 1.0):
             pieces.append(box_at((sx * 0.92, sy * 0.32, 0.43), (0.06, 0.06, 0.86)))
-    for sy in (-1.0, 1.0):                                                  # rails
+    for sy in (-1.0, 1.0):  # rails
         pieces.append(box_between((-0.89, sy * 0.32 - 0.02, 0.78), (0.89, sy * 0.32 + 0.02, 0.86)))
-    pieces.append(box_between((-0.89, -0.29, 0.15), (0.89, 0.29, 0.17)))   # lower shelf
-    pieces.append(box_between((0.30, -0.34, 0.20), (0.86, 0.30, 0.78)))    # drawer unit
-    for k in range(4):                                                      # drawer fronts
+    pieces.append(box_between((-0.89, -0.29, 0.15), (0.89, 0.29, 0.17)))  # lower shelf
+    pieces.append(box_between((0.30, -0.34, 0.20), (0.86, 0.30, 0.78)))  # drawer unit
+    for k in range(4):  # drawer fronts
         z = 0.21 + k * 0.1425
         pieces.append(box_between((0.31, -0.355, z), (0.85, -0.34, z + 0.1325)))
         pieces.append(box_between((0.50, -0.375, z + 0.09), (0.66, -0.355, z + 0.11)))
-    pieces.append(box_between((-1.0, 0.36, 0.90), (1.0, 0.38, 1.70)))       # pegboard
-    pieces.append(box_between((-1.0, 0.18, 1.48), (1.0, 0.36, 1.50)))       # top shelf
-    for k, x in enumerate((-0.8, -0.45, -0.1, 0.25)):                       # bins on shelf
+    pieces.append(box_between((-1.0, 0.36, 0.90), (1.0, 0.38, 1.70)))  # pegboard
+    pieces.append(box_between((-1.0, 0.18, 1.48), (1.0, 0.36, 1.50)))  # top shelf
+    for k, x in enumerate((-0.8, -0.45, -0.1, 0.25)):  # bins on shelf
         pieces.append(box_between((x, 0.20, 1.50), (x + 0.3, 0.35, 1.50 + 0.10 + 0.02 * k)))
-    pieces += [                                                             # bench vise
+    pieces += [  # bench vise
         box_between((-0.85, -0.42, 0.90), (-0.60, -0.22, 0.96)),
         box_between((-0.80, -0.42, 0.96), (-0.65, -0.38, 1.06)),
         box_between((-0.80, -0.30, 0.96), (-0.65, -0.25, 1.06)),
         cylinder_between((-0.725, -0.55, 1.0), (-0.725, -0.42, 1.0), 0.012, detail.sections * 3 // 4),
     ]
-    pieces.append(box_between((-0.3, -0.1, 0.90), (0.1, 0.2, 1.15)))       # carton on the top
+    pieces.append(box_between((-0.3, -0.1, 0.90), (0.1, 0.2, 1.15)))  # carton on the top
     pieces.append(box_between((0.15, 0.0, 0.90), (0.45, 0.25, 1.05)))
     return combine(pieces)
 
@@ -190,24 +193,26 @@ def machining_centre(detail: Detail = SAMPLE_DETAIL) -> trimesh.Trimesh:
     Recessed plinth, sliding door with window frame and handle, chip ledge, operator
     panel on an arm, roof step, signal tower, coolant tank and chip conveyor.
     """
-    return combine([
-        box_between((-1.25, -0.95, 0.0), (1.25, 0.95, 0.1)),                # recessed plinth
-        box_between((-1.3, -1.0, 0.1), (1.3, 1.0, 2.2)),                    # enclosure
-        box_between((-1.2, -0.9, 2.2), (1.2, 0.9, 2.35)),                   # roof step
-        box_between((-1.0, -1.03, 0.95), (0.5, -1.0, 2.05)),                # door
-        box_between((-0.85, -1.05, 1.25), (0.35, -1.03, 1.30)),             # window frame
-        box_between((-0.85, -1.05, 1.85), (0.35, -1.03, 1.90)),
-        box_between((-0.85, -1.05, 1.30), (-0.80, -1.03, 1.85)),
-        box_between((0.30, -1.05, 1.30), (0.35, -1.03, 1.85)),
-        box_between((0.40, -1.08, 1.30), (0.44, -1.03, 1.70)),              # door handle
-        box_between((-1.3, -1.15, 0.85), (1.3, -1.0, 0.90)),                # chip ledge
-        box_between((0.95, -1.1, 1.62), (1.05, -1.0, 1.70)),                # panel arm
-        box_between((0.75, -1.25, 1.10), (1.25, -1.10, 1.80)),              # operator panel
-        cylinder_between((1.1, 0.7, 2.35), (1.1, 0.7, 2.75), 0.03, detail.sections),   # signal tower
-        box_between((-1.1, 1.0, 0.0), (0.2, 1.5, 0.6)),                     # coolant tank
-        box_between((1.3, -0.4, 0.0), (1.8, 0.4, 0.9)),                     # chip conveyor
-        box_between((1.3, -0.3, 0.9), (1.7, 0.3, 1.3)),
-    ])
+    return combine(
+        [
+            box_between((-1.25, -0.95, 0.0), (1.25, 0.95, 0.1)),  # recessed plinth
+            box_between((-1.3, -1.0, 0.1), (1.3, 1.0, 2.2)),  # enclosure
+            box_between((-1.2, -0.9, 2.2), (1.2, 0.9, 2.35)),  # roof step
+            box_between((-1.0, -1.03, 0.95), (0.5, -1.0, 2.05)),  # door
+            box_between((-0.85, -1.05, 1.25), (0.35, -1.03, 1.30)),  # window frame
+            box_between((-0.85, -1.05, 1.85), (0.35, -1.03, 1.90)),
+            box_between((-0.85, -1.05, 1.30), (-0.80, -1.03, 1.85)),
+            box_between((0.30, -1.05, 1.30), (0.35, -1.03, 1.85)),
+            box_between((0.40, -1.08, 1.30), (0.44, -1.03, 1.70)),  # door handle
+            box_between((-1.3, -1.15, 0.85), (1.3, -1.0, 0.90)),  # chip ledge
+            box_between((0.95, -1.1, 1.62), (1.05, -1.0, 1.70)),  # panel arm
+            box_between((0.75, -1.25, 1.10), (1.25, -1.10, 1.80)),  # operator panel
+            cylinder_between((1.1, 0.7, 2.35), (1.1, 0.7, 2.75), 0.03, detail.sections),  # signal tower
+            box_between((-1.1, 1.0, 0.0), (0.2, 1.5, 0.6)),  # coolant tank
+            box_between((1.3, -0.4, 0.0), (1.8, 0.4, 0.9)),  # chip conveyor
+            box_between((1.3, -0.3, 0.9), (1.7, 0.3, 1.3)),
+        ]
+    )
 
 
 def assembly_press(detail: Detail = SAMPLE_DETAIL) -> trimesh.Trimesh:
@@ -217,21 +222,23 @@ def assembly_press(detail: Detail = SAMPLE_DETAIL) -> trimesh.Trimesh:
     curtain posts, hydraulic unit at the back and a two-hand control stand in front.
     """
     r = detail.sections
-    return combine([
-        box_between((-0.8, -0.7, 0.0), (0.8, 0.7, 0.8)),                    # base with bolster
-        box_between((-0.45, -0.45, 0.8), (0.45, 0.1, 0.9)),                 # bolster plate
-        box_between((-0.7, 0.2, 0.8), (0.7, 0.7, 2.3)),                     # C-frame back
-        box_between((-0.6, -0.6, 2.0), (0.6, 0.7, 2.5)),                    # upper arm
-        cylinder_between((0.0, -0.2, 2.5), (0.0, -0.2, 2.75), 0.22, r),     # hydraulic cylinder
-        cylinder_between((0.0, -0.2, 1.5), (0.0, -0.2, 2.0), 0.08, r),      # ram
-        box_between((-0.35, -0.5, 1.35), (0.35, 0.05, 1.5)),                # upper die
-        box_between((-0.7, -0.75, 0.8), (-0.65, -0.7, 2.0)),                # light curtain posts
-        box_between((0.65, -0.75, 0.8), (0.7, -0.7, 2.0)),
-        box_between((-0.6, 0.7, 0.0), (0.6, 1.2, 1.1)),                     # hydraulic unit
-        cylinder_between((0.3, 0.95, 1.1), (0.3, 0.95, 1.4), 0.08, r),      # motor on the unit
-        box_between((-0.1, -1.35, 0.0), (0.1, -1.15, 0.95)),                # two-hand control stand
-        box_between((-0.35, -1.45, 0.95), (0.35, -1.05, 1.1)),
-    ])
+    return combine(
+        [
+            box_between((-0.8, -0.7, 0.0), (0.8, 0.7, 0.8)),  # base with bolster
+            box_between((-0.45, -0.45, 0.8), (0.45, 0.1, 0.9)),  # bolster plate
+            box_between((-0.7, 0.2, 0.8), (0.7, 0.7, 2.3)),  # C-frame back
+            box_between((-0.6, -0.6, 2.0), (0.6, 0.7, 2.5)),  # upper arm
+            cylinder_between((0.0, -0.2, 2.5), (0.0, -0.2, 2.75), 0.22, r),  # hydraulic cylinder
+            cylinder_between((0.0, -0.2, 1.5), (0.0, -0.2, 2.0), 0.08, r),  # ram
+            box_between((-0.35, -0.5, 1.35), (0.35, 0.05, 1.5)),  # upper die
+            box_between((-0.7, -0.75, 0.8), (-0.65, -0.7, 2.0)),  # light curtain posts
+            box_between((0.65, -0.75, 0.8), (0.7, -0.7, 2.0)),
+            box_between((-0.6, 0.7, 0.0), (0.6, 1.2, 1.1)),  # hydraulic unit
+            cylinder_between((0.3, 0.95, 1.1), (0.3, 0.95, 1.4), 0.08, r),  # motor on the unit
+            box_between((-0.1, -1.35, 0.0), (0.1, -1.15, 0.95)),  # two-hand control stand
+            box_between((-0.35, -1.45, 0.95), (0.35, -1.05, 1.1)),
+        ]
+    )
 
 
 def control_cabinet() -> trimesh.Trimesh:
@@ -239,11 +246,11 @@ def control_cabinet() -> trimesh.Trimesh:
     pieces = [
         box_between((-0.38, -0.23, 0.0), (0.38, 0.23, 0.1)),
         box_between((-0.4, -0.25, 0.1), (0.4, 0.25, 2.1)),
-        box_between((-0.42, -0.27, 2.1), (0.42, 0.27, 2.14)),               # roof
+        box_between((-0.42, -0.27, 2.1), (0.42, 0.27, 2.14)),  # roof
     ]
     for s in (-1.0, 1.0):
-        pieces.append(box_between((s * 0.0025, -0.26, 0.12), (s * 0.395, -0.25, 2.08)))   # door
-        pieces.append(box_at((s * 0.06, -0.27, 1.1), (0.02, 0.02, 0.18)))      # handle
+        pieces.append(box_between((s * 0.0025, -0.26, 0.12), (s * 0.395, -0.25, 2.08)))  # door
+        pieces.append(box_at((s * 0.06, -0.27, 1.1), (0.02, 0.02, 0.18)))  # handle
     return combine(pieces)
 
 
@@ -261,6 +268,16 @@ def bollard(detail: Detail = SAMPLE_DETAIL) -> trimesh.Trimesh:
 
 
 __all__ = [
-    "FENCE_HEIGHT", "PEDESTAL_TOP", "roller_conveyor", "fence_post", "fence_panel", "fence_layout",
-    "robot_pedestal", "workbench", "machining_centre", "assembly_press", "control_cabinet", "bollard",
+    "FENCE_HEIGHT",
+    "PEDESTAL_TOP",
+    "roller_conveyor",
+    "fence_post",
+    "fence_panel",
+    "fence_layout",
+    "robot_pedestal",
+    "workbench",
+    "machining_centre",
+    "assembly_press",
+    "control_cabinet",
+    "bollard",
 ]

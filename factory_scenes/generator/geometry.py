@@ -44,18 +44,18 @@ def grid_box(a, b, divisions: int) -> trimesh.Trimesh:
     t = np.linspace(0.0, 1.0, n + 1)
     u, v = np.meshgrid(t, t, indexing="ij")
     cell = np.arange(n + 1) * (n + 1)
-    i00 = (cell[:-1, None] + np.arange(n)[None, :]).ravel()        # lower-left corner of each cell
+    i00 = (cell[:-1, None] + np.arange(n)[None, :]).ravel()  # lower-left corner of each cell
     quads = np.stack([i00, i00 + n + 1, i00 + n + 2, i00 + 1], axis=1)
     grid_faces = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
     vertices, faces = [], []
     for axis in range(3):
-        p, q = (axis + 1) % 3, (axis + 2) % 3            # (p, q, axis) is right-handed
+        p, q = (axis + 1) % 3, (axis + 2) % 3  # (p, q, axis) is right-handed
         for side, value in ((0, lo[axis]), (1, hi[axis])):
             grid = np.empty(((n + 1) ** 2, 3))
             grid[:, axis] = value
             grid[:, p] = lo[p] + u.ravel() * (hi[p] - lo[p])
             grid[:, q] = lo[q] + v.ravel() * (hi[q] - lo[q])
-            f = grid_faces if side == 1 else grid_faces[:, ::-1]   # outward winding
+            f = grid_faces if side == 1 else grid_faces[:, ::-1]  # outward winding
             faces.append(f + sum(len(x) for x in vertices))
             vertices.append(grid)
     return trimesh.Trimesh(np.concatenate(vertices), np.concatenate(faces), process=False)
@@ -63,9 +63,7 @@ def grid_box(a, b, divisions: int) -> trimesh.Trimesh:
 
 def cylinder_between(p0, p1, radius, sections=16) -> trimesh.Trimesh:
     """Closed cylinder whose axis runs from ``p0`` to ``p1``."""
-    return trimesh.creation.cylinder(
-        radius=radius, segment=np.array([p0, p1], dtype=float), sections=sections
-    )
+    return trimesh.creation.cylinder(radius=radius, segment=np.array([p0, p1], dtype=float), sections=sections)
 
 
 def bar_between(p0, p1, width, height=None) -> trimesh.Trimesh:
@@ -80,10 +78,10 @@ def bar_between(p0, p1, width, height=None) -> trimesh.Trimesh:
     length = float(np.linalg.norm(axis))
     w = axis / length
     side = np.cross(w, (0.0, 0.0, 1.0))
-    if np.linalg.norm(side) < 1e-9:                 # vertical bar
+    if np.linalg.norm(side) < 1e-9:  # vertical bar
         side = np.array([0.0, 1.0, 0.0])
-    u = side / np.linalg.norm(side)                 # horizontal, across the bar: width
-    v = np.cross(w, u)                              # in the vertical plane: height
+    u = side / np.linalg.norm(side)  # horizontal, across the bar: width
+    v = np.cross(w, u)  # in the vertical plane: height
     frame = np.eye(4)
     frame[:3, 0], frame[:3, 1], frame[:3, 2] = u, v, w
     frame[:3, 3] = (p0 + p1) / 2.0
@@ -129,8 +127,7 @@ def anchor_bolt(x, y, z, size=1.0, sections=16) -> list[trimesh.Trimesh]:
     return [
         cylinder_between((x, y, z), (x, y, z + 0.004 * s), 0.020 * s, sections=sections),  # washer
         cylinder_between((x, y, z + 0.004 * s), (x, y, z + 0.020 * s), 0.017 * s, sections=6),  # nut
-        cylinder_between((x, y, z + 0.020 * s), (x, y, z + 0.040 * s), 0.010 * s,
-                         sections=sections * 3 // 4),  # thread
+        cylinder_between((x, y, z + 0.020 * s), (x, y, z + 0.040 * s), 0.010 * s, sections=sections * 3 // 4),  # thread
     ]
 
 
@@ -150,13 +147,13 @@ def i_profile(length, depth, width, web, flange) -> trimesh.Trimesh:
     y-z plane. Dimensions as for a rolled section, e.g. HEB 300: 0.3, 0.3, 0.011, 0.019.
     """
     hd, hw = depth / 2.0, width / 2.0
-    return combine([
-        box_between((-hw, hd - flange, 0.0), (hw, hd, length)),
-        box_between((-hw, -hd, 0.0), (hw, -hd + flange, length)),
-        box_between((-web / 2.0, -hd + flange, 0.0), (web / 2.0, hd - flange, length)),
-    ])
-
-
+    return combine(
+        [
+            box_between((-hw, hd - flange, 0.0), (hw, hd, length)),
+            box_between((-hw, -hd, 0.0), (hw, -hd + flange, length)),
+            box_between((-web / 2.0, -hd + flange, 0.0), (web / 2.0, hd - flange, length)),
+        ]
+    )
 
 
 def rect_minus(outer, holes) -> list[tuple[float, float, float, float]]:
@@ -189,6 +186,19 @@ def rect_minus(outer, holes) -> list[tuple[float, float, float, float]]:
 
 
 __all__ = [
-    "box_between", "box_at", "grid_box", "cylinder_between", "bar_between", "combine", "transformed",
-    "translation", "rotation_z", "Z_TO_X", "Z_TO_Y", "anchor_bolt", "bolt_pattern", "i_profile", "rect_minus",
+    "box_between",
+    "box_at",
+    "grid_box",
+    "cylinder_between",
+    "bar_between",
+    "combine",
+    "transformed",
+    "translation",
+    "rotation_z",
+    "Z_TO_X",
+    "Z_TO_Y",
+    "anchor_bolt",
+    "bolt_pattern",
+    "i_profile",
+    "rect_minus",
 ]

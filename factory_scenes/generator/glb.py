@@ -13,7 +13,7 @@ import numpy as np
 import trimesh
 from trimesh.graph import connected_components
 
-CREASE_ANGLE_DEG = 40.0    # sharper edges get split (flat) normals; 16-sided cylinders stay smooth
+CREASE_ANGLE_DEG = 40.0  # sharper edges get split (flat) normals; 16-sided cylinders stay smooth
 
 
 def crease_split(mesh: trimesh.Trimesh, angle: float) -> trimesh.Trimesh:
@@ -30,7 +30,7 @@ def crease_split(mesh: trimesh.Trimesh, angle: float) -> trimesh.Trimesh:
         return mesh.copy()
     adjacency = mesh.face_adjacency[mesh.face_adjacency_angles < angle]
     areas = mesh.area_faces
-    min_area = mesh.area / 10.0            # smooth_shade's facet_minarea default
+    min_area = mesh.area / 10.0  # smooth_shade's facet_minarea default
     facets = [f for f in mesh.facets if areas[f].sum() > min_area]
     nodes = None
     if facets:
@@ -49,8 +49,12 @@ def crease_split(mesh: trimesh.Trimesh, angle: float) -> trimesh.Trimesh:
     n = len(mesh.vertices)
     # one key per (patch, original vertex): sorting the keys orders vertices as submesh does
     keys, inverse = np.unique(patch[:, None] * n + mesh.faces[order], return_inverse=True)
-    return trimesh.Trimesh(vertices=mesh.vertices[keys % n], faces=inverse.reshape(-1, 3),
-                           face_normals=mesh.face_normals[order], process=False)
+    return trimesh.Trimesh(
+        vertices=mesh.vertices[keys % n],
+        faces=inverse.reshape(-1, 3),
+        face_normals=mesh.face_normals[order],
+        process=False,
+    )
 
 
 def write_glb(mesh: trimesh.Trimesh, path: Path, name: str) -> int:
@@ -62,8 +66,10 @@ def write_glb(mesh: trimesh.Trimesh, path: Path, name: str) -> int:
     """
     shaded = crease_split(mesh, np.radians(CREASE_ANGLE_DEG))
     bare = trimesh.Trimesh(
-        vertices=shaded.vertices, faces=shaded.faces,
-        vertex_normals=shaded.vertex_normals, process=False,
+        vertices=shaded.vertices,
+        faces=shaded.faces,
+        vertex_normals=shaded.vertex_normals,
+        process=False,
     )
     bare.metadata["name"] = name
     Path(path).write_bytes(bare.export(file_type="glb", include_normals=True))

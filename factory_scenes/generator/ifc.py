@@ -23,7 +23,7 @@ import numpy as np
 
 from mrcheck.core.errors import MrcheckError
 
-TIME_STAMP = "2000-01-01T00:00:00"   # fixed: same arguments, same bytes
+TIME_STAMP = "2000-01-01T00:00:00"  # fixed: same arguments, same bytes
 GUID_NAMESPACE = uuid.UUID("6f1c1f52-3a55-4f0e-9a8e-8f3c2b6a9d10")
 STOREY = "Ground floor"
 # part name prefix -> (element class, type class, predefined type); first match wins
@@ -55,8 +55,9 @@ def guid(seed: int, instance_id: str) -> str:
     return ifcopenshell.guid.compress(uuid.uuid5(GUID_NAMESPACE, f"{seed}:{instance_id}").hex)
 
 
-def write_ifc(scene, path: Path, seed: int, description: str, progress=None, map_origin=None,
-              crs: str = "EPSG:25832") -> Path:
+def write_ifc(
+    scene, path: Path, seed: int, description: str, progress=None, map_origin=None, crs: str = "EPSG:25832"
+) -> Path:
     """Write ``scene`` (a loaded :class:`mrcheck.scene.model.Scene`, metres) as IFC4 to ``path``.
 
     ``map_origin`` (E, N, H metres) adds an IfcMapConversion to the projected CRS ``crs`` that
@@ -70,11 +71,12 @@ def write_ifc(scene, path: Path, seed: int, description: str, progress=None, map
     model.header.file_name.time_stamp = TIME_STAMP
     model.header.file_description.description = (description[:250],)
     project = _entity(model, "IfcProject", scene.name, guid(seed, "project"))
-    metre = model.createIfcSIUnit(None, "LENGTHUNIT", None, "METRE")   # by hand: the API orders units by a set
+    metre = model.createIfcSIUnit(None, "LENGTHUNIT", None, "METRE")  # by hand: the API orders units by a set
     project.UnitsInContext = model.createIfcUnitAssignment([metre])
     context = ifcopenshell.api.context.add_context(model, context_type="Model")
-    body = ifcopenshell.api.context.add_context(model, context_type="Model", context_identifier="Body",
-                                target_view="MODEL_VIEW", parent=context)
+    body = ifcopenshell.api.context.add_context(
+        model, context_type="Model", context_identifier="Body", target_view="MODEL_VIEW", parent=context
+    )
     storey = _spatial(model, project, seed)
     if map_origin is not None:
         _georeference(model, map_origin, crs)
@@ -86,7 +88,7 @@ def write_ifc(scene, path: Path, seed: int, description: str, progress=None, map
     # relationships by hand, their lists in the scene's order (the API keeps them in sets, whose
     # order changes from run to run)
     model.createIfcRelContainedInSpatialStructure(guid(seed, "contained"), None, None, None, contained, storey)
-    for relationship in model.by_type("IfcRelationship"):   # the API gives them random GlobalIds
+    for relationship in model.by_type("IfcRelationship"):  # the API gives them random GlobalIds
         relationship.GlobalId = guid(seed, f"relationship#{relationship.id()}")
     model.write(str(path))
     return path
@@ -98,9 +100,17 @@ def _georeference(model, origin, crs: str) -> None:
     ifcopenshell.api.georeference.add_georeferencing(model, name=crs)
     east, north, height = (float(v) for v in origin)
     ifcopenshell.api.georeference.edit_georeferencing(
-        model, projected_crs={"Name": crs},
-        coordinate_operation={"Eastings": east, "Northings": north, "OrthogonalHeight": height,
-                              "XAxisAbscissa": 1.0, "XAxisOrdinate": 0.0, "Scale": 1.0})
+        model,
+        projected_crs={"Name": crs},
+        coordinate_operation={
+            "Eastings": east,
+            "Northings": north,
+            "OrthogonalHeight": height,
+            "XAxisAbscissa": 1.0,
+            "XAxisOrdinate": 0.0,
+            "Scale": 1.0,
+        },
+    )
 
 
 def _entity(model, ifc_class: str, name: str, global_id: str, **attributes):
@@ -138,21 +148,34 @@ def _write_part(model, body, part, seed: int) -> list:
     representation = _mesh_representation(model, body, part)
     ifcopenshell.api.geometry.assign_representation(model, product=kind, representation=representation)
     style = ifcopenshell.api.style.add_style(model, name=part.name)
-    ifcopenshell.api.style.add_surface_style(model, style=style, ifc_class="IfcSurfaceStyleShading",
-                         attributes={"SurfaceColour": {"Name": None, "Red": part.color[0], "Green": part.color[1],
-                                                       "Blue": part.color[2]}})
+    ifcopenshell.api.style.add_surface_style(
+        model,
+        style=style,
+        ifc_class="IfcSurfaceStyleShading",
+        attributes={
+            "SurfaceColour": {"Name": None, "Red": part.color[0], "Green": part.color[1], "Blue": part.color[2]}
+        },
+    )
     ifcopenshell.api.style.assign_representation_styles(model, shape_representation=representation, styles=[style])
-    (mapping,) = kind.RepresentationMaps                  # made by assign_representation
+    (mapping,) = kind.RepresentationMaps  # made by assign_representation
     identity = model.createIfcCartesianTransformationOperator3D(
-        None, None, model.createIfcCartesianPoint((0.0, 0.0, 0.0)), 1.0, None)
+        None, None, model.createIfcCartesianPoint((0.0, 0.0, 0.0)), 1.0, None
+    )
     elements = []
     for instance_id, matrix in zip(part.instance_ids, part.transforms):
         item = model.createIfcMappedItem(mapping, identity)
-        shape = model.createIfcProductDefinitionShape(None, None, [
-            model.createIfcShapeRepresentation(body, "Body", "MappedRepresentation", [item])])
-        element = model.create_entity(element_class, GlobalId=guid(seed, instance_id), Name=instance_id, Tag=instance_id,
-                                      ObjectPlacement=_placement(model, _rigid(matrix, instance_id)), Representation=shape,
-                                      **({"PredefinedType": predefined} if predefined else {}))
+        shape = model.createIfcProductDefinitionShape(
+            None, None, [model.createIfcShapeRepresentation(body, "Body", "MappedRepresentation", [item])]
+        )
+        element = model.create_entity(
+            element_class,
+            GlobalId=guid(seed, instance_id),
+            Name=instance_id,
+            Tag=instance_id,
+            ObjectPlacement=_placement(model, _rigid(matrix, instance_id)),
+            Representation=shape,
+            **({"PredefinedType": predefined} if predefined else {}),
+        )
         elements.append(element)
     model.createIfcRelDefinesByType(guid(seed, f"typed:{part.name}"), None, None, None, elements, kind)
     return elements
@@ -199,8 +222,11 @@ def check_ifc_outdir(outdir: Path) -> None:
         model = outdir / "scene.ifc"
         head = model.read_bytes()[:2000].decode("ascii", "replace") if model.is_file() else ""
         if IFC_MARKER not in head:
-            raise MrcheckError("output folder is not empty and holds no generated IFC scene; "
-                               "not replacing it (pick a new folder or empty it)", outdir)
+            raise MrcheckError(
+                "output folder is not empty and holds no generated IFC scene; "
+                "not replacing it (pick a new folder or empty it)",
+                outdir,
+            )
 
 
 def generate_ifc(preset: str, outdir: Path, seed: int = 0, progress: bool = True, **options) -> Path:
@@ -239,6 +265,8 @@ def generate_ifc(preset: str, outdir: Path, seed: int = 0, progress: bool = True
 
 
 def _ifc_readme(readme: str, description: str) -> str:
-    return (f"{readme.rstrip()}\n\n## IFC\n\nThis folder holds the scene as IFC4 (`scene.ifc`, written by `{description}`):"
-            " one element type per part with its mesh as a mapped IfcTriangulatedFaceSet, one element per instance "
-            "(Name and Tag = the instance id above). The robots' licences are in `licences/`.\n")
+    return (
+        f"{readme.rstrip()}\n\n## IFC\n\nThis folder holds the scene as IFC4 (`scene.ifc`, written by `{description}`):"
+        " one element type per part with its mesh as a mapped IfcTriangulatedFaceSet, one element per instance "
+        "(Name and Tag = the instance id above). The robots' licences are in `licences/`.\n"
+    )

@@ -23,14 +23,14 @@ class Part:
 
     name: str
     color: tuple
-    mesh: trimesh.Trimesh | None = None        # generated -> meshes/<name>.glb, in `units`
-    path: str | None = None                    # external file, relative to the manifest
-    units: str | None = "m"                    # None: the manifest leaves the unit out
+    mesh: trimesh.Trimesh | None = None  # generated -> meshes/<name>.glb, in `units`
+    path: str | None = None  # external file, relative to the manifest
+    units: str | None = "m"  # None: the manifest leaves the unit out
     translate: tuple | None = None
     rotate_deg: tuple | None = None
     joints: dict | None = None
     instances: list = field(default_factory=list)
-    triangles: int = 0                         # of an external file (a generated mesh counts itself)
+    triangles: int = 0  # of an external file (a generated mesh counts itself)
 
     @property
     def mesh_path(self) -> str:
@@ -80,9 +80,9 @@ def toml_value(value) -> str:
     if isinstance(value, (int, np.integer)):
         return str(int(value))
     if isinstance(value, (float, np.floating)):
-        return repr(round(float(value), 6) + 0.0)      # + 0.0 turns -0.0 into 0.0
+        return repr(round(float(value), 6) + 0.0)  # + 0.0 turns -0.0 into 0.0
     if isinstance(value, str):
-        return json.dumps(value)                       # ASCII JSON strings are TOML strings
+        return json.dumps(value)  # ASCII JSON strings are TOML strings
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(toml_value(v) for v in value) + "]"
     if isinstance(value, dict):

@@ -44,7 +44,7 @@ class Slot:
     y: float
     z: float
     yaw: float
-    load: str | None             # key of LOADS, or None for an empty pallet
+    load: str | None  # key of LOADS, or None for an empty pallet
 
 
 @dataclass
@@ -58,7 +58,7 @@ class PartPlan:
 
     name: str
     color: tuple
-    category: str                # key of presets.UNITS_MIX
+    category: str  # key of presets.UNITS_MIX
     build: partial | None = None
     instances: list = field(default_factory=list)
     path: str | None = None
@@ -99,15 +99,16 @@ class Plan:
     name: str
     description: str
     parts: list[PartPlan]
-    slots: list[Slot]            # in fill order
-    robots: list[str]            # robot models to copy next to the manifest
+    slots: list[Slot]  # in fill order
+    robots: list[str]  # robot models to copy next to the manifest
     viewpoints: list[dict]
     seed: int
 
     def fixed_triangles(self, detail: Detail, cache: MeshCache) -> int:
         """Triangles as rendered of everything but the pallets and their loads."""
-        return sum((len(cache.get(p, detail).faces) if p.build else p.triangles) * max(1, len(p.instances))
-                   for p in self.parts)
+        return sum(
+            (len(cache.get(p, detail).faces) if p.build else p.triangles) * max(1, len(p.instances)) for p in self.parts
+        )
 
     def slot_triangles(self, detail: Detail, cache: MeshCache) -> np.ndarray:
         """(len(slots),) int64: triangles a filled slot adds (pallet plus load), in fill order."""
@@ -117,15 +118,26 @@ class Plan:
 
     def manifest_parts(self, detail: Detail, cache: MeshCache, filled: int) -> list[Part]:
         """The manifest parts (meshes in metres) with the first ``filled`` slots filled."""
-        return [Part(name=p.name, color=p.color, mesh=cache.get(p, detail) if p.build else None,
-                     path=p.path, units="m", translate=p.translate, rotate_deg=p.rotate_deg,
-                     joints=p.joints, instances=p.instances, triangles=p.triangles)
-                for p in self.part_plans(filled)]
+        return [
+            Part(
+                name=p.name,
+                color=p.color,
+                mesh=cache.get(p, detail) if p.build else None,
+                path=p.path,
+                units="m",
+                translate=p.translate,
+                rotate_deg=p.rotate_deg,
+                joints=p.joints,
+                instances=p.instances,
+                triangles=p.triangles,
+            )
+            for p in self.part_plans(filled)
+        ]
 
     def part_plans(self, filled: int):
         """The fixed part plans, then the pallet and load parts of the first ``filled`` slots."""
         yield from self.parts
-        used = sorted(self.slots[:filled], key=lambda s: s.id)          # manifest order by id
+        used = sorted(self.slots[:filled], key=lambda s: s.id)  # manifest order by id
         pallet = self._pallet_plan()
         pallet.instances = [place(s.x, s.y, s.z, s.yaw, id=s.id) for s in used]
         if pallet.instances:
@@ -147,7 +159,9 @@ class Plan:
     def _load_plan(self, name) -> PartPlan:
         color, build = LOADS[name]
         seed = [self.seed, list(LOADS).index(name)]
-        return PartPlan(name, COLORS[color], "storage", partial(build, seed=tuple(seed)) if build else partial(crate_load))
+        return PartPlan(
+            name, COLORS[color], "storage", partial(build, seed=tuple(seed)) if build else partial(crate_load)
+        )
 
 
 __all__ = ["Slot", "PartPlan", "MeshCache", "Plan", "LOADS", "LOAD_WEIGHTS", "seeded_cartons"]

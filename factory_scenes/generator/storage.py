@@ -23,14 +23,14 @@ from .geometry import (
     translation,
 )
 
-PALLET_HEIGHT = 0.144       # m, EUR pallet (EN 13698-1)
-CARTON_SIZE = 0.38          # m, edge of a carton in plan
-CARTON_HEIGHT = 0.28        # m
-RACK_DEPTH = 1.1            # m, upright frame depth (front post to back post, outside)
-RACK_POST = 0.09            # m, upright post width along the row
-RACK_BEAM_HEIGHT = 0.12     # m, box beam section height
-RACK_BAY_PITCH = 2.8        # m, upright to upright: 2.7 m clear beam, three EUR pallets crosswise
-RACK_SLOTS = (-0.9, 0.0, 0.9)   # m, pallet centres across a bay, from its middle
+PALLET_HEIGHT = 0.144  # m, EUR pallet (EN 13698-1)
+CARTON_SIZE = 0.38  # m, edge of a carton in plan
+CARTON_HEIGHT = 0.28  # m
+RACK_DEPTH = 1.1  # m, upright frame depth (front post to back post, outside)
+RACK_POST = 0.09  # m, upright post width along the row
+RACK_BEAM_HEIGHT = 0.12  # m, box beam section height
+RACK_BAY_PITCH = 2.8  # m, upright to upright: 2.7 m clear beam, three EUR pallets crosswise
+RACK_SLOTS = (-0.9, 0.0, 0.9)  # m, pallet centres across a bay, from its middle
 
 
 def eur_pallet(detail: Detail = SAMPLE_DETAIL) -> trimesh.Trimesh:
@@ -51,14 +51,14 @@ def eur_pallet(detail: Detail = SAMPLE_DETAIL) -> trimesh.Trimesh:
     top_widths = (0.145, 0.100, 0.145, 0.100, 0.145)
     gap = (0.8 - sum(top_widths)) / (len(top_widths) - 1)
     y = -0.4
-    for w in top_widths:                                   # top deck boards along x
+    for w in top_widths:  # top deck boards along x
         pieces.append(box_between((-0.6, y, z_top), (0.6, y + w, PALLET_HEIGHT)))
         y += w + gap
-    for x in (-0.5275, 0.0, 0.5275):                       # cross boards along y
+    for x in (-0.5275, 0.0, 0.5275):  # cross boards along y
         pieces.append(box_between((x - 0.0725, -0.4, z_cross), (x + 0.0725, 0.4, z_top)))
-        for yc, wy in ((-0.35, 0.100), (0.0, 0.145), (0.35, 0.100)):   # blocks
+        for yc, wy in ((-0.35, 0.100), (0.0, 0.145), (0.35, 0.100)):  # blocks
             pieces.append(box_between((x - 0.0725, yc - wy / 2, z_block), (x + 0.0725, yc + wy / 2, z_cross)))
-    for yc, wy in ((-0.35, 0.100), (0.0, 0.145), (0.35, 0.100)):       # bottom boards along x
+    for yc, wy in ((-0.35, 0.100), (0.0, 0.145), (0.35, 0.100)):  # bottom boards along x
         pieces.append(box_between((-0.6, yc - wy / 2, 0.0), (0.6, yc + wy / 2, board)))
     return combine(pieces)
 
@@ -94,15 +94,15 @@ def crate_load(detail: Detail) -> trimesh.Trimesh:
     """
     z0, z1, hx, hy, t = PALLET_HEIGHT, PALLET_HEIGHT + 0.7, 0.58, 0.38, 0.012
     pieces = [grid_box((-hx, -hy, z0), (hx, hy, z1), detail.carton_divisions)]
-    for z in (z0 + 0.05, z1 - 0.05):                       # horizontal battens all round
+    for z in (z0 + 0.05, z1 - 0.05):  # horizontal battens all round
         pieces.append(box_between((-hx - t, -hy - t, z - 0.04), (hx + t, -hy, z + 0.04)))
         pieces.append(box_between((-hx - t, hy, z - 0.04), (hx + t, hy + t, z + 0.04)))
         pieces.append(box_between((-hx - t, -hy, z - 0.04), (-hx, hy, z + 0.04)))
         pieces.append(box_between((hx, -hy, z - 0.04), (hx + t, hy, z + 0.04)))
-    for sx in (-1.0, 1.0):                                 # corner posts
+    for sx in (-1.0, 1.0):  # corner posts
         for sy in (-1.0, 1.0):
             pieces.append(box_between((sx * (hx + t), sy * (hy + t), z0), (sx * (hx - 0.06), sy * (hy - 0.06), z1)))
-    for x in (-0.35, 0.0, 0.35):                           # lid cleats
+    for x in (-0.35, 0.0, 0.35):  # lid cleats
         pieces.append(box_between((x - 0.04, -hy, z1), (x + 0.04, hy, z1 + 0.02)))
     return combine(pieces)
 
@@ -110,18 +110,18 @@ def crate_load(detail: Detail) -> trimesh.Trimesh:
 def _upright_frame(height, detail: Detail) -> list[trimesh.Trimesh]:
     """Upright frame in the y-z plane at x = 0: two posts, zig-zag bracing, base plates."""
     hd, hp = RACK_DEPTH / 2.0, RACK_POST / 2.0
-    post_d = 0.07                                          # post depth across the row (y)
+    post_d = 0.07  # post depth across the row (y)
     pieces = []
     for y in (-hd + post_d / 2, hd - post_d / 2):
         pieces.append(box_between((-hp, y - post_d / 2, 0.0), (hp, y + post_d / 2, height)))
-        pieces.append(box_between((-hp - 0.02, y - 0.07, 0.0), (hp + 0.02, y + 0.07, 0.008)))   # base plate
+        pieces.append(box_between((-hp - 0.02, y - 0.07, 0.0), (hp + 0.02, y + 0.07, 0.008)))  # base plate
         if detail.bolts:
             pieces += anchor_bolt(0.0, y - 0.05 * np.sign(y), 0.008, 0.6, detail.sections)
-    y_front, y_back = -hd + post_d, hd - post_d             # inner faces of the posts
-    pieces.append(bar_between((0.0, y_front, 0.15), (0.0, y_back, 0.15), 0.03, 0.03))   # bottom horizontal
+    y_front, y_back = -hd + post_d, hd - post_d  # inner faces of the posts
+    pieces.append(bar_between((0.0, y_front, 0.15), (0.0, y_back, 0.15), 0.03, 0.03))  # bottom horizontal
     pieces.append(bar_between((0.0, y_front, height - 0.1), (0.0, y_back, height - 0.1), 0.03, 0.03))
     z, step, flip = 0.15, 1.0 if detail.truss_bays else height, False
-    while z + 0.2 < height - 0.1:                          # diagonal bracing, zig-zag up the frame
+    while z + 0.2 < height - 0.1:  # diagonal bracing, zig-zag up the frame
         z1 = min(z + step, height - 0.1)
         a, b = (y_front, y_back) if not flip else (y_back, y_front)
         pieces.append(bar_between((0.0, a, z), (0.0, b, z1), 0.03, 0.025))
@@ -151,7 +151,9 @@ def rack_beams(beam_levels, detail: Detail) -> trimesh.Trimesh:
             pieces.append(box_between((x0, y, z - RACK_BEAM_HEIGHT), (x1, y + 0.05, z)))
             if detail.bolts:
                 for x in (x0, x1 - 0.012):
-                    pieces.append(box_between((x, y - 0.004, z - RACK_BEAM_HEIGHT - 0.03), (x + 0.012, y + 0.054, z + 0.01)))
+                    pieces.append(
+                        box_between((x, y - 0.004, z - RACK_BEAM_HEIGHT - 0.03), (x + 0.012, y + 0.054, z + 0.01))
+                    )
     return combine(pieces)
 
 
@@ -159,7 +161,7 @@ def rack_guard(detail: Detail) -> trimesh.Trimesh:
     """Row-end protector: two posts on base plates and a rail, 0.4 m tall, across the row
     end (along y, centred on y = 0), standing 0.15 m out from the end frame at x = 0."""
     hd = RACK_DEPTH / 2.0 + 0.05
-    pieces = [box_between((-0.23, -hd, 0.25), (-0.15, hd, 0.4))]            # rail
+    pieces = [box_between((-0.23, -hd, 0.25), (-0.15, hd, 0.4))]  # rail
     for y in (-hd + 0.05, hd - 0.05):
         pieces.append(box_between((-0.23, y - 0.04, 0.0), (-0.15, y + 0.04, 0.4)))
         pieces.append(box_between((-0.26, y - 0.09, 0.0), (-0.12, y + 0.09, 0.01)))
@@ -169,6 +171,15 @@ def rack_guard(detail: Detail) -> trimesh.Trimesh:
 
 
 __all__ = [
-    "PALLET_HEIGHT", "RACK_DEPTH", "RACK_BAY_PITCH", "RACK_SLOTS", "RACK_BEAM_HEIGHT",
-    "eur_pallet", "carton_stack", "crate_load", "rack_frame", "rack_beams", "rack_guard",
+    "PALLET_HEIGHT",
+    "RACK_DEPTH",
+    "RACK_BAY_PITCH",
+    "RACK_SLOTS",
+    "RACK_BEAM_HEIGHT",
+    "eur_pallet",
+    "carton_stack",
+    "crate_load",
+    "rack_frame",
+    "rack_beams",
+    "rack_guard",
 ]

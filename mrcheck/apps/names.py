@@ -18,23 +18,25 @@ from pathlib import Path
 
 from mrcheck.render.renderer import MODES
 
-MANIFEST = "manifest.json"   # the job's, in OUTDIR
-REPORT = "report.html"       # the export's, in OUTDIR
-SHOTS = "shots"              # OUTDIR/shots/NAME/: one folder per shot
-SHOT_FILE = "SHOT.json"      # a shot folder's registered shot
-RECORD = "record.json"       # a shot folder's record, written last: the shot is finished
-SHEET = "sheet.png"          # a shot folder's study sheet
+MANIFEST = "manifest.json"  # the job's, in OUTDIR
+REPORT = "report.html"  # the export's, in OUTDIR
+SHOTS = "shots"  # OUTDIR/shots/NAME/: one folder per shot
+SHOT_FILE = "SHOT.json"  # a shot folder's registered shot
+RECORD = "record.json"  # a shot folder's record, written last: the shot is finished
+SHEET = "sheet.png"  # a shot folder's study sheet
 
-REVIEW_DATABASE = "review.sqlite"   # the review's markers, in the reviewed folder (or --db)
-REVIEW_CACHE = ".review-cache"      # the review's render cache, beside its database
-REVIEW_REPORT = "review.html"       # the review's HTML report, as downloaded
-REVIEW_CSV = "review.csv"           # the review's markers, as downloaded
+REVIEW_DATABASE = "review.sqlite"  # the review's markers, in the reviewed folder (or --db)
+REVIEW_CACHE = ".review-cache"  # the review's render cache, beside its database
+REVIEW_REPORT = "review.html"  # the review's HTML report, as downloaded
+REVIEW_CSV = "review.csv"  # the review's markers, as downloaded
 
 _AO = "|".join(m for m in MODES if m != "phong")
 _NUM = r"[0-9][0-9.e+-]*"  # a number as number() writes it: 1, 0.5, 1e-05
 # every name the export writes into a shot folder (temp files included): only these are ever removed
-_EXPORT_NAME = re.compile(rf"(render_phong|render_({_AO})_i{_NUM}|overlay_phong_a{_NUM}|overlay_({_AO})_i{_NUM}_a{_NUM}"
-                          rf"|sheet)\.png|SHOT\.json|record\.json|\..+\.part")
+_EXPORT_NAME = re.compile(
+    rf"(render_phong|render_({_AO})_i{_NUM}|overlay_phong_a{_NUM}|overlay_({_AO})_i{_NUM}_a{_NUM}"
+    rf"|sheet)\.png|SHOT\.json|record\.json|\..+\.part"
+)
 _SHOT_NAME = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9._-]*")
 
 
@@ -90,4 +92,4 @@ def cached_suffix(stamp: str) -> str:
     return f"_{stamp}.png"
 
 
-CACHED_PREFIXES = ("photo_", "thumb_", "edges_", "render_")   # the cache's own file names (cached_name)
+CACHED_PREFIXES = ("photo_", "thumb_", "edges_", "render_")  # the cache's own file names (cached_name)

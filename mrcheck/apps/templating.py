@@ -22,8 +22,15 @@ def _escaped(value) -> Markup:
 
 @functools.cache
 def _environment(package: str) -> Environment:
-    return Environment(loader=PackageLoader(package, "templates"), autoescape=True, finalize=_escaped,
-                       undefined=StrictUndefined, trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True)
+    return Environment(
+        loader=PackageLoader(package, "templates"),
+        autoescape=True,
+        finalize=_escaped,
+        undefined=StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        keep_trailing_newline=True,
+    )
 
 
 def render(package: str, name: str, **values) -> str:

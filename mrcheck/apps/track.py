@@ -73,8 +73,16 @@ LOST_SUPPORT = 0.25
 # pair (median +14 to +24 % per walk), the `overview` walks -9 to +14 % (medians -4 to +6 %), the
 # crates +5 %; over the 144 frames the median error 0.165 -> 0.151 px, the mean 0.242 -> 0.222,
 # frames beyond 1 px 6 -> 3, the worst 1.41 -> 1.49 (docs/edge-registration.md)
-TRACK_OPTIONS = EdgeOptions(search_px=8.0, levels=1, iterations=8, max_samples=800, min_support=0.0, coarse="normal",
-                            descent_only=False, rerender_px=math.inf)
+TRACK_OPTIONS = EdgeOptions(
+    search_px=8.0,
+    levels=1,
+    iterations=8,
+    max_samples=800,
+    min_support=0.0,
+    coarse="normal",
+    descent_only=False,
+    rerender_px=math.inf,
+)
 # a frame lost with TRACK_OPTIONS, snapped again from its start with a render of its own there and
 # the visible edges found again after 3 px of steps (the twelfth session's schedule): the frame
 # before's render is a frame's motion old, and where much comes into view or goes out of it (the
@@ -112,10 +120,17 @@ class FramePose:
     times_s: dict = field(default_factory=dict, repr=False)
 
     def to_dict(self) -> dict:
-        out = {"frame": self.frame, "time_s": round(self.time_s, 4), "R": self.camera.R.tolist(),
-               "t": self.camera.t.tolist(), "rms_px": None if self.rms_px is None else round(self.rms_px, 4),
-               "support": round(self.support, 4), "corner_px": [round(v, 3) for v in self.corner_px],
-               "lost": self.lost, "seconds": round(self.seconds, 3)}
+        out = {
+            "frame": self.frame,
+            "time_s": round(self.time_s, 4),
+            "R": self.camera.R.tolist(),
+            "t": self.camera.t.tolist(),
+            "rms_px": None if self.rms_px is None else round(self.rms_px, 4),
+            "support": round(self.support, 4),
+            "corner_px": [round(v, 3) for v in self.corner_px],
+            "lost": self.lost,
+            "seconds": round(self.seconds, 3),
+        }
         if self.lost:
             out["reason"] = self.reason
         return out
@@ -154,8 +169,10 @@ class TrackResult:
         rate = f"{self.fps:.2f} frames/s"
         if len(self.frames) > 1:
             rate += f"; {self.fps_after_first:.2f} after the first frame, which took {self.first_s:.2f} s"
-        return (f"tracked {len(self.frames)} frames in {self.seconds:.2f} s ({rate}); "
-                f"lost: {', '.join(map(str, self.lost)) or 'none'}")
+        return (
+            f"tracked {len(self.frames)} frames in {self.seconds:.2f} s ({rate}); "
+            f"lost: {', '.join(map(str, self.lost)) or 'none'}"
+        )
 
     def stage_line(self) -> str:
         """The stages' seconds, largest first."""
@@ -163,8 +180,11 @@ class TrackResult:
         return "time per stage (s): " + ", ".join(f"{k} {v:.2f}" for k, v in stages if v >= 0.005)
 
     def lost_lines(self) -> list[str]:
-        return [f"  frame {f.frame} lost ({f.reason}): its pose is the prediction, not trusted"
-                for f in self.frames if f.lost]
+        return [
+            f"  frame {f.frame} lost ({f.reason}): its pose is the prediction, not trusted"
+            for f in self.frames
+            if f.lost
+        ]
 
 
 def predicted(previous: list) -> Camera:
@@ -173,21 +193,40 @@ def predicted(previous: list) -> Camera:
     if len(previous) < 2:
         return last
     before = previous[-2].camera
-    dR = last.R @ before.R.T                 # X_cam' = dR X_cam + dt between the two frames
+    dR = last.R @ before.R.T  # X_cam' = dR X_cam + dt between the two frames
     dt = last.t - dR @ before.t
     return last.with_pose(dR @ last.R, dR @ last.t + dt)
 
 
-def snap_frame(scene, camera: Camera, grey, start: Camera, renderer, edges, options: EdgeOptions = TRACK_OPTIONS,
-               candidates: CandidateEdges | None = None, seed: VisibilityRender | None = None,
-               pyramid: list | None = None) -> tuple:
+def snap_frame(
+    scene,
+    camera: Camera,
+    grey,
+    start: Camera,
+    renderer,
+    edges,
+    options: EdgeOptions = TRACK_OPTIONS,
+    candidates: CandidateEdges | None = None,
+    seed: VisibilityRender | None = None,
+    pyramid: list | None = None,
+) -> tuple:
     """``(camera at the pose, fit or None, reason)`` of one frame from ``start``; ``candidates``:
     the :class:`~mrcheck.mr.edges.candidates.CandidateEdges` kept from the frames before;
     ``seed``: the frame before's overlay render (its visible edges); ``pyramid``: the frame's
     gradient pyramid made beforehand (see ``refine_pose``)."""
     try:
-        fit = refine_pose(scene, camera, grey, initial=start, options=options, renderer=renderer, edges=edges,
-                          candidates=candidates, seed=seed, pyramid=pyramid)
+        fit = refine_pose(
+            scene,
+            camera,
+            grey,
+            initial=start,
+            options=options,
+            renderer=renderer,
+            edges=edges,
+            candidates=candidates,
+            seed=seed,
+            pyramid=pyramid,
+        )
     except EdgeFitError as exc:
         return start, None, str(exc)
     if fit.support < LOST_SUPPORT:
@@ -195,8 +234,9 @@ def snap_frame(scene, camera: Camera, grey, start: Camera, renderer, edges, opti
     return fit.camera, fit, ""
 
 
-def track_video(video, scene, intrinsics: Camera, initial: Camera, output, poses_path, alpha: float = 0.5,
-                progress=None) -> TrackResult:
+def track_video(
+    video, scene, intrinsics: Camera, initial: Camera, output, poses_path, alpha: float = 0.5, progress=None
+) -> TrackResult:
     """Track ``video`` (a path) from the pose of ``initial``; write the overlay video ``output``
     and ``poses_path`` (JSON lines) atomically; ``progress(done, total)`` after every frame.
 
@@ -227,7 +267,7 @@ def _track_video(video, scene, intrinsics, initial, output, poses_path, alpha, p
                 edges = scene_edges(scene)
                 renderer = Renderer(scene)
                 handle, name = tempfile.mkstemp(suffix=".mp4", dir=Path(output).parent, prefix=".track-")
-                os.close(handle)      # the encoder opens the file by its name
+                os.close(handle)  # the encoder opens the file by its name
                 tmp_video = Path(name)
                 loop = _Loop(result, scene, intrinsics, initial, renderer, edges, alpha)
                 while True:
@@ -326,7 +366,7 @@ class _Loop:
         # spacing is that of FIRST_OPTIONS' 1500 samples, about twice the candidates to test)
         self.candidates = CandidateEdges(edges)
         self.camera = self.maps = self.writer = None
-        self.seed = None     # the last overlay's depth and normals (VisibilityRender), for the next snap
+        self.seed = None  # the last overlay's depth and normals (VisibilityRender), for the next snap
         self._maps_job = None
         self.times = result.times_s
 
@@ -343,9 +383,18 @@ class _Loop:
             self._maps_job = ThreadPoolExecutor(max_workers=1)
             self._maps = self._maps_job.submit(distortion_map, self.camera)
             self.writer = BackgroundVideo(tmp_video, rgb.shape[1], rgb.shape[0], rate)
-        pose = _track_frame(self.result.frames, self.scene, self.camera, photo, self.initial, self.renderer,
-                            self.edges, len(self.result.frames),
-                            candidates=self.candidates if self.result.frames else None, seed=self.seed)
+        pose = _track_frame(
+            self.result.frames,
+            self.scene,
+            self.camera,
+            photo,
+            self.initial,
+            self.renderer,
+            self.edges,
+            len(self.result.frames),
+            candidates=self.candidates if self.result.frames else None,
+            seed=self.seed,
+        )
         self.seed = None
         for stage, seconds in pose.times_s.items():
             self.times[f"snap {stage}"] = self.times.get(f"snap {stage}", 0.0) + seconds
@@ -357,8 +406,9 @@ class _Loop:
             self._maps_job = None
             began = self.add("lens map (wait)", began)
         try:
-            frame, view, offset, maps = photo_frame(self.renderer, pose.camera, ["vector"], OVERLAY_SETTINGS, self.maps,
-                                                    want_normals=True)
+            frame, view, offset, maps = photo_frame(
+                self.renderer, pose.camera, ["vector"], OVERLAY_SETTINGS, self.maps, want_normals=True
+            )
         except MrcheckError as exc:
             if not pose.lost:
                 raise
@@ -394,29 +444,32 @@ class _Loop:
             self.writer = None
 
 
-def _track_frame(previous, scene, camera, photo: _Photo, initial, renderer, edges, index, candidates=None,
-                 seed=None) -> FramePose:
+def _track_frame(
+    previous, scene, camera, photo: _Photo, initial, renderer, edges, index, candidates=None, seed=None
+) -> FramePose:
     start = camera.with_pose(initial.R, initial.t) if not previous else predicted(previous)
     began = time.perf_counter()
-    pose, fit, reason = snap_frame(scene, camera, photo.grey, start, renderer, edges,
-                                   frame_options(index), candidates, seed,
-                                   pyramid=photo.pyramid)
+    pose, fit, reason = snap_frame(
+        scene, camera, photo.grey, start, renderer, edges, frame_options(index), candidates, seed, pyramid=photo.pyramid
+    )
     times = _fit_times(fit, {})
     # not within a lost stretch: there both snaps start from the same coasting prediction (on the
     # 60-frame `robot_cell` walk sideways, 25 frames of a bare wall, the retries cost a fifth of the run)
     if reason and index > 0 and not previous[-1].lost and RETRY_OPTIONS is not None:
-        pose, fit, reason = snap_frame(scene, camera, photo.grey, start, renderer, edges, RETRY_OPTIONS, candidates,
-                                       pyramid=photo.pyramid)
+        pose, fit, reason = snap_frame(
+            scene, camera, photo.grey, start, renderer, edges, RETRY_OPTIONS, candidates, pyramid=photo.pyramid
+        )
         times = _fit_times(fit, times)
     corners = list(fit.uncertainty.corner_px) if fit is not None else []
     rms, support = (None, 0.0) if fit is None else (fit.rms_px, fit.support)
-    return FramePose(index, photo.time_s, pose, rms, support, corners, bool(reason), reason,
-                     time.perf_counter() - began, times)
+    return FramePose(
+        index, photo.time_s, pose, rms, support, corners, bool(reason), reason, time.perf_counter() - began, times
+    )
 
 
 def _fit_times(fit, times: dict) -> dict:
     """``times`` (stage -> seconds) plus the stages of ``fit`` (None: a fit that raised)."""
-    for stage, seconds in (fit.times_s.items() if fit is not None else ()):
+    for stage, seconds in fit.times_s.items() if fit is not None else ():
         if stage != "total":
             times[stage] = times.get(stage, 0.0) + seconds
     return times
@@ -427,15 +480,35 @@ def track_command(video, scene, intrinsics, initial, output, poses=None, alpha=0
     the video output, ``OUT.poses.jsonl``)."""
     output = check_output_path(output, (".mp4",), "video")
     poses = Path(poses) if poses else output.with_suffix(".poses.jsonl")
-    check_not_inputs([output, poses], [("the video", video), ("--intrinsics", intrinsics), ("--initial", initial),
-                                       ("the scene", scene_files(scene))])
+    check_not_inputs(
+        [output, poses],
+        [("the video", video), ("--intrinsics", intrinsics), ("--initial", initial), ("the scene", scene_files(scene))],
+    )
     check_input(video, "video")
     check_input(scene, "scene", folder_ok=True)
     if not 0.0 <= alpha <= 1.0:
         raise MrcheckError(f"--alpha must be in [0, 1], got {alpha}")
-    return track_video(video, load_scene(scene), read_camera(intrinsics), load_camera(initial), output, poses,
-                       alpha=alpha, progress=progress)
+    return track_video(
+        video,
+        load_scene(scene),
+        read_camera(intrinsics),
+        load_camera(initial),
+        output,
+        poses,
+        alpha=alpha,
+        progress=progress,
+    )
 
 
-__all__ = ["FramePose", "TrackResult", "predicted", "snap_frame", "track_video", "track_command", "LOST_SUPPORT",
-           "TRACK_OPTIONS", "RETRY_OPTIONS", "FIRST_OPTIONS"]
+__all__ = [
+    "FramePose",
+    "TrackResult",
+    "predicted",
+    "snap_frame",
+    "track_video",
+    "track_command",
+    "LOST_SUPPORT",
+    "TRACK_OPTIONS",
+    "RETRY_OPTIONS",
+    "FIRST_OPTIONS",
+]

@@ -36,7 +36,7 @@ from mrcheck.core.output import check_output_path, write_text
 from mrcheck.eval.edgephotos import reprojection_error
 from mrcheck.eval.walks import Walk, make_walk
 
-TARGET_FPS = 5.0          # issue 20's speed target at 640x480
+TARGET_FPS = 5.0  # issue 20's speed target at 640x480
 FRAMES, QUICK_FRAMES = 24, 12
 ROUNDS, QUICK_ROUNDS = 3, 1
 
@@ -73,11 +73,22 @@ def run_walk(walk: Walk, manifest: Path, folder: Path) -> TrackRun:
     finally:
         for path in (output, poses, camera, rough):
             path.unlink(missing_ok=True)
-    errors = [float(np.median(reprojection_error(truth, frame.camera, walk.points)))
-              for truth, frame in zip(walk.truths, result.frames)]
-    return TrackRun(walk.name, len(result.frames), result.seconds, result.fps, result.fps_after_first,
-                    result.first_s, float(np.median(errors)), float(np.max(errors)), len(result.lost),
-                    dict(result.times_s))
+    errors = [
+        float(np.median(reprojection_error(truth, frame.camera, walk.points)))
+        for truth, frame in zip(walk.truths, result.frames)
+    ]
+    return TrackRun(
+        walk.name,
+        len(result.frames),
+        result.seconds,
+        result.fps,
+        result.fps_after_first,
+        result.first_s,
+        float(np.median(errors)),
+        float(np.max(errors)),
+        len(result.lost),
+        dict(result.times_s),
+    )
 
 
 def _track(video, manifest, camera, rough, output) -> TrackResult:
@@ -113,14 +124,16 @@ def bench_plan(quick: bool, folder: Path) -> list[WalkPlan]:
     key = b"".join(path.read_bytes() for path in scene_files(manifest))
     views = ("robot_cell",) if quick else ("robot_cell", "overview")
     motions = ("side",) if quick else ("side", "forward", "left")
-    plan = [WalkPlan(f"cell-{view}-{motion}", cell, manifest, cell.camera(view, 640), motion, frames, key)
-            for view in views for motion in motions]
+    plan = [
+        WalkPlan(f"cell-{view}-{motion}", cell, manifest, cell.camera(view, 640), motion, frames, key)
+        for view in views
+        for motion in motions
+    ]
     crates = write_crate_scene(Path(folder) / "crates-scene")
     return plan + [WalkPlan("crates-side", crate_scene(), crates, crate_camera(640, 480), "side", frames)]
 
 
-def track_bench(quick: bool = False, rounds: int | None = None, json_path=None, progress=None,
-                folder=None) -> tuple:
+def track_bench(quick: bool = False, rounds: int | None = None, json_path=None, progress=None, folder=None) -> tuple:
     """``(runs, lines)``: every :class:`TrackRun` and the table of :func:`summary_lines`;
     ``json_path``: the runs written there as JSON too (checked before the work, written before
     the table is made); ``progress(done, total, label)`` in frames (each photo made, a walk found
@@ -142,8 +155,16 @@ def track_bench(quick: bool = False, rounds: int | None = None, json_path=None, 
     walks = []
     for entry in plan:
         made = done
-        walk = make_walk(entry.scene, entry.camera, entry.motion, entry.frames, folder, entry.name, key=entry.key,
-                         progress=lambda k, n, name=entry.name: step(1, f"{name}: photo {k} of {n}"))
+        walk = make_walk(
+            entry.scene,
+            entry.camera,
+            entry.motion,
+            entry.frames,
+            folder,
+            entry.name,
+            key=entry.key,
+            progress=lambda k, n, name=entry.name: step(1, f"{name}: photo {k} of {n}"),
+        )
         step(entry.frames - (done - made), f"{entry.name} ready")
         walks.append((walk, entry.manifest))
     runs = []
@@ -154,11 +175,18 @@ def track_bench(quick: bool = False, rounds: int | None = None, json_path=None, 
                 runs.append(run)
                 step(run.frames, f"round {round_ + 1}, {walk.name}: {run.fps:.2f} frames/s")
     if json_path is not None:
-        write_text(json_path, json.dumps({"quick": quick, "rounds": rounds, "target_fps": TARGET_FPS,
-                                          "runs": [asdict(run) for run in runs]}, indent=2))
+        write_text(
+            json_path,
+            json.dumps(
+                {"quick": quick, "rounds": rounds, "target_fps": TARGET_FPS, "runs": [asdict(run) for run in runs]},
+                indent=2,
+            ),
+        )
     first = walks[0][0]
-    title = (f"{len(walks)} walks of {len(first.truths)} frames at {first.camera.width}x{first.camera.height}, "
-             f"{rounds} round{'s' if rounds > 1 else ''}")
+    title = (
+        f"{len(walks)} walks of {len(first.truths)} frames at {first.camera.width}x{first.camera.height}, "
+        f"{rounds} round{'s' if rounds > 1 else ''}"
+    )
     return runs, summary_lines(runs, title)
 
 
@@ -166,20 +194,26 @@ def summary_lines(runs: list, title: str) -> list[str]:
     """Per walk: frames/s (median and range over the rounds), after the first frame, the first
     frame's seconds, the errors and lost frames; then how many runs reached :data:`TARGET_FPS`
     and the stage times summed over all runs."""
-    lines = [f"== mrcheck track: {title} ==",
-             f"{'walk':<24} {'frames/s':>19} {'after 1st':>19} {'1st s':>5} {'err px':>6} {'max px':>6} {'lost':>4}"]
+    lines = [
+        f"== mrcheck track: {title} ==",
+        f"{'walk':<24} {'frames/s':>19} {'after 1st':>19} {'1st s':>5} {'err px':>6} {'max px':>6} {'lost':>4}",
+    ]
     by_walk = {}
     for run in runs:
         by_walk.setdefault(run.walk, []).append(run)
     for name, mine in by_walk.items():
         whole, after = _spread([r.fps for r in mine]), _spread([r.fps_after_first for r in mine])
-        lines.append(f"{name:<24} {whole:>19} {after:>19} "
-                     f"{np.median([r.first_s for r in mine]):5.2f} {np.median([r.error_median_px for r in mine]):6.2f} "
-                     f"{max(r.error_max_px for r in mine):6.2f} {max(r.lost for r in mine):4d}")
+        lines.append(
+            f"{name:<24} {whole:>19} {after:>19} "
+            f"{np.median([r.first_s for r in mine]):5.2f} {np.median([r.error_median_px for r in mine]):6.2f} "
+            f"{max(r.error_max_px for r in mine):6.2f} {max(r.lost for r in mine):4d}"
+        )
     whole = sum(r.fps >= TARGET_FPS for r in runs)
     after = sum(r.fps_after_first >= TARGET_FPS for r in runs)
-    lines.append(f"runs at {TARGET_FPS:g} frames/s or more: {whole} of {len(runs)} (whole run), {after} of {len(runs)} "
-                 f"(after the first frame); frames/s {min(r.fps for r in runs):.2f}-{max(r.fps for r in runs):.2f}")
+    lines.append(
+        f"runs at {TARGET_FPS:g} frames/s or more: {whole} of {len(runs)} (whole run), {after} of {len(runs)} "
+        f"(after the first frame); frames/s {min(r.fps for r in runs):.2f}-{max(r.fps for r in runs):.2f}"
+    )
     stages, frames = {}, max(sum(r.frames for r in runs), 1)
     for run in runs:
         for stage, seconds in run.times_s.items():

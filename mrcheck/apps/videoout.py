@@ -42,7 +42,7 @@ def open_writer(path: Path, width: int, height: int, rate):
         try:
             stream = container.add_stream(codec, rate=rate, options=_OPTIONS.get(codec, {}))
             break
-        except (ValueError, av.error.FFmpegError):   # not in this FFmpeg build
+        except (ValueError, av.error.FFmpegError):  # not in this FFmpeg build
             continue
     else:
         container.close()
@@ -81,7 +81,7 @@ class BackgroundVideo:
 
     def abort(self) -> None:
         """Stop without flushing (the caller failed); the file is left for the caller to delete."""
-        while True:           # empty the queue so that the thread sees the stop at once
+        while True:  # empty the queue so that the thread sees the stop at once
             try:
                 self._queue.get_nowait()
             except queue.Empty:
@@ -102,16 +102,16 @@ class BackgroundVideo:
             if job is _STOP:
                 return
             if self._error is not None:
-                continue            # drain: the caller sees the error at its next put or close
+                continue  # drain: the caller sees the error at its next put or close
             try:
                 began = time.perf_counter()
-                image = np.ascontiguousarray(job()[:self.stream.height, :self.stream.width])
+                image = np.ascontiguousarray(job()[: self.stream.height, : self.stream.width])
                 encoded = time.perf_counter()
                 for packet in self.stream.encode(av.VideoFrame.from_ndarray(image, format="rgb24")):
                     self.container.mux(packet)
                 self.times_s["compose"] += encoded - began
                 self.times_s["encode"] += time.perf_counter() - encoded
-            except BaseException as exc:     # noqa: BLE001 -- re-raised in the caller's thread
+            except BaseException as exc:  # noqa: BLE001 -- re-raised in the caller's thread
                 self._error = exc
 
 

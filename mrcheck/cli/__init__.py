@@ -33,7 +33,7 @@ def _name_safe_streams() -> None:
     path stays usable by a script); on stderr, where a person reads them, as ``\\xNN``
     (:func:`mrcheck.core.errors.display`)."""
     for stream, errors in ((sys.stdout, "surrogateescape"), (sys.stderr, DISPLAY_ERRORS)):
-        if hasattr(stream, "reconfigure"):   # a TextIOWrapper (not a test's StringIO)
+        if hasattr(stream, "reconfigure"):  # a TextIOWrapper (not a test's StringIO)
             stream.reconfigure(errors=errors)
 
 
@@ -68,14 +68,16 @@ def main(argv=None) -> int:
         # and point stdout at /dev/null, or Python's flush at exit reports the broken pipe again
         try:
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        except (OSError, ValueError):   # no file descriptor (a captured stdout)
+        except (OSError, ValueError):  # no file descriptor (a captured stdout)
             pass
         return EXIT_ERROR
     except Exception as exc:  # a bug, not bad input: still one line; the traceback on request
         if os.environ.get("MRCHECK_DEBUG"):
             raise
-        click.echo(f"error: internal error, please report it: {bug_reason(exc)} "
-                   "(MRCHECK_DEBUG=1 shows the traceback)", err=True)
+        click.echo(
+            f"error: internal error, please report it: {bug_reason(exc)} (MRCHECK_DEBUG=1 shows the traceback)",
+            err=True,
+        )
         return EXIT_ERROR
     # a command may return its own exit status (export: 1 when any shot failed)
     return result if isinstance(result, int) else 0

@@ -1,4 +1,5 @@
 """``python -m mrcheck.cli``: the command line."""
+
 import sys
 
 from mrcheck.cli import main

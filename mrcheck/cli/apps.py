@@ -13,16 +13,35 @@ from mrcheck.cli.options import FINITE, positive, size
 
 @cli.command()
 @click.argument("job", metavar="JOB.toml")
-@click.option("-o", "--output", "outdir", required=True, metavar="OUTDIR", help="Folder for every shot's outputs, manifest.json and report.html.")
-@click.option("--workers", type=int, default=1, show_default=True, callback=positive,
-              help="Local worker processes, each with its own EGL context.")
-@click.option("--scheduler", metavar="ADDRESS",
-              help="Run the shots on a Dask distributed cluster (e.g. tcp://10.0.0.5:8786) instead of locally; "
-                   "workers load the scene themselves from the path the job names.")
+@click.option(
+    "-o",
+    "--output",
+    "outdir",
+    required=True,
+    metavar="OUTDIR",
+    help="Folder for every shot's outputs, manifest.json and report.html.",
+)
+@click.option(
+    "--workers",
+    type=int,
+    default=1,
+    show_default=True,
+    callback=positive,
+    help="Local worker processes, each with its own EGL context.",
+)
+@click.option(
+    "--scheduler",
+    metavar="ADDRESS",
+    help="Run the shots on a Dask distributed cluster (e.g. tcp://10.0.0.5:8786) instead of locally; "
+    "workers load the scene themselves from the path the job names.",
+)
 @click.option("--force", is_flag=True, help="Redo shots whose outputs are already complete (default: skip them).")
-@click.option("--antialias/--no-antialias", default=None,
-              help="Anti-aliased renders (4x MSAA) [default: the job's `antialias` key, true]; part of the "
-                   "shots' fingerprints, so a change redoes them.")
+@click.option(
+    "--antialias/--no-antialias",
+    default=None,
+    help="Anti-aliased renders (4x MSAA) [default: the job's `antialias` key, true]; part of the "
+    "shots' fingerprints, so a change redoes them.",
+)
 def export(job, outdir, workers, scheduler, force, antialias):
     """Batch overlays, sheets, manifest and report for a whole job.
 
@@ -38,8 +57,15 @@ def export(job, outdir, workers, scheduler, force, antialias):
     bar = _ExportBar()
     try:
         with console():
-            result = run_export(job=job, outdir=outdir, workers=workers, scheduler=scheduler, force=force,
-                                progress=bar, antialias=antialias)
+            result = run_export(
+                job=job,
+                outdir=outdir,
+                workers=workers,
+                scheduler=scheduler,
+                force=force,
+                progress=bar,
+                antialias=antialias,
+            )
     finally:
         bar.close()
     for line in result.summary():
@@ -55,17 +81,25 @@ class _ExportBar:
         self.stream, self.bar = ProgressStream(sys.stderr), None
 
     def __call__(self, step) -> None:
-        if self.bar is None:   # the start: the skipped shots are done already
+        if self.bar is None:  # the start: the skipped shots are done already
             from tqdm import tqdm
 
             # disable=None: a bar on a terminal only
-            self.bar = tqdm(total=step.total, initial=step.done, desc="export", unit="shot", file=self.stream,
-                            dynamic_ncols=True, disable=None)
+            self.bar = tqdm(
+                total=step.total,
+                initial=step.done,
+                desc="export",
+                unit="shot",
+                file=self.stream,
+                dynamic_ncols=True,
+                disable=None,
+            )
             return
         self.bar.update(1)
         if self.bar.disable:
-            self.stream.write(f"export: {step.done}/{step.total} shots, {step.name} {step.status}, "
-                              f"ETA {step.eta_s:.0f} s\n")
+            self.stream.write(
+                f"export: {step.done}/{step.total} shots, {step.name} {step.status}, ETA {step.eta_s:.0f} s\n"
+            )
         if step.failed:
             self.bar.set_postfix(failed=step.failed)
         if step.done == step.total:
@@ -79,21 +113,51 @@ class _ExportBar:
 @cli.command()
 @click.argument("target", metavar="(JOB.toml | OUTDIR | SCENE)")
 @click.option("--shots", "shots_dir", metavar="DIR", help="With SCENE: a folder of registered SHOT.json files.")
-@click.option("--host", default="127.0.0.1", show_default=True,
-              help="Address to bind; any other than loopback needs a token. Requests must name this server in their "
-                   "Host header (localhost, the address; on 0.0.0.0 also the machine's name), else 403.")
+@click.option(
+    "--host",
+    default="127.0.0.1",
+    show_default=True,
+    help="Address to bind; any other than loopback needs a token. Requests must name this server in their "
+    "Host header (localhost, the address; on 0.0.0.0 also the machine's name), else 403.",
+)
 @click.option("--port", type=click.IntRange(1, 65535), default=8765, show_default=True, help="Port to listen on.")
-@click.option("--token", metavar="TOKEN", help="Require this token (generated and printed when --host is not loopback).")
-@click.option("--db", metavar="FILE", help="SQLite file of the review's markers [default: review.sqlite in OUTDIR, "
-              "beside JOB.toml, or in DIR for SCENE --shots DIR]; the render cache .review-cache/ goes beside it.")
-@click.option("--suggestions", multiple=True, metavar="[NAME=]SUSPECTS.json",
-              help="Import the suggested markers of an `mrcheck discrepancies` run (repeatable; NAME picks the shot).")
-@click.option("--max-body", default="1MiB", show_default=True, metavar="SIZE", callback=size,
-              help="Refuse request bodies larger than this (413), e.g. 256KiB; at least 64KiB.")
-@click.option("--max-upload", default="64MiB", show_default=True, metavar="SIZE", callback=size,
-              help="Refuse photos and camera files uploaded by \"Add photo\" larger than this (413).")
-@click.option("--antialias/--no-antialias", default=True, show_default=True,
-              help="Anti-aliased CAD renders (4x MSAA; --no-antialias: about 1.3-1.5x faster).")
+@click.option(
+    "--token", metavar="TOKEN", help="Require this token (generated and printed when --host is not loopback)."
+)
+@click.option(
+    "--db",
+    metavar="FILE",
+    help="SQLite file of the review's markers [default: review.sqlite in OUTDIR, "
+    "beside JOB.toml, or in DIR for SCENE --shots DIR]; the render cache .review-cache/ goes beside it.",
+)
+@click.option(
+    "--suggestions",
+    multiple=True,
+    metavar="[NAME=]SUSPECTS.json",
+    help="Import the suggested markers of an `mrcheck discrepancies` run (repeatable; NAME picks the shot).",
+)
+@click.option(
+    "--max-body",
+    default="1MiB",
+    show_default=True,
+    metavar="SIZE",
+    callback=size,
+    help="Refuse request bodies larger than this (413), e.g. 256KiB; at least 64KiB.",
+)
+@click.option(
+    "--max-upload",
+    default="64MiB",
+    show_default=True,
+    metavar="SIZE",
+    callback=size,
+    help='Refuse photos and camera files uploaded by "Add photo" larger than this (413).',
+)
+@click.option(
+    "--antialias/--no-antialias",
+    default=True,
+    show_default=True,
+    help="Anti-aliased CAD renders (4x MSAA; --no-antialias: about 1.3-1.5x faster).",
+)
 def review(target, shots_dir, host, port, token, db, suggestions, max_body, max_upload, antialias):
     """Review shots in the browser and mark discrepancies.
 
@@ -107,9 +171,19 @@ def review(target, shots_dir, host, port, token, db, suggestions, max_body, max_
     """
     from mrcheck.apps.review.server import start
 
-    with console():   # skipped shots and registration warnings at start-up, internal errors while serving
-        server = start(target, shots_dir=shots_dir, host=host, port=port, token=token, db=db,
-                       suggestions=suggestions, max_body=max_body, max_upload=max_upload, antialias=antialias)
+    with console():  # skipped shots and registration warnings at start-up, internal errors while serving
+        server = start(
+            target,
+            shots_dir=shots_dir,
+            host=host,
+            port=port,
+            token=token,
+            db=db,
+            suggestions=suggestions,
+            max_body=max_body,
+            max_upload=max_upload,
+            antialias=antialias,
+        )
         try:
             for line in server.messages():
                 click.echo(line)
@@ -122,10 +196,22 @@ def review(target, shots_dir, host, port, token, db, suggestions, max_body, max_
 @cli.command()
 @click.argument("shot", metavar="SHOT.json")
 @click.option("--scene", "scene_path", required=True, metavar="SCENE", help="The planned scene.")
-@click.option("--tolerance-px", type=FINITE, default=None, callback=positive,
-              help="How far (px) a photo edge may lie from a CAD edge and still support it [default: automatic].")
-@click.option("-o", "--output", "outdir", required=True, metavar="OUTDIR",
-              help="Folder for heatmap.png, suspects.json (ranked parts, for the review tool), suspects.md and suspects.bcfzip (BCF 2.1).")
+@click.option(
+    "--tolerance-px",
+    type=FINITE,
+    default=None,
+    callback=positive,
+    help="How far (px) a photo edge may lie from a CAD edge and still support it [default: automatic].",
+)
+@click.option(
+    "-o",
+    "--output",
+    "outdir",
+    required=True,
+    metavar="OUTDIR",
+    help="Folder for heatmap.png, suspects.json (ranked parts, for the review tool), suspects.md and "
+    "suspects.bcfzip (BCF 2.1).",
+)
 def discrepancies(shot, scene_path, tolerance_px, outdir):
     """Rank the CAD parts the photo disagrees with, with a heat map.
 
@@ -137,7 +223,7 @@ def discrepancies(shot, scene_path, tolerance_px, outdir):
       mrcheck discrepancies p1.json --scene hall/scene.toml -o suspects
     """
     from mrcheck.apps.discrepancies.command import discrepancies_command
-    
+
     with console():
         run = discrepancies_command(shot=shot, scene=scene_path, tolerance_px=tolerance_px, outdir=outdir)
     click.echo(run.summary)
@@ -149,15 +235,41 @@ def discrepancies(shot, scene_path, tolerance_px, outdir):
 @click.argument("scan", metavar="SCAN")
 @click.option("--scene", "scene_path", required=True, metavar="SCENE", help="The planned scene.")
 @click.option("--shot", metavar="SHOT.json", help="Colour the deviations on this shot's render / overlay too.")
-@click.option("--units", type=click.Choice(["mm", "cm", "m", "in", "ft"]), help="Unit of the scan's coordinates [default: the unit of a LAS/LAZ file's CRS, else metres].")
-@click.option("--per-element", is_flag=True,
-              help="Also a status per CAD instance (in / out of tolerance, no data): elements.csv, elements.json, "
-                   "elements.png and elements.bcfzip (BCF 2.1).")
-@click.option("--tolerance-mm", type=FINITE, default=20.0, show_default=True, callback=positive,
-              help="With --per-element: how far (mm) an element may be off and still be in tolerance.")
-@click.option("--search-mm", type=FINITE, default=100.0, show_default=True, callback=positive,
-              help="With --per-element: scan points farther (mm) from every CAD surface are clutter.")
-@click.option("-o", "--output", "outdir", required=True, metavar="OUTDIR", help="Folder for deviations, the coloured images and the per-part list.")
+@click.option(
+    "--units",
+    type=click.Choice(["mm", "cm", "m", "in", "ft"]),
+    help="Unit of the scan's coordinates [default: the unit of a LAS/LAZ file's CRS, else metres].",
+)
+@click.option(
+    "--per-element",
+    is_flag=True,
+    help="Also a status per CAD instance (in / out of tolerance, no data): elements.csv, elements.json, "
+    "elements.png and elements.bcfzip (BCF 2.1).",
+)
+@click.option(
+    "--tolerance-mm",
+    type=FINITE,
+    default=20.0,
+    show_default=True,
+    callback=positive,
+    help="With --per-element: how far (mm) an element may be off and still be in tolerance.",
+)
+@click.option(
+    "--search-mm",
+    type=FINITE,
+    default=100.0,
+    show_default=True,
+    callback=positive,
+    help="With --per-element: scan points farther (mm) from every CAD surface are clutter.",
+)
+@click.option(
+    "-o",
+    "--output",
+    "outdir",
+    required=True,
+    metavar="OUTDIR",
+    help="Folder for deviations, the coloured images and the per-part list.",
+)
 def deviation(scan, scene_path, shot, units, per_element, tolerance_mm, search_mm, outdir):
     """Signed distances from a laser scan to the planned CAD.
 
@@ -174,8 +286,9 @@ def deviation(scan, scene_path, shot, units, per_element, tolerance_mm, search_m
 
     settings = PerElement(tolerance_mm, search_mm) if per_element else None
     with console():
-        run = deviation_command(scan=scan, scene=scene_path, shot=shot, units=units, outdir=outdir,
-                                per_element=settings)
+        run = deviation_command(
+            scan=scan, scene=scene_path, shot=shot, units=units, outdir=outdir, per_element=settings
+        )
     click.echo(run.outdir)
     click.echo(run.summary, err=True)
 
@@ -183,11 +296,23 @@ def deviation(scan, scene_path, shot, units, per_element, tolerance_mm, search_m
 @cli.command()
 @click.argument("video", metavar="VIDEO")
 @click.option("--scene", "scene_path", required=True, metavar="SCENE", help="The planned scene.")
-@click.option("--intrinsics", required=True, metavar="CAM.json", help="The video camera's calibration (JSON, or OpenCV YAML).")
-@click.option("--initial", required=True, metavar="ROUGH.json", help="The first frame's rough pose (camera JSON with R and t).")
-@click.option("--poses", metavar="POSES.jsonl", help="Per-frame pose, RMS, support, uncertainty, lost flag [default: OUT.poses.jsonl].")
-@click.option("--alpha", type=FINITE, default=0.5, show_default=True, help="Photo opacity in the overlay, 0 (CAD only) .. 1.")
-@click.option("-o", "--output", required=True, metavar="OUT.mp4", help="The overlay video (vector AO at half resolution).")
+@click.option(
+    "--intrinsics", required=True, metavar="CAM.json", help="The video camera's calibration (JSON, or OpenCV YAML)."
+)
+@click.option(
+    "--initial", required=True, metavar="ROUGH.json", help="The first frame's rough pose (camera JSON with R and t)."
+)
+@click.option(
+    "--poses",
+    metavar="POSES.jsonl",
+    help="Per-frame pose, RMS, support, uncertainty, lost flag [default: OUT.poses.jsonl].",
+)
+@click.option(
+    "--alpha", type=FINITE, default=0.5, show_default=True, help="Photo opacity in the overlay, 0 (CAD only) .. 1."
+)
+@click.option(
+    "-o", "--output", required=True, metavar="OUT.mp4", help="The overlay video (vector AO at half resolution)."
+)
 def track(video, scene_path, intrinsics, initial, poses, alpha, output):
     """Snap the CAD onto every frame of a video.
 
@@ -203,8 +328,16 @@ def track(video, scene_path, intrinsics, initial, poses, alpha, output):
     from mrcheck.cli.messages import progress_bars
 
     with console(), progress_bars({"track": "frame"}) as bars:
-        result = track_command(video, scene_path, intrinsics, initial, output, poses=poses, alpha=alpha,
-                               progress=lambda done, total: bars("track", done, max(total, done)))
+        result = track_command(
+            video,
+            scene_path,
+            intrinsics,
+            initial,
+            output,
+            poses=poses,
+            alpha=alpha,
+            progress=lambda done, total: bars("track", done, max(total, done)),
+        )
     click.echo(result.summary_line())
     click.echo(result.stage_line())
     for line in result.lost_lines():

@@ -10,23 +10,42 @@ from mrcheck.render import settings as defaults
 
 
 @cli.command()
-@click.option("--quick", is_flag=True,
-              help="Leave out the sample cell's 1024x768 figures (AO passes, frames, blurs, composites), the 36- and "
-                   "128-sample counts and the 10 M-triangle hall, and time 3 rounds instead of 5; every ratio is still "
-                   "computed, its verdict indicative.")
-@click.option("--json", "json_path", metavar="OUT.json",
-              help="Also write every raw figure (with its peak memory) and the ratios (with their per-round ratios) as "
-                   "JSON (with --track: every run), before the table is printed; missing folders are created, an "
-                   "existing file is replaced.")
-@click.option("--repeat", type=int, default=None, callback=positive, help="Timed runs per figure after one warm-up [default: 5, --quick: 3].")
-@click.option("--edges", is_flag=True,
-              help="Only the edge registration against OpenCV's RAPID tracker (cv2.rapid) on Open3D photos of the "
-                   "crate scene and the generated cell: accuracy and time side by side (--quick: 3 cases each, else 10).")
-@click.option("--track", is_flag=True,
-              help="Only `mrcheck track` on walk videos made here (Open3D photos, 640x480): the cell's robot_cell and "
-                   "overview views walked three ways and the crates, 24 frames each, --repeat rounds [default: 3] "
-                   "(--quick: two walks of 12 frames, one round): frames/s, the first frame's seconds, the errors "
-                   "against the true path.")
+@click.option(
+    "--quick",
+    is_flag=True,
+    help="Leave out the sample cell's 1024x768 figures (AO passes, frames, blurs, composites), the 36- and "
+    "128-sample counts and the 10 M-triangle hall, and time 3 rounds instead of 5; every ratio is still "
+    "computed, its verdict indicative.",
+)
+@click.option(
+    "--json",
+    "json_path",
+    metavar="OUT.json",
+    help="Also write every raw figure (with its peak memory) and the ratios (with their per-round ratios) as "
+    "JSON (with --track: every run), before the table is printed; missing folders are created, an "
+    "existing file is replaced.",
+)
+@click.option(
+    "--repeat",
+    type=int,
+    default=None,
+    callback=positive,
+    help="Timed runs per figure after one warm-up [default: 5, --quick: 3].",
+)
+@click.option(
+    "--edges",
+    is_flag=True,
+    help="Only the edge registration against OpenCV's RAPID tracker (cv2.rapid) on Open3D photos of the "
+    "crate scene and the generated cell: accuracy and time side by side (--quick: 3 cases each, else 10).",
+)
+@click.option(
+    "--track",
+    is_flag=True,
+    help="Only `mrcheck track` on walk videos made here (Open3D photos, 640x480): the cell's robot_cell and "
+    "overview views walked three ways and the crates, 24 frames each, --repeat rounds [default: 3] "
+    "(--quick: two walks of 12 frames, one round): frames/s, the first frame's seconds, the errors "
+    "against the true path.",
+)
 def bench(quick, json_path, repeat, edges, track):
     """Measure the AO passes and frames on this machine.
 
@@ -62,8 +81,9 @@ def bench(quick, json_path, repeat, edges, track):
         return
     from mrcheck.eval.bench.run import bench_command
 
-    result = bench_command(quick=quick, json_path=json_path, repeat=repeat, hall=_hall_generator(),
-                           progress=_progress_bar())
+    result = bench_command(
+        quick=quick, json_path=json_path, repeat=repeat, hall=_hall_generator(), progress=_progress_bar()
+    )
     click.echo(result.text)
     if result.json_path is not None:
         click.echo(result.json_path)
@@ -82,9 +102,8 @@ def _hall_generator():
     from pathlib import Path
 
     import factory_scenes.generator as generator
-    from mrcheck.eval.bench.scenes import HallGenerator
-
     from factory_scenes.generator.ifc import write_ifc
+    from mrcheck.eval.bench.scenes import HallGenerator
 
     return HallGenerator(generator.generate, Path(generator.__file__).parent, write_ifc)
 
@@ -114,22 +133,76 @@ def _progress_bar(unit: str = "figure"):
 @cli.command()
 @click.argument("scene_path", metavar="SCENE")
 @click.option("--view", metavar="NAME", help="Named viewpoint of the scene manifest.")
-@click.option("--camera", "camera_path", metavar="CAM.json|CAM.yml",
-              help="Camera JSON, or OpenCV YAML with R and t (as render --camera).")
+@click.option(
+    "--camera",
+    "camera_path",
+    metavar="CAM.json|CAM.yml",
+    help="Camera JSON, or OpenCV YAML with R and t (as render --camera).",
+)
 @click.option("--width", type=int, callback=positive, help="Image width [default: the view's or camera's].")
 @click.option("--height", type=int, callback=positive, help="Image height [default: the view's or camera's].")
-@click.option("--rays", type=int, default=256, show_default=True, callback=positive, help="Cosine-weighted hemisphere rays per pixel.")
-@click.option("--radius-mode", type=click.Choice(["world", "screen"]), default="screen", show_default=True,
-              help="world: a constant world radius (for ssao and the other world-radius modes); "
-                   "screen: the vector method's per-pixel r_S = r_px * Z / f_y.")
-@click.option("--radius", "radius_world", type=FINITE, default=None, callback=positive, help=f"World radius (scene units) [default: {defaults.DEFAULT_RADIUS_WORLD}].")
-@click.option("--radius-px", type=FINITE, default=None, callback=positive, help=f"Screen radius in pixels [default: {defaults.DEFAULT_RADIUS_FRACTION:.0%} of the image height].")
-@click.option("--falloff", type=FINITE, default=defaults.DEFAULT_FALLOFF, show_default=True, help="c of the attenuation 1 / (1 + c (d/r)^2), as in the render modes.")
+@click.option(
+    "--rays",
+    type=int,
+    default=256,
+    show_default=True,
+    callback=positive,
+    help="Cosine-weighted hemisphere rays per pixel.",
+)
+@click.option(
+    "--radius-mode",
+    type=click.Choice(["world", "screen"]),
+    default="screen",
+    show_default=True,
+    help="world: a constant world radius (for ssao and the other world-radius modes); "
+    "screen: the vector method's per-pixel r_S = r_px * Z / f_y.",
+)
+@click.option(
+    "--radius",
+    "radius_world",
+    type=FINITE,
+    default=None,
+    callback=positive,
+    help=f"World radius (scene units) [default: {defaults.DEFAULT_RADIUS_WORLD}].",
+)
+@click.option(
+    "--radius-px",
+    type=FINITE,
+    default=None,
+    callback=positive,
+    help=f"Screen radius in pixels [default: {defaults.DEFAULT_RADIUS_FRACTION:.0%} of the image height].",
+)
+@click.option(
+    "--falloff",
+    type=FINITE,
+    default=defaults.DEFAULT_FALLOFF,
+    show_default=True,
+    help="c of the attenuation 1 / (1 + c (d/r)^2), as in the render modes.",
+)
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Seed of the ray directions.")
 @click.option("--units", type=click.Choice(["mm", "cm", "m", "in", "ft"]), help="Unit of a single mesh file SCENE.")
-@click.option("-o", "--output", required=True, metavar="REF.npy", help="Reference AO: .npy float32 (H, W), or 16-bit .png (as --output-ao).")
-def reference(scene_path, view, camera_path, width, height, rays, radius_mode, radius_world, radius_px, falloff, seed,
-              units, output):
+@click.option(
+    "-o",
+    "--output",
+    required=True,
+    metavar="REF.npy",
+    help="Reference AO: .npy float32 (H, W), or 16-bit .png (as --output-ao).",
+)
+def reference(
+    scene_path,
+    view,
+    camera_path,
+    width,
+    height,
+    rays,
+    radius_mode,
+    radius_world,
+    radius_px,
+    falloff,
+    seed,
+    units,
+    output,
+):
     """Ray-traced reference AO for the pixels of a render.
 
     Open3D ray casting, with the same AO definition as the method it judges.
@@ -142,21 +215,48 @@ def reference(scene_path, view, camera_path, width, height, rays, radius_mode, r
     from mrcheck.eval.reference import PROGRESS_STAGE, reference_command
 
     with progress_bars({PROGRESS_STAGE: "ray"}) as progress:
-        run = reference_command(scene=scene_path, view=view, camera_path=camera_path, width=width, height=height,
-                                rays=rays, radius_mode=radius_mode, radius_world=radius_world, radius_px=radius_px,
-                                falloff=falloff, seed=seed, units=units, output=output, progress=progress)
+        run = reference_command(
+            scene=scene_path,
+            view=view,
+            camera_path=camera_path,
+            width=width,
+            height=height,
+            rays=rays,
+            radius_mode=radius_mode,
+            radius_world=radius_world,
+            radius_px=radius_px,
+            falloff=falloff,
+            seed=seed,
+            units=units,
+            output=output,
+            progress=progress,
+        )
     click.echo(run.path)
-    click.echo(run.timing_line(), err=True)   # stdout carries only the path, as the other commands'
+    click.echo(run.timing_line(), err=True)  # stdout carries only the path, as the other commands'
 
 
 @cli.command()
 @click.argument("scene_path", metavar="SCENE")
 @click.option("--view", required=True, metavar="NAME", help="Named viewpoint of the scene manifest.")
-@click.option("--samples", type=int, default=defaults.DEFAULT_SAMPLES, show_default=True, callback=positive, help="AO samples per pixel for every mode.")
+@click.option(
+    "--samples",
+    type=int,
+    default=defaults.DEFAULT_SAMPLES,
+    show_default=True,
+    callback=positive,
+    help="AO samples per pixel for every mode.",
+)
 @click.option("--rays", type=int, default=256, show_default=True, callback=positive, help="Reference rays per pixel.")
 @click.option("--width", type=int, callback=positive, help="Image width [default: the view's].")
 @click.option("--height", type=int, callback=positive, help="Image height [default: the view's].")
-@click.option("-o", "--output", "outdir", required=True, metavar="OUTDIR", help="Folder for the figure, metrics.json and metrics.md.")
+@click.option(
+    "-o",
+    "--output",
+    "outdir",
+    required=True,
+    metavar="OUTDIR",
+    help="Folder for the figure, metrics.json and metrics.md.",
+)
 def compare(scene_path, view, samples, rays, width, height, outdir):
     """Every AO mode against its ray-traced reference, with metrics.
 
@@ -172,8 +272,16 @@ def compare(scene_path, view, samples, rays, width, height, outdir):
     from mrcheck.eval.reference import PROGRESS_STAGE as REFERENCE_STAGE
 
     with progress_bars({comparison.PROGRESS_STAGE: "mode", REFERENCE_STAGE: "ray"}) as progress:
-        run = comparison.compare_command(scene=scene_path, view=view, samples=samples, rays=rays, width=width,
-                                         height=height, outdir=outdir, progress=progress)
+        run = comparison.compare_command(
+            scene=scene_path,
+            view=view,
+            samples=samples,
+            rays=rays,
+            width=width,
+            height=height,
+            outdir=outdir,
+            progress=progress,
+        )
     for path in run.paths:
         click.echo(path)
     for line in run.table():

@@ -11,7 +11,7 @@ import click
 class Group(click.Group):
     """A click group whose command list shows each command's whole summary paragraph."""
 
-    group_class = type   # subgroups (``mrcheck scene``) list their commands the same way
+    group_class = type  # subgroups (``mrcheck scene``) list their commands the same way
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         rows = []
@@ -26,12 +26,21 @@ class Group(click.Group):
 
 @click.group(cls=Group, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
 @click.version_option(package_name="mrcheck")
-@click.option("--package-path", multiple=True, metavar="DIR",
-              help="Where URDF meshes named package://NAME/... are found: the package folder NAME or the folder "
-                   "holding it (repeatable; before a manifest's package_path and ROS_PACKAGE_PATH).")
-@click.option("--coordinates", type=click.Choice(["model", "map"]), default="model", show_default=True,
-              help="IFC files given as SCENE: keep the model's own coordinates, or place it at its map coordinates "
-                   "(IfcMapConversion, else the site placement).")
+@click.option(
+    "--package-path",
+    multiple=True,
+    metavar="DIR",
+    help="Where URDF meshes named package://NAME/... are found: the package folder NAME or the folder "
+    "holding it (repeatable; before a manifest's package_path and ROS_PACKAGE_PATH).",
+)
+@click.option(
+    "--coordinates",
+    type=click.Choice(["model", "map"]),
+    default="model",
+    show_default=True,
+    help="IFC files given as SCENE: keep the model's own coordinates, or place it at its map coordinates "
+    "(IfcMapConversion, else the site placement).",
+)
 def cli(package_path, coordinates):
     """mrcheck: planned factory CAD rendered from a calibrated camera, with vector-based SSAO
     (Scheer & Keutel), for mixed-reality discrepancy checks.

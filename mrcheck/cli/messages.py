@@ -26,7 +26,7 @@ def warning_line(text: str) -> None:
 
     try:
         tqdm.write(f"warning: {text}", file=sys.stderr)
-    except (BrokenPipeError, ValueError):   # nobody reads stderr any more: the work goes on
+    except (BrokenPipeError, ValueError):  # nobody reads stderr any more: the work goes on
         pass
 
 
@@ -65,13 +65,12 @@ def echo_lines(lines, err: bool = False) -> None:
         click.echo(line, err=err)
 
 
-
 # -- log records (a server's console) and the export's stream --------------------------------
 def _line(text: str) -> None:
     """One line on the stderr of now (a test's captured one too)."""
     try:
         print(text, file=sys.stderr, flush=True)
-    except (BrokenPipeError, ValueError):   # nobody reads stderr any more: the work goes on
+    except (BrokenPipeError, ValueError):  # nobody reads stderr any more: the work goes on
         pass
 
 
@@ -109,7 +108,7 @@ class ProgressStream:
         if not self.closed_reader:
             try:
                 call()
-            except (BrokenPipeError, ValueError):   # ValueError: the stream itself was closed
+            except (BrokenPipeError, ValueError):  # ValueError: the stream itself was closed
                 self.closed_reader = True
 
     def write(self, text: str) -> None:
@@ -120,6 +119,7 @@ class ProgressStream:
 
     def isatty(self) -> bool:
         return not self.closed_reader and self.stream.isatty()
+
 
 # -- progress(stage, done, total) callbacks as bars --------------------------------------------
 class ProgressBars:
@@ -137,8 +137,14 @@ class ProgressBars:
         bar = self._bars.get(stage)
         if bar is None:
             # disable=None: a bar on a terminal, nothing in a log or a pipe
-            bar = self._bars[stage] = tqdm(total=total, desc=stage, unit=self.units.get(stage, "it"),
-                                           unit_scale=True, file=sys.stderr, disable=None)
+            bar = self._bars[stage] = tqdm(
+                total=total,
+                desc=stage,
+                unit=self.units.get(stage, "it"),
+                unit_scale=True,
+                file=sys.stderr,
+                disable=None,
+            )
         bar.update(done - bar.n)
         if done >= total:
             bar.close()
@@ -160,5 +166,13 @@ def progress_bars(units: dict | None = None):
         bars.close()
 
 
-__all__ = ["warning_lines", "warning_line", "progress_bar", "echo_lines", "console", "ProgressStream", "ProgressBars",
-           "progress_bars"]
+__all__ = [
+    "warning_lines",
+    "warning_line",
+    "progress_bar",
+    "echo_lines",
+    "console",
+    "ProgressStream",
+    "ProgressBars",
+    "progress_bars",
+]

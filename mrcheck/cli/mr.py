@@ -12,17 +12,36 @@ from mrcheck.render import settings as defaults
 
 @cli.command()
 @click.argument("images", nargs=-1, required=True, metavar="IMAGES...")
-@click.option("--board", required=True, metavar="SPEC",
-              help="chessboard:COLSxROWS:SQUARE (inner corners, square size in metres) or "
-                   "charuco:COLSxROWS:SQUARE:MARKER:DICT (squares, sizes in metres, OpenCV dictionary, e.g. DICT_6X6_250).")
-@click.option("--min-views", type=int, default=None,
-              help="Fewest usable views to calibrate from, at least 3: Zhang's method needs three photos of a flat "
-                   "board to determine the camera [default: 5].")
-@click.option("--max-view-error", type=FINITE, default=None, callback=positive, metavar="PX",
-              help="Reject views whose RMS reprojection error exceeds this and recalibrate, until every view kept is "
-                   "within it [default: 3x the median view error of the first calibration, at least 1 px].")
-@click.option("-o", "--output", required=True, metavar="CAM.json",
-              help="Camera JSON (K, dist, width, height, rms, per-view errors); .yml/.yaml writes OpenCV FileStorage.")
+@click.option(
+    "--board",
+    required=True,
+    metavar="SPEC",
+    help="chessboard:COLSxROWS:SQUARE (inner corners, square size in metres) or "
+    "charuco:COLSxROWS:SQUARE:MARKER:DICT (squares, sizes in metres, OpenCV dictionary, e.g. DICT_6X6_250).",
+)
+@click.option(
+    "--min-views",
+    type=int,
+    default=None,
+    help="Fewest usable views to calibrate from, at least 3: Zhang's method needs three photos of a flat "
+    "board to determine the camera [default: 5].",
+)
+@click.option(
+    "--max-view-error",
+    type=FINITE,
+    default=None,
+    callback=positive,
+    metavar="PX",
+    help="Reject views whose RMS reprojection error exceeds this and recalibrate, until every view kept is "
+    "within it [default: 3x the median view error of the first calibration, at least 1 px].",
+)
+@click.option(
+    "-o",
+    "--output",
+    required=True,
+    metavar="CAM.json",
+    help="Camera JSON (K, dist, width, height, rms, per-view errors); .yml/.yaml writes OpenCV FileStorage.",
+)
 def calibrate(images, board, min_views, max_view_error, output):
     """Calibrate a camera from chessboard or ChArUco board photos.
 
@@ -35,8 +54,14 @@ def calibrate(images, board, min_views, max_view_error, output):
     """
     from mrcheck.mr.calibration import calibrate_command
 
-    done = calibrate_command(images=list(images), board=board, output=output, min_views=min_views,
-                             max_view_error=max_view_error, progress=progress_bar)
+    done = calibrate_command(
+        images=list(images),
+        board=board,
+        output=output,
+        min_views=min_views,
+        max_view_error=max_view_error,
+        progress=progress_bar,
+    )
     print("\n".join(done.report))
     if done.warning:
         warning_line(done.warning)
@@ -47,17 +72,38 @@ def calibrate(images, board, min_views, max_view_error, output):
 @click.argument("scene_path", metavar="SCENE")
 @click.option("--photo", required=True, metavar="P", help="The photo to register.")
 @click.option("--intrinsics", required=True, metavar="CAM.json", help="Calibrated camera (JSON, or OpenCV YAML).")
-@click.option("--markers", metavar="MAP.json", help="Marker map: surveyed world corners of ArUco/AprilTag markers and ChArUco boards.")
+@click.option(
+    "--markers",
+    metavar="MAP.json",
+    help="Marker map: surveyed world corners of ArUco/AprilTag markers and ChArUco boards.",
+)
 @click.option("--points", metavar="CORR.json", help="Manual correspondences: pixel <-> world point pairs (>= 4).")
-@click.option("--initial", metavar="ROUGH.json",
-              help="A rough pose (any camera JSON with R and t: an earlier shot, `mrcheck scene camera`'s output) "
-                   "snapped onto the photo's edges (markerless; docs/edge-registration.md).")
-@click.option("--refine/--no-refine", default=None,
-              help="Snap the pose of --markers/--points onto the photo's edges as well [default: no; with "
-                   "--initial always].")
-@click.option("--max-error", type=FINITE, default=None, callback=positive, metavar="PX",
-              help="RANSAC inlier threshold in pixels [default: automatic].")
-@click.option("-o", "--output", required=True, metavar="SHOT.json", help="The registered shot (camera JSON + photo, rms, method, ids used/rejected).")
+@click.option(
+    "--initial",
+    metavar="ROUGH.json",
+    help="A rough pose (any camera JSON with R and t: an earlier shot, `mrcheck scene camera`'s output) "
+    "snapped onto the photo's edges (markerless; docs/edge-registration.md).",
+)
+@click.option(
+    "--refine/--no-refine",
+    default=None,
+    help="Snap the pose of --markers/--points onto the photo's edges as well [default: no; with --initial always].",
+)
+@click.option(
+    "--max-error",
+    type=FINITE,
+    default=None,
+    callback=positive,
+    metavar="PX",
+    help="RANSAC inlier threshold in pixels [default: automatic].",
+)
+@click.option(
+    "-o",
+    "--output",
+    required=True,
+    metavar="SHOT.json",
+    help="The registered shot (camera JSON + photo, rms, method, ids used/rejected).",
+)
 def register(scene_path, photo, intrinsics, markers, points, initial, refine, max_error, output):
     """Find a photo's pose: markers, clicks or the CAD's edges.
 
@@ -74,30 +120,69 @@ def register(scene_path, photo, intrinsics, markers, points, initial, refine, ma
     if initial is not None or refine:
         from mrcheck.mr.edgeshot import register_edges_command
 
-        echo_lines(register_edges_command(scene=scene_path, photo=photo, intrinsics=intrinsics, initial=initial,
-                                          markers=markers, points=points, refine=refine, max_error=max_error,
-                                          output=output).summary())
+        echo_lines(
+            register_edges_command(
+                scene=scene_path,
+                photo=photo,
+                intrinsics=intrinsics,
+                initial=initial,
+                markers=markers,
+                points=points,
+                refine=refine,
+                max_error=max_error,
+                output=output,
+            ).summary()
+        )
         return
     from mrcheck.mr.registration import register_command
 
-    done = register_command(scene=scene_path, photo=photo, intrinsics=intrinsics, markers=markers, points=points,
-                            max_error=max_error, output=output)
+    done = register_command(
+        scene=scene_path,
+        photo=photo,
+        intrinsics=intrinsics,
+        markers=markers,
+        points=points,
+        max_error=max_error,
+        output=output,
+    )
     echo_lines(done.summary())
 
 
 @cli.command()
 @click.argument("shot", metavar="SHOT.json")
 @click.option("--scene", "scene_path", required=True, metavar="SCENE", help="The planned scene (manifest or mesh).")
-@click.option("--mode", type=click.Choice(MODE_CHOICES), default="vector", show_default=True,
-              help="Shading of the CAD; all = the study's sheet: D1, D2, D3, each virtual and with the photo.")
-@click.option("--alpha", type=FINITE, default=0.5, show_default=True, help="Photo opacity, 0 (CAD only) .. 1 (photo only).")
+@click.option(
+    "--mode",
+    type=click.Choice(MODE_CHOICES),
+    default="vector",
+    show_default=True,
+    help="Shading of the CAD; all = the study's sheet: D1, D2, D3, each virtual and with the photo.",
+)
+@click.option(
+    "--alpha", type=FINITE, default=0.5, show_default=True, help="Photo opacity, 0 (CAD only) .. 1 (photo only)."
+)
 @click.option("--edges", is_flag=True, help="Draw CAD silhouette and crease edges over the photo.")
 @click.option("--edge-color", default="ff00ff", show_default=True, metavar="RRGGBB", help="Colour of the CAD edges.")
-@click.option("--intensity", type=FINITE, help="AO strength (0 none ... 2 strong) [default: "
-              f"{defaults.MODE_INTENSITIES['vector']:g} for vector, {defaults.DEFAULT_INTENSITY:g} for the other modes].")
-@click.option("--antialias/--no-antialias", default=defaults.DEFAULT_ANTIALIAS, show_default=True,
-              help="Anti-aliased CAD edges (2x2 supersampled geometry and shading).")
-@click.option("--samples", type=int, default=defaults.DEFAULT_SAMPLES, show_default=True, callback=positive, help="AO samples per pixel.")
+@click.option(
+    "--intensity",
+    type=FINITE,
+    help="AO strength (0 none ... 2 strong) [default: "
+    f"{defaults.MODE_INTENSITIES['vector']:g} for vector, {defaults.DEFAULT_INTENSITY:g} for the other modes].",
+)
+@click.option(
+    "--antialias/--no-antialias",
+    default=defaults.DEFAULT_ANTIALIAS,
+    show_default=True,
+    help="Anti-aliased CAD edges (2x2 supersampled geometry and shading).",
+)
+@click.option(
+    "--samples",
+    type=int,
+    default=defaults.DEFAULT_SAMPLES,
+    show_default=True,
+    callback=positive,
+    help="AO samples per pixel.",
+)
 @click.option("-o", "--output", required=True, metavar="OUT.png", help="Output image.")
 def overlay(shot, scene_path, mode, alpha, edges, edge_color, intensity, antialias, samples, output):
     """Blend the CAD rendered from a registered shot over its photo.
@@ -113,6 +198,16 @@ def overlay(shot, scene_path, mode, alpha, edges, edge_color, intensity, antiali
     from mrcheck.mr.shot import overlay_shot
 
     warn_unused_options(click.get_current_context(), mode)
-    image = overlay_shot(shot=shot, scene=scene_path, mode=mode, alpha=alpha, edges=edges, edge_color=edge_color,
-                         intensity=intensity, samples=samples, output=output, antialias=antialias)
+    image = overlay_shot(
+        shot=shot,
+        scene=scene_path,
+        mode=mode,
+        alpha=alpha,
+        edges=edges,
+        edge_color=edge_color,
+        intensity=intensity,
+        samples=samples,
+        output=output,
+        antialias=antialias,
+    )
     print(write_image(output, image))

@@ -20,6 +20,7 @@ class Finite(click.ParamType):
     """click's float without nan and inf, which its FLOAT accepts: every float option of every
     command is this type, so that no check written as a comparison (``x >= 0``, ``x <= 1``) lets
     a NaN through or takes an infinite radius."""
+
     name = "float"
 
     def convert(self, value, param, ctx):
@@ -69,14 +70,24 @@ def screen_radius_modes() -> tuple[str, ...]:
 
 
 SCREEN_RADIUS_MODES = screen_radius_modes()
-WORLD_RADIUS_MODES = tuple(m for m in AO_MODES if m not in SCREEN_RADIUS_MODES)   # ssao and the other comparison modes
+WORLD_RADIUS_MODES = tuple(m for m in AO_MODES if m not in SCREEN_RADIUS_MODES)  # ssao and the other comparison modes
 
 
 OPTION_MODES = {
-    "radius_px": SCREEN_RADIUS_MODES, "radius_fraction": SCREEN_RADIUS_MODES, "min_world_radius": SCREEN_RADIUS_MODES,
-    "max_world_radius": SCREEN_RADIUS_MODES, "radius_world": WORLD_RADIUS_MODES, "thickness": ("vbao",), "samples": AO_MODES,
-    "falloff": AO_MODES, "intensity": AO_MODES, "blur": AO_MODES, "blur_size": AO_MODES,
-    "ao_scale": AO_MODES, "ao_direct": AO_MODES, "seed": AO_MODES,
+    "radius_px": SCREEN_RADIUS_MODES,
+    "radius_fraction": SCREEN_RADIUS_MODES,
+    "min_world_radius": SCREEN_RADIUS_MODES,
+    "max_world_radius": SCREEN_RADIUS_MODES,
+    "radius_world": WORLD_RADIUS_MODES,
+    "thickness": ("vbao",),
+    "samples": AO_MODES,
+    "falloff": AO_MODES,
+    "intensity": AO_MODES,
+    "blur": AO_MODES,
+    "blur_size": AO_MODES,
+    "ao_scale": AO_MODES,
+    "ao_direct": AO_MODES,
+    "seed": AO_MODES,
 }
 
 
@@ -88,8 +99,13 @@ def warn_unused_options(ctx: click.Context, mode: str) -> None:
     modes = STUDY_ORDER if mode == "all" else (mode,)
     for param in ctx.command.params:
         users = OPTION_MODES.get(param.name)
-        if users and not set(users) & set(modes) and \
-                ctx.get_parameter_source(param.name) == click.core.ParameterSource.COMMANDLINE:
+        if (
+            users
+            and not set(users) & set(modes)
+            and ctx.get_parameter_source(param.name) == click.core.ParameterSource.COMMANDLINE
+        ):
             option = "/".join(param.opts[-1:] + param.secondary_opts)  # --blur/--no-blur as one
-            click.echo(f"warning: {option} has no effect in mode {'/'.join(modes)} (it applies to {', '.join(users)})",
-                       err=True)
+            click.echo(
+                f"warning: {option} has no effect in mode {'/'.join(modes)} (it applies to {', '.join(users)})",
+                err=True,
+            )

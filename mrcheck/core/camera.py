@@ -75,8 +75,9 @@ class Camera:
         if not np.all(np.isfinite(dist)):  # the photo overlay would undistort into NaN
             raise MrcheckError("camera dist contains NaN or infinite values")
         if dist.size not in DIST_SIZES:
-            raise MrcheckError(f"camera dist must have 4, 5, 8, 12 or 14 coefficients (OpenCV's) or none, "
-                               f"got {dist.size}")
+            raise MrcheckError(
+                f"camera dist must have 4, 5, 8, 12 or 14 coefficients (OpenCV's) or none, got {dist.size}"
+            )
         dist.flags.writeable = False
         object.__setattr__(self, "dist", dist)
         if int(self.width) != self.width or int(self.height) != self.height:
@@ -136,9 +137,12 @@ class Camera:
             return self
         if width and height and abs(width * self.height - height * self.width) > max(self.width, self.height):
             w, h = fit_size(self.width, self.height, width)
-            raise MrcheckError(f"--width {width} --height {height} is another aspect ratio than the camera's "
-                               f"{self.width}x{self.height} (a calibrated camera has square pixels); give only "
-                               f"--width or --height and the other follows (--width {width}: {w}x{h})", source)
+            raise MrcheckError(
+                f"--width {width} --height {height} is another aspect ratio than the camera's "
+                f"{self.width}x{self.height} (a calibrated camera has square pixels); give only "
+                f"--width or --height and the other follows (--width {width}: {w}x{h})",
+                source,
+            )
         return self.resized(*fit_size(self.width, self.height, width, height))
 
     def with_pose(self, R, t) -> "Camera":
@@ -213,7 +217,7 @@ class Camera:
 
 _PINHOLE = "K must be [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]"
 # the zeros and the 1 of K as written by a tool that computed them: noise up to this is no skew
-_SKEW_TOLERANCE = 1e-6      # of the focal length, pixels: at most a millionth of a pixel per pixel
+_SKEW_TOLERANCE = 1e-6  # of the focal length, pixels: at most a millionth of a pixel per pixel
 _ROW_TOLERANCE = 1e-9
 
 
@@ -222,18 +226,27 @@ def _check_pinhole(K: np.ndarray) -> None:
     K would render as the plain pinhole, an image that does not match the camera. Refused rather
     than normalised: a bottom row other than [0, 0, 1] may be a wrong matrix, not a scaled one."""
     if abs(K[0, 1]) > _SKEW_TOLERANCE * K[0, 0]:
-        raise MrcheckError(f"camera has skew K[0][1] = {K[0, 1]:g}, which mrcheck does not draw; {_PINHOLE} "
-                           "(recalibrate without skew, as OpenCV's calibrateCamera does)")
+        raise MrcheckError(
+            f"camera has skew K[0][1] = {K[0, 1]:g}, which mrcheck does not draw; {_PINHOLE} "
+            "(recalibrate without skew, as OpenCV's calibrateCamera does)"
+        )
     if abs(K[1, 0]) > _SKEW_TOLERANCE * K[1, 1]:
         raise MrcheckError(f"camera K[1][0] = {K[1, 0]:g} is not 0; {_PINHOLE}")
     if np.abs(K[2] - (0.0, 0.0, 1.0)).max() > _ROW_TOLERANCE:
-        raise MrcheckError(f"camera K has bottom row {K[2].tolist()}, not [0, 0, 1]; {_PINHOLE} "
-                           "(divide K by K[2][2] if it is a scaled K)")
+        raise MrcheckError(
+            f"camera K has bottom row {K[2].tolist()}, not [0, 0, 1]; {_PINHOLE} "
+            "(divide K by K[2][2] if it is a scaled K)"
+        )
 
 
 def _whole(value, name) -> int:
     # numbers.Real takes numpy scalars too; isfinite first, as int(inf) raises (JSON allows Infinity)
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value) or int(value) != value:
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, numbers.Real)
+        or not math.isfinite(value)
+        or int(value) != value
+    ):
         raise MrcheckError(f"camera {name} must be a whole number, got {value!r}")
     return int(value)
 

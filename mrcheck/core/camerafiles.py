@@ -107,8 +107,11 @@ def load_camera(path, need_pose=True) -> Camera:
         data, kind = read_json(path, "camera"), "camera JSON"
     camera = Camera.from_dict(data, path)  # the intrinsics checked first
     if need_pose and not ("R" in data and "t" in data):
-        raise MrcheckError(f"{kind} has intrinsics but no pose (R and t); register a photo with it "
-                           "(mrcheck register --intrinsics) and use the SHOT.json", path)
+        raise MrcheckError(
+            f"{kind} has intrinsics but no pose (R and t); register a photo with it "
+            "(mrcheck register --intrinsics) and use the SHOT.json",
+            path,
+        )
     return camera
 
 
@@ -120,11 +123,11 @@ def read_camera(path) -> Camera:
 def load_shot(path) -> tuple[Camera, Path]:
     """The camera of a registered SHOT.json and the absolute path of its photo."""
     path = Path(path)
-    data = read_json(path, "shot")   # a shot is JSON (camera keys + "photo"), never OpenCV YAML
+    data = read_json(path, "shot")  # a shot is JSON (camera keys + "photo"), never OpenCV YAML
     camera = Camera.from_dict(data, path)
     photo = data.get("photo")
     if not isinstance(photo, str) or not photo:
-        raise MrcheckError("shot JSON has no \"photo\" path", path)
+        raise MrcheckError('shot JSON has no "photo" path', path)
     photo_path = Path(photo)
     if not photo_path.is_absolute():
         photo_path = path.resolve().parent / photo_path
@@ -164,13 +167,15 @@ def read_yaml_camera(path: Path) -> dict:
     except (cv2.error, SystemError) as exc:
         # a parse error surfaces from the FileStorage constructor as a SystemError caused by the
         # cv2.error, a truncated matrix from FileNode.mat() as the cv2.error itself
-        raise MrcheckError(f"cannot read OpenCV YAML camera (truncated or malformed): {_cv_reason(exc)}",
-                           path) from None
+        raise MrcheckError(
+            f"cannot read OpenCV YAML camera (truncated or malformed): {_cv_reason(exc)}", path
+        ) from None
     if values["K"] is None:
         raise MrcheckError(f"OpenCV YAML has no camera matrix ({' or '.join(_YAML_KEYS['K'])})", path)
     if values["width"] is None or values["height"] is None:
-        raise MrcheckError("OpenCV YAML has no image_width/image_height; pass a camera JSON with width and height",
-                           path)
+        raise MrcheckError(
+            "OpenCV YAML has no image_width/image_height; pass a camera JSON with width and height", path
+        )
     for key in ("K", "R"):  # a plain 9-number list is a 3x3 matrix too
         if values[key] is not None and values[key].size == 9:
             values[key] = values[key].reshape(3, 3)
@@ -210,5 +215,13 @@ def _number(node) -> float:
     return node.real() if node.isInt() or node.isReal() else math.nan
 
 
-__all__ = ["load_camera", "read_camera", "read_yaml_camera", "write_camera", "load_shot", "read_photo",
-           "CAMERA_SUFFIXES", "YAML_SUFFIXES"]
+__all__ = [
+    "load_camera",
+    "read_camera",
+    "read_yaml_camera",
+    "write_camera",
+    "load_shot",
+    "read_photo",
+    "CAMERA_SUFFIXES",
+    "YAML_SUFFIXES",
+]

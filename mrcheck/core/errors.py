@@ -14,7 +14,7 @@ import codecs
 import errno
 import warnings
 
-DISPLAY_ERRORS = "mrcheck.display"   # the codec error handler of display(), for streams and encode()
+DISPLAY_ERRORS = "mrcheck.display"  # the codec error handler of display(), for streams and encode()
 
 
 def _display_errors(exc: UnicodeError):
@@ -22,9 +22,10 @@ def _display_errors(exc: UnicodeError):
     other character the codec cannot encode as ``\\uNNNN``."""
     if not isinstance(exc, UnicodeEncodeError):
         raise exc
-    chars = exc.object[exc.start:exc.end]
-    return "".join(f"\\x{ord(c) - 0xDC00:02x}" if 0xDC80 <= ord(c) <= 0xDCFF else f"\\u{ord(c):04x}"
-                   for c in chars), exc.end
+    chars = exc.object[exc.start : exc.end]
+    return "".join(
+        f"\\x{ord(c) - 0xDC00:02x}" if 0xDC80 <= ord(c) <= 0xDCFF else f"\\u{ord(c):04x}" for c in chars
+    ), exc.end
 
 
 codecs.register_error(DISPLAY_ERRORS, _display_errors)

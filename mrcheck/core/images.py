@@ -29,13 +29,22 @@ from mrcheck.core.quiet import native_output
 # the leading bytes of the formats OpenCV reads (and of HEIC, which it does not), to say what a
 # file that does not decode was meant to be; the decoder itself decides what decodes
 _SIGNATURES = (
-    (b"\x89PNG\r\n\x1a\n", "PNG"), (b"\xff\xd8\xff", "JPEG"), (b"II*\x00", "TIFF"), (b"MM\x00*", "TIFF"),
-    (b"BM", "BMP"), (b"GIF87a", "GIF"), (b"GIF89a", "GIF"), (b"\x00\x00\x00\x0cjP  \r\n\x87\n", "JPEG 2000"),
-    (b"\xff\x4f\xff\x51", "JPEG 2000"), (b"#?RADIANCE", "HDR"), (b"#?RGBE", "HDR"), (b"\x59\xa6\x6a\x95", "Sun raster"),
+    (b"\x89PNG\r\n\x1a\n", "PNG"),
+    (b"\xff\xd8\xff", "JPEG"),
+    (b"II*\x00", "TIFF"),
+    (b"MM\x00*", "TIFF"),
+    (b"BM", "BMP"),
+    (b"GIF87a", "GIF"),
+    (b"GIF89a", "GIF"),
+    (b"\x00\x00\x00\x0cjP  \r\n\x87\n", "JPEG 2000"),
+    (b"\xff\x4f\xff\x51", "JPEG 2000"),
+    (b"#?RADIANCE", "HDR"),
+    (b"#?RGBE", "HDR"),
+    (b"\x59\xa6\x6a\x95", "Sun raster"),
 )
 _HEIC_BRANDS = {b"heic", b"heix", b"hevc", b"hevx", b"heim", b"heis", b"msf1"}
-_PNG_END = b"IEND\xaeB`\x82"   # the IEND chunk (type and CRC) every complete PNG ends with
-_JPEG_END = b"\xff\xd9"        # EOI; cameras may append a few bytes after it
+_PNG_END = b"IEND\xaeB`\x82"  # the IEND chunk (type and CRC) every complete PNG ends with
+_JPEG_END = b"\xff\xd9"  # EOI; cameras may append a few bytes after it
 # "[ WARN:0@0.050] global grfmt_png.cpp:793 readFromStreamOrBuffer " before OpenCV's own words
 _OPENCV_PREFIX = re.compile(r"^\[\s*[A-Z]+:[^\]]*\]\s*(global\s+\S+\s+\S+\s+)?")
 SUPPORTED = "PNG, JPEG, TIFF, BMP, WebP, AVIF, JPEG 2000, GIF, PNM"
@@ -62,23 +71,24 @@ def _is_text(data: bytes) -> bool:
     try:
         text = head.decode("utf-8")
     except UnicodeDecodeError as exc:
-        if exc.start < len(head) - 3:   # not only a character cut at the 4096-byte mark
+        if exc.start < len(head) - 3:  # not only a character cut at the 4096-byte mark
             return False
-        text = head[:exc.start].decode("utf-8")
+        text = head[: exc.start].decode("utf-8")
     return all(c.isprintable() or c in "\t\n\r\f" for c in text)
 
 
 def _decode_problem(data: bytes, log: list) -> str:
     """Why ``data`` did not decode, in a planner's words."""
     kind = image_format(data)
-    if kind != "PNM" and _is_text(data):   # an ASCII PNM is text, and an image
+    if kind != "PNM" and _is_text(data):  # an ASCII PNM is text, and an image
         return "a text file, not an image"
     if kind is None:
         return f"not an image in a format OpenCV reads ({SUPPORTED})"
     if kind == "HEIC":
         return "a HEIC image, which OpenCV does not read: export it as JPEG or PNG"
-    if (kind == "PNG" and not data.rstrip(b"\x00").endswith(_PNG_END)) or \
-            (kind == "JPEG" and _JPEG_END not in data[-64:]):
+    if (kind == "PNG" and not data.rstrip(b"\x00").endswith(_PNG_END)) or (
+        kind == "JPEG" and _JPEG_END not in data[-64:]
+    ):
         return f"truncated {kind} (the file ends before the image does: an interrupted copy or download?)"
     reason = _OPENCV_PREFIX.sub("", next((line for line in reversed(log) if line), ""))
     return f"corrupt or truncated {kind}" + (f" ({' '.join(reason.split())[:160]})" if reason else "")
@@ -116,7 +126,7 @@ def encode_image(name, image: np.ndarray, quality: int | None = None) -> bytes:
     0..100. PNG carries no timestamp: the same pixels give the same bytes."""
     suffix = Path(name).suffix.lower() or str(name).lower()
     if image.ndim == 3:
-        image = image[..., [2, 1, 0, 3]] if image.shape[2] == 4 else image[..., ::-1]   # OpenCV wants BGR(A)
+        image = image[..., [2, 1, 0, 3]] if image.shape[2] == 4 else image[..., ::-1]  # OpenCV wants BGR(A)
     params = [cv2.IMWRITE_JPEG_QUALITY, int(quality)] if quality is not None else []
     try:
         ok, encoded = cv2.imencode(suffix, np.ascontiguousarray(image), params)

@@ -20,8 +20,12 @@ from pathlib import Path
 from mrcheck.core.errors import MrcheckError, os_reason
 
 # st_mode kinds that are not regular files, as ls -l would call them
-_KINDS = ((stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a character device"),
-          (stat.S_ISBLK, "a block device"))
+_KINDS = (
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISSOCK, "a socket"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+)
 
 
 def check_input(path, what: str = "file", folder_ok: bool = False) -> os.stat_result:
@@ -39,7 +43,7 @@ def check_input(path, what: str = "file", folder_ok: bool = False) -> os.stat_re
     if not stat.S_ISREG(st.st_mode):
         kind = next((name for test, name in _KINDS if test(st.st_mode)), "something else")
         raise MrcheckError(f"{what} is not a regular file but {kind}", path)
-    if not os.access(path, os.R_OK):   # said here, in these words, whichever library would read it
+    if not os.access(path, os.R_OK):  # said here, in these words, whichever library would read it
         raise MrcheckError(f"cannot read {what}: permission denied", path)
     return st
 
@@ -77,8 +81,11 @@ def read_input_text(path, what: str = "file", encoding: str = "utf-8") -> str:
     try:
         return data.decode(encoding)
     except UnicodeDecodeError as exc:
-        raise MrcheckError(f"cannot read {what}: not {encoding.upper().removesuffix('-SIG')} text (byte "
-                           f"0x{data[exc.start]:02x} at offset {exc.start})", path) from None
+        raise MrcheckError(
+            f"cannot read {what}: not {encoding.upper().removesuffix('-SIG')} text (byte "
+            f"0x{data[exc.start]:02x} at offset {exc.start})",
+            path,
+        ) from None
 
 
 def real_path(path) -> Path:

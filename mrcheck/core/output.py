@@ -55,7 +55,9 @@ def check_writable_ancestor(path: Path, what: str = "output", itself: bool = Fal
         with tempfile.TemporaryFile(dir=parent):
             pass
     except OSError as exc:
-        raise MrcheckError(f"cannot write {what}: folder {parent} is not writable ({exc.strerror or exc})", path) from None
+        raise MrcheckError(
+            f"cannot write {what}: folder {parent} is not writable ({exc.strerror or exc})", path
+        ) from None
 
 
 def check_not_inputs(outputs, inputs, folders=()) -> None:
@@ -75,14 +77,14 @@ def check_not_inputs(outputs, inputs, folders=()) -> None:
     The same file is the same inode (``os.path.samefile``: through a symlink, a hard link or
     another spelling of the path); an output or input that does not exist is never the same.
     """
-    named = {}   # (device, inode) -> (what, path), in the order given
+    named = {}  # (device, inode) -> (what, path), in the order given
     listed = []  # (what, path) of every input, for the folders
     for what, paths in inputs:
         for path in [paths] if isinstance(paths, (str, os.PathLike)) else (paths or ()):
             listed.append((what, path))
             try:
                 st = os.stat(path)
-            except (OSError, ValueError):   # missing: the command says so when it reads it
+            except (OSError, ValueError):  # missing: the command says so when it reads it
                 continue
             named.setdefault((st.st_dev, st.st_ino), (what, path))
     for output in outputs:
@@ -97,9 +99,13 @@ def check_not_inputs(outputs, inputs, folders=()) -> None:
         # both spellings: a link inside the folder goes with it, and so does a file reached through a link
         roots = {Path(os.path.abspath(folder)), Path(os.path.realpath(folder))}
         for what, path in listed:
-            if any(p.is_relative_to(r) for p in (Path(os.path.abspath(path)), Path(os.path.realpath(path))) for r in roots):
-                raise MrcheckError(f"the output would replace {folder}, which holds the input {path} ({what}); "
-                                   "write it elsewhere", folder)
+            if any(
+                p.is_relative_to(r) for p in (Path(os.path.abspath(path)), Path(os.path.realpath(path))) for r in roots
+            ):
+                raise MrcheckError(
+                    f"the output would replace {folder}, which holds the input {path} ({what}); write it elsewhere",
+                    folder,
+                )
 
 
 def _current_umask() -> int:
@@ -188,7 +194,7 @@ def write_all_or_none(writes) -> list[Path]:
 
 
 _FONT = cv2.FONT_HERSHEY_SIMPLEX
-_MIN_LABEL_SCALE = 0.3   # smaller is unreadable: wrap onto more lines instead
+_MIN_LABEL_SCALE = 0.3  # smaller is unreadable: wrap onto more lines instead
 
 
 def _thickness(scale: float) -> int:
@@ -221,16 +227,21 @@ def labelled_sheet(images, labels) -> np.ndarray:
     bar = max(24, h // 18)
     scale = bar / 40.0
     x = int(bar * 0.35)
-    room = max(1, min(image.shape[1] for image in images) - 2 * x)   # the narrowest panel's text width
+    room = max(1, min(image.shape[1] for image in images) - 2 * x)  # the narrowest panel's text width
     fit = min(1.0, *(room / max(1, _text_width(label, scale)) for label in labels)) * scale
-    lines, baselines = [[label] for label in labels], [int(bar * 0.72)]   # every label fits: as it always was
+    lines, baselines = [[label] for label in labels], [int(bar * 0.72)]  # every label fits: as it always was
     if fit < scale:
         if fit >= _MIN_LABEL_SCALE:
             scale = fit
         else:
             words = [w for label in labels for w in label.split()]
-            scale = max(0.1, min(_MIN_LABEL_SCALE, *(_MIN_LABEL_SCALE * room / max(1, _text_width(w, _MIN_LABEL_SCALE))
-                                                      for w in words)))
+            scale = max(
+                0.1,
+                min(
+                    _MIN_LABEL_SCALE,
+                    *(_MIN_LABEL_SCALE * room / max(1, _text_width(w, _MIN_LABEL_SCALE)) for w in words),
+                ),
+            )
             lines = [_wrap(label, scale, room) for label in labels]
         (_, text_h), base = cv2.getTextSize("Dg", _FONT, scale, _thickness(scale))
         step = text_h + base + max(2, text_h // 2)
@@ -253,6 +264,19 @@ def labelled_sheet(images, labels) -> np.ndarray:
     return np.hstack(out)
 
 
-__all__ = ["write_image", "write_bytes", "write_text", "encode_image", "write_ao", "labelled_sheet", "check_output_path",
-           "replace_output", "check_output_dir", "check_writable_ancestor", "check_not_inputs", "write_all_or_none",
-           "IMAGE_SUFFIXES", "AO_SUFFIXES"]
+__all__ = [
+    "write_image",
+    "write_bytes",
+    "write_text",
+    "encode_image",
+    "write_ao",
+    "labelled_sheet",
+    "check_output_path",
+    "replace_output",
+    "check_output_dir",
+    "check_writable_ancestor",
+    "check_not_inputs",
+    "write_all_or_none",
+    "IMAGE_SUFFIXES",
+    "AO_SUFFIXES",
+]

@@ -22,13 +22,13 @@ import tempfile
 import threading
 
 _LOCK = threading.RLock()
-_COLOURS = re.compile(r"\x1b\[[0-9;]*m")   # Open3D colours its warnings
+_COLOURS = re.compile(r"\x1b\[[0-9;]*m")  # Open3D colours its warnings
 
 
 def _flush(stream) -> None:
     try:
         stream.flush()
-    except Exception:   # noqa: BLE001 -- None, a closed pipe or stream: whatever it is, no reason to fail a read
+    except Exception:  # noqa: BLE001 -- None, a closed pipe or stream: whatever it is, no reason to fail a read
         pass
 
 
@@ -41,7 +41,7 @@ def native_output(fds=(2,), python: bool = False):
     printed = io.StringIO()
     with _LOCK, tempfile.TemporaryFile() as log, contextlib.ExitStack() as stack:
         for stream in (sys.stdout, sys.stderr, sys.__stdout__, sys.__stderr__):
-            _flush(stream)   # what Python wrote before goes where it was meant to
+            _flush(stream)  # what Python wrote before goes where it was meant to
         if python:
             stack.enter_context(contextlib.redirect_stdout(printed))
             stack.enter_context(contextlib.redirect_stderr(printed))
@@ -50,7 +50,7 @@ def native_output(fds=(2,), python: bool = False):
             for fd in fds:
                 try:
                     saved.append((fd, os.dup(fd)))
-                except OSError:   # not open (a daemon's closed stderr): nothing to keep quiet there
+                except OSError:  # not open (a daemon's closed stderr): nothing to keep quiet there
                     continue
                 os.dup2(log.fileno(), fd)
             yield lines

@@ -16,16 +16,22 @@ from mrcheck.core.camera import Camera
 from mrcheck.render.antialias import area_average, supersampled_camera
 from mrcheck.render.renderer import Renderer, RenderSettings
 
-REFERENCE_FACTOR = 4   # the issue's 4x4 supersampled render
+REFERENCE_FACTOR = 4  # the issue's 4x4 supersampled render
 
 
-def supersampled_reference(renderer: Renderer, camera: Camera, modes, settings: RenderSettings | None = None,
-                           factor: int = REFERENCE_FACTOR) -> dict:
+def supersampled_reference(
+    renderer: Renderer, camera: Camera, modes, settings: RenderSettings | None = None, factor: int = REFERENCE_FACTOR
+) -> dict:
     """{mode: (H, W, 3) uint8 sRGB}: ``modes`` from ``camera`` rendered at ``factor`` x ``factor``
     the pixels without anti-aliasing and area-averaged to ``camera``'s size."""
     settings = (settings or RenderSettings()).validated(camera.height)
-    big = replace(settings, antialias=False, radius_px=settings.radius_px * factor,
-                  lod_px=min(settings.lod_px * factor, 4.0), blur_size=factor * (settings.blur_size - 1) + 1)
+    big = replace(
+        settings,
+        antialias=False,
+        radius_px=settings.radius_px * factor,
+        lod_px=min(settings.lod_px * factor, 4.0),
+        blur_size=factor * (settings.blur_size - 1) + 1,
+    )
     frame = renderer.render(supersampled_camera(camera, factor), modes, big)
     return {mode: area_average(frame[mode].image, factor) for mode in modes}
 

@@ -28,7 +28,7 @@ from mrcheck.core.camera import Camera
 # reference took the printed border 3-5 px inside it (the registration's fit then measured 2.8
 # px "off" while lying on the rim's step).
 MIN_CONTRAST = 8.0
-PROFILE_PX = 14.0        # the profile reaches this far each side of the reference outline
+PROFILE_PX = 14.0  # the profile reaches this far each side of the reference outline
 _STEP = 0.25
 
 
@@ -58,9 +58,9 @@ def _crossing(profile: np.ndarray) -> float | None:
         return None
     outer = int(strong[-1])
     sign = np.sign(excess[outer])
-    window = excess[max(0, outer - int(3 / _STEP)):outer + 1] * sign
+    window = excess[max(0, outer - int(3 / _STEP)) : outer + 1] * sign
     half = 0.5 * float(window.max())
-    above = np.flatnonzero(excess[:outer + 1] * sign > half)
+    above = np.flatnonzero(excess[: outer + 1] * sign > half)
     i = int(above[-1])
     if i + 1 >= len(profile):
         return None
@@ -110,8 +110,15 @@ def box_segments(size) -> dict:
     """The outline segments of a box ``size`` (x, y, z, metres, corner at the origin) seen from
     above the (0, 0) corner side, as in the tutorial photo: name -> (2, 3) end points."""
     x, y, z = size
-    corner = {"A": (0, 0, z), "B": (0, y, z), "C": (x, y, z), "D": (x, 0, z), "E": (0, 0, 0), "F": (0, y, 0),
-              "G": (x, 0, 0)}
+    corner = {
+        "A": (0, 0, z),
+        "B": (0, y, z),
+        "C": (x, y, z),
+        "D": (x, 0, z),
+        "E": (0, 0, 0),
+        "F": (0, y, 0),
+        "G": (x, 0, 0),
+    }
     pairs = ("BC", "CD", "DG", "GE", "EF", "FB")
     return {p: np.array([corner[p[0]], corner[p[1]]], np.float64) for p in pairs}
 

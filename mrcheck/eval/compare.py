@@ -50,16 +50,21 @@ from mrcheck.render.settings import SCREEN_RADIUS_MODES
 from mrcheck.scene.manifest import scene_files
 from mrcheck.scene.model import load_scene
 
-ERROR_SCALE = 0.5                            # the error map saturates at |ao - reference| = 0.5
-NEGATIVE_RGB = np.array([33, 84, 200.0])     # ao darker than the reference (invented occlusion)
-POSITIVE_RGB = np.array([205, 35, 35.0])     # ao lighter than the reference (missed occlusion)
-BACKGROUND_RGB = np.array([70, 90, 110.0])   # no surface: no AO, no error (slate, not a grey level)
+ERROR_SCALE = 0.5  # the error map saturates at |ao - reference| = 0.5
+NEGATIVE_RGB = np.array([33, 84, 200.0])  # ao darker than the reference (invented occlusion)
+POSITIVE_RGB = np.array([205, 35, 35.0])  # ao lighter than the reference (missed occlusion)
+BACKGROUND_RGB = np.array([70, 90, 110.0])  # no surface: no AO, no error (slate, not a grey level)
 FIGURE_NAME, JSON_NAME, MD_NAME = "figure.png", "metrics.json", "metrics.md"
 
 # metric -> (column title, True when larger is better); the order of the tables and rankings
-COLUMNS = {"mae": ("MAE", False), "rmse": ("RMSE", False), "ssim": ("SSIM", True),
-           "false_occlusion": ("false occlusion", False), "distance_retention": ("distance retention", True),
-           "ms": ("AO pass ms", False)}
+COLUMNS = {
+    "mae": ("MAE", False),
+    "rmse": ("RMSE", False),
+    "ssim": ("SSIM", True),
+    "false_occlusion": ("false occlusion", False),
+    "distance_retention": ("distance retention", True),
+    "ms": ("AO pass ms", False),
+}
 
 
 def reference_kind(mode: str) -> str:
@@ -70,21 +75,23 @@ def reference_kind(mode: str) -> str:
 @dataclass
 class Reference:
     """A ray-traced reference AO and how the figure and the report name it."""
+
     ao: np.ndarray
-    short: str = ""                          # "screen 1.4 px", "world 0.2"
-    label: str = ""                          # "screen radius 1.4 px, 256 rays"
+    short: str = ""  # "screen 1.4 px", "world 0.2"
+    label: str = ""  # "screen radius 1.4 px, 256 rays"
     distance_retention: float | None = None  # its own, which the modes' is compared with
 
 
 @dataclass
 class ModeRow:
     """One AO mode's renders and metrics (a figure row, a table row)."""
+
     mode: str
-    kind: str              # the reference it is judged against: "screen" or "world"
-    image: np.ndarray      # the shaded (blurred) render
-    ao: np.ndarray         # the unblurred AO buffer
-    ms: float              # its AO pass time
-    metrics: dict          # all_metrics against the reference
+    kind: str  # the reference it is judged against: "screen" or "world"
+    image: np.ndarray  # the shaded (blurred) render
+    ao: np.ndarray  # the unblurred AO buffer
+    ms: float  # its AO pass time
+    metrics: dict  # all_metrics against the reference
 
 
 # -- figure ----------------------------------------------------------------------------------------
@@ -143,7 +150,7 @@ def _legend_panel(h: int, w: int, judged: list[str]) -> np.ndarray:
     panel = np.full((h, w, 3), 32, np.uint8)
     bar_h = max(6, h // 8)
     top = h // 2 - bar_h // 2
-    panel[top:top + bar_h, w // 10:w - w // 10] = _diverging(np.linspace(-1.0, 1.0, w - 2 * (w // 10)))[None]
+    panel[top : top + bar_h, w // 10 : w - w // 10] = _diverging(np.linspace(-1.0, 1.0, w - 2 * (w // 10)))[None]
     scale = max(0.25, h / 500.0)
     line = max(8, int(h / 12))
     _text(panel, f"error = AO - reference, +-{ERROR_SCALE:g}", (w // 20, top - 2 * line), scale)
@@ -154,7 +161,8 @@ def _legend_panel(h: int, w: int, judged: list[str]) -> np.ndarray:
 
 
 def build_figure(phong, references: dict, rows: list, mask, rays: int) -> np.ndarray:
-    """The comparison figure (``references``: kind -> :class:`Reference`, ``rows``: :class:`ModeRow`): one labelled row per reference (Phong image, reference AO, the
+    """The comparison figure (``references``: kind -> :class:`Reference`, ``rows``: :class:`ModeRow`): one labelled
+    row per reference (Phong image, reference AO, the
     error legend), then one per mode (shaded image, AO, signed error map with a legend strip)."""
     h, w = mask.shape
     strip_h = legend_strip_height(h)
@@ -167,11 +175,17 @@ def build_figure(phong, references: dict, rows: list, mask, rays: int) -> np.nda
         sheets.append(labelled_sheet([_with_strip(p, None, strip_h) for p in panels], labels))
     for row in rows:
         ref = references[row.kind].ao
-        panels = [_with_strip(row.image, None, strip_h), _with_strip(_grey(row.ao, mask), None, strip_h),
-                  _with_strip(_error_map(row.ao, ref, mask), strip, strip_h)]
+        panels = [
+            _with_strip(row.image, None, strip_h),
+            _with_strip(_grey(row.ao, mask), None, strip_h),
+            _with_strip(_error_map(row.ao, ref, mask), strip, strip_h),
+        ]
         name = STUDY_LABELS.get(row.mode, row.mode)
-        sheets.append(labelled_sheet(panels, [f"{name}: shaded", f"{row.mode}: AO (no blur)",
-                                              f"{row.mode} - {row.kind} reference"]))
+        sheets.append(
+            labelled_sheet(
+                panels, [f"{name}: shaded", f"{row.mode}: AO (no blur)", f"{row.mode} - {row.kind} reference"]
+            )
+        )
     return np.vstack(sheets)
 
 
@@ -202,8 +216,9 @@ def rankings(modes: dict) -> list[str]:
         best, worst = ("highest", "lowest") if larger_better else ("lowest", "highest")
         text = f"{best} {title}: {ordered[0][1]} ({_fmt(ordered[0][0])})"
         if len(ordered) > 1:
-            text += f"; {worst}: {ordered[-1][1]} ({_fmt(ordered[-1][0])}); order: " + \
-                    (" > " if larger_better else " < ").join(mode for _, mode in ordered)
+            text += f"; {worst}: {ordered[-1][1]} ({_fmt(ordered[-1][0])}); order: " + (
+                " > " if larger_better else " < "
+            ).join(mode for _, mode in ordered)
         missing = [mode for mode, m in modes.items() if m[key] is None]
         if missing:
             text += f" (undefined: {', '.join(missing)})"
@@ -223,18 +238,32 @@ def _ratio_statements(modes: dict) -> list[str]:
 
 def markdown(report: dict) -> str:
     rows = _table_rows(report["modes"])
-    lines = [f"# AO modes against ray-traced reference AO: {Path(report['scene']).name}, view {report['view']}", "",
-             f"{report['width']}x{report['height']}, {report['samples']} AO samples per pixel, "
-             f"{report['rays']} reference rays per pixel; screen radius (vector, gtao, vbao) {report['radius_px']:.2f} px (screen "
-             f"reference), world radius {report['radius_world']:g} (world reference), falloff {report['falloff']:g}. "
-             "Metrics on the unblurred AO over covered pixels; AO pass time of the unblurred render.", "",
-             "| " + " | ".join(rows[0]) + " |", "|" + "---|" * len(rows[0])]
+    lines = [
+        f"# AO modes against ray-traced reference AO: {Path(report['scene']).name}, view {report['view']}",
+        "",
+        f"{report['width']}x{report['height']}, {report['samples']} AO samples per pixel, "
+        f"{report['rays']} reference rays per pixel; "
+        f"screen radius (vector, gtao, vbao) {report['radius_px']:.2f} px (screen "
+        f"reference), world radius {report['radius_world']:g} (world reference), falloff {report['falloff']:g}. "
+        "Metrics on the unblurred AO over covered pixels; AO pass time of the unblurred render.",
+        "",
+        "| " + " | ".join(rows[0]) + " |",
+        "|" + "---|" * len(rows[0]),
+    ]
     lines += ["| " + " | ".join(r) + " |" for r in rows[1:]]
-    lines += ["", "## Rankings", ""] + [f"- {s}" for s in rankings(report["modes"]) + _ratio_statements(report["modes"])]
+    lines += ["", "## Rankings", ""] + [
+        f"- {s}" for s in rankings(report["modes"]) + _ratio_statements(report["modes"])
+    ]
     lines += ["", "## References", ""]
-    lines += [f"- {kind}: {ref['label']}; its own distance retention {_fmt(ref['distance_retention'])}"
-              for kind, ref in report["references"].items()]
-    notes = [f"- {mode} {metric}: {reason}" for mode, reasons in report["notes"].items() for metric, reason in reasons.items()]
+    lines += [
+        f"- {kind}: {ref['label']}; its own distance retention {_fmt(ref['distance_retention'])}"
+        for kind, ref in report["references"].items()
+    ]
+    notes = [
+        f"- {mode} {metric}: {reason}"
+        for mode, reasons in report["notes"].items()
+        for metric, reason in reasons.items()
+    ]
     if notes:
         lines += ["", "## Undefined metrics", "", *notes]
     return "\n".join(lines) + "\n"
@@ -244,19 +273,22 @@ def table_lines(modes: dict) -> list[str]:
     """The metrics table as aligned console lines (mode left, numbers right)."""
     rows = _table_rows(modes)
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
-    return ["  ".join(cell.rjust(width) if i else cell.ljust(width) for i, (cell, width) in enumerate(zip(r, widths)))
-            for r in rows]
+    return [
+        "  ".join(cell.rjust(width) if i else cell.ljust(width) for i, (cell, width) in enumerate(zip(r, widths)))
+        for r in rows
+    ]
 
 
 # -- the command -----------------------------------------------------------------------------------
-PROGRESS_STAGE = "comparing"     # the stage compare_command reports its modes under
+PROGRESS_STAGE = "comparing"  # the stage compare_command reports its modes under
 
 
 @dataclass(frozen=True)
 class ComparisonRun:
     """What ``mrcheck compare`` measured (``report`` is ``metrics.json``) and the files written."""
+
     report: dict
-    paths: list[Path]      # figure.png, metrics.json, metrics.md
+    paths: list[Path]  # figure.png, metrics.json, metrics.md
 
     def table(self) -> list[str]:
         """The metrics table for the console."""
@@ -269,8 +301,18 @@ def _reference(scene, camera, depth, normals, rays, kind, settings, progress) ->
     )
 
     radius = settings.radius_px if kind == "screen" else settings.radius_world
-    return reference_ao(scene, camera, depth, normals, rays, kind, radius, falloff=settings.falloff,
-                        seed=settings.seed, progress=progress)
+    return reference_ao(
+        scene,
+        camera,
+        depth,
+        normals,
+        rays,
+        kind,
+        radius,
+        falloff=settings.falloff,
+        seed=settings.seed,
+        progress=progress,
+    )
 
 
 def _render_and_judge(renderer, loaded, camera, settings, rays, progress):
@@ -290,8 +332,9 @@ def _render_and_judge(renderer, loaded, camera, settings, rays, progress):
         kind = reference_kind(mode)
         if kind not in references:  # one reference per radius definition, shared by its modes
             references[kind] = Reference(_reference(loaded, camera, depth, normals, rays, kind, settings, progress))
-        rows.append(ModeRow(mode, kind, shaded, raw.ao, raw.timings_ms["ao"],
-                            all_metrics(raw.ao, references[kind].ao, depth)))
+        rows.append(
+            ModeRow(mode, kind, shaded, raw.ao, raw.timings_ms["ao"], all_metrics(raw.ao, references[kind].ao, depth))
+        )
         if progress is not None:
             progress(PROGRESS_STAGE, done + 1, len(ao_modes))
     return phong, depth, references, rows
@@ -310,14 +353,26 @@ def _label_references(references: dict, settings, rays: int, depth) -> None:
 
 def _report(scene, view, camera, samples, rays, settings, references: dict, rows: list[ModeRow]) -> dict:
     """``metrics.json``."""
-    modes = {row.mode: {**{k: row.metrics[k] for k in METRIC_NAMES}, "ms": row.ms, "reference": row.kind}
-             for row in rows}
-    return {"scene": str(Path(scene).resolve()), "view": view, "width": camera.width, "height": camera.height,
-            "samples": samples, "rays": rays, "modes": modes,
-            "radius_px": settings.radius_px, "radius_world": settings.radius_world, "falloff": settings.falloff,
-            "references": {k: {"radius_mode": k, "label": r.label, "distance_retention": r.distance_retention}
-                           for k, r in references.items()},
-            "notes": {row.mode: row.metrics["notes"] for row in rows if row.metrics["notes"]}}
+    modes = {
+        row.mode: {**{k: row.metrics[k] for k in METRIC_NAMES}, "ms": row.ms, "reference": row.kind} for row in rows
+    }
+    return {
+        "scene": str(Path(scene).resolve()),
+        "view": view,
+        "width": camera.width,
+        "height": camera.height,
+        "samples": samples,
+        "rays": rays,
+        "modes": modes,
+        "radius_px": settings.radius_px,
+        "radius_world": settings.radius_world,
+        "falloff": settings.falloff,
+        "references": {
+            k: {"radius_mode": k, "label": r.label, "distance_retention": r.distance_retention}
+            for k, r in references.items()
+        },
+        "notes": {row.mode: row.metrics["notes"] for row in rows if row.metrics["notes"]},
+    }
 
 
 def compare_command(scene, view, samples, rays, width, height, outdir, progress=None) -> ComparisonRun:
@@ -351,10 +406,25 @@ def compare_command(scene, view, samples, rays, width, height, outdir, progress=
 
     figure = build_figure(phong, references, rows, covered(depth), rays)
     text = json.dumps(report, indent=2) + "\n"
-    writes = [lambda: write_image(outdir / FIGURE_NAME, figure),
-              lambda: write_text(outdir / JSON_NAME, text), lambda: write_text(outdir / MD_NAME, markdown(report))]
+    writes = [
+        lambda: write_image(outdir / FIGURE_NAME, figure),
+        lambda: write_text(outdir / JSON_NAME, text),
+        lambda: write_text(outdir / MD_NAME, markdown(report)),
+    ]
     return ComparisonRun(report, list(write_all_or_none(writes)))
 
 
-__all__ = ["compare_command", "ComparisonRun", "Reference", "ModeRow", "build_figure", "rankings", "markdown", "table_lines", "reference_kind",
-           "legend_strip_height", "ERROR_SCALE", "PROGRESS_STAGE"]
+__all__ = [
+    "compare_command",
+    "ComparisonRun",
+    "Reference",
+    "ModeRow",
+    "build_figure",
+    "rankings",
+    "markdown",
+    "table_lines",
+    "reference_kind",
+    "legend_strip_height",
+    "ERROR_SCALE",
+    "PROGRESS_STAGE",
+]

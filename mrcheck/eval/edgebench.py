@@ -89,23 +89,34 @@ def bench_cases(name: str, scene: Scene, camera: Camera, seeds, progress=None) -
         start = time.perf_counter()
         try:
             fit = refine_pose(scene, camera, case.photo, initial=case.rough, edges=edges)
-            ours = EdgeBenchRow(label, "mrcheck edges", case.offset_px,
-                                float(np.median(reprojection_error(case.truth, fit.camera, case.points))),
-                                time.perf_counter() - start)
+            ours = EdgeBenchRow(
+                label,
+                "mrcheck edges",
+                case.offset_px,
+                float(np.median(reprojection_error(case.truth, fit.camera, case.points))),
+                time.perf_counter() - start,
+            )
         except EdgeFitError as exc:
             ours = EdgeBenchRow(label, "mrcheck edges", case.offset_px, None, time.perf_counter() - start, str(exc))
         start = time.perf_counter()
         try:
             snapped = rapid_refine(scene, camera, case.photo, case.rough, 1.5 * case.offset_px)
-            theirs = EdgeBenchRow(label, "cv2.rapid", case.offset_px,
-                                  float(np.median(reprojection_error(case.truth, snapped, case.points))),
-                                  time.perf_counter() - start)
+            theirs = EdgeBenchRow(
+                label,
+                "cv2.rapid",
+                case.offset_px,
+                float(np.median(reprojection_error(case.truth, snapped, case.points))),
+                time.perf_counter() - start,
+            )
         except (cv2.error, MrcheckError) as exc:
-            theirs = EdgeBenchRow(label, "cv2.rapid", case.offset_px, None, time.perf_counter() - start,
-                                  str(exc).splitlines()[0][:120])
+            theirs = EdgeBenchRow(
+                label, "cv2.rapid", case.offset_px, None, time.perf_counter() - start, str(exc).splitlines()[0][:120]
+            )
         rows += [ours, theirs]
         if progress:
-            progress(f"{label}: edges {_fmt(ours.error_px)}, rapid {_fmt(theirs.error_px)} (from {case.offset_px:.1f} px)")
+            progress(
+                f"{label}: edges {_fmt(ours.error_px)}, rapid {_fmt(theirs.error_px)} (from {case.offset_px:.1f} px)"
+            )
     return rows
 
 
@@ -123,14 +134,18 @@ def summary_lines(rows: list[EdgeBenchRow]) -> list[str]:
     for case, pair in by_case.items():
         ours, theirs = pair["mrcheck edges"], pair["cv2.rapid"]
         err = lambda r: "failed" if r.error_px is None else f"{r.error_px:.2f}"  # noqa: E731
-        lines.append(f"{case:<18} {ours.offset_px:8.1f} {err(ours):>9} {ours.seconds:8.2f} {err(theirs):>9} "
-                     f"{theirs.seconds:8.2f}")
+        lines.append(
+            f"{case:<18} {ours.offset_px:8.1f} {err(ours):>9} {ours.seconds:8.2f} {err(theirs):>9} "
+            f"{theirs.seconds:8.2f}"
+        )
     for method in ("mrcheck edges", "cv2.rapid"):
         mine = [r for r in rows if r.method == method]
         errors = np.array([np.inf if r.error_px is None else r.error_px for r in mine])
-        lines.append(f"{method}: median error {np.median(errors):.2f} px, within {SUCCESS_PX:g} px in "
-                     f"{int(np.sum(errors <= SUCCESS_PX))} of {len(mine)}, failed {int(np.sum(~np.isfinite(errors)))}, "
-                     f"median time {np.median([r.seconds for r in mine]):.2f} s")
+        lines.append(
+            f"{method}: median error {np.median(errors):.2f} px, within {SUCCESS_PX:g} px in "
+            f"{int(np.sum(errors <= SUCCESS_PX))} of {len(mine)}, failed {int(np.sum(~np.isfinite(errors)))}, "
+            f"median time {np.median([r.seconds for r in mine]):.2f} s"
+        )
     return lines
 
 
@@ -146,11 +161,16 @@ def edge_bench(quick: bool = False, progress=None) -> list[str]:
     cell = load_scene(factory_scenes_dir() / "cell" / "scene.toml")
     crates = crate_camera(640, 480)
     lines = []
-    for name, scene, camera in (("crates", crate_scene(), crates), ("cell-overview", cell, cell.camera("overview", 640))):
+    for name, scene, camera in (
+        ("crates", crate_scene(), crates),
+        ("cell-overview", cell, cell.camera("overview", 640)),
+    ):
         camera = Camera(camera.width, camera.height, camera.K, camera.R, camera.t, crates.dist)
         rows = bench_cases(name, scene, camera, seeds, progress)
-        lines += [f"== edge registration: {name}, {camera.width}x{camera.height}, {len(seeds)} cases ==",
-                  *summary_lines(rows)]
+        lines += [
+            f"== edge registration: {name}, {camera.width}x{camera.height}, {len(seeds)} cases ==",
+            *summary_lines(rows),
+        ]
     return lines
 
 

@@ -70,8 +70,22 @@ def _box(centre, size, yaw):
     c, s = np.cos(yaw), np.sin(yaw)
     x, y, z = (np.array([[i, j, k] for i in (-0.5, 0.5) for j in (-0.5, 0.5) for k in (0.0, 1.0)]) * size).T
     v = np.column_stack([c * x - s * y, s * x + c * y, z]) + centre
-    f = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
-                  [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
+    f = np.array(
+        [
+            [0, 1, 3],
+            [0, 3, 2],
+            [4, 6, 7],
+            [4, 7, 5],
+            [0, 4, 5],
+            [0, 5, 1],
+            [2, 3, 7],
+            [2, 7, 6],
+            [0, 2, 6],
+            [0, 6, 4],
+            [1, 5, 7],
+            [1, 7, 3],
+        ]
+    )
     return v, f
 
 
@@ -81,9 +95,13 @@ def _rays(camera: Camera, factor: int):
     h, w = camera.height * factor, camera.width * factor
     jj, ii = np.mgrid[0:h, 0:w].astype(np.float64)
     uv = np.stack([(ii + 0.5) / factor - 0.5, (jj + 0.5) / factor - 0.5], axis=-1).reshape(-1, 1, 2)
-    xy = cv2.undistortPoints(uv, camera.K, camera.dist if camera.dist.size else None,
-                             criteria=(cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-10)).reshape(-1, 2)
-    d = np.column_stack([xy, np.ones(len(xy))]) @ camera.R     # R^T d, row-wise
+    xy = cv2.undistortPoints(
+        uv,
+        camera.K,
+        camera.dist if camera.dist.size else None,
+        criteria=(cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-10),
+    ).reshape(-1, 2)
+    d = np.column_stack([xy, np.ones(len(xy))]) @ camera.R  # R^T d, row-wise
     return (d / np.linalg.norm(d, axis=1, keepdims=True)).reshape(h, w, 3)
 
 
@@ -103,10 +121,10 @@ def _shade(hit, rays, albedo, rc, rng, sun, albedo_noise, origin) -> np.ndarray:
     ok = np.isfinite(t)
     prim = np.where(ok, hit["primitive_ids"].numpy(), 0).astype(np.int64)
     n = hit["primitive_normals"].numpy().astype(np.float64)
-    n = np.where((np.einsum("ij,ij->i", n, rays) > 0)[:, None], -n, n)       # facing the camera
+    n = np.where((np.einsum("ij,ij->i", n, rays) > 0)[:, None], -n, n)  # facing the camera
     p = rays * np.where(ok, t, 0.0)[:, None]
     world = p + origin
-    waves = rng.normal(size=(4, 3)) * rng.uniform(2.0, 12.0, size=(4, 1))     # wavelengths 0.5-3 m
+    waves = rng.normal(size=(4, 3)) * rng.uniform(2.0, 12.0, size=(4, 1))  # wavelengths 0.5-3 m
     phase = rng.uniform(0, 2 * np.pi, 4)
     texture = 1.0 + albedo_noise * np.mean(np.sin(world @ waves.T + phase), axis=1)
     a = albedo[prim] * texture * (1.0 + 0.04 * rng.standard_normal(len(t)))
@@ -122,8 +140,16 @@ def _shade(hit, rays, albedo, rc, rng, sun, albedo_noise, origin) -> np.ndarray:
     return np.where(ok, radiance, 0.9), ok
 
 
-def synthetic_photo(scene: Scene, camera: Camera, seed: int, clutter: int = 6, leave_out: bool = True,
-                    noise: float = 0.02, blur: float = 0.7, albedo_noise: float = 0.15):
+def synthetic_photo(
+    scene: Scene,
+    camera: Camera,
+    seed: int,
+    clutter: int = 6,
+    leave_out: bool = True,
+    noise: float = 0.02,
+    blur: float = 0.7,
+    albedo_noise: float = 0.15,
+):
     """``(photo, left_out, clutter_count)``: the (H, W) uint8 photo of ``scene`` from ``camera``."""
     rng = np.random.default_rng(seed)
     origin = camera.center
@@ -161,7 +187,9 @@ def _pick_left_out(owner, hit, names, rng):
 def _add_clutter(verts, faces, albedo, rays, t, hit, count, rng):
     """Boxes on floor spots (upward normals) seen in the photo."""
     n = hit["primitive_normals"].numpy()
-    floor = np.flatnonzero(np.isfinite(t) & (np.abs(n[:, 2]) > 0.95) & (t < np.nanpercentile(np.where(np.isfinite(t), t, np.nan), 60)))
+    floor = np.flatnonzero(
+        np.isfinite(t) & (np.abs(n[:, 2]) > 0.95) & (t < np.nanpercentile(np.where(np.isfinite(t), t, np.nan), 60))
+    )
     placed = 0
     if count and len(floor):
         boxes_v, boxes_f, boxes_a = [verts], [faces], [albedo]
@@ -195,6 +223,7 @@ def scene_points(scene: Scene, camera: Camera, count: int = 2000, seed: int = 0)
 
 def reprojection_error(truth: Camera, estimate: Camera, points: np.ndarray) -> np.ndarray:
     """(n,) pixel distance between the points' projections (lens distortion included)."""
+
     def proj(cam):
         centre = points.mean(axis=0)
         rvec = cv2.Rodrigues(cam.R)[0]
@@ -220,7 +249,7 @@ def perturbed(camera: Camera, points: np.ndarray, offset_px: float, rng) -> Came
     that moves ``points`` by ``offset_px`` (median)."""
     depth = float(np.median((points @ camera.R.T + camera.t)[:, 2]))
     direction = rng.normal(size=6)
-    direction[3:] *= depth                     # radians and metres at the scene's depth
+    direction[3:] *= depth  # radians and metres at the scene's depth
     direction /= np.linalg.norm(direction)
 
     def moved(s):
@@ -244,8 +273,17 @@ def make_case(scene: Scene, camera: Camera, seed: int, offset_px: float | None =
     points = scene_points(scene, camera, seed=seed)
     offset = float(offset_px if offset_px is not None else rng.uniform(15.0, 40.0))
     rough = perturbed(camera, points, offset, rng)
-    return PhotoCase(photo, camera, rough, points, left, placed,
-                     float(np.median(reprojection_error(camera, rough, points))))
+    return PhotoCase(
+        photo, camera, rough, points, left, placed, float(np.median(reprojection_error(camera, rough, points)))
+    )
 
 
-__all__ = ["PhotoCase", "synthetic_photo", "scene_points", "reprojection_error", "corner_errors", "perturbed", "make_case"]
+__all__ = [
+    "PhotoCase",
+    "synthetic_photo",
+    "scene_points",
+    "reprojection_error",
+    "corner_errors",
+    "perturbed",
+    "make_case",
+]

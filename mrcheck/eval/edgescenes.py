@@ -29,8 +29,15 @@ def _box_part(name, centre_xy, size, yaw_deg, colour, z0=0.0):
     mesh = trimesh.creation.box(extents=size)
     T = trimesh.transformations.rotation_matrix(np.radians(yaw_deg), (0, 0, 1))
     T[:3, 3] = (centre_xy[0], centre_xy[1], z0 + size[2] / 2.0)
-    return make_part(name, Path(name), np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces), T[None],
-                     color=colour, units="m")
+    return make_part(
+        name,
+        Path(name),
+        np.asarray(mesh.vertices, np.float64),
+        np.asarray(mesh.faces),
+        T[None],
+        color=colour,
+        units="m",
+    )
 
 
 def crate_scene() -> Scene:
@@ -50,15 +57,33 @@ def write_crate_scene(folder: Path) -> Path:
     viewpoint at :func:`crate_camera`'s pose. Returns the manifest's path."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    lines = ['format = 1', 'name = "crates"', '']
+    lines = ["format = 1", 'name = "crates"', ""]
     for part in crate_scene().parts:
-        mesh = trimesh.Trimesh(part.vertices.astype(np.float64) @ part.transforms[0][:3, :3].T
-                               + part.transforms[0][:3, 3], part.faces, process=False)
+        mesh = trimesh.Trimesh(
+            part.vertices.astype(np.float64) @ part.transforms[0][:3, :3].T + part.transforms[0][:3, 3],
+            part.faces,
+            process=False,
+        )
         mesh.export(folder / f"{part.name}.ply")
-        lines += ["[[parts]]", f'name = "{part.name}"', f'mesh = "{part.name}.ply"', 'units = "m"',
-                  f"color = {list(part.color)}", ""]
-    lines += ["[[viewpoints]]", 'name = "front"', "eye = [-3.2, -4.6, 2.4]", "target = [0.3, 0.8, 0.5]",
-              "up = [0.0, 0.0, 1.0]", "fov_y_deg = 55.0", "width = 640", "height = 480", ""]
+        lines += [
+            "[[parts]]",
+            f'name = "{part.name}"',
+            f'mesh = "{part.name}.ply"',
+            'units = "m"',
+            f"color = {list(part.color)}",
+            "",
+        ]
+    lines += [
+        "[[viewpoints]]",
+        'name = "front"',
+        "eye = [-3.2, -4.6, 2.4]",
+        "target = [0.3, 0.8, 0.5]",
+        "up = [0.0, 0.0, 1.0]",
+        "fov_y_deg = 55.0",
+        "width = 640",
+        "height = 480",
+        "",
+    ]
     manifest = folder / "scene.toml"
     manifest.write_text("\n".join(lines))
     return manifest

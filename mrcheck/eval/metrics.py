@@ -21,12 +21,12 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-UNOCCLUDED = 0.99        # reference AO at or above this counts as "unoccluded" (flat walls, floors)
-SSIM_SIGMA = 1.5         # Wang et al. 2004: 11x11 circular-symmetric Gaussian, sigma 1.5
+UNOCCLUDED = 0.99  # reference AO at or above this counts as "unoccluded" (flat walls, floors)
+SSIM_SIGMA = 1.5  # Wang et al. 2004: 11x11 circular-symmetric Gaussian, sigma 1.5
 SSIM_WINDOW = 11
 SSIM_K1, SSIM_K2 = 0.01, 0.03
-SSIM_RANGE = 1.0         # AO lives in [0, 1]
-DIVISION_EPS = 1e-4      # near-quartile darkening below this is "no darkening": the ratio is meaningless
+SSIM_RANGE = 1.0  # AO lives in [0, 1]
+DIVISION_EPS = 1e-4  # near-quartile darkening below this is "no darkening": the ratio is meaningless
 
 METRIC_NAMES = ("mae", "rmse", "ssim", "false_occlusion", "distance_retention")
 
@@ -45,7 +45,9 @@ def _prepared(ao, ref, depth):
     """float64 copies of ``ao`` and ``ref`` and the covered mask, shapes checked."""
     ao, ref, depth = (np.asarray(x, np.float64) for x in (ao, ref, depth))
     if not (ao.shape == ref.shape == depth.shape and ao.ndim == 2):
-        raise ValueError(f"ao, ref and depth must be (H, W) arrays of one shape, got {ao.shape}, {ref.shape}, {depth.shape}")
+        raise ValueError(
+            f"ao, ref and depth must be (H, W) arrays of one shape, got {ao.shape}, {ref.shape}, {depth.shape}"
+        )
     mask = covered(depth)
     if not mask.any():
         raise MetricUndefined("no covered pixel (depth > 0)")
@@ -93,7 +95,7 @@ def ssim(ao, ref, depth) -> float:
     var_r = local_mean(ref * ref) - mu_r * mu_r
     cov = local_mean(ao * ref) - mu_a * mu_r
     c1, c2 = (SSIM_K1 * SSIM_RANGE) ** 2, (SSIM_K2 * SSIM_RANGE) ** 2
-    ssim_map = ((2 * mu_a * mu_r + c1) * (2 * cov + c2)) / ((mu_a ** 2 + mu_r ** 2 + c1) * (var_a + var_r + c2))
+    ssim_map = ((2 * mu_a * mu_r + c1) * (2 * cov + c2)) / ((mu_a**2 + mu_r**2 + c1) * (var_a + var_r + c2))
     return float(np.mean(ssim_map[mask]))
 
 
@@ -138,8 +140,13 @@ def distance_retention(ao, ref, depth) -> float:
     return float(np.mean(1.0 - ao[far])) / near_dark
 
 
-METRICS = {"mae": mae, "rmse": rmse, "ssim": ssim, "false_occlusion": false_occlusion,
-           "distance_retention": distance_retention}
+METRICS = {
+    "mae": mae,
+    "rmse": rmse,
+    "ssim": ssim,
+    "false_occlusion": false_occlusion,
+    "distance_retention": distance_retention,
+}
 
 
 def all_metrics(ao, ref, depth) -> dict:
@@ -155,5 +162,16 @@ def all_metrics(ao, ref, depth) -> dict:
     return values
 
 
-__all__ = ["mae", "rmse", "ssim", "false_occlusion", "distance_retention", "depth_quartiles", "covered",
-           "all_metrics", "MetricUndefined", "METRIC_NAMES", "UNOCCLUDED"]
+__all__ = [
+    "mae",
+    "rmse",
+    "ssim",
+    "false_occlusion",
+    "distance_retention",
+    "depth_quartiles",
+    "covered",
+    "all_metrics",
+    "MetricUndefined",
+    "METRIC_NAMES",
+    "UNOCCLUDED",
+]

@@ -24,7 +24,7 @@ from mrcheck.core.arrays import bounding_box
 from mrcheck.core.errors import MrcheckError
 from mrcheck.scene.model import Scene
 
-NO_HIT = -1   # the instance (and triangle) of a ray that hits nothing
+NO_HIT = -1  # the instance (and triangle) of a ray that hits nothing
 
 
 def _has_triangles(part) -> bool:
@@ -42,7 +42,7 @@ def triangle_owners(scene: Scene):
     owners, counts = [], []
     for part in scene.parts:
         if not _has_triangles(part):
-            continue   # the same skip as triangle_soup: the two orders must agree
+            continue  # the same skip as triangle_soup: the two orders must agree
         for k in range(len(part.transforms)):
             owners.append((part, k))
             counts.append(len(part.faces))
@@ -77,9 +77,10 @@ def triangle_soup(scene: Scene, origin: np.ndarray):
     return np.concatenate(vertices), faces.astype(np.uint32)
 
 
-MORTON_BITS = 8                 # per axis: 256^3 cells over the points' box (24-bit codes)
-_SPREAD = np.array([sum(((v >> b) & 1) << (3 * b) for b in range(MORTON_BITS)) for v in range(1 << MORTON_BITS)],
-                   np.uint32)   # v's bits spread 3 apart: the Morton code is spread(x) | spread(y) << 1 | spread(z) << 2
+MORTON_BITS = 8  # per axis: 256^3 cells over the points' box (24-bit codes)
+_SPREAD = np.array(
+    [sum(((v >> b) & 1) << (3 * b) for b in range(MORTON_BITS)) for v in range(1 << MORTON_BITS)], np.uint32
+)  # v's bits spread 3 apart: the Morton code is spread(x) | spread(y) << 1 | spread(z) << 2
 
 
 def coherent_order(points: np.ndarray) -> np.ndarray:
@@ -97,8 +98,9 @@ def coherent_order(points: np.ndarray) -> np.ndarray:
 @dataclass(frozen=True)
 class Hits:
     """The first hit of each of N rays (:meth:`SceneCaster.cast`)."""
-    t: np.ndarray         # (N,) float32 ray parameter of the hit (distance in units of the ray's direction), inf: none
-    hit: np.ndarray       # (N,) bool
+
+    t: np.ndarray  # (N,) float32 ray parameter of the hit (distance in units of the ray's direction), inf: none
+    hit: np.ndarray  # (N,) bool
     instance: np.ndarray  # (N,) int64 index into SceneCaster.owners, NO_HIT where nothing is hit
     triangle: np.ndarray  # (N,) int64 triangle index within the instance's part mesh, NO_HIT where nothing
 
@@ -106,8 +108,9 @@ class Hits:
 @dataclass(frozen=True)
 class ClosestPoints:
     """The closest surface point of each of N query points (:meth:`SceneCaster.closest_points`)."""
-    offset: np.ndarray    # (N, 3) float64 query point minus its closest point on the scene
-    normal: np.ndarray    # (N, 3) float64 unit normal of the closest triangle (its winding's front)
+
+    offset: np.ndarray  # (N, 3) float64 query point minus its closest point on the scene
+    normal: np.ndarray  # (N, 3) float64 unit normal of the closest triangle (its winding's front)
     instance: np.ndarray  # (N,) int64 index into SceneCaster.owners
 
 
@@ -168,14 +171,19 @@ class SceneCaster:
         relative = np.asarray(points, np.float64) - self.origin
         query = relative.astype(np.float32)
         order = None if coherent else coherent_order(relative)
-        answer = self._scene.compute_closest_points(o3d.core.Tensor(query if order is None else np.take(query, order, axis=0)))
+        answer = self._scene.compute_closest_points(
+            o3d.core.Tensor(query if order is None else np.take(query, order, axis=0))
+        )
         closest, normal, primitive = (answer[k].numpy() for k in ("points", "primitive_normals", "primitive_ids"))
         if order is not None:
-            back = np.empty(len(order), np.intp)       # np.take with the inverse order: twice as fast as a scatter
+            back = np.empty(len(order), np.intp)  # np.take with the inverse order: twice as fast as a scatter
             back[order] = np.arange(len(order))
             closest, normal, primitive = (np.take(a, back, axis=0) for a in (closest, normal, primitive))
-        return ClosestPoints(offset=relative - closest, normal=normal.astype(np.float64),
-                             instance=np.searchsorted(self.first, primitive.astype(np.int64), side="right") - 1)
+        return ClosestPoints(
+            offset=relative - closest,
+            normal=normal.astype(np.float64),
+            instance=np.searchsorted(self.first, primitive.astype(np.int64), side="right") - 1,
+        )
 
 
 def build_caster(scene: Scene, origin) -> SceneCaster | None:
@@ -186,5 +194,14 @@ def build_caster(scene: Scene, origin) -> SceneCaster | None:
     return None if vertices is None else SceneCaster(scene, origin, vertices, faces)
 
 
-__all__ = ["SceneCaster", "Hits", "ClosestPoints", "build_caster", "coherent_order", "triangle_owners", "triangle_soup",
-           "instance_labels", "NO_HIT"]
+__all__ = [
+    "SceneCaster",
+    "Hits",
+    "ClosestPoints",
+    "build_caster",
+    "coherent_order",
+    "triangle_owners",
+    "triangle_soup",
+    "instance_labels",
+    "NO_HIT",
+]

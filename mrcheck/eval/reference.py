@@ -53,11 +53,11 @@ REFERENCE_LOD_PX = 0.0
 # 4096 rays per pixel take about 3 minutes at 640x480 here (6-8 M rays/s), while 256 and 1024
 # rays already agree within 0.01 (tests/test_reference.py): more is a typo, not a better reference
 MAX_RAYS = 4096
-RAY_CHUNK = 1 << 21             # rays per cast: ~50 MB of float32 rays, enough to keep every core busy
-ORIGIN_EPSILON = 2e-5           # ray origin offset along the normal, relative to the depth Z
+RAY_CHUNK = 1 << 21  # rays per cast: ~50 MB of float32 rays, enough to keep every core busy
+ORIGIN_EPSILON = 2e-5  # ray origin offset along the normal, relative to the depth Z
 GOLDEN = 0.5 * (math.sqrt(5.0) - 1.0)
 RADIUS_MODES = ("world", "screen")
-PROGRESS_STAGE = "reference AO"     # the stage reference_ao reports its rays under
+PROGRESS_STAGE = "reference AO"  # the stage reference_ao reports its rays under
 
 
 def _base_pattern(rays: int) -> np.ndarray:
@@ -110,9 +110,10 @@ def _validate(camera, depth, normals, rays, radius_mode, radius, falloff):
 @dataclass(frozen=True)
 class _Surface:
     """The covered pixels' ray starts, relative to the camera centre in world orientation."""
-    origins: np.ndarray   # (m, 3) float32, lifted off the surface along the normal
-    frames: np.ndarray    # (m, 3 axes, 3) float32 tangent, bitangent, normal
-    radius: np.ndarray    # (m,) float64 maximum ray distance r per pixel
+
+    origins: np.ndarray  # (m, 3) float32, lifted off the surface along the normal
+    frames: np.ndarray  # (m, 3 axes, 3) float32 tangent, bitangent, normal
+    radius: np.ndarray  # (m,) float64 maximum ray distance r per pixel
 
 
 def _surface(camera: Camera, depth, normals, jj, ii, radius_mode: str, radius: float) -> _Surface:
@@ -123,9 +124,11 @@ def _surface(camera: Camera, depth, normals, jj, ii, radius_mode: str, radius: f
     n_cam = normals[jj, ii].astype(np.float64)
     n_len = np.linalg.norm(n_cam, axis=1, keepdims=True)
     # a zero normal on a covered pixel (degenerate triangle): face the camera rather than NaN
-    n_cam = np.where(n_len > 1e-6, n_cam / np.maximum(n_len, 1e-12), -p_cam / np.linalg.norm(p_cam, axis=1, keepdims=True))
+    n_cam = np.where(
+        n_len > 1e-6, n_cam / np.maximum(n_len, 1e-12), -p_cam / np.linalg.norm(p_cam, axis=1, keepdims=True)
+    )
     R = camera.R
-    p_rel = p_cam @ R                              # = (R^T p_cam^T)^T
+    p_rel = p_cam @ R  # = (R^T p_cam^T)^T
     n_world = n_cam @ R
     r = np.full(z.shape, float(radius)) if radius_mode == "world" else float(radius) * z / camera.fy
     # the G-buffer point lies on its triangle only to float32/raster precision: lift it off the
@@ -139,7 +142,7 @@ def _chunk_rays(surface: _Surface, sl: slice, base: np.ndarray, shifts: np.ndarr
     """(m N, 6) float32 rays of the pixels ``sl``: the lattice ``base`` shifted per pixel,
     cosine-distributed about the normal, each direction scaled by the pixel's r."""
     m, rays = sl.stop - sl.start, len(base)
-    u = np.mod(base[None, :, :] + shifts[sl, None, :], 1.0).astype(np.float32)   # (m, N, 2)
+    u = np.mod(base[None, :, :] + shifts[sl, None, :], 1.0).astype(np.float32)  # (m, N, 2)
     # cosine-weighted hemisphere (Malley): uniform disc lifted to the hemisphere
     rad = np.sqrt(u[..., 0])
     phi = np.float32(2.0 * math.pi) * u[..., 1]
@@ -164,13 +167,23 @@ def _occlusion(caster, ray_array: np.ndarray, falloff: float) -> np.ndarray:
     if idx.size:
         # the distance is needed only for the rays that hit within r
         t_hit = caster.cast(ray_array[idx]).t.astype(np.float64)
-        t_hit = np.minimum(t_hit, 1.0)     # the same first hit; guards float ties at t = 1
+        t_hit = np.minimum(t_hit, 1.0)  # the same first hit; guards float ties at t = 1
         weight[idx] = 1.0 / (1.0 + falloff * t_hit * t_hit)
     return weight
 
 
-def reference_ao(scene: Scene, camera: Camera, depth, normals, rays: int, radius_mode: str, radius: float,
-                 falloff: float = 1.0, seed: int = 0, progress=None) -> np.ndarray:
+def reference_ao(
+    scene: Scene,
+    camera: Camera,
+    depth,
+    normals,
+    rays: int,
+    radius_mode: str,
+    radius: float,
+    falloff: float = 1.0,
+    seed: int = 0,
+    progress=None,
+) -> np.ndarray:
     """(H, W) float32 ray-traced AO for the pixels of a render (definition: module docstring).
 
     Parameters
@@ -194,9 +207,9 @@ def reference_ao(scene: Scene, camera: Camera, depth, normals, rays: int, radius
     _validate(camera, depth, normals, rays, radius_mode, radius, falloff)
     rays = int(rays)
     ao = np.ones(depth.shape, np.float32)
-    jj, ii = np.nonzero(np.isfinite(depth) & (depth > 0.0))     # row (v), column (u) of every surface pixel
+    jj, ii = np.nonzero(np.isfinite(depth) & (depth > 0.0))  # row (v), column (u) of every surface pixel
     caster = build_caster(scene, camera.center) if jj.size else None
-    if caster is None:                              # nothing covered, or no triangles: nothing occludes
+    if caster is None:  # nothing covered, or no triangles: nothing occludes
         return ao
     surface = _surface(camera, depth, normals, jj, ii, radius_mode, radius)
     base = _base_pattern(rays)
@@ -221,6 +234,7 @@ def reference_ao(scene: Scene, camera: Camera, depth, normals, rays: int, radius
 @dataclass(frozen=True)
 class ReferenceRun:
     """What ``mrcheck reference`` did: the file written and the rays it cast in how long."""
+
     path: Path
     rays_cast: int
     seconds: float
@@ -242,7 +256,7 @@ def _command_radius(radius_mode, radius_world, radius_px, camera) -> float:
     if radius_mode == "world":
         return DEFAULT_RADIUS_WORLD if radius_world is None else radius_world
     radius = DEFAULT_RADIUS_FRACTION * camera.height if radius_px is None else radius_px
-    check_screen_radius(radius, camera.height, "the screen radius is in pixels")   # render's rule
+    check_screen_radius(radius, camera.height, "the screen radius is in pixels")  # render's rule
     return radius
 
 
@@ -254,8 +268,22 @@ def _warn_ignored_radius(radius_mode, radius_world, radius_px) -> None:
         warnings.warn(MrcheckWarning(f"{option} has no effect in radius mode {radius_mode} (it applies to {users})"))
 
 
-def reference_command(scene, view, camera_path, width, height, rays, radius_mode, radius_world, radius_px,
-                      falloff, seed, units, output, progress=None) -> ReferenceRun:
+def reference_command(
+    scene,
+    view,
+    camera_path,
+    width,
+    height,
+    rays,
+    radius_mode,
+    radius_world,
+    radius_px,
+    falloff,
+    seed,
+    units,
+    output,
+    progress=None,
+) -> ReferenceRun:
     """``mrcheck reference``: check everything, render the G-buffer, ray-trace the reference
     AO, write it; returns what was written. ``progress`` as in :func:`reference_ao`."""
     from mrcheck.core.output import (
@@ -268,10 +296,10 @@ def reference_command(scene, view, camera_path, width, height, rays, radius_mode
     from mrcheck.render.views import scene_and_camera, warn_if_nothing_in_view
     from mrcheck.scene.manifest import scene_files
 
-    output = check_output_path(output, AO_SUFFIXES, "reference output")   # fail before the work
+    output = check_output_path(output, AO_SUFFIXES, "reference output")  # fail before the work
     check_not_inputs([output], [("the scene", scene_files(scene)), ("--camera", camera_path)])
     _check_radius_mode(radius_mode)
-    _check_rays(rays)   # before a long scene load (_check_parameters below checks everything)
+    _check_rays(rays)  # before a long scene load (_check_parameters below checks everything)
     _warn_ignored_radius(radius_mode, radius_world, radius_px)
     loaded, camera = scene_and_camera(scene, units, view, camera_path, width, height)
     radius = _command_radius(radius_mode, radius_world, radius_px, camera)
@@ -280,8 +308,9 @@ def reference_command(scene, view, camera_path, width, height, rays, radius_mode
     renderer = Renderer(loaded)
     try:
         # single-sampled: every pixel's point is on the surface its centre sees (mrcheck.eval.compare)
-        frame = renderer.render(camera, ["phong"], RenderSettings(lod_px=REFERENCE_LOD_PX, antialias=False),
-                                want_normals=True)
+        frame = renderer.render(
+            camera, ["phong"], RenderSettings(lod_px=REFERENCE_LOD_PX, antialias=False), want_normals=True
+        )
         depth, normals = frame.depth, frame.normals
     finally:
         renderer.release()
@@ -294,5 +323,12 @@ def reference_command(scene, view, camera_path, width, height, rays, radius_mode
     return ReferenceRun(path, int(np.count_nonzero(depth > 0)) * int(rays), seconds)
 
 
-__all__ = ["reference_ao", "reference_command", "ReferenceRun", "MAX_RAYS", "RADIUS_MODES", "REFERENCE_LOD_PX",
-           "PROGRESS_STAGE"]
+__all__ = [
+    "reference_ao",
+    "reference_command",
+    "ReferenceRun",
+    "MAX_RAYS",
+    "RADIUS_MODES",
+    "REFERENCE_LOD_PX",
+    "PROGRESS_STAGE",
+]

@@ -28,20 +28,20 @@ from mrcheck.scene.model import Scene, make_part
 
 EYE_HEIGHT = 1.6
 STRAY_SHARE = 0.005
-CLUTTER_SIZE = ((0.4, 0.4, 1.75), (0.8, 0.6, 1.0), (1.2, 0.8, 0.9))   # a person, a cart, a crate
+CLUTTER_SIZE = ((0.4, 0.4, 1.75), (0.8, 0.6, 1.0), (1.2, 0.8, 0.9))  # a person, a cart, a crate
 
 
 @dataclass(frozen=True)
 class Shift:
     """One moved instance: its id and the (3,) horizontal move, metres."""
+
     id: str
     vector: tuple
 
 
 def _movable(scene: Scene) -> list[tuple[int, int]]:
     skip = excluded_parts(scene)
-    return [(p, k) for p, part in enumerate(scene.parts) if part.name not in skip
-            for k in range(len(part.transforms))]
+    return [(p, k) for p, part in enumerate(scene.parts) if part.name not in skip for k in range(len(part.transforms))]
 
 
 def shifted_variant(scene: Scene, share: float, low_m: float, high_m: float, seed: int) -> tuple[Scene, list[Shift]]:
@@ -65,8 +65,22 @@ def shifted_variant(scene: Scene, share: float, low_m: float, high_m: float, see
 def _box_mesh(size) -> tuple[np.ndarray, np.ndarray]:
     sx, sy, sz = size
     v = np.array([[x, y, z] for x in (0, sx) for y in (0, sy) for z in (0, sz)], np.float64)
-    f = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
-                  [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
+    f = np.array(
+        [
+            [0, 1, 3],
+            [0, 3, 2],
+            [4, 6, 7],
+            [4, 7, 5],
+            [0, 4, 5],
+            [0, 5, 1],
+            [2, 3, 7],
+            [2, 7, 6],
+            [0, 2, 6],
+            [0, 6, 4],
+            [1, 5, 7],
+            [1, 7, 3],
+        ]
+    )
     return v, f
 
 
@@ -81,7 +95,7 @@ def _floor(scene: Scene):
 
 def _free(box, boxes, floor_z, margin) -> bool:
     lo, hi = box[0] - margin, box[1] + margin
-    above = boxes[:, 1, 2] > floor_z + 1e-3          # the floor slab itself never blocks
+    above = boxes[:, 1, 2] > floor_z + 1e-3  # the floor slab itself never blocks
     overlap = np.all((boxes[:, 0] < hi) & (boxes[:, 1] > lo), axis=1)
     return not np.any(overlap & above)
 
@@ -111,10 +125,13 @@ def scanner_stations(scene: Scene, count: int, seed: int) -> np.ndarray:
     lo, hi, floor_z = _floor(scene)
     centre, half = (lo + hi) / 2.0, (hi - lo) * 0.35
     gx, gy = np.meshgrid(np.linspace(-1, 1, 15), np.linspace(-1, 1, 15))
-    grid = np.column_stack([centre[0] + gx.ravel() * half[0], centre[1] + gy.ravel() * half[1],
-                            np.full(gx.size, floor_z + EYE_HEIGHT)])
+    grid = np.column_stack(
+        [centre[0] + gx.ravel() * half[0], centre[1] + gy.ravel() * half[1], np.full(gx.size, floor_z + EYE_HEIGHT)]
+    )
     caster = build_caster(scene, centre)
-    dirs = np.array([(x, y, z) for x in (-1, 0, 1) for y in (-1, 0, 1) for z in (-1, 0, 1) if (x, y, z) != (0, 0, 0)], float)
+    dirs = np.array(
+        [(x, y, z) for x in (-1, 0, 1) for y in (-1, 0, 1) for z in (-1, 0, 1) if (x, y, z) != (0, 0, 0)], float
+    )
     dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
     rays = np.concatenate([np.hstack([np.broadcast_to(g - centre, dirs.shape), dirs]) for g in grid])
     t = caster.cast(rays.astype(np.float32)).t.reshape(len(grid), len(dirs))
@@ -141,13 +158,14 @@ def _sphere(n: int, min_elevation_deg: float = -60.0) -> np.ndarray:
 
 @dataclass
 class SimulatedScan:
-    points: np.ndarray           # (N, 3) float64 world metres
-    stations: np.ndarray         # (k, 3) the scanner positions
-    noise_mm: list               # per station, the range noise's sigma
+    points: np.ndarray  # (N, 3) float64 world metres
+    stations: np.ndarray  # (k, 3) the scanner positions
+    noise_mm: list  # per station, the range noise's sigma
 
 
-def simulate_scan(scene: Scene, stations: np.ndarray, rays_per_station: int, seed: int,
-                  noise_mm=(2.0, 5.0)) -> SimulatedScan:
+def simulate_scan(
+    scene: Scene, stations: np.ndarray, rays_per_station: int, seed: int, noise_mm=(2.0, 5.0)
+) -> SimulatedScan:
     """Points of ``scene`` (the as-built one, clutter included) seen from ``stations``."""
     rng = np.random.default_rng(seed + 104729)
     centre = stations.mean(axis=0)

@@ -34,8 +34,8 @@ from mrcheck.eval.edgephotos import scene_points, synthetic_photo
 from mrcheck.scene.model import Scene
 
 MOTIONS = ("side", "forward", "left")
-RATE = 10                  # the test videos' frames per second
-_ROUGH_TURN = (0.004, -0.006, 0.002)    # the first frame's rough pose: this rotation (radians) off
+RATE = 10  # the test videos' frames per second
+_ROUGH_TURN = (0.004, -0.006, 0.002)  # the first frame's rough pose: this rotation (radians) off
 
 
 @dataclass
@@ -56,9 +56,9 @@ def walk_camera(camera: Camera, motion: str, k: int) -> Camera:
     """The camera of frame ``k`` of the path ``motion`` (one of :data:`MOTIONS`) from ``camera``."""
     if motion == "side":
         turn, move = (0.0, np.radians(0.2) * k, 0.0), np.array([0.04 * k, 0.0, 0.0])
-    elif motion == "forward":     # along the view, level, tilting down
+    elif motion == "forward":  # along the view, level, tilting down
         turn, move = (np.radians(0.15) * k, 0.0, 0.0), 0.05 * k * camera.R[2] * np.array([1.0, 1.0, 0.0])
-    elif motion == "left":        # the other way, panning, rolling and rising
+    elif motion == "left":  # the other way, panning, rolling and rising
         turn, move = (0.0, -np.radians(0.15) * k, np.radians(0.1) * k), np.array([-0.03 * k, 0.02 * k, 0.01 * k])
     else:
         raise ValueError(f"unknown motion {motion!r} (use {', '.join(MOTIONS)})")
@@ -86,8 +86,16 @@ def write_video(path: Path, photos) -> None:
                 container.mux(packet)
 
 
-def make_walk(scene: Scene, camera: Camera, motion: str, frames: int, folder: Path, name: str | None = None,
-              progress=None, key: bytes = b"") -> Walk:
+def make_walk(
+    scene: Scene,
+    camera: Camera,
+    motion: str,
+    frames: int,
+    folder: Path,
+    name: str | None = None,
+    progress=None,
+    key: bytes = b"",
+) -> Walk:
     """The walk ``motion`` of ``frames`` frames from ``camera`` over ``scene`` (no clutter, no
     part left out: the track's figures are its speed and drift) as ``folder/NAME-Nf-DIGEST.mp4``;
     ``progress(done, total)`` after every photo. The video is kept: made again only when its
@@ -112,11 +120,11 @@ def make_walk(scene: Scene, camera: Camera, motion: str, frames: int, folder: Pa
         os.close(handle)
         try:
             write_video(Path(tmp), photos())
-            replace_output(tmp, video)     # whole or not at all: a broken run leaves no half video
+            replace_output(tmp, video)  # whole or not at all: a broken run leaves no half video
         finally:
             if os.path.exists(tmp):
                 os.unlink(tmp)
-        for stale in video.parent.glob(f"{stem}-*.mp4"):    # made by other code or for another scene
+        for stale in video.parent.glob(f"{stem}-*.mp4"):  # made by other code or for another scene
             if stale != video:
                 stale.unlink()
     rough = truths[0].with_pose(cv2.Rodrigues(np.array(_ROUGH_TURN))[0] @ truths[0].R, truths[0].t)

@@ -42,13 +42,17 @@ class Board:
     def __post_init__(self):
         if self.kind == "charuco":
             aruco = cv2.aruco
-            board = aruco.CharucoBoard((self.cols, self.rows), self.square, self.marker,
-                                       aruco.getPredefinedDictionary(getattr(aruco, self.dictionary)))
+            board = aruco.CharucoBoard(
+                (self.cols, self.rows),
+                self.square,
+                self.marker,
+                aruco.getPredefinedDictionary(getattr(aruco, self.dictionary)),
+            )
             # the detector interpolates the chessboard corners from the markers and refines them
             # to sub-pixel accuracy itself (cornerSubPix inside detectBoard)
             object.__setattr__(self, "_charuco", (board, aruco.CharucoDetector(board)))
         else:
-            grid = np.mgrid[0:self.cols, 0:self.rows].T.reshape(-1, 2) * self.square
+            grid = np.mgrid[0 : self.cols, 0 : self.rows].T.reshape(-1, 2) * self.square
             object.__setattr__(self, "_grid", np.column_stack((grid, np.zeros(len(grid)))).astype(np.float32))
 
     def detect(self, gray: np.ndarray, quick: bool = False):
@@ -61,8 +65,9 @@ class Board:
         scale = max(gray.shape) / DETECT_LONG_SIDE
         if scale <= 1:
             return self._detect(gray, quick)
-        small = cv2.resize(gray, (round(gray.shape[1] / scale), round(gray.shape[0] / scale)),
-                           interpolation=cv2.INTER_AREA)
+        small = cv2.resize(
+            gray, (round(gray.shape[1] / scale), round(gray.shape[0] / scale)), interpolation=cv2.INTER_AREA
+        )
         found = self._detect(small, quick)
         if found is None:
             return None

@@ -79,7 +79,7 @@ class Calibration:
 
     def std_dict(self) -> dict:
         s = [float(v) for v in self.std]
-        return {"fx": s[0], "fy": s[1], "cx": s[2], "cy": s[3], "dist": s[4:4 + len(self.dist)]}
+        return {"fx": s[0], "fy": s[1], "cx": s[2], "cy": s[3], "dist": s[4 : 4 + len(self.dist)]}
 
 
 def _calibrate(views: dict, size) -> Calibration:
@@ -97,7 +97,8 @@ def _calibrate(views: dict, size) -> Calibration:
     try:
         with _one_opencv_thread():
             rms, K, dist, _, _, std, _, per_view = cv2.calibrateCameraExtended(
-                [views[n][0] for n in order], [views[n][1] for n in order], size, None, None)
+                [views[n][0] for n in order], [views[n][1] for n in order], size, None, None
+            )
     except cv2.error as exc:
         raise MrcheckError(f"calibration failed ({exc.err})") from None
     if not (np.all(np.isfinite(K)) and np.all(np.isfinite(dist)) and math.isfinite(rms)):
@@ -129,7 +130,7 @@ def _read_image(path: Path):
         raise MrcheckError("image not found", path)
     try:
         data = read_input(path, "image")
-    except MrcheckError as exc:   # a symlink loop, a broken link, permission, a FIFO, empty
+    except MrcheckError as exc:  # a symlink loop, a broken link, permission, a FIFO, empty
         return None, None, exc.problem
     try:
         return data, decode_image(data, path, "image", grey=True), None
@@ -205,8 +206,11 @@ def _common_size(sizes: dict):
     if odd:
         more = f" ({len(odd) - 1} more of another size)" if len(odd) > 1 else ""
         width, height = sizes[odd[0]]
-        raise MrcheckError(f"image is {width}x{height}, but {count} of the {len(sizes)} photos with the board are "
-                           f"{size[0]}x{size[1]}{more}; all views must come from one camera at one resolution", odd[0])
+        raise MrcheckError(
+            f"image is {width}x{height}, but {count} of the {len(sizes)} photos with the board are "
+            f"{size[0]}x{size[1]}{more}; all views must come from one camera at one resolution",
+            odd[0],
+        )
     return size
 
 
@@ -217,20 +221,26 @@ def calibrate(images, board: Board, min_views=None, max_view_error=None, progres
     """
     min_views = DEFAULT_MIN_VIEWS if min_views is None else int(min_views)
     if min_views < MIN_VIEWS_FLOOR:
-        raise MrcheckError(f"--min-views must be at least {MIN_VIEWS_FLOOR}, got {min_views}: Zhang's method gets two "
-                           "equations on the camera from each photo of a flat board, so fewer photos leave it "
-                           "undetermined (a low RMS error with a wrong camera)")
+        raise MrcheckError(
+            f"--min-views must be at least {MIN_VIEWS_FLOOR}, got {min_views}: Zhang's method gets two "
+            "equations on the camera from each photo of a flat board, so fewer photos leave it "
+            "undetermined (a low RMS error with a wrong camera)"
+        )
     found = detect_views(images, board, progress)
     views, size, skipped, duplicates = found.views, found.size, found.skipped, found.duplicates
     # a board missing from most photos that could be read more likely has a wrong SPEC than bad photos
     hint = _spec_hint(board, found.without_board) if len(views) < len(found.without_board) else ""
     if len(views) < min_views:
         repeats = f" ({_count(len(duplicates), 'duplicate')} not counted)" if duplicates else ""
-        raise MrcheckError(f"board found in only {len(views)} of {len(images) - len(duplicates)} images{repeats}, "
-                           f"need at least {min_views} (--min-views){_unreadable(found.unreadable)}{hint}")
+        raise MrcheckError(
+            f"board found in only {len(views)} of {len(images) - len(duplicates)} images{repeats}, "
+            f"need at least {min_views} (--min-views){_unreadable(found.unreadable)}{hint}"
+        )
     if hint:
-        warn(f"found in only {len(views)} of {len(views) + len(found.without_board)} readable images{hint}",
-             f"board {board.spec}")
+        warn(
+            f"found in only {len(views)} of {len(views) + len(found.without_board)} readable images{hint}",
+            f"board {board.spec}",
+        )
     result, rejected, threshold = _without_outliers(views, size, min_views, max_view_error)
     camera = Camera(size[0], size[1], result.K, dist=result.dist)
     extra = {
@@ -246,20 +256,22 @@ def calibrate(images, board: Board, min_views=None, max_view_error=None, progres
 
 
 def _unreadable(problems: dict, listed: int = 5) -> str:
-    """"; 5 images cannot be used (image is empty (0 bytes): a.jpg, b.jpg, ...)": the photos that
+    """ "; 5 images cannot be used (image is empty (0 bytes): a.jpg, b.jpg, ...)": the photos that
     could not be read, grouped by their problem, at most ``listed`` names per problem."""
     if not problems:
         return ""
     groups: dict = {}
     for name, problem in problems.items():
         groups.setdefault(problem, []).append(display(name))
-    parts = [f"{problem}: {', '.join(names[:listed])}" + (f" and {len(names) - listed} more" if len(names) > listed else "")
-             for problem, names in groups.items()]
+    parts = [
+        f"{problem}: {', '.join(names[:listed])}" + (f" and {len(names) - listed} more" if len(names) > listed else "")
+        for problem, names in groups.items()
+    ]
     return f"; {_count(len(problems), 'image')} cannot be used ({'; '.join(parts)})"
 
 
 def _spec_hint(board: Board, photos) -> str:
-    """"; " + how COLSxROWS counts on this type of board, and a SPEC of a near size that finds the
+    """ "; " + how COLSxROWS counts on this type of board, and a SPEC of a near size that finds the
     board in one of the first HINT_PHOTOS photos (the usual slips: squares counted for inner
     corners or the reverse, COLS and ROWS swapped), if one does."""
     cols, rows = board.cols, board.rows
@@ -269,8 +281,10 @@ def _spec_hint(board: Board, photos) -> str:
         # (the chessboard detectors do not mind COLS and ROWS swapped)
         near = [(cols, rows - 1), (cols - 1, rows), (cols - 1, rows - 1)]
     else:
-        hint = ("charuco COLSxROWS counts the squares, across the board as it was made (the way its marker "
-                "ids count up) and then down")
+        hint = (
+            "charuco COLSxROWS counts the squares, across the board as it was made (the way its marker "
+            "ids count up) and then down"
+        )
         near = [(rows, cols), (cols + 1, rows + 1), (rows + 1, cols + 1)]
     kind, _, rest = board.spec.split(":", 2)
     candidates = []
@@ -296,15 +310,20 @@ def _without_outliers(views, size, min_views, max_view_error):
     so it ends.
     """
     result = _calibrate(views, size)
-    threshold = (max_view_error if max_view_error is not None
-                 else max(OUTLIER_FACTOR * float(np.median(result.per_view)), OUTLIER_FLOOR_PX))
+    threshold = (
+        max_view_error
+        if max_view_error is not None
+        else max(OUTLIER_FACTOR * float(np.median(result.per_view)), OUTLIER_FLOOR_PX)
+    )
     rejected = {}
     while worse := {n: float(e) for n, e in zip(result.names, result.per_view) if e > threshold}:
         rejected.update(worse)
         kept = {n: v for n, v in views.items() if n not in rejected}
         if len(kept) < min_views:
-            raise MrcheckError(f"only {len(kept)} views have an RMS error <= {threshold:.3g} px, need at least "
-                               f"{min_views}; loosen --max-view-error or add views")
+            raise MrcheckError(
+                f"only {len(kept)} views have an RMS error <= {threshold:.3g} px, need at least "
+                f"{min_views}; loosen --max-view-error or add views"
+            )
         result = _calibrate(kept, size)
     return result, rejected, threshold
 
@@ -314,8 +333,10 @@ def _report(camera, extra, rejected, threshold, n_images) -> list:
     std = extra["std"]
     # every image given is in exactly one of the four counts
     skipped, repeats = len(extra["skipped_views"]), _count(len(extra["duplicate_views"]), "duplicate")
-    lines = [f"board {extra['board']}: {len(used)} of {n_images} images used, {len(rejected)} rejected, "
-             f"{skipped} without a board or unreadable, {repeats}"]
+    lines = [
+        f"board {extra['board']}: {len(used)} of {n_images} images used, {len(rejected)} rejected, "
+        f"{skipped} without a board or unreadable, {repeats}"
+    ]
     lines += [f"  not found/skipped: {name}" for name in extra["skipped_views"]]
     lines += [f"  duplicate, used once: {name}" for name in extra["duplicate_views"]]
     lines += [f"  rejected: {name} ({err:.3f} px > {threshold:.3f} px)" for name, err in rejected.items()]
@@ -324,7 +345,9 @@ def _report(camera, extra, rejected, threshold, n_images) -> list:
     lines += [f"  {name}  {err:.4f}" for name, err in used.items()]
     for key in ("fx", "fy", "cx", "cy"):
         lines.append(f"{key} = {getattr(camera, key):.3f} +/- {std[key]:.3f} px")
-    dist = ", ".join(f"{k}={v:.5g}+/-{s:.2g}" for k, v, s in zip(("k1", "k2", "p1", "p2", "k3"), camera.dist, std["dist"]))
+    dist = ", ".join(
+        f"{k}={v:.5g}+/-{s:.2g}" for k, v, s in zip(("k1", "k2", "p1", "p2", "k3"), camera.dist, std["dist"])
+    )
     lines.append(f"dist: {dist}")
     return lines
 
@@ -337,12 +360,17 @@ def _poorly_determined(camera, std):
     """A warning naming fx, fy, cx, cy whose standard deviation is above POOR_STD_FRACTION of the
     focal length, or None."""
     focal = {"fx": camera.fx, "fy": camera.fy, "cx": camera.fx, "cy": camera.fy}
-    poor = [f"{key} = {getattr(camera, key):.1f} +/- {std[key]:.1f} px" for key, f in focal.items()
-            if not std[key] <= POOR_STD_FRACTION * f]  # "not <=": a NaN std is poor too
+    poor = [
+        f"{key} = {getattr(camera, key):.1f} +/- {std[key]:.1f} px"
+        for key, f in focal.items()
+        if not std[key] <= POOR_STD_FRACTION * f
+    ]  # "not <=": a NaN std is poor too
     if not poor:
         return None
-    return (f"{', '.join(poor)}: poorly determined (standard deviation above {POOR_STD_FRACTION:.0%} of the focal "
-            "length); add photos with the board tilted different ways and reaching into the image corners")
+    return (
+        f"{', '.join(poor)}: poorly determined (standard deviation above {POOR_STD_FRACTION:.0%} of the focal "
+        "length); add photos with the board tilted different ways and reaching into the image corners"
+    )
 
 
 @dataclass(frozen=True)
@@ -356,12 +384,13 @@ class Calibrated:
     warning: str | None
 
 
-def calibrate_command(images, board, output, min_views=None, max_view_error=None,
-                      progress: Progress = no_progress) -> Calibrated:
+def calibrate_command(
+    images, board, output, min_views=None, max_view_error=None, progress: Progress = no_progress
+) -> Calibrated:
     """The ``mrcheck calibrate`` command: everything checked before the work, output written last."""
     spec = parse_board(board)
     output = check_output_path(output, CAMERA_SUFFIXES, "camera output")
-    check_not_inputs([output], [("an image", images)])   # a glob of a folder takes in its old camera file too
+    check_not_inputs([output], [("an image", images)])  # a glob of a folder takes in its old camera file too
     camera, extra, report = calibrate(images, spec, min_views, max_view_error, progress)
     write_camera(output, camera, extra, pose=False)  # a calibration has no pose
     problem = _poorly_determined(camera, extra["std"])

@@ -35,8 +35,8 @@ from mrcheck.core.errors import MrcheckError
 from mrcheck.core.inputs import check_input
 from mrcheck.core.output import check_not_inputs, check_output_path
 from mrcheck.mr.edges import EdgeFit, EdgeFitError, EdgeOptions, refine_pose
-from mrcheck.mr.registration import fit_camera, load_points, photo_reference, register_photo
 from mrcheck.mr.markers import load_marker_map
+from mrcheck.mr.registration import fit_camera, load_points, photo_reference, register_photo
 from mrcheck.scene.manifest import scene_files
 from mrcheck.scene.model import load_scene
 
@@ -46,13 +46,23 @@ def edge_shot(fit: EdgeFit, photo, start: str, rough: Camera) -> dict:
     u = fit.uncertainty
     camera = fit.camera
     corners = np.array(u.corner_px)
-    return {**camera.to_dict(), "photo": str(Path(photo).resolve()), "method": "edges", "start": start,
-            "rms": round(fit.rms_px, 4), "support": round(fit.support, 4),
-            "above_chance": None if np.isnan(fit.above_chance) else round(fit.above_chance, 4), "samples": fit.samples,
-            "uncertainty": u.to_dict(), "expected_overlay_error_px": round(float(np.sqrt(np.mean(corners ** 2))), 4),
-            "camera_position": camera.center.tolist(), "moved_px": round(_moved(rough, camera), 3),
-            "left_out": list(fit.dropped), "times_s": {k: round(v, 3) for k, v in fit.times_s.items()},
-            "warnings": list(fit.warnings)}
+    return {
+        **camera.to_dict(),
+        "photo": str(Path(photo).resolve()),
+        "method": "edges",
+        "start": start,
+        "rms": round(fit.rms_px, 4),
+        "support": round(fit.support, 4),
+        "above_chance": None if np.isnan(fit.above_chance) else round(fit.above_chance, 4),
+        "samples": fit.samples,
+        "uncertainty": u.to_dict(),
+        "expected_overlay_error_px": round(float(np.sqrt(np.mean(corners**2))), 4),
+        "camera_position": camera.center.tolist(),
+        "moved_px": round(_moved(rough, camera), 3),
+        "left_out": list(fit.dropped),
+        "times_s": {k: round(v, 3) for k, v in fit.times_s.items()},
+        "warnings": list(fit.warnings),
+    }
 
 
 def _moved(rough: Camera, camera: Camera) -> float:
@@ -66,8 +76,9 @@ def _moved(rough: Camera, camera: Camera) -> float:
     return float(np.median(np.concatenate(moved)))
 
 
-def snap_photo(photo, camera: Camera, scene, rough: Camera, start: str = "initial",
-               options: EdgeOptions | None = None) -> dict:
+def snap_photo(
+    photo, camera: Camera, scene, rough: Camera, start: str = "initial", options: EdgeOptions | None = None
+) -> dict:
     """The SHOT dict of ``photo`` (a path) registered by snapping ``scene`` onto its edges from
     the pose of ``rough``; ``camera``: the photo's intrinsics (rescaled to the photo when it was
     resized). Raises :class:`~mrcheck.mr.edges.EdgeFitError` (naming the photo) on failure."""
@@ -95,19 +106,32 @@ class EdgeRegistered:
         return summary_lines(self.shot, self.output)
 
 
-def register_edges_command(scene, photo, intrinsics, initial=None, markers=None, points=None, refine=True,
-                           max_error=None, output="SHOT.json") -> EdgeRegistered:
+def register_edges_command(
+    scene, photo, intrinsics, initial=None, markers=None, points=None, refine=True, max_error=None, output="SHOT.json"
+) -> EdgeRegistered:
     """``mrcheck register`` with edges: the start from ``initial`` (a camera JSON with R and t),
     or from ``markers`` / ``points`` (refined by the edges unless ``refine`` is False, which is
     the plain marker registration); writes SHOT.json atomically (``photo`` relative to it) and
     returns what it did (the shot's ``photo`` absolute); the CLI prints its ``summary()``."""
     output = check_output_path(output, (".json",), "shot")
-    starts = [name for name, value in (("--initial", initial), ("--markers", markers), ("--points", points))
-              if value is not None]
+    starts = [
+        name
+        for name, value in (("--initial", initial), ("--markers", markers), ("--points", points))
+        if value is not None
+    ]
     if len(starts) != 1:
         raise MrcheckError("give exactly one start: --initial ROUGH.json, --markers MAP.json or --points CORR.json")
-    check_not_inputs([output], [("--photo", photo), ("--intrinsics", intrinsics), ("--initial", initial),
-                                ("--markers", markers), ("--points", points), ("the scene", scene_files(scene))])
+    check_not_inputs(
+        [output],
+        [
+            ("--photo", photo),
+            ("--intrinsics", intrinsics),
+            ("--initial", initial),
+            ("--markers", markers),
+            ("--points", points),
+            ("the scene", scene_files(scene)),
+        ],
+    )
     check_input(scene, "scene", folder_ok=True)
     camera = read_camera(intrinsics)
     model = load_scene(scene, progress=True)
@@ -117,9 +141,15 @@ def register_edges_command(scene, photo, intrinsics, initial=None, markers=None,
             raise MrcheckError("--no-refine needs --markers or --points (--initial is only a start for the edges)")
     else:
         start = "markers" if markers is not None else "points"
-        first = register_photo(photo, camera, marker_map=load_marker_map(markers) if markers else None,
-                               points=load_points(points) if points else None, max_error=max_error,
-                               scene_bounds=model.bounds(), points_file=points)
+        first = register_photo(
+            photo,
+            camera,
+            marker_map=load_marker_map(markers) if markers else None,
+            points=load_points(points) if points else None,
+            max_error=max_error,
+            scene_bounds=model.bounds(),
+            points_file=points,
+        )
         rough = Camera.from_dict(first)
     shot = snap_photo(photo, camera, model, rough, start)
     extra = {k: v for k, v in shot.items() if k not in ("width", "height", "K", "dist", "R", "t")}
@@ -141,17 +171,21 @@ def summary_lines(shot: dict, output) -> list[str]:
     tilt, pan, roll = u["angle_deg"]
     times = shot["times_s"]
     stages = ", ".join(f"{k} {v:.2f}" for k, v in times.items() if k != "total")
-    lines = [f"registered {shot['photo']} from edges (start: {shot['start']}): edge rms {shot['rms']:.3f} px, "
-             f"support {shot['support']:.0%} of {shot['samples']} samples{_beyond(shot)}, "
-             f"moved {shot['moved_px']:.1f} px",
-             f"  camera at ({x:.3f}, {y:.3f}, {z:.3f}) m; 1-sigma: {px:.1f} / {py:.1f} / {pz:.1f} mm (x/y/z), "
-             f"tilt {tilt:.3f}, pan {pan:.3f}, roll {roll:.3f} deg",
-             "  overlay 1-sigma at the corners: " + ", ".join(f"{k.replace('_', ' ')} {v:.2f} px"
-                                                              for k, v in corners.items())
-             + f" (at {u['depth_m']:.1f} m)"]
+    lines = [
+        f"registered {shot['photo']} from edges (start: {shot['start']}): edge rms {shot['rms']:.3f} px, "
+        f"support {shot['support']:.0%} of {shot['samples']} samples{_beyond(shot)}, "
+        f"moved {shot['moved_px']:.1f} px",
+        f"  camera at ({x:.3f}, {y:.3f}, {z:.3f}) m; 1-sigma: {px:.1f} / {py:.1f} / {pz:.1f} mm (x/y/z), "
+        f"tilt {tilt:.3f}, pan {pan:.3f}, roll {roll:.3f} deg",
+        "  overlay 1-sigma at the corners: "
+        + ", ".join(f"{k.replace('_', ' ')} {v:.2f} px" for k, v in corners.items())
+        + f" (at {u['depth_m']:.1f} m)",
+    ]
     if shot["left_out"]:
-        lines.append(f"  left out (no support in the photo): {', '.join(shot['left_out'][:12])}"
-                     + (f" and {len(shot['left_out']) - 12} more" if len(shot["left_out"]) > 12 else ""))
+        lines.append(
+            f"  left out (no support in the photo): {', '.join(shot['left_out'][:12])}"
+            + (f" and {len(shot['left_out']) - 12} more" if len(shot["left_out"]) > 12 else "")
+        )
     lines.append(f"  time {times['total']:.2f} s ({stages})")
     lines += [f"  warning: {w}" for w in shot["warnings"]]
     lines.append(f"wrote {output}")
@@ -178,5 +212,12 @@ def scene_camera_command(scene, view, intrinsics=None, output="ROUGH.json") -> P
     return write_camera(output, camera, {"view": view})
 
 
-__all__ = ["EdgeRegistered", "edge_shot", "snap_photo", "register_edges_command", "summary_lines", "view_camera",
-           "scene_camera_command"]
+__all__ = [
+    "EdgeRegistered",
+    "edge_shot",
+    "snap_photo",
+    "register_edges_command",
+    "summary_lines",
+    "view_camera",
+    "scene_camera_command",
+]

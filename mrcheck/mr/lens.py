@@ -29,7 +29,7 @@ import numpy as np
 
 from mrcheck.core.camera import Camera
 
-_MAX_PAD_FRACTION = 0.5   # render at most half an image more on each side (wild dist models)
+_MAX_PAD_FRACTION = 0.5  # render at most half an image more on each side (wild dist models)
 _FOLD_TOLERANCE_PX = 0.05  # an inverted pixel must re-distort to itself within this
 
 
@@ -49,13 +49,16 @@ def distortion_map(camera: Camera) -> tuple[np.ndarray, np.ndarray] | None:
     jj, ii = np.mgrid[0:h, 0:w]
     photo = np.stack([ii.ravel(), jj.ravel()], axis=1).astype(np.float64)
     criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-10)
-    ideal = cv2.undistortPoints(photo.reshape(-1, 1, 2), camera.K, camera.dist, P=camera.K,
-                                criteria=criteria).reshape(-1, 2)
+    ideal = cv2.undistortPoints(photo.reshape(-1, 1, 2), camera.K, camera.dist, P=camera.K, criteria=criteria).reshape(
+        -1, 2
+    )
     # the fixed-point inversion returns *something* where the model folds; keep only the
     # pixels that distort back onto themselves
     normalised = np.column_stack(((ideal - camera.K[:2, 2]) / [camera.fx, camera.fy], np.ones(len(ideal))))
     back, _ = cv2.projectPoints(normalised, np.zeros(3), np.zeros(3), camera.K, camera.dist)
-    bad = ~np.all(np.isfinite(ideal), axis=1) | (np.linalg.norm(back.reshape(-1, 2) - photo, axis=1) > _FOLD_TOLERANCE_PX)
+    bad = ~np.all(np.isfinite(ideal), axis=1) | (
+        np.linalg.norm(back.reshape(-1, 2) - photo, axis=1) > _FOLD_TOLERANCE_PX
+    )
     ideal[bad] = -1e6
     return ideal[:, 0].reshape(h, w).astype(np.float32), ideal[:, 1].reshape(h, w).astype(np.float32)
 
@@ -97,10 +100,16 @@ def distort_to_photo(image: np.ndarray, maps, offset=(0, 0), shape=None) -> np.n
     dx, dy = offset
     if maps is None:
         h, w = shape if shape is not None else (image.shape[0] - dy, image.shape[1] - dx)
-        return image[dy:dy + h, dx:dx + w].copy()
+        return image[dy : dy + h, dx : dx + w].copy()
     map_x, map_y = maps
-    return cv2.remap(image, map_x + np.float32(dx), map_y + np.float32(dy), cv2.INTER_LINEAR,
-                     borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    return cv2.remap(
+        image,
+        map_x + np.float32(dx),
+        map_y + np.float32(dy),
+        cv2.INTER_LINEAR,
+        borderMode=cv2.BORDER_CONSTANT,
+        borderValue=0,
+    )
 
 
 __all__ = ["has_distortion", "distortion_map", "padded_camera", "distort_to_photo"]

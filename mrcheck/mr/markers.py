@@ -41,8 +41,10 @@ def dictionary(name, source=None) -> cv2.aruco.Dictionary:
         # OpenCV spells AprilTag families both ways (DICT_APRILTAG_36h11, DICT_APRILTAG_36H11)
         value = getattr(cv2.aruco, name, getattr(cv2.aruco, name.upper(), None))
     if not isinstance(value, int):
-        raise MrcheckError(f"unknown marker dictionary {name!r} (use an OpenCV name such as DICT_6X6_250 "
-                           "or DICT_APRILTAG_36h11)", source)
+        raise MrcheckError(
+            f"unknown marker dictionary {name!r} (use an OpenCV name such as DICT_6X6_250 or DICT_APRILTAG_36h11)",
+            source,
+        )
     return cv2.aruco.getPredefinedDictionary(value)
 
 
@@ -123,7 +125,9 @@ def parse_marker_map(data, source="marker map") -> MarkerMap:
         size = _dictionary_size(name, source)
         marker_id = entry.get("id")
         if isinstance(marker_id, bool) or not isinstance(marker_id, int) or not 0 <= marker_id < size:
-            raise MrcheckError(f"{where}: id must be a whole number 0..{size - 1} for {name}, got {marker_id!r}", source)
+            raise MrcheckError(
+                f"{where}: id must be a whole number 0..{size - 1} for {name}, got {marker_id!r}", source
+            )
         corners = _array(entry.get("corners"), (4, 3), f"marker {marker_id} corners", source)
         _check_quad(corners, f"marker {marker_id}", source)
         if marker_id in markers.setdefault(name, {}):
@@ -140,8 +144,10 @@ def parse_marker_map(data, source="marker map") -> MarkerMap:
         clash = sorted(board.marker_ids & taken)
         if clash:
             # the same id in two places of one dictionary cannot be told apart in a photo
-            raise MrcheckError(f"charuco board #{k} reuses marker ids {clash[:5]} of {board.dictionary}; "
-                               "give the board other 'ids'", source)
+            raise MrcheckError(
+                f"charuco board #{k} reuses marker ids {clash[:5]} of {board.dictionary}; give the board other 'ids'",
+                source,
+            )
         boards.append(board)
     return MarkerMap(markers, tuple(boards))
 
@@ -179,18 +185,23 @@ def _parse_board(k, entry, default_dictionary, source) -> Board:
     if name is None:
         raise MrcheckError(f"{where}: no 'dictionary'", source)
     squares = entry.get("squares")
-    if (not isinstance(squares, list) or len(squares) != 2
-            or not all(isinstance(s, int) and not isinstance(s, bool) and s >= 2 for s in squares)):
+    if (
+        not isinstance(squares, list)
+        or len(squares) != 2
+        or not all(isinstance(s, int) and not isinstance(s, bool) and s >= 2 for s in squares)
+    ):
         raise MrcheckError(f"{where}: 'squares' must be [columns, rows], whole numbers >= 2", source)
     square, marker = entry.get("square"), entry.get("marker")
     for key, value in (("square", square), ("marker", marker)):
-        if problem := number_problem(value):   # an infinite square passed "marker < square"
+        if problem := number_problem(value):  # an infinite square passed "marker < square"
             raise MrcheckError(f"{where}: {key}: {problem}", source)
     if not 0 < marker < square:
-        raise MrcheckError(f"{where}: need 0 < marker < square (metres), got marker={marker!r}, square={square!r}", source)
+        raise MrcheckError(
+            f"{where}: need 0 < marker < square (metres), got marker={marker!r}, square={square!r}", source
+        )
     pose = entry.get("pose")
     if not isinstance(pose, dict):
-        raise MrcheckError(f"{where}: 'pose' must be {{\"R\": 3x3, \"t\": [x, y, z]}} (board-to-world)", source)
+        raise MrcheckError(f'{where}: \'pose\' must be {{"R": 3x3, "t": [x, y, z]}} (board-to-world)', source)
     R = _array(pose.get("R"), (3, 3), f"{where} pose R", source)
     t = _array(pose.get("t"), (3,), f"{where} pose t", source)
     if abs(np.linalg.det(R) - 1.0) > 1e-3 or not np.allclose(R @ R.T, np.eye(3), atol=1e-3):
@@ -200,10 +211,15 @@ def _parse_board(k, entry, default_dictionary, source) -> Board:
     ids = entry.get("ids")
     if ids is None:
         ids = list(range(n_markers))
-    if (not isinstance(ids, list) or len(ids) != n_markers or len(set(ids)) != n_markers
-            or not all(isinstance(i, int) and 0 <= i < aruco.bytesList.shape[0] for i in ids)):
-        raise MrcheckError(f"{where}: needs {n_markers} distinct marker ids of {name} "
-                           f"(0..{aruco.bytesList.shape[0] - 1})", source)
+    if (
+        not isinstance(ids, list)
+        or len(ids) != n_markers
+        or len(set(ids)) != n_markers
+        or not all(isinstance(i, int) and 0 <= i < aruco.bytesList.shape[0] for i in ids)
+    ):
+        raise MrcheckError(
+            f"{where}: needs {n_markers} distinct marker ids of {name} (0..{aruco.bytesList.shape[0] - 1})", source
+        )
     try:
         board = cv2.aruco.CharucoBoard(tuple(squares), float(square), float(marker), aruco, np.asarray(ids, np.int32))
         board.setLegacyPattern(bool(entry.get("legacy", False)))
@@ -226,12 +242,16 @@ def detect_markers(image: np.ndarray, marker_map: MarkerMap) -> Detection:
     params = _detector_parameters()
     for name in marker_map.dictionaries:
         corners, ids, _ = cv2.aruco.ArucoDetector(dictionary(name), params).detectMarkers(grey)
-        found = {} if ids is None else {int(i): c.reshape(4, 2).astype(np.float64) for i, c in zip(ids.ravel(), corners)}
+        found = (
+            {} if ids is None else {int(i): c.reshape(4, 2).astype(np.float64) for i, c in zip(ids.ravel(), corners)}
+        )
         known = marker_map.markers.get(name, {})
         on_boards = set().union(*[b.marker_ids for b in marker_map.boards if b.dictionary == name])
         for marker_id in sorted(found):
             if marker_id in known:
-                detection.groups.append(Group({"id": marker_id, "dictionary": name}, found[marker_id], known[marker_id]))
+                detection.groups.append(
+                    Group({"id": marker_id, "dictionary": name}, found[marker_id], known[marker_id])
+                )
             elif marker_id not in on_boards:
                 detection.unknown.append({"id": marker_id, "dictionary": name})
         detection.unseen += [{"id": i, "dictionary": name} for i in sorted(set(known) - set(found))]
@@ -243,11 +263,24 @@ def detect_markers(image: np.ndarray, marker_map: MarkerMap) -> Detection:
             detection.unseen.append({"board": board.index, "dictionary": board.dictionary})
             continue
         ids = charuco_ids.ravel()
-        detection.groups.append(Group({"board": board.index, "dictionary": board.dictionary},
-                                      charuco_corners.reshape(-1, 2).astype(np.float64),
-                                      board.corners_world()[ids], atomic=False))
+        detection.groups.append(
+            Group(
+                {"board": board.index, "dictionary": board.dictionary},
+                charuco_corners.reshape(-1, 2).astype(np.float64),
+                board.corners_world()[ids],
+                atomic=False,
+            )
+        )
     return detection
 
 
-__all__ = ["Board", "MarkerMap", "Group", "Detection", "dictionary", "load_marker_map", "parse_marker_map",
-           "detect_markers"]
+__all__ = [
+    "Board",
+    "MarkerMap",
+    "Group",
+    "Detection",
+    "dictionary",
+    "load_marker_map",
+    "parse_marker_map",
+    "detect_markers",
+]

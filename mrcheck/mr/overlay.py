@@ -30,7 +30,7 @@ def parse_edge_color(text) -> tuple[int, int, int]:
     if match is None:
         raise MrcheckError(f"edge colour must be hex RRGGBB (e.g. ff00ff), got {text!r}")
     value = match.group(1)
-    return tuple(int(value[i:i + 2], 16) for i in (0, 2, 4))
+    return tuple(int(value[i : i + 2], 16) for i in (0, 2, 4))
 
 
 def check_alpha(alpha) -> float:
@@ -56,8 +56,16 @@ def draw_edges(image: np.ndarray, coverage: np.ndarray, color) -> np.ndarray:
     return np.clip(np.rint(out), 0, 255).astype(np.uint8)
 
 
-def overlay_images(photo: np.ndarray, renders: dict, camera: Camera, alpha: float, edges=None,
-                   edge_color=DEFAULT_EDGE_COLOR, offset=(0, 0), maps=None) -> dict:
+def overlay_images(
+    photo: np.ndarray,
+    renders: dict,
+    camera: Camera,
+    alpha: float,
+    edges=None,
+    edge_color=DEFAULT_EDGE_COLOR,
+    offset=(0, 0),
+    maps=None,
+) -> dict:
     """Blend ideal CAD renders over a photo; the reusable core of ``mrcheck overlay``.
 
     Parameters
@@ -93,11 +101,20 @@ def overlay_images(photo: np.ndarray, renders: dict, camera: Camera, alpha: floa
 def study_sheet(virtual: dict, mixed: dict, alpha: float) -> np.ndarray:
     """The study's sheet: D1 | D2 | D3 virtual (top row) and over the photo (bottom row)."""
     top = labelled_sheet([virtual[m] for m in STUDY_ORDER], [STUDY_LABELS[m] for m in STUDY_ORDER])
-    bottom = labelled_sheet([mixed[m] for m in STUDY_ORDER],
-                            [f"{STUDY_LABELS[m]} + photo {alpha:g}" for m in STUDY_ORDER])
+    bottom = labelled_sheet(
+        [mixed[m] for m in STUDY_ORDER], [f"{STUDY_LABELS[m]} + photo {alpha:g}" for m in STUDY_ORDER]
+    )
     gap = np.full((max(2, top.shape[0] // 200), top.shape[1], 3), 255, np.uint8)
     return np.vstack([top, gap, bottom])
 
 
-__all__ = ["overlay_images", "blend", "draw_edges", "parse_edge_color", "check_alpha", "study_sheet", "STUDY_ORDER",
-           "DEFAULT_EDGE_COLOR"]
+__all__ = [
+    "overlay_images",
+    "blend",
+    "draw_edges",
+    "parse_edge_color",
+    "check_alpha",
+    "study_sheet",
+    "STUDY_ORDER",
+    "DEFAULT_EDGE_COLOR",
+]

@@ -81,8 +81,9 @@ def solve_pose(camera: Camera, pixels, world, max_error=None) -> Pose:
         raise MrcheckError(f"need at least 4 usable points for a pose, got {n}")
     c, s, Q = principal_axes(world)
     if s[0] < 1e-6 or s[1] < 1e-3 * s[0]:
-        raise MrcheckError("the world points are collinear (or coincide): the pose is undetermined; "
-                           "use points spread over an area")
+        raise MrcheckError(
+            "the world points are collinear (or coincide): the pose is undetermined; use points spread over an area"
+        )
     if principal_axes(np.column_stack([pixels, np.zeros(n)]))[1][1] < 1e-3 * max(camera.width, camera.height):
         raise MrcheckError("the image points are collinear (or coincide): the pose is undetermined")
     planar = s[2] < 1e-3 * s[0]
@@ -90,20 +91,31 @@ def solve_pose(camera: Camera, pixels, world, max_error=None) -> Pose:
     threshold = float(max_error) if max_error else max(3.0, 0.003 * math.hypot(camera.width, camera.height))
 
     world = np.ascontiguousarray((world - c) @ Q)  # from here on the local frame
-    fits = [_refit(camera, pixels, world, inliers, seed, planar, threshold)
-            for inliers, seed in _hypotheses(camera, pixels, world, threshold)]
+    fits = [
+        _refit(camera, pixels, world, inliers, seed, planar, threshold)
+        for inliers, seed in _hypotheses(camera, pixels, world, threshold)
+    ]
     fits = sorted((f for f in fits if f is not None), key=lambda f: (-f.inliers.sum(), f.rms))
     if not fits:
-        raise MrcheckError(f"no consistent pose: fewer than 4 points agree within {threshold:.1f} px "
-                           "(check the survey, the ids and the intrinsics, or raise --max-error)")
+        raise MrcheckError(
+            f"no consistent pose: fewer than 4 points agree within {threshold:.1f} px "
+            "(check the survey, the ids and the intrinsics, or raise --max-error)"
+        )
     best = fits[0]
     # another consensus as large as the one used, on other points: the data cannot tell them apart
-    rival = next((f for f in fits[1:] if f.inliers.sum() == best.inliers.sum()
-                  and (f.inliers != best.inliers).any()), None)
+    rival = next(
+        (f for f in fits[1:] if f.inliers.sum() == best.inliers.sum() and (f.inliers != best.inliers).any()), None
+    )
     R_local = cv2.Rodrigues(best.rvec)[0]
     R = R_local @ Q.T  # X_cam = R_local Q^T (X - c) + t_local
-    return Pose(R, best.tvec.ravel() - R @ c, best.errors, best.inliers, threshold,
-                rival=None if rival is None else (rival.inliers, rival.rms))
+    return Pose(
+        R,
+        best.tvec.ravel() - R @ c,
+        best.errors,
+        best.inliers,
+        threshold,
+        rival=None if rival is None else (rival.inliers, rival.rms),
+    )
 
 
 @dataclass
@@ -127,8 +139,16 @@ def _hypotheses(camera, pixels, world, threshold):
     hypotheses = {}
     # AP3P samples: valid for coplanar points in any orientation (EPnP's are not); the inliers are
     # RANSAC's, the pose it returns (an EPnP fit on them) is only one more seed
-    ok, rvec, tvec, idx = cv2.solvePnPRansac(world, pixels, camera.K, camera.dist, iterationsCount=1000,
-                                             reprojectionError=threshold, confidence=0.9999, flags=cv2.SOLVEPNP_AP3P)
+    ok, rvec, tvec, idx = cv2.solvePnPRansac(
+        world,
+        pixels,
+        camera.K,
+        camera.dist,
+        iterationsCount=1000,
+        reprojectionError=threshold,
+        confidence=0.9999,
+        flags=cv2.SOLVEPNP_AP3P,
+    )
     if ok and idx is not None and len(idx) >= 4:
         inliers = np.zeros(n, bool)
         inliers[np.ravel(idx)] = True
@@ -157,7 +177,9 @@ def _refit(camera, pixels, world, inliers, seeds, planar, threshold) -> _Fit | N
             break
         flag = cv2.SOLVEPNP_IPPE if planar else cv2.SOLVEPNP_SQPNP
         try:
-            count, rvecs, tvecs, _ = cv2.solvePnPGeneric(world[inliers], pixels[inliers], camera.K, camera.dist, flags=flag)
+            count, rvecs, tvecs, _ = cv2.solvePnPGeneric(
+                world[inliers], pixels[inliers], camera.K, camera.dist, flags=flag
+            )
         except cv2.error:
             count, rvecs, tvecs = 0, [], []
         candidates += list(zip(rvecs, tvecs))[:count]
@@ -175,8 +197,9 @@ def _best(camera, candidates, pixels, world, inliers):
     """LM-refine every candidate on the inliers; the lowest RMS with all inliers in front wins."""
     best, best_rms = None, np.inf
     for rvec, tvec in candidates:
-        rvec, tvec = cv2.solvePnPRefineLM(world[inliers], pixels[inliers], camera.K, camera.dist,
-                                          rvec.copy(), tvec.copy())
+        rvec, tvec = cv2.solvePnPRefineLM(
+            world[inliers], pixels[inliers], camera.K, camera.dist, rvec.copy(), tvec.copy()
+        )
         R = cv2.Rodrigues(rvec)[0]
         if np.any((world[inliers] @ R.T + tvec.ravel())[:, 2] <= 0):
             continue  # the mirror solution of a plane puts the points behind the camera
@@ -209,7 +232,7 @@ def expected_overlay_error(camera: Camera, world, sigma_px: float) -> float:
     grid = (depth * rays - t[:, None]).T @ camera.R  # R.T @ (depth * ray - t), row-wise
     _, Jg = cv2.projectPoints(grid, rvec, t, camera.K, no_dist)
     try:
-        covariance = sigma_px ** 2 * np.linalg.inv(information)
+        covariance = sigma_px**2 * np.linalg.inv(information)
     except np.linalg.LinAlgError:
         return float("inf")
     per_point = np.einsum("ij,jk,ik->i", Jg[:, :6], covariance, Jg[:, :6]).reshape(-1, 2).sum(axis=1)

@@ -68,11 +68,16 @@ def fit_camera(camera: Camera, width: int, height: int, source=None):
         return camera, []
     # a resized photo keeps the aspect ratio up to rounding of one pixel
     if abs(width * camera.height - height * camera.width) <= max(camera.width, camera.height, width, height):
-        warning = (f"photo is {width}x{height} but the intrinsics are for {camera.width}x{camera.height}: "
-                   "K rescaled (same aspect ratio; a crop would be wrong)")
+        warning = (
+            f"photo is {width}x{height} but the intrinsics are for {camera.width}x{camera.height}: "
+            "K rescaled (same aspect ratio; a crop would be wrong)"
+        )
         return camera.resized(width, height), [warning]
-    raise MrcheckError(f"photo is {width}x{height} but the intrinsics are for {camera.width}x{camera.height} "
-                       "(another aspect ratio: a crop or another camera mode; calibrate at this size)", source)
+    raise MrcheckError(
+        f"photo is {width}x{height} but the intrinsics are for {camera.width}x{camera.height} "
+        "(another aspect ratio: a crop or another camera mode; calibrate at this size)",
+        source,
+    )
 
 
 def load_points(path) -> list:
@@ -92,7 +97,12 @@ def _parse_points(data, source="correspondences") -> list:
             world = np.asarray(entry["world"], np.float64)
         except (TypeError, KeyError, ValueError):
             pixel = world = np.zeros(0)
-        if pixel.shape != (2,) or world.shape != (3,) or not np.all(np.isfinite(pixel)) or not np.all(np.isfinite(world)):
+        if (
+            pixel.shape != (2,)
+            or world.shape != (3,)
+            or not np.all(np.isfinite(pixel))
+            or not np.all(np.isfinite(world))
+        ):
             raise MrcheckError(f"point #{i} needs 'pixel': [u, v] and 'world': [x, y, z], finite numbers", source)
         groups.append(Group({"index": i, "pixel": pixel.tolist(), "world": world.tolist()}, pixel[None], world[None]))
     if len(groups) < 4:
@@ -108,27 +118,35 @@ def _geometry_warnings(camera: Camera, world, pose: Pose, single_marker: bool):
     sigma = max(_MIN_SIGMA_PX, pose.rms * math.sqrt(2 * n / (2 * n - 6)) if 2 * n > 6 else 0.0)
     overlay = expected_overlay_error(camera, world, sigma)
     if single_marker:
-        warnings.append("only one marker was used: a pose from a single small target is weak "
-                        "away from it (a 20 cm marker at 10 m: ~30 px overlay error); add markers spread over the view")
+        warnings.append(
+            "only one marker was used: a pose from a single small target is weak "
+            "away from it (a 20 cm marker at 10 m: ~30 px overlay error); add markers spread over the view"
+        )
     _, s, Q = principal_axes(world)
     normal = Q[:, 2]
     extent = 2.0 * s[0] / math.sqrt(n)  # ~ the points' spread along their longest direction
     distance = float(np.mean(np.linalg.norm(world @ camera.R.T + camera.t, axis=1)))
     if extent > 0 and distance / extent > _WARN_DISTANCE_RATIO:
-        warnings.append(f"the points span ~{extent:.2f} m seen from {distance:.1f} m (ratio {distance / extent:.0f}): "
-                        "far, small targets; use bigger boards or markers spread wider")
+        warnings.append(
+            f"the points span ~{extent:.2f} m seen from {distance:.1f} m (ratio {distance / extent:.0f}): "
+            "far, small targets; use bigger boards or markers spread wider"
+        )
     if s[2] < 1e-3 * s[0]:
         tilt = math.degrees(math.acos(min(1.0, abs(float(normal @ camera.R[2])))))
         if tilt < _WARN_FRONTAL_DEG:
-            warnings.append(f"the points lie in one plane facing the camera (tilt {tilt:.0f} deg): distance and "
-                            "rotation trade off; add points at other depths or view the plane obliquely")
+            warnings.append(
+                f"the points lie in one plane facing the camera (tilt {tilt:.0f} deg): distance and "
+                "rotation trade off; add points at other depths or view the plane obliquely"
+            )
     if overlay > _WARN_OVERLAY_PX:
-        warnings.append(f"weak geometry: expected overlay error ~{overlay:.1f} px (1 sigma) across the image "
-                        f"at {distance:.1f} m")
+        warnings.append(
+            f"weak geometry: expected overlay error ~{overlay:.1f} px (1 sigma) across the image at {distance:.1f} m"
+        )
     return overlay, warnings
 
 
 # -- registration -----------------------------------------------------------------------------
+
 
 def _register(camera: Camera, groups: list, method: str, max_error, warnings: list) -> dict:
     """Solve the pose over all groups jointly, reject bad markers or pairs, and build the shot dict."""
@@ -155,8 +173,13 @@ def _register(camera: Camera, groups: list, method: str, max_error, warnings: li
         if not group.atomic:
             entry["corners"] = int((mine & pose.inliers).sum())
             if (mine & ~pose.inliers).any():
-                rejected.append(dict(group.label, corners=int((mine & ~pose.inliers).sum()),
-                                     error_px=round(float(pose.errors[mine & ~pose.inliers].max()), 3)))
+                rejected.append(
+                    dict(
+                        group.label,
+                        corners=int((mine & ~pose.inliers).sum()),
+                        error_px=round(float(pose.errors[mine & ~pose.inliers].max()), 3),
+                    )
+                )
         (used if (mine & pose.inliers).any() else rejected).append(entry)
     posed = camera.with_pose(pose.R, pose.t)
     if len(groups) < 6 and method == "points":
@@ -165,9 +188,16 @@ def _register(camera: Camera, groups: list, method: str, max_error, warnings: li
     single = len(used) == 1 and method == "markers" and "id" in used[0]  # a board is many corners
     overlay, more = _geometry_warnings(posed, world[pose.inliers], pose, single)
     shot = posed.to_dict()
-    shot.update(method=method, rms=round(pose.rms, 4), inlier_threshold_px=round(pose.threshold, 3),
-                used=used, rejected=rejected, camera_position=posed.center.tolist(),
-                expected_overlay_error_px=round(overlay, 2), warnings=warnings + more)
+    shot.update(
+        method=method,
+        rms=round(pose.rms, 4),
+        inlier_threshold_px=round(pose.threshold, 3),
+        used=used,
+        rejected=rejected,
+        camera_position=posed.center.tolist(),
+        expected_overlay_error_px=round(overlay, 2),
+        warnings=warnings + more,
+    )
     return shot
 
 
@@ -178,13 +208,17 @@ def _consensus_warnings(pose: Pose, owner: np.ndarray, method: str) -> list:
     n, agree = len(pose.inliers), int(pose.inliers.sum())
     out = []
     if agree == 4 and n > 4:
-        out.append(f"only 4 of {n} {what} agree within {pose.threshold:.1f} px: the pose rests on the minimum; "
-                   "add points or check the rejected ones")
+        out.append(
+            f"only 4 of {n} {what} agree within {pose.threshold:.1f} px: the pose rests on the minimum; "
+            "add points or check the rejected ones"
+        )
     if pose.rival is not None:
         inliers, rms = pose.rival
-        which = (f" (0-based {', '.join(str(i) for i in np.unique(owner[inliers]))})" if method == "points" else "")
-        out.append(f"ambiguous: another {int(inliers.sum())} {what}{which} agree as well, with RMS {rms:.2f} px "
-                   f"against {pose.rms:.2f} px for the ones used; check for mis-clicks or add points")
+        which = f" (0-based {', '.join(str(i) for i in np.unique(owner[inliers]))})" if method == "points" else ""
+        out.append(
+            f"ambiguous: another {int(inliers.sum())} {what}{which} agree as well, with RMS {rms:.2f} px "
+            f"against {pose.rms:.2f} px for the ones used; check for mis-clicks or add points"
+        )
     return out
 
 
@@ -202,9 +236,12 @@ def register_markers(image: np.ndarray, camera: Camera, marker_map, max_error=No
         warnings.append(f"markers in the photo but not in the map (ignored): {unknown[:20]}")
     try:
         shot = _register(camera, detection.groups, "markers", max_error, warnings)
-    except MrcheckError as exc:   # say what was found: 4 corners of a board is a small or blurred photo
-        order = ("; a map's marker corners go top-left, top-right, bottom-right, bottom-left as seen from the front"
-                 if any("id" in g.label for g in detection.groups) else "")
+    except MrcheckError as exc:  # say what was found: 4 corners of a board is a small or blurred photo
+        order = (
+            "; a map's marker corners go top-left, top-right, bottom-right, bottom-left as seen from the front"
+            if any("id" in g.label for g in detection.groups)
+            else ""
+        )
         raise MrcheckError(f"{exc} (detected: {_detected(detection.groups)}{order})", exc.path) from None
     shot.update(unknown_ids=detection.unknown, unseen_ids=detection.unseen)
     return shot
@@ -223,8 +260,9 @@ def register_points(camera: Camera, pairs, max_error=None) -> dict:
     return _register(camera, _parse_points(pairs), "points", max_error, [])
 
 
-def register_photo(photo, camera: Camera, marker_map=None, points=None, max_error=None, scene_bounds=None,
-                   points_file=None) -> dict:
+def register_photo(
+    photo, camera: Camera, marker_map=None, points=None, max_error=None, scene_bounds=None, points_file=None
+) -> dict:
     """The SHOT.json dict of the photo file ``photo``: registered from ``marker_map`` (a
     :class:`~mrcheck.mr.markers.MarkerMap` or its JSON) or from ``points`` (groups of
     :func:`load_points`, or the correspondences JSON), with the absolute ``"photo"`` path.
@@ -237,7 +275,11 @@ def register_photo(photo, camera: Camera, marker_map=None, points=None, max_erro
             shot = register_markers(image, camera, marker_map, max_error)
         else:
             camera, warnings = fit_camera(camera, image.shape[1], image.shape[0], photo)
-            groups = points if isinstance(points, list) and points and isinstance(points[0], Group) else _parse_points(points)
+            groups = (
+                points
+                if isinstance(points, list) and points and isinstance(points[0], Group)
+                else _parse_points(points)
+            )
             _check_pixels_inside(groups, image.shape[1], image.shape[0])
             shot = _register(camera, groups, "points", max_error, warnings)
     except MrcheckError as exc:
@@ -246,8 +288,11 @@ def register_photo(photo, camera: Camera, marker_map=None, points=None, max_erro
         raise
     if scene_bounds is not None and (warning := _far_from_scene(np.asarray(shot["camera_position"]), scene_bounds)):
         shot["warnings"].append(warning)
-    return {**{k: shot[k] for k in ("width", "height", "K", "dist", "R", "t") if k in shot},
-            "photo": str(Path(photo).resolve()), **shot}
+    return {
+        **{k: shot[k] for k in ("width", "height", "K", "dist", "R", "t") if k in shot},
+        "photo": str(Path(photo).resolve()),
+        **shot,
+    }
 
 
 def _check_pixels_inside(groups: list, width: int, height: int) -> None:
@@ -256,7 +301,9 @@ def _check_pixels_inside(groups: list, width: int, height: int) -> None:
     for g in groups:
         u, v = g.pixels[0]
         if not (-0.5 <= u <= width - 0.5 and -0.5 <= v <= height - 0.5):
-            raise MrcheckError(f"point #{g.label['index']}: pixel ({u:g}, {v:g}) lies outside the {width}x{height} photo")
+            raise MrcheckError(
+                f"point #{g.label['index']}: pixel ({u:g}, {v:g}) lies outside the {width}x{height} photo"
+            )
 
 
 @dataclass(frozen=True)
@@ -272,14 +319,23 @@ class Registered:
         return summary_lines(self.shot, self.output)
 
 
-def register_command(scene, photo, intrinsics, markers=None, points=None, max_error=None,
-                     output="SHOT.json") -> Registered:
+def register_command(
+    scene, photo, intrinsics, markers=None, points=None, max_error=None, output="SHOT.json"
+) -> Registered:
     """``mrcheck register``: register ``photo`` and write SHOT.json atomically."""
     output = check_output_path(output, (".json",), "shot")
     if (markers is None) == (points is None):
         raise MrcheckError("give either --markers MAP.json or --points CORR.json (exactly one)")
-    check_not_inputs([output], [("--photo", photo), ("--intrinsics", intrinsics), ("--markers", markers),
-                                ("--points", points), ("the scene", scene_files(scene))])
+    check_not_inputs(
+        [output],
+        [
+            ("--photo", photo),
+            ("--intrinsics", intrinsics),
+            ("--markers", markers),
+            ("--points", points),
+            ("the scene", scene_files(scene)),
+        ],
+    )
     # fail before the work: the scene the overlay will need must load, and a quick check first
     check_input(scene, "scene", folder_ok=True)
     if Path(scene).is_file() and Path(scene).suffix.lower() not in (".toml", *MESH_SUFFIXES):
@@ -288,8 +344,9 @@ def register_command(scene, photo, intrinsics, markers=None, points=None, max_er
     marker_map = load_marker_map(markers) if markers is not None else None
     pairs = load_points(points) if points is not None else None
     bounds = load_scene(scene, progress=True).bounds()
-    shot = register_photo(photo, camera, marker_map=marker_map, points=pairs, max_error=max_error, scene_bounds=bounds,
-                          points_file=points)
+    shot = register_photo(
+        photo, camera, marker_map=marker_map, points=pairs, max_error=max_error, scene_bounds=bounds, points_file=points
+    )
     write_text(output, json.dumps({**shot, "photo": photo_reference(shot["photo"], output)}, indent=2) + "\n")
     return Registered(shot, output)
 
@@ -316,13 +373,16 @@ def _far_from_scene(position: np.ndarray, bounds: np.ndarray) -> str | None:
     outside = float(np.linalg.norm(np.maximum(bounds[0] - position, 0) + np.maximum(position - bounds[1], 0)))
     if outside <= max(_FAR_MARGIN_M, extent):
         return None
-    return (f"the camera stands {outside:.4g} m outside the scene (extent {extent:.3g} m): are the world points "
-            "in the scene's unit and frame (mm against m)?")
+    return (
+        f"the camera stands {outside:.4g} m outside the scene (extent {extent:.3g} m): are the world points "
+        "in the scene's unit and frame (mm against m)?"
+    )
 
 
 def summary_lines(shot: dict, output) -> list[str]:
     """A registration's summary: markers or points used and rejected, rms, camera position,
     expected overlay error, the shot's warnings, the file written."""
+
     def names(entries, errors=False):
         out = []
         for e in entries:
@@ -336,12 +396,23 @@ def summary_lines(shot: dict, output) -> list[str]:
     # 54 chessboard corners are a count, not a list (the rejected are always listed)
     total = f" of {len(used) + len(shot['rejected'])}" if shot["method"] == "points" else ""  # a board can be in both
     used_text = names(used) if len(used) <= _LIST_MAX else f"{len(used)}{total}"
-    return [f"registered {shot['photo']} from {which}: used {used_text}; rejected {names(shot['rejected'], errors=True)}",
-            f"  rms {shot['rms']:.3f} px, camera at ({x:.3f}, {y:.3f}, {z:.3f}) m, "
-            f"expected overlay error ~{shot['expected_overlay_error_px']:.1f} px",
-            *(f"  warning: {warning}" for warning in shot["warnings"]),
-            f"wrote {output}"]
+    return [
+        f"registered {shot['photo']} from {which}: used {used_text}; rejected {names(shot['rejected'], errors=True)}",
+        f"  rms {shot['rms']:.3f} px, camera at ({x:.3f}, {y:.3f}, {z:.3f}) m, "
+        f"expected overlay error ~{shot['expected_overlay_error_px']:.1f} px",
+        *(f"  warning: {warning}" for warning in shot["warnings"]),
+        f"wrote {output}",
+    ]
 
 
-__all__ = ["register_command", "register_photo", "photo_reference", "register_markers", "register_points",
-           "fit_camera", "load_points", "summary_lines", "Registered"]
+__all__ = [
+    "register_command",
+    "register_photo",
+    "photo_reference",
+    "register_markers",
+    "register_points",
+    "fit_camera",
+    "load_points",
+    "summary_lines",
+    "Registered",
+]

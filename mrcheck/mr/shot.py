@@ -33,7 +33,7 @@ from mrcheck.render.views import warn_if_nothing_in_view
 from mrcheck.scene.manifest import scene_files
 from mrcheck.scene.model import load_scene
 
-CREASE_THRESHOLD = 0.3    # second difference of 1/z relative to 1/z, times fx (~17 degrees face-on)
+CREASE_THRESHOLD = 0.3  # second difference of 1/z relative to 1/z, times fx (~17 degrees face-on)
 
 
 def cad_edges(depth: np.ndarray, fx: float, threshold: float = CREASE_THRESHOLD) -> np.ndarray:
@@ -58,8 +58,9 @@ def cad_edges(depth: np.ndarray, fx: float, threshold: float = CREASE_THRESHOLD)
     return edges
 
 
-def photo_frame(renderer: Renderer, camera: Camera, modes, settings: RenderSettings, maps=None,
-                want_normals: bool = False):
+def photo_frame(
+    renderer: Renderer, camera: Camera, modes, settings: RenderSettings, maps=None, want_normals: bool = False
+):
     """The ideal render (a :class:`mrcheck.render.renderer.Frame`: images, depth, the normals
     when ``want_normals``) covering the photo's distorted frame. Returns ``(frame, render_camera, offset, maps)``."""
     if maps is None:
@@ -70,8 +71,7 @@ def photo_frame(renderer: Renderer, camera: Camera, modes, settings: RenderSetti
     return renderer.render(render_camera, modes, settings, want_normals=want_normals), render_camera, offset, maps
 
 
-def render_for_photo(renderer: Renderer, camera: Camera, modes, settings: RenderSettings, want_edges: bool,
-                     maps=None):
+def render_for_photo(renderer: Renderer, camera: Camera, modes, settings: RenderSettings, want_edges: bool, maps=None):
     """Ideal renders covering the photo's distorted frame.
 
     ``maps``: the :func:`mrcheck.mr.lens.distortion_map` of ``camera`` when already computed (several renders
@@ -82,8 +82,18 @@ def render_for_photo(renderer: Renderer, camera: Camera, modes, settings: Render
     return {m: frame[m].image for m in modes}, edges, offset, maps
 
 
-def overlay_shot(shot, scene, mode="vector", alpha=0.5, edges=False, edge_color="ff00ff",
-                 intensity=None, samples=16, output=None, antialias=True) -> np.ndarray:
+def overlay_shot(
+    shot,
+    scene,
+    mode="vector",
+    alpha=0.5,
+    edges=False,
+    edge_color="ff00ff",
+    intensity=None,
+    samples=16,
+    output=None,
+    antialias=True,
+) -> np.ndarray:
     """``mrcheck overlay``: the (H, W, 3) uint8 overlay of ``shot`` (the study's sheet for mode
     all). Everything is checked before the work: ``output``, when given, is where the caller
     will write the image (its suffix, its folder, not one of the inputs)."""
@@ -93,8 +103,10 @@ def overlay_shot(shot, scene, mode="vector", alpha=0.5, edges=False, edge_color=
     color = parse_edge_color(edge_color)
     settings = RenderSettings(samples=samples, intensity=intensity, antialias=antialias)
     camera, photo_path = load_shot(shot)
-    check_not_inputs([output] if output is not None else [],
-                     [("the shot", shot), ("the shot's photo", photo_path), ("the scene", scene_files(scene))])
+    check_not_inputs(
+        [output] if output is not None else [],
+        [("the shot", shot), ("the shot's photo", photo_path), ("the scene", scene_files(scene))],
+    )
     settings.validated(camera.height)  # option errors before the scene is loaded
     photo = read_photo(photo_path, camera)
 

@@ -32,7 +32,7 @@ from mrcheck.render.gbuffer import GBuffer
 from mrcheck.render.gl import load_program
 from mrcheck.render.settings import RenderSettings
 
-MSAA_SAMPLES = 4   # samples per pixel of the anti-aliased G-buffer (llvmpipe's maximum)
+MSAA_SAMPLES = 4  # samples per pixel of the anti-aliased G-buffer (llvmpipe's maximum)
 # the samples' offsets from the pixel centre (x right, y down the image): GL's standard 4x pattern,
 # one sample per row and column of a 4x4 grid, as llvmpipe places them (tests/test_antialias.py
 # measures them); the composite reads the AO at these positions
@@ -69,7 +69,7 @@ class GBufferResolve:
         target.fbo.use()
         target.frame += 1
         self.ctx.enable(moderngl.DEPTH_TEST)
-        self.ctx.depth_func = "1"    # always: every pixel's depth is written, the background's 0
+        self.ctx.depth_func = "1"  # always: every pixel's depth is written, the background's 0
         self.vao.render(moderngl.TRIANGLES, vertices=3)
         self.ctx.disable(moderngl.DEPTH_TEST)
 
@@ -88,7 +88,7 @@ def area_average(image: np.ndarray, factor: int) -> np.ndarray:
     block of an (H * factor, W * factor, 3) uint8 sRGB image (the supersampled reference)."""
     linear = srgb_to_linear(image)
     h, w = image.shape[0] // factor, image.shape[1] // factor
-    mean = linear[:h * factor, :w * factor].reshape(h, factor, w, factor, 3).mean(axis=(1, 3))
+    mean = linear[: h * factor, : w * factor].reshape(h, factor, w, factor, 3).mean(axis=(1, 3))
     return linear_to_srgb(mean)
 
 
@@ -105,5 +105,14 @@ def linear_to_srgb(linear: np.ndarray) -> np.ndarray:
     return np.round(s * 255.0).astype(np.uint8)
 
 
-__all__ = ["MSAA_SAMPLES", "SAMPLE_OFFSETS", "sample_offsets_glsl", "GBufferResolve", "supersampled_camera", "uses_antialiasing", "area_average",
-           "srgb_to_linear", "linear_to_srgb"]
+__all__ = [
+    "MSAA_SAMPLES",
+    "SAMPLE_OFFSETS",
+    "sample_offsets_glsl",
+    "GBufferResolve",
+    "supersampled_camera",
+    "uses_antialiasing",
+    "area_average",
+    "srgb_to_linear",
+    "linear_to_srgb",
+]

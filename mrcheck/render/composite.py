@@ -16,8 +16,8 @@ from mrcheck.render.gl import GL_FRAMEBUFFER_SRGB, load_program
 from mrcheck.render.settings import DEFAULT_LIGHT, DEFAULT_TONE, LIGHTS, TONES
 
 SUN_DIRECTION = np.array([0.35, -0.25, 0.90])  # world, towards the sun: high, from one side (z up)
-BACKGROUND = (0.80, 0.84, 0.88)                # linear RGB behind the scene: a pale hall grey
-EDGE_PASS_DEPTH = 0.75   # between a surface's 0.5 and an edge pixel's 1 (shaders/gbuffer_resolve.glsl)
+BACKGROUND = (0.80, 0.84, 0.88)  # linear RGB behind the scene: a pale hall grey
+EDGE_PASS_DEPTH = 0.75  # between a surface's 0.5 and an edge pixel's 1 (shaders/gbuffer_resolve.glsl)
 
 
 @dataclass
@@ -26,7 +26,7 @@ class EdgePass:
     palette of part colours, and the colour target with the resolved depth buffer, whose
     values mark the edge pixels (:mod:`mrcheck.render.antialias`)."""
 
-    multisampled: object        # mrcheck.render.gbuffer.GBuffer, packed
+    multisampled: object  # mrcheck.render.gbuffer.GBuffer, packed
     palette: moderngl.Texture
     target: moderngl.Framebuffer
 
@@ -68,14 +68,24 @@ class Composite:
             program = load_program(self.ctx, "composite", defines)
             names = ("u_depth", "u_normal", "u_albedo", "u_ao_half" if half else "u_ao", "u_packed", "u_palette")
             for unit, name in enumerate(names):
-                set_if_present(program, name, unit)   # each variant reads some of them
+                set_if_present(program, name, unit)  # each variant reads some of them
             set_if_present(program, "u_background", BACKGROUND)
             self.variants[half, msaa] = (program, self.ctx.vertex_array(program, []))
         return self.variants[half, msaa]
 
-    def run(self, target: moderngl.Framebuffer, gbuffer, ao: moderngl.Texture, camera: Camera,
-            use_ao: bool, light: str = DEFAULT_LIGHT, ao_direct: bool = False,
-            ao_half: bool = False, tone: str = DEFAULT_TONE, edges: EdgePass | None = None) -> None:
+    def run(
+        self,
+        target: moderngl.Framebuffer,
+        gbuffer,
+        ao: moderngl.Texture,
+        camera: Camera,
+        use_ao: bool,
+        light: str = DEFAULT_LIGHT,
+        ao_direct: bool = False,
+        ao_half: bool = False,
+        tone: str = DEFAULT_TONE,
+        edges: EdgePass | None = None,
+    ) -> None:
         """Shade into ``target``; ``ao`` holds (AO, depth) texels, at half resolution when
         ``ao_half``; ``edges``: anti-aliased, then the edge pixels' other surfaces blended on."""
         textures = [gbuffer.depth, gbuffer.normal, gbuffer.albedo, ao]
@@ -83,10 +93,14 @@ class Composite:
             textures += [edges.multisampled.depth, edges.palette]
         for unit, texture in enumerate(textures):
             texture.use(unit)
-        self.ctx.enable_direct(GL_FRAMEBUFFER_SRGB)   # encode into the sRGB target (gl.srgb_texture)
-        uniforms = {"u_intrinsics": (camera.fx, camera.fy, camera.cx, camera.cy),
-                    "u_light_dir": tuple(light_direction(camera, light)), "u_ao_weight": 1.0 if use_ao else 0.0,
-                    "u_ao_direct": 1.0 if ao_direct else 0.0, "u_tone": TONES.index(tone)}
+        self.ctx.enable_direct(GL_FRAMEBUFFER_SRGB)  # encode into the sRGB target (gl.srgb_texture)
+        uniforms = {
+            "u_intrinsics": (camera.fx, camera.fy, camera.cx, camera.cy),
+            "u_light_dir": tuple(light_direction(camera, light)),
+            "u_ao_weight": 1.0 if use_ao else 0.0,
+            "u_ao_direct": 1.0 if ao_direct else 0.0,
+            "u_tone": TONES.index(tone),
+        }
         if ao_half:
             uniforms["u_size_half"] = ao.size
         variants = [(False, target)] + ([(True, edges.target)] if edges is not None else [])
@@ -95,7 +109,7 @@ class Composite:
             for name, value in uniforms.items():
                 set_if_present(p, name, value)
             fbo.use()
-            if msaa:   # only where the depth buffer marks an edge pixel (shaders/gbuffer_resolve.glsl)
+            if msaa:  # only where the depth buffer marks an edge pixel (shaders/gbuffer_resolve.glsl)
                 fbo.depth_mask = False
                 self.ctx.enable(moderngl.DEPTH_TEST | moderngl.BLEND)
                 self.ctx.depth_func = "<"

@@ -121,9 +121,13 @@ def frustum(boxes: Boxes, camera: Camera) -> list[Batch]:
     u0, u1 = (-1.5 - camera.cx) / camera.fx, (w + 0.5 - camera.cx) / camera.fx
     v0, v1 = (-1.5 - camera.cy) / camera.fy, (h + 0.5 - camera.cy) / camera.fy
     x, y, z = boxes.camera_space(V)
-    keep = ~((z <= 0).all(axis=1)
-             | (x < u0 * z).all(axis=1) | (x > u1 * z).all(axis=1)
-             | (y < v0 * z).all(axis=1) | (y > v1 * z).all(axis=1))
+    keep = ~(
+        (z <= 0).all(axis=1)
+        | (x < u0 * z).all(axis=1)
+        | (x > u1 * z).all(axis=1)
+        | (y < v0 * z).all(axis=1)
+        | (y > v1 * z).all(axis=1)
+    )
     kept = np.flatnonzero(keep)
     x, y, z = x[kept], y[kept], z[kept]
     z_near, z_far = z.min(axis=1), z.max(axis=1)
@@ -136,14 +140,13 @@ def frustum(boxes: Boxes, camera: Camera) -> list[Batch]:
     rect[z_near <= 0] = (0.0, 0.0, w, h)
     rect = np.clip(rect, 0.0, [w, h, w, h])
     batches = []
-    bounds = np.searchsorted(kept, boxes.start)     # the kept instances of part i: bounds[i]:bounds[i + 1]
+    bounds = np.searchsorted(kept, boxes.start)  # the kept instances of part i: bounds[i]:bounds[i + 1]
     for i, part in enumerate(boxes.parts):
         a, b = bounds[i], bounds[i + 1]
         if a == b:
             continue
         local = kept[a:b] - boxes.start[i]
-        batches.append(Batch(part, V @ part.transforms[local], z_near[a:b], z_far[a:b], rect[a:b],
-                             part.scales[local]))
+        batches.append(Batch(part, V @ part.transforms[local], z_near[a:b], z_far[a:b], rect[a:b], part.scales[local]))
     return batches
 
 
@@ -161,21 +164,21 @@ def closed_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
         return np.zeros(0, bool)
     points, merged = np.unique(np.asarray(vertices, np.float64), axis=0, return_inverse=True)
     f = merged.reshape(-1)[faces]
-    a, b = f.reshape(-1), f[:, [1, 2, 0]].reshape(-1)          # directed edges, 3 per face
+    a, b = f.reshape(-1), f[:, [1, 2, 0]].reshape(-1)  # directed edges, 3 per face
     face_of = np.repeat(np.arange(n), 3)
     lo, hi = np.minimum(a, b), np.maximum(a, b)
     edge, edge_index, uses = np.unique(lo * len(points) + hi, return_inverse=True, return_counts=True)
     forward = np.bincount(edge_index, weights=(a < b).astype(float), minlength=len(edge))
-    good_edge = (uses == 2) & (forward == 1)                   # two uses, opposite directions
+    good_edge = (uses == 2) & (forward == 1)  # two uses, opposite directions
     bad_face = np.bincount(face_of, weights=good_edge[edge_index], minlength=n) < 3
     bad_face |= (a == b).reshape(-1, 3).any(axis=1)
     # bodies: faces and edges as nodes of one graph, joined where a face uses an edge
     graph = coo_matrix((np.ones(3 * n), (face_of, n + edge_index)), shape=(n + len(edge),) * 2)
     _, label = connected_components(graph, directed=False)
     label = label[:n]
-    points = points - (points.min(axis=0) + points.max(axis=0)) / 2   # less cancellation below
+    points = points - (points.min(axis=0) + points.max(axis=0)) / 2  # less cancellation below
     p0, p1, p2 = (points[f[:, i]] for i in range(3))
-    term = np.einsum("ij,ij->i", p0, np.cross(p1, p2))                 # 6x signed volume
+    term = np.einsum("ij,ij->i", p0, np.cross(p1, p2))  # 6x signed volume
     volume = np.bincount(label, weights=term)
     # a two-sided sheet is closed too, with no volume; its sign is float noise: not marked
     outward = volume > 1e-6 * np.bincount(label, weights=np.abs(term))
@@ -288,4 +291,13 @@ class HiZ:
         self.variants.clear()
 
 
-__all__ = ["Batch", "Boxes", "HiZ", "closed_faces", "frustum", "split_occluders", "OCCLUDER_AREA", "MIN_CANDIDATE_TRIANGLES"]
+__all__ = [
+    "Batch",
+    "Boxes",
+    "HiZ",
+    "closed_faces",
+    "frustum",
+    "split_occluders",
+    "OCCLUDER_AREA",
+    "MIN_CANDIDATE_TRIANGLES",
+]

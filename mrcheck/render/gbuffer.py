@@ -35,10 +35,10 @@ from mrcheck.render.settings import DEFAULT_LOD_PX
 from mrcheck.scene.model import Scene
 from mrcheck.scene.precision import float32_tiles
 
-PALETTE_MAX = 512         # part colours the anti-aliased G-buffer tells apart (gbuffer_pack.glsl)
+PALETTE_MAX = 512  # part colours the anti-aliased G-buffer tells apart (gbuffer_pack.glsl)
 FLUSH_TRIANGLES = 20_000  # see GeometryPass._submit
-NEAR_SHARE = 0.5          # the near plane at half the nearest box in view (see near_plane)
-NEAR_FLOOR = 2.0 ** -60   # ... or at this share of the farthest one, with the camera inside a box
+NEAR_SHARE = 0.5  # the near plane at half the nearest box in view (see near_plane)
+NEAR_FLOOR = 2.0**-60  # ... or at this share of the farthest one, with the camera inside a box
 
 
 @dataclass(frozen=True)
@@ -66,7 +66,7 @@ class GBuffer:
     albedo: moderngl.Texture
     zbuffer: moderngl.Texture
     fbo: moderngl.Framebuffer
-    frame: int = 0   # counts the geometry passes drawn into it (what is derived from it is per frame)
+    frame: int = 0  # counts the geometry passes drawn into it (what is derived from it is per frame)
     samples: int = 0  # > 1: multisampled (anti-aliasing, mrcheck.render.antialias), read by texelFetch only
 
     @classmethod
@@ -116,8 +116,12 @@ class Palette:
     @classmethod
     def of(cls, ctx: moderngl.Context, colors) -> "Palette":
         distinct = list(dict.fromkeys(tuple(c) for c in colors)) or [(0.0, 0.0, 0.0)]
-        texture = ctx.texture((max(len(distinct), 1), 1), 4, dtype="f4",
-                              data=np.array([[*c, 1.0] for c in distinct], np.float32).tobytes())
+        texture = ctx.texture(
+            (max(len(distinct), 1), 1),
+            4,
+            dtype="f4",
+            data=np.array([[*c, 1.0] for c in distinct], np.float32).tobytes(),
+        )
         texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         return cls({c: float(i) for i, c in enumerate(distinct)}, texture)
 
@@ -131,6 +135,7 @@ class Palette:
 class _GpuMesh:
     """One level of detail of a part on the GPU, with its own per-instance buffer. The first
     ``closed`` triangles belong to closed outward bodies (:func:`mrcheck.render.culling.closed_faces`)."""
+
     vbo: moderngl.Buffer
     ibo: moderngl.Buffer
     instances: moderngl.Buffer
@@ -146,15 +151,16 @@ class _GpuMesh:
 @dataclass
 class _GpuPart:
     """A part's mesh on the GPU, or one piece of it (:func:`mrcheck.scene.precision.float32_tiles`)."""
-    name: str                  # the scene part's (labels a level-of-detail build)
-    vertices: np.ndarray       # (n, 3) float32 local (the piece's own centre), for levels of detail
-    faces: np.ndarray          # (m, 3) uint32
-    levels: list               # [_GpuMesh]: 0 = the part's own mesh, then coarser ones
-    errors: np.ndarray         # (len(levels),) measured error of each level, part units (0 first)
-    lod_pending: bool          # levels to be loaded or built on first need (mrcheck.render.lod.eligible)
+
+    name: str  # the scene part's (labels a level-of-detail build)
+    vertices: np.ndarray  # (n, 3) float32 local (the piece's own centre), for levels of detail
+    faces: np.ndarray  # (m, 3) uint32
+    levels: list  # [_GpuMesh]: 0 = the part's own mesh, then coarser ones
+    errors: np.ndarray  # (len(levels),) measured error of each level, part units (0 first)
+    lod_pending: bool  # levels to be loaded or built on first need (mrcheck.render.lod.eligible)
     color: tuple
-    transforms: np.ndarray     # (k, 4, 4) float64 local -> world
-    scales: np.ndarray         # (k,) largest stretch of each transform (units, scaling)
+    transforms: np.ndarray  # (k, 4, 4) float64 local -> world
+    scales: np.ndarray  # (k,) largest stretch of each transform (units, scaling)
     local_corners: np.ndarray  # (8, 4) float64 homogeneous corners of the local bounds
 
     @property
@@ -202,9 +208,10 @@ class GeometryPass:
             vertices = part.vertices[used]
             centre = np.eye(4)
             centre[:3, 3] = (vertices.min(axis=0) + vertices.max(axis=0)) / 2.0
-            local = (vertices - centre[:3, 3]).astype(np.float32)       # subtracted in float64
-            pieces.append(self._upload_piece(part, local, faces.reshape(-1, 3).astype(np.uint32),
-                                             part.transforms @ centre))
+            local = (vertices - centre[:3, 3]).astype(np.float32)  # subtracted in float64
+            pieces.append(
+                self._upload_piece(part, local, faces.reshape(-1, 3).astype(np.uint32), part.transforms @ centre)
+            )
         return pieces
 
     def _upload_piece(self, part, vertices, faces, transforms) -> _GpuPart:
@@ -213,8 +220,9 @@ class GeometryPass:
         corners = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
         scales = np.linalg.norm(transforms[:, :3, :3], ord=2, axis=(1, 2))
         pending = lod.eligible(len(faces), len(transforms))
-        return _GpuPart(part.name, vertices, faces, [mesh], np.zeros(1), pending, part.color, transforms, scales,
-                        corners)
+        return _GpuPart(
+            part.name, vertices, faces, [mesh], np.zeros(1), pending, part.color, transforms, scales, corners
+        )
 
     def _use_levels(self, gpu: _GpuPart) -> None:
         """Give ``gpu`` its levels of detail (from the disk cache, or built now)."""
@@ -242,8 +250,12 @@ class GeometryPass:
         gbuffer.fbo.use()
         gbuffer.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0)
         gbuffer.frame += 1
-        stats = {"near": near, "far": far, "instances_in_frustum": int(sum(len(b) for b in batches)),
-                 "instances_occluded": 0}
+        stats = {
+            "near": near,
+            "far": far,
+            "instances_in_frustum": int(sum(len(b) for b in batches)),
+            "instances_occluded": 0,
+        }
         focal = max(camera.fx, camera.fy)
         occluders, candidates = culling.split_occluders(batches, camera)
         planned = self._plan(candidates, focal, options)
@@ -265,9 +277,12 @@ class GeometryPass:
             drawn = batches
             draws = self._plan(occluders, focal, options) + planned
             self._submit(draws, options.flush_triangles)
-        stats.update(triangles_drawn=_triangles(draws), triangles_full_detail=_triangles(drawn),
-                     instances_drawn=int(sum(len(b) for b in drawn)),
-                     triangles_with_backface_culling=int(sum(d.mesh.closed * len(d.mv) for d in draws if d.cull)))
+        stats.update(
+            triangles_drawn=_triangles(draws),
+            triangles_full_detail=_triangles(drawn),
+            instances_drawn=int(sum(len(b) for b in drawn)),
+            triangles_with_backface_culling=int(sum(d.mesh.closed * len(d.mv) for d in draws if d.cull)),
+        )
         self.last_stats = stats
         return stats
 
@@ -292,12 +307,13 @@ class GeometryPass:
                 mirrored = np.linalg.det(batch.mv[:, :3, :3]) < 0
                 cull[in_front] = np.where(mirrored[in_front], "front", "back")
             for index in np.unique(level):
-                for face in ("back", "front", None):   # a fixed order: the same bytes every run
+                for face in ("back", "front", None):  # a fixed order: the same bytes every run
                     chosen = (level == index) & (cull == face)
                     if not chosen.any():
                         continue
-                    draws.append(_Draw(float(batch.z_near[chosen].min()), gpu.levels[index], batch.mv[chosen],
-                                       gpu.color, face))
+                    draws.append(
+                        _Draw(float(batch.z_near[chosen].min()), gpu.levels[index], batch.mv[chosen], gpu.color, face)
+                    )
         return draws
 
     def _submit(self, draws: list["_Draw"], flush_triangles: int) -> None:
@@ -310,7 +326,7 @@ class GeometryPass:
         good, 160 k no better than none)."""
         ctx = self.ctx
         ctx.enable(moderngl.DEPTH_TEST)
-        ctx.depth_func = ">"   # reversed-Z: larger is nearer
+        ctx.depth_func = ">"  # reversed-Z: larger is nearer
         # image row 0 is framebuffer row 0, a y flip, so counter-clockwise meshes appear clockwise
         ctx.front_face = "cw"
         pending = 0

@@ -76,8 +76,7 @@ def create_context() -> moderngl.Context:
     except Exception as exc:  # moderngl/glcontext raise bare Exceptions with multi-line text
         reason = " ".join(str(exc).split()) or type(exc).__name__
         raise MrcheckError(
-            "no headless OpenGL 4.5 through EGL "
-            f"({reason}); install the Debian packages libegl1 and libgl1-mesa-dri"
+            f"no headless OpenGL 4.5 through EGL ({reason}); install the Debian packages libegl1 and libgl1-mesa-dri"
         ) from None
     _enable_reversed_z(ctx)
     return ctx
@@ -143,7 +142,9 @@ def float_depth_texture(ctx: moderngl.Context, size, samples: int = 0) -> modern
         gl.tex_image_2d_multisample(_GL_TEXTURE_2D_MULTISAMPLE, samples, _GL_DEPTH_COMPONENT32F, size[0], size[1], 1)
         return texture
     gl.bind_texture(_GL_TEXTURE_2D, texture.glo)
-    gl.tex_image_2d(_GL_TEXTURE_2D, 0, _GL_DEPTH_COMPONENT32F, size[0], size[1], 0, _GL_DEPTH_COMPONENT, _GL_FLOAT, None)
+    gl.tex_image_2d(
+        _GL_TEXTURE_2D, 0, _GL_DEPTH_COMPONENT32F, size[0], size[1], 0, _GL_DEPTH_COMPONENT, _GL_FLOAT, None
+    )
     return texture
 
 
@@ -155,7 +156,7 @@ def srgb_texture(ctx: moderngl.Context, size) -> moderngl.Texture:
 
 
 # -- shader loading -------------------------------------------------------------------------------
-PRELUDE = "<defines>"   # what GLSL source string 0 is: the #version line and the injected defines
+PRELUDE = "<defines>"  # what GLSL source string 0 is: the #version line and the injected defines
 # Line numbers of source string S start at S * LINE_BASE + 1. Mesa reports the line of every error
 # but, for some errors (undeclared names), source string 0 whatever the #line said: the line
 # number alone still tells the file.
@@ -224,8 +225,9 @@ def compile_errors(message: str, files: dict[str, list[str]]) -> str:
     return "; ".join(found) or " ".join(message.split())
 
 
-def load_program(ctx: moderngl.Context, name: str, defines: dict | None = None,
-                 directory: Path | None = None) -> moderngl.Program:
+def load_program(
+    ctx: moderngl.Context, name: str, defines: dict | None = None, directory: Path | None = None
+) -> moderngl.Program:
     """Compile ``<directory>/<name>.glsl`` (the shipped ``shaders/`` by default) with ``defines``;
     cached per (context, name, defines, directory). A compile error is one :class:`MrcheckError`
     line naming the file and line of each error, in whichever included file it is."""
@@ -267,5 +269,16 @@ def shader_path(name: str) -> Path:
     return shader_dir() / f"{name}.glsl"
 
 
-__all__ = ["create_context", "flush", "made_current", "float_depth_texture", "srgb_texture", "load_program",
-           "compile_errors", "timed_ms", "shader_path", "GL_VERSION", "GL_FRAMEBUFFER_SRGB"]
+__all__ = [
+    "create_context",
+    "flush",
+    "made_current",
+    "float_depth_texture",
+    "srgb_texture",
+    "load_program",
+    "compile_errors",
+    "timed_ms",
+    "shader_path",
+    "GL_VERSION",
+    "GL_FRAMEBUFFER_SRGB",
+]

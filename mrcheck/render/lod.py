@@ -46,25 +46,26 @@ from mrcheck.core.progress import shown_progress
 from mrcheck.render.settings import DEFAULT_LOD_PX
 
 LOD_PIXELS = DEFAULT_LOD_PX  # the default allowed error, pixels (mrcheck.render.settings)
-MIN_TRIANGLES = 64           # fewer: a coarser copy saves less than its extra draw call costs
-MAX_TRIANGLES = 1_000_000    # more: building the chain takes seconds; drawn as it is
-STEP = 2                     # each level about 1/STEP of the triangles of the one before
-MIN_SAVING = 0.75            # stop when a step keeps more than this share of the triangles
-CACHE_VERSION = 1            # bump when the levels a mesh gets change
-MIN_INSTANCES = 4            # fewer: levels of a small part would not pay off in a one-off render
+MIN_TRIANGLES = 64  # fewer: a coarser copy saves less than its extra draw call costs
+MAX_TRIANGLES = 1_000_000  # more: building the chain takes seconds; drawn as it is
+STEP = 2  # each level about 1/STEP of the triangles of the one before
+MIN_SAVING = 0.75  # stop when a step keeps more than this share of the triangles
+CACHE_VERSION = 1  # bump when the levels a mesh gets change
+MIN_INSTANCES = 4  # fewer: levels of a small part would not pay off in a one-off render
 MIN_SINGLE_TRIANGLES = 50_000  # ... unless it is this big (robots): see the module's docstring
 
 
 @dataclass(frozen=True)
 class Level:
-    vertices: np.ndarray   # (V, 3) float32, the part's local frame
-    faces: np.ndarray      # (F, 3) uint32
-    error: float           # measured distance to the original surface, part units
+    vertices: np.ndarray  # (V, 3) float32, the part's local frame
+    faces: np.ndarray  # (F, 3) uint32
+    error: float  # measured distance to the original surface, part units
 
 
 def eligible(triangles: int, instances: int) -> bool:
     return MIN_TRIANGLES <= triangles <= MAX_TRIANGLES and (
-        instances >= MIN_INSTANCES or triangles >= MIN_SINGLE_TRIANGLES)
+        instances >= MIN_INSTANCES or triangles >= MIN_SINGLE_TRIANGLES
+    )
 
 
 def cache_dir() -> Path:
@@ -91,7 +92,7 @@ def levels_for(vertices: np.ndarray, faces: np.ndarray, name: str | None = None)
         with np.load(path) as data:
             return [Level(data[f"v{i}"], data[f"f{i}"], float(e)) for i, e in enumerate(data["errors"])]
     except (OSError, KeyError, ValueError):
-        pass   # not cached yet, or a damaged file: build (and replace it)
+        pass  # not cached yet, or a damaged file: build (and replace it)
     levels = build_levels(vertices, faces, name)
     arrays = {"errors": np.array([level.error for level in levels])}
     for i, level in enumerate(levels):
@@ -100,7 +101,7 @@ def levels_for(vertices: np.ndarray, faces: np.ndarray, name: str | None = None)
         path.parent.mkdir(parents=True, exist_ok=True)
         with tempfile.NamedTemporaryFile(dir=path.parent, suffix=".tmp", delete=False) as tmp:
             np.savez(tmp, **arrays)
-        os.replace(tmp.name, path)   # whole or not at all: concurrent renderers may race here
+        os.replace(tmp.name, path)  # whole or not at all: concurrent renderers may race here
     except OSError:
         pass
     return levels
@@ -114,17 +115,21 @@ def build_levels(vertices: np.ndarray, faces: np.ndarray, name: str | None = Non
     # Welding exact duplicates lets the decimation collapse across flat-shaded seams; the
     # G-buffer takes normals from depth derivatives, so shared vertices change no shading.
     welded = original.merge_close_vertices(diagonal * 1e-7)
-    samples = np.concatenate([np.asarray(vertices, np.float32),
-                              np.asarray(vertices, np.float32)[np.asarray(faces)].mean(axis=1)])
+    samples = np.concatenate(
+        [np.asarray(vertices, np.float32), np.asarray(vertices, np.float32)[np.asarray(faces)].mean(axis=1)]
+    )
     to_original = _distance_query(vertices, faces)
     # A robot's chain takes seconds on a first render (then the disk cache has it): a bar, or the
     # terminal is silent that long after the scene's loading bar (the CLI's bar waits half a
     # second, so the many small parts that take milliseconds show none). One step per level.
     label = f"{name}, " if name else ""
-    steps = _decimated(welded, len(faces), lambda v, f: max(float(to_original(v).max()),
-                                                            float(_distance_query(v, f)(samples).max())))
+    steps = _decimated(
+        welded, len(faces), lambda v, f: max(float(to_original(v).max()), float(_distance_query(v, f)(samples).max()))
+    )
     show = shown_progress()
-    with contextlib.closing(show(steps, f"building levels of detail ({label}{len(faces):,} triangles)", "level")) as levels:
+    with contextlib.closing(
+        show(steps, f"building levels of detail ({label}{len(faces):,} triangles)", "level")
+    ) as levels:
         return list(levels)
 
 
@@ -162,8 +167,10 @@ def allowed_error(z_near: np.ndarray, scale: np.ndarray, focal: float, lod_px: f
 def _mesh(vertices, faces):
     import open3d as o3d
 
-    return o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(np.asarray(vertices, np.float64)),
-                                     o3d.utility.Vector3iVector(np.asarray(faces, np.int32)))
+    return o3d.geometry.TriangleMesh(
+        o3d.utility.Vector3dVector(np.asarray(vertices, np.float64)),
+        o3d.utility.Vector3iVector(np.asarray(faces, np.int32)),
+    )
 
 
 def _distance_query(vertices, faces):
@@ -171,8 +178,9 @@ def _distance_query(vertices, faces):
     import open3d as o3d
 
     scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.core.Tensor(np.asarray(vertices, np.float32)),
-                        o3d.core.Tensor(np.asarray(faces, np.uint32)))
+    scene.add_triangles(
+        o3d.core.Tensor(np.asarray(vertices, np.float32)), o3d.core.Tensor(np.asarray(faces, np.uint32))
+    )
     return lambda points: scene.compute_distance(o3d.core.Tensor(np.asarray(points, np.float32))).numpy()
 
 

@@ -115,8 +115,9 @@ class FramePasses:
     def resolve(self) -> None:
         """Anti-aliasing: the single-sampled G-buffer from the multisampled one."""
         with made_current(self.ctx):
-            self.renderer.gbuffer_resolve.run(self.targets.multisampled(), self.targets.gbuffer,
-                                              self.renderer.geometry.palette.texture)
+            self.renderer.gbuffer_resolve.run(
+                self.targets.multisampled(), self.targets.gbuffer, self.renderer.geometry.palette.texture
+            )
 
     def ao(self, mode: str, settings: RenderSettings) -> None:
         """AO into the raw buffer of ``settings.ao_scale``: full resolution, or half resolution
@@ -131,8 +132,14 @@ class FramePasses:
                 # half-res pixel (i, j) is full-res pixel (2i, 2j): K halves exactly (ao_common.glsl)
                 intrinsics = tuple(v / 2.0 for v in intrinsics)
                 self.coverage()
-            ao.run(self.targets.ao_buffers(settings.ao_scale).raw[1], gb.depth, gb.normal, intrinsics, settings,
-                   scale=settings.ao_scale)
+            ao.run(
+                self.targets.ao_buffers(settings.ao_scale).raw[1],
+                gb.depth,
+                gb.normal,
+                intrinsics,
+                settings,
+                scale=settings.ao_scale,
+            )
 
     def coverage(self) -> None:
         """The half-resolution coverage depth (shaders/ao_coverage.glsl) of the current G-buffer,
@@ -143,7 +150,7 @@ class FramePasses:
             targets.ao_buffers(0.5)
             if targets.half_coverage_frame != gb.frame:
                 self.ctx.enable(moderngl.DEPTH_TEST)
-                self.ctx.depth_func = "1"    # always: the coverage pass writes every depth
+                self.ctx.depth_func = "1"  # always: the coverage pass writes every depth
                 self.renderer._screen_pass("ao_coverage", targets.half_coverage_fbo, {"u_depth": gb.depth})
                 self.ctx.disable(moderngl.DEPTH_TEST)
                 targets.half_coverage_frame = gb.frame
@@ -154,17 +161,38 @@ class FramePasses:
             ao = self.targets.ao_buffers(scale)
             self.renderer._blur(size).run(ao.raw[0], ao.scratch[1], ao.blurred[1])
 
-    def composite(self, scale: float, blurred: bool = True, use_ao: bool = True, light: str = DEFAULT_LIGHT,
-                  ao_direct: bool = False, tone: str = DEFAULT_TONE) -> None:
+    def composite(
+        self,
+        scale: float,
+        blurred: bool = True,
+        use_ao: bool = True,
+        light: str = DEFAULT_LIGHT,
+        ao_direct: bool = False,
+        tone: str = DEFAULT_TONE,
+    ) -> None:
         """Shade into the colour target with the AO at ``scale`` (its blurred or raw buffer)."""
         with made_current(self.ctx):
             ao = self.targets.ao_buffers(scale)
             texture = ao.blurred[0] if blurred else ao.raw[0]
-            edges = (EdgePass(self.targets.multisampled(), self.renderer.geometry.palette.texture,
-                              self.targets.color_edges_fbo) if self.antialias else None)
-            self.renderer.composite.run(self.targets.color_fbo, self.targets.gbuffer, texture, self.camera,
-                                        use_ao=use_ao, light=light, ao_direct=ao_direct, ao_half=ao.half, tone=tone,
-                                        edges=edges)
+            edges = (
+                EdgePass(
+                    self.targets.multisampled(), self.renderer.geometry.palette.texture, self.targets.color_edges_fbo
+                )
+                if self.antialias
+                else None
+            )
+            self.renderer.composite.run(
+                self.targets.color_fbo,
+                self.targets.gbuffer,
+                texture,
+                self.camera,
+                use_ao=use_ao,
+                light=light,
+                ao_direct=ao_direct,
+                ao_half=ao.half,
+                tone=tone,
+                edges=edges,
+            )
 
     def scratch(self, scale: float) -> moderngl.Framebuffer:
         """The scratch AO buffer at ``scale``, with the depth buffer that skips the background (at
@@ -194,9 +222,12 @@ class FramePasses:
             ao = self.targets.ao_buffers(scale)
             texture = ao.blurred[0] if blurred else ao.raw[0]
             if ao.half:
-                self.renderer._screen_pass("ao_upsample", self.targets.full.scratch[1],
-                                           {"u_ao_half": texture, "u_depth_full": self.targets.gbuffer.depth},
-                                           u_size_half=texture.size)
+                self.renderer._screen_pass(
+                    "ao_upsample",
+                    self.targets.full.scratch[1],
+                    {"u_ao_half": texture, "u_depth_full": self.targets.gbuffer.depth},
+                    u_size_half=texture.size,
+                )
                 texture = self.targets.full.scratch[0]
             w, h = self.targets.size
             return np.frombuffer(texture.read(), np.float32).reshape(h, w, 2)[..., 0].copy()
@@ -223,12 +254,18 @@ class Renderer:
         with made_current(self.ctx):
             self.geometry = GeometryPass(self.ctx, scene)
             self.composite = Composite(self.ctx)
-            self.gbuffer_resolve = GBufferResolve(self.ctx)   # anti-aliasing (mrcheck.render.antialias)
+            self.gbuffer_resolve = GBufferResolve(self.ctx)  # anti-aliasing (mrcheck.render.antialias)
             self.max_size = int(self.ctx.info["GL_MAX_TEXTURE_SIZE"])
 
     # -- public ----------------------------------------------------------------------------
-    def render(self, camera: Camera, modes, settings: RenderSettings | None = None,
-               want_ao: bool = False, want_normals: bool = False) -> Frame:
+    def render(
+        self,
+        camera: Camera,
+        modes,
+        settings: RenderSettings | None = None,
+        want_ao: bool = False,
+        want_normals: bool = False,
+    ) -> Frame:
         """Render ``modes`` (subset of :data:`MODES`) from ``camera``; geometry drawn once.
         ``want_ao``: each AO mode's AO at the output resolution in its result (phong: ones);
         ``want_normals``: the G-buffer's normals in the frame (its depth is always there)."""
@@ -237,8 +274,7 @@ class Renderer:
         if unknown:
             raise MrcheckError(f"unknown mode(s) {', '.join(unknown)} (use {', '.join(MODES)})")
         if max(camera.width, camera.height) > self.max_size:
-            raise MrcheckError(f"image size {camera.width}x{camera.height} exceeds this GPU's limit "
-                               f"of {self.max_size}")
+            raise MrcheckError(f"image size {camera.width}x{camera.height} exceeds this GPU's limit of {self.max_size}")
         antialias = uses_antialiasing(settings) and self._palette_fits()
         with made_current(self.ctx):
             passes = self.passes(camera, antialias)
@@ -254,8 +290,12 @@ class Renderer:
         """Whether the anti-aliased G-buffer can tell the scene's part colours apart; if not,
         frames are rendered without anti-aliasing, with a warning once per renderer."""
         if not self.geometry.palette.fits and not self._warned_palette:
-            warnings.warn(f"{self.scene.source}: {len(self.geometry.palette.index)} distinct part colours, more than "
-                          f"anti-aliasing's {PALETTE_MAX}: rendered without anti-aliasing", MrcheckWarning, stacklevel=3)
+            warnings.warn(
+                f"{self.scene.source}: {len(self.geometry.palette.index)} distinct part colours, more than "
+                f"anti-aliasing's {PALETTE_MAX}: rendered without anti-aliasing",
+                MrcheckWarning,
+                stacklevel=3,
+            )
             self._warned_palette = True
         return self.geometry.palette.fits
 
@@ -269,8 +309,13 @@ class Renderer:
         The compiled programs belong to the context's program cache (:func:`mrcheck.render.gl.load_program`),
         shared by every renderer on it, and go with the context."""
         with made_current(self.ctx):
-            for obj in [*self._ao_passes.values(), *self._blurs.values(), *self._screen_vaos.values(),
-                        self.composite, self.geometry]:
+            for obj in [
+                *self._ao_passes.values(),
+                *self._blurs.values(),
+                *self._screen_vaos.values(),
+                self.composite,
+                self.geometry,
+            ]:
                 obj.release()
             self._ao_passes.clear()
             self._blurs.clear()
@@ -284,18 +329,26 @@ class Renderer:
             self._owns_ctx = False
 
     # -- the frame -------------------------------------------------------------------------
-    def _render_mode(self, passes: FramePasses, mode: str, settings: RenderSettings, want_ao: bool,
-                     frame_timings: dict) -> RenderResult:
-        timings = dict(frame_timings)    # the G-buffer's passes, shared by the frame's modes
-        scale = settings.ao_scale if mode != "phong" else 1.0   # phong's AO buffer is never read
+    def _render_mode(
+        self, passes: FramePasses, mode: str, settings: RenderSettings, want_ao: bool, frame_timings: dict
+    ) -> RenderResult:
+        timings = dict(frame_timings)  # the G-buffer's passes, shared by the frame's modes
+        scale = settings.ao_scale if mode != "phong" else 1.0  # phong's AO buffer is never read
         blurred = settings.blur and mode != "phong"
         if mode != "phong":
             timings["ao"] = passes.timed(lambda: passes.ao(mode, settings))
             if settings.blur:
                 timings["blur"] = passes.timed(lambda: passes.blur(settings.blur_size, scale))
-        timings["composite"] = passes.timed(lambda: passes.composite(
-            scale, blurred, use_ao=mode != "phong", light=settings.light, ao_direct=settings.ao_direct,
-            tone=settings.tone))
+        timings["composite"] = passes.timed(
+            lambda: passes.composite(
+                scale,
+                blurred,
+                use_ao=mode != "phong",
+                light=settings.light,
+                ao_direct=settings.ao_direct,
+                tone=settings.tone,
+            )
+        )
         image = passes.read_rgb()
         ao = None
         if want_ao:
@@ -318,8 +371,8 @@ class Renderer:
 
     def _targets_for(self, size) -> RenderTargets:
         if self._targets is None or self._targets.size != tuple(size):
-            if self._targets is not None:   # another size: the old targets would stay allocated (a
-                self._targets.release()     # review server renders photos of many sizes)
+            if self._targets is not None:  # another size: the old targets would stay allocated (a
+                self._targets.release()  # review server renders photos of many sizes)
             self._targets = RenderTargets(self.ctx, size)
         return self._targets
 
@@ -335,6 +388,20 @@ class Renderer:
         return self._blurs[size]
 
 
-__all__ = ["Renderer", "RenderSettings", "RenderResult", "Frame", "FramePasses", "AOBuffers", "MODES", "STUDY_LABELS",
-           "check_screen_radius", "DEFAULT_SAMPLES", "DEFAULT_RADIUS_FRACTION", "DEFAULT_RADIUS_WORLD",
-           "DEFAULT_FALLOFF", "DEFAULT_BLUR_SIZE", "DEFAULT_LOD_PX"]
+__all__ = [
+    "Renderer",
+    "RenderSettings",
+    "RenderResult",
+    "Frame",
+    "FramePasses",
+    "AOBuffers",
+    "MODES",
+    "STUDY_LABELS",
+    "check_screen_radius",
+    "DEFAULT_SAMPLES",
+    "DEFAULT_RADIUS_FRACTION",
+    "DEFAULT_RADIUS_WORLD",
+    "DEFAULT_FALLOFF",
+    "DEFAULT_BLUR_SIZE",
+    "DEFAULT_LOD_PX",
+]

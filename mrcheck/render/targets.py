@@ -64,7 +64,7 @@ class RenderTargets:
         self._half = None
         self._multisampled = None
         self.half_coverage = self.half_coverage_fbo = None
-        self.half_coverage_frame = -1    # the G-buffer frame the coverage was made from
+        self.half_coverage_frame = -1  # the G-buffer frame the coverage was made from
 
     def ao_buffers(self, scale: float) -> AOBuffers:
         """The AO buffers (raw, scratch, blurred) of the AO resolution ``scale`` (1.0 or 0.5)."""
@@ -103,7 +103,12 @@ class RenderTargets:
             self._multisampled.release()
         ao = self.full.buffers + (self._half.buffers if self._half is not None else [])
         half = [self.half_coverage_fbo, self.half_coverage] if self._half is not None else []
-        for obj in [fbo for _, fbo in ao] + [texture for texture, _ in ao] + half + [self.color_edges_fbo, self.color_fbo, self.color]:
+        for obj in (
+            [fbo for _, fbo in ao]
+            + [texture for texture, _ in ao]
+            + half
+            + [self.color_edges_fbo, self.color_fbo, self.color]
+        ):
             obj.release()
 
 

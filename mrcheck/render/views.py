@@ -62,8 +62,12 @@ def warn_units(scene) -> None:
         return
     missing = [p.name for p in scene.parts if p.units is None]
     if missing:
-        warnings.warn(f"{scene.source}: {len(missing)} part(s) without declared units, coordinates taken as "
-                      f"authored (not metres): {', '.join(missing)}", MrcheckWarning, stacklevel=2)
+        warnings.warn(
+            f"{scene.source}: {len(missing)} part(s) without declared units, coordinates taken as "
+            f"authored (not metres): {', '.join(missing)}",
+            MrcheckWarning,
+            stacklevel=2,
+        )
 
 
 def warn_if_nothing_in_view(depth, view, camera_path, subject="camera", hint="a wrong pose, or units?") -> None:
@@ -82,8 +86,9 @@ def _ao_paths(output_ao: Path, modes) -> dict:
     return {m: output_ao.with_name(f"{output_ao.stem}_{m}{output_ao.suffix}") for m in ao_modes}
 
 
-def render_command(scene, view, camera_path, mode, width, height, units, output, output_ao,
-                   settings: dict) -> list[Path]:
+def render_command(
+    scene, view, camera_path, mode, width, height, units, output, output_ao, settings: dict
+) -> list[Path]:
     """``mrcheck render``: every output written, or none; returns the paths written."""
     output = check_output_path(output, IMAGE_SUFFIXES)
     modes = list(STUDY_ORDER) if mode == "all" else [mode]
@@ -91,7 +96,9 @@ def render_command(scene, view, camera_path, mode, width, height, units, output,
     if output_ao is not None:
         output_ao = check_output_path(output_ao, AO_SUFFIXES, "AO output")
         if mode == "phong":
-            raise MrcheckError(f"--output-ao needs an AO mode ({', '.join(m for m in MODES if m != 'phong')} or all), not phong")
+            raise MrcheckError(
+                f"--output-ao needs an AO mode ({', '.join(m for m in MODES if m != 'phong')} or all), not phong"
+            )
         ao_paths = {m: check_output_path(p, AO_SUFFIXES, "AO output") for m, p in _ao_paths(output_ao, modes).items()}
         for path in ao_paths.values():
             if path.resolve() == output.resolve():  # one would overwrite the other
@@ -120,8 +127,13 @@ def _unchanged(items: Iterable, desc: str, unit: str) -> Iterable:
     return items
 
 
-def demo_command(outdir: Path, width=None, height=None, on_written: Callable[[Path], None] = lambda path: None,
-                 progress: Callable[..., Iterable] = _unchanged) -> list[Path]:
+def demo_command(
+    outdir: Path,
+    width=None,
+    height=None,
+    on_written: Callable[[Path], None] = lambda path: None,
+    progress: Callable[..., Iterable] = _unchanged,
+) -> list[Path]:
     """Render the embedded scenes from each of their viewpoints in D1, D2, D3: the sample cell
     as ``VIEW_MODE.png`` and the generator's shipped cell as ``cell_VIEW_MODE.png``. Each path
     goes to ``on_written`` as it is written; ``progress(views, desc=..., unit=...)`` wraps each

@@ -114,6 +114,7 @@ from mrcheck.scene.model import load_scene
 
 __all__ = ["make_asbuilt", "KINDS", "STRUCTURE_WORDS", "SHARE"]
 
+
 # -- writing -----------------------------------------------------------------------------------------
 def _record(kind, inst, change, new_id, new_part) -> dict:
     if kind == "moved":
@@ -200,8 +201,10 @@ def _layout(manifest: Path, tables) -> dict:
         notices = [n for n in notice_files(mesh) if not inside[table["mesh"]] or home in n.parents]
         files[table["mesh"]] = list(dict.fromkeys(found + notices))
     roots = []
-    for root in sorted({Path(os.path.commonpath([f.parent for f in found])) for mesh, found in files.items()
-                        if not inside[mesh]}, key=lambda p: p.parts):   # a folder before those inside it
+    for root in sorted(
+        {Path(os.path.commonpath([f.parent for f in found])) for mesh, found in files.items() if not inside[mesh]},
+        key=lambda p: p.parts,
+    ):  # a folder before those inside it
         if not any(r == root or r in root.parents for r in roots):
             roots.append(root)
     layout = {}
@@ -222,7 +225,7 @@ def _check_outdir(outdir: Path, manifest: Path):
         raise MrcheckError("the output folder contains the planned scene, which replacing it would delete", outdir)
     if outdir.exists() and not outdir.is_dir():
         raise MrcheckError("the output is a file, not a folder", outdir)
-    check_writable_ancestor(outdir)    # fail before the work, not after it
+    check_writable_ancestor(outdir)  # fail before the work, not after it
     if outdir.is_dir() and any(outdir.iterdir()) and not (outdir / "discrepancies.json").is_file():
         # only an earlier as-built variant's files (or an empty folder's nothing) are replaced
         raise MrcheckError("the output folder exists and is not an as-built variant (no discrepancies.json)", outdir)
@@ -235,13 +238,13 @@ def _earlier_entries(outdir: Path) -> set:
     names = {"scene.toml", "discrepancies.json"}
     try:
         parts = read_manifest(outdir / "scene.toml").get("parts", [])
-    except MrcheckError:   # missing or unreadable: only the two fixed names are the variant's
+    except MrcheckError:  # missing or unreadable: only the two fixed names are the variant's
         return names
     for part in parts if isinstance(parts, list) else []:
         mesh = part.get("mesh") if isinstance(part, dict) else None
         if isinstance(mesh, str) and mesh:
             first = PurePosixPath(mesh).parts[0]
-            if first not in ("/", "..", "."):     # a variant's paths are relative and inside it
+            if first not in ("/", "..", "."):  # a variant's paths are relative and inside it
                 names.add(first)
     return names
 
@@ -251,12 +254,14 @@ def make_asbuilt(scene_path, outdir, seed: int = 0, progress: Progress = no_prog
     ``outdir`` (replacing an earlier variant there); returns [scene.toml, discrepancies.json].
     ``progress``: shows choosing the changes and copying the meshes (and, given at all, loading
     the scene, :func:`mrcheck.scene.model.load_scene`)."""
-    with showing_progress(progress):   # the scene's loading shown by the same display
+    with showing_progress(progress):  # the scene's loading shown by the same display
         scene = load_scene(Path(scene_path), progress=progress is not no_progress)
     # absolute first: `-o .` and `-o ../here` from inside the folder name the same folder
     manifest, outdir = scene.source, Path(os.path.abspath(outdir))
     if manifest.suffix.lower() != ".toml":
-        raise MrcheckError("an as-built variant is made from a scene manifest (.toml), not a single mesh file", manifest)
+        raise MrcheckError(
+            "an as-built variant is made from a scene manifest (.toml), not a single mesh file", manifest
+        )
     _check_outdir(outdir, manifest)
     data = read_manifest(manifest)
     tables = data["parts"]
@@ -264,15 +269,22 @@ def make_asbuilt(scene_path, outdir, seed: int = 0, progress: Progress = no_prog
     # every top-level entry written or replaced in OUTDIR (its meshes/, external/ ...) goes as a whole
     stale = _earlier_entries(outdir)
     entries = stale | {PurePosixPath(name).parts[0] for files in layout.values() for _, name in files}
-    check_not_inputs([], [("the planned scene", manifest),
-                          *((f"a file of part mesh {mesh}", [f for f, _ in files]) for mesh, files in layout.items())],
-                     folders=[outdir / name for name in sorted(entries)])
+    check_not_inputs(
+        [],
+        [
+            ("the planned scene", manifest),
+            *((f"a file of part mesh {mesh}", [f for f, _ in files]) for mesh, files in layout.items()),
+        ],
+        folders=[outdir / name for name in sorted(entries)],
+    )
 
     instances = planned_instances(scene, tables)
     excluded = excluded_parts(scene)
     floor_part = next(name for name, why in excluded.items() if why == "largest footprint")
     if all(i.part in excluded for i in instances):
-        raise MrcheckError(f"nothing to change: every part is floor or hall structure ({', '.join(excluded)})", manifest)
+        raise MrcheckError(
+            f"nothing to change: every part is floor or hall structure ({', '.join(excluded)})", manifest
+        )
     floor_z = classify(instances, floor_part, excluded)
     floor_boxes = scene.parts[[p.name for p in scene.parts].index(floor_part)].instance_bounds()
     region = np.array([floor_boxes[:, 0, :2].min(axis=0), floor_boxes[:, 1, :2].max(axis=0)])
@@ -285,14 +297,19 @@ def make_asbuilt(scene_path, outdir, seed: int = 0, progress: Progress = no_prog
     for table in parts:
         table["mesh"] = layout[table["mesh"]][0][1]
     planned = str(manifest.resolve())
-    header = (f"As-built variant of {planned}\nmade by `mrcheck scene asbuilt --seed {seed}`: "
-              "every change is listed in discrepancies.json.")
+    header = (
+        f"As-built variant of {planned}\nmade by `mrcheck scene asbuilt --seed {seed}`: "
+        "every change is listed in discrepancies.json."
+    )
     name = str(data.get("name", manifest.stem))
     description = f"As built (seed {seed}) of {name}. {data.get('description', '')}".strip()
     out_data = {"format": 1, **data, "name": f"{name}_asbuilt_{seed}", "description": description, "parts": parts}
-    report = {"planned": planned, "seed": seed,
-              "excluded_parts": [{"part": name, "reason": why} for name, why in excluded.items()],
-              "discrepancies": records}
+    report = {
+        "planned": planned,
+        "seed": seed,
+        "excluded_parts": [{"part": name, "reason": why} for name, why in excluded.items()],
+        "discrepancies": records,
+    }
 
     def fill(tmp: Path):
         with contextlib.closing(progress(used, "copying meshes", "file")) as files:

@@ -18,31 +18,31 @@ from mrcheck.core.progress import Progress, no_progress
 from mrcheck.scene.model import transform_from_table
 
 KINDS = ("moved", "rotated", "missing", "added", "replaced")
-SHARE = 0.10                                  # of the scene's instances that change
+SHARE = 0.10  # of the scene's instances that change
 STRUCTURE_WORDS = ("floor", "slab", "wall", "roof", "ceiling", "column", "beam", "hall")
-MOVE_M = (0.05, 2.0)                          # horizontal distance of a move
-ROTATE_DEG = (5.0, 90.0)                      # about the vertical axis
-SCALES = ((0.7, 0.9), (1.1, 1.4))             # a replacement of another size; not 0.9 .. 1.1, too alike
-CONTACT_M = 0.01                              # boxes this close count as touching, not overlapping
-SINK_M = 0.05                                 # a base this far below a top still stands on it (bolt heads)
-CLEARANCE_M = 0.05                            # free gap around a moved or added instance
-EYE_CLEAR_M = 3.0                             # no object is put this close (horizontally) below a viewpoint's eye
-TRIES = 40                                    # random placements tried per candidate instance
-DECIMALS = 9                                  # of computed coordinates: 3.123, not 3.1229999999999998
+MOVE_M = (0.05, 2.0)  # horizontal distance of a move
+ROTATE_DEG = (5.0, 90.0)  # about the vertical axis
+SCALES = ((0.7, 0.9), (1.1, 1.4))  # a replacement of another size; not 0.9 .. 1.1, too alike
+CONTACT_M = 0.01  # boxes this close count as touching, not overlapping
+SINK_M = 0.05  # a base this far below a top still stands on it (bolt heads)
+CLEARANCE_M = 0.05  # free gap around a moved or added instance
+EYE_CLEAR_M = 3.0  # no object is put this close (horizontally) below a viewpoint's eye
+TRIES = 40  # random placements tried per candidate instance
+DECIMALS = 9  # of computed coordinates: 3.123, not 3.1229999999999998
 
 
 @dataclass
 class Instance:
     id: str
     part: str
-    index: int              # position in its part's instance list
-    transform: np.ndarray   # (4, 4) local -> world as loaded (Part.transforms)
-    corners: np.ndarray     # (8, 4) homogeneous corners of the part's local bounds
-    origin: np.ndarray      # (3,) world position of the part's own (authored) origin
-    box: np.ndarray         # (2, 3) world bounds
+    index: int  # position in its part's instance list
+    transform: np.ndarray  # (4, 4) local -> world as loaded (Part.transforms)
+    corners: np.ndarray  # (8, 4) homogeneous corners of the part's local bounds
+    origin: np.ndarray  # (3,) world position of the part's own (authored) origin
+    box: np.ndarray  # (2, 3) world bounds
     on_floor: bool = False
-    free: bool = True       # nothing rests on it or hangs from it
-    held: bool = False      # hangs from something beside it (a fence panel between its posts)
+    free: bool = True  # nothing rests on it or hangs from it
+    held: bool = False  # hangs from something beside it (a fence panel between its posts)
     supporters: set = field(default_factory=set)  # ids of the instances it stands on
 
 
@@ -152,7 +152,10 @@ def classify(instances: list[Instance], floor_part: str, excluded: dict) -> floa
         # B leans on A when their footprints overlap and B's base lies higher than A's but not
         # above A's top: at the top (within SINK_M: a robot on its pedestal's plate, cartons on
         # a pallet) B stands on A; lower down B hangs from A (a fence panel between its posts)
-        xy = np.all(np.minimum(inst.box[1, :2], other[:, 1, :2]) - np.maximum(inst.box[0, :2], other[:, 0, :2]) > CONTACT_M, axis=1)
+        xy = np.all(
+            np.minimum(inst.box[1, :2], other[:, 1, :2]) - np.maximum(inst.box[0, :2], other[:, 0, :2]) > CONTACT_M,
+            axis=1,
+        )
         zb = other[:, 0, 2]
         leaning = xy & (zb > inst.box[0, 2] + CONTACT_M) & (zb <= inst.box[1, 2] + CONTACT_M)
         inst.free = not leaning.any()
@@ -172,15 +175,16 @@ class Planner:
         self.rng = random.Random(seed)  # Python's generator: same stream on every platform and version
         self.instances = instances
         self.excluded = excluded
-        self.region = region              # (2, 2) xy footprint the floor covers
+        self.region = region  # (2, 2) xy footprint the floor covers
         self.boxes = {i.id: i.box for i in instances if i.part != floor_part}
         # a camera's near foreground stays as it was: an object put there would hide the view
         for k, (x, y, z) in enumerate(eyes):
-            self.boxes[("eye", k)] = np.array([[x - EYE_CLEAR_M, y - EYE_CLEAR_M, floor_z - 1.0],
-                                               [x + EYE_CLEAR_M, y + EYE_CLEAR_M, z + 0.5]])
+            self.boxes[("eye", k)] = np.array(
+                [[x - EYE_CLEAR_M, y - EYE_CLEAR_M, floor_z - 1.0], [x + EYE_CLEAR_M, y + EYE_CLEAR_M, z + 0.5]]
+            )
         self.used = set()
         self.taken_ids = {i.id for i in instances}
-        self.changes = []                 # (kind, Instance (the template for added), Change, new id or None)
+        self.changes = []  # (kind, Instance (the template for added), Change, new id or None)
         self._cache = None
 
     def _world(self):
@@ -308,4 +312,22 @@ def change_kinds(n_instances: int, rng: random.Random) -> list[str]:
     return first + [rng.choice(KINDS) for _ in range(count - len(first))]
 
 
-__all__ = ["KINDS", "SHARE", "STRUCTURE_WORDS", "DECIMALS", "Instance", "Change", "Planner", "planned_instances", "excluded_parts", "classify", "change_kinds", "unique_name", "rounded", "base_point", "overlapping", "world_box", "moved_box"]
+__all__ = [
+    "KINDS",
+    "SHARE",
+    "STRUCTURE_WORDS",
+    "DECIMALS",
+    "Instance",
+    "Change",
+    "Planner",
+    "planned_instances",
+    "excluded_parts",
+    "classify",
+    "change_kinds",
+    "unique_name",
+    "rounded",
+    "base_point",
+    "overlapping",
+    "world_box",
+    "moved_box",
+]

@@ -21,7 +21,7 @@ import numpy as np
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.inputs import read_input_text
 
-ELEMENT_KEYS = ("name", "ifc_class", "storey")   # what a BIM/CAD import knows about an element (instance keys)
+ELEMENT_KEYS = ("name", "ifc_class", "storey")  # what a BIM/CAD import knows about an element (instance keys)
 
 
 @dataclass(frozen=True)
@@ -58,7 +58,7 @@ def manifest_origin(data: dict, path: Path) -> np.ndarray:
 def manifest_crs(data: dict, path: Path) -> str:
     crs = data.get("crs", "")
     if not isinstance(crs, str):
-        raise MrcheckError(f"crs must be a string such as \"EPSG:25832\", got {crs!r}", path)
+        raise MrcheckError(f'crs must be a string such as "EPSG:25832", got {crs!r}', path)
     return crs
 
 
@@ -86,8 +86,11 @@ def viewpoint_in_world(view: dict, origin: np.ndarray, path: Path) -> dict:
     if not np.any(origin):
         return view
     try:
-        return {**view, "eye": list(vector3(view["eye"], "eye") + origin),
-                "target": list(vector3(view["target"], "target") + origin)}
+        return {
+            **view,
+            "eye": list(vector3(view["eye"], "eye") + origin),
+            "target": list(vector3(view["target"], "target") + origin),
+        }
     except MrcheckError as exc:
         raise MrcheckError(f"viewpoint {view['name']!r}: {exc}", path) from None
 
@@ -145,6 +148,17 @@ def part_element_fields(table: dict, where: str, path: Path) -> tuple[str, str]:
     return table.get("ifc_class", ""), table.get("storey", "")
 
 
-__all__ = ["vector3", "ElementInfo", "ELEMENT_KEYS", "manifest_origin", "manifest_crs", "manifest_package_path", "shifted",
-           "viewpoint_in_world",
-           "read_instances_file", "matrices_in_bulk", "element_info", "part_element_fields"]
+__all__ = [
+    "vector3",
+    "ElementInfo",
+    "ELEMENT_KEYS",
+    "manifest_origin",
+    "manifest_crs",
+    "manifest_package_path",
+    "shifted",
+    "viewpoint_in_world",
+    "read_instances_file",
+    "matrices_in_bulk",
+    "element_info",
+    "part_element_fields",
+]

@@ -61,7 +61,7 @@ def describe(path, units: str | None = None) -> dict:
     imported = scene.source.suffix.lower() in IMPORT_SUFFIXES
     if scene.source.suffix.lower() == ".toml":
         meshes = [table["mesh"] for table in read_manifest(scene.source)["parts"]]  # loader order
-    elif imported:   # the import cache's GLB of each part
+    elif imported:  # the import cache's GLB of each part
         meshes = [f"{path.name}: {part.name}" for part in scene.parts]
     else:
         meshes = [str(path)]
@@ -69,26 +69,30 @@ def describe(path, units: str | None = None) -> dict:
     parts = []
     for part, mesh in zip(scene.parts, meshes):
         boxes = part.instance_bounds()
-        parts.append({
-            "name": part.name,
-            "mesh": mesh,
-            "units": part.units,
-            "instances": len(part.transforms),
-            "triangles": part.triangle_count,
-            "triangles_drawn": part.triangle_count * len(part.transforms),
-            "bounds_m": [_floats(boxes[:, 0].min(axis=0)), _floats(boxes[:, 1].max(axis=0))],
-            **_element_fields(part),
-        })
+        parts.append(
+            {
+                "name": part.name,
+                "mesh": mesh,
+                "units": part.units,
+                "instances": len(part.transforms),
+                "triangles": part.triangle_count,
+                "triangles_drawn": part.triangle_count * len(part.transforms),
+                "bounds_m": [_floats(boxes[:, 0].min(axis=0)), _floats(boxes[:, 1].max(axis=0))],
+                **_element_fields(part),
+            }
+        )
     views = []
     for name, vp in scene.viewpoints.items():
-        views.append({
-            "name": name,
-            "eye": _floats(vp["eye"]),
-            "target": _floats(vp["target"]),
-            "fov_y_deg": float(vp.get("fov_y_deg", DEFAULT_FOV_Y_DEG)),
-            "width": int(vp.get("width", DEFAULT_SIZE[0])),
-            "height": int(vp.get("height", DEFAULT_SIZE[1])),
-        })
+        views.append(
+            {
+                "name": name,
+                "eye": _floats(vp["eye"]),
+                "target": _floats(vp["target"]),
+                "fov_y_deg": float(vp.get("fov_y_deg", DEFAULT_FOV_Y_DEG)),
+                "width": int(vp.get("width", DEFAULT_SIZE[0])),
+                "height": int(vp.get("height", DEFAULT_SIZE[1])),
+            }
+        )
     return {
         "scene": scene.name,
         "source": str(scene.source),
@@ -111,9 +115,14 @@ def _element_fields(part) -> dict:
     known = any(info.name or info.ifc_class or info.storey for info in part.instance_info)
     if not (known or part.ifc_class or part.storey):
         return {}
-    return {"ifc_class": part.ifc_class, "storey": part.storey,
-            "elements": [{"id": iid, "name": info.name, "ifc_class": info.ifc_class, "storey": info.storey}
-                         for iid, info in zip(part.instance_ids, part.instance_info)]}
+    return {
+        "ifc_class": part.ifc_class,
+        "storey": part.storey,
+        "elements": [
+            {"id": iid, "name": info.name, "ifc_class": info.ifc_class, "storey": info.storey}
+            for iid, info in zip(part.instance_ids, part.instance_info)
+        ],
+    }
 
 
 def _size(n: int) -> str:
@@ -126,9 +135,11 @@ def _size(n: int) -> str:
 def _columns(header: list, rows: list, right: set) -> list[str]:
     """Rows of strings as aligned columns; the columns in ``right`` right-aligned (numbers)."""
     widths = [max(len(str(r[i])) for r in [header, *rows]) for i in range(len(header))]
+
     def line(row):
         cells = [str(c).rjust(w) if i in right else str(c).ljust(w) for i, (c, w) in enumerate(zip(row, widths))]
         return "  ".join(cells).rstrip()
+
     return [line(header), line(["-" * w for w in widths]), *(line(r) for r in rows)]
 
 
@@ -153,26 +164,45 @@ def format_info(info: dict) -> str:
         f"extent      {extent[0]:.3f} x {extent[1]:.3f} x {extent[2]:.3f} m (L x W x H)",
     ]
     if any(info.get("origin", (0, 0, 0))) or info.get("crs"):
-        lines.append("origin      " + ", ".join(f"{v:.3f}" for v in info["origin"]) + " m"
-                     + (f" ({info['crs']})" if info.get("crs") else "") + "  (placements are relative to it)")
+        lines.append(
+            "origin      "
+            + ", ".join(f"{v:.3f}" for v in info["origin"])
+            + " m"
+            + (f" ({info['crs']})" if info.get("crs") else "")
+            + "  (placements are relative to it)"
+        )
     lines.append("")
-    rows = [[p["name"], p["mesh"], p["units"] or "-", p["instances"], f"{p['triangles']:,}", f"{p['triangles_drawn']:,}",
-             " x ".join(f"{e:.2f}" for e in np.subtract(p["bounds_m"][1], p["bounds_m"][0]))]
-            for p in info["parts"]]
+    rows = [
+        [
+            p["name"],
+            p["mesh"],
+            p["units"] or "-",
+            p["instances"],
+            f"{p['triangles']:,}",
+            f"{p['triangles_drawn']:,}",
+            " x ".join(f"{e:.2f}" for e in np.subtract(p["bounds_m"][1], p["bounds_m"][0])),
+        ]
+        for p in info["parts"]
+    ]
     header = ["part", "mesh", "units", "instances", "triangles", "drawn", "extent m"]
-    if any("ifc_class" in p for p in info["parts"]):   # an imported model: what each part is, where
+    if any("ifc_class" in p for p in info["parts"]):  # an imported model: what each part is, where
         header += ["class", "storey"]
         rows = [r + [p.get("ifc_class") or "-", p.get("storey") or "-"] for r, p in zip(rows, info["parts"])]
     lines += _columns(header, rows, right={3, 4, 5})
     if info["viewpoints"]:
         lines += ["", "viewpoints"]
-        rows = [[v["name"], _point(v["eye"]), _point(v["target"]), f"{v['fov_y_deg']:g}", f"{v['width']} x {v['height']}"]
-                for v in info["viewpoints"]]
+        rows = [
+            [v["name"], _point(v["eye"]), _point(v["target"]), f"{v['fov_y_deg']:g}", f"{v['width']} x {v['height']}"]
+            for v in info["viewpoints"]
+        ]
         lines += ["  " + line for line in _columns(["name", "eye", "target", "fov_y", "size"], rows, right={3})]
     if missing:
         # last, so it is what a terminal shows at the bottom: a part in mm read as metres is 1000x too big
-        lines += ["", f"WARNING: {len(missing)} part(s) without declared units, coordinates taken as authored "
-                      f"(not metres): {', '.join(missing)}"]
+        lines += [
+            "",
+            f"WARNING: {len(missing)} part(s) without declared units, coordinates taken as authored "
+            f"(not metres): {', '.join(missing)}",
+        ]
     return "\n".join(lines)
 
 

@@ -41,7 +41,7 @@ from mrcheck.scene import packages
 
 # files beside a URDF that carry its licence and provenance (matched case-insensitively)
 NOTICE_PREFIXES = ("license", "licence", "copying", "notice", "source", "authors", "readme")
-LICENCE_PREFIXES = ("license", "licence", "copying", "notice")   # of those, the licence itself
+LICENCE_PREFIXES = ("license", "licence", "copying", "notice")  # of those, the licence itself
 
 _MTL_MAPS = re.compile(r"^\s*(map_\w+|bump|disp|decal|refl|norm)\s+(.+?)\s*$", re.IGNORECASE)
 _DAE_IMAGE = re.compile(rb"<init_from>\s*([^<]+?)\s*</init_from>")
@@ -55,12 +55,12 @@ def read_manifest(path) -> dict:
     ``instances``, so that every consumer sees one form."""
     path = Path(path)
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8-sig"))   # as mrcheck.scene.model reads it
+        data = tomllib.loads(path.read_text(encoding="utf-8-sig"))  # as mrcheck.scene.model reads it
         for part in data.get("parts", []):
             if isinstance(part, dict) and isinstance(part.get("instances_file"), str):
                 part["instances"] = json.loads((path.parent / part.pop("instances_file")).read_text(encoding="utf-8"))
         return data
-    except (OSError, UnicodeDecodeError, ValueError) as exc:   # TOMLDecodeError and JSON's are ValueErrors
+    except (OSError, UnicodeDecodeError, ValueError) as exc:  # TOMLDecodeError and JSON's are ValueErrors
         raise MrcheckError(f"cannot read manifest ({exc})", path) from None
 
 
@@ -99,13 +99,15 @@ def _gltf_companions(path: Path) -> list[Path]:
         data = json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, ValueError):
         return []  # the loader reports a broken file; here there is nothing more to find
-    uris = [item.get("uri", "") for key in ("buffers", "images") for item in data.get(key, []) if isinstance(item, dict)]
+    uris = [
+        item.get("uri", "") for key in ("buffers", "images") for item in data.get(key, []) if isinstance(item, dict)
+    ]
     return [p for p in (_local(path.parent, u) for u in uris if isinstance(u, str)) if p]
 
 
 def _dae_companions(path: Path) -> list[Path]:
     names = [m.decode("utf-8", "replace") for m in _DAE_IMAGE.findall(path.read_bytes())]
-    names = [n[len("file://"):] if n.startswith("file://") else n for n in names]
+    names = [n[len("file://") :] if n.startswith("file://") else n for n in names]
     return [p for p in (_local(path.parent, n) for n in names if n.lower().endswith(_IMAGE_SUFFIXES)) if p]
 
 
@@ -124,8 +126,12 @@ def _urdf_companions(path: Path) -> list[Path]:
             name = element.get("filename") if element.tag in ("mesh", "texture") else None
             if name:
                 # the loader's own resolution (relative, package://, parent folders of the URDF)
-                located = packages.resolve(name, packages.search_folders(path)) if name.startswith(packages.PREFIX) else None
-                resolved = Path(os.path.normpath(located or yourdfpy.filename_handler_magic(name, dir=str(path.parent))))
+                located = (
+                    packages.resolve(name, packages.search_folders(path)) if name.startswith(packages.PREFIX) else None
+                )
+                resolved = Path(
+                    os.path.normpath(located or yourdfpy.filename_handler_magic(name, dir=str(path.parent)))
+                )
                 if resolved.is_file():
                     found += mesh_files(resolved)
     finally:
@@ -155,7 +161,9 @@ def notice_files(path) -> list[Path]:
     found = sorted(p for p in path.parent.iterdir() if p.is_file() and p.name.lower().startswith(NOTICE_PREFIXES))
     if not any(p.name.lower().startswith(LICENCE_PREFIXES) for p in found) and path.parent.parent != path.parent:
         # only licences up there: a README or SOURCE one folder up describes more than this robot
-        found += sorted(p for p in path.parent.parent.iterdir() if p.is_file() and p.name.lower().startswith(LICENCE_PREFIXES))
+        found += sorted(
+            p for p in path.parent.parent.iterdir() if p.is_file() and p.name.lower().startswith(LICENCE_PREFIXES)
+        )
     return found
 
 
@@ -188,7 +196,7 @@ def files_stamp(paths) -> str:
     edited, replaced or touched (as make decides), without reading gigabytes of meshes."""
     digest = hashlib.sha256()
     for p in paths:
-        name = os.fsencode(Path(p))   # the name's bytes: one that is not valid UTF-8 has no UTF-8 encoding
+        name = os.fsencode(Path(p))  # the name's bytes: one that is not valid UTF-8 has no UTF-8 encoding
         try:
             st = os.stat(p)
             digest.update(b"%s\0%d\0%d\n" % (name, st.st_size, st.st_mtime_ns))
@@ -232,14 +240,14 @@ def write_generated(outdir, fill, stale=()) -> None:
             os.rename(work / name, outdir / name)
             moved_new.append(name)
     except BaseException as exc:
-        for name in moved_new:                         # undo in reverse: the new out, the old back
+        for name in moved_new:  # undo in reverse: the new out, the old back
             os.rename(outdir / name, work / name)
         for name in moved_old:
             os.rename(trash / name, outdir / name)
         for folder in (work, trash):
             if folder is not None:
                 shutil.rmtree(folder, ignore_errors=True)
-        for folder in made:                            # the folders made for this output, deepest first
+        for folder in made:  # the folders made for this output, deepest first
             try:
                 folder.rmdir()
             except OSError:
@@ -303,5 +311,13 @@ def dumps_manifest(data: dict, header: str = "") -> str:
     return "\n".join(lines) + "\n"
 
 
-__all__ = ["read_manifest", "mesh_files", "notice_files", "scene_files", "files_stamp", "dumps_manifest", "write_generated",
-           "NOTICE_PREFIXES"]
+__all__ = [
+    "read_manifest",
+    "mesh_files",
+    "notice_files",
+    "scene_files",
+    "files_stamp",
+    "dumps_manifest",
+    "write_generated",
+    "NOTICE_PREFIXES",
+]

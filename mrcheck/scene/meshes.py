@@ -23,7 +23,7 @@ from mrcheck.core.inputs import check_input
 
 MESH_SUFFIXES = (".glb", ".gltf", ".obj", ".stl", ".ply", ".off", ".urdf")
 DEGENERATE_WARNING_SHARE = 0.001  # warn when more than 0.1 % of a mesh's triangles have zero area
-VALIDATION_CHUNK = 1 << 20        # triangles checked per step (bounds the validation's memory)
+VALIDATION_CHUNK = 1 << 20  # triangles checked per step (bounds the validation's memory)
 
 
 def read_mesh(path: Path, joints: dict | None = None, package_folders=()):
@@ -35,7 +35,9 @@ def read_mesh(path: Path, joints: dict | None = None, package_folders=()):
     the defaults (:mod:`mrcheck.scene.packages`).
     """
     path = Path(path)
-    if check_input(path, "mesh file").st_size == 0:  # the readers' own errors for this are cryptic (index out of bounds)
+    if (
+        check_input(path, "mesh file").st_size == 0
+    ):  # the readers' own errors for this are cryptic (index out of bounds)
         raise MrcheckError("mesh file is empty", path)
     suffix = path.suffix.lower()
     if suffix not in MESH_SUFFIXES:
@@ -53,16 +55,24 @@ def read_mesh(path: Path, joints: dict | None = None, package_folders=()):
             # hashes that name as UTF-8, which one that is not valid UTF-8 has not; the resolver
             # finds an OBJ's materials and a glTF's buffers beside it, as trimesh.load(path) does
             with open(path, "rb") as handle:
-                mesh = trimesh.load(handle, file_type=suffix[1:], force="mesh", process=False,
-                                    resolver=trimesh.resolvers.FilePathResolver(path))
+                mesh = trimesh.load(
+                    handle,
+                    file_type=suffix[1:],
+                    force="mesh",
+                    process=False,
+                    resolver=trimesh.resolvers.FilePathResolver(path),
+                )
             vertices, faces = np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64)
     except MrcheckError:
         raise
     except Exception as exc:  # trimesh and yourdfpy raise many types for corrupt files
         reason = " ".join(str(exc).split())[:200]
         # a KeyError's text is only the key ('y' for a PLY cut in its vertex list): name the type too
-        reason = f"{type(exc).__name__}: {reason}" if reason and isinstance(exc, (KeyError, IndexError)) else \
-            reason or type(exc).__name__
+        reason = (
+            f"{type(exc).__name__}: {reason}"
+            if reason and isinstance(exc, (KeyError, IndexError))
+            else reason or type(exc).__name__
+        )
         what = "cannot read mesh" if isinstance(exc, OSError) else "cannot read mesh: corrupt, truncated or not a mesh"
         raise MrcheckError(f"{what} ({reason})", path) from None
     return validate_mesh(vertices, faces, path)
@@ -80,7 +90,7 @@ class _Collect(logging.Handler):
 def _utf8(name: str) -> bool:
     try:
         name.encode("utf-8")
-    except UnicodeEncodeError:   # a file name that is not valid UTF-8 (surrogate escapes)
+    except UnicodeEncodeError:  # a file name that is not valid UTF-8 (surrogate escapes)
         return False
     return True
 
@@ -89,6 +99,7 @@ def _ascii_aliases(folder: str, handler):
     """``handler`` (URDF mesh reference -> path) giving, for a path that is not valid UTF-8, a
     symlink to it in ``folder`` instead: lxml, which parses the URDF, and trimesh, which loads
     its meshes, take file names as UTF-8 only."""
+
     def aliased(fname: str) -> str:
         found = handler(fname)
         if _utf8(found) or not os.path.isfile(found):
@@ -96,6 +107,7 @@ def _ascii_aliases(folder: str, handler):
         alias = os.path.join(folder, f"mesh{len(os.listdir(folder))}{os.path.splitext(found)[1]}")
         os.symlink(os.path.abspath(found), alias)
         return alias
+
     return aliased
 
 
@@ -115,23 +127,27 @@ def _read_urdf(path: Path, joints: dict, package_folders=()):
             # the URDF's bytes when its name is not UTF-8 (lxml encodes a file object's name too)
             robot = yourdfpy.URDF.load(
                 str(path) if _utf8(str(path)) else io.BytesIO(path.read_bytes()),
-                filename_handler=_ascii_aliases(aliases, handler), build_collision_scene_graph=False,
-                load_collision_meshes=False)
+                filename_handler=_ascii_aliases(aliases, handler),
+                build_collision_scene_graph=False,
+                load_collision_meshes=False,
+            )
     except Exception as exc:
         reason = "; ".join(collect.messages[:1] + [" ".join(str(exc).split()) or type(exc).__name__])
         raise MrcheckError(f"cannot read URDF ({reason[:200]})", path) from None
     finally:
         logger.removeHandler(collect)
         logger.propagate = propagate
-    missing = [m[len("Can't find "):] for m in collect.messages if m.startswith("Can't find ")]
+    missing = [m[len("Can't find ") :] for m in collect.messages if m.startswith("Can't find ")]
     if missing:
-        names = sorted({m[len(packages.PREFIX):].split("/")[0] for m in missing if m.startswith(packages.PREFIX)})
+        names = sorted({m[len(packages.PREFIX) :].split("/")[0] for m in missing if m.startswith(packages.PREFIX)})
         hint = f" ({packages.hint(', '.join(names))})" if names else ""
         raise MrcheckError(f"URDF mesh file(s) not found: {', '.join(missing)}{hint}", path)
     unknown = sorted(set(joints) - set(robot.actuated_joint_names))
     if unknown:
-        raise JointError(f"unknown joint(s) {', '.join(unknown)} (the robot {path.name} has: "
-                         f"{', '.join(robot.actuated_joint_names)})")
+        raise JointError(
+            f"unknown joint(s) {', '.join(unknown)} (the robot {path.name} has: "
+            f"{', '.join(robot.actuated_joint_names)})"
+        )
     for name, value in joints.items():
         _check_joint_limits(robot.joint_map[name], float(value), path)
     cfg = [float(joints.get(name, 0.0)) for name in robot.actuated_joint_names]
@@ -145,7 +161,7 @@ class JointError(MrcheckError):
     wrong, not the URDF, so the manifest reader names itself and the part."""
 
 
-JOINT_LIMIT_SLACK = 1e-6   # rad or m: values written with fewer digits than the URDF's limits
+JOINT_LIMIT_SLACK = 1e-6  # rad or m: values written with fewer digits than the URDF's limits
 
 
 def urdf_joint_range(joint) -> tuple[float, float] | None:
@@ -162,7 +178,7 @@ def _check_joint_limits(joint, value: float, path: Path):
     cannot take that pose, so the scene would show a robot that is not there, and as-built
     checks would measure against it; the common cause is a value typed in degrees."""
     limits = urdf_joint_range(joint)
-    if limits is None or not limits[0] < limits[1]:    # no (or a degenerate) range given: nothing to hold it to
+    if limits is None or not limits[0] < limits[1]:  # no (or a degenerate) range given: nothing to hold it to
         return
     lower, upper = limits
     if lower - JOINT_LIMIT_SLACK <= value <= upper + JOINT_LIMIT_SLACK:
@@ -171,8 +187,9 @@ def _check_joint_limits(joint, value: float, path: Path):
     hint = ""
     if joint.type == "revolute" and lower <= math.radians(value) <= upper:
         hint = f"; degrees? joint values are radians ({value:g} deg = {math.radians(value):.4g} rad)"
-    raise JointError(f"joint {joint.name!r} = {value:g} is outside its limits {lower:.4g} .. {upper:.4g} {unit} "
-                     f"in {path.name}{hint}")
+    raise JointError(
+        f"joint {joint.name!r} = {value:g} is outside its limits {lower:.4g} .. {upper:.4g} {unit} in {path.name}{hint}"
+    )
 
 
 def validate_mesh(vertices, faces, path):
@@ -187,7 +204,7 @@ def validate_mesh(vertices, faces, path):
         raise MrcheckError("mesh has triangles that index missing vertices", path)
     good = np.empty(len(faces), bool)
     for start in range(0, len(faces), VALIDATION_CHUNK):  # chunks: no float64 copy of all triangles
-        good[start:start + VALIDATION_CHUNK] = _proper(vertices[faces[start:start + VALIDATION_CHUNK]])
+        good[start : start + VALIDATION_CHUNK] = _proper(vertices[faces[start : start + VALIDATION_CHUNK]])
     if not good.any():
         raise MrcheckError(f"mesh has only degenerate (zero-area) triangles ({len(faces)} of them)", path)
     if not good.all():
@@ -199,7 +216,7 @@ def validate_mesh(vertices, faces, path):
     return vertices, faces
 
 
-DEGENERATE_RATIO = 1e-9   # see _proper
+DEGENERATE_RATIO = 1e-9  # see _proper
 
 
 def _proper(tri: np.ndarray) -> np.ndarray:
@@ -216,9 +233,10 @@ def _proper(tri: np.ndarray) -> np.ndarray:
     cross = np.cross(ab, -ca)
     # squared throughout: no square roots over millions of triangles
     doubled_area_sq = np.einsum("ij,ij->i", cross, cross)
-    longest_sq = np.maximum(np.maximum(np.einsum("ij,ij->i", ab, ab), np.einsum("ij,ij->i", bc, bc)),
-                            np.einsum("ij,ij->i", ca, ca))
-    return doubled_area_sq > DEGENERATE_RATIO ** 4 * longest_sq ** 2
+    longest_sq = np.maximum(
+        np.maximum(np.einsum("ij,ij->i", ab, ab), np.einsum("ij,ij->i", bc, bc)), np.einsum("ij,ij->i", ca, ca)
+    )
+    return doubled_area_sq > DEGENERATE_RATIO**4 * longest_sq**2
 
 
 __all__ = ["read_mesh", "validate_mesh", "urdf_joint_range", "JointError", "MESH_SUFFIXES", "DEGENERATE_RATIO"]

@@ -78,8 +78,21 @@ DEFAULT_COLOR = (0.7, 0.7, 0.7)  # linear RGB of parts without a colour
 
 
 MANIFEST_KEYS = {"format", "name", "description", "origin", "crs", "package_path", "parts", "viewpoints"}
-_PART_KEYS = {"name", "mesh", "units", "color", "translate", "rotate_deg", "scale", "matrix", "instances", "joints",
-              "ifc_class", "storey", "instances_file"}
+_PART_KEYS = {
+    "name",
+    "mesh",
+    "units",
+    "color",
+    "translate",
+    "rotate_deg",
+    "scale",
+    "matrix",
+    "instances",
+    "joints",
+    "ifc_class",
+    "storey",
+    "instances_file",
+}
 _INSTANCE_KEYS = {"id", "translate", "rotate_deg", "scale", "matrix"} | set(ELEMENT_KEYS)
 _VIEW_KEYS = {"name", "eye", "target", "up", "fov_y_deg", "width", "height"}
 
@@ -192,7 +205,9 @@ class Scene:
         vp = self.viewpoints[view]
         try:
             width, height = fit_size(vp.get("width", 1024), vp.get("height", 768), width, height)
-            return Camera.from_look_at(vp["eye"], vp["target"], vp.get("up", (0, 0, 1)), vp.get("fov_y_deg", 60.0), width, height)
+            return Camera.from_look_at(
+                vp["eye"], vp["target"], vp.get("up", (0, 0, 1)), vp.get("fov_y_deg", 60.0), width, height
+            )
         except (MrcheckError, TypeError, ValueError, ZeroDivisionError) as exc:  # TOML gives any type: width = "wide"
             raise MrcheckError(f"viewpoint {view!r}: {exc}", self.source) from None
 
@@ -248,8 +263,19 @@ def unit_scale(units, where) -> float:
     return UNITS[units]
 
 
-def make_part(name, source, vertices, faces, transforms, color=None, units=None, instance_ids=None,
-              instance_info=None, ifc_class: str = "", storey: str = "") -> Part:
+def make_part(
+    name,
+    source,
+    vertices,
+    faces,
+    transforms,
+    color=None,
+    units=None,
+    instance_ids=None,
+    instance_info=None,
+    ifc_class: str = "",
+    storey: str = "",
+) -> Part:
     """A :class:`Part` from float64 geometry: re-centred, scaled to metres, stored as float32
     (float64 where float32 would not hold it, see :func:`_stored`)."""
     scale = unit_scale(units, source)
@@ -305,14 +331,16 @@ def load_scene(path, units: str | None = None, progress: bool = False, import_se
 
 
 def _load_manifest(path: Path, progress: bool) -> Scene:
-    text = read_input_text(path, "manifest", encoding="utf-8-sig")   # -sig: a BOM (Windows Notepad) is no error
+    text = read_input_text(path, "manifest", encoding="utf-8-sig")  # -sig: a BOM (Windows Notepad) is no error
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise MrcheckError(f"malformed manifest: {exc}", path) from None
     unknown = sorted(set(data) - MANIFEST_KEYS)
     if unknown:  # e.g. [[viewpoint]] for [[viewpoints]]: silently ignoring it would lose the views
-        raise MrcheckError(f"unknown manifest key(s) {', '.join(unknown)} (known: {', '.join(sorted(MANIFEST_KEYS))})", path)
+        raise MrcheckError(
+            f"unknown manifest key(s) {', '.join(unknown)} (known: {', '.join(sorted(MANIFEST_KEYS))})", path
+        )
     if data.get("format", 1) != 1:
         raise MrcheckError(f"unsupported manifest format {data.get('format')!r} (this mrcheck reads format 1)", path)
     tables = data.get("parts", [])
@@ -331,7 +359,9 @@ def _load_manifest(path: Path, progress: bool) -> Scene:
         name = table.get("name")
         unknown = sorted(set(table) - _VIEW_KEYS)
         if not isinstance(name, str) or not name or unknown or "eye" not in table or "target" not in table:
-            raise MrcheckError(f"viewpoint {name!r} needs name, eye and target (unknown keys: {unknown or 'none'})", path)
+            raise MrcheckError(
+                f"viewpoint {name!r} needs name, eye and target (unknown keys: {unknown or 'none'})", path
+            )
         if name in viewpoints:
             raise MrcheckError(f"two viewpoints are named {name!r}", path)
         viewpoints[name] = viewpoint_in_world(table, origin, path)
@@ -343,15 +373,17 @@ def _load_manifest(path: Path, progress: bool) -> Scene:
         for index, table in enumerate(items):
             parts.append(_part_from_table(path, index, table, names, owners, origin, folders))
 
-    scene = Scene(name=data.get("name", path.stem), source=path, parts=parts, viewpoints=viewpoints, origin=origin,
-                  crs=crs)
+    scene = Scene(
+        name=data.get("name", path.stem), source=path, parts=parts, viewpoints=viewpoints, origin=origin, crs=crs
+    )
     for view in viewpoints:
         scene.camera(view)  # validate every viewpoint once, at load time
     return scene
 
 
-def _part_from_table(path: Path, index: int, table: dict, names: set, owners: dict, origin=None,
-                     package_folders=()) -> Part:
+def _part_from_table(
+    path: Path, index: int, table: dict, names: set, owners: dict, origin=None, package_folders=()
+) -> Part:
     """The part of one [[parts]] table of the manifest ``path``; ``names`` collects part names,
     ``owners`` maps every instance id so far to its part's name; placements are relative to
     ``origin`` (float64, the manifest's); URDF ``package://`` meshes are also looked up in
@@ -367,18 +399,22 @@ def _part_from_table(path: Path, index: int, table: dict, names: set, owners: di
         raise MrcheckError(f"two parts are named {name!r}", path)
     names.add(name)
     if not isinstance(table.get("mesh"), str):
-        raise MrcheckError(f"{where}: needs a mesh = \"file\" entry", path)
+        raise MrcheckError(f'{where}: needs a mesh = "file" entry', path)
     try:
         unit_scale(table.get("units"), None)
     except MrcheckError as exc:
         raise MrcheckError(f"{where}: {exc}", path) from None
-    instances = read_instances_file(path, table, where) if "instances_file" in table else \
-        table.get("instances", [{}])   # no key: one copy at the part's own transform
+    instances = (
+        read_instances_file(path, table, where) if "instances_file" in table else table.get("instances", [{}])
+    )  # no key: one copy at the part's own transform
     if not isinstance(instances, list) or not all(isinstance(t, dict) for t in instances):
         raise MrcheckError(f"{where}: instances must be an array of tables", path)
-    if not instances:   # it drew one copy before, silently; a planner who empties it means none
-        raise MrcheckError(f"{where}: instances is empty (no copy placed); remove the part, or leave out "
-                           "'instances' for one copy at the part's transform", path)
+    if not instances:  # it drew one copy before, silently; a planner who empties it means none
+        raise MrcheckError(
+            f"{where}: instances is empty (no copy placed); remove the part, or leave out "
+            "'instances' for one copy at the part's transform",
+            path,
+        )
     for i, t in enumerate(instances):
         unknown = sorted(set(t) - _INSTANCE_KEYS)
         if unknown:
@@ -389,14 +425,24 @@ def _part_from_table(path: Path, index: int, table: dict, names: set, owners: di
     ids = _instance_ids(name, instances, owners, path)
     try:
         vertices, faces = read_mesh(path.parent / table["mesh"], joints, package_folders)
-    except JointError as exc:     # the manifest's value is wrong: name the manifest and the part
+    except JointError as exc:  # the manifest's value is wrong: name the manifest and the part
         raise MrcheckError(f"{where}: {exc}", path) from None
-    except MrcheckError as exc:   # the mesh is named; say which manifest entry asked for it
+    except MrcheckError as exc:  # the mesh is named; say which manifest entry asked for it
         error = MrcheckError(f"{exc} ({where} of {path})")
         error.path = exc.path
         raise error from None
-    return make_part(name, path.parent / table["mesh"], vertices, faces, transforms, color, table.get("units"), ids,
-                     element_info(instances, where, path), *part_element_fields(table, where, path))
+    return make_part(
+        name,
+        path.parent / table["mesh"],
+        vertices,
+        faces,
+        transforms,
+        color,
+        table.get("units"),
+        ids,
+        element_info(instances, where, path),
+        *part_element_fields(table, where, path),
+    )
 
 
 def _transforms(table: dict, instances: list, where: str, path: Path) -> list:
@@ -432,8 +478,11 @@ def _part_joints(table: dict, where: str, path: Path):
     for joint, value in (joints or {}).items():
         # TOML's true would pass float() as 1 rad, and nan would pose the arm anyhow
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise MrcheckError(f"{where}: joint {joint!r} must be a finite number (radians, or metres for a "
-                               f"prismatic joint), got {value!r}", path)
+            raise MrcheckError(
+                f"{where}: joint {joint!r} must be a finite number (radians, or metres for a "
+                f"prismatic joint), got {value!r}",
+                path,
+            )
     return joints
 
 
@@ -443,13 +492,19 @@ def _instance_ids(name: str, instances: list, owners: dict, path: Path) -> list[
     The ids Part gives (NAME, NAME#i), unless the manifest names them; an id names one object
     in the whole scene (as-built variants and reports look changes up by it), so a generated
     id that another part's explicit one repeats is as wrong as two explicit ones."""
-    ids = [(str(t["id"]) if "id" in t else "") or default
-           for t, default in zip(instances, default_instance_ids(name, len(instances)))]
+    ids = [
+        (str(t["id"]) if "id" in t else "") or default
+        for t, default in zip(instances, default_instance_ids(name, len(instances)))
+    ]
     for iid in ids:
         if iid in owners:
             other = owners[iid]
-            raise MrcheckError(f"instance id {iid!r} is used twice in part {name!r}" if other == name else
-                               f"instance id {iid!r} is used by parts {other!r} and {name!r}", path)
+            raise MrcheckError(
+                f"instance id {iid!r} is used twice in part {name!r}"
+                if other == name
+                else f"instance id {iid!r} is used by parts {other!r} and {name!r}",
+                path,
+            )
         owners[iid] = name
     return ids
 

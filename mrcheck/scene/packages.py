@@ -73,13 +73,13 @@ def resolve(uri: str, folders) -> str | None:
     """The file a ``package://NAME/PATH`` reference names, or None when no folder has it."""
     if not uri.startswith(PREFIX):
         return None
-    name, _, rest = uri[len(PREFIX):].partition("/")
+    name, _, rest = uri[len(PREFIX) :].partition("/")
     parts = [p for p in rest.split("/") if p]
     if not name or not parts:
         return None
     for folder in folders:
         for package in _package_dirs(Path(folder), name):
-            for start in range(len(parts)):   # whole PATH first, then without its leading folders
+            for start in range(len(parts)):  # whole PATH first, then without its leading folders
                 candidate = package.joinpath(*parts[start:])
                 if candidate.is_file():
                     return str(candidate)
@@ -88,8 +88,10 @@ def resolve(uri: str, folders) -> str | None:
 
 def hint(name: str) -> str:
     """What to do about an unresolved ``package://NAME/...``."""
-    return (f"give --package-path DIR (the package folder {name}, or the folder holding it), a manifest "
-            "package_path = [\"DIR\"], or set ROS_PACKAGE_PATH")
+    return (
+        f"give --package-path DIR (the package folder {name}, or the folder holding it), a manifest "
+        'package_path = ["DIR"], or set ROS_PACKAGE_PATH'
+    )
 
 
 def handler(urdf: Path, fallback, manifest_folders=()):
@@ -99,6 +101,7 @@ def handler(urdf: Path, fallback, manifest_folders=()):
 
     def find(fname: str) -> str:
         return resolve(fname, folders) or fallback(fname) if fname.startswith(PREFIX) else fallback(fname)
+
     return find
 
 

@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 
-FLOAT32_STEP = 2.0 ** -24   # float32 rounds to this share of a coordinate's magnitude (at most)
-FLOAT32_SHARE = 1e-3        # local coordinates may round a vertex by this share of a small triangle
-SMALL_TRIANGLE = 5          # "a small triangle": this percentile of the triangles' longest edges
-SIZE_SAMPLE = 1 << 14       # make_part judges a mesh on at most this many triangles (a fixed stride)
+FLOAT32_STEP = 2.0**-24  # float32 rounds to this share of a coordinate's magnitude (at most)
+FLOAT32_SHARE = 1e-3  # local coordinates may round a vertex by this share of a small triangle
+SMALL_TRIANGLE = 5  # "a small triangle": this percentile of the triangles' longest edges
+SIZE_SAMPLE = 1 << 14  # make_part judges a mesh on at most this many triangles (a fixed stride)
 
 
 def longest_edges(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -54,7 +54,7 @@ def float32_tiles(vertices: np.ndarray, faces: np.ndarray) -> list[np.ndarray]:
         axis = int(np.argmax(np.ptp(c, axis=0)))
         if np.ptp(c[:, axis]) > 0:
             left = c[:, axis] <= (c[:, axis].min() + c[:, axis].max()) / 2.0
-        else:   # every centroid in one point: halves (both non-empty, as a single triangle holds)
+        else:  # every centroid in one point: halves (both non-empty, as a single triangle holds)
             left = np.arange(len(group)) < len(group) // 2
         todo += [group[~left], group[left]]
     return sorted(tiles, key=lambda group: int(group[0]))
@@ -65,7 +65,7 @@ def float32_or_float64(local: np.ndarray, faces: np.ndarray) -> np.ndarray:
     its small triangles: a mesh holding a factory at map coordinates and a stray element at the
     origin has its centre halfway, 2.5e6 m from both, where float32 steps 0.25 m. The consumers
     then work in float64 and the geometry pass draws it in :func:`float32_tiles`."""
-    sample = faces[::max(1, -(-len(faces) // SIZE_SAMPLE))]   # a stride rounded up: at most SIZE_SAMPLE
+    sample = faces[:: max(1, -(-len(faces) // SIZE_SAMPLE))]  # a stride rounded up: at most SIZE_SAMPLE
     if not len(sample) or float32_holds(float(np.abs(local).max()), longest_edges(local, sample)):
         return local.astype(np.float32)
     return local

@@ -91,8 +91,13 @@ def _kinematics(name):
     """The yourdfpy model without meshes: joints and limits only, loads in milliseconds."""
     import yourdfpy
 
-    return yourdfpy.URDF.load(str(robot_urdf(name)), build_scene_graph=False, load_meshes=False,
-                              build_collision_scene_graph=False, load_collision_meshes=False)
+    return yourdfpy.URDF.load(
+        str(robot_urdf(name)),
+        build_scene_graph=False,
+        load_meshes=False,
+        build_collision_scene_graph=False,
+        load_collision_meshes=False,
+    )
 
 
 class _PosedModel:
@@ -111,8 +116,9 @@ class _PosedModel:
         # loaded exactly as mrcheck.scene.meshes.read_mesh loads a URDF part, so the poses checked here
         # are the poses rendered
         handler = partial(yourdfpy.filename_handler_magic, dir=str(path.parent))
-        self.urdf = yourdfpy.URDF.load(str(path), filename_handler=handler,
-                                       build_collision_scene_graph=False, load_collision_meshes=False)
+        self.urdf = yourdfpy.URDF.load(
+            str(path), filename_handler=handler, build_collision_scene_graph=False, load_collision_meshes=False
+        )
         self.lock = threading.Lock()  # update_cfg mutates the shared model
         graph = self.urdf.scene.graph
         depth = _actuated_depth(self.urdf)

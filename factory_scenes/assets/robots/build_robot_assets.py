@@ -67,8 +67,11 @@ def build_ur(data: Path, out: Path, model: str):
     text = text.replace(f"package://example-robot-data/robots/ur_description/meshes/{model}/visual/", "meshes/visual/")
     if "package://" in text:
         raise SystemExit(f"{model}: package:// paths left after rewriting")
-    text = _add_note(text, "visual mesh paths made relative (meshes/visual/...), all <collision> elements "
-                           "removed (the collision meshes are not shipped); otherwise as in example-robot-data 6.0.0.")
+    text = _add_note(
+        text,
+        "visual mesh paths made relative (meshes/visual/...), all <collision> elements "
+        "removed (the collision meshes are not shipped); otherwise as in example-robot-data 6.0.0.",
+    )
     (out / "robot.urdf").write_text(text)
     for mesh in sorted((src / "meshes" / model / "visual").glob("*.dae")):
         _copy(mesh, out / "meshes" / "visual" / mesh.name)
@@ -90,10 +93,13 @@ def build_irb140(data: Path, out: Path):
 
     text = re.sub(r'(<origin\b[^>]*?)xyz="([^"]*)"', scale_origin, text)
     text = re.sub(r'(<mesh filename="[^"]*")\s*/>', rf'\1 scale="{s} {s} {s}"/>', text)
-    text = _add_note(text, f"metres: every origin xyz multiplied by {s} and every visual mesh given "
-                           f'scale="{s} {s} {s}" (the source is authored in units of {s} m); '
-                           "visual mesh paths made relative (meshes/visual/...), all <collision> "
-                           "elements removed (the collision meshes are not shipped). Source: rtb-data 2.0.0.")
+    text = _add_note(
+        text,
+        f"metres: every origin xyz multiplied by {s} and every visual mesh given "
+        f'scale="{s} {s} {s}" (the source is authored in units of {s} m); '
+        "visual mesh paths made relative (meshes/visual/...), all <collision> "
+        "elements removed (the collision meshes are not shipped). Source: rtb-data 2.0.0.",
+    )
     (out / "robot.urdf").write_text(text)
     for mesh in sorted((src / "meshes" / "irb140" / "visual").glob("*.stl")):
         _copy(mesh, out / "meshes" / "visual" / mesh.name)

@@ -22,5 +22,20 @@ from mrcheck.apps.bcf.read import read_bcf, read_bcf_bytes
 from mrcheck.apps.bcf.topics import Finding, finding_topic
 from mrcheck.apps.bcf.write import bcf_bytes
 
-__all__ = ["BcfTopic", "BcfComment", "BcfCamera", "BcfComponent", "bcf_bytes", "read_bcf", "read_bcf_bytes",
-           "bcf_camera", "priority", "severity_of", "topic_guid", "element_component", "ifc_global_id", "Finding", "finding_topic"]
+__all__ = [
+    "BcfTopic",
+    "BcfComment",
+    "BcfCamera",
+    "BcfComponent",
+    "bcf_bytes",
+    "read_bcf",
+    "read_bcf_bytes",
+    "bcf_camera",
+    "priority",
+    "severity_of",
+    "topic_guid",
+    "element_component",
+    "ifc_global_id",
+    "Finding",
+    "finding_topic",
+]

@@ -10,11 +10,16 @@ import numpy as np
 
 from mrcheck.apps.bcf.model import BcfCamera, BcfComponent
 
-NAMESPACE = uuid.UUID("6f1d3a52-5b7e-4c55-9d0e-2b8f1c4e7a10")   # mrcheck's topics (uuid5 names)
-PRIORITIES = {1: "Low", 2: "Normal", 3: "High"}                   # review severity 1..3
+NAMESPACE = uuid.UUID("6f1d3a52-5b7e-4c55-9d0e-2b8f1c4e7a10")  # mrcheck's topics (uuid5 names)
+PRIORITIES = {1: "Low", 2: "Normal", 3: "High"}  # review severity 1..3
 GLOBALID_CHARS = frozenset("0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz_$")
-SEVERITIES = {v.lower(): k for k, v in PRIORITIES.items()} | {"critical": 3, "major": 3, "medium": 2,
-                                                              "minor": 1, "on hold": 1}
+SEVERITIES = {v.lower(): k for k, v in PRIORITIES.items()} | {
+    "critical": 3,
+    "major": 3,
+    "medium": 2,
+    "minor": 1,
+    "on hold": 1,
+}
 
 
 def priority(severity: int) -> str:

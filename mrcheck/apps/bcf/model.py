@@ -10,6 +10,7 @@ from datetime import datetime
 class BcfCamera:
     """A perspective camera (visinfo.xsd PerspectiveCamera): world metres, unit vectors, the
     vertical field of view in degrees (BCF 2.1's schema allows 45..60 only)."""
+
     viewpoint: tuple
     direction: tuple
     up: tuple
@@ -20,6 +21,7 @@ class BcfCamera:
 class BcfComponent:
     """A selected element: its IFC GlobalId when it has one (``IfcGuid``), else None, and the
     id mrcheck knows it by (``AuthoringToolId``, with ``OriginatingSystem`` "mrcheck")."""
+
     ifc_guid: str | None
     tool_id: str
 
@@ -36,6 +38,7 @@ class BcfComment:
 class BcfTopic:
     """One issue. ``status`` (TopicStatus) is free text in BCF 2.1: mrcheck writes "Open";
     other tools write "In Progress", "Resolved", "Closed", ... and the review shows them."""
+
     guid: str
     title: str
     status: str = "Open"
@@ -47,10 +50,10 @@ class BcfTopic:
     author: str = "mrcheck"
     modified: datetime | None = None
     modified_author: str = ""
-    components: list = field(default_factory=list)   # BcfComponent
+    components: list = field(default_factory=list)  # BcfComponent
     camera: BcfCamera | None = None
     snapshot_png: bytes | None = None
-    comments: list = field(default_factory=list)      # BcfComment
+    comments: list = field(default_factory=list)  # BcfComment
     viewpoint_guid: str | None = None
 
 

@@ -14,7 +14,7 @@ from mrcheck.apps.bcf.model import BcfCamera, BcfComment, BcfComponent, BcfTopic
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.inputs import read_input
 
-MAX_ENTRY = 64 << 20         # bytes: a larger entry is refused (a zip bomb, not a BCF)
+MAX_ENTRY = 64 << 20  # bytes: a larger entry is refused (a zip bomb, not a BCF)
 
 
 def _date(text: str | None) -> datetime | None:
@@ -40,13 +40,19 @@ def _camera(root) -> BcfCamera | None:
     node = root.find("PerspectiveCamera")
     if node is None:
         return None
-    return BcfCamera(_vector(node, "CameraViewPoint"), _vector(node, "CameraDirection"),
-                     _vector(node, "CameraUpVector"), float(_child(node, "FieldOfView")))
+    return BcfCamera(
+        _vector(node, "CameraViewPoint"),
+        _vector(node, "CameraDirection"),
+        _vector(node, "CameraUpVector"),
+        float(_child(node, "FieldOfView")),
+    )
 
 
 def _components(root) -> list[BcfComponent]:
-    return [BcfComponent(c.get("IfcGuid"), _child(c, "AuthoringToolId"))
-            for c in root.findall("Components/Selection/Component")]
+    return [
+        BcfComponent(c.get("IfcGuid"), _child(c, "AuthoringToolId"))
+        for c in root.findall("Components/Selection/Component")
+    ]
 
 
 def _entry(archive: zipfile.ZipFile, name: str, path) -> bytes:
@@ -75,7 +81,7 @@ def _viewpoint(topic: BcfTopic, markup, archive, folder: str, path) -> None:
         try:
             topic.camera = _camera(root)
         except (TypeError, ValueError):
-            topic.camera = None          # a camera another tool wrote without numbers: none
+            topic.camera = None  # a camera another tool wrote without numbers: none
         topic.components = _components(root)
     snapshot = folder + _child(view, "Snapshot")
     if _child(view, "Snapshot") and snapshot in names:
@@ -87,14 +93,24 @@ def _topic(archive, name: str, path) -> BcfTopic:
     node = markup.find("Topic")
     if node is None or not node.get("Guid"):
         raise MrcheckError(f"BCF entry {name} has no Topic with a Guid", path)
-    topic = BcfTopic(guid=node.get("Guid"), title=_child(node, "Title"), status=node.get("TopicStatus", ""),
-                     priority=_child(node, "Priority"), description=_child(node, "Description"),
-                     topic_type=node.get("TopicType", ""), labels=[(e.text or "").strip() for e in node.findall("Labels")],
-                     created=_date(_child(node, "CreationDate")), author=_child(node, "CreationAuthor"),
-                     modified=_date(_child(node, "ModifiedDate")), modified_author=_child(node, "ModifiedAuthor"))
-    topic.comments = [BcfComment(c.get("Guid", ""), _date(_child(c, "Date")), _child(c, "Author"), _child(c, "Comment"))
-                      for c in markup.findall("Comment")]
-    _viewpoint(topic, markup, archive, name[:-len("markup.bcf")], path)
+    topic = BcfTopic(
+        guid=node.get("Guid"),
+        title=_child(node, "Title"),
+        status=node.get("TopicStatus", ""),
+        priority=_child(node, "Priority"),
+        description=_child(node, "Description"),
+        topic_type=node.get("TopicType", ""),
+        labels=[(e.text or "").strip() for e in node.findall("Labels")],
+        created=_date(_child(node, "CreationDate")),
+        author=_child(node, "CreationAuthor"),
+        modified=_date(_child(node, "ModifiedDate")),
+        modified_author=_child(node, "ModifiedAuthor"),
+    )
+    topic.comments = [
+        BcfComment(c.get("Guid", ""), _date(_child(c, "Date")), _child(c, "Author"), _child(c, "Comment"))
+        for c in markup.findall("Comment")
+    ]
+    _viewpoint(topic, markup, archive, name[: -len("markup.bcf")], path)
     return topic
 
 

@@ -6,15 +6,15 @@ from __future__ import annotations
 
 import io
 import uuid
-import zipfile
 import xml.etree.ElementTree as ET
+import zipfile
 from datetime import datetime, timezone
 
 from mrcheck.apps.bcf.model import BcfCamera, BcfTopic
 
 VERSION = "2.1"
 VIEWPOINT, SNAPSHOT = "viewpoint.bcfv", "snapshot.png"
-FOV_RANGE = (45.0, 60.0)     # visinfo.xsd (2.1): FieldOfView between 45 and 60 degrees
+FOV_RANGE = (45.0, 60.0)  # visinfo.xsd (2.1): FieldOfView between 45 and 60 degrees
 # a fixed time stamp for the zip entries: the same topics give the same bytes
 ZIP_TIME = (2020, 1, 1, 0, 0, 0)
 
@@ -44,7 +44,9 @@ def _xml(root: ET.Element) -> bytes:
 
 def markup_xml(topic: BcfTopic) -> bytes:
     root = ET.Element("Markup")
-    t = ET.SubElement(root, "Topic", Guid=topic.guid, TopicType=shown(topic.topic_type), TopicStatus=shown(topic.status))
+    t = ET.SubElement(
+        root, "Topic", Guid=topic.guid, TopicType=shown(topic.topic_type), TopicStatus=shown(topic.status)
+    )
     _text(t, "Title", topic.title)
     if topic.priority:
         _text(t, "Priority", topic.priority)
@@ -124,7 +126,11 @@ def bcf_bytes(topics: list[BcfTopic], project: str = "mrcheck") -> bytes:
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w") as archive:
         _add(archive, "bcf.version", version_xml())
-        _add(archive, "project.bcfp", project_xml(project, str(uuid.uuid5(uuid.NAMESPACE_URL, "mrcheck:" + shown(project)))))
+        _add(
+            archive,
+            "project.bcfp",
+            project_xml(project, str(uuid.uuid5(uuid.NAMESPACE_URL, "mrcheck:" + shown(project)))),
+        )
         for topic in topics:
             if topic.viewpoint_guid is None and (topic.camera is not None or topic.components):
                 topic.viewpoint_guid = str(uuid.uuid5(uuid.UUID(topic.guid), "viewpoint"))

@@ -25,6 +25,17 @@ from mrcheck.apps.deviation.distances import (
 from mrcheck.apps.deviation.report import DeviationReport
 from mrcheck.scene.scans import SCAN_SUFFIXES, ScanCloud, read_scan
 
-__all__ = ["deviation_command", "DeviationRun", "deviation", "Deviation", "PartDeviation", "DeviationReport",
-           "check_placement", "signed_distances", "part_statistics", "read_scan", "ScanCloud",
-           "SCAN_SUFFIXES"]
+__all__ = [
+    "deviation_command",
+    "DeviationRun",
+    "deviation",
+    "Deviation",
+    "PartDeviation",
+    "DeviationReport",
+    "check_placement",
+    "signed_distances",
+    "part_statistics",
+    "read_scan",
+    "ScanCloud",
+    "SCAN_SUFFIXES",
+]

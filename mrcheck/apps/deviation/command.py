@@ -75,33 +75,45 @@ from mrcheck.scene.scans import read_scan
 @dataclass(frozen=True)
 class DeviationRun:
     """What ``mrcheck deviation`` measured and where it wrote it."""
+
     outdir: Path
     report: DeviationReport
-    elements: ElementReport | None = None    # with --per-element
+    elements: ElementReport | None = None  # with --per-element
 
     @property
     def summary(self) -> str:
         """The console line: points, median and 95th percentile of |d|, the top instance."""
         r = self.report
-        line = (f"deviation: {r.points} points, median |d| {r.median_abs * 1000:.3f} mm, "
-                f"p95 {r.p95_abs * 1000:.3f} mm; top: {r.parts[0].id}")
+        line = (
+            f"deviation: {r.points} points, median |d| {r.median_abs * 1000:.3f} mm, "
+            f"p95 {r.p95_abs * 1000:.3f} mm; top: {r.parts[0].id}"
+        )
         if self.elements is not None:
             c = self.elements.counts
-            line += (f"; per element at {self.elements.tolerance_mm:g} mm: {c['out of tolerance']} out of tolerance, "
-                     f"{c['in tolerance']} in tolerance, {c['no data']} no data")
+            line += (
+                f"; per element at {self.elements.tolerance_mm:g} mm: {c['out of tolerance']} out of tolerance, "
+                f"{c['in tolerance']} in tolerance, {c['no data']} no data"
+            )
         return line
 
 
 @dataclass(frozen=True)
 class PerElement:
     """The ``--per-element`` settings (millimetres)."""
+
     tolerance_mm: float = TOLERANCE_MM
     search_mm: float = SEARCH_MM
 
 
 def _output_names(shot, per_element) -> list[str]:
-    return [DEVIATIONS, PARTS_JSON, PARTS_MD, *VIEW_IMAGES.values(), *(SHOT_IMAGES if shot is not None else ()),
-            *((ELEMENTS_CSV, ELEMENTS_JSON, ELEMENTS_PNG, ELEMENTS_BCF) if per_element is not None else ())]
+    return [
+        DEVIATIONS,
+        PARTS_JSON,
+        PARTS_MD,
+        *VIEW_IMAGES.values(),
+        *(SHOT_IMAGES if shot is not None else ()),
+        *((ELEMENTS_CSV, ELEMENTS_JSON, ELEMENTS_PNG, ELEMENTS_BCF) if per_element is not None else ()),
+    ]
 
 
 def scanner_positions(cloud, scan) -> np.ndarray | None:
@@ -111,17 +123,24 @@ def scanner_positions(cloud, scan) -> np.ndarray | None:
     return np.array([pose.pose[:3, 3] for pose in cloud.scans], np.float64)
 
 
-def element_outputs(result, loaded, cloud, scan, scene, settings: PerElement, outdir: Path, camera=None,
-                    photo=None) -> tuple[ElementReport, dict]:
+def element_outputs(
+    result, loaded, cloud, scan, scene, settings: PerElement, outdir: Path, camera=None, photo=None
+) -> tuple[ElementReport, dict]:
     """The per-element table and ``{file name: bytes or text or image}`` of its outputs."""
     scanners = scanner_positions(cloud, scan)
     rows = element_status(result.surface, loaded, cloud.points, settings.tolerance_mm, settings.search_mm, scanners)
     shot_camera = camera if camera is not None else overview_camera(loaded)
     picture = element_image(loaded, rows, settings.tolerance_mm, shot_camera, photo)
     report = make_element_report(rows, scan, scene, settings.tolerance_mm, settings.search_mm, scanners)
-    bcf = elements_bcf(rows, loaded, settings.tolerance_mm, str(outdir.resolve()), shot_camera, encode_image(ELEMENTS_PNG, picture))
-    return report, {ELEMENTS_CSV: elements_csv(rows), ELEMENTS_JSON: elements_json(report), ELEMENTS_PNG: picture,
-                    ELEMENTS_BCF: bcf}
+    bcf = elements_bcf(
+        rows, loaded, settings.tolerance_mm, str(outdir.resolve()), shot_camera, encode_image(ELEMENTS_PNG, picture)
+    )
+    return report, {
+        ELEMENTS_CSV: elements_csv(rows),
+        ELEMENTS_JSON: elements_json(report),
+        ELEMENTS_PNG: picture,
+        ELEMENTS_BCF: bcf,
+    }
 
 
 def _writer(path: Path, content):
@@ -132,8 +151,9 @@ def _writer(path: Path, content):
     return lambda: write_image(path, content)
 
 
-def deviation_command(scan, scene, shot=None, units=None, outdir="deviation",
-                      per_element: PerElement | None = None) -> DeviationRun:
+def deviation_command(
+    scan, scene, shot=None, units=None, outdir="deviation", per_element: PerElement | None = None
+) -> DeviationRun:
     """Check the inputs (the shot's and the scan's errors before the slow scene load), measure
     the scan against the scene, then write every output of OUTDIR (module docstring)."""
     from mrcheck.core.camerafiles import load_shot, read_photo
@@ -143,12 +163,13 @@ def deviation_command(scan, scene, shot=None, units=None, outdir="deviation",
     camera = photo = photo_path = None
     if shot is not None:
         camera, photo_path = load_shot(shot)
-    check_not_inputs([outdir / name for name in _output_names(shot, per_element)],
-                     [("the scan", scan), ("--shot", shot), ("the shot's photo", photo_path),
-                      ("the scene", scene_files(scene))])
+    check_not_inputs(
+        [outdir / name for name in _output_names(shot, per_element)],
+        [("the scan", scan), ("--shot", shot), ("the shot's photo", photo_path), ("the scene", scene_files(scene))],
+    )
     if shot is not None:
         photo = read_photo(photo_path, camera)
-    cloud = read_scan(scan, units)           # the scan's own errors before the slow scene load
+    cloud = read_scan(scan, units)  # the scan's own errors before the slow scene load
     points = cloud.points
     loaded = load_scene(scene, progress=True)
     result = deviation(points, loaded, scan, normals=per_element is not None)
@@ -159,8 +180,12 @@ def deviation_command(scan, scene, shot=None, units=None, outdir="deviation",
     if camera is not None:
         images.update(shot_images(loaded, camera, photo, points, colours, scale_mm))
     report = make_report(result, scan, scene, cloud.units, scale_mm, cloud.crs)
-    outputs = {DEVIATIONS: npy_bytes(result.distances.astype(np.float32)), PARTS_JSON: parts_json(report),
-               PARTS_MD: parts_markdown(report), **images}
+    outputs = {
+        DEVIATIONS: npy_bytes(result.distances.astype(np.float32)),
+        PARTS_JSON: parts_json(report),
+        PARTS_MD: parts_markdown(report),
+        **images,
+    }
     elements = None
     if per_element is not None:
         elements, more = element_outputs(result, loaded, cloud, scan, scene, per_element, outdir, camera, photo)

@@ -29,11 +29,11 @@ import numpy as np
 
 from mrcheck.eval.raycast import triangle_owners
 
-SAMPLE_SPACING = 0.05        # metres between surface samples on average
+SAMPLE_SPACING = 0.05  # metres between surface samples on average
 MIN_SAMPLES, MAX_SAMPLES = 32, 1024
-COVER_CELL = 0.10            # metres: voxel edge of the covered test
-HIT_SLACK = 0.01             # metres (or 0.2 % of the range if more): the ray's hit is the sample
-OPEN_DISTANCE = 0.2          # metres of free space in front of a visible sample (no scanners known)
+COVER_CELL = 0.10  # metres: voxel edge of the covered test
+HIT_SLACK = 0.01  # metres (or 0.2 % of the range if more): the ray's hit is the sample
+OPEN_DISTANCE = 0.2  # metres of free space in front of a visible sample (no scanners known)
 SEED = 0
 RAY_CHUNK = 1 << 21
 
@@ -62,7 +62,7 @@ def surface_samples(scene, rng=None):
             continue
         T = part.transforms[k]
         scale = abs(np.linalg.det(T[:3, :3])) ** (2.0 / 3.0)
-        m = int(np.clip(total * scale / SAMPLE_SPACING ** 2, MIN_SAMPLES, MAX_SAMPLES))
+        m = int(np.clip(total * scale / SAMPLE_SPACING**2, MIN_SAMPLES, MAX_SAMPLES))
         chosen = rng.choice(len(area), size=m, p=area / total)
         a, b = rng.random(m), rng.random(m)
         flip = a + b > 1.0
@@ -85,9 +85,9 @@ def _cast(caster, starts: np.ndarray, directions: np.ndarray):
     t = np.empty(len(starts), np.float32)
     inst = np.empty(len(starts), np.int64)
     for s in range(0, len(starts), RAY_CHUNK):
-        rays = np.hstack([starts[s:s + RAY_CHUNK], directions[s:s + RAY_CHUNK]]).astype(np.float32)
+        rays = np.hstack([starts[s : s + RAY_CHUNK], directions[s : s + RAY_CHUNK]]).astype(np.float32)
         hits = caster.cast(rays)
-        t[s:s + len(rays)], inst[s:s + len(rays)] = hits.t, hits.instance
+        t[s : s + len(rays)], inst[s : s + len(rays)] = hits.t, hits.instance
     return t, inst
 
 
@@ -126,7 +126,11 @@ def _voxel_keys(groups: list[tuple[np.ndarray, np.ndarray]]) -> list[np.ndarray]
     cell = COVER_CELL
     while True:
         cells = [np.floor(p / cell).astype(np.int64) for _, p in groups]
-        lo = np.min([c.min(axis=0) for c in cells if len(c)], axis=0) if any(len(c) for c in cells) else np.zeros(3, np.int64)
+        lo = (
+            np.min([c.min(axis=0) for c in cells if len(c)], axis=0)
+            if any(len(c) for c in cells)
+            else np.zeros(3, np.int64)
+        )
         span = max((int((c - lo).max(initial=0)) for c in cells), default=0) + 1
         bits = max(1, span.bit_length())
         if inst_bits + 3 * bits <= 63:
@@ -159,5 +163,12 @@ def coverage(caster, scene, owner, closest, scanners=None) -> tuple[np.ndarray, 
     return share, n_visible
 
 
-__all__ = ["surface_samples", "visible_from_scanners", "open_surface", "coverage", "SAMPLE_SPACING", "COVER_CELL",
-           "OPEN_DISTANCE"]
+__all__ = [
+    "surface_samples",
+    "visible_from_scanners",
+    "open_surface",
+    "coverage",
+    "SAMPLE_SPACING",
+    "COVER_CELL",
+    "OPEN_DISTANCE",
+]

@@ -45,10 +45,10 @@ from mrcheck.core.progress import shown_progress
 from mrcheck.eval.raycast import build_caster, coherent_order, triangle_owners
 from mrcheck.scene.model import UNITS, Scene
 
-QUERY_CHUNK = 1 << 20            # points per closest-point query (~100 MB of results)
-UNIT_RATIO_LIMIT = 20.0          # scan bbox diagonal / scene bbox diagonal beyond which units are wrong
-OVERLAP_MARGIN = 0.05            # bbox overlap test tolerance, as a share of the scene diagonal
-FAR_FACTOR = 2.0                 # median |d| > FAR_FACTOR * the size below: not registered
+QUERY_CHUNK = 1 << 20  # points per closest-point query (~100 MB of results)
+UNIT_RATIO_LIMIT = 20.0  # scan bbox diagonal / scene bbox diagonal beyond which units are wrong
+OVERLAP_MARGIN = 0.05  # bbox overlap test tolerance, as a share of the scene diagonal
+FAR_FACTOR = 2.0  # median |d| > FAR_FACTOR * the size below: not registered
 # the size a scan's median distance is judged against is at least this share of the scene's
 # diagonal, and at least FAR_FLOOR_M: a single point or a small patch has a diagonal near 0, and
 # one real bunny point 1.2 mm off the mesh was refused as "not registered"
@@ -77,12 +77,18 @@ def check_placement(points: np.ndarray, scene: Scene, path) -> tuple[float, floa
     if ratio > UNIT_RATIO_LIMIT:
         # the unit whose scaling brings the scan closest to the scene's size (a scan covers at most it)
         guess = min((u for u in UNITS if UNITS[u] < 1.0), key=lambda u: abs(math.log(ratio * UNITS[u])))
-        raise MrcheckError(f"the scan is {ratio:.0f}x the scene's size: the scan looks like "
-                           f"{_UNIT_WORDS[guess]}; pass --units {guess}", path)
+        raise MrcheckError(
+            f"the scan is {ratio:.0f}x the scene's size: the scan looks like "
+            f"{_UNIT_WORDS[guess]}; pass --units {guess}",
+            path,
+        )
     margin = OVERLAP_MARGIN * scene_diag
     gap = np.maximum(0.0, np.maximum(scene_box[0] - margin - scan_box[1], scan_box[0] - scene_box[1] - margin))
     if np.any(gap > 0.0):
-        _far(float(np.linalg.norm(np.maximum(0.0, np.maximum(scene_box[0] - scan_box[1], scan_box[0] - scene_box[1])))), path)
+        _far(
+            float(np.linalg.norm(np.maximum(0.0, np.maximum(scene_box[0] - scan_box[1], scan_box[0] - scene_box[1])))),
+            path,
+        )
     return scan_diag, scene_diag
 
 
@@ -90,12 +96,13 @@ def check_placement(points: np.ndarray, scene: Scene, path) -> tuple[float, floa
 @dataclass
 class Surface:
     """What the closest-point query found for every point (:func:`closest_surface`)."""
-    d: np.ndarray                # (N,) float64 signed distance (module docstring), metres
-    owner: np.ndarray            # (N,) int64 instance index into triangle_owners' list
-    normal: np.ndarray | None    # (N, 3) float32 unit normal of the closest triangle (with normals=True)
-    closest: np.ndarray | None   # (N, 3) float32 closest CAD point relative to ``origin`` (with normals=True)
-    origin: np.ndarray           # (3,) float64 the scan's bounding-box centre
-    caster: object = None        # the SceneCaster queried (with normals=True, for further rays)
+
+    d: np.ndarray  # (N,) float64 signed distance (module docstring), metres
+    owner: np.ndarray  # (N,) int64 instance index into triangle_owners' list
+    normal: np.ndarray | None  # (N, 3) float32 unit normal of the closest triangle (with normals=True)
+    closest: np.ndarray | None  # (N, 3) float32 closest CAD point relative to ``origin`` (with normals=True)
+    origin: np.ndarray  # (3,) float64 the scan's bounding-box centre
+    caster: object = None  # the SceneCaster queried (with normals=True, for further rays)
 
 
 def closest_surface(scene: Scene, points: np.ndarray, normals: bool = False) -> Surface:
@@ -121,7 +128,7 @@ def closest_surface(scene: Scene, points: np.ndarray, normals: bool = False) -> 
     steps = shown_progress()(range(0, n, QUERY_CHUNK), "closest CAD points", "Mpt")
     with contextlib.closing(steps):
         for start in steps:
-            _query_chunk(caster, points, order[start:start + QUERY_CHUNK], (d, owner, normal, closest))
+            _query_chunk(caster, points, order[start : start + QUERY_CHUNK], (d, owner, normal, closest))
     return Surface(d, owner, normal, closest, origin, caster if normals else None)
 
 
@@ -130,7 +137,7 @@ def _query_chunk(caster, points, rows: np.ndarray, out) -> None:
     and closest None without normals)."""
     d, owner, normal, closest = out
     chunk = np.take(points, rows, axis=0)
-    found = caster.closest_points(chunk, coherent=True)   # rows: a run of the whole scan's order
+    found = caster.closest_points(chunk, coherent=True)  # rows: a run of the whole scan's order
     # the closest triangle's normal gives the side, no watertightness needed; a point exactly
     # on the surface (dot 0) counts as outside
     sign = np.where(np.einsum("ij,ij->i", found.offset, found.normal) < 0.0, -1.0, 1.0)
@@ -154,24 +161,32 @@ def signed_distances(scene: Scene, points: np.ndarray):
 @dataclass
 class PartDeviation:
     """One instance's row of ``parts.json``: distances in metres (None without points)."""
-    id: str                      # the instance id
-    part: str                    # the part's name
-    points: int                  # scan points whose closest triangle is this instance's
+
+    id: str  # the instance id
+    part: str  # the part's name
+    points: int  # scan points whose closest triangle is this instance's
     median_abs: float | None
     mean_abs: float | None
-    p95_abs: float | None        # 95th percentile of |d|
+    p95_abs: float | None  # 95th percentile of |d|
     signed_mean: float | None
     signed_median: float | None
-    rank: int = 0                # 1 = largest median |d|; instances without points last
+    rank: int = 0  # 1 = largest median |d|; instances without points last
 
 
 def _row(part, k: int, mine: np.ndarray) -> PartDeviation:
     if not len(mine):
         return PartDeviation(part.instance_ids[k], part.name, 0, None, None, None, None, None)
     a = np.abs(mine)
-    return PartDeviation(part.instance_ids[k], part.name, int(len(mine)), median_abs=float(np.median(a)),
-                         mean_abs=float(a.mean()), p95_abs=float(np.percentile(a, 95)),
-                         signed_mean=float(mine.mean()), signed_median=float(np.median(mine)))
+    return PartDeviation(
+        part.instance_ids[k],
+        part.name,
+        int(len(mine)),
+        median_abs=float(np.median(a)),
+        mean_abs=float(a.mean()),
+        p95_abs=float(np.percentile(a, 95)),
+        signed_mean=float(mine.mean()),
+        signed_median=float(np.median(mine)),
+    )
 
 
 def part_statistics(scene: Scene, d: np.ndarray, owner: np.ndarray) -> list[PartDeviation]:
@@ -180,7 +195,7 @@ def part_statistics(scene: Scene, d: np.ndarray, owner: np.ndarray) -> list[Part
     # the same stable order; on 16-bit keys numpy sorts by radix (5x faster at 10 M points)
     order = np.argsort(owner.astype(np.uint16) if len(owners) <= 1 << 16 else owner, kind="stable")
     bounds = np.searchsorted(owner[order], np.arange(len(owners) + 1))
-    rows = [_row(part, k, d[order[bounds[i]:bounds[i + 1]]]) for i, (part, k) in enumerate(owners)]
+    rows = [_row(part, k, d[order[bounds[i] : bounds[i + 1]]]) for i, (part, k) in enumerate(owners)]
     # ranked by median |d|, largest first; instances without points last, in scene order
     rows.sort(key=lambda r: (r.points == 0, -(r.median_abs or 0.0)))
     for rank, row in enumerate(rows, 1):
@@ -191,10 +206,11 @@ def part_statistics(scene: Scene, d: np.ndarray, owner: np.ndarray) -> list[Part
 @dataclass
 class Deviation:
     """The measured scan: per point and per instance."""
-    distances: np.ndarray        # (N,) float64 signed distance of every point, metres, scan order
-    owner: np.ndarray            # (N,) int64 instance index (triangle_owners' order) of every point
-    parts: list[PartDeviation]   # ranked
-    surface: Surface | None = None   # the whole query (with normals when asked for)
+
+    distances: np.ndarray  # (N,) float64 signed distance of every point, metres, scan order
+    owner: np.ndarray  # (N,) int64 instance index (triangle_owners' order) of every point
+    parts: list[PartDeviation]  # ranked
+    surface: Surface | None = None  # the whole query (with normals when asked for)
 
 
 def deviation(points: np.ndarray, scene: Scene, scan=None, normals: bool = False) -> Deviation:
@@ -212,4 +228,13 @@ def deviation(points: np.ndarray, scene: Scene, scan=None, normals: bool = False
     return Deviation(d, owner, part_statistics(scene, d, owner), surface)
 
 
-__all__ = ["deviation", "Deviation", "PartDeviation", "signed_distances", "closest_surface", "Surface", "part_statistics", "check_placement"]
+__all__ = [
+    "deviation",
+    "Deviation",
+    "PartDeviation",
+    "signed_distances",
+    "closest_surface",
+    "Surface",
+    "part_statistics",
+    "check_placement",
+]

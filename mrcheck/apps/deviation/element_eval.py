@@ -25,6 +25,7 @@ from mrcheck.eval.scansim import clutter_parts, scanner_stations, shifted_varian
 @dataclass
 class ElementScore:
     """One seed's counts and figures."""
+
     seed: int
     instances: int
     points: int
@@ -32,10 +33,10 @@ class ElementScore:
     fp: int
     fn: int
     tn: int
-    no_data: int                 # instances called "no data"
-    moved_no_data: int           # of them moved beyond the tolerance
+    no_data: int  # instances called "no data"
+    moved_no_data: int  # of them moved beyond the tolerance
     seconds: float
-    misses: list = field(default_factory=list)   # ids of the wrong calls, "fp:" / "fn:" prefixed
+    misses: list = field(default_factory=list)  # ids of the wrong calls, "fp:" / "fn:" prefixed
 
     @property
     def precision(self) -> float:
@@ -67,8 +68,17 @@ def _score(rows, shifts, tolerance_mm: float) -> dict:
     return {**counts, "misses": misses}
 
 
-def score_seed(planned, seed: int, tolerance_mm: float = 10.0, share: float = 0.3, low_mm: float = 5.0,
-               high_mm: float = 50.0, stations: int = 4, rays: int = 1_000_000, clutter: int = 12) -> ElementScore:
+def score_seed(
+    planned,
+    seed: int,
+    tolerance_mm: float = 10.0,
+    share: float = 0.3,
+    low_mm: float = 5.0,
+    high_mm: float = 50.0,
+    stations: int = 4,
+    rays: int = 1_000_000,
+    clutter: int = 12,
+) -> ElementScore:
     """One seed of the protocol (module docstring) on a loaded planned scene."""
     variant, shifts = shifted_variant(planned, share, low_mm / 1000.0, high_mm / 1000.0, seed)
     scanned = replace(variant, parts=variant.parts + clutter_parts(variant, clutter, seed))
@@ -78,8 +88,9 @@ def score_seed(planned, seed: int, tolerance_mm: float = 10.0, share: float = 0.
     surface = closest_surface(planned, scan.points, normals=True)
     rows = element_status(surface, planned, scan.points, tolerance_mm, scanners=positions)
     seconds = time.perf_counter() - start
-    return ElementScore(seed=seed, instances=len(rows), points=len(scan.points), seconds=seconds,
-                        **_score(rows, shifts, tolerance_mm))
+    return ElementScore(
+        seed=seed, instances=len(rows), points=len(scan.points), seconds=seconds, **_score(rows, shifts, tolerance_mm)
+    )
 
 
 __all__ = ["score_seed", "ElementScore"]

@@ -20,7 +20,7 @@ from mrcheck.core.camera import Camera
 IN_COLOUR = np.array([70, 190, 90], np.float64)
 NO_DATA_COLOUR = np.array([150, 150, 150], np.float64)
 OUT_LOW, OUT_HIGH = np.array([255, 170, 40], np.float64), np.array([220, 30, 30], np.float64)
-RED_AT = 5.0                 # deviation / tolerance at which the tint is fully red
+RED_AT = 5.0  # deviation / tolerance at which the tint is fully red
 PHOTO_ALPHA = 0.5
 OVERVIEW_SIZE = (1024, 768)
 BACKGROUND = (40, 40, 40)
@@ -59,8 +59,13 @@ def legend(height: int, tolerance_mm: float) -> np.ndarray:
     width = max(170, height // 4)
     panel = np.full((height, width, 3), BACKGROUND, np.uint8)
     scale = max(0.4, height / 1500.0)
-    text = dict(fontFace=cv2.FONT_HERSHEY_SIMPLEX, fontScale=scale, color=(240, 240, 240),
-                thickness=max(1, int(round(scale * 1.6))), lineType=cv2.LINE_AA)
+    text = dict(
+        fontFace=cv2.FONT_HERSHEY_SIMPLEX,
+        fontScale=scale,
+        color=(240, 240, 240),
+        thickness=max(1, int(round(scale * 1.6))),
+        lineType=cv2.LINE_AA,
+    )
     y, step = int(height * 0.06), int(height * 0.06)
     for label, colour in (("in tolerance", IN_COLOUR), ("no data", NO_DATA_COLOUR)):
         cv2.rectangle(panel, (8, y - step // 2), (8 + step // 2, y), tuple(int(c) for c in colour), -1)
@@ -70,7 +75,7 @@ def legend(height: int, tolerance_mm: float) -> np.ndarray:
     cv2.putText(panel, "deviation (mm)", (8, y + step // 2 + 4), **text)
     top, bottom = y + step, int(height * 0.92)
     x = np.linspace(1.0, 0.0, max(bottom - top, 1))[:, None]
-    panel[top:bottom, 8:8 + width // 6] = (OUT_LOW + x * (OUT_HIGH - OUT_LOW)).astype(np.uint8)[:, None, :]
+    panel[top:bottom, 8 : 8 + width // 6] = (OUT_LOW + x * (OUT_HIGH - OUT_LOW)).astype(np.uint8)[:, None, :]
     for fraction in (1.0, 0.5, 0.0):
         yy = int(round(top + (1.0 - fraction) * (bottom - top - 1)))
         value = tolerance_mm * (1.0 + fraction * (RED_AT - 1.0))
@@ -84,7 +89,7 @@ def tinted(render: np.ndarray, ids: np.ndarray, colours: np.ndarray) -> tuple[np
     shade = render.astype(np.float64).mean(axis=2, keepdims=True) / 255.0
     cad = ids >= 0
     image = render.astype(np.float64).copy()
-    image[cad] = np.clip(colours[ids[cad]] * (1.2 * shade[cad]) ** 1.5, 0, 255)   # AO darkens the tint
+    image[cad] = np.clip(colours[ids[cad]] * (1.2 * shade[cad]) ** 1.5, 0, 255)  # AO darkens the tint
     return image.astype(np.uint8), cad
 
 

@@ -11,30 +11,59 @@ from dataclasses import asdict, dataclass
 
 from mrcheck.apps.bcf import BcfTopic, bcf_bytes, bcf_camera, element_component, topic_guid
 
-ELEMENTS_CSV, ELEMENTS_JSON, ELEMENTS_PNG, ELEMENTS_BCF = "elements.csv", "elements.json", "elements.png", "elements.bcfzip"
-CSV_FIELDS = ("id", "ifc_globalid", "part", "status", "points", "coverage", "visible_samples", "median_mm",
-              "p95_abs_mm", "offset_x_mm", "offset_y_mm", "offset_z_mm", "offset_norm_mm", "residual_mm")
+ELEMENTS_CSV, ELEMENTS_JSON, ELEMENTS_PNG, ELEMENTS_BCF = (
+    "elements.csv",
+    "elements.json",
+    "elements.png",
+    "elements.bcfzip",
+)
+CSV_FIELDS = (
+    "id",
+    "ifc_globalid",
+    "part",
+    "status",
+    "points",
+    "coverage",
+    "visible_samples",
+    "median_mm",
+    "p95_abs_mm",
+    "offset_x_mm",
+    "offset_y_mm",
+    "offset_z_mm",
+    "offset_norm_mm",
+    "residual_mm",
+)
 
 
 @dataclass
 class ElementReport:
     """``elements.json``: the settings, the counts per status and every instance's row."""
+
     scan: str
     scene: str
     tolerance_mm: float
     search_mm: float
-    scanners: list | None        # the scanner positions coverage used (None: the open surface)
-    counts: dict                 # status: number of instances
-    elements: list               # ElementStatus rows, scene order
+    scanners: list | None  # the scanner positions coverage used (None: the open surface)
+    counts: dict  # status: number of instances
+    elements: list  # ElementStatus rows, scene order
 
     def to_dict(self) -> dict:
         return asdict(self)
 
 
 def make_element_report(rows, scan, scene, tolerance_mm: float, search_mm: float, scanners) -> ElementReport:
-    counts = {status: sum(r.status == status for r in rows) for status in ("out of tolerance", "in tolerance", "no data")}
-    return ElementReport(str(scan), str(scene), tolerance_mm, search_mm,
-                         None if scanners is None else [[round(float(v), 4) for v in s] for s in scanners], counts, rows)
+    counts = {
+        status: sum(r.status == status for r in rows) for status in ("out of tolerance", "in tolerance", "no data")
+    }
+    return ElementReport(
+        str(scan),
+        str(scene),
+        tolerance_mm,
+        search_mm,
+        None if scanners is None else [[round(float(v), 4) for v in s] for s in scanners],
+        counts,
+        rows,
+    )
 
 
 def elements_json(report: ElementReport) -> str:
@@ -48,17 +77,31 @@ def elements_csv(rows) -> str:
     writer.writerow(CSV_FIELDS)
     for r in rows:
         offset = r.offset_mm or (None, None, None)
-        values = (r.id, r.ifc_globalid, r.part, r.status, r.points, r.coverage, r.visible_samples, r.median_mm,
-                  r.p95_abs_mm, *offset, r.offset_norm_mm, r.residual_mm)
+        values = (
+            r.id,
+            r.ifc_globalid,
+            r.part,
+            r.status,
+            r.points,
+            r.coverage,
+            r.visible_samples,
+            r.median_mm,
+            r.p95_abs_mm,
+            *offset,
+            r.offset_norm_mm,
+            r.residual_mm,
+        )
         writer.writerow(["" if v is None else v for v in values])
     return buffer.getvalue()
 
 
 def _description(row, tolerance_mm: float) -> str:
     offset = ", ".join(f"{v:+.1f}" for v in row.offset_mm)
-    return (f"{row.id} ({row.part}) is out of the {tolerance_mm:g} mm tolerance: estimated offset ({offset}) mm, "
-            f"|offset| {row.offset_norm_mm:.1f} mm, median |residual| {row.residual_mm:.1f} mm; "
-            f"{row.points} scan points, coverage {row.coverage:.0%}, median signed distance {row.median_mm:+.1f} mm.")
+    return (
+        f"{row.id} ({row.part}) is out of the {tolerance_mm:g} mm tolerance: estimated offset ({offset}) mm, "
+        f"|offset| {row.offset_norm_mm:.1f} mm, median |residual| {row.residual_mm:.1f} mm; "
+        f"{row.points} scan points, coverage {row.coverage:.0%}, median signed distance {row.median_mm:+.1f} mm."
+    )
 
 
 def element_topics(rows, scene, tolerance_mm: float, key: str, camera=None, snapshot_png=None) -> list[BcfTopic]:
@@ -69,11 +112,18 @@ def element_topics(rows, scene, tolerance_mm: float, key: str, camera=None, snap
     topics = []
     for r in out:
         worst = max(r.offset_norm_mm or 0.0, r.residual_mm or 0.0)
-        topics.append(BcfTopic(guid=topic_guid("deviation", key, r.id), title=f"out of tolerance: {r.id}",
-                               priority="High" if worst >= 3 * tolerance_mm else "Normal",
-                               description=_description(r, tolerance_mm), labels=["deviation", "out of tolerance"],
-                               components=element_component(scene, r.id),
-                               camera=None if camera is None else bcf_camera(camera), snapshot_png=snapshot_png))
+        topics.append(
+            BcfTopic(
+                guid=topic_guid("deviation", key, r.id),
+                title=f"out of tolerance: {r.id}",
+                priority="High" if worst >= 3 * tolerance_mm else "Normal",
+                description=_description(r, tolerance_mm),
+                labels=["deviation", "out of tolerance"],
+                components=element_component(scene, r.id),
+                camera=None if camera is None else bcf_camera(camera),
+                snapshot_png=snapshot_png,
+            )
+        )
     return topics
 
 
@@ -81,5 +131,16 @@ def elements_bcf(rows, scene, tolerance_mm: float, key: str, camera=None, snapsh
     return bcf_bytes(element_topics(rows, scene, tolerance_mm, key, camera, snapshot_png), project=scene.name)
 
 
-__all__ = ["ElementReport", "make_element_report", "elements_json", "elements_csv", "element_topics", "elements_bcf",
-           "ELEMENTS_CSV", "ELEMENTS_JSON", "ELEMENTS_PNG", "ELEMENTS_BCF", "CSV_FIELDS"]
+__all__ = [
+    "ElementReport",
+    "make_element_report",
+    "elements_json",
+    "elements_csv",
+    "element_topics",
+    "elements_bcf",
+    "ELEMENTS_CSV",
+    "ELEMENTS_JSON",
+    "ELEMENTS_PNG",
+    "ELEMENTS_BCF",
+    "CSV_FIELDS",
+]

@@ -13,7 +13,8 @@ tolerance** or **no data**.
    normal; one Gauss-Newton step of point-to-plane ICP, Chen & Medioni 1992), iteratively
    reweighted with Cauchy weights ``w = 1 / (1 + (r / c)^2)``, ``c`` = the tolerance, so clutter
    and points that hit a neighbour's face weigh little. A direction that less than
-   :data:`MIN_CONSTRAINT` of the (weighted) points, or fewer than :data:`MIN_CONSTRAINT_POINTS`, constrain (the y shift of a wall seen only
+   :data:`MIN_CONSTRAINT` of the (weighted) points, or fewer than :data:`MIN_CONSTRAINT_POINTS`, constrain (the y
+   shift of a wall seen only
    from its face) gets no offset: the scan cannot tell, and that component is 0.
 4. **Status**, for tolerance ``tol`` (default 20 mm):
 
@@ -45,12 +46,12 @@ TOLERANCE_MM = 20.0
 SEARCH_MM = 100.0
 MIN_POINTS = 20
 MIN_COVERAGE = 0.05
-MIN_CONSTRAINT = 0.01        # share of the weighted points that must constrain an offset direction
+MIN_CONSTRAINT = 0.01  # share of the weighted points that must constrain an offset direction
 MIN_CONSTRAINT_POINTS = 3.0  # and at least this many (weighted, n_i . e squared)
 IRLS_ROUNDS = 3
 ICP_ROUNDS = 5
 ICP_POINTS = 4000
-REFINE_SHARE = 0.3          # instances whose first offset or residual exceeds this share of the tolerance are refined
+REFINE_SHARE = 0.3  # instances whose first offset or residual exceeds this share of the tolerance are refined
 QUERY_CHUNK = 1 << 20
 STATUSES = ("out of tolerance", "in tolerance", "no data")
 
@@ -58,18 +59,19 @@ STATUSES = ("out of tolerance", "in tolerance", "no data")
 @dataclass
 class ElementStatus:
     """One row of ``elements.csv`` / ``elements.json`` (millimetres; None without data)."""
-    id: str                          # the instance id
-    ifc_globalid: str | None         # the IFC GlobalId when the scene came from IFC
+
+    id: str  # the instance id
+    ifc_globalid: str | None  # the IFC GlobalId when the scene came from IFC
     part: str
-    status: str                      # one of STATUSES
-    points: int                      # scan points assigned to it
-    coverage: float | None           # share of its visible surface with points, 0..1
-    visible_samples: int             # surface samples counted as visible
-    median_mm: float | None          # median signed distance
-    p95_abs_mm: float | None         # 95th percentile of |d|
-    offset_mm: list | None           # estimated rigid offset (x, y, z) as-built minus planned
+    status: str  # one of STATUSES
+    points: int  # scan points assigned to it
+    coverage: float | None  # share of its visible surface with points, 0..1
+    visible_samples: int  # surface samples counted as visible
+    median_mm: float | None  # median signed distance
+    p95_abs_mm: float | None  # 95th percentile of |d|
+    offset_mm: list | None  # estimated rigid offset (x, y, z) as-built minus planned
     offset_norm_mm: float | None
-    residual_mm: float | None        # median |d - n . offset|
+    residual_mm: float | None  # median |d - n . offset|
 
 
 def _bin(owner, weights, count):
@@ -88,13 +90,13 @@ def fit_offsets(owner, normal, d, count: int, scale: float) -> tuple[np.ndarray,
     """Robust point-to-plane translation per instance (module docstring, step 3): ``(t (count, 3),
     residual (N,))``, metres."""
     n = normal.astype(np.float64)
-    columns = [np.ascontiguousarray(n[:, i]) for i in range(3)]    # contiguous: the products run faster
+    columns = [np.ascontiguousarray(n[:, i]) for i in range(3)]  # contiguous: the products run faster
     w = np.ones(len(d))
     t = np.zeros((count, 3))
     pairs = [(i, j) for i in range(3) for j in range(i, 3)]
     for _ in range(IRLS_ROUNDS):
         A = np.zeros((count, 3, 3))
-        wn = [w * c for c in columns]    # once per round, not per product: (w n_i) n_j as before
+        wn = [w * c for c in columns]  # once per round, not per product: (w n_i) n_j as before
         for i, j in pairs:
             A[:, i, j] = A[:, j, i] = _bin(owner, wn[i] * columns[j], count)
         b = np.stack([_bin(owner, wn[i] * d, count) for i in range(3)], axis=1)
@@ -131,6 +133,7 @@ def _mm(value) -> float | None:
 @dataclass
 class ElementFigures:
     """Per instance arrays (triangle_owners' order), metres; nan where there is nothing."""
+
     points: np.ndarray
     coverage: np.ndarray
     visible: np.ndarray
@@ -151,7 +154,9 @@ def _icp_subset(index: np.ndarray, owner: np.ndarray, count: int) -> np.ndarray:
     of the point's index: the same points on every run, spread over the whole scan order."""
     sizes = np.bincount(owner[index], minlength=count)
     keep = np.minimum(1.0, ICP_POINTS / np.maximum(sizes, 1))[owner[index]]
-    hashed = ((index.astype(np.uint64) * np.uint64(2654435761)) % np.uint64(1 << 32)).astype(np.float64) / float(1 << 32)
+    hashed = ((index.astype(np.uint64) * np.uint64(2654435761)) % np.uint64(1 << 32)).astype(np.float64) / float(
+        1 << 32
+    )
     return index[hashed < keep]
 
 
@@ -160,13 +165,16 @@ def refine_offsets(caster, points, rows, owner, t, candidates, scale: float):
     :func:`_icp_subset`) moved back by the current offset are matched to the CAD again and the
     offset corrected, :data:`ICP_ROUNDS` times. One linearised step under-estimates a move of a
     few centimetres (points near an edge and on the far side of a thin post match the wrong
-    face); re-matching removes that. ``points[rows]`` are the points ``owner`` describes. Only the instances that look moved are refined: the
+    face); re-matching removes that. ``points[rows]`` are the points ``owner`` describes. Only the instances that
+    look moved are refined: the
     others' offsets are noise. Updates ``t`` in place; returns the subset's point indices and
     their last residuals (inf for a point now nearer another instance: no support)."""
     count = len(t)
     index = _icp_subset(np.nonzero(candidates[owner])[0], owner, count)
     residual = np.zeros(len(index))
-    rounds = shown_progress()(range(ICP_ROUNDS if len(index) else 0), f"ICP of {int(candidates.sum())} elements", "round")
+    rounds = shown_progress()(
+        range(ICP_ROUNDS if len(index) else 0), f"ICP of {int(candidates.sum())} elements", "round"
+    )
     with contextlib.closing(rounds):
         for _ in rounds:
             _icp_round(caster, points, rows, owner, t, candidates, scale, index, residual)
@@ -177,9 +185,9 @@ def _icp_round(caster, points, rows, owner, t, candidates, scale: float, index, 
     """One round of :func:`refine_offsets` (``t`` and ``residual`` updated in place)."""
     mine, d, n = [], [], []
     for start in range(0, len(index), QUERY_CHUNK):
-        part = index[start:start + QUERY_CHUNK]
+        part = index[start : start + QUERY_CHUNK]
         found = caster.closest_points(points[rows[part]] - np.take(t, owner[part], axis=0))
-        mine.append(found.instance == owner[part])     # matched to its own instance again
+        mine.append(found.instance == owner[part])  # matched to its own instance again
         d.append(_signed(found))
         n.append(found.normal)
     mine, d, n = np.concatenate(mine), np.concatenate(d), np.concatenate(n)
@@ -204,10 +212,15 @@ def element_figures(surface, scene, points, tolerance: float, search: float, sca
     # the residuals: the refined instances' from their ICP subset, the others' from the first fit
     keep = ~candidates[owner]
     r_owner, r = np.concatenate([owner[keep], owner[index]]), np.concatenate([r[keep], refined])
-    return ElementFigures(points=np.bincount(owner, minlength=count), coverage=share, visible=visible,
-                          median=grouped_quantile(owner, d, count, 0.5, search),
-                          p95_abs=grouped_quantile(owner, np.abs(d), count, 0.95, search), offset=t,
-                          residual=grouped_quantile(r_owner, np.abs(r), count, 0.5, search))
+    return ElementFigures(
+        points=np.bincount(owner, minlength=count),
+        coverage=share,
+        visible=visible,
+        median=grouped_quantile(owner, d, count, 0.5, search),
+        p95_abs=grouped_quantile(owner, np.abs(d), count, 0.95, search),
+        offset=t,
+        residual=grouped_quantile(r_owner, np.abs(r), count, 0.5, search),
+    )
 
 
 def status_of(points: int, share: float, offset_norm: float, residual: float, tolerance: float) -> str:
@@ -226,24 +239,46 @@ def element_rows(scene, figures: ElementFigures, tolerance: float) -> list[Eleme
         norm = float(np.linalg.norm(offset)) if offset is not None else float("nan")
         residual = float(figures.residual[i])
         share = float(figures.coverage[i])
-        rows.append(ElementStatus(
-            id=part.instance_ids[k], ifc_globalid=ifc_global_id(part, k), part=part.name,
-            status=status_of(n, share, norm, residual, tolerance), points=n,
-            coverage=None if not np.isfinite(share) else round(share, 4), visible_samples=int(figures.visible[i]),
-            median_mm=_mm(figures.median[i]), p95_abs_mm=_mm(figures.p95_abs[i]),
-            offset_mm=None if offset is None else [_mm(v) for v in offset], offset_norm_mm=_mm(norm),
-            residual_mm=_mm(residual)))
+        rows.append(
+            ElementStatus(
+                id=part.instance_ids[k],
+                ifc_globalid=ifc_global_id(part, k),
+                part=part.name,
+                status=status_of(n, share, norm, residual, tolerance),
+                points=n,
+                coverage=None if not np.isfinite(share) else round(share, 4),
+                visible_samples=int(figures.visible[i]),
+                median_mm=_mm(figures.median[i]),
+                p95_abs_mm=_mm(figures.p95_abs[i]),
+                offset_mm=None if offset is None else [_mm(v) for v in offset],
+                offset_norm_mm=_mm(norm),
+                residual_mm=_mm(residual),
+            )
+        )
     return rows
 
 
-def element_status(surface, scene, points, tolerance_mm: float = TOLERANCE_MM, search_mm: float = SEARCH_MM,
-                   scanners=None) -> list[ElementStatus]:
+def element_status(
+    surface, scene, points, tolerance_mm: float = TOLERANCE_MM, search_mm: float = SEARCH_MM, scanners=None
+) -> list[ElementStatus]:
     """The per-element table of the scan ``points`` (world metres) and their
-    :class:`~mrcheck.apps.deviation.distances.Surface` (queried with ``normals=True``); ``scanners`` (k, 3) world positions or None (coverage then
+    :class:`~mrcheck.apps.deviation.distances.Surface` (queried with ``normals=True``); ``scanners`` (k, 3) world
+    positions or None (coverage then
     counts the open surface, :mod:`~mrcheck.apps.deviation.coverage`)."""
     tolerance, search = tolerance_mm / 1000.0, search_mm / 1000.0
     return element_rows(scene, element_figures(surface, scene, points, tolerance, search, scanners), tolerance)
 
 
-__all__ = ["element_status", "ElementStatus", "ElementFigures", "element_figures", "element_rows", "fit_offsets",
-           "grouped_quantile", "status_of", "TOLERANCE_MM", "SEARCH_MM", "STATUSES"]
+__all__ = [
+    "element_status",
+    "ElementStatus",
+    "ElementFigures",
+    "element_figures",
+    "element_rows",
+    "fit_offsets",
+    "grouped_quantile",
+    "status_of",
+    "TOLERANCE_MM",
+    "SEARCH_MM",
+    "STATUSES",
+]

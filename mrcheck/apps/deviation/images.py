@@ -17,13 +17,27 @@ from mrcheck.core.arrays import bounding_box
 from mrcheck.scene.model import Scene
 
 VIEW_IMAGES = {"top": "deviation_top.png", "side": "deviation_side.png"}
-SHOT_IMAGES = {"deviation_render.png": 0.0, "deviation_overlay.png": 0.5}   # name: the photo's alpha
-IMAGE_SIZE = 1024                # longest side of the orthographic images, pixels
-SPLAT_RADIUS = 1                 # splat half-size in pixels (3x3 squares)
+SHOT_IMAGES = {"deviation_render.png": 0.0, "deviation_overlay.png": 0.5}  # name: the photo's alpha
+IMAGE_SIZE = 1024  # longest side of the orthographic images, pixels
+SPLAT_RADIUS = 1  # splat half-size in pixels (3x3 squares)
 BACKGROUND = (40, 40, 40)
 # diverging control points (ColorBrewer RdBu, reversed so that + is red), from -1 to +1
-_RDBU = np.array([[5, 48, 97], [33, 102, 172], [67, 147, 195], [146, 197, 222], [209, 229, 240], [247, 247, 247],
-                  [253, 219, 199], [244, 165, 130], [214, 96, 77], [178, 24, 43], [103, 0, 31]], np.float64)
+_RDBU = np.array(
+    [
+        [5, 48, 97],
+        [33, 102, 172],
+        [67, 147, 195],
+        [146, 197, 222],
+        [209, 229, 240],
+        [247, 247, 247],
+        [253, 219, 199],
+        [244, 165, 130],
+        [214, 96, 77],
+        [178, 24, 43],
+        [103, 0, 31],
+    ],
+    np.float64,
+)
 
 
 def colour_scale_mm(d: np.ndarray) -> float:
@@ -31,8 +45,8 @@ def colour_scale_mm(d: np.ndarray) -> float:
     p95 = max(float(np.percentile(np.abs(d), 95)) * 1000.0, 1e-3)
     exponent = math.floor(math.log10(p95))
     for step in (1, 2, 5, 10):
-        if step * 10.0 ** exponent >= p95 * (1 - 1e-9):
-            return step * 10.0 ** exponent
+        if step * 10.0**exponent >= p95 * (1 - 1e-9):
+            return step * 10.0**exponent
     return 10.0 ** (exponent + 1)
 
 
@@ -53,7 +67,7 @@ def splat(image: np.ndarray, uv: np.ndarray, depth: np.ndarray, colours: np.ndar
     of the centres (``minimum.at``, no sort) and a (2r+1)^2 minimum filter of it. At 10 M points
     the former lexsort of the 9 x 10 M splatted pixels took a minute per image."""
     h, w = image.shape[:2]
-    size_h, size_w = h + 2 * radius, w + 2 * radius          # centres up to r outside still paint the edge
+    size_h, size_w = h + 2 * radius, w + 2 * radius  # centres up to r outside still paint the edge
     u = np.rint(uv[:, 0]).astype(np.int64) + radius
     v = np.rint(uv[:, 1]).astype(np.int64) + radius
     index = np.nonzero((u >= 0) & (u < size_w) & (v >= 0) & (v < size_h))[0]
@@ -62,14 +76,14 @@ def splat(image: np.ndarray, uv: np.ndarray, depth: np.ndarray, colours: np.ndar
     pix, z = v[index] * size_w + u[index], depth[index]
     nearest = np.full(size_h * size_w, np.inf)
     np.minimum.at(nearest, pix, z)
-    first = z == nearest[pix]                                   # the nearest of its pixel
-    winner = np.full(size_h * size_w, len(depth), np.int64)     # len(depth): no point
+    first = z == nearest[pix]  # the nearest of its pixel
+    winner = np.full(size_h * size_w, len(depth), np.int64)  # len(depth): no point
     np.minimum.at(winner, pix[first], index[first])
     nearest, winner = nearest.reshape(size_h, size_w), winner.reshape(size_h, size_w)
     top_z, top = np.full((h, w), np.inf), np.full((h, w), len(depth), np.int64)
     for dv in range(2 * radius + 1):
         for du in range(2 * radius + 1):
-            z, i = nearest[dv:dv + h, du:du + w], winner[dv:dv + h, du:du + w]
+            z, i = nearest[dv : dv + h, du : du + w], winner[dv : dv + h, du : du + w]
             better = (z < top_z) | ((z == top_z) & (i < top))
             top_z, top = np.where(better, z, top_z), np.where(better, i, top)
     drawn = top < len(depth)
@@ -84,21 +98,37 @@ def add_legend(image: np.ndarray, scale_mm: float, title: str = "signed distance
     panel = np.full((h, width, 3), BACKGROUND, np.uint8)
     top, bottom = int(h * 0.12), int(h * 0.9)
     bar_x0, bar_x1 = int(width * 0.12), int(width * 0.28)
-    values = np.linspace(1.0, -1.0, bottom - top) * scale_mm / 1000.0       # + at the top
+    values = np.linspace(1.0, -1.0, bottom - top) * scale_mm / 1000.0  # + at the top
     panel[top:bottom, bar_x0:bar_x1] = diverging_colours(values, scale_mm / 1000.0)[:, None, :]
     font_scale = max(0.35, h / 1400.0)
     thickness = max(1, int(round(font_scale * 1.6)))
-    cv2.putText(panel, title, (4, int(h * 0.06)), cv2.FONT_HERSHEY_SIMPLEX, font_scale * 0.8, (240, 240, 240),
-                thickness, cv2.LINE_AA)
+    cv2.putText(
+        panel,
+        title,
+        (4, int(h * 0.06)),
+        cv2.FONT_HERSHEY_SIMPLEX,
+        font_scale * 0.8,
+        (240, 240, 240),
+        thickness,
+        cv2.LINE_AA,
+    )
     for fraction in (1.0, 0.5, 0.0, -0.5, -1.0):
         y = int(round(top + (1.0 - fraction) / 2.0 * (bottom - top - 1)))
         value = fraction * scale_mm
         label = f"{value:+g}" if fraction else "0"
         if abs(fraction) == 1.0:
-            label = (">= " if fraction > 0 else "<= ") + label   # the map saturates there
+            label = (">= " if fraction > 0 else "<= ") + label  # the map saturates there
         cv2.line(panel, (bar_x1, y), (bar_x1 + 6, y), (240, 240, 240), 1)
-        cv2.putText(panel, label, (bar_x1 + 9, y + int(5 * font_scale / 0.5)), cv2.FONT_HERSHEY_SIMPLEX, font_scale,
-                    (240, 240, 240), thickness, cv2.LINE_AA)
+        cv2.putText(
+            panel,
+            label,
+            (bar_x1 + 9, y + int(5 * font_scale / 0.5)),
+            cv2.FONT_HERSHEY_SIMPLEX,
+            font_scale,
+            (240, 240, 240),
+            thickness,
+            cv2.LINE_AA,
+        )
     return np.hstack([image, panel])
 
 
@@ -119,7 +149,7 @@ def orthographic_image(points: np.ndarray, colours: np.ndarray, view: str, size:
 
 def project_to_shot(points: np.ndarray, camera):
     """Pixel positions (with lens distortion) and depths of the points in front of ``camera``."""
-    cam = points @ camera.R.T + camera.t                     # float64 throughout
+    cam = points @ camera.R.T + camera.t  # float64 throughout
     front = cam[:, 2] > 1e-6
     cam = cam[front]
     x, y = cam[:, 0] / cam[:, 2], cam[:, 1] / cam[:, 2]
@@ -159,5 +189,15 @@ def view_images(points: np.ndarray, colours: np.ndarray, scale_mm: float) -> dic
     return {name: add_legend(orthographic_image(points, colours, view), scale_mm) for view, name in VIEW_IMAGES.items()}
 
 
-__all__ = ["colour_scale_mm", "diverging_colours", "splat", "add_legend", "orthographic_image", "project_to_shot",
-           "shot_images", "view_images", "VIEW_IMAGES", "SHOT_IMAGES"]
+__all__ = [
+    "colour_scale_mm",
+    "diverging_colours",
+    "splat",
+    "add_legend",
+    "orthographic_image",
+    "project_to_shot",
+    "shot_images",
+    "view_images",
+    "VIEW_IMAGES",
+    "SHOT_IMAGES",
+]

@@ -18,22 +18,37 @@ Modules, in the order the data flows:
 
 from mrcheck.apps.discrepancies.command import DiscrepancyRun, discrepancies_command
 from mrcheck.apps.discrepancies.detector import (
-           Detection,
-           Marker,
-           Region,
-           Suspect,
-           detect,
+    Detection,
+    Marker,
+    Region,
+    Suspect,
+    detect,
 )
 from mrcheck.apps.discrepancies.evaluation import (
-           SAMPLE_CELL_FAR_VIEWS,
-           Evaluation,
-           evaluate,
-           synthetic_photo,
+    SAMPLE_CELL_FAR_VIEWS,
+    Evaluation,
+    evaluate,
+    synthetic_photo,
 )
 from mrcheck.apps.discrepancies.heatmap import heatmap
 from mrcheck.apps.discrepancies.ids import behind_ids, object_ids
 from mrcheck.apps.discrepancies.planned import PlannedView, planned_view
 
-__all__ = ["discrepancies_command", "DiscrepancyRun", "detect", "Detection", "Suspect", "Region", "Marker",
-           "evaluate", "Evaluation", "synthetic_photo", "SAMPLE_CELL_FAR_VIEWS", "heatmap", "object_ids",
-           "behind_ids", "planned_view", "PlannedView"]
+__all__ = [
+    "discrepancies_command",
+    "DiscrepancyRun",
+    "detect",
+    "Detection",
+    "Suspect",
+    "Region",
+    "Marker",
+    "evaluate",
+    "Evaluation",
+    "synthetic_photo",
+    "SAMPLE_CELL_FAR_VIEWS",
+    "heatmap",
+    "object_ids",
+    "behind_ids",
+    "planned_view",
+    "PlannedView",
+]

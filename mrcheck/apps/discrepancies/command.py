@@ -28,6 +28,7 @@ from mrcheck.apps.discrepancies.report import (
 from mrcheck.apps.discrepancies.thresholds import MAX_TOLERANCE_SHARE
 from mrcheck.core.camerafiles import load_shot, read_photo
 from mrcheck.core.errors import MrcheckError, MrcheckWarning
+from mrcheck.core.images import encode_image
 from mrcheck.core.output import (
     check_not_inputs,
     check_output_dir,
@@ -36,19 +37,20 @@ from mrcheck.core.output import (
     write_image,
     write_text,
 )
-from mrcheck.core.images import encode_image
 from mrcheck.scene.manifest import scene_files
 from mrcheck.scene.model import load_scene
 
-NOTHING_IN_VIEW = ("no CAD part is in view of this shot, so nothing was checked: a wrong pose, "
-                   "or the shot of another scene?")
+NOTHING_IN_VIEW = (
+    "no CAD part is in view of this shot, so nothing was checked: a wrong pose, or the shot of another scene?"
+)
 
 
 @dataclass(frozen=True)
 class DiscrepancyRun:
     """What ``mrcheck discrepancies`` found and wrote."""
+
     detection: Detection
-    paths: list[Path]       # heatmap.png, suspects.json, suspects.md
+    paths: list[Path]  # heatmap.png, suspects.json, suspects.md
 
     @property
     def summary(self) -> str:
@@ -61,8 +63,11 @@ def _check_tolerance_limit(tolerance_px, camera, shot) -> None:
     # tolerance near the image's size means nothing and costs gigabytes (10000 px: 48 GB)
     limit = MAX_TOLERANCE_SHARE * min(camera.width, camera.height)
     if tolerance_px is not None and tolerance_px > limit:
-        raise MrcheckError(f"tolerance must be at most {MAX_TOLERANCE_SHARE:.0%} of the photo's shorter side "
-                           f"({limit:g} px for {camera.width}x{camera.height}), got {tolerance_px:g}", shot)
+        raise MrcheckError(
+            f"tolerance must be at most {MAX_TOLERANCE_SHARE:.0%} of the photo's shorter side "
+            f"({limit:g} px for {camera.width}x{camera.height}), got {tolerance_px:g}",
+            shot,
+        )
 
 
 def discrepancies_command(shot, scene, tolerance_px=None, outdir=None) -> DiscrepancyRun:
@@ -73,9 +78,11 @@ def discrepancies_command(shot, scene, tolerance_px=None, outdir=None) -> Discre
     camera, photo_path = load_shot(shot)
     _check_tolerance_limit(tolerance_px, camera, shot)
     outdir = check_output_dir(outdir)
-    check_not_inputs([outdir / name for name in OUTPUT_NAMES],
-                     [("the shot", shot), ("the shot's photo", photo_path), ("the scene", scene_files(scene))])
-    photo = read_photo(photo_path, camera)      # missing, unreadable or wrong-size photo: exit 1
+    check_not_inputs(
+        [outdir / name for name in OUTPUT_NAMES],
+        [("the shot", shot), ("the shot's photo", photo_path), ("the scene", scene_files(scene))],
+    )
+    photo = read_photo(photo_path, camera)  # missing, unreadable or wrong-size photo: exit 1
     loaded = load_scene(scene, progress=True)
     detection = detect(loaded, camera, photo, tolerance_px)
     if not detection.suspects:  # "no suspects" would read as "all as planned"
@@ -84,10 +91,14 @@ def discrepancies_command(shot, scene, tolerance_px=None, outdir=None) -> Discre
         warnings.warn(MrcheckWarning(warning))
     image = heatmap(photo, detection)
     bcf = suspects_bcf(detection, loaded, camera, encode_image(HEATMAP, image), Path(shot).stem, outdir)
-    paths = write_all_or_none([lambda: write_image(outdir / HEATMAP, image),
-                               lambda: write_text(outdir / SUSPECTS_JSON, suspects_json(detection, shot, scene)),
-                               lambda: write_text(outdir / SUSPECTS_MD, markdown(detection, shot)),
-                               lambda: write_bytes(outdir / SUSPECTS_BCF, bcf)])
+    paths = write_all_or_none(
+        [
+            lambda: write_image(outdir / HEATMAP, image),
+            lambda: write_text(outdir / SUSPECTS_JSON, suspects_json(detection, shot, scene)),
+            lambda: write_text(outdir / SUSPECTS_MD, markdown(detection, shot)),
+            lambda: write_bytes(outdir / SUSPECTS_BCF, bcf),
+        ]
+    )
     return DiscrepancyRun(detection, list(paths))
 
 
@@ -95,9 +106,15 @@ def suspects_bcf(detection: Detection, scene, camera, snapshot_png: bytes, shot_
     """``suspects.bcfzip``: a topic per suggested marker (its part's IFC GlobalId where the scene
     has one), with the shot's camera and the heat map as snapshot; ids stable per output folder."""
     key = str(Path(outdir).resolve())
-    topics = [finding_topic(Finding(topic_guid("discrepancies", key, i), m.category, m.severity, m.note, m.part,
-                                    shot_name), scene, camera, snapshot_png)
-              for i, m in enumerate(detection.suggested_markers)]
+    topics = [
+        finding_topic(
+            Finding(topic_guid("discrepancies", key, i), m.category, m.severity, m.note, m.part, shot_name),
+            scene,
+            camera,
+            snapshot_png,
+        )
+        for i, m in enumerate(detection.suggested_markers)
+    ]
     return bcf_bytes(topics, project=scene.name)
 
 

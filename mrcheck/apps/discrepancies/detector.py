@@ -115,19 +115,20 @@ from mrcheck.scene.model import Scene
 @dataclass
 class Suspect:
     """One scored part instance (every instance with enough outline, suspect or not)."""
-    id: str                      # the instance id (Part.instance_ids)
-    part: str                    # the part's name
-    name: str                    # the instance id again, as the review's markers name it
-    score: float                 # 1 - support^2 / best shifted support (module docstring)
-    support: float               # share of the outline with an oriented photo edge, as planned
-    best_shift_support: float    # the same at the best shift
-    best_shift: list[int]        # [dx, dy] px of that shift
-    edge_pixels: int             # outline pixels scored
-    thin: bool                   # nowhere wider than 2 (T - 1) px: scored, never a suspect
-    discriminative_score: float | None   # the score on the discriminative outline (None: too few pixels)
+
+    id: str  # the instance id (Part.instance_ids)
+    part: str  # the part's name
+    name: str  # the instance id again, as the review's markers name it
+    score: float  # 1 - support^2 / best shifted support (module docstring)
+    support: float  # share of the outline with an oriented photo edge, as planned
+    best_shift_support: float  # the same at the best shift
+    best_shift: list[int]  # [dx, dy] px of that shift
+    edge_pixels: int  # outline pixels scored
+    thin: bool  # nowhere wider than 2 (T - 1) px: scored, never a suspect
+    discriminative_score: float | None  # the score on the discriminative outline (None: too few pixels)
     discriminative_pixels: int
-    bbox: list[int]              # [x0, y0, x1, y1] of the instance's visible pixels
-    centre: list[float]          # [x, y] of its unsupported outline (else of its pixels)
+    bbox: list[int]  # [x0, y0, x1, y1] of the instance's visible pixels
+    centre: list[float]  # [x, y] of its unsupported outline (else of its pixels)
     # edge_pixels, support, score: over the *expected* outline (shown as an edge by the planned render)
     suspect: bool
     # what the scene without the part shows inside its image (the edges of what it hides):
@@ -139,7 +140,7 @@ class Suspect:
 
     @property
     def element_label(self) -> str:
-        """" (IfcColumn column-A01, Ground floor)" for an imported element, else ""."""
+        """ " (IfcColumn column-A01, Ground floor)" for an imported element, else ""."""
         if not self.element:
             return ""
         what = " ".join(v for v in (self.element["ifc_class"], self.element["name"]) if v)
@@ -150,33 +151,36 @@ class Suspect:
 @dataclass
 class Region:
     """Photo structure no CAD edge explains (an added object, clutter)."""
-    bbox: list[int]              # [x0, y0, x1, y1]
+
+    bbox: list[int]  # [x0, y0, x1, y1]
     edge_pixels: int
 
 
 @dataclass
 class Marker:
     """A marker the review tool can import (``mrcheck review --suggestions``)."""
+
     x: float
     y: float
-    category: str                # moved, missing or extra
-    severity: int                # 1 .. 3
+    category: str  # moved, missing or extra
+    severity: int  # 1 .. 3
     note: str
-    part: str | None             # the suspect's instance id; None for a region
+    part: str | None  # the suspect's instance id; None for a region
 
 
 @dataclass
 class Detection:
     """What :func:`detect` found: the JSON-able findings and the arrays behind them."""
+
     tolerance_px: float
     threshold: float
-    suspects: list[Suspect]      # every scored instance, ranked by score (suspect True or not)
-    regions: list[Region]        # unexplained photo structure, largest first
+    suspects: list[Suspect]  # every scored instance, ranked by score (suspect True or not)
+    regions: list[Region]  # unexplained photo structure, largest first
     suggested_markers: list[Marker]
-    planned: PlannedView         # the planned view it was compared with (render, cad, ids, depth, labels)
-    supported: np.ndarray        # (H, W) bool CAD edge pixels with an oriented photo edge near
-    unexplained: np.ndarray      # (H, W) bool photo edge pixels far from every CAD edge
-    warnings: list[str] = field(default_factory=list)   # for the report (the command adds them)
+    planned: PlannedView  # the planned view it was compared with (render, cad, ids, depth, labels)
+    supported: np.ndarray  # (H, W) bool CAD edge pixels with an oriented photo edge near
+    unexplained: np.ndarray  # (H, W) bool photo edge pixels far from every CAD edge
+    warnings: list[str] = field(default_factory=list)  # for the report (the command adds them)
 
     @property
     def flagged(self) -> list[Suspect]:
@@ -185,20 +189,26 @@ class Detection:
 
     def to_dict(self) -> dict:
         """The JSON part, keys in the order of ``suspects.json``."""
-        return {"tolerance_px": self.tolerance_px, "threshold": self.threshold, "warnings": list(self.warnings),
-                "suspects": [asdict(s) for s in self.suspects], "regions": [asdict(r) for r in self.regions],
-                "suggested_markers": [asdict(m) for m in self.suggested_markers]}
+        return {
+            "tolerance_px": self.tolerance_px,
+            "threshold": self.threshold,
+            "warnings": list(self.warnings),
+            "suspects": [asdict(s) for s in self.suspects],
+            "regions": [asdict(r) for r in self.regions],
+            "suggested_markers": [asdict(m) for m in self.suggested_markers],
+        }
 
 
 @dataclass(frozen=True)
 class _Support:
     """The photo's oriented edges against the planned CAD edges, shared by every instance."""
-    edges: np.ndarray       # (H, W) bool photo edges
-    cad_bins: np.ndarray    # (H, W) orientation bin of the CAD edges' normals
-    supported: np.ndarray   # (H, W) bool CAD edges with an oriented photo edge within the tolerance
-    padded: np.ndarray      # the oriented support maps padded by radius
-    radius: int             # px the shifted outlines reach
-    expected: np.ndarray | None = None   # (H, W) bool outline pixels the planned render itself shows as an edge
+
+    edges: np.ndarray  # (H, W) bool photo edges
+    cad_bins: np.ndarray  # (H, W) orientation bin of the CAD edges' normals
+    supported: np.ndarray  # (H, W) bool CAD edges with an oriented photo edge within the tolerance
+    padded: np.ndarray  # the oriented support maps padded by radius
+    radius: int  # px the shifted outlines reach
+    expected: np.ndarray | None = None  # (H, W) bool outline pixels the planned render itself shows as an edge
 
 
 def _support(photo: np.ndarray, cad: np.ndarray, tol: float, high: float | None = None) -> _Support:
@@ -273,19 +283,32 @@ def _suspect(planned: PlannedView, index: int, sup: _Support, tol: float, thresh
     score, support, best, (dy, dx) = _shift_score(mask, sup)
     disc_score, disc_n = _discriminative_score(planned, index, sup)
     rev_support, rev_n = _revealed_support(planned, index, sup)
-    flagged = (score >= threshold or (disc_score is not None and disc_score >= DISCRIMINATIVE_THRESHOLD
-                                      and score >= DISCRIMINATIVE_FLOOR))
+    flagged = score >= threshold or (
+        disc_score is not None and disc_score >= DISCRIMINATIVE_THRESHOLD and score >= DISCRIMINATIVE_FLOOR
+    )
     ys, xs = np.nonzero(inside)
     bad_y, bad_x = np.nonzero(mask & ~sup.supported)
     cy, cx = (bad_y.mean(), bad_x.mean()) if len(bad_y) else (ys.mean(), xs.mean())
     part, name = planned.labels[index]
     r = sup.radius
-    return Suspect(id=name, part=part, name=name, score=round(score, 4), support=round(support, 4),
-                   best_shift_support=round(best, 4), best_shift=[int(dx) - r, int(dy) - r], edge_pixels=n,
-                   thin=thin, discriminative_score=None if disc_score is None else round(disc_score, 4),
-                   discriminative_pixels=disc_n, bbox=[int(xs.min()), int(ys.min()), int(xs.max()), int(ys.max())],
-                   centre=[round(float(cx), 1), round(float(cy), 1)], suspect=bool(flagged and not thin),
-                   revealed_pixels=rev_n, revealed_support=None if rev_support is None else round(rev_support, 4))
+    return Suspect(
+        id=name,
+        part=part,
+        name=name,
+        score=round(score, 4),
+        support=round(support, 4),
+        best_shift_support=round(best, 4),
+        best_shift=[int(dx) - r, int(dy) - r],
+        edge_pixels=n,
+        thin=thin,
+        discriminative_score=None if disc_score is None else round(disc_score, 4),
+        discriminative_pixels=disc_n,
+        bbox=[int(xs.min()), int(ys.min()), int(xs.max()), int(ys.max())],
+        centre=[round(float(cx), 1), round(float(cy), 1)],
+        suspect=bool(flagged and not thin),
+        revealed_pixels=rev_n,
+        revealed_support=None if rev_support is None else round(rev_support, 4),
+    )
 
 
 def _regions(edges: np.ndarray, planned: PlannedView, tol: float) -> tuple[list[Region], np.ndarray]:
@@ -302,7 +325,7 @@ def _regions(edges: np.ndarray, planned: PlannedView, tol: float) -> tuple[list[
     counts = np.bincount(comp[unexplained], minlength=count)
     texture = counts == np.bincount(comp[unexplained & on_face], minlength=count)
     texture[0] = False
-    unexplained &= ~texture[comp]      # texture is not shown as unexplained either
+    unexplained &= ~texture[comp]  # texture is not shown as unexplained either
     regions = []
     for c in np.nonzero((counts >= MIN_REGION_PIXELS) & ~texture)[0]:
         pixels = int(counts[c])
@@ -318,7 +341,7 @@ def _on_part(planned: PlannedView, s: Suspect) -> tuple[float, float]:
     point (and pick, in the review) at that instead."""
     index = next(i for i, (_, name) in enumerate(planned.labels) if name == s.id)
     x0, y0, x1, y1 = s.bbox
-    ys, xs = np.nonzero(planned.ids[y0:y1 + 1, x0:x1 + 1] == index)
+    ys, xs = np.nonzero(planned.ids[y0 : y1 + 1, x0 : x1 + 1] == index)
     k = int(np.argmin((xs + x0 - s.centre[0]) ** 2 + (ys + y0 - s.centre[1]) ** 2))
     return float(xs[k] + x0), float(ys[k] + y0)
 
@@ -332,18 +355,39 @@ def _markers(suspects: list[Suspect], regions: list[Region], planned: PlannedVie
             continue
         category = "missing" if s.support < 0.15 else "moved"
         severity = 3 if s.score >= 0.8 else 2 if s.score >= 0.65 else 1
-        markers.append(Marker(*_on_part(planned, s), category, severity,
-                              f"{s.name}: {100 * s.support:.0f} % of its CAD outline found in the photo", s.id))
+        markers.append(
+            Marker(
+                *_on_part(planned, s),
+                category,
+                severity,
+                f"{s.name}: {100 * s.support:.0f} % of its CAD outline found in the photo",
+                s.id,
+            )
+        )
     for r in regions:
         x0, y0, x1, y1 = r.bbox
-        markers.append(Marker(round((x0 + x1) / 2, 1), round((y0 + y1) / 2, 1), "extra",
-                              2 if r.edge_pixels >= 4 * MIN_REGION_PIXELS else 1,
-                              f"photo structure no CAD part explains ({r.edge_pixels} edge px)", None))
+        markers.append(
+            Marker(
+                round((x0 + x1) / 2, 1),
+                round((y0 + y1) / 2, 1),
+                "extra",
+                2 if r.edge_pixels >= 4 * MIN_REGION_PIXELS else 1,
+                f"photo structure no CAD part explains ({r.edge_pixels} edge px)",
+                None,
+            )
+        )
     return markers
 
 
-def detect(scene: Scene, camera: Camera, photo: np.ndarray, tolerance_px: float | None = None, renderer=None,
-           threshold: float = None, planned: PlannedView | None = None) -> Detection:
+def detect(
+    scene: Scene,
+    camera: Camera,
+    photo: np.ndarray,
+    tolerance_px: float | None = None,
+    renderer=None,
+    threshold: float = None,
+    planned: PlannedView | None = None,
+) -> Detection:
     """Compare the planned ``scene`` seen by ``camera`` with ``photo``; the reusable core.
 
     ``planned`` is :func:`planned_view` of scene and camera
@@ -356,16 +400,20 @@ def detect(scene: Scene, camera: Camera, photo: np.ndarray, tolerance_px: float 
     tol = default_tolerance(camera) if tolerance_px is None else float(tolerance_px)
     threshold = SCORE_THRESHOLD if threshold is None else float(threshold)
     planned = planned_view(scene, camera, renderer) if planned is None else planned
-    high = edge_threshold(photo)     # Canny's threshold of the photo, for its edges and the expected outline's
+    high = edge_threshold(photo)  # Canny's threshold of the photo, for its edges and the expected outline's
     sup = replace(_support(photo, planned.cad, tol, high), expected=expected_outline(planned, photo, tol, high))
     owner = planned.owner
-    suspects = [s for index in np.unique(owner[owner >= 0])
-                if (s := _suspect(planned, int(index), sup, tol, threshold)) is not None]
+    suspects = [
+        s
+        for index in np.unique(owner[owner >= 0])
+        if (s := _suspect(planned, int(index), sup, tol, threshold)) is not None
+    ]
     suspects.sort(key=lambda s: (-s.score, s.id))
     _add_elements(scene, suspects)
     regions, unexplained = _regions(sup.edges, planned, tol)
-    return Detection(tol, threshold, suspects, regions, _markers(suspects, regions, planned), planned, sup.supported,
-                     unexplained)
+    return Detection(
+        tol, threshold, suspects, regions, _markers(suspects, regions, planned), planned, sup.supported, unexplained
+    )
 
 
 def expected_outline(planned: PlannedView, photo: np.ndarray, tol: float, high: float | None = None) -> np.ndarray:
@@ -387,8 +435,12 @@ def expected_outline(planned: PlannedView, photo: np.ndarray, tol: float, high: 
 
 def _add_elements(scene: Scene, suspects: list[Suspect]) -> None:
     """Each suspect's imported element (name, IFC class, storey), where the scene knows one."""
-    known = {iid: info for part in scene.parts for iid, info in zip(part.instance_ids, part.instance_info)
-             if info.name or info.ifc_class or info.storey}
+    known = {
+        iid: info
+        for part in scene.parts
+        for iid, info in zip(part.instance_ids, part.instance_info)
+        if info.name or info.ifc_class or info.storey
+    }
     for suspect in suspects:
         info = known.get(suspect.id)
         if info is not None:

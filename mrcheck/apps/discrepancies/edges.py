@@ -18,10 +18,10 @@ import numpy as np
 
 from mrcheck.apps.discrepancies.ids import BACKGROUND
 
-SILHOUETTE_STEP = 0.05    # relative depth jump that makes an outline (creases are not used for support)
-FLOOR_FACTOR = 4.0        # Canny's high threshold over the median gradient (the noise floor)
+SILHOUETTE_STEP = 0.05  # relative depth jump that makes an outline (creases are not used for support)
+FLOOR_FACTOR = 4.0  # Canny's high threshold over the median gradient (the noise floor)
 NOISE_FLOOR_SIGMAS = 3.0  # ... which is at most this many measured noise sigmas (see photo_edges)
-ORIENTATION_BINS = 8      # of edge normal directions over 180 degrees
+ORIENTATION_BINS = 8  # of edge normal directions over 180 degrees
 
 
 def photo_edges(photo: np.ndarray, high: float | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -107,7 +107,7 @@ def shifted_support(mask: np.ndarray, bins: np.ndarray, padded: np.ndarray, radi
     total = np.zeros((2 * radius + 1, 2 * radius + 1), np.float32)
     for k in np.unique(bins[ys, xs]):
         template = (mask[y0:y1, x0:x1] & (bins[y0:y1, x0:x1] == k)).astype(np.float32)
-        window = padded[k, y0:y1 + 2 * radius, x0:x1 + 2 * radius].astype(np.float32)
+        window = padded[k, y0 : y1 + 2 * radius, x0 : x1 + 2 * radius].astype(np.float32)
         total += cv2.matchTemplate(window, template, cv2.TM_CCORR)
     return total / len(ys)
 
@@ -122,10 +122,10 @@ def cad_edge_owner(ids: np.ndarray, depth: np.ndarray, edges: np.ndarray) -> np.
     best_d, best_i = far.copy(), ids.copy()
     for dy in (0, 1, 2):
         for dx in (0, 1, 2):
-            d = pd[dy:dy + h, dx:dx + w]
+            d = pd[dy : dy + h, dx : dx + w]
             closer = d < best_d
             best_d = np.where(closer, d, best_d)
-            best_i = np.where(closer, pi[dy:dy + h, dx:dx + w], best_i)
+            best_i = np.where(closer, pi[dy : dy + h, dx : dx + w], best_i)
     return np.where(edges, best_i, BACKGROUND).astype(np.int32)
 
 
@@ -144,5 +144,15 @@ def silhouettes(ids: np.ndarray, depth: np.ndarray, step: float = SILHOUETTE_STE
     return out
 
 
-__all__ = ["photo_edges", "edge_threshold", "outline_normals", "orientation_bin", "oriented_support", "shifted_support",
-           "cad_edge_owner", "silhouettes", "SILHOUETTE_STEP", "ORIENTATION_BINS"]
+__all__ = [
+    "photo_edges",
+    "edge_threshold",
+    "outline_normals",
+    "orientation_bin",
+    "oriented_support",
+    "shifted_support",
+    "cad_edge_owner",
+    "silhouettes",
+    "SILHOUETTE_STEP",
+    "ORIENTATION_BINS",
+]

@@ -7,7 +7,8 @@ the "photo" is the as-built scene rendered with the ``sun`` light (the planned r
 headlight), distorted by a k1 lens through the overlay's mapping, blurred (Gaussian sigma
 0.7 px) and with Gaussian noise (sigma 4 grey levels). Detection runs against the planned scene
 with that exact camera. A ground-truth discrepancy is *in view* when its instance covers at
-least :data:`~mrcheck.apps.discrepancies.thresholds.MIN_EDGE_PIXELS` visible CAD edge pixels in the planned scene (moved, rotated,
+least :data:`~mrcheck.apps.discrepancies.thresholds.MIN_EDGE_PIXELS` visible CAD edge pixels in the planned scene
+(moved, rotated,
 missing, replaced) or, for "added", at least :data:`ADDED_MIN_PIXELS` (50) pixels of the as-built id buffer. It is
 *found* when its id is among the suspects (either rule); an added one when an
 unexplained region's box overlaps the added instance's box in the as-built id buffer.
@@ -32,7 +33,8 @@ those parts have no pixels left at 640x480, and the one with background edges in
 in front of a fence, 17 px) showed them as well when it was in place. Still missed (held out):
 the machine seen only through the mesh fence (discriminative score 0.55-0.73), a bollard whose
 outline the scene behind it explains almost entirely (10 discriminative pixels, below
-:data:`~mrcheck.apps.discrepancies.thresholds.MIN_EDGE_PIXELS`), a workbench moved 2 m (0.12) and a bollard at 18 m moved 5 px (0.51).
+:data:`~mrcheck.apps.discrepancies.thresholds.MIN_EDGE_PIXELS`), a workbench moved 2 m (0.12) and a bollard at 18 m
+moved 5 px (0.51).
 
 Reproduce (seeds 0-9 chose the threshold; 10-19 are the held-out figures in docs/discrepancy-evaluation.md)::
 
@@ -65,7 +67,7 @@ from mrcheck.scene.model import Scene, load_scene
 # missing, added, replaced), the per_kind row TARGET
 TARGET = "target (moved >=0.2 m, missing, added, replaced)"
 TARGET_KINDS = ("missing", "added", "replaced")
-ADDED_MIN_PIXELS = 50     # an added object in view covers at least this many as-built id pixels
+ADDED_MIN_PIXELS = 50  # an added object in view covers at least this many as-built id pixels
 # cameras the sample cell does not define, put where most changes lie 10-20 m away (pulled back
 # behind the overview, and from the two far corners of the hall)
 SAMPLE_CELL_FAR_VIEWS = (
@@ -75,8 +77,9 @@ SAMPLE_CELL_FAR_VIEWS = (
 )
 
 
-def synthetic_photo(scene: Scene, camera: Camera, renderer=None, seed: int = 0, noise: float = 4.0,
-                    blur_sigma: float = 0.7) -> np.ndarray:
+def synthetic_photo(
+    scene: Scene, camera: Camera, renderer=None, seed: int = 0, noise: float = 4.0, blur_sigma: float = 0.7
+) -> np.ndarray:
     """The as-built "photo": sun light, the camera's lens distortion, blur and noise."""
     own = renderer is None
     renderer = Renderer(scene) if own else renderer
@@ -96,20 +99,22 @@ def synthetic_photo(scene: Scene, camera: Camera, renderer=None, seed: int = 0, 
 @dataclass
 class TruthItem:
     """A ground-truth discrepancy in view, and whether the detector found it."""
+
     id: str
     kind: str
     magnitude: float
-    distance: float     # median camera depth of its pixels, m
+    distance: float  # median camera depth of its pixels, m
     found: bool
 
 
 @dataclass
 class Case:
     """One as-built seed seen from one view."""
+
     seed: int
     view: str
     truth: list[TruthItem]
-    suspects: list[tuple[str, float]]   # (id, score) of the suspects proper
+    suspects: list[tuple[str, float]]  # (id, score) of the suspects proper
     regions: int
 
 
@@ -119,6 +124,7 @@ class Evaluation:
     ``recall``, ``precision``, ``precision_counting_explained``, the counts, ``per_kind``
     (``{key: {found, in_view, recall}}`` by kind, band and distance) and
     ``false_suspects_planned`` (per view, suspects + regions with the planned scene as photo)."""
+
     summary: dict
     cases: list[Case]
 
@@ -144,8 +150,10 @@ def _distance_band(depth: float) -> str:
 def _tally_keys(d, depth: float) -> list[str]:
     """Every row of ``per_kind`` a truth item counts in."""
     # dict.fromkeys: for missing and added the band is the kind itself (count once)
-    keys = list(dict.fromkeys([d["kind"], _band(d), "all", _distance_band(depth), f"{d['kind']} {_distance_band(depth)}"]))
-    if d["kind"] == "moved" and d["magnitude"] >= 0.2:   # the issue's target
+    keys = list(
+        dict.fromkeys([d["kind"], _band(d), "all", _distance_band(depth), f"{d['kind']} {_distance_band(depth)}"])
+    )
+    if d["kind"] == "moved" and d["magnitude"] >= 0.2:  # the issue's target
         keys += ["moved >=0.2 m", f"moved >=0.2 m {_distance_band(depth)}"]
     if d["kind"] in TARGET_KINDS or (d["kind"] == "moved" and d["magnitude"] >= 0.2):
         keys.append(TARGET)
@@ -159,8 +167,9 @@ def _view_camera(scene: Scene, view, width: int, height: int, k1: float) -> tupl
         name, cam = view, scene.camera(view, width, height)
     else:
         name = view["name"]
-        cam = Camera.from_look_at(view["eye"], view["target"], view.get("up", (0, 0, 1)), view.get("fov_y_deg", 60.0),
-                                  width, height)
+        cam = Camera.from_look_at(
+            view["eye"], view["target"], view.get("up", (0, 0, 1)), view.get("fov_y_deg", 60.0), width, height
+        )
     return name, Camera(cam.width, cam.height, cam.K, cam.R, cam.t, np.array([k1, 0.0, 0.0, 0.0]))
 
 
@@ -175,6 +184,7 @@ def _ratio(a, b):
 @dataclass
 class _Tally:
     """Running counts over every case: per key [found, in view]; suspects judged."""
+
     counts: dict = field(default_factory=dict)
     tp: int = 0
     fp: int = 0
@@ -208,8 +218,12 @@ class _Tally:
             "recall": _ratio(*self.counts.get("all", [0, 0])),
             "precision": _ratio(tp, tp + fp),
             "precision_counting_explained": _ratio(tp + explained, tp + fp + explained),
-            "true_positives": tp, "false_positives": fp, "explained_neighbours": explained,
-            "per_kind": {k: {"found": v[0], "in_view": v[1], "recall": _ratio(*v)} for k, v in sorted(self.counts.items())},
+            "true_positives": tp,
+            "false_positives": fp,
+            "explained_neighbours": explained,
+            "per_kind": {
+                k: {"found": v[0], "in_view": v[1], "recall": _ratio(*v)} for k, v in sorted(self.counts.items())
+            },
             "false_suspects_planned": planned_false,
         }
 
@@ -227,7 +241,7 @@ def _truth_seen(d, detection: Detection, built) -> tuple[list, bool, float] | No
         return box, any(_overlap(box, r.bbox) for r in detection.regions), float(np.median(bdepth[ys, xs]))
     scored = {s.id: s for s in detection.suspects}
     if d["id"] not in scored:
-        return None      # out of view, hidden, or too small to judge
+        return None  # out of view, hidden, or too small to judge
     planned = detection.planned
     index = {lab[1]: i for i, lab in enumerate(planned.labels)}[d["id"]]
     return scored[d["id"]].bbox, scored[d["id"]].suspect, float(np.median(planned.depth[planned.ids == index]))
@@ -248,8 +262,17 @@ def _case(seed: int, view: str, detection: Detection, truth: list, built, tally:
     return Case(seed, view, found, [(s.id, s.score) for s in detection.flagged], len(detection.regions))
 
 
-def _seed_cases(planned_path: Path, seed: int, root: Path, scene: Scene, cameras: dict, views: dict, ctx,
-                tolerance_px, tally: _Tally) -> list[Case]:
+def _seed_cases(
+    planned_path: Path,
+    seed: int,
+    root: Path,
+    scene: Scene,
+    cameras: dict,
+    views: dict,
+    ctx,
+    tolerance_px,
+    tally: _Tally,
+) -> list[Case]:
     """Make the as-built variant of ``seed``, photograph it from every view and judge each."""
     from mrcheck.scene.asbuilt import make_asbuilt
 
@@ -269,8 +292,17 @@ def _seed_cases(planned_path: Path, seed: int, root: Path, scene: Scene, cameras
         renderer.release()
 
 
-def evaluate(planned, seeds=(0, 1, 2), views=("overview", "conveyor"), width=640, height=480, k1=-0.12,
-             workdir=None, ctx=None, tolerance_px=None) -> Evaluation:
+def evaluate(
+    planned,
+    seeds=(0, 1, 2),
+    views=("overview", "conveyor"),
+    width=640,
+    height=480,
+    k1=-0.12,
+    workdir=None,
+    ctx=None,
+    tolerance_px=None,
+) -> Evaluation:
     """Precision / recall of the detector on as-built variants (protocol: module docstring).
 
     ``views``: viewpoint names or look-at dicts (:data:`SAMPLE_CELL_FAR_VIEWS`); ``workdir``:
@@ -288,8 +320,9 @@ def evaluate(planned, seeds=(0, 1, 2), views=("overview", "conveyor"), width=640
         planned_views = {view: planned_view(scene, camera, renderer) for view, camera in cameras.items()}
         planned_false = []
         for view, camera in cameras.items():
-            detection = detect(scene, camera, synthetic_photo(scene, camera, renderer), tolerance_px,
-                               planned=planned_views[view])
+            detection = detect(
+                scene, camera, synthetic_photo(scene, camera, renderer), tolerance_px, planned=planned_views[view]
+            )
             planned_false.append(len(detection.flagged) + len(detection.regions))
         for seed in seeds:
             cases += _seed_cases(planned, seed, root, scene, cameras, planned_views, ctx, tolerance_px, tally)

@@ -15,8 +15,12 @@ from mrcheck.mr.overlay import blend
 
 # colours of the heat map (RGB) and what they mean, drawn as a legend under it
 FOUND, NOT_FOUND, UNEXPLAINED, SUSPECT = (0, 200, 0), (255, 0, 0), (0, 255, 255), (255, 255, 0)
-LEGEND = ((FOUND, "CAD edge found"), (NOT_FOUND, "CAD edge not found"), (UNEXPLAINED, "photo edge, no CAD"),
-          (SUSPECT, "suspect"))
+LEGEND = (
+    (FOUND, "CAD edge found"),
+    (NOT_FOUND, "CAD edge not found"),
+    (UNEXPLAINED, "photo edge, no CAD"),
+    (SUSPECT, "suspect"),
+)
 
 
 def heatmap(photo: np.ndarray, detection: Detection) -> np.ndarray:
@@ -41,9 +45,9 @@ def _legend(width: int) -> np.ndarray:
     one row when the photo is wide enough for legible text, else two or four."""
     font, thickness = cv2.FONT_HERSHEY_SIMPLEX, 1
     for per_row in (4, 2, 1):
-        rows = [LEGEND[i:i + per_row] for i in range(0, len(LEGEND), per_row)]
+        rows = [LEGEND[i : i + per_row] for i in range(0, len(LEGEND), per_row)]
         need = max(sum(cv2.getTextSize(label, font, 1.0, thickness)[0][0] + 44 for _, label in row) for row in rows)
-        scale = min(0.5, 0.95 * width / need)   # 44 px: swatch and gaps at scale 1
+        scale = min(0.5, 0.95 * width / need)  # 44 px: swatch and gaps at scale 1
         if scale >= 0.35:
             break
     line = max(10, int(36 * scale))

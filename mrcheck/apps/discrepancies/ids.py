@@ -18,8 +18,8 @@ from mrcheck.eval.raycast import NO_HIT, build_caster, instance_labels
 from mrcheck.mr.lens import distortion_map
 from mrcheck.scene.model import Scene
 
-BACKGROUND = NO_HIT        # the id of a pixel that sees no part
-BEHIND_PASSES = 10         # ray casts per pixel at most to get behind its first instance
+BACKGROUND = NO_HIT  # the id of a pixel that sees no part
+BEHIND_PASSES = 10  # ray casts per pixel at most to get behind its first instance
 
 
 def undistorted_pixels(camera: Camera, maps=None) -> tuple[np.ndarray, np.ndarray]:
@@ -28,7 +28,7 @@ def undistorted_pixels(camera: Camera, maps=None) -> tuple[np.ndarray, np.ndarra
     if maps is None:
         maps = distortion_map(camera)
     if maps is None:
-        v, u = np.mgrid[0:camera.height, 0:camera.width].astype(np.float64)
+        v, u = np.mgrid[0 : camera.height, 0 : camera.width].astype(np.float64)
         return u, v
     return maps[0].astype(np.float64), maps[1].astype(np.float64)
 
@@ -50,19 +50,26 @@ def object_ids(scene: Scene, camera: Camera, maps=None, caster=None):
     depth = np.zeros((h, w), np.float32)
     if caster is None:
         caster = build_caster(scene, camera.center)
-    if caster is None:   # an empty scene
+    if caster is None:  # an empty scene
         return ids, depth, labels
     d_cam = np.stack(((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, np.ones_like(u)), -1)[valid]
     rays = np.zeros((len(d_cam), 6), np.float32)
-    rays[:, 3:] = d_cam @ camera.R          # world orientation, origin at the camera centre
+    rays[:, 3:] = d_cam @ camera.R  # world orientation, origin at the camera centre
     hits = caster.cast(rays)
     ids[valid] = hits.instance.astype(np.int32)
     depth[valid] = np.where(hits.hit, hits.t, 0.0).astype(np.float32)
     return ids, depth, labels
 
 
-def behind_ids(scene: Scene, camera: Camera, ids: np.ndarray, depth: np.ndarray, maps=None,
-               passes: int = BEHIND_PASSES, caster=None):
+def behind_ids(
+    scene: Scene,
+    camera: Camera,
+    ids: np.ndarray,
+    depth: np.ndarray,
+    maps=None,
+    passes: int = BEHIND_PASSES,
+    caster=None,
+):
     """What the planned scene shows at each pixel *without* the pixel's own instance: ``(ids,
     depth)`` of the nearest hit of another instance behind it (-1 / 0 = nothing, or not found in
     ``passes`` casts). Each pass re-casts the rays still inside their first instance from just
@@ -77,8 +84,10 @@ def behind_ids(scene: Scene, camera: Camera, ids: np.ndarray, depth: np.ndarray,
     yy, xx = np.nonzero(ids >= 0)
     if caster is None or len(yy) == 0:
         return out_ids, out_depth
-    dirs = np.stack(((u[yy, xx] - camera.cx) / camera.fx, (v[yy, xx] - camera.cy) / camera.fy, np.ones(len(yy))),
-                    -1) @ camera.R
+    dirs = (
+        np.stack(((u[yy, xx] - camera.cx) / camera.fx, (v[yy, xx] - camera.cy) / camera.fy, np.ones(len(yy))), -1)
+        @ camera.R
+    )
     first = ids[yy, xx]
     t = depth[yy, xx].astype(np.float64)
     found_id = np.full(len(yy), BACKGROUND, np.int32)
@@ -87,7 +96,7 @@ def behind_ids(scene: Scene, camera: Camera, ids: np.ndarray, depth: np.ndarray,
     for _ in range(passes):
         if len(active) == 0:
             break
-        step = 1e-3 + 1e-4 * t[active]          # just behind the last hit (t is depth: the ray's z is 1)
+        step = 1e-3 + 1e-4 * t[active]  # just behind the last hit (t is depth: the ray's z is 1)
         rays = np.concatenate((dirs[active] * (t[active] + step)[:, None], dirs[active]), 1).astype(np.float32)
         hits = caster.cast(rays)
         t_new = t[active] + step + np.where(hits.hit, hits.t.astype(np.float64), 0.0)

@@ -24,9 +24,9 @@ import numpy as np
 
 from mrcheck.render.antialias import linear_to_srgb, srgb_to_linear
 
-LIGHT_DIRECTIONS = 400     # directions tried, spread evenly over the sphere (about 10 degrees apart)
-FIT_PIXELS = 20000         # surface pixels the fit uses at most (a fixed, even subsample)
-EDGE_CLEARANCE = 3         # px a fitted pixel keeps from every CAD edge (mixed surfaces there)
+LIGHT_DIRECTIONS = 400  # directions tried, spread evenly over the sphere (about 10 degrees apart)
+FIT_PIXELS = 20000  # surface pixels the fit uses at most (a fixed, even subsample)
+EDGE_CLEARANCE = 3  # px a fitted pixel keeps from every CAD edge (mixed surfaces there)
 # direct light at most this many times the ambient: a view of mostly one orientation (a floor) is
 # fitted as well by a light grazing it with a huge weight (6.3 times the ambient in the sample
 # cell's overview at 320x240, 63 degrees off the sun); the renderer's own ratio is 0.75
@@ -36,17 +36,18 @@ MAX_DIRECT = 2.0
 @dataclass(frozen=True)
 class Light:
     """A directional light in the renderer's model: colour = albedo * (ambient + diffuse * max(n . l, 0))."""
-    direction: np.ndarray   # (3,) unit, camera space (OpenCV axes), towards the light
+
+    direction: np.ndarray  # (3,) unit, camera space (OpenCV axes), towards the light
     ambient: float
     diffuse: float
-    residual: float         # rms of the fit, in units of albedo
+    residual: float  # rms of the fit, in units of albedo
 
 
 def _directions(n: int) -> np.ndarray:
     """(n, 3) unit vectors evenly spread over the sphere (a Fibonacci lattice)."""
     k = np.arange(n) + 0.5
     z = 1.0 - 2.0 * k / n
-    phi = np.pi * (1.0 + 5.0 ** 0.5) * k
+    phi = np.pi * (1.0 + 5.0**0.5) * k
     r = np.sqrt(1.0 - z * z)
     return np.stack((r * np.cos(phi), r * np.sin(phi), z), -1)
 
@@ -58,11 +59,12 @@ def _fit_pixels(photo: np.ndarray, ids: np.ndarray, cad: np.ndarray, normals: np
     near_edge = cv2.dilate(cad.astype(np.uint8), np.ones((k, k), np.uint8)) > 0
     usable = (ids >= 0) & ~near_edge & (np.abs(normals).sum(-1) > 0.5) & (photo.max(-1) < 255)
     flat = np.flatnonzero(usable)
-    return flat[::max(1, len(flat) // FIT_PIXELS)]
+    return flat[:: max(1, len(flat) // FIT_PIXELS)]
 
 
-def estimate_light(photo: np.ndarray, albedo: np.ndarray, normals: np.ndarray, ids: np.ndarray,
-                   cad: np.ndarray) -> Light | None:
+def estimate_light(
+    photo: np.ndarray, albedo: np.ndarray, normals: np.ndarray, ids: np.ndarray, cad: np.ndarray
+) -> Light | None:
     """The light that best explains ``photo`` (uint8 sRGB) given the planned per-pixel linear
     ``albedo`` and camera-space ``normals``; None when too few surface pixels are clear of edges."""
     flat = _fit_pixels(photo, ids, cad, normals)
@@ -72,7 +74,7 @@ def estimate_light(photo: np.ndarray, albedo: np.ndarray, normals: np.ndarray, i
     a = albedo.reshape(-1, 3)[flat].sum(-1)
     n = normals.reshape(-1, 3)[flat]
     keep = a > 1e-3
-    q, n, w = seen[keep] / a[keep], n[keep], a[keep]   # shading; weighted by albedo (dark parts are noisy)
+    q, n, w = seen[keep] / a[keep], n[keep], a[keep]  # shading; weighted by albedo (dark parts are noisy)
     directions = _directions(LIGHT_DIRECTIONS)
     ambient, diffuse, rms = _fit_all(q, w, np.maximum(n @ directions.T, 0.0))
     # darkening what it faces is no light either; bright beyond MAX_DIRECT is a grazing floor fit
@@ -98,11 +100,12 @@ def _fit_all(q: np.ndarray, w: np.ndarray, d: np.ndarray) -> tuple:
     det = s11 * s22 - s12 * s12
     solvable = det > 1e-12 * s11 * np.maximum(s22, 1e-300)
     safe = np.where(solvable, det, 1.0)
-    level, d0 = b1 / s11, s12 / s11            # the singular case: q ~ level, d = d0 throughout
+    level, d0 = b1 / s11, s12 / s11  # the singular case: q ~ level, d = d0 throughout
     ambient = np.where(solvable, (b1 * s22 - b2 * s12) / safe, level / (1.0 + d0 * d0))
     diffuse = np.where(solvable, (s11 * b2 - s12 * b1) / safe, level * d0 / (1.0 + d0 * d0))
-    residual = yy - 2.0 * (ambient * b1 + diffuse * b2) + ambient ** 2 * s11 + 2.0 * ambient * diffuse * s12 \
-        + diffuse ** 2 * s22
+    residual = (
+        yy - 2.0 * (ambient * b1 + diffuse * b2) + ambient**2 * s11 + 2.0 * ambient * diffuse * s12 + diffuse**2 * s22
+    )
     rms = np.sqrt(np.maximum(residual, 0.0) / len(q) / np.mean(w2))
     return ambient, diffuse, rms
 
@@ -122,5 +125,13 @@ def relit(render: np.ndarray, normals: np.ndarray, render_light: Light, photo_li
     return np.where((np.abs(normals).sum(-1) > 0.5)[..., None], out, render)
 
 
-__all__ = ["Light", "estimate_light", "relit", "shading", "LIGHT_DIRECTIONS", "FIT_PIXELS", "EDGE_CLEARANCE",
-           "MAX_DIRECT"]
+__all__ = [
+    "Light",
+    "estimate_light",
+    "relit",
+    "shading",
+    "LIGHT_DIRECTIONS",
+    "FIT_PIXELS",
+    "EDGE_CLEARANCE",
+    "MAX_DIRECT",
+]

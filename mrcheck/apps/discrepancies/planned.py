@@ -46,8 +46,9 @@ from mrcheck.scene.model import Scene
 @dataclass(frozen=True)
 class BoxMask:
     """A mask given only inside a box of the image (most of an outline's image is empty)."""
-    box: tuple[int, int, int, int]   # y0, y1, x0, x1
-    mask: np.ndarray                 # (y1 - y0, x1 - x0) bool
+
+    box: tuple[int, int, int, int]  # y0, y1, x0, x1
+    mask: np.ndarray  # (y1 - y0, x1 - x0) bool
 
     def full(self, shape) -> np.ndarray:
         """The mask in the whole image of ``shape`` (False outside the box)."""
@@ -62,8 +63,9 @@ class Revealed:
     """The CAD edges the planned scene *without* one part shows inside that part's image (the
     edges of what it hides), with their orientation bins: seen in the photo, they are positive
     evidence that the part is not there."""
+
     mask: BoxMask
-    bins: np.ndarray      # orientation bin of every pixel of the mask's box
+    bins: np.ndarray  # orientation bin of every pixel of the mask's box
 
 
 @dataclass(frozen=True)
@@ -71,10 +73,11 @@ class Shaded:
     """The planned render before its resampling into the photo's lens geometry, with its G-buffer
     normals and fitted light: relighting re-shades the render's own pixels there and resamples
     the result as the render was (a thin wire's pixels stay the rasteriser's, not the ray cast's)."""
-    render: np.ndarray     # (h, w, 3) uint8 the ideal (padded) Phong render
-    normals: np.ndarray    # (h, w, 3) float32 its unit camera-space normals (0: background)
-    light: Light           # the render's own light (the renderer's headlight and Phong weights)
-    maps: tuple | None     # the lens resampling (mrcheck.mr.lens.distort_to_photo)
+
+    render: np.ndarray  # (h, w, 3) uint8 the ideal (padded) Phong render
+    normals: np.ndarray  # (h, w, 3) float32 its unit camera-space normals (0: background)
+    light: Light  # the render's own light (the renderer's headlight and Phong weights)
+    maps: tuple | None  # the lens resampling (mrcheck.mr.lens.distort_to_photo)
     offset: tuple
     shape: tuple
 
@@ -86,25 +89,33 @@ class Shaded:
 @dataclass
 class PlannedView:
     """The planned scene through one camera, in the photo's (distorted) pixels."""
-    render: np.ndarray    # (H, W, 3) uint8 Phong render, for the heat map's overlay
-    cad: np.ndarray       # (H, W) bool CAD edges: silhouettes, creases and instance boundaries
-    ids: np.ndarray       # (H, W) int32 visible instance (ids.BACKGROUND = none)
-    depth: np.ndarray     # (H, W) float32 camera depth of the visible instance (0 = none)
-    labels: list          # (part name, instance id) of every instance index
-    outline: np.ndarray   # (H, W) bool the scored outline pixels (silhouettes)
-    owner: np.ndarray     # (H, W) int32 the instance each outline pixel belongs to (-1 elsewhere)
+
+    render: np.ndarray  # (H, W, 3) uint8 Phong render, for the heat map's overlay
+    cad: np.ndarray  # (H, W) bool CAD edges: silhouettes, creases and instance boundaries
+    ids: np.ndarray  # (H, W) int32 visible instance (ids.BACKGROUND = none)
+    depth: np.ndarray  # (H, W) float32 camera depth of the visible instance (0 = none)
+    labels: list  # (part name, instance id) of every instance index
+    outline: np.ndarray  # (H, W) bool the scored outline pixels (silhouettes)
+    owner: np.ndarray  # (H, W) int32 the instance each outline pixel belongs to (-1 elsewhere)
     discriminative: dict  # instance index -> BoxMask of its discriminative outline pixels
-    revealed: dict = field(default_factory=dict)   # instance index -> Revealed (what its removal uncovers)
-    ground: np.ndarray | None = None   # (H, W) bool planned surface at floor level (:func:`ground_pixels`)
+    revealed: dict = field(default_factory=dict)  # instance index -> Revealed (what its removal uncovers)
+    ground: np.ndarray | None = None  # (H, W) bool planned surface at floor level (:func:`ground_pixels`)
     # for fitting the photo's light (:mod:`~mrcheck.apps.discrepancies.light`) and relighting the view by it
-    albedo: np.ndarray | None = None   # (H, W, 3) float32 linear part colour (the render's background elsewhere)
+    albedo: np.ndarray | None = None  # (H, W, 3) float32 linear part colour (the render's background elsewhere)
     normals: np.ndarray | None = None  # (H, W, 3) float32 unit camera-space normals (OpenCV axes; 0: none)
-    shaded: Shaded | None = None       # the render before the lens resampling, to relight
+    shaded: Shaded | None = None  # the render before the lens resampling, to relight
 
 
-def discriminative_outlines(ids: np.ndarray, depth: np.ndarray, cad: np.ndarray, owner: np.ndarray,
-                            behind: tuple[np.ndarray, np.ndarray], fx: float, tol: float,
-                            revealed: dict | None = None) -> dict:
+def discriminative_outlines(
+    ids: np.ndarray,
+    depth: np.ndarray,
+    cad: np.ndarray,
+    owner: np.ndarray,
+    behind: tuple[np.ndarray, np.ndarray],
+    fx: float,
+    tol: float,
+    revealed: dict | None = None,
+) -> dict:
     """Per scored instance, the outline pixels that tell "part there" from "part gone": its
     :func:`~mrcheck.apps.discrepancies.edges.silhouettes` pixels (``owner``) with no CAD edge of
     the same orientation (within ``tol``) in the planned scene *without* it -- the id / depth
@@ -123,7 +134,12 @@ def discriminative_outlines(ids: np.ndarray, depth: np.ndarray, cad: np.ndarray,
         if np.count_nonzero(mask) < MIN_EDGE_PIXELS:
             continue
         ys, xs = np.nonzero(mask | (ids == index))
-        y0, y1, x0, x1 = max(0, ys.min() - pad), min(h, ys.max() + 1 + pad), max(0, xs.min() - pad), min(w, xs.max() + 1 + pad)
+        y0, y1, x0, x1 = (
+            max(0, ys.min() - pad),
+            min(h, ys.max() + 1 + pad),
+            max(0, xs.min() - pad),
+            min(w, xs.max() + 1 + pad),
+        )
         wid, wdepth = ids[y0:y1, x0:x1].copy(), depth[y0:y1, x0:x1].copy()
         gone = wid == index
         wid[gone], wdepth[gone] = bids[y0:y1, x0:x1][gone], bdepth[y0:y1, x0:x1][gone]
@@ -134,8 +150,9 @@ def discriminative_outlines(ids: np.ndarray, depth: np.ndarray, cad: np.ndarray,
         keep = mask[y0:y1, x0:x1] & ~np.take_along_axis(explained, cad_bins[y0:y1, x0:x1][None], 0)[0]
         out[int(index)] = BoxMask((y0, y1, x0, x1), keep)
         if revealed is not None:
-            revealed[int(index)] = Revealed(BoxMask((y0, y1, x0, x1), _inside_only(without, gone, tol)),
-                                            orientation_bin(without_normals))
+            revealed[int(index)] = Revealed(
+                BoxMask((y0, y1, x0, x1), _inside_only(without, gone, tol)), orientation_bin(without_normals)
+            )
     return out
 
 
@@ -161,7 +178,7 @@ def ground_pixels(scene: Scene, camera: Camera, depth: np.ndarray, maps) -> np.n
     if not seen.any():
         return seen
     cam = np.stack(((u - camera.cx) / camera.fx * depth, (v - camera.cy) / camera.fy * depth, depth), -1)
-    world = (cam - camera.t.reshape(1, 1, 3)) @ camera.R          # world = R^T (p - t)
+    world = (cam - camera.t.reshape(1, 1, 3)) @ camera.R  # world = R^T (p - t)
     # the surface normal from neighbouring pixels' points: only upward faces are a floor
     normal = np.cross(np.gradient(world, axis=1), np.gradient(world, axis=0))
     up = np.abs(normal[..., 2]) > 0.9 * np.maximum(np.linalg.norm(normal, axis=-1), 1e-12)
@@ -170,9 +187,9 @@ def ground_pixels(scene: Scene, camera: Camera, depth: np.ndarray, maps) -> np.n
     if not floor.any():
         return floor
     z = np.where(floor, world[..., 2], np.inf)
-    level = np.percentile(z[floor], 1.0)   # the lowest upward face the camera sees (a slab's side is no floor)
+    level = np.percentile(z[floor], 1.0)  # the lowest upward face the camera sees (a slab's side is no floor)
     if level - lo > FLOOR_BAND * (hi - lo):
-        return np.zeros_like(seen)           # no floor in view or in the scene (a box on its own)
+        return np.zeros_like(seen)  # no floor in view or in the scene (a box on its own)
     return floor & (z <= level + min(GROUND_HEIGHT, GROUND_SHARE * (hi - lo)))
 
 
@@ -200,10 +217,10 @@ def planned_view(scene: Scene, camera: Camera, renderer=None) -> PlannedView:
     render = distort_to_photo(frame["phong"].image, maps, offset, shape)
     edges = cad_edges(frame.depth, render_camera.fx)
     cad = distort_to_photo(edges.astype(np.float32), maps, offset, shape) > 0.25
-    caster = build_caster(scene, camera.center)   # one BVH for the visible and the behind pass
+    caster = build_caster(scene, camera.center)  # one BVH for the visible and the behind pass
     ids, depth, labels = object_ids(scene, camera, maps, caster)
     outline = silhouettes(ids, depth)
-    cad |= outline                             # touching parts at one depth: the outline is real too
+    cad |= outline  # touching parts at one depth: the outline is real too
     for m in (cad, outline):
         _clear_border(m)
     # support is judged on outlines only: a crease between two faces may show no contrast
@@ -212,23 +229,37 @@ def planned_view(scene: Scene, camera: Camera, renderer=None) -> PlannedView:
     owner = cad_edge_owner(ids, depth, outline)
     behind = behind_ids(scene, camera, ids, depth, maps, caster=caster)
     revealed = {}
-    discriminative = discriminative_outlines(ids, depth, cad, owner, behind, camera.fx, default_tolerance(camera),
-                                             revealed)
+    discriminative = discriminative_outlines(
+        ids, depth, cad, owner, behind, camera.fx, default_tolerance(camera), revealed
+    )
     # the render's light is known: fitting it as a photo's confuses ambient with diffuse light (a
     # headlight lights every face it sees about equally), and the relit fence posts' sides came out wrong
-    light = Light(light_direction(render_camera, settings.light), SHADING["AMBIENT_VALUE"], SHADING["DIFFUSE_VALUE"],
-                  0.0)
+    light = Light(
+        light_direction(render_camera, settings.light), SHADING["AMBIENT_VALUE"], SHADING["DIFFUSE_VALUE"], 0.0
+    )
     shaded = Shaded(frame["phong"].image, frame.normals, light, maps, offset, shape)
-    return PlannedView(render, cad, ids, depth, labels, outline, owner, discriminative, revealed,
-                       ground_pixels(scene, camera, depth, maps), _albedo(scene, ids, labels),
-                       _unit(distort_to_photo(frame.normals, maps, offset, shape)), shaded)
+    return PlannedView(
+        render,
+        cad,
+        ids,
+        depth,
+        labels,
+        outline,
+        owner,
+        discriminative,
+        revealed,
+        ground_pixels(scene, camera, depth, maps),
+        _albedo(scene, ids, labels),
+        _unit(distort_to_photo(frame.normals, maps, offset, shape)),
+        shaded,
+    )
 
 
 def _albedo(scene: Scene, ids: np.ndarray, labels: list) -> np.ndarray:
     """(H, W, 3) float32 linear colour of the part each pixel sees (the render's background elsewhere)."""
     colour = {part.name: part.color[:3] for part in scene.parts}
     table = np.array([colour[part] for part, _ in labels] + [RENDER_BACKGROUND], np.float32)
-    return table[ids]          # ids.BACKGROUND (-1) picks the last row
+    return table[ids]  # ids.BACKGROUND (-1) picks the last row
 
 
 def _unit(normals: np.ndarray) -> np.ndarray:

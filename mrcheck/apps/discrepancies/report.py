@@ -18,7 +18,7 @@ from mrcheck.apps.discrepancies.thresholds import (
     DISCRIMINATIVE_THRESHOLD,
 )
 
-HEATMAP, SUSPECTS_JSON, SUSPECTS_MD = "heatmap.png", "suspects.json", "suspects.md"   # written into OUTDIR
+HEATMAP, SUSPECTS_JSON, SUSPECTS_MD = "heatmap.png", "suspects.json", "suspects.md"  # written into OUTDIR
 SUSPECTS_BCF = "suspects.bcfzip"
 OUTPUT_NAMES = (HEATMAP, SUSPECTS_JSON, SUSPECTS_MD, SUSPECTS_BCF)
 
@@ -31,17 +31,24 @@ def suspects_json(detection: Detection, shot, scene) -> str:
 
 def markdown(detection: Detection, shot) -> str:
     """The text of ``suspects.md``: the suspects ranked, the warnings, the unexplained regions."""
-    lines = [f"# Suspect parts: {shot}", "",
-             f"Support = share of a part's visible CAD outline pixels with a photo edge of the same direction "
-             f"within {detection.tolerance_px:g} px; score = 1 - support^2 / (best support of the outline "
-             f"shifted); suspects score >= {detection.threshold:g}, or >= {DISCRIMINATIVE_FLOOR:g} with the same "
-             f"score >= {DISCRIMINATIVE_THRESHOLD:g} on the outline the scene without the part would not show "
-             f"(thin parts never).", "",
-             "| rank | id | part | score | support | edge px | bbox (x0, y0, x1, y1) |", "|---|---|---|---|---|---|---|"]
+    lines = [
+        f"# Suspect parts: {shot}",
+        "",
+        f"Support = share of a part's visible CAD outline pixels with a photo edge of the same direction "
+        f"within {detection.tolerance_px:g} px; score = 1 - support^2 / (best support of the outline "
+        f"shifted); suspects score >= {detection.threshold:g}, or >= {DISCRIMINATIVE_FLOOR:g} with the same "
+        f"score >= {DISCRIMINATIVE_THRESHOLD:g} on the outline the scene without the part would not show "
+        f"(thin parts never).",
+        "",
+        "| rank | id | part | score | support | edge px | bbox (x0, y0, x1, y1) |",
+        "|---|---|---|---|---|---|---|",
+    ]
     flagged = detection.flagged
     for rank, s in enumerate(flagged, 1):
-        lines.append(f"| {rank} | {s.id}{s.element_label} | {s.part} | {s.score:.2f} | {s.support:.2f} | "
-                     f"{s.edge_pixels} | {', '.join(map(str, s.bbox))} |")
+        lines.append(
+            f"| {rank} | {s.id}{s.element_label} | {s.part} | {s.score:.2f} | {s.support:.2f} | "
+            f"{s.edge_pixels} | {', '.join(map(str, s.bbox))} |"
+        )
     if not flagged:
         lines.append("| - | no suspects | | | | | |")
     checked = len(detection.suspects)
@@ -57,8 +64,19 @@ def summary_line(detection: Detection) -> str:
     """One line for the console: what was checked and what stands out."""
     flagged = detection.flagged
     top = ", ".join(f"{s.id} {s.score:.2f}" for s in flagged[:5]) + (", ..." if len(flagged) > 5 else "")
-    return (f"checked {len(detection.suspects)} part instance(s): {len(flagged)} suspect(s)"
-            f"{f' ({top})' if flagged else ''}, {len(detection.regions)} unexplained structure region(s)")
+    return (
+        f"checked {len(detection.suspects)} part instance(s): {len(flagged)} suspect(s)"
+        f"{f' ({top})' if flagged else ''}, {len(detection.regions)} unexplained structure region(s)"
+    )
 
 
-__all__ = ["suspects_json", "markdown", "summary_line", "HEATMAP", "SUSPECTS_JSON", "SUSPECTS_MD", "SUSPECTS_BCF", "OUTPUT_NAMES"]
+__all__ = [
+    "suspects_json",
+    "markdown",
+    "summary_line",
+    "HEATMAP",
+    "SUSPECTS_JSON",
+    "SUSPECTS_MD",
+    "SUSPECTS_BCF",
+    "OUTPUT_NAMES",
+]

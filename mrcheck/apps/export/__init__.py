@@ -3,7 +3,8 @@
 Job file (TOML; every relative path is relative to the job file's folder)::
 
     scene = "factory_scenes/sample_cell/scene.toml"   # required: the planned CAD (manifest or mesh)
-    modes = ["phong", "vector", "ssao"]       # default D1, D2, D3; any of phong vector ssao crytek hbao alchemy gtao vbao
+    modes = ["phong", "vector", "ssao"]       # D1, D2, D3 by default; any of
+    # phong vector ssao crytek hbao alchemy gtao vbao
     alphas = [0.0, 0.5, 1.0]                  # photo opacities of the overlays, 0..1 (default [0.5])
     intensities = [0.5, 1.0, 1.5, 2.0]        # AO strengths, weak to strong (default [1.0]; AO modes only)
     overlay_intensity = 1.0                   # optional: the intensity of the overlays and the sheet;
@@ -58,7 +59,8 @@ registration error, failures last).
 Restart: every file is written atomically (temp + rename) and ``record.json`` last, so a shot is
 finished exactly when its record exists and says done, its fingerprint matches the job and every
 output it lists exists. A failed shot's folder keeps only a record.json saying so: outputs of
-earlier runs there no longer match its inputs and are removed. A rerun skips finished shots (``--force`` redoes them) and retries failed ones; a
+earlier runs there no longer match its inputs and are removed. A rerun skips finished shots (``--force`` redoes them)
+and retries failed ones; a
 shot whose settings or input files changed (edited, replaced or touched) is not finished. A
 killed run loses only the shots in flight. Outputs of earlier runs that the job no longer
 produces are removed before the shots run (listed in the manifest's ``removed``): in the job's

@@ -71,8 +71,12 @@ def run_local(tasks, workers: int, scene=None):
             yield task, run_shot(task, scene)
         return
     threads = max(1, (os.cpu_count() or 1) // workers)
-    with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
-                             initializer=_worker_init, initargs=(threads,)) as pool:
+    with ProcessPoolExecutor(
+        max_workers=workers,
+        mp_context=multiprocessing.get_context("spawn"),
+        initializer=_worker_init,
+        initargs=(threads,),
+    ) as pool:
         futures = {pool.submit(run_shot, task): task for task in tasks}
         for future in as_completed(futures):
             task = futures[future]

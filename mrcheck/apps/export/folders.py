@@ -75,8 +75,9 @@ def remove_stale(outdir: Path, tasks: list[ShotTask], keep: set) -> list:
         if not folder.is_dir() or folder.is_symlink() or (wanted is None and not (folder / RECORD).is_file()):
             continue  # not a folder the export finished a shot in: maybe not ours
         # record.json last: a run killed half-way leaves a folder the next run still recognises
-        stale = sorted((f for f in _own_files(folder, keep) if f.name not in (wanted or ())),
-                       key=lambda f: f.name == RECORD)
+        stale = sorted(
+            (f for f in _own_files(folder, keep) if f.name not in (wanted or ())), key=lambda f: f.name == RECORD
+        )
         for file in stale:
             file.unlink(missing_ok=True)
             removed.append(file.relative_to(outdir).as_posix())

@@ -20,35 +20,62 @@ from mrcheck.core.jsonfile import number_problem
 from mrcheck.mr.overlay import STUDY_ORDER, check_alpha
 from mrcheck.render.renderer import DEFAULT_SAMPLES, MODES
 
-SHEET_ALPHA = 0.5   # the photo's opacity in the study sheet's bottom row, and the default alpha
-TOP_KEYS = {"scene", "modes", "alphas", "intensities", "overlay_intensity", "width", "max_registration_error_px",
-            "samples", "edges", "antialias", "intrinsics", "markers", "points", "shots"}
+SHEET_ALPHA = 0.5  # the photo's opacity in the study sheet's bottom row, and the default alpha
+TOP_KEYS = {
+    "scene",
+    "modes",
+    "alphas",
+    "intensities",
+    "overlay_intensity",
+    "width",
+    "max_registration_error_px",
+    "samples",
+    "edges",
+    "antialias",
+    "intrinsics",
+    "markers",
+    "points",
+    "shots",
+}
 SHOT_KEYS = {"name", "shot", "photo", "photos", "intrinsics", "markers", "points"}
 _METHODS = ("markers", "points")
-_SHARED = ("intrinsics", *_METHODS)   # shot inputs the job may give once for every shot
+_SHARED = ("intrinsics", *_METHODS)  # shot inputs the job may give once for every shot
 
 
 @dataclass(frozen=True)
 class JobSettings:
     """What every shot of the job is made with (also the manifest's ``settings``)."""
 
-    scene: str                  # the scene's path, resolved
+    scene: str  # the scene's path, resolved
     modes: list
     alphas: list
     intensities: list
     overlay_intensity: float
-    width: int | None           # None: the photo's size
-    max_error: float | None     # max_registration_error_px; None: no limit
+    width: int | None  # None: the photo's size
+    max_error: float | None  # max_registration_error_px; None: no limit
     samples: int
     edges: bool
-    antialias: bool = True      # the renders anti-aliased (mrcheck.render.antialias)
+    antialias: bool = True  # the renders anti-aliased (mrcheck.render.antialias)
 
     def to_dict(self) -> dict:
         """As the manifest and the shots' fingerprints write them (the job file's key names)."""
         d = asdict(self)
         d["max_registration_error_px"] = d.pop("max_error")
-        return {k: d[k] for k in ("scene", "modes", "alphas", "intensities", "overlay_intensity", "width",
-                                  "max_registration_error_px", "samples", "edges", "antialias")}
+        return {
+            k: d[k]
+            for k in (
+                "scene",
+                "modes",
+                "alphas",
+                "intensities",
+                "overlay_intensity",
+                "width",
+                "max_registration_error_px",
+                "samples",
+                "edges",
+                "antialias",
+            )
+        }
 
 
 @dataclass(frozen=True)
@@ -94,7 +121,7 @@ class _Reader:
 
     def __init__(self, path: Path):
         self.path = path
-        text = read_input_text(path, "job file", encoding="utf-8-sig")   # -sig: a BOM (Windows Notepad) is no error
+        text = read_input_text(path, "job file", encoding="utf-8-sig")  # -sig: a BOM (Windows Notepad) is no error
         try:
             self.data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
@@ -192,8 +219,9 @@ def _settings(reader: _Reader, scene: Path) -> JobSettings:
         check_alpha(a)
     intensities = reader.numbers("intensities", [1.0], lambda i: i >= 0.0, "negative (AO strength must be >= 0)")
     overlay = data.get("overlay_intensity", 1.0 if 1.0 in intensities else intensities[len(intensities) // 2])
-    overlay = reader.number("overlay_intensity", overlay, lambda i: i in intensities,
-                            f"not one of the intensities {intensities}")
+    overlay = reader.number(
+        "overlay_intensity", overlay, lambda i: i in intensities, f"not one of the intensities {intensities}"
+    )
     width = _whole(reader, "width", None, 16, 16384, "a whole number of pixels, 16..16384")
     max_error = data.get("max_registration_error_px")
     if max_error is not None:
@@ -229,8 +257,14 @@ def _shots(reader: _Reader) -> list:
 def _where(entry, index: int) -> str:
     """``[[shots]] #N (name = ...)``: the planner counts [[shots]] tables from 1 and knows them by
     their name or photo."""
-    label = next((f"{k} = {entry[k]!r}" for k in ("name", "photo", "photos", "shot")
-                  if isinstance(entry, dict) and isinstance(entry.get(k), str)), None)
+    label = next(
+        (
+            f"{k} = {entry[k]!r}"
+            for k in ("name", "photo", "photos", "shot")
+            if isinstance(entry, dict) and isinstance(entry.get(k), str)
+        ),
+        None,
+    )
     return f"[[shots]] #{index + 1}" + (f" ({label})" if label else "")
 
 
@@ -256,8 +290,10 @@ def _entry_shots(reader: _Reader, entry, where: str, defaults: dict) -> list:
     if source == "photo":
         file = reader.resolve(entry["photo"], f"{where}: photo")
         return [PlannedShot(entry.get("name", shot_name(file.stem)), ShotInputs(photo=str(file), **common))]
-    return [PlannedShot(shot_name(f.stem), ShotInputs(photo=str(f), **common))
-            for f in _glob(reader, entry["photos"], where)]
+    return [
+        PlannedShot(shot_name(f.stem), ShotInputs(photo=str(f), **common))
+        for f in _glob(reader, entry["photos"], where)
+    ]
 
 
 def _photo_inputs(reader: _Reader, entry: dict, where: str, defaults: dict, glob_: bool) -> dict:
@@ -276,8 +312,10 @@ def _photo_inputs(reader: _Reader, entry: dict, where: str, defaults: dict, glob
     method = method[0]
     if glob_ and method == "points":
         reader.fail(f"{where}: correspondences are per photo; use photo = ... for each (a glob takes markers)")
-    return {"intrinsics": reader.shared_input("intrinsics", merged["intrinsics"], where),
-            method: reader.shared_input(method, merged[method], where)}
+    return {
+        "intrinsics": reader.shared_input("intrinsics", merged["intrinsics"], where),
+        method: reader.shared_input(method, merged[method], where),
+    }
 
 
 def _glob(reader: _Reader, pattern, where: str) -> list:
@@ -285,8 +323,9 @@ def _glob(reader: _Reader, pattern, where: str) -> list:
         reader.fail(f"{where}: photos must be a glob pattern (a string)")
     # not only the readable files: a photo that cannot be read (a symlink loop, a broken link) is
     # a shot that fails and says why, not one silently left out
-    files = sorted(real_path(p) for p in glob.glob(os.path.join(str(reader.base), pattern), recursive=True)
-                   if not os.path.isdir(p))
+    files = sorted(
+        real_path(p) for p in glob.glob(os.path.join(str(reader.base), pattern), recursive=True) if not os.path.isdir(p)
+    )
     if not files:
         reader.fail(f"{where}: photos {pattern!r} matches no file")
     return files

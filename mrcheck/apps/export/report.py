@@ -29,7 +29,7 @@ def _thumbnail(path: Path) -> Markup | None:
     """The sheet at ``path`` as an inline JPEG (a data URL), at most THUMB_WIDTH wide."""
     try:
         image = read_image(path, "sheet")
-    except MrcheckError:   # removed or damaged since the shot was written: the report goes without it
+    except MrcheckError:  # removed or damaged since the shot was written: the report goes without it
         return None
     if image.shape[1] > THUMB_WIDTH:
         height = max(1, round(image.shape[0] * THUMB_WIDTH / image.shape[1]))
@@ -58,20 +58,33 @@ def _shot(entry: dict, outdir: Path) -> dict:
     registration = entry.get("registration") or {}
     outputs = entry.get("outputs", [])
     sheet = next((o for o in outputs if o.get("kind") == "sheet"), None)
-    return {"name": entry["name"], "status": entry["status"], "error": entry.get("error") or "",
-            "rms": entry.get("registration_error_px"), "expected": registration.get("expected_overlay_error_px"),
-            "sheet": sheet and sheet["path"], "thumb": sheet and _thumbnail(outdir / sheet["path"]),
-            "method": str(registration.get("method")),
-            "rejected": ", ".join(str(r) for r in registration.get("rejected") or []),
-            "warnings": registration.get("warnings") or [], "outputs": outputs,
-            "timings": list((entry.get("timings_s") or {}).items())}
+    return {
+        "name": entry["name"],
+        "status": entry["status"],
+        "error": entry.get("error") or "",
+        "rms": entry.get("registration_error_px"),
+        "expected": registration.get("expected_overlay_error_px"),
+        "sheet": sheet and sheet["path"],
+        "thumb": sheet and _thumbnail(outdir / sheet["path"]),
+        "method": str(registration.get("method")),
+        "rejected": ", ".join(str(r) for r in registration.get("rejected") or []),
+        "warnings": registration.get("warnings") or [],
+        "outputs": outputs,
+        "timings": list((entry.get("timings_s") or {}).items()),
+    }
 
 
 def render_report(manifest: dict, outdir: Path) -> str:
-    return render("mrcheck.apps.export", "report.html.j2", job=manifest["job"], summary=manifest["summary"],
-                  total=manifest["timings_s"]["total"], executor=manifest["executor"],
-                  settings=[(k, _job_value(v)) for k, v in manifest["settings"].items()],
-                  shots=[_shot(e, outdir) for e in sorted(manifest["shots"], key=sort_key)])
+    return render(
+        "mrcheck.apps.export",
+        "report.html.j2",
+        job=manifest["job"],
+        summary=manifest["summary"],
+        total=manifest["timings_s"]["total"],
+        executor=manifest["executor"],
+        settings=[(k, _job_value(v)) for k, v in manifest["settings"].items()],
+        shots=[_shot(e, outdir) for e in sorted(manifest["shots"], key=sort_key)],
+    )
 
 
 def write_report(manifest: dict, outdir) -> Path:

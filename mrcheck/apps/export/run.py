@@ -35,17 +35,17 @@ class ShotProgress:
     """One step of an export: the start (``name`` None; ``done`` counts the skipped shots), then
     every shot as it finishes."""
 
-    done: int                   # shots finished or skipped so far
-    total: int                  # shots of the job
-    name: str | None = None     # the shot that just finished
-    status: str | None = None   # its status: "done" or "failed"
+    done: int  # shots finished or skipped so far
+    total: int  # shots of the job
+    name: str | None = None  # the shot that just finished
+    status: str | None = None  # its status: "done" or "failed"
     eta_s: float | None = None  # the time the shots still to run will take, at the pace so far
-    failed: int = 0             # shots failed so far
+    failed: int = 0  # shots failed so far
 
 
 @dataclass(frozen=True)
 class ExportResult:
-    manifest: dict     # as written to OUTDIR/manifest.json
+    manifest: dict  # as written to OUTDIR/manifest.json
     outdir: Path
 
     @property
@@ -56,19 +56,25 @@ class ExportResult:
         """The lines the command prints: the counts, each failure, the shots with registration
         warnings, the files removed, and what was written."""
         shots, counts = self.manifest["shots"], self.manifest["summary"]
-        lines = [f"export: {counts['shots']} shots: {counts['done']} done, {counts['skipped']} skipped, "
-                 f"{counts['failed']} failed ({self.manifest['timings_s']['total']:.1f} s)"]
+        lines = [
+            f"export: {counts['shots']} shots: {counts['done']} done, {counts['skipped']} skipped, "
+            f"{counts['failed']} failed ({self.manifest['timings_s']['total']:.1f} s)"
+        ]
         lines += [f"  failed {e['name']}: {e['error']}" for e in shots if e["status"] == "failed"]
         warned = [e["name"] for e in shots if e["status"] == "done" and (e.get("registration") or {}).get("warnings")]
         if warned:
-            lines.append(f"  {len(warned)} shot(s) with registration warnings ({', '.join(warned[:5])}"
-                         f"{', ...' if len(warned) > 5 else ''}): see {REPORT}")
+            lines.append(
+                f"  {len(warned)} shot(s) with registration warnings ({', '.join(warned[:5])}"
+                f"{', ...' if len(warned) > 5 else ''}): see {REPORT}"
+            )
         if removed := self.manifest["removed"]:
             # removed paths are shots/NAME/FILE; a NAME no longer in the job is a dropped shot
             dropped = {p.split("/")[1] for p in removed} - {e["name"] for e in shots}
             of_shots = f", including the outputs of {len(dropped)} shot(s) no longer in the job" if dropped else ""
-            lines.append(f"removed {len(removed)} file(s) of earlier runs that this job no longer produces{of_shots} "
-                         f"(listed in {MANIFEST})")
+            lines.append(
+                f"removed {len(removed)} file(s) of earlier runs that this job no longer produces{of_shots} "
+                f"(listed in {MANIFEST})"
+            )
         lines.append(f"wrote {self.outdir / MANIFEST} and {self.outdir / REPORT}")
         return lines
 
@@ -97,9 +103,14 @@ def _plan(job: Job, outdir: Path, scheduler: str | None, force: bool):
     every file the job reads; refuses a job whose outputs would overwrite one of its inputs."""
     scene_paths = scene_files(job.scene)
     tasks = make_tasks(job, outdir, write=scheduler is None, scene_paths=scene_paths)
-    check_not_inputs([outdir / MANIFEST, outdir / REPORT, *(t.folder / name for t in tasks for name in t.own_names())],
-                     [("the job", job.path), ("the scene", scene_paths),
-                      *((f"an input of shot {t.name}", t.input_files) for t in tasks)])
+    check_not_inputs(
+        [outdir / MANIFEST, outdir / REPORT, *(t.folder / name for t in tasks for name in t.own_names())],
+        [
+            ("the job", job.path),
+            ("the scene", scene_paths),
+            *((f"an input of shot {t.name}", t.input_files) for t in tasks),
+        ],
+    )
     entries, to_run = {}, []
     for task in tasks:
         record = None if force else finished_record(task)
@@ -124,24 +135,46 @@ def _run_shots(runner, tasks, to_run, entries: dict, outdir: Path, reads: set, p
         entries[task.name] = record.manifest_entry(record.status, outdir, task.folder)
         finished += 1
         eta = (time.perf_counter() - run_start) / finished * (len(to_run) - finished)
-        progress(ShotProgress(skipped + finished, total, task.name, record.status, eta,
-                              sum(e["status"] == "failed" for e in entries.values())))
+        progress(
+            ShotProgress(
+                skipped + finished,
+                total,
+                task.name,
+                record.status,
+                eta,
+                sum(e["status"] == "failed" for e in entries.values()),
+            )
+        )
 
 
 def _manifest(job: Job, outdir: Path, shots: list, removed: list, executor: str, elapsed: float) -> dict:
     counts = {s: sum(e["status"] == s for e in shots) for s in STATUSES}
     ran = [e for e in shots if e["status"] != "skipped"]
     return {
-        "format": 1, "job": str(job.path.resolve()), "outdir": str(outdir), "settings": job.settings.to_dict(),
-        "executor": executor, "summary": {"shots": len(shots), **counts}, "timings_s": {
+        "format": 1,
+        "job": str(job.path.resolve()),
+        "outdir": str(outdir),
+        "settings": job.settings.to_dict(),
+        "executor": executor,
+        "summary": {"shots": len(shots), **counts},
+        "timings_s": {
             "total": round(elapsed, 3),
-            "shots_per_minute": round(60.0 * len(ran) / elapsed, 2) if ran and elapsed > 0 else None},
-        "shots": shots, "removed": removed,
+            "shots_per_minute": round(60.0 * len(ran) / elapsed, 2) if ran and elapsed > 0 else None,
+        },
+        "shots": shots,
+        "removed": removed,
     }
 
 
-def run_export(job, outdir, workers: int = 1, scheduler: str | None = None, force: bool = False,
-               progress: Callable[[ShotProgress], None] | None = None, antialias: bool | None = None) -> ExportResult:
+def run_export(
+    job,
+    outdir,
+    workers: int = 1,
+    scheduler: str | None = None,
+    force: bool = False,
+    progress: Callable[[ShotProgress], None] | None = None,
+    antialias: bool | None = None,
+) -> ExportResult:
     """``mrcheck export``: every shot of the job file ``job`` into ``outdir``, then its
     manifest.json and report.html. A bad job, option or OUTDIR is a :class:`MrcheckError` before
     anything is written; a bad shot fails alone (``ExportResult.failed``). ``antialias``: overrides
@@ -168,8 +201,9 @@ def run_export(job, outdir, workers: int = 1, scheduler: str | None = None, forc
             client.close()
     # the processes that ran: never more than the shots to run, and one (this one) for one shot
     executor = f"dask {scheduler}" if scheduler else f"local, {local_workers(workers, len(to_run))} worker(s)"
-    manifest = _manifest(job, outdir, [entries[t.name] for t in tasks], removed, executor,
-                         time.perf_counter() - started)
+    manifest = _manifest(
+        job, outdir, [entries[t.name] for t in tasks], removed, executor, time.perf_counter() - started
+    )
     write_text(outdir / MANIFEST, json.dumps(manifest, indent=2) + "\n")
     write_report(manifest, outdir)
     return ExportResult(manifest, outdir)

@@ -59,10 +59,14 @@ class ShotFailed(MrcheckError):
 def registration_summary(shot: dict) -> dict:
     """What the record and the report say of a shot's registration."""
     names = lambda entries: [e.get("id", e.get("index", f"board {e.get('board')}")) for e in entries or []]  # noqa: E731
-    return {"method": shot.get("method", "given"), "rms_px": shot.get("rms"),
-            "expected_overlay_error_px": shot.get("expected_overlay_error_px"),
-            "used": names(shot.get("used")), "rejected": names(shot.get("rejected")),
-            "warnings": list(shot.get("warnings") or [])}
+    return {
+        "method": shot.get("method", "given"),
+        "rms_px": shot.get("rms"),
+        "expected_overlay_error_px": shot.get("expected_overlay_error_px"),
+        "used": names(shot.get("used")),
+        "rejected": names(shot.get("rejected")),
+        "warnings": list(shot.get("warnings") or []),
+    }
 
 
 def register_shot(inputs: ShotInputs, max_error, scene_bounds) -> tuple[dict, Camera, Path]:
@@ -77,18 +81,23 @@ def register_shot(inputs: ShotInputs, max_error, scene_bounds) -> tuple[dict, Ca
         camera, photo = load_shot(inputs.shot)
         shot = read_json(inputs.shot, "shot")
         shot["photo"] = str(photo)
-        if not is_number(shot.get("rms", 0.0)):   # unknown, as the review shows it: NaN is no JSON for the outputs
+        if not is_number(shot.get("rms", 0.0)):  # unknown, as the review shows it: NaN is no JSON for the outputs
             shot["rms"] = None
     else:
-        shot = register_photo(Path(inputs.photo), read_camera(inputs.intrinsics),
-                              marker_map=load_marker_map(inputs.markers) if inputs.markers else None,
-                              points=load_points(inputs.points) if inputs.points else None,
-                              scene_bounds=scene_bounds, points_file=inputs.points)
+        shot = register_photo(
+            Path(inputs.photo),
+            read_camera(inputs.intrinsics),
+            marker_map=load_marker_map(inputs.markers) if inputs.markers else None,
+            points=load_points(inputs.points) if inputs.points else None,
+            scene_bounds=scene_bounds,
+            points_file=inputs.points,
+        )
         camera, photo = Camera.from_dict(shot), Path(shot["photo"])
     rms = shot.get("rms")
     if max_error is not None and is_number(rms) and rms > max_error:
-        raise ShotFailed(f"registration error {rms:.3f} px is above the job's limit of {max_error:g} px",
-                         registration_summary(shot))
+        raise ShotFailed(
+            f"registration error {rms:.3f} px is above the job's limit of {max_error:g} px", registration_summary(shot)
+        )
     return shot, camera, photo
 
 
@@ -99,8 +108,9 @@ def _fitted_photo(task: ShotTask, renderer):
     registration = registration_summary(shot)
     photo = read_photo(photo_path, camera)
     if settings.width and settings.width > camera.width:
-        registration["warnings"].append(f"the job's width {settings.width} is larger than the photo "
-                                        f"({camera.width} px): the photo is upscaled")
+        registration["warnings"].append(
+            f"the job's width {settings.width} is larger than the photo ({camera.width} px): the photo is upscaled"
+        )
     if settings.width and settings.width != camera.width:
         camera = camera.fitted(settings.width)
         photo = cv2.resize(photo, (camera.width, camera.height), interpolation=cv2.INTER_AREA)
@@ -115,8 +125,9 @@ def _blended(photo, renders, edges, camera, offset, maps, settings: JobSettings,
         mixed = overlay_images(photo, {m: renders[m] for m in modes}, camera, alpha, edges, offset=offset, maps=maps)
         for mode in modes:
             images[overlay_name(mode, None if mode == "phong" else default, alpha)] = mixed[mode]
-    half = overlay_images(photo, {m: renders[m] for m in STUDY_ORDER}, camera, SHEET_ALPHA, edges,
-                          offset=offset, maps=maps)
+    half = overlay_images(
+        photo, {m: renders[m] for m in STUDY_ORDER}, camera, SHEET_ALPHA, edges, offset=offset, maps=maps
+    )
     images[SHEET] = study_sheet({m: virtual[m] for m in STUDY_ORDER}, half, SHEET_ALPHA)
     return images
 
@@ -129,13 +140,17 @@ def _images(renderer, camera, photo, settings: JobSettings, timings: dict) -> di
     images = {}
     render_s = compose_s = 0.0
     for intensity in settings.intensities:
-        wanted = [m for m in modes if m != "phong"] if intensity != default else \
-            list(dict.fromkeys(list(modes) + list(STUDY_ORDER)))
+        wanted = (
+            [m for m in modes if m != "phong"]
+            if intensity != default
+            else list(dict.fromkeys(list(modes) + list(STUDY_ORDER)))
+        )
         if not wanted:
             continue
         t = time.perf_counter()
-        render_settings = RenderSettings(samples=settings.samples, intensity=intensity, seed=0,
-                                         antialias=settings.antialias)
+        render_settings = RenderSettings(
+            samples=settings.samples, intensity=intensity, seed=0, antialias=settings.antialias
+        )
         renders, edges, offset, maps = render_for_photo(renderer, camera, wanted, render_settings, settings.edges, maps)
         render_s += time.perf_counter() - t
         t = time.perf_counter()

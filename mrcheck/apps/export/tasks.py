@@ -34,11 +34,11 @@ class ShotTask:
     name: str
     inputs: ShotInputs
     settings: JobSettings
-    fingerprint: str     # of the settings, the inputs and their files' sizes and mtimes
-    scene_stamp: str     # files_stamp of the scene's files (a worker's Renderer is kept per stamp)
-    input_files: list    # the files the shot reads besides the scene
-    folder: Path         # OUTDIR/shots/NAME
-    write: bool          # the worker writes the files itself (local); else it returns them (a cluster)
+    fingerprint: str  # of the settings, the inputs and their files' sizes and mtimes
+    scene_stamp: str  # files_stamp of the scene's files (a worker's Renderer is kept per stamp)
+    input_files: list  # the files the shot reads besides the scene
+    folder: Path  # OUTDIR/shots/NAME
+    write: bool  # the worker writes the files itself (local); else it returns them (a cluster)
 
     def own_names(self) -> list:
         """The names of every file the export writes into this shot's folder."""
@@ -55,18 +55,24 @@ class ShotRecord:
     fingerprint: str
     inputs: dict
     error: str | None = None
-    registration: dict | None = None          # the registration summary (shot.registration_summary)
-    outputs: list | None = None               # done: [{"file", "kind", "mode", "intensity", "alpha"}]
-    size: list | None = None                  # done: [width, height] of the outputs
-    photo: str | None = None                  # done: the photo's path
+    registration: dict | None = None  # the registration summary (shot.registration_summary)
+    outputs: list | None = None  # done: [{"file", "kind", "mode", "intensity", "alpha"}]
+    size: list | None = None  # done: [width, height] of the outputs
+    photo: str | None = None  # done: the photo's path
     registration_error_px: float | None = None
     timings_s: dict = field(default_factory=dict)
     files: dict | None = field(default=None, repr=False)
 
     def to_dict(self) -> dict:
         """The JSON of record.json (without ``files``), in its keys' order."""
-        d = {"name": self.name, "status": self.status, "error": self.error, "fingerprint": self.fingerprint,
-             "inputs": self.inputs, "registration": self.registration}
+        d = {
+            "name": self.name,
+            "status": self.status,
+            "error": self.error,
+            "fingerprint": self.fingerprint,
+            "inputs": self.inputs,
+            "registration": self.registration,
+        }
         if self.outputs is not None:
             d.update(outputs=self.outputs, size=self.size, photo=self.photo)
         d.update(registration_error_px=self.registration_error_px, timings_s=self.timings_s)
@@ -74,8 +80,19 @@ class ShotRecord:
 
     @classmethod
     def from_dict(cls, data: dict) -> "ShotRecord":
-        keys = ("name", "status", "fingerprint", "inputs", "error", "registration", "outputs", "size", "photo",
-                "registration_error_px", "timings_s")
+        keys = (
+            "name",
+            "status",
+            "fingerprint",
+            "inputs",
+            "error",
+            "registration",
+            "outputs",
+            "size",
+            "photo",
+            "registration_error_px",
+            "timings_s",
+        )
         return cls(**{k: data[k] for k in keys if k in data})
 
     def manifest_entry(self, status: str, outdir: Path, folder: Path) -> dict:
@@ -85,15 +102,21 @@ class ShotRecord:
         entry = {k: v for k, v in self.to_dict().items() if k not in ("outputs", "fingerprint")}
         entry["status"] = status
         entry["folder"] = rel
-        entry["outputs"] = [dict(o, path=f"{rel}/{o['file']}") for o in self.outputs or []] \
-            if self.status == "done" else []
+        entry["outputs"] = (
+            [dict(o, path=f"{rel}/{o['file']}") for o in self.outputs or []] if self.status == "done" else []
+        )
         return entry
 
 
 def lost(task: ShotTask, exc: BaseException) -> ShotRecord:
     """The record of a shot whose worker died or could not take it."""
-    return ShotRecord(task.name, "failed", task.fingerprint, task.inputs.to_dict(),
-                      error=f"worker failed: {type(exc).__name__}: {exc}")
+    return ShotRecord(
+        task.name,
+        "failed",
+        task.fingerprint,
+        task.inputs.to_dict(),
+        error=f"worker failed: {type(exc).__name__}: {exc}",
+    )
 
 
 def plan_outputs(settings: JobSettings) -> list:
@@ -102,14 +125,25 @@ def plan_outputs(settings: JobSettings) -> list:
     outputs = []
     for mode in modes:
         intensities = [None] if mode == "phong" else settings.intensities
-        outputs += [{"file": render_name(mode, i), "kind": "render", "mode": mode, "intensity": i, "alpha": 0.0}
-                    for i in intensities]
+        outputs += [
+            {"file": render_name(mode, i), "kind": "render", "mode": mode, "intensity": i, "alpha": 0.0}
+            for i in intensities
+        ]
     for mode in modes:
         intensity = None if mode == "phong" else default
-        outputs += [{"file": overlay_name(mode, intensity, alpha), "kind": "overlay", "mode": mode,
-                     "intensity": intensity, "alpha": alpha} for alpha in settings.alphas]
-    outputs.append({"file": SHEET, "kind": "sheet", "mode": list(STUDY_ORDER), "intensity": default,
-                    "alpha": SHEET_ALPHA})
+        outputs += [
+            {
+                "file": overlay_name(mode, intensity, alpha),
+                "kind": "overlay",
+                "mode": mode,
+                "intensity": intensity,
+                "alpha": alpha,
+            }
+            for alpha in settings.alphas
+        ]
+    outputs.append(
+        {"file": SHEET, "kind": "sheet", "mode": list(STUDY_ORDER), "intensity": default, "alpha": SHEET_ALPHA}
+    )
     return outputs
 
 
@@ -135,10 +169,21 @@ def make_tasks(job: Job, outdir: Path, write: bool, scene_paths: list) -> list:
         inputs = shot.inputs.to_dict()
         files = input_files(shot.inputs)
         stamps = {"scene": scene_stamp, "inputs": files_stamp(files)}
-        fingerprint = hashlib.sha256(json.dumps({"settings": settings, "inputs": inputs, "stamps": stamps},
-                                                sort_keys=True).encode()).hexdigest()[:16]
-        tasks.append(ShotTask(shot.name, shot.inputs, job.settings, fingerprint, scene_stamp, files,
-                              shot_folder(outdir, shot.name), write))
+        fingerprint = hashlib.sha256(
+            json.dumps({"settings": settings, "inputs": inputs, "stamps": stamps}, sort_keys=True).encode()
+        ).hexdigest()[:16]
+        tasks.append(
+            ShotTask(
+                shot.name,
+                shot.inputs,
+                job.settings,
+                fingerprint,
+                scene_stamp,
+                files,
+                shot_folder(outdir, shot.name),
+                write,
+            )
+        )
     return tasks
 
 
@@ -155,7 +200,7 @@ def finished_record(task: ShotTask) -> ShotRecord | None:
         return None
     try:
         return ShotRecord.from_dict(record)
-    except TypeError:   # a record.json without a field every record has: not one this export wrote
+    except TypeError:  # a record.json without a field every record has: not one this export wrote
         return None
 
 

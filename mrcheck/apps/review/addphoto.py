@@ -35,12 +35,12 @@ from mrcheck.mr.registration import photo_reference
 from mrcheck.mr.shot import cad_edges
 from mrcheck.render.settings import RenderSettings
 
-UPLOADS = ".uploads"        # in the render cache: a shot name never starts with a dot
-MAX_KEPT = 16               # uploads and solves kept (the oldest are forgotten)
-VIEW_WIDTH = 800            # CAD views are rendered at most this wide
-SERVED_WIDTH = 1280         # a photo is shown at most this wide (the page stretches it back)
-PHOTO_ALPHA = 0.5           # the overlay: photo and CAD half and half, CAD edges on top ...
-EDGE_OPACITY = 0.6          # ... at this opacity
+UPLOADS = ".uploads"  # in the render cache: a shot name never starts with a dot
+MAX_KEPT = 16  # uploads and solves kept (the oldest are forgotten)
+VIEW_WIDTH = 800  # CAD views are rendered at most this wide
+SERVED_WIDTH = 1280  # a photo is shown at most this wide (the page stretches it back)
+PHOTO_ALPHA = 0.5  # the overlay: photo and CAD half and half, CAD edges on top ...
+EDGE_OPACITY = 0.6  # ... at this opacity
 _ID = re.compile(r"[0-9a-f]{16}")
 
 
@@ -79,8 +79,9 @@ def overview_camera(bounds: np.ndarray) -> Camera:
 def cad_views(source) -> dict[str, View]:
     """The views offered: every shot's camera, the scene's named viewpoints, an overview."""
     scene = source.loaded
-    views = {f"shot:{s.name}": View(f"shot:{s.name}", f"shot {s.name}", _pinhole(s.camera))
-             for s in source.shots.values()}
+    views = {
+        f"shot:{s.name}": View(f"shot:{s.name}", f"shot {s.name}", _pinhole(s.camera)) for s in source.shots.values()
+    }
     for name in scene.viewpoints:
         views[f"view:{name}"] = View(f"view:{name}", f"viewpoint {name}", _pinhole(scene.camera(name)))
     views["overview"] = View("overview", "overview", overview_camera(scene.bounds()))
@@ -94,7 +95,7 @@ class Solved:
     solve: ClickSolve
     photo_ref: str
     photo: Path
-    photo_name: str   # the name shown (an upload's own file name)
+    photo_name: str  # the name shown (an upload's own file name)
     overlay: bytes
 
 
@@ -104,12 +105,12 @@ class AddPhoto:
     def __init__(self, review, cache: Path):
         self.review = review
         self.uploads = Path(cache) / UPLOADS
-        self._staged: collections.OrderedDict = collections.OrderedDict()   # id -> (path, name, kind)
-        self._solved: collections.OrderedDict = collections.OrderedDict()   # id -> Solved
-        self._renders: dict = {}   # view name -> PNG
+        self._staged: collections.OrderedDict = collections.OrderedDict()  # id -> (path, name, kind)
+        self._solved: collections.OrderedDict = collections.OrderedDict()  # id -> Solved
+        self._renders: dict = {}  # view name -> PNG
         self._edges = None
         self._lock = threading.Lock()
-        for old in self.uploads.glob("*") if self.uploads.is_dir() else ():   # an earlier server's: unreachable now
+        for old in self.uploads.glob("*") if self.uploads.is_dir() else ():  # an earlier server's: unreachable now
             if _ID.fullmatch(old.stem):
                 old.unlink(missing_ok=True)
 
@@ -122,8 +123,11 @@ class AddPhoto:
         """The photos and camera files directly in the folder shots are added to."""
         folder = self.folder
         names = sorted(p.name for p in folder.iterdir() if p.is_file()) if folder.is_dir() else []
-        return {"folder": display(folder), "photos": [n for n in names if Path(n).suffix.lower() in IMAGE_SUFFIXES],
-                "cameras": [n for n in names if Path(n).suffix.lower() in CAMERA_SUFFIXES]}
+        return {
+            "folder": display(folder),
+            "photos": [n for n in names if Path(n).suffix.lower() in IMAGE_SUFFIXES],
+            "cameras": [n for n in names if Path(n).suffix.lower() in CAMERA_SUFFIXES],
+        }
 
     def upload(self, kind: str, filename: str, data: bytes) -> dict:
         """Stage an uploaded photo or camera file, checked first: ``{"ref", "name"}``."""
@@ -133,7 +137,7 @@ class AddPhoto:
         if suffix not in allowed:
             raise MrcheckError(f"a {kind} file must end in {', '.join(allowed)}", display(name))
         if kind == "photo":
-            decode_image(data, display(name), "photo")   # not an image: a one-line error, nothing kept
+            decode_image(data, display(name), "photo")  # not an image: a one-line error, nothing kept
         ident = secrets.token_hex(8)
         self.uploads.mkdir(parents=True, exist_ok=True)
         path = self.uploads / f"{ident}{suffix}"
@@ -210,8 +214,9 @@ class AddPhoto:
         return {"instance": None, "world": None} if hit is None else {"instance": hit[1], "world": hit[0].tolist()}
 
     # -- solve and save ------------------------------------------------------------------
-    def solve(self, photo_ref: str, intrinsics_ref: str, view_name: str, photo_pixels, cad_pixels,
-              snap: bool = True) -> tuple[str, Solved]:
+    def solve(
+        self, photo_ref: str, intrinsics_ref: str, view_name: str, photo_pixels, cad_pixels, snap: bool = True
+    ) -> tuple[str, Solved]:
         """Solve the clicks (:func:`.clicks.solve_clicks`), render the overlay; (id, Solved)."""
         photo, image, camera = self.photo_and_camera(photo_ref, intrinsics_ref)
         view = self.view(view_name)
@@ -234,8 +239,12 @@ class AddPhoto:
         grey = image.astype(np.float32) @ np.array([0.299, 0.587, 0.114], np.float32) / 255.0
 
         def snap(rough: Camera):
-            return self.review.renders.call(lambda renderer: refine_pose(
-                scene, rough, grey, options=EdgeOptions(), renderer=renderer, edges=self._edges))
+            return self.review.renders.call(
+                lambda renderer: refine_pose(
+                    scene, rough, grey, options=EdgeOptions(), renderer=renderer, edges=self._edges
+                )
+            )
+
         return snap
 
     def solved(self, ident: str) -> Solved:
@@ -252,7 +261,7 @@ class AddPhoto:
             folder.mkdir(parents=True, exist_ok=True)
             photo, copied = solved.photo, None
             if solved.photo_ref.startswith("upload:"):
-                if not solved.photo.is_file():   # forgotten: more than MAX_KEPT uploads since
+                if not solved.photo.is_file():  # forgotten: more than MAX_KEPT uploads since
                     raise MrcheckError(f"the uploaded photo {solved.photo_name} is no longer kept: upload it again")
                 copied = photo = _copy_new(solved.photo, folder, solved.photo_name)
             try:
@@ -283,7 +292,9 @@ def _overlay(renderer, camera: Camera, photo: np.ndarray) -> np.ndarray:
     results = renderer.render(render_camera, ["phong"], RenderSettings(samples=4, seed=0).validated(camera.height))
     mixed = overlay_images(photo, {"phong": results["phong"].image}, camera, PHOTO_ALPHA, offset=offset, maps=maps)
     # the CAD's edges at part opacity: a fence's hundreds of edges would hide the photo they are judged on
-    edges = distort_to_photo(cad_edges(results.depth, render_camera.fx).astype(np.float32), maps, offset, photo.shape[:2])
+    edges = distort_to_photo(
+        cad_edges(results.depth, render_camera.fx).astype(np.float32), maps, offset, photo.shape[:2]
+    )
     return draw_edges(mixed["phong"], np.minimum(edges * 2.0, 1.0) * EDGE_OPACITY, DEFAULT_EDGE_COLOR)
 
 
@@ -313,7 +324,7 @@ def _copy_new(staged: Path, folder: Path, name: str) -> Path:
             with open(path, "xb") as handle:
                 handle.write(data)
             return path
-        except FileExistsError:   # taken since the check: the next free name
+        except FileExistsError:  # taken since the check: the next free name
             continue
 
 

@@ -35,9 +35,18 @@ def cache_path(db_path: Path) -> Path:
     return Path(db_path).parent / REVIEW_CACHE
 
 
-def create_app(source, db_path: Path | None = None, cache_dir: Path | None = None, token: str | None = None,
-               samples: int = 16, suggestions: dict | None = None, host: str | None = None,
-               max_body: int = MAX_BODY, max_upload: int = MAX_UPLOAD, antialias: bool = True) -> FastAPI:
+def create_app(
+    source,
+    db_path: Path | None = None,
+    cache_dir: Path | None = None,
+    token: str | None = None,
+    samples: int = 16,
+    suggestions: dict | None = None,
+    host: str | None = None,
+    max_body: int = MAX_BODY,
+    max_upload: int = MAX_UPLOAD,
+    antialias: bool = True,
+) -> FastAPI:
     """``suggestions``: {shot name: markers} (:func:`.suggestions.load_suggestions`), imported
     into the review's markers once; ``app.state.imported``: {shot name: markers added now}.
     ``host``: the address the server is bound to, whose names alone a request's Host header may
@@ -45,8 +54,11 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
     ``max_body``: the largest request body, in bytes; ``max_upload``: the largest upload of "Add photo".
     ``antialias``: the CAD renders anti-aliased (mrcheck.render.antialias)."""
     db_path = database_path(source, db_path)
-    store = Store(db_path, source.review_name(db_path),
-                  served_scales={s.name: s.served_scale() for s in source.shots.values() if s.served_size != s.size})
+    store = Store(
+        db_path,
+        source.review_name(db_path),
+        served_scales={s.name: s.served_scale() for s in source.shots.values() if s.served_size != s.size},
+    )
     renders = RenderService(source, cache_dir or cache_path(db_path), samples=samples, antialias=antialias)
     review = Review(source, store, renders)
     review.addphoto = AddPhoto(review, renders.cache)
@@ -60,7 +72,7 @@ def create_app(source, db_path: Path | None = None, cache_dir: Path | None = Non
     app = FastAPI(title="mrcheck review", docs_url=None, redoc_url=None, openapi_url=None, lifespan=lifespan)
     app.state.review = review
     app.state.source, app.state.store, app.state.renders = source, store, renders
-    app.state.imported = review.imported   # shot -> suggestions added at this start
+    app.state.imported = review.imported  # shot -> suggestions added at this start
     middleware.install(app, token, host, max_body, max_upload)
     for router in ROUTERS:
         app.include_router(router)

@@ -12,8 +12,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from mrcheck.apps.bcf import (BcfComment, Finding, bcf_bytes, finding_topic, read_bcf_bytes, severity_of,
-                              topic_guid)
+from mrcheck.apps.bcf import BcfComment, Finding, bcf_bytes, finding_topic, read_bcf_bytes, severity_of, topic_guid
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.images import encode_image, read_image
 
@@ -29,7 +28,7 @@ def _snapshot(shot, marker: dict) -> bytes | None:
     """The shot's photo with a ring at the marker, at most SNAPSHOT_WIDTH wide."""
     try:
         photo = read_image(shot.photo, "photo")
-    except MrcheckError:    # a photo gone since start-up: the topic goes without a snapshot
+    except MrcheckError:  # a photo gone since start-up: the topic goes without a snapshot
         return None
     scale = min(1.0, SNAPSHOT_WIDTH / photo.shape[1])
     image = cv2.resize(photo, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA) if scale < 1.0 else photo.copy()
@@ -41,8 +40,10 @@ def _snapshot(shot, marker: dict) -> bytes | None:
 def _comments(state: dict) -> list:
     from datetime import datetime
 
-    return [BcfComment(c["guid"], datetime.fromisoformat(c["date"]) if c.get("date") else None, c["author"], c["text"])
-            for c in state.get("comments", [])]
+    return [
+        BcfComment(c["guid"], datetime.fromisoformat(c["date"]) if c.get("date") else None, c["author"], c["text"])
+        for c in state.get("comments", [])
+    ]
 
 
 def export_bcf(review) -> bytes:
@@ -53,15 +54,23 @@ def export_bcf(review) -> bytes:
         shot = review.source.shots.get(m["shot"])
         state = states.get(m["id"], {})
         finding = Finding(marker_guid(review, m["id"]), m["category"], m["severity"], m["note"], m["part"], m["shot"])
-        topics.append(finding_topic(finding, review.source.loaded, shot.camera if shot else None,
-                                    _snapshot(shot, m) if shot else None, state.get("status", DEFAULT_STATUS),
-                                    _comments(state)))
+        topics.append(
+            finding_topic(
+                finding,
+                review.source.loaded,
+                shot.camera if shot else None,
+                _snapshot(shot, m) if shot else None,
+                state.get("status", DEFAULT_STATUS),
+                _comments(state),
+            )
+        )
     return bcf_bytes(topics, project=review.source.label)
 
 
 @dataclass
 class BcfImport:
     """What an import changed: markers matched, and topics of no marker of this review."""
+
     matched: int
     unknown: int
 
@@ -79,8 +88,10 @@ def import_bcf(review, data: bytes) -> BcfImport:
             unknown += 1
             continue
         matched += 1
-        comments = [{"guid": c.guid, "date": c.date.isoformat() if c.date else "", "author": c.author, "text": c.text}
-                    for c in topic.comments]
+        comments = [
+            {"guid": c.guid, "date": c.date.isoformat() if c.date else "", "author": c.author, "text": c.text}
+            for c in topic.comments
+        ]
         review.store.set_bcf_state(marker["id"], topic.status or DEFAULT_STATUS, comments)
         severity = severity_of(topic.priority)
         if severity is not None and severity != marker["severity"]:
@@ -91,8 +102,14 @@ def import_bcf(review, data: bytes) -> BcfImport:
 def with_bcf_state(review, markers: list) -> list:
     """The markers with their BCF ``status`` and ``comments`` (Open and none until an import)."""
     states = review.store.bcf_states()
-    return [{**m, "status": states.get(m["id"], {}).get("status", DEFAULT_STATUS),
-             "comments": states.get(m["id"], {}).get("comments", [])} for m in markers]
+    return [
+        {
+            **m,
+            "status": states.get(m["id"], {}).get("status", DEFAULT_STATUS),
+            "comments": states.get(m["id"], {}).get("comments", []),
+        }
+        for m in markers
+    ]
 
 
 __all__ = ["export_bcf", "import_bcf", "with_bcf_state", "marker_guid", "BcfImport"]

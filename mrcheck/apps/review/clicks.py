@@ -55,7 +55,7 @@ class ClickSolve:
     snapped: bool
     snap_note: str
     warnings: list = field(default_factory=list)
-    rejected: list = field(default_factory=list)   # 0-based pairs the pose solver left out (mis-clicks)
+    rejected: list = field(default_factory=list)  # 0-based pairs the pose solver left out (mis-clicks)
 
     @property
     def rms_px(self) -> float:
@@ -70,7 +70,9 @@ def cad_points(picker, view: Camera, pixels) -> list[CadPoint]:
     points = []
     for i, (u, v) in enumerate(pixels, start=1):
         if not (0 <= u < view.width and 0 <= v < view.height):
-            raise MrcheckError(f"CAD click {i} at ({u:.0f}, {v:.0f}) lies outside the {view.width}x{view.height} render")
+            raise MrcheckError(
+                f"CAD click {i} at ({u:.0f}, {v:.0f}) lies outside the {view.width}x{view.height} render"
+            )
         hit = picker.world_point(view, u, v)
         if hit is None:
             raise MrcheckError(f"CAD click {i} at ({u:.0f}, {v:.0f}) hits no CAD part: click on the model")
@@ -81,11 +83,14 @@ def cad_points(picker, view: Camera, pixels) -> list[CadPoint]:
 def check_pairs(photo_pixels, cad_pixels, width: int, height: int) -> None:
     """At least :data:`MIN_PAIRS` complete pairs, every photo click inside the photo."""
     if len(photo_pixels) != len(cad_pixels):
-        raise MrcheckError(f"{len(photo_pixels)} photo click(s) but {len(cad_pixels)} CAD click(s): "
-                           "click each point on both sides")
+        raise MrcheckError(
+            f"{len(photo_pixels)} photo click(s) but {len(cad_pixels)} CAD click(s): click each point on both sides"
+        )
     if len(photo_pixels) < MIN_PAIRS:
-        raise MrcheckError(f"{len(photo_pixels)} pair(s) of clicks: at least {MIN_PAIRS} are needed "
-                           "(6 or more let a mis-click be found)")
+        raise MrcheckError(
+            f"{len(photo_pixels)} pair(s) of clicks: at least {MIN_PAIRS} are needed "
+            "(6 or more let a mis-click be found)"
+        )
     for i, (u, v) in enumerate(photo_pixels, start=1):
         if not (0 <= u < width and 0 <= v < height):
             raise MrcheckError(f"photo click {i} at ({u:.0f}, {v:.0f}) lies outside the {width}x{height} photo")
@@ -116,12 +121,32 @@ def solve_clicks(photo, shape: tuple, intrinsics: Camera, photo_pixels, cad: lis
     rejected = {r["index"] for r in clicked["rejected"]}
     # the clicks' own warnings (a rejected mis-click, only 4 pairs) stay when the edges' are added
     own = clicked["warnings"] + (list(shot["warnings"]) if shot is not clicked else [])
-    shot = {**shot, "photo": str(photo), "warnings": warnings + own + ([note] if final is rough else []),
-            "clicks": [{"pixel": p.tolist(), "world": w.tolist(), "instance": c.instance, "used": i not in rejected,
-                        "error_px": round(float(e), 3), "click_pose_error_px": round(float(b), 3)}
-                       for i, (p, w, c, e, b) in enumerate(zip(pixels, world, cad, after, before))]}
-    return ClickSolve(shot, final, [round(float(e), 3) for e in after], [round(float(e), 3) for e in before],
-                      final is not rough, note, shot["warnings"], sorted(rejected))
+    shot = {
+        **shot,
+        "photo": str(photo),
+        "warnings": warnings + own + ([note] if final is rough else []),
+        "clicks": [
+            {
+                "pixel": p.tolist(),
+                "world": w.tolist(),
+                "instance": c.instance,
+                "used": i not in rejected,
+                "error_px": round(float(e), 3),
+                "click_pose_error_px": round(float(b), 3),
+            }
+            for i, (p, w, c, e, b) in enumerate(zip(pixels, world, cad, after, before))
+        ],
+    }
+    return ClickSolve(
+        shot,
+        final,
+        [round(float(e), 3) for e in after],
+        [round(float(e), 3) for e in before],
+        final is not rough,
+        note,
+        shot["warnings"],
+        sorted(rejected),
+    )
 
 
 def _snapped(snap, rough: Camera, clicked: dict, photo, pixels, world, before) -> tuple[dict, Camera, str]:
@@ -129,19 +154,27 @@ def _snapped(snap, rough: Camera, clicked: dict, photo, pixels, world, before) -
     or moves the view away from the clicks (see the module docstring)."""
     try:
         fit = snap(rough)
-    except MrcheckError as exc:   # an EdgeFitError (too little support, diverged) or any other input problem
+    except MrcheckError as exc:  # an EdgeFitError (too little support, diverged) or any other input problem
         return clicked, rough, f"edge snap failed ({exc.problem}): the pose of the clicks is kept"
     used = np.ones(len(pixels), bool)
-    used[[r["index"] for r in clicked["rejected"]]] = False   # a mis-click the solver left out is no measure
+    used[[r["index"] for r in clicked["rejected"]]] = False  # a mis-click the solver left out is no measure
     rms_before = float(np.sqrt(np.mean(before[used] ** 2)))
     after = _errors(fit.camera, pixels, world)
     rms_after = float(np.sqrt(np.mean(after[used] ** 2)))
     if rms_after > rms_before + clicked["inlier_threshold_px"]:
-        return clicked, rough, (f"edge snap not used: it moved the view away from the clicks (click RMS {rms_after:.1f} px "
-                                f"against {rms_before:.1f} px): the pose of the clicks is kept")
+        return (
+            clicked,
+            rough,
+            (
+                f"edge snap not used: it moved the view away from the clicks (click RMS {rms_after:.1f} px "
+                f"against {rms_before:.1f} px): the pose of the clicks is kept"
+            ),
+        )
     shot = edge_shot(fit, photo, "points", rough)
-    note = (f"snapped onto the photo's edges: edge RMS {fit.rms_px:.2f} px, support {fit.support:.0%}; "
-            f"click RMS {rms_before:.2f} -> {rms_after:.2f} px")
+    note = (
+        f"snapped onto the photo's edges: edge RMS {fit.rms_px:.2f} px, support {fit.support:.0%}; "
+        f"click RMS {rms_before:.2f} -> {rms_after:.2f} px"
+    )
     return {**shot, "click_rms": round(rms_before, 4)}, fit.camera, note
 
 

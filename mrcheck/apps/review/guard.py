@@ -25,9 +25,9 @@ from fastapi.responses import JSONResponse
 from starlette.datastructures import Headers
 from starlette.middleware.body_limit import RequestBodyLimitMiddleware
 
-MAX_BODY = 1 << 20          # the default limit: 1 MiB, some 40 x the largest marker
-MIN_MAX_BODY = 64 << 10     # a smaller limit would refuse markers with long notes
-MAX_UPLOAD = 64 << 20       # an uploaded photo: a 24 MP JPEG is some 12 MB, a 16-bit TIFF more
+MAX_BODY = 1 << 20  # the default limit: 1 MiB, some 40 x the largest marker
+MIN_MAX_BODY = 64 << 10  # a smaller limit would refuse markers with long notes
+MAX_UPLOAD = 64 << 20  # an uploaded photo: a 24 MP JPEG is some 12 MB, a 16-bit TIFF more
 UPLOAD_PATH = "/api/addphoto/upload"
 ALL_INTERFACES = ("0.0.0.0", "::", "")
 LOOPBACK_NAMES = ("localhost", "127.0.0.1", "[::1]")

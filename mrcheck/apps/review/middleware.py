@@ -32,8 +32,11 @@ def _error_handlers(app: FastAPI, max_body: int, max_upload: int) -> None:
     async def _http(request, exc):
         # the body limit's own "Content Too Large" names neither the limit nor the option
         upload = request.url.path == UPLOAD_PATH
-        detail = (too_large(max_upload if upload else max_body, option="--max-upload" if upload else "--max-body")
-                  if exc.status_code == 413 else exc.detail)
+        detail = (
+            too_large(max_upload if upload else max_body, option="--max-upload" if upload else "--max-body")
+            if exc.status_code == 413
+            else exc.detail
+        )
         return JSONResponse({"error": detail}, status_code=exc.status_code, headers=exc.headers)
 
     @app.exception_handler(MrcheckError)
@@ -47,9 +50,12 @@ def _error_handlers(app: FastAPI, max_body: int, max_upload: int) -> None:
 def _token_check(app: FastAPI, token: str) -> None:
     """Every request needs the token: query ``token``, header ``X-Review-Token`` or the cookie
     set when the page is opened with ``?token=``; else 401."""
+
     @app.middleware("http")
     async def _token(request: Request, call_next):
-        given = request.query_params.get("token") or request.headers.get("x-review-token") or request.cookies.get(COOKIE)
+        given = (
+            request.query_params.get("token") or request.headers.get("x-review-token") or request.cookies.get(COOKIE)
+        )
         if not given or not hmac.compare_digest(given.encode(), token.encode()):
             return JSONResponse({"error": "a valid token is required (?token=...)"}, status_code=401)
         response = await call_next(request)
@@ -59,15 +65,18 @@ def _token_check(app: FastAPI, token: str) -> None:
 
 
 def _unexpected_errors(app: FastAPI) -> None:
-    @app.middleware("http")   # outside the token check: also what the token check might raise
+    @app.middleware("http")  # outside the token check: also what the token check might raise
     async def _unexpected(request: Request, call_next):
         try:
             return await call_next(request)
         except Exception as exc:  # a bug, not bad input: the API's error shape, one line on the console
             debug = bool(os.environ.get("MRCHECK_DEBUG"))
             reason = bug_reason(exc)
-            log.error(f"internal error in {request.method} {request.url.path}, please report it: {reason}"
-                      + ("" if debug else " (MRCHECK_DEBUG=1 shows the traceback)"), exc_info=debug)
+            log.error(
+                f"internal error in {request.method} {request.url.path}, please report it: {reason}"
+                + ("" if debug else " (MRCHECK_DEBUG=1 shows the traceback)"),
+                exc_info=debug,
+            )
             return JSONResponse({"error": f"internal error, please report it: {reason}"}, status_code=500)
 
 
@@ -79,5 +88,6 @@ def install(app: FastAPI, token: str | None, host: str | None, max_body: int, ma
         _token_check(app, token)
     _unexpected_errors(app)
     # added last, so outermost: before the token check
-    app.add_middleware(RequestCheck, hosts=None if host is None else host_names(host), max_body=max_body,
-                       max_upload=max_upload)
+    app.add_middleware(
+        RequestCheck, hosts=None if host is None else host_names(host), max_body=max_body, max_upload=max_upload
+    )

@@ -30,6 +30,7 @@ class MarkerIn(BaseModel):
 
 class MarkerPatch(BaseModel):
     """Only the fields given are changed (the None defaults mean "not given"; null is refused)."""
+
     model_config = _STRICT
     x: float = None
     y: float = None

@@ -23,8 +23,8 @@ from mrcheck.core.camera import Camera
 from mrcheck.eval.raycast import SceneCaster, build_caster
 from mrcheck.scene.model import Scene
 
-ORIGIN_RADIUS_M = 1000.0   # float32 spacing 6e-5 m at 1 km: picks to the millimetre nearby
-MAX_ORIGINS = 4            # ray-casting scenes kept (each holds the whole scene once)
+ORIGIN_RADIUS_M = 1000.0  # float32 spacing 6e-5 m at 1 km: picks to the millimetre nearby
+MAX_ORIGINS = 4  # ray-casting scenes kept (each holds the whole scene once)
 
 
 class Picker:
@@ -41,7 +41,7 @@ class Picker:
             if np.linalg.norm(centre - entry[0]) <= ORIGIN_RADIUS_M:
                 return entry
         entry = (centre.copy(), build_caster(self.scene, centre))
-        self._casters = [entry] + self._casters[:MAX_ORIGINS - 1]
+        self._casters = [entry] + self._casters[: MAX_ORIGINS - 1]
         return entry
 
     def _cast(self, camera: Camera, u: float, v: float):
@@ -70,15 +70,21 @@ class Picker:
             return {"part": None, "instance": None, "distance": None}
         part, instance = caster.label(hits.instance[0])
         info = self._elements().get(instance)
-        return {"part": part, "instance": instance, "distance": round(float(hits.t[0]), 3),
-                "triangle": int(hits.triangle[0]),
-                # an imported (IFC/STEP) element's name, class and storey; empty for other scenes
-                "name": info.name if info else "", "ifc_class": info.ifc_class if info else "",
-                "storey": info.storey if info else ""}
+        return {
+            "part": part,
+            "instance": instance,
+            "distance": round(float(hits.t[0]), 3),
+            "triangle": int(hits.triangle[0]),
+            # an imported (IFC/STEP) element's name, class and storey; empty for other scenes
+            "name": info.name if info else "",
+            "ifc_class": info.ifc_class if info else "",
+            "storey": info.storey if info else "",
+        }
 
     def _elements(self) -> dict:
         """{instance id: ElementInfo} of the scene (made once)."""
         if self._element_table is None:
-            self._element_table = {iid: info for part in self.scene.parts
-                                   for iid, info in zip(part.instance_ids, part.instance_info)}
+            self._element_table = {
+                iid: info for part in self.scene.parts for iid, info in zip(part.instance_ids, part.instance_info)
+            }
         return self._element_table

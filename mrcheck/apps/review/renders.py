@@ -27,10 +27,11 @@ from mrcheck.mr.shot import cad_edges
 from mrcheck.render.renderer import MODES, Renderer, RenderSettings
 from mrcheck.scene.manifest import files_stamp
 
-INTENSITIES = (0.5, 1.0, 1.5, 2.0)   # the AO slider's four levels
+INTENSITIES = (0.5, 1.0, 1.5, 2.0)  # the AO slider's four levels
 SAMPLES = 16
 EDGE_RGB = (255, 0, 255)
 THUMB_WIDTH = 160
+
 
 def _shot_stamp(shot) -> str:
     """The shot's camera and its photo file (path, size, mtime): what a photo or thumbnail is made of."""
@@ -50,7 +51,7 @@ class RenderService:
         self.source = source
         self.cache = Path(cache_dir)
         self.samples = samples
-        self.antialias = antialias   # part of the renders' cache names: a switch renders afresh
+        self.antialias = antialias  # part of the renders' cache names: a switch renders afresh
         self._queue: queue.Queue = queue.Queue()
         self._pending: dict = {}
         self._lock = threading.Lock()
@@ -67,13 +68,15 @@ class RenderService:
         if not self.cache.is_dir():
             return
         stamps = {name: _shot_stamp(shot) for name, shot in self.source.shots.items()}
-        current = {name: (cached_suffix(stamp), cached_suffix(self._cad_stamp(stamp))) for name, stamp in stamps.items()}
+        current = {
+            name: (cached_suffix(stamp), cached_suffix(self._cad_stamp(stamp))) for name, stamp in stamps.items()
+        }
         for folder in (p for p in self.cache.iterdir() if p.is_dir()):
             suffixes = current.get(folder.name, ())
             for path in folder.glob("*.png"):
                 if path.name.startswith(CACHED_PREFIXES) and not path.name.endswith(suffixes):
                     path.unlink(missing_ok=True)
-            with contextlib.suppress(OSError):   # empty now: the folder of a vanished shot
+            with contextlib.suppress(OSError):  # empty now: the folder of a vanished shot
                 folder.rmdir()
 
     def _cad_stamp(self, shot_stamp: str) -> str:
@@ -81,8 +84,9 @@ class RenderService:
 
     def settings(self, height: int, intensity: float = 1.0) -> RenderSettings:
         """The render settings of this review's images (validated for an image ``height`` px high)."""
-        return RenderSettings(samples=self.samples, intensity=intensity, seed=0,
-                              antialias=self.antialias).validated(height)
+        return RenderSettings(samples=self.samples, intensity=intensity, seed=0, antialias=self.antialias).validated(
+            height
+        )
 
     # -- public --------------------------------------------------------------------------
     def file(self, shot_name: str, kind: str, mode: str = "phong", intensity: float = 1.0) -> Path:
@@ -136,7 +140,7 @@ class RenderService:
                 break
             key, path, future = item
             try:
-                if key is None:   # a call (:meth:`call`): ``path`` is the function
+                if key is None:  # a call (:meth:`call`): ``path`` is the function
                     renderer = renderer or Renderer(self.source.loaded)
                     future.set_result(path(renderer))
                 elif not path.is_file():

@@ -25,7 +25,7 @@ def _crop(image: np.ndarray, x: float, y: float) -> np.ndarray:
     h, w = image.shape[:2]
     cx, cy = int(round(x)), int(round(y))
     x0, y0 = max(0, cx - CROP), max(0, cy - CROP)
-    crop = image[y0:min(h, cy + CROP), x0:min(w, cx + CROP)].copy()
+    crop = image[y0 : min(h, cy + CROP), x0 : min(w, cx + CROP)].copy()
     cv2.circle(crop, (cx - x0, cy - y0), 9, (255, 0, 0), 2)
     return crop
 
@@ -49,9 +49,21 @@ def markers_csv(markers: list) -> str:
     writer = csv.writer(out)
     writer.writerow(["id", "shot", "x", "y", "category", "severity", "note", "part", "distance_m", "mode", "updated"])
     for m in markers:
-        writer.writerow([m["id"], m["shot"], f"{m['x']:.1f}", f"{m['y']:.1f}", m["category"], m["severity"],
-                         _text(m["note"]), _text(m["part"]), "" if m["distance"] is None else f"{m['distance']:.3f}",
-                         m["mode"] or "", _when(m["updated"])])
+        writer.writerow(
+            [
+                m["id"],
+                m["shot"],
+                f"{m['x']:.1f}",
+                f"{m['y']:.1f}",
+                m["category"],
+                m["severity"],
+                _text(m["note"]),
+                _text(m["part"]),
+                "" if m["distance"] is None else f"{m['distance']:.3f}",
+                m["mode"] or "",
+                _when(m["updated"]),
+            ]
+        )
     return out.getvalue()
 
 
@@ -63,7 +75,8 @@ def _shot_images(source, renders, shot: str, intensity: float):
         return "the review no longer has this shot"
     try:
         return [("photo", renders.image(shot, "photo"))] + [
-            (STUDY_LABELS[mode], renders.image(shot, "render", mode, intensity)) for mode in MODES]
+            (STUDY_LABELS[mode], renders.image(shot, "render", mode, intensity)) for mode in MODES
+        ]
     except MrcheckError as exc:
         return str(exc)
 
@@ -76,13 +89,22 @@ def _marker(m: dict, crops, served_scale) -> dict:
     else:  # the marker is in the photo's pixels, the images are the served ones
         sx, sy = served_scale
         problem, figures = None, [(label, _data_url(_crop(img, m["x"] * sx, m["y"] * sy))) for label, img in crops]
-    return {"id": m["id"], "category": m["category"], "severity": m["severity"], "shot": m["shot"],
-            "x": f"{m['x']:.0f}", "y": f"{m['y']:.0f}", "part": m["part"] or "none",
-            "distance": "" if m["distance"] is None else f" at {m['distance']:.2f} m",
-            "placed": f" in {STUDY_LABELS.get(m['mode'], m['mode'])}" if m["mode"] else "",
-            "created": _when(m["created"]),
-            "changed": "" if m["updated"] == m["created"] else f", last changed {_when(m['updated'])}",
-            "note": m["note"], "problem": problem, "crops": figures}
+    return {
+        "id": m["id"],
+        "category": m["category"],
+        "severity": m["severity"],
+        "shot": m["shot"],
+        "x": f"{m['x']:.0f}",
+        "y": f"{m['y']:.0f}",
+        "part": m["part"] or "none",
+        "distance": "" if m["distance"] is None else f" at {m['distance']:.2f} m",
+        "placed": f" in {STUDY_LABELS.get(m['mode'], m['mode'])}" if m["mode"] else "",
+        "created": _when(m["created"]),
+        "changed": "" if m["updated"] == m["created"] else f", last changed {_when(m['updated'])}",
+        "note": m["note"],
+        "problem": problem,
+        "crops": figures,
+    }
 
 
 def report_html(source, renders, markers: list, intensity: float = 1.0) -> str:
@@ -93,5 +115,12 @@ def report_html(source, renders, markers: list, intensity: float = 1.0) -> str:
             images[m["shot"]] = _shot_images(source, renders, m["shot"], intensity)
         crops = images[m["shot"]]
         shown.append(_marker(m, crops, None if isinstance(crops, str) else source.shots[m["shot"]].served_scale()))
-    return render("mrcheck.apps.review", "report.html.j2", label=source.label, scene=display(source.scene),
-                  exported=_when(time.time()), intensity=f"{intensity:g}", markers=shown)
+    return render(
+        "mrcheck.apps.review",
+        "report.html.j2",
+        label=source.label,
+        scene=display(source.scene),
+        exported=_when(time.time()),
+        intensity=f"{intensity:g}",
+        markers=shown,
+    )

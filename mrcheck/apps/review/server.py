@@ -51,10 +51,10 @@ def listen(host: str, port: int) -> socket.socket:
 
 @dataclass
 class ReviewServer:
-    app: object            # the FastAPI app
-    sock: socket.socket    # bound and listening
-    url: str               # what the planner opens (with the token, if any)
-    suggested: bool        # --suggestions were given
+    app: object  # the FastAPI app
+    sock: socket.socket  # bound and listening
+    url: str  # what the planner opens (with the token, if any)
+    suggested: bool  # --suggestions were given
 
     def messages(self) -> list:
         """What the server says when it starts: what is reviewed, the database's other reviews,
@@ -63,12 +63,16 @@ class ReviewServer:
         lines = [f"mrcheck review: {len(source.shots)} shot(s) of {source.label}"]
         if store.created and store.others:  # a shared --db, or a folder moved away from its database
             where = lambda name: os.path.normpath(store.path.resolve().parent / name)  # noqa: E731 (names are relative)
-            lines.append(f"review database {store.path}: a new review of {Path(source.origin).resolve()}; its other "
-                         f"review(s), kept apart: {', '.join(map(where, store.others))}")
+            lines.append(
+                f"review database {store.path}: a new review of {Path(source.origin).resolve()}; its other "
+                f"review(s), kept apart: {', '.join(map(where, store.others))}"
+            )
         if self.suggested:
             added = self.app.state.imported
-            lines.append(f"suggestions: {sum(added.values())} new marker(s) on {len(added)} shot(s) (category "
-                         "'suggested'; each part or region is imported once per review)")
+            lines.append(
+                f"suggestions: {sum(added.values())} new marker(s) on {len(added)} shot(s) (category "
+                "'suggested'; each part or region is imported once per review)"
+            )
         lines.append(f"open {self.url}")
         return lines
 
@@ -93,12 +97,23 @@ def _check_options(token, db, max_body) -> None:
     if db is not None and not str(db).strip():
         raise MrcheckError("--db must not be empty (omit it for review.sqlite beside the export, job or shots)")
     if max_body < MIN_MAX_BODY:
-        raise MrcheckError(f"--max-body must be at least {format_size(MIN_MAX_BODY)}: a marker with a long note "
-                           "takes up to 26 kB")
+        raise MrcheckError(
+            f"--max-body must be at least {format_size(MIN_MAX_BODY)}: a marker with a long note takes up to 26 kB"
+        )
 
 
-def start(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=None, suggestions=(),
-          max_body=MAX_BODY, max_upload=MAX_UPLOAD, antialias: bool = True) -> ReviewServer:
+def start(
+    target,
+    shots_dir=None,
+    host="127.0.0.1",
+    port=8765,
+    token=None,
+    db=None,
+    suggestions=(),
+    max_body=MAX_BODY,
+    max_upload=MAX_UPLOAD,
+    antialias: bool = True,
+) -> ReviewServer:
     """Everything but serving: the source opened and checked, the port bound, the app made (its
     database written). A bad input is a :class:`MrcheckError` before the port is bound."""
     from mrcheck.apps.review.source import open_source
@@ -109,15 +124,25 @@ def start(target, shots_dir=None, host="127.0.0.1", port=8765, token=None, db=No
     suggested = load_suggestions(source, suggestions)
     database = database_path(source, db)
     # SQLite writes the database and its -wal, -shm and -journal files; the cache prunes its own folder
-    check_not_inputs([Path(f"{database}{suffix}") for suffix in ("", "-wal", "-shm", "-journal")],
-                     [*source.inputs(), ("--suggestions", [suggestions_file(s) for s in suggestions])],
-                     folders=[cache_path(database)])
+    check_not_inputs(
+        [Path(f"{database}{suffix}") for suffix in ("", "-wal", "-shm", "-journal")],
+        [*source.inputs(), ("--suggestions", [suggestions_file(s) for s in suggestions])],
+        folders=[cache_path(database)],
+    )
     if token is None and not is_loopback(host):
         token = secrets.token_urlsafe(18)
     sock = listen(host, port)  # before create_app writes the database
     try:
-        app = create_app(source, db_path=database, token=token, suggestions=suggested, host=host,
-                         max_body=max_body, max_upload=max_upload, antialias=antialias)
+        app = create_app(
+            source,
+            db_path=database,
+            token=token,
+            suggestions=suggested,
+            host=host,
+            max_body=max_body,
+            max_upload=max_upload,
+            antialias=antialias,
+        )
     except BaseException:
         sock.close()
         raise

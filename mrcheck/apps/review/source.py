@@ -31,7 +31,7 @@ ADDED_SHOTS = "added-shots"  # shots added in the review ("Add photo") of an exp
 @dataclass
 class Shot:
     name: str
-    camera: Camera          # at the photo's native size
+    camera: Camera  # at the photo's native size
     photo: Path
     error_px: float | None  # registration RMS, px
 
@@ -60,19 +60,22 @@ class Shot:
 @dataclass
 class Source:
     scene: Path
-    shots: dict            # name -> Shot, in display order
-    home: Path             # folder for review.sqlite and the render cache
-    label: str             # what is reviewed, for people (display(): printable, JSON-encodable)
+    shots: dict  # name -> Shot, in display order
+    home: Path  # folder for review.sqlite and the render cache
+    label: str  # what is reviewed, for people (display(): printable, JSON-encodable)
     scene_stamp: str = ""  # files_stamp of the scene's files, set by open_source (keys the render cache)
     loaded: object = None  # the Scene, loaded once by open_source (the renderer and the picker share it)
     origin: Path | None = None  # the job file, export folder or shots folder reviewed
     files: list = field(default_factory=list)  # the files read to find the shots (job, manifest, SHOT.json, ...)
-    kind: str = "scene"    # what is reviewed: "scene" (SCENE --shots DIR), "export" or "job"
+    kind: str = "scene"  # what is reviewed: "scene" (SCENE --shots DIR), "export" or "job"
 
     def inputs(self) -> list:
         """``(what, paths)`` of every file the review reads (:func:`mrcheck.core.output.check_not_inputs`)."""
-        return [("a file of the review", self.files), ("a photo", [s.photo for s in self.shots.values()]),
-                ("the scene", scene_files(self.scene))]
+        return [
+            ("a file of the review", self.files),
+            ("a photo", [s.photo for s in self.shots.values()]),
+            ("the scene", scene_files(self.scene)),
+        ]
 
     def review_name(self, db_path) -> str:
         """The review's name in the database at ``db_path``: the path of what is reviewed,
@@ -116,7 +119,9 @@ def _read_manifest(path: Path) -> tuple[Path, list]:
     if not isinstance(settings, dict) or not isinstance(settings.get("scene"), str):
         raise MrcheckError("not an export manifest (no settings.scene)", path)
     entries = manifest.get("shots", [])
-    if not isinstance(entries, list) or not all(isinstance(e, dict) and isinstance(e.get("name"), str) for e in entries):
+    if not isinstance(entries, list) or not all(
+        isinstance(e, dict) and isinstance(e.get("name"), str) for e in entries
+    ):
         raise MrcheckError("not an export manifest (shots must be a list of entries with a name)", path)
     return Path(settings["scene"]), entries
 
@@ -125,9 +130,9 @@ def from_outdir(outdir: Path) -> Source:
     scene, entries = _read_manifest(outdir / MANIFEST)
     shots, files = {}, [outdir / MANIFEST]
     for entry in sorted(entries, key=lambda e: e["name"]):
-        if entry.get("status") not in ("done", "skipped"):   # failed in the export: its report says why
+        if entry.get("status") not in ("done", "skipped"):  # failed in the export: its report says why
             continue
-        try:   # a done shot's SHOT.json deleted or broken since the export
+        try:  # a done shot's SHOT.json deleted or broken since the export
             name = _checked_name(entry["name"], outdir / MANIFEST)
             folder = outdir / entry["folder"] if "folder" in entry else shot_folder(outdir, name)
             files.append(folder / SHOT_FILE)
@@ -136,8 +141,13 @@ def from_outdir(outdir: Path) -> Source:
             _warn(f"shot {entry['name']} skipped: {exc}")
     if not shots:
         failed = sum(e.get("status") == "failed" for e in entries)
-        why = (f"every shot ({failed}) failed in the export; its {REPORT} says why" if entries and failed == len(entries)
-               else "the export has no shots" if not entries else "see the warnings above")
+        why = (
+            f"every shot ({failed}) failed in the export; its {REPORT} says why"
+            if entries and failed == len(entries)
+            else "the export has no shots"
+            if not entries
+            else "see the warnings above"
+        )
         raise MrcheckError(f"no usable shots to review: {why}", outdir)
     return Source(scene, shots, outdir, display(outdir), origin=outdir, files=files, kind="export")
 
@@ -148,7 +158,7 @@ def from_job(job_path: Path) -> Source:
     from mrcheck.apps.export.tasks import input_files
 
     job = load_job(job_path)
-    bounds = job.loaded.bounds()   # loaded by load_job: a camera far outside the scene is a warning, as in export
+    bounds = job.loaded.bounds()  # loaded by load_job: a camera far outside the scene is a warning, as in export
     shots, files = {}, [job_path]
     for entry in job.shots:
         files += input_files(entry.inputs)
@@ -163,8 +173,16 @@ def from_job(job_path: Path) -> Source:
         shots[name] = Shot(name, camera, Path(photo), _rms(data))
     if not shots:
         raise MrcheckError("no usable shots to review: every shot was skipped (see the warnings above)", job_path)
-    return Source(Path(job.scene), shots, job_path.resolve().parent, display(job_path), loaded=job.loaded, origin=job_path,
-                  files=files, kind="job")
+    return Source(
+        Path(job.scene),
+        shots,
+        job_path.resolve().parent,
+        display(job_path),
+        loaded=job.loaded,
+        origin=job_path,
+        files=files,
+        kind="job",
+    )
 
 
 def _folder_shots(shots_dir: Path, shots: dict) -> list:
@@ -219,7 +237,7 @@ def _check_scene_target(target: Path) -> None:
 def open_source(target, shots_dir=None) -> Source:
     """``JOB.toml`` | ``OUTDIR`` (with manifest.json) | ``SCENE`` with ``shots_dir``."""
     target = Path(target)
-    if os.path.lexists(target):   # a missing one: the usage below; a symlink loop, a FIFO: say so
+    if os.path.lexists(target):  # a missing one: the usage below; a symlink loop, a FIFO: say so
         check_input(target, "review target", folder_ok=True)
     if shots_dir is not None:
         if not Path(shots_dir).is_dir():
@@ -228,16 +246,21 @@ def open_source(target, shots_dir=None) -> Source:
         source = from_scene(target, Path(shots_dir))
     elif target.is_dir():
         if not (target / MANIFEST).is_file():
-            raise MrcheckError("not an export folder (no manifest.json); pass JOB.toml, OUTDIR or SCENE --shots DIR", target)
+            raise MrcheckError(
+                "not an export folder (no manifest.json); pass JOB.toml, OUTDIR or SCENE --shots DIR", target
+            )
         source = from_outdir(target)
     elif target.suffix == ".toml" and target.is_file():
         if _is_scene_manifest(target):  # else load_job would list the manifest's keys as unknown job keys
-            raise MrcheckError("is a scene manifest: give its shots with --shots DIR (registered SHOT.json files), "
-                               "or pass JOB.toml or an export OUTDIR", target)
+            raise MrcheckError(
+                "is a scene manifest: give its shots with --shots DIR (registered SHOT.json files), "
+                "or pass JOB.toml or an export OUTDIR",
+                target,
+            )
         source = from_job(target)
     else:
         raise MrcheckError("pass JOB.toml, an export OUTDIR or SCENE --shots DIR", target)
-    if source.kind != "scene" and (Path(source.home) / ADDED_SHOTS).is_dir():   # shots added in an earlier review
+    if source.kind != "scene" and (Path(source.home) / ADDED_SHOTS).is_dir():  # shots added in an earlier review
         source.files += _folder_shots(Path(source.home) / ADDED_SHOTS, source.shots)
     _check_files(source, target)
     return source
@@ -248,11 +271,12 @@ def _check_photos(shots) -> None:
     read in parallel (a network share's latency overlaps); the decodes take turns, as every
     decode does (mrcheck.core.quiet: the codecs' own messages are captured), about 0.25 s per 12 MP
     JPEG on this machine's cores."""
+
     def check(shot) -> None:  # the decoded image is not kept: dozens of them would not fit in memory
         read_photo(Path(shot.photo), shot.camera)
 
     with concurrent.futures.ThreadPoolExecutor(max_workers=min(8, os.cpu_count() or 1)) as pool:
-        list(pool.map(check, shots))   # raises the error of the first bad photo in shot order
+        list(pool.map(check, shots))  # raises the error of the first bad photo in shot order
 
 
 def _check_files(source: Source, target: Path) -> None:
@@ -262,7 +286,7 @@ def _check_files(source: Source, target: Path) -> None:
     if not os.path.lexists(source.scene):
         named_by = f" (named by {target / MANIFEST}; moved since the export?)" if target.is_dir() else ""
         raise MrcheckError(f"scene not found{named_by}", source.scene)
-    check_input(source.scene, "scene", folder_ok=True)   # a symlink loop, a FIFO ...
+    check_input(source.scene, "scene", folder_ok=True)  # a symlink loop, a FIFO ...
     files = scene_files(source.scene)
     # files[0] is the manifest or mesh itself (a folder's scene.toml may be another *.toml: load_scene says)
     missing = next((p for p in files[1:] if not os.path.lexists(p)), None)

@@ -21,8 +21,8 @@ class Review:
     source: Source
     store: Store
     renders: RenderService
-    imported: dict = field(default_factory=dict)   # shot -> suggestions added at this start
-    addphoto: object = field(default=None, repr=False)   # "Add photo" (:class:`.addphoto.AddPhoto`), set by create_app
+    imported: dict = field(default_factory=dict)  # shot -> suggestions added at this start
+    addphoto: object = field(default=None, repr=False)  # "Add photo" (:class:`.addphoto.AddPhoto`), set by create_app
     _picker: object = field(default=None, init=False, repr=False)
     _lock: threading.Lock = field(default_factory=threading.Lock, init=False, repr=False)
 
@@ -49,8 +49,9 @@ class Review:
             shot = self.source.shots[name]
             markers = pending(markers, self.store.imported_keys(name), shot.size[0])
             cads = [self.cad_under(shot, m["x"], m["y"]) for m in markers]
-            if added := self.store.import_suggestions(name, [{**m, **suggested_cad(m, cad)}
-                                                             for m, cad in zip(markers, cads)]):
+            if added := self.store.import_suggestions(
+                name, [{**m, **suggested_cad(m, cad)} for m, cad in zip(markers, cads)]
+            ):
                 self.imported[name] = added
 
     def shot_or_404(self, name: str):

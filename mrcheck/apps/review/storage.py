@@ -16,7 +16,7 @@ MAX_NOTE = 2000
 # images served (at most 1280 wide), and the first review used whatever was reviewed; 1: native
 # pixels, one review per job, export or shots folder (reviews.source: its path relative to the database)
 VERSION = 1
-TABLES = {"reviews", "markers", "imported", "sqlite_sequence", "bcf"}   # a database with others is another program's
+TABLES = {"reviews", "markers", "imported", "sqlite_sequence", "bcf"}  # a database with others is another program's
 _FIELDS = ("id", "shot", "x", "y", "category", "severity", "note", "part", "distance", "mode", "created", "updated")
 
 SCHEMA = """
@@ -50,24 +50,33 @@ class Store:
                 version = db.execute("PRAGMA user_version").fetchone()[0]
                 foreign = {row[0] for row in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")} - TABLES
                 if foreign:  # checked before anything is written into it (WAL mode, our tables)
-                    raise MrcheckError(f"not a review database (it has the table(s) {', '.join(sorted(foreign))}): "
-                                       "give a new file with --db", self.path)
+                    raise MrcheckError(
+                        f"not a review database (it has the table(s) {', '.join(sorted(foreign))}): "
+                        "give a new file with --db",
+                        self.path,
+                    )
                 if version > VERSION:
-                    raise MrcheckError(f"the review database is of a newer mrcheck (version {version}; "
-                                       f"this one reads up to {VERSION})", self.path)
+                    raise MrcheckError(
+                        f"the review database is of a newer mrcheck (version {version}; "
+                        f"this one reads up to {VERSION})",
+                        self.path,
+                    )
                 db.execute("PRAGMA journal_mode=WAL")
-                db.execute("BEGIN IMMEDIATE")   # the schema, the review and an upgrade: all or nothing
+                db.execute("BEGIN IMMEDIATE")  # the schema, the review and an upgrade: all or nothing
                 for statement in filter(str.strip, SCHEMA.split(";")):  # executescript would commit first
                     db.execute(statement)
                 self.review, self.created = self._review(db, review, version)
                 if version < 1:
                     for shot, (sx, sy) in (served_scales or {}).items():
-                        db.execute("UPDATE markers SET x = x / ?, y = y / ? WHERE review = ? AND shot = ?",
-                                   (sx, sy, self.review, shot))
+                        db.execute(
+                            "UPDATE markers SET x = x / ?, y = y / ? WHERE review = ? AND shot = ?",
+                            (sx, sy, self.review, shot),
+                        )
                 db.execute(f"PRAGMA user_version = {VERSION}")
                 db.execute("COMMIT")
-                self.others = [row[0] for row in db.execute("SELECT source FROM reviews WHERE id != ? ORDER BY id",
-                                                             (self.review,))]
+                self.others = [
+                    row[0] for row in db.execute("SELECT source FROM reviews WHERE id != ? ORDER BY id", (self.review,))
+                ]
         except sqlite3.DatabaseError as exc:  # --db in a folder that cannot be written, or a file that is no database
             raise MrcheckError(f"cannot open the review database ({exc})", self.path) from None
 
@@ -101,8 +110,9 @@ class Store:
 
     def get(self, marker_id: int) -> dict | None:
         with self._connect() as db:
-            row = db.execute(f"SELECT {', '.join(_FIELDS)} FROM markers WHERE review = ? AND id = ?",
-                             (self.review, marker_id)).fetchone()
+            row = db.execute(
+                f"SELECT {', '.join(_FIELDS)} FROM markers WHERE review = ? AND id = ?", (self.review, marker_id)
+            ).fetchone()
             return dict(row) if row else None
 
     def add(self, values: dict) -> dict:
@@ -113,15 +123,19 @@ class Store:
     def _insert(self, db, values: dict) -> int:
         now = time.time()
         keys = ("shot", "x", "y", "category", "severity", "note", "part", "distance", "mode")
+        columns, slots = ", ".join(keys), ", ".join("?" * len(keys))
         return db.execute(
-            f"INSERT INTO markers(review, {', '.join(keys)}, created, updated) VALUES (?, {', '.join('?' * len(keys))}, ?, ?)",
-            (self.review, *[values.get(k) for k in keys], now, now)).lastrowid
+            f"INSERT INTO markers(review, {columns}, created, updated) VALUES (?, {slots}, ?, ?)",
+            (self.review, *[values.get(k) for k in keys], now, now),
+        ).lastrowid
 
     def imported_keys(self, shot: str) -> set[str]:
         """The keys of the suggestions imported into this review's ``shot`` before."""
         with self._connect() as db:
-            return {row[0] for row in db.execute("SELECT key FROM imported WHERE review = ? AND shot = ?",
-                                                 (self.review, shot))}
+            return {
+                row[0]
+                for row in db.execute("SELECT key FROM imported WHERE review = ? AND shot = ?", (self.review, shot))
+            }
 
     def import_suggestions(self, shot: str, suggestions: list[dict]) -> int:
         """Add the suggestions whose ``key`` this review has not imported before (deleted ones
@@ -131,20 +145,27 @@ class Store:
         with self._connect() as db:
             db.execute("BEGIN IMMEDIATE")
             for s in suggestions:
-                if db.execute("INSERT OR IGNORE INTO imported(review, shot, key) VALUES (?, ?, ?)",
-                              (self.review, shot, s["key"])).rowcount:
+                if db.execute(
+                    "INSERT OR IGNORE INTO imported(review, shot, key) VALUES (?, ?, ?)", (self.review, shot, s["key"])
+                ).rowcount:
                     self._insert(db, {**s, "shot": shot})
                     added += 1
-            db.execute("COMMIT")   # on an exception the connection closes uncommitted: nothing is kept
+            db.execute("COMMIT")  # on an exception the connection closes uncommitted: nothing is kept
         return added
 
     def update(self, marker_id: int, values: dict) -> dict | None:
-        allowed = {k: v for k, v in values.items() if k in ("x", "y", "category", "severity", "note", "part", "distance", "mode")}
+        allowed = {
+            k: v
+            for k, v in values.items()
+            if k in ("x", "y", "category", "severity", "note", "part", "distance", "mode")
+        }
         if allowed:
             sets = ", ".join(f"{k} = ?" for k in allowed)
             with self._connect() as db:
-                db.execute(f"UPDATE markers SET {sets}, updated = ? WHERE review = ? AND id = ?",
-                           (*allowed.values(), time.time(), self.review, marker_id))
+                db.execute(
+                    f"UPDATE markers SET {sets}, updated = ? WHERE review = ? AND id = ?",
+                    (*allowed.values(), time.time(), self.review, marker_id),
+                )
         return self.get(marker_id)
 
     def bcf_states(self) -> dict:
@@ -156,8 +177,10 @@ class Store:
     def set_bcf_state(self, marker_id: int, status: str, comments: list) -> None:
         """A marker's BCF status and comments (dicts of date, author, text), as another tool left them."""
         with self._connect() as db:
-            db.execute("INSERT OR REPLACE INTO bcf(review, marker, status, comments) VALUES (?, ?, ?, ?)",
-                       (self.review, marker_id, status, json.dumps(comments, ensure_ascii=False)))
+            db.execute(
+                "INSERT OR REPLACE INTO bcf(review, marker, status, comments) VALUES (?, ?, ?, ?)",
+                (self.review, marker_id, status, json.dumps(comments, ensure_ascii=False)),
+            )
 
     def delete(self, marker_id: int) -> bool:
         with self._connect() as db:

@@ -23,7 +23,7 @@ from mrcheck.core.inputs import real_path
 from mrcheck.core.jsonfile import number_problem, read_json
 
 CATEGORY = "suggested"
-REGION_NEAR = 0.02   # a part-less suggestion this close (share of the photo's width) to an imported one is that one
+REGION_NEAR = 0.02  # a part-less suggestion this close (share of the photo's width) to an imported one is that one
 
 
 def _made_on(doc: dict):
@@ -57,13 +57,18 @@ def _check_size(shot, made_on, doc: dict, suggested: list, path: Path) -> None:
     photo of another size (its markers would land elsewhere, or outside the image)."""
     w, h = shot.camera.width, shot.camera.height
     if made_on is not None and (made_on[0].width, made_on[0].height) != (w, h):
-        raise MrcheckError(f"made on a {made_on[0].width}x{made_on[0].height} shot ({doc['shot']}), "
-                           f"but shot {shot.name!r} is {w}x{h}", path)
+        raise MrcheckError(
+            f"made on a {made_on[0].width}x{made_on[0].height} shot ({doc['shot']}), but shot {shot.name!r} is {w}x{h}",
+            path,
+        )
     # without the shot it was made on, the markers themselves are all there is to check
     for m in suggested:
         if not (0 <= m["x"] < w and 0 <= m["y"] < h):
-            raise MrcheckError(f"a suggested marker at ({m['x']:g}, {m['y']:g}) lies outside shot {shot.name!r} "
-                               f"({w}x{h}): made on another photo?", path)
+            raise MrcheckError(
+                f"a suggested marker at ({m['x']:g}, {m['y']:g}) lies outside shot {shot.name!r} "
+                f"({w}x{h}): made on another photo?",
+                path,
+            )
 
 
 def suggestions_file(spec: str) -> Path:
@@ -77,7 +82,7 @@ def load_suggestions(source, specs) -> dict:
     out = {}
     for spec in specs:
         path = suggestions_file(spec)
-        doc = read_json(path, "suggestions")   # not found, a symlink loop, empty, malformed: says which
+        doc = read_json(path, "suggestions")  # not found, a symlink loop, empty, malformed: says which
         try:
             suggested = doc["suggested_markers"]
             if not isinstance(suggested, list):
@@ -85,7 +90,7 @@ def load_suggestions(source, specs) -> dict:
         except (KeyError, TypeError):
             raise MrcheckError("not a suspects.json of mrcheck discrepancies (no suggested_markers)", path) from None
         suggested = [_checked(m, i, path) for i, m in enumerate(suggested)]
-        made_on = _made_on(doc)   # read once: it names the shot and says which size the markers are in
+        made_on = _made_on(doc)  # read once: it names the shot and says which size the markers are in
         shot = _shot_of(source, spec, made_on, path)
         _check_size(shot, made_on, doc, suggested, path)
         # the detector worked on the photo's native pixels, as the review's markers are
@@ -93,16 +98,27 @@ def load_suggestions(source, specs) -> dict:
         for m in suggested:
             note = f"{m['category']}? {m['note']}".strip()
             key = f"part:{m['part']}" if m["part"] else f"region:{m['x']:.1f},{m['y']:.1f}"
-            out.setdefault(shot.name, []).append({
-                "x": m["x"], "y": m["y"], "category": CATEGORY, "severity": m["severity"], "part": m["part"],
-                "distance": None, "mode": None, "note": note, "key": key,
-                # what reviews of before (database version 0) recorded: served pixels and the note
-                "legacy_key": f"{m['x'] * sx:.1f},{m['y'] * sy:.1f},{note}"})
+            out.setdefault(shot.name, []).append(
+                {
+                    "x": m["x"],
+                    "y": m["y"],
+                    "category": CATEGORY,
+                    "severity": m["severity"],
+                    "part": m["part"],
+                    "distance": None,
+                    "mode": None,
+                    "note": note,
+                    "key": key,
+                    # what reviews of before (database version 0) recorded: served pixels and the note
+                    "legacy_key": f"{m['x'] * sx:.1f},{m['y'] * sy:.1f},{note}",
+                }
+            )
     return out
 
 
 def _checked(m, index: int, path: Path) -> dict:
     """A suggested marker's fields, checked: one line naming the file and the marker (from 1)."""
+
     def fail(problem):
         raise MrcheckError(f"suggested marker {index + 1}: {problem}", path)
 

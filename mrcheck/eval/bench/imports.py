@@ -17,7 +17,7 @@ from pathlib import Path
 
 from mrcheck.scene.importers import ImportSettings, read_model
 
-TWO_CORE_TARGET = 1.7    # the issue's target: two cores import at least 1.7x as fast as one
+TWO_CORE_TARGET = 1.7  # the issue's target: two cores import at least 1.7x as fast as one
 
 
 @dataclass
@@ -28,9 +28,9 @@ class IfcFigures:
     megabytes: float
     elements: int
     triangles: int
-    seconds: dict                       # {threads: fastest seconds}
-    rounds: dict                        # {threads: [seconds of every round]}
-    load: tuple                         # os.getloadavg() before the first round
+    seconds: dict  # {threads: fastest seconds}
+    rounds: dict  # {threads: [seconds of every round]}
+    load: tuple  # os.getloadavg() before the first round
 
     def elements_per_s(self, threads: int) -> float:
         return self.elements / self.seconds[threads]
@@ -64,7 +64,7 @@ class CacheFigures:
 class StepFigures:
     """STEP read + tessellation per file."""
 
-    files: list = field(default_factory=list)     # (name, megabytes, seconds, triangles)
+    files: list = field(default_factory=list)  # (name, megabytes, seconds, triangles)
     load: tuple = ()
 
     @property
@@ -87,9 +87,15 @@ def measure_ifc(path: Path, rounds: int = 2, threads=(1, 2)) -> IfcFigures:
             start = time.perf_counter()
             model = read_model(path, ImportSettings(threads=n))
             times[n].append(time.perf_counter() - start)
-    return IfcFigures(file=Path(path).name, megabytes=os.path.getsize(path) / 1e6, elements=model.element_count,
-                      triangles=model.triangle_count, seconds={n: min(t) for n, t in times.items()}, rounds=times,
-                      load=load)
+    return IfcFigures(
+        file=Path(path).name,
+        megabytes=os.path.getsize(path) / 1e6,
+        elements=model.element_count,
+        triangles=model.triangle_count,
+        seconds={n: min(t) for n, t in times.items()},
+        rounds=times,
+        load=load,
+    )
 
 
 def measure_cache(path: Path, cache_dir: Path) -> CacheFigures:
@@ -124,7 +130,9 @@ def measure_step(paths) -> StepFigures:
     for path in paths:
         start = time.perf_counter()
         model = read_model(path)
-        figures.files.append((path.name, os.path.getsize(path) / 1e6, time.perf_counter() - start, model.triangle_count))
+        figures.files.append(
+            (path.name, os.path.getsize(path) / 1e6, time.perf_counter() - start, model.triangle_count)
+        )
     return figures
 
 
@@ -133,21 +141,29 @@ def format_imports(ifc: IfcFigures | None, cache: CacheFigures | None, step: Ste
     lines = []
     if ifc is not None:
         for n in sorted(ifc.seconds):
-            lines.append(f"IFC import {ifc.file} ({ifc.megabytes:.1f} MB, {ifc.elements:,} elements, "
-                         f"{ifc.triangles:,} triangles), {n} thread(s): {ifc.seconds[n]:.2f} s = "
-                         f"{ifc.elements_per_s(n):,.0f} elements/s, {ifc.mb_per_s(n):.2f} MB/s")
+            lines.append(
+                f"IFC import {ifc.file} ({ifc.megabytes:.1f} MB, {ifc.elements:,} elements, "
+                f"{ifc.triangles:,} triangles), {n} thread(s): {ifc.seconds[n]:.2f} s = "
+                f"{ifc.elements_per_s(n):,.0f} elements/s, {ifc.mb_per_s(n):.2f} MB/s"
+            )
         if ifc.speedup is not None:
             verdict = "meets" if ifc.speedup >= TWO_CORE_TARGET else "MISSES"
             rounds = ", ".join(f"{s:.2f}" for s in ifc.round_speedups)
-            lines.append(f"IFC import two threads / one: {ifc.speedup:.2f}x (rounds {rounds}); {verdict} the "
-                         f"{TWO_CORE_TARGET}x target (load {ifc.load[0]:.1f})")
+            lines.append(
+                f"IFC import two threads / one: {ifc.speedup:.2f}x (rounds {rounds}); {verdict} the "
+                f"{TWO_CORE_TARGET}x target (load {ifc.load[0]:.1f})"
+            )
     if cache is not None:
-        lines.append(f"IFC first load {cache.first_s:.2f} s, cached reload {cache.reload_s:.2f} s "
-                     f"({100 * cache.share:.0f} % of the first; load {cache.load[0]:.1f})")
+        lines.append(
+            f"IFC first load {cache.first_s:.2f} s, cached reload {cache.reload_s:.2f} s "
+            f"({100 * cache.share:.0f} % of the first; load {cache.load[0]:.1f})"
+        )
     if step is not None and step.files:
         total = sum(f[1] for f in step.files)
-        lines.append(f"STEP read + tessellation: {step.seconds_per_mb:.2f} s per MB over {len(step.files)} files "
-                     f"({total:.2f} MB; load {step.load[0]:.1f})")
+        lines.append(
+            f"STEP read + tessellation: {step.seconds_per_mb:.2f} s per MB over {len(step.files)} files "
+            f"({total:.2f} MB; load {step.load[0]:.1f})"
+        )
     return lines
 
 
@@ -162,12 +178,17 @@ class ImportReport:
     def to_json(self) -> dict:
         from dataclasses import asdict
 
-        out = {k: asdict(v) for k, v in (("ifc", self.ifc), ("cache", self.cache), ("step", self.step)) if v is not None}
+        out = {
+            k: asdict(v) for k, v in (("ifc", self.ifc), ("cache", self.cache), ("step", self.step)) if v is not None
+        }
         if self.ifc is not None:
-            out["ifc"].update(speedup=self.ifc.speedup, round_speedups=self.ifc.round_speedups,
-                              target_speedup=TWO_CORE_TARGET,
-                              elements_per_s={n: self.ifc.elements_per_s(n) for n in self.ifc.seconds},
-                              mb_per_s={n: self.ifc.mb_per_s(n) for n in self.ifc.seconds})
+            out["ifc"].update(
+                speedup=self.ifc.speedup,
+                round_speedups=self.ifc.round_speedups,
+                target_speedup=TWO_CORE_TARGET,
+                elements_per_s={n: self.ifc.elements_per_s(n) for n in self.ifc.seconds},
+                mb_per_s={n: self.ifc.mb_per_s(n) for n in self.ifc.seconds},
+            )
         if self.cache is not None:
             out["cache"]["share"] = self.cache.share
         if self.step is not None:
@@ -188,5 +209,15 @@ def measure_imports(hall_ifc: Path | None, step_files, workdir: Path, rounds: in
     return ImportReport(ifc, cache, step)
 
 
-__all__ = ["ImportReport", "measure_imports", "IfcFigures", "CacheFigures", "StepFigures", "measure_ifc", "measure_cache", "measure_step",
-           "format_imports", "TWO_CORE_TARGET"]
+__all__ = [
+    "ImportReport",
+    "measure_imports",
+    "IfcFigures",
+    "CacheFigures",
+    "StepFigures",
+    "measure_ifc",
+    "measure_cache",
+    "measure_step",
+    "format_imports",
+    "TWO_CORE_TARGET",
+]

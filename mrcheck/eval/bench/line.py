@@ -77,7 +77,7 @@ def start_peers(ctx, scene: Scene, viewpoint: dict, reasons: dict, workdir: Path
                 reasons[name] = why
                 continue
             worker = peer_client.PeerWorker(name, mesh, workdir / f"{name}.png")
-            for stale in (worker.png, ao_off_png(worker.png)):   # (the log is rewritten by start)
+            for stale in (worker.png, ao_off_png(worker.png)):  # (the log is rewritten by start)
                 stale.unlink(missing_ok=True)  # a previous run's, which a failing peer would leave
             try:
                 worker.start().wait_ready()
@@ -141,17 +141,39 @@ def frame_jobs(group: LineStages) -> list[list]:
             stats = {"blur": blur, "passes": FRAME_PASSES}
             if keep:
                 stats["png"] = str(group.png)
-            figure = Figure("frame", "vector", *size, samples, scale, stage.label, group.triangles,
-                            paper_frame_ms("vector", size, samples, scale, blur), stats=stats)
+            figure = Figure(
+                "frame",
+                "vector",
+                *size,
+                samples,
+                scale,
+                stage.label,
+                group.triangles,
+                paper_frame_ms("vector", size, samples, scale, blur),
+                stats=stats,
+            )
             entry.append((stage, Job(figure, lambda: None, frame)))
         if size == PEER_SIZE:  # in turns: mrcheck frame, VTK frame, Open3D frame, ...
             for peer in group.peers:
                 info = peer.worker.info
-                figure = Figure("frame", peer.worker.peer, *size, None, None, stage.label, group.triangles,
-                                stats={"peer": info["version"], "settings": info["settings"], "png": info["png"],
-                                       "ao_effect": info["ao_effect"], "setup_ms": info["setup_ms"],
-                                       "setup_peak_rss_mb": info.get("setup_peak_rss_mb"),
-                                       "timed": "render + read back RGB(A), inside the peer's worker process"})
+                figure = Figure(
+                    "frame",
+                    peer.worker.peer,
+                    *size,
+                    None,
+                    None,
+                    stage.label,
+                    group.triangles,
+                    stats={
+                        "peer": info["version"],
+                        "settings": info["settings"],
+                        "png": info["png"],
+                        "ao_effect": info["ao_effect"],
+                        "setup_ms": info["setup_ms"],
+                        "setup_peak_rss_mb": info.get("setup_peak_rss_mb"),
+                        "timed": "render + read back RGB(A), inside the peer's worker process",
+                    },
+                )
                 entry.append((peer, Job(figure, lambda: None, lambda: None)))
         entries.append(entry)
     return entries

@@ -40,10 +40,16 @@ def failure_reason(exc: BaseException) -> str:
 
 
 def write_mesh(path: Path, vertices, faces, viewpoint: dict, size) -> Path:
-    np.savez(path, vertices=np.asarray(vertices, np.float32), faces=np.asarray(faces, np.int32),
-             eye=np.asarray(viewpoint["eye"], float), target=np.asarray(viewpoint["target"], float),
-             up=np.asarray(viewpoint.get("up", (0, 0, 1)), float),
-             fov_y_deg=float(viewpoint.get("fov_y_deg", 60.0)), size=np.asarray(size, int))
+    np.savez(
+        path,
+        vertices=np.asarray(vertices, np.float32),
+        faces=np.asarray(faces, np.int32),
+        eye=np.asarray(viewpoint["eye"], float),
+        target=np.asarray(viewpoint["target"], float),
+        up=np.asarray(viewpoint.get("up", (0, 0, 1)), float),
+        fov_y_deg=float(viewpoint.get("fov_y_deg", 60.0)),
+        size=np.asarray(size, int),
+    )
     return path
 
 
@@ -58,8 +64,10 @@ def importable(peer: str) -> str | None:
             hint = "pip install 'mrcheck[bench]' or ./bootstrap.sh bench" if peer == "vtk" else "pip install open3d"
             return f"{NOT_INSTALLED}{package} ({hint})"
     if peer == "open3d" and not _vulkan_driver():
-        return (f"{NOT_INSTALLED}a Vulkan driver, which Open3D's headless renderer needs "
-                "(apt-get install libvulkan1 mesa-vulkan-drivers, or ./bootstrap.sh bench)")
+        return (
+            f"{NOT_INSTALLED}a Vulkan driver, which Open3D's headless renderer needs "
+            "(apt-get install libvulkan1 mesa-vulkan-drivers, or ./bootstrap.sh bench)"
+        )
     return None
 
 
@@ -86,19 +94,28 @@ class PeerWorker:
 
     def __init__(self, peer: str, mesh: Path, png: Path, command=None, log: Path | None = None):
         self.peer, self.png = peer, Path(png)
-        self.command = command or [sys.executable, "-m", "mrcheck.eval.bench.peers", peer,
-                                   "--mesh", str(mesh), "--png", str(png)]
+        self.command = command or [
+            sys.executable,
+            "-m",
+            "mrcheck.eval.bench.peers",
+            peer,
+            "--mesh",
+            str(mesh),
+            "--png",
+            str(png),
+        ]
         self.log_path = Path(log) if log else self.png.with_suffix(".log")
         self.info: dict = {}
-        self.peak_rss_mb: float | None = None   # the worker's largest peak over the frames it rendered
+        self.peak_rss_mb: float | None = None  # the worker's largest peak over the frames it rendered
         self.proc: subprocess.Popen | None = None
         self._buffer = b""
 
     def start(self) -> "PeerWorker":
         self._log = open(self.log_path, "wb")
         try:
-            self.proc = subprocess.Popen(self.command, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                         stderr=self._log, close_fds=True)
+            self.proc = subprocess.Popen(
+                self.command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._log, close_fds=True
+            )
         except OSError as exc:
             self._log.close()
             raise PeerError(f"could not start the {self.peer} worker: {exc}") from exc

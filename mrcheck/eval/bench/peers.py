@@ -48,14 +48,14 @@ from statistics import median
 import numpy as np
 
 PEERS = ("vtk", "open3d")
-VTK_KERNEL = 32          # the setting: enable_ssao(kernel_size=32), no MSAA
+VTK_KERNEL = 32  # the setting: enable_ssao(kernel_size=32), no MSAA
 GREY = (0.7, 0.7, 0.7)
 # A hung peer must not hold the bench up for long (--quick takes a minute or two), and a slow one
 # must still be timed. Set-up of the 1.5 M-triangle line mesh plus its two first frames took
 # 2-5 s on this project's 2-core machine, busy or not; a frame 0.2-2 s (Open3D's on a busy one).
 START_TIMEOUT_S = 120.0  # some 25x the slowest set-up seen
-FRAME_TIMEOUT_S = 60.0   # some 30x the slowest frame seen
-NOT_INSTALLED = "not installed: "   # how the reason of a peer that is not installed begins
+FRAME_TIMEOUT_S = 60.0  # some 30x the slowest frame seen
+NOT_INSTALLED = "not installed: "  # how the reason of a peer that is not installed begins
 
 
 # -- peak memory (the bench's process and the workers alike) -------------------------------------
@@ -123,11 +123,19 @@ class VtkPeer:
     def settings(self) -> dict:
         ssao = self.plotter.renderer._render_passes._ssao_pass
         window = self.plotter.ren_win
-        return {"ao": "vtkSSAOPass", "kernel_size": ssao.GetKernelSize(), "radius": ssao.GetRadius(),
-                "bias": ssao.GetBias(), "blur": bool(ssao.GetBlur()), "msaa_samples": window.GetMultiSamples(),
-                "fxaa": bool(self.plotter.renderer.GetUseFXAA()), "window": window.GetClassName(),
-                "gl_renderer": self._gl_renderer(), "lighting": "pyvista's default light kit",
-                "material": f"grey {GREY}, flat-interpolated normals off (pyvista default)"}
+        return {
+            "ao": "vtkSSAOPass",
+            "kernel_size": ssao.GetKernelSize(),
+            "radius": ssao.GetRadius(),
+            "bias": ssao.GetBias(),
+            "blur": bool(ssao.GetBlur()),
+            "msaa_samples": window.GetMultiSamples(),
+            "fxaa": bool(self.plotter.renderer.GetUseFXAA()),
+            "window": window.GetClassName(),
+            "gl_renderer": self._gl_renderer(),
+            "lighting": "pyvista's default light kit",
+            "material": f"grey {GREY}, flat-interpolated normals off (pyvista default)",
+        }
 
     def _gl_renderer(self):
         try:
@@ -161,8 +169,9 @@ class Open3DPeer:
         import open3d as o3d
         from open3d.visualization import rendering
 
-        mesh = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(vertices.astype(np.float64)),
-                                         o3d.utility.Vector3iVector(faces))
+        mesh = o3d.geometry.TriangleMesh(
+            o3d.utility.Vector3dVector(vertices.astype(np.float64)), o3d.utility.Vector3iVector(faces)
+        )
         mesh.compute_vertex_normals()
         mesh.paint_uniform_color(GREY)
         self.renderer = rendering.OffscreenRenderer(*size)
@@ -173,8 +182,12 @@ class Open3DPeer:
         view_settings.set_antialiasing(False)
         view_settings.set_sample_count(1)
         view_settings.set_shadowing(False)
-        self.renderer.setup_camera(float(view["fov_y_deg"]), np.asarray(view["target"], float),
-                                   np.asarray(view["eye"], float), np.asarray(view["up"], float))
+        self.renderer.setup_camera(
+            float(view["fov_y_deg"]),
+            np.asarray(view["target"], float),
+            np.asarray(view["eye"], float),
+            np.asarray(view["up"], float),
+        )
         self.version = f"Open3D {o3d.__version__} (Filament)"
         self._ao = False
 
@@ -183,11 +196,17 @@ class Open3DPeer:
         self._ao = on
 
     def settings(self) -> dict:
-        return {"ao": "Filament's SAO with its default AmbientOcclusionOptions (radius 0.3 m, AO buffer at half "
-                      "resolution, quality LOW, bilateral low-pass filter)", "ambient_occlusion": self._ao,
-                "ssct": False, "antialiasing": False, "msaa_samples": 1, "shadows": False,
-                "material": f"defaultLit grey {GREY}",
-                "lighting": "the OffscreenRenderer scene's default lighting (Filament's post-processing on)"}
+        return {
+            "ao": "Filament's SAO with its default AmbientOcclusionOptions (radius 0.3 m, AO buffer at half "
+            "resolution, quality LOW, bilateral low-pass filter)",
+            "ambient_occlusion": self._ao,
+            "ssct": False,
+            "antialiasing": False,
+            "msaa_samples": 1,
+            "shadows": False,
+            "material": f"defaultLit grey {GREY}",
+            "lighting": "the OffscreenRenderer scene's default lighting (Filament's post-processing on)",
+        }
 
     def frame(self) -> np.ndarray:
         return np.asarray(self.renderer.render_to_image())[..., :3]
@@ -224,8 +243,13 @@ def _send(out, message: dict) -> None:
 def _summary(times: list, peaks: list) -> dict:
     if not times:
         return {"frames": 0}
-    return {"frames": len(times), "min_ms": min(times), "median_ms": median(times), "max_ms": max(times),
-            "peak_rss_mb": max(peaks)}
+    return {
+        "frames": len(times),
+        "min_ms": min(times),
+        "median_ms": median(times),
+        "max_ms": max(times),
+        "peak_rss_mb": max(peaks),
+    }
 
 
 def _save_png(path: str, rgb: np.ndarray) -> None:
@@ -257,8 +281,13 @@ def worker(argv=None) -> int:
         for package in PEER_CLASSES[args.peer].packages:
             importlib.import_module(package)
     except Exception as exc:  # noqa: BLE001 -- ImportError, or OSError for a shared library it lacks
-        _send(out, {"error": f"{NOT_INSTALLED}{args.peer} cannot be imported: {type(exc).__name__}: {exc}",
-                    "not_installed": True})
+        _send(
+            out,
+            {
+                "error": f"{NOT_INSTALLED}{args.peer} cannot be imported: {type(exc).__name__}: {exc}",
+                "not_installed": True,
+            },
+        )
         return 1
     try:
         data = np.load(args.mesh)
@@ -274,9 +303,21 @@ def worker(argv=None) -> int:
         png_off = str(ao_off_png(args.png))
         _save_png(png_off, off)
         _flush_c_stdio()  # what the peer's libraries printed, before the parent reads it
-        _send(out, {"ready": True, "peer": args.peer, "version": peer.version, "settings": peer.settings(),
-                    "size": list(size), "png": args.png, "png_ao_off": png_off, "ao_effect": _ao_effect(off, on),
-                    "setup_ms": (time.perf_counter() - start) * 1000.0, "setup_peak_rss_mb": peak_rss_mb()})
+        _send(
+            out,
+            {
+                "ready": True,
+                "peer": args.peer,
+                "version": peer.version,
+                "settings": peer.settings(),
+                "size": list(size),
+                "png": args.png,
+                "png_ao_off": png_off,
+                "ao_effect": _ao_effect(off, on),
+                "setup_ms": (time.perf_counter() - start) * 1000.0,
+                "setup_peak_rss_mb": peak_rss_mb(),
+            },
+        )
     except Exception as exc:  # noqa: BLE001 -- the parent gets the reason as one line
         _send(out, {"error": f"{type(exc).__name__}: {exc}"})
         return 1
@@ -315,7 +356,6 @@ def _timed(peer) -> float:
     start = time.perf_counter()
     peer.frame()
     return (time.perf_counter() - start) * 1000.0
-
 
 
 if __name__ == "__main__":

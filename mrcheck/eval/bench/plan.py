@@ -51,9 +51,17 @@ def hall_jobs(group: StageGroup) -> list[list]:
     entries = {}
     for stage, triangles in zip(group.stages, group.triangles):
         w, h = stage.camera.width, stage.camera.height
-        figure = Figure("geometry", None, w, h, None, None, stage.label, triangles,
-                        stats={"generated": "hall", "seed": HALL_SEED,
-                               "scene_triangles": stage.renderer.scene.triangle_count})
+        figure = Figure(
+            "geometry",
+            None,
+            w,
+            h,
+            None,
+            None,
+            stage.label,
+            triangles,
+            stats={"generated": "hall", "seed": HALL_SEED, "scene_triangles": stage.renderer.scene.triangle_count},
+        )
 
         def draw(stage=stage, figure=figure):
             figure.stats.update(stage.draw_geometry())
@@ -80,32 +88,60 @@ def pass_jobs(stage: Stage, samples_list) -> list[list]:
             for scale in SCALES:
                 s = stage.settings(samples, scale)
                 paper_ms = PAPER_AO_MS.get((samples, scale)) if mode == PAPER_MODE else None
-                group.append((stage, Job(fig("ao", mode, samples, scale, paper_ms),
-                                          stage.draw_geometry, lambda m=mode, s=s: stage.ao(m, s))))
+                group.append(
+                    (
+                        stage,
+                        Job(
+                            fig("ao", mode, samples, scale, paper_ms),
+                            stage.draw_geometry,
+                            lambda m=mode, s=s: stage.ao(m, s),
+                        ),
+                    )
+                )
                 figure = fig("frame", mode, samples, scale, paper_frame_ms(mode, (w, h), samples, scale, s.blur_size))
                 figure.stats = {"blur": s.blur_size, "passes": FRAME_PASSES}
                 frames.append((stage, Job(figure, lambda: None, lambda m=mode, s=s: stage.frame(m, s))))
         for scale in SCALES:
-            group.append((stage, Job(fig("fetch_floor", None, samples, scale), stage.draw_geometry,
-                                      lambda n=samples, sc=scale: stage.fetch_floor(n, sc))))
+            group.append(
+                (
+                    stage,
+                    Job(
+                        fig("fetch_floor", None, samples, scale),
+                        stage.draw_geometry,
+                        lambda n=samples, sc=scale: stage.fetch_floor(n, sc),
+                    ),
+                )
+            )
         entries += [group, frames]
 
     for scale in SCALES:
+
         def with_ao(scale=scale):
             stage.draw_geometry()
             stage.ao("vector", stage.settings(RATIO_SAMPLES, scale))
 
         for size in BLUR_SIZES:
             paper_ms = PAPER_BLUR_MS.get(size) if scale == 1.0 else None
-            entries.append([(stage, Job(fig(f"blur_{size}x{size}", None, None, scale, paper_ms), with_ao,
-                                         lambda n=size, sc=scale: stage.blur(n, sc)))])
+            entries.append(
+                [
+                    (
+                        stage,
+                        Job(
+                            fig(f"blur_{size}x{size}", None, None, scale, paper_ms),
+                            with_ao,
+                            lambda n=size, sc=scale: stage.blur(n, sc),
+                        ),
+                    )
+                ]
+            )
 
         def with_blur(scale=scale, with_ao=with_ao):
             with_ao()
             stage.blur(BLUR_SIZES[0], scale)
 
-        entries.append([(stage, Job(fig("composite", None, None, scale), with_blur,
-                                     lambda sc=scale: stage.composite(sc)))])
+        entries.append(
+            [(stage, Job(fig("composite", None, None, scale), with_blur, lambda sc=scale: stage.composite(sc)))]
+        )
     return entries
 
 
@@ -115,15 +151,40 @@ def triangle_jobs(group: StageGroup) -> list[list]:
     entries, compared = [], []
     for stage, triangles in zip(group.stages, TRIANGLE_COUNTS):
         w, h = stage.camera.width, stage.camera.height
-        entries.append([(stage, Job(Figure("geometry", None, w, h, None, None, stage.label, triangles),
-                                     lambda: None, stage.draw_geometry))])
+        entries.append(
+            [
+                (
+                    stage,
+                    Job(
+                        Figure("geometry", None, w, h, None, None, stage.label, triangles),
+                        lambda: None,
+                        stage.draw_geometry,
+                    ),
+                )
+            ]
+        )
         settings = stage.settings()
-        compared.append((stage, Job(Figure("ao", "vector", w, h, RATIO_SAMPLES, 1.0, stage.label, triangles),
-                                     stage.draw_geometry, lambda st=stage, s=settings: st.ao("vector", s))))
+        compared.append(
+            (
+                stage,
+                Job(
+                    Figure("ao", "vector", w, h, RATIO_SAMPLES, 1.0, stage.label, triangles),
+                    stage.draw_geometry,
+                    lambda st=stage, s=settings: st.ao("vector", s),
+                ),
+            )
+        )
     first, (w, h) = group.stages[0], PAPER_SIZE
-    compared.append((first, Job(Figure("fetch_floor", None, w, h, RATIO_SAMPLES, 1.0, first.label,
-                                        TRIANGLE_COUNTS[0]), first.draw_geometry,
-                                 lambda: first.fetch_floor(RATIO_SAMPLES))))
+    compared.append(
+        (
+            first,
+            Job(
+                Figure("fetch_floor", None, w, h, RATIO_SAMPLES, 1.0, first.label, TRIANGLE_COUNTS[0]),
+                first.draw_geometry,
+                lambda: first.fetch_floor(RATIO_SAMPLES),
+            ),
+        )
+    )
     return entries + [compared]
 
 
@@ -133,9 +194,9 @@ class Section:
     freed after it, so each scene is in memory only while its figures are measured."""
 
     make_stage: Callable[[], Stage]
-    jobs: Callable[[object], list]   # -> entries: lists of (stage, job) measured in turns
-    count: int                       # figures, for the progress bar
-    release_after: bool = True   # False while a later section reuses the stage's renderer
+    jobs: Callable[[object], list]  # -> entries: lists of (stage, job) measured in turns
+    count: int  # figures, for the progress bar
+    release_after: bool = True  # False while a later section reuses the stage's renderer
 
 
 def plan(ctx: moderngl.Context, quick: bool, hall: HallGenerator | None, reasons: dict | None = None) -> list[Section]:
@@ -155,8 +216,14 @@ def plan(ctx: moderngl.Context, quick: bool, hall: HallGenerator | None, reasons
     # per sample count: AO passes, floors and frames; per scale: blurs and composite
     per_size = len(samples_list) * (2 * len(AO_MODES) + 1) * len(SCALES) + len(SCALES) * (len(BLUR_SIZES) + 1)
     for size in sizes:
-        sections.append(Section(lambda size=size: sample_stage(size), lambda st: pass_jobs(st, samples_list),
-                                 per_size, release_after=size == sizes[-1]))
+        sections.append(
+            Section(
+                lambda size=size: sample_stage(size),
+                lambda st: pass_jobs(st, samples_list),
+                per_size,
+                release_after=size == sizes[-1],
+            )
+        )
 
     def terrain_stages():
         stages = []
@@ -181,8 +248,13 @@ def plan(ctx: moderngl.Context, quick: bool, hall: HallGenerator | None, reasons
 
     sections.append(Section(hall_stages, hall_jobs, len(hall_triangles) * len(SIZES)))
     reasons = {} if reasons is None else reasons
-    sections.append(Section(lambda: LineStages(ctx, quick, reasons), frame_jobs,
-                             sum(len(frame_scales(size)) for size, _, _ in FRAME_SETTINGS) + len(PEERS)))
+    sections.append(
+        Section(
+            lambda: LineStages(ctx, quick, reasons),
+            frame_jobs,
+            sum(len(frame_scales(size)) for size, _, _ in FRAME_SETTINGS) + len(PEERS),
+        )
+    )
     return sections
 
 

@@ -79,20 +79,30 @@ def ratios(figures, reasons: dict | None = None) -> dict:
 
     def at(samples):
         vector = ao("vector", samples, triangles=None)
-        return {"vector_over_ssao": (vector, ao("ssao", samples, triangles=None)),
-                "vector_over_fetch_floor": (vector, floor(samples, None)),
-                "half_over_full": (ao("vector", samples, 0.5, triangles=None), vector)}
+        return {
+            "vector_over_ssao": (vector, ao("ssao", samples, triangles=None)),
+            "vector_over_fetch_floor": (vector, floor(samples, None)),
+            "half_over_full": (ao("vector", samples, 0.5, triangles=None), vector),
+        }
 
-    samples_list = sorted({f.samples for f in figures if f.name == "fetch_floor" and (f.width, f.height) == PAPER_SIZE
-                           and f.scale == 1.0 and f.triangles is None})
+    samples_list = sorted(
+        {
+            f.samples
+            for f in figures
+            if f.name == "fetch_floor" and (f.width, f.height) == PAPER_SIZE and f.scale == 1.0 and f.triangles is None
+        }
+    )
     by_samples = {str(n): at(n) for n in samples_list}
     pairs = dict(by_samples[str(RATIO_SAMPLES)])
     few, many = TRIANGLE_COUNTS
     pairs["ao_10m_over_1m"] = (ao("vector", RATIO_SAMPLES, triangles=many), ao("vector", RATIO_SAMPLES, triangles=few))
     pairs["vector_over_fetch_floor_covered"] = (ao("vector", RATIO_SAMPLES, triangles=few), floor(RATIO_SAMPLES, few))
 
-    halls = {f.triangles: f for f in figures if f.name == "geometry" and f.stats.get("generated") == "hall"
-             and (f.width, f.height) == PAPER_SIZE}
+    halls = {
+        f.triangles: f
+        for f in figures
+        if f.name == "geometry" and f.stats.get("generated") == "hall" and (f.width, f.height) == PAPER_SIZE
+    }
     pairs["geometry_20m_over_1m"] = (halls[20_000_000], halls[1_000_000])
 
     pw, ph = PEER_SIZE
@@ -112,10 +122,13 @@ def ratios(figures, reasons: dict | None = None) -> dict:
         if name in why:
             values[name + REASON] = why[name]
     by_count = {n: {k: paired(*p) for k, p in r.items()} for n, r in by_samples.items()}
-    return {"ratios": values, "ratios_rounds": per_round,
-            "ratios_by_samples": {n: {k: v[0] for k, v in r.items()} for n, r in by_count.items()},
-            "ratios_by_samples_rounds": {n: {k: v[1] for k, v in r.items()} for n, r in by_count.items()},
-            "reasons": why}
+    return {
+        "ratios": values,
+        "ratios_rounds": per_round,
+        "ratios_by_samples": {n: {k: v[0] for k, v in r.items()} for n, r in by_count.items()},
+        "ratios_by_samples_rounds": {n: {k: v[1] for k, v in r.items()} for n, r in by_count.items()},
+        "reasons": why,
+    }
 
 
 def machine(ctx: moderngl.Context) -> dict:
@@ -128,27 +141,60 @@ def machine(ctx: moderngl.Context) -> dict:
     except OSError:
         pass
     usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    return {"gl_renderer": info["GL_RENDERER"], "gl_vendor": info["GL_VENDOR"], "gl_version": info["GL_VERSION"],
-            "cpu_count": os.cpu_count(), "cpus_usable": usable, "cpu_model": cpu_model,
-            "lp_num_threads": os.environ.get("LP_NUM_THREADS"), "python": platform.python_version(),
-            "platform": platform.platform(), "numpy": np.__version__, "moderngl": moderngl.__version__}
+    return {
+        "gl_renderer": info["GL_RENDERER"],
+        "gl_vendor": info["GL_VENDOR"],
+        "gl_version": info["GL_VERSION"],
+        "cpu_count": os.cpu_count(),
+        "cpus_usable": usable,
+        "cpu_model": cpu_model,
+        "lp_num_threads": os.environ.get("LP_NUM_THREADS"),
+        "python": platform.python_version(),
+        "platform": platform.platform(),
+        "numpy": np.__version__,
+        "moderngl": moderngl.__version__,
+    }
 
 
 def format_table(figures) -> str:
-    header = ("figure", "mode", "scene", "size", "samples", "scale", "min ms", "median ms", "max ms", "/ floor",
-              "GTX285 ms", "peak MB")
+    header = (
+        "figure",
+        "mode",
+        "scene",
+        "size",
+        "samples",
+        "scale",
+        "min ms",
+        "median ms",
+        "max ms",
+        "/ floor",
+        "GTX285 ms",
+        "peak MB",
+    )
     rows = [header]
     for f in figures:
-        rows.append((f.name, f.mode or "", f.scene, f"{f.width}x{f.height}", str(f.samples or ""),
-                     "" if f.scale is None else ("full" if f.scale == 1.0 else "half"),
-                     f"{min(f.times_ms):.1f}", f"{f.median_ms:.1f}", f"{max(f.times_ms):.1f}",
-                     "" if f.over_fetch_floor is None else f"{f.over_fetch_floor:.2f}",
-                     "" if f.paper_ms is None else f"{f.paper_ms:.1f}",
-                     "" if f.peak_rss_mb is None else f"{f.peak_rss_mb:.0f}"))
+        rows.append(
+            (
+                f.name,
+                f.mode or "",
+                f.scene,
+                f"{f.width}x{f.height}",
+                str(f.samples or ""),
+                "" if f.scale is None else ("full" if f.scale == 1.0 else "half"),
+                f"{min(f.times_ms):.1f}",
+                f"{f.median_ms:.1f}",
+                f"{max(f.times_ms):.1f}",
+                "" if f.over_fetch_floor is None else f"{f.over_fetch_floor:.2f}",
+                "" if f.paper_ms is None else f"{f.paper_ms:.1f}",
+                "" if f.peak_rss_mb is None else f"{f.peak_rss_mb:.0f}",
+            )
+        )
     widths = [max(len(r[i]) for r in rows) for i in range(len(header))]
     numeric = range(4, len(header))
-    lines = ["  ".join(c.rjust(wd) if i in numeric else c.ljust(wd) for i, (c, wd) in enumerate(zip(r, widths)))
-             .rstrip() for r in rows]
+    lines = [
+        "  ".join(c.rjust(wd) if i in numeric else c.ljust(wd) for i, (c, wd) in enumerate(zip(r, widths))).rstrip()
+        for r in rows
+    ]
     lines.insert(1, "-" * len(lines[0]))
     return "\n".join(lines)
 
@@ -171,7 +217,9 @@ def format_ratios(measured: dict, run: dict) -> str:
     def shown(value, spread):
         return f"{'null' if value is None else format(value, '.3f'):>6} {spread:<21}"
 
-    lines = [f"ratios (median of per-round ratios, this run; {RATIO_SAMPLES} samples, {PAPER_SIZE[0]}x{PAPER_SIZE[1]}):"]
+    lines = [
+        f"ratios (median of per-round ratios, this run; {RATIO_SAMPLES} samples, {PAPER_SIZE[0]}x{PAPER_SIZE[1]}):"
+    ]
     if run["quick"]:
         rounds_run = f"{run['repeat']} round" + ("s" if run["repeat"] != 1 else "")
         lines.append(f"  --quick: verdicts from {rounds_run} are indicative; targets are judged on full runs")
@@ -182,9 +230,11 @@ def format_ratios(measured: dict, run: dict) -> str:
         head = f"  {name:<{width}}  {shown(value, spread(rounds.get(name)))}"
         if name in PEER_TARGETS:  # a minimum: mrcheck's frame must be that many times faster
             verdict = f"(not run: {why})" if value is None else ("meets" if value >= PEER_TARGETS[name] else "MISSES")
-            lines.append(f"{head}  target >= {PEER_TARGETS[name]:.2f}  {verdict}  "
-                         f"(peer frame / mrcheck frame, {PEER_SIZE[0]}x{PEER_SIZE[1]}, {PEER_SAMPLES} samples, "
-                         f"blur {PEER_BLUR})")
+            lines.append(
+                f"{head}  target >= {PEER_TARGETS[name]:.2f}  {verdict}  "
+                f"(peer frame / mrcheck frame, {PEER_SIZE[0]}x{PEER_SIZE[1]}, {PEER_SAMPLES} samples, "
+                f"blur {PEER_BLUR})"
+            )
         elif name not in TARGETS:  # measured for information, no target (e.g. the peers at half-resolution AO)
             lines.append(f"{head}  (no target" + (f"; not run: {why})" if value is None else ")"))
         else:
@@ -192,9 +242,14 @@ def format_ratios(measured: dict, run: dict) -> str:
             if name in EVERY_SAMPLE_COUNT and len(by_samples) > 1:  # the verdict over every count
                 meets = [n for n, r in by_samples.items() if r[name] <= TARGETS[name]]
                 misses = [n for n in by_samples if n not in meets]
-                verdict = ("meets at every sample count measured" if not misses else
-                           "; ".join(([f"meets at {', '.join(meets)}"] if meets else [])
-                                     + [f"MISSES at {', '.join(misses)}"]) + " samples")
+                verdict = (
+                    "meets at every sample count measured"
+                    if not misses
+                    else "; ".join(
+                        ([f"meets at {', '.join(meets)}"] if meets else []) + [f"MISSES at {', '.join(misses)}"]
+                    )
+                    + " samples"
+                )
             lines.append(f"{head}  target <= {TARGETS[name]:.2f}  {verdict}")
     lines.append(f"by samples, sample scene at {PAPER_SIZE[0]}x{PAPER_SIZE[1]}:")
     for name in next(iter(by_samples.values()), {}):
@@ -203,8 +258,10 @@ def format_ratios(measured: dict, run: dict) -> str:
                 verdict = "meets" if r[name] <= TARGETS[name] else "MISSES"
             else:
                 verdict = f"(target at {RATIO_SAMPLES} only)"
-            lines.append(f"  {name:<{width}}  {n:>3}  {shown(r[name], spread(by_samples_rounds[n][name]))}"
-                         f"  target <= {TARGETS[name]:.2f}  {verdict}")
+            lines.append(
+                f"  {name:<{width}}  {n:>3}  {shown(r[name], spread(by_samples_rounds[n][name]))}"
+                f"  target <= {TARGETS[name]:.2f}  {verdict}"
+            )
     return "\n".join(line.rstrip() for line in lines)
 
 
@@ -212,22 +269,41 @@ def report_text(report: dict, figures: list[Figure]) -> str:
     """What ``mrcheck bench`` prints: the table of figures, the ratios, the machine and the notes."""
     machine = report["machine"]
     lines = [format_table(figures), "", format_ratios(report, report["run"]), ""]
-    lines.append(f"machine: {machine['gl_renderer']}, {machine['cpus_usable']} of {machine['cpu_count']} CPUs usable, "
-                 f"Python {machine['python']}; {report['run']['repeat']} timed runs per figure after 1 warm-up; "
-                 f"peak RSS {report['peak_rss_mb']:.0f} MB over the whole run")
+    lines.append(
+        f"machine: {machine['gl_renderer']}, {machine['cpus_usable']} of {machine['cpu_count']} CPUs usable, "
+        f"Python {machine['python']}; {report['run']['repeat']} timed runs per figure after 1 warm-up; "
+        f"peak RSS {report['peak_rss_mb']:.0f} MB over the whole run"
+    )
     for f in figures:
         if f.name == "frame" and "png" in f.stats:  # the frames the peer ratios compare, to look at
             lines.append(f"frame {f.mode}: {f.stats['png']}" + (f" ({f.stats['peer']})" if "peer" in f.stats else ""))
     for scene, triangles in {f.scene: f.triangles for f in figures if f.name == "frame" and f.triangles}.items():
-        lines.append(f"{scene}: the line scene the project ships, {triangles:,} triangles (the issue names a 1 M-triangle "
-                     "line scene)")
-    lines.append("/ floor: an AO pass over the fetch floor of its size, samples and resolution (same depth fetches, "
-                 "trivial arithmetic), timed in turns with it.")
+        lines.append(
+            f"{scene}: the line scene the project ships, {triangles:,} triangles (the issue names a 1 M-triangle "
+            "line scene)"
+        )
+    lines.append(
+        "/ floor: an AO pass over the fetch floor of its size, samples and resolution (same depth fetches, "
+        "trivial arithmetic), timed in turns with it."
+    )
     lines.append(f"peak MB: {report['peak_rss_per_figure']}.")
-    lines.append("GTX285 ms: Scheer & Keutel's own method (vector) on a GTX 285 at 1280x1024, Table 1 (AO pass) and "
-                 "Table 2 (blur; whole frame at 16 samples with 13x13, 36 with 9x9), on their scene, for comparison.")
+    lines.append(
+        "GTX285 ms: Scheer & Keutel's own method (vector) on a GTX 285 at 1280x1024, Table 1 (AO pass) and "
+        "Table 2 (blur; whole frame at 16 samples with 13x13, 36 with 9x9), on their scene, for comparison."
+    )
     return "\n".join(lines)
 
 
-__all__ = ["find", "per_round_ratios", "paired", "ratio", "floor_ratios", "ratios", "machine", "format_table",
-           "spread", "format_ratios", "report_text"]
+__all__ = [
+    "find",
+    "per_round_ratios",
+    "paired",
+    "ratio",
+    "floor_ratios",
+    "ratios",
+    "machine",
+    "format_table",
+    "spread",
+    "format_ratios",
+    "report_text",
+]

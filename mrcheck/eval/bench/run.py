@@ -77,8 +77,9 @@ def _no_progress(done: int, total: int, label: str) -> None:
     pass
 
 
-def measure_plan(quick: bool, repeat: int, hall: HallGenerator, progress: Progress = _no_progress
-                 ) -> tuple[list[Figure], dict, dict, dict]:
+def measure_plan(
+    quick: bool, repeat: int, hall: HallGenerator, progress: Progress = _no_progress
+) -> tuple[list[Figure], dict, dict, dict]:
     """Measure the plan: the figures, the machine, the reasons of the peers that did not run,
     and the peak memory of the whole run (with how the figures' peaks were taken)."""
     ctx = create_context()
@@ -116,8 +117,9 @@ class BenchResult:
     json_path: Path | None
 
 
-def bench_command(quick: bool, json_path: str | None, repeat: int | None, hall: HallGenerator,
-                  progress: Progress = _no_progress) -> BenchResult:
+def bench_command(
+    quick: bool, json_path: str | None, repeat: int | None, hall: HallGenerator, progress: Progress = _no_progress
+) -> BenchResult:
     """Measure, write the JSON if asked (before anything is printed: a reader that goes away,
     ``mrcheck bench --json X | head``, must not cost the minutes of measurements), and return
     the report with the text to print."""
@@ -126,18 +128,27 @@ def bench_command(quick: bool, json_path: str | None, repeat: int | None, hall: 
     repeat = repeat or (QUICK_REPEAT if quick else DEFAULT_REPEAT)
 
     figures, about, reasons, memory = measure_plan(quick, repeat, hall, progress)
-    scan_json, scan_lines = scan_reading(quick, repeat)   # each read in a process of its own
-    imports = import_figures(quick, hall)   # the issue-19 import figures, None without an IFC writer
+    scan_json, scan_lines = scan_reading(quick, repeat)  # each read in a process of its own
+    imports = import_figures(quick, hall)  # the issue-19 import figures, None without an IFC writer
     measured = ratios(figures, reasons)
     floor_ratios(figures)
-    report = {"machine": about, "run": {"quick": quick, "repeat": repeat, "warmup": 1},
-              "figures": [f.to_json() for f in figures], **measured, "targets": TARGETS, "peer_targets": PEER_TARGETS,
-              "target_samples": {name: "every" if name in EVERY_SAMPLE_COUNT else RATIO_SAMPLES
-                                 for name in measured["ratios_by_samples"].get(str(RATIO_SAMPLES), {})},
-              **memory, "scan_reading": scan_json}
+    report = {
+        "machine": about,
+        "run": {"quick": quick, "repeat": repeat, "warmup": 1},
+        "figures": [f.to_json() for f in figures],
+        **measured,
+        "targets": TARGETS,
+        "peer_targets": PEER_TARGETS,
+        "target_samples": {
+            name: "every" if name in EVERY_SAMPLE_COUNT else RATIO_SAMPLES
+            for name in measured["ratios_by_samples"].get(str(RATIO_SAMPLES), {})
+        },
+        **memory,
+        "scan_reading": scan_json,
+    }
     if imports is not None:
         report["imports"] = imports.to_json()
-    if json_path is not None:   # before the text is made: nothing after the measurements may lose them
+    if json_path is not None:  # before the text is made: nothing after the measurements may lose them
         write_text(json_path, json.dumps(report, indent=2))
     lines = [report_text(report, figures), *scan_lines]
     if imports is not None:
@@ -145,8 +156,8 @@ def bench_command(quick: bool, json_path: str | None, repeat: int | None, hall: 
     return BenchResult(report, "\n".join(lines), json_path)
 
 
-IMPORT_HALL_TRIANGLES = 5_000_000     # the issue's hall; --quick: 1 M, one round
-STEP_MODELS = Path(__file__).resolve().parents[3] / "tests" / "data" / "cad" / "step"   # in a checkout
+IMPORT_HALL_TRIANGLES = 5_000_000  # the issue's hall; --quick: 1 M, one round
+STEP_MODELS = Path(__file__).resolve().parents[3] / "tests" / "data" / "cad" / "step"  # in a checkout
 
 
 def import_figures(quick: bool, hall: HallGenerator):
@@ -165,5 +176,14 @@ def import_figures(quick: bool, hall: HallGenerator):
         return measure_imports(ifc, steps, Path(work), rounds=1 if quick else 3)
 
 
-__all__ = ["bench_command", "measure_plan", "BenchResult", "HallGenerator", "terrain_scene", "terrain_camera",
-           "Figure", "TARGETS", "PAPER_AO_MS"]
+__all__ = [
+    "bench_command",
+    "measure_plan",
+    "BenchResult",
+    "HallGenerator",
+    "terrain_scene",
+    "terrain_camera",
+    "Figure",
+    "TARGETS",
+    "PAPER_AO_MS",
+]

@@ -21,32 +21,37 @@ import numpy as np
 from mrcheck.eval.bench.peers import peak_rss_mb
 
 SCAN_POINTS, QUICK_SCAN_POINTS = 20_000_000, 1_000_000
-SCAN_REPEAT = 2                                # reads per format (a 20 M-point read: tens of seconds)
+SCAN_REPEAT = 2  # reads per format (a 20 M-point read: tens of seconds)
 SCAN_FORMATS = ("laz", "e57")
-SCAN_ORIGIN = (458658.78, 5438232.79, 113.7)   # map coordinates, as issue 19's shifted model
+SCAN_ORIGIN = (458658.78, 5438232.79, 113.7)  # map coordinates, as issue 19's shifted model
 WRITE_CHUNK = 1 << 21
-HALL = (60.0, 40.0, 12.0)                      # metres, the synthetic scanned hall
+HALL = (60.0, 40.0, 12.0)  # metres, the synthetic scanned hall
 RESULT_BYTES_PER_POINT = 3 * 8 + 3 * 2 + 4
 
 
 @dataclass
 class ScanReadFigure:
     """One format's read: ``runs_s`` wall-clock seconds of each read, its peak memory (MiB)."""
+
     format: str
     points: int
     file_mb: float
     write_s: float
     runs_s: list = field(default_factory=list)
-    peak_rss_mb: list = field(default_factory=list)   # of each read's process
-    result_mb: float = 0.0                           # the ScanCloud's arrays alone
+    peak_rss_mb: list = field(default_factory=list)  # of each read's process
+    result_mb: float = 0.0  # the ScanCloud's arrays alone
 
     @property
     def points_per_s(self) -> float:
         return self.points / median(self.runs_s)
 
     def to_json(self) -> dict:
-        return {**asdict(self), "median_s": median(self.runs_s), "points_per_s": self.points_per_s,
-                "max_peak_rss_mb": max(self.peak_rss_mb)}
+        return {
+            **asdict(self),
+            "median_s": median(self.runs_s),
+            "points_per_s": self.points_per_s,
+            "max_peak_rss_mb": max(self.peak_rss_mb),
+        }
 
 
 def _hall_points(rng, n: int) -> np.ndarray:
@@ -99,13 +104,20 @@ def write_e57(path: Path, points: int, seed: int = 0) -> None:
     with pye57.E57(str(path), mode="w") as e57:
         for i, half in enumerate((points // 2, points - points // 2)):
             xyz, rgb, intensity = _chunk_fields(rng, half)
-            xyz -= SCAN_ORIGIN                     # the station's own frame; the pose puts it back
-            data = {"cartesianX": xyz[:, 0], "cartesianY": xyz[:, 1], "cartesianZ": xyz[:, 2],
-                    "intensity": intensity / 65535.0, "colorRed": (rgb[:, 0] >> 8).astype(np.uint8),
-                    "colorGreen": (rgb[:, 1] >> 8).astype(np.uint8), "colorBlue": (rgb[:, 2] >> 8).astype(np.uint8)}
+            xyz -= SCAN_ORIGIN  # the station's own frame; the pose puts it back
+            data = {
+                "cartesianX": xyz[:, 0],
+                "cartesianY": xyz[:, 1],
+                "cartesianZ": xyz[:, 2],
+                "intensity": intensity / 65535.0,
+                "colorRed": (rgb[:, 0] >> 8).astype(np.uint8),
+                "colorGreen": (rgb[:, 1] >> 8).astype(np.uint8),
+                "colorBlue": (rgb[:, 2] >> 8).astype(np.uint8),
+            }
             del xyz
-            e57.write_scan_raw(data, name=f"station {i}", rotation=np.array([1.0, 0, 0, 0]),
-                               translation=np.asarray(SCAN_ORIGIN))
+            e57.write_scan_raw(
+                data, name=f"station {i}", rotation=np.array([1.0, 0, 0, 0]), translation=np.asarray(SCAN_ORIGIN)
+            )
 
 
 WRITERS = {"laz": write_laz, "e57": write_e57}
@@ -133,7 +145,9 @@ def timed_read(path: Path) -> tuple[float, int, float, float]:
     try:
         answer = ours.recv()
     except EOFError:
-        raise RuntimeError(f"reading {path} failed in its worker (exit code {child.join() or child.exitcode})") from None
+        raise RuntimeError(
+            f"reading {path} failed in its worker (exit code {child.join() or child.exitcode})"
+        ) from None
     child.join()
     return answer
 
@@ -165,10 +179,12 @@ def scan_figures_text(figures: list[ScanReadFigure]) -> list[str]:
     """The lines ``mrcheck bench`` prints for the scan reads."""
     lines = []
     for f in figures:
-        lines.append(f"scan read {f.format.upper()} {f.points / 1e6:g} M points ({f.file_mb:.0f} MB file): "
-                     f"{f.points_per_s / 1e6:.2f} M points/s (median of {len(f.runs_s)}, "
-                     f"{', '.join(f'{t:.1f}' for t in f.runs_s)} s), peak RSS {max(f.peak_rss_mb):.0f} MB "
-                     f"(the points, colours and intensity alone: {f.result_mb:.0f} MB)")
+        lines.append(
+            f"scan read {f.format.upper()} {f.points / 1e6:g} M points ({f.file_mb:.0f} MB file): "
+            f"{f.points_per_s / 1e6:.2f} M points/s (median of {len(f.runs_s)}, "
+            f"{', '.join(f'{t:.1f}' for t in f.runs_s)} s), peak RSS {max(f.peak_rss_mb):.0f} MB "
+            f"(the points, colours and intensity alone: {f.result_mb:.0f} MB)"
+        )
     return lines
 
 
@@ -178,10 +194,20 @@ def scan_reading(quick: bool, repeat: int) -> tuple[list[dict], list[str]]:
     import tempfile
 
     with tempfile.TemporaryDirectory(prefix="mrcheck-bench-scan-") as workdir:
-        figures = measure_scan_reading(Path(workdir), QUICK_SCAN_POINTS if quick else SCAN_POINTS,
-                                       min(repeat, SCAN_REPEAT))
+        figures = measure_scan_reading(
+            Path(workdir), QUICK_SCAN_POINTS if quick else SCAN_POINTS, min(repeat, SCAN_REPEAT)
+        )
     return [f.to_json() for f in figures], scan_figures_text(figures)
 
 
-__all__ = ["scan_reading", "scan_figures_text", "measure_scan_reading", "timed_read", "write_laz", "write_e57", "ScanReadFigure", "SCAN_POINTS",
-           "QUICK_SCAN_POINTS"]
+__all__ = [
+    "scan_reading",
+    "scan_figures_text",
+    "measure_scan_reading",
+    "timed_read",
+    "write_laz",
+    "write_e57",
+    "ScanReadFigure",
+    "SCAN_POINTS",
+    "QUICK_SCAN_POINTS",
+]

@@ -71,8 +71,9 @@ def sample_scene() -> tuple[Scene, Callable[[tuple], Camera], str]:
     if path.exists():
         scene = load_scene(path)
         return scene, lambda size: scene.camera(SAMPLE_VIEW, *size), f"{scene.name}:{SAMPLE_VIEW}"
-    warnings.warn(f"{path} not found; timing a synthetic height field instead of the sample cell", MrcheckWarning,
-                  stacklevel=2)
+    warnings.warn(
+        f"{path} not found; timing a synthetic height field instead of the sample cell", MrcheckWarning, stacklevel=2
+    )
     scene = terrain_scene(TRIANGLE_COUNTS[0])
     # not the height-field section's label: figures (the floors) are matched by their scene
     return scene, terrain_camera, f"{scene.name}:stand-in"
@@ -148,5 +149,12 @@ def flattened_mesh(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     return np.concatenate(vertices), np.concatenate(faces).astype(np.int32)
 
 
-__all__ = ["HallGenerator", "hall_scene_path", "line_scene_path", "sample_scene", "terrain_scene", "terrain_camera",
-           "flattened_mesh"]
+__all__ = [
+    "HallGenerator",
+    "hall_scene_path",
+    "line_scene_path",
+    "sample_scene",
+    "terrain_scene",
+    "terrain_camera",
+    "flattened_mesh",
+]

@@ -55,7 +55,7 @@ class FetchFloor:
     def run(self, target: moderngl.Framebuffer, depth: moderngl.Texture) -> None:
         self.program["u_size"].value = target.size
         depth.use(0)
-        draw_covered(self.ctx, target, self.vao)   # the background skipped as in the AO passes
+        draw_covered(self.ctx, target, self.vao)  # the background skipped as in the AO passes
 
     def release(self) -> None:
         self.vao.release()
@@ -82,7 +82,9 @@ class Stage:
         """Milliseconds of the GL work of ``work()`` (``ctx.finish()`` before and after)."""
         return self.passes.timed(work)
 
-    def settings(self, samples: int = RATIO_SAMPLES, scale: float = 1.0, blur: int = DEFAULT_BLUR_SIZE) -> RenderSettings:
+    def settings(
+        self, samples: int = RATIO_SAMPLES, scale: float = 1.0, blur: int = DEFAULT_BLUR_SIZE
+    ) -> RenderSettings:
         """The CLI's defaults at this sample count, AO scale and blur, resolved for this image."""
         return RenderSettings(samples=samples, ao_scale=scale, blur_size=blur).validated(self.camera.height)
 
@@ -152,7 +154,7 @@ class PeakMemory:
 
     def __init__(self):
         self.whole_mb = peak_rss_mb()
-        self.per_entry = True   # False once a reset failed: a figure's peak is then since the start
+        self.per_entry = True  # False once a reset failed: a figure's peak is then since the start
 
     def start(self) -> None:
         self.whole_mb = max(self.whole_mb, peak_rss_mb())
@@ -165,11 +167,16 @@ class PeakMemory:
 
     def report(self) -> dict:
         self.stop()
-        how = ("the bench process's peak during the figure's entry (VmHWM, reset through /proc/self/clear_refs "
-               "before each entry)" if self.per_entry else
-               "the bench process's peak since it started (never reset: /proc/self/clear_refs could not be written)")
-        return {"peak_rss_mb": self.whole_mb,
-                "peak_rss_per_figure": how + "; a peer's: its worker's peak over its frames, reset before each"}
+        how = (
+            "the bench process's peak during the figure's entry (VmHWM, reset through /proc/self/clear_refs "
+            "before each entry)"
+            if self.per_entry
+            else "the bench process's peak since it started (never reset: /proc/self/clear_refs could not be written)"
+        )
+        return {
+            "peak_rss_mb": self.whole_mb,
+            "peak_rss_per_figure": how + "; a peer's: its worker's peak over its frames, reset before each",
+        }
 
 
 def measure(entry: list, repeat: int, memory: PeakMemory | None = None) -> list[Figure]:

@@ -18,9 +18,25 @@ degrees, the weak direction), ``refine`` (coarse to fine).
 """
 
 from mrcheck.mr.edges.model import scene_edges
-from mrcheck.mr.edges.refine import (EdgeFit, EdgeFitError, EdgeOptions, LevelReport, VisibilityRender,
-                                    photo_pyramid, refine_pose)
+from mrcheck.mr.edges.refine import (
+    EdgeFit,
+    EdgeFitError,
+    EdgeOptions,
+    LevelReport,
+    VisibilityRender,
+    photo_pyramid,
+    refine_pose,
+)
 from mrcheck.mr.edges.uncertainty import PoseUncertainty
 
-__all__ = ["refine_pose", "EdgeFit", "EdgeFitError", "EdgeOptions", "LevelReport", "PoseUncertainty",
-           "VisibilityRender", "photo_pyramid", "scene_edges"]
+__all__ = [
+    "refine_pose",
+    "EdgeFit",
+    "EdgeFitError",
+    "EdgeOptions",
+    "LevelReport",
+    "PoseUncertainty",
+    "VisibilityRender",
+    "photo_pyramid",
+    "scene_edges",
+]

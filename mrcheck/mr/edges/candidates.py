@@ -26,16 +26,16 @@ import numpy as np
 from mrcheck.core.camera import Camera
 from mrcheck.mr.edges import model
 
-REUSE_PX = 4.0       # the view moved less than this (level px) since the full sampling: reuse its edges
-_PROBES = 256        # points whose motion measures the view's
+REUSE_PX = 4.0  # the view moved less than this (level px) since the full sampling: reuse its edges
+_PROBES = 256  # points whose motion measures the view's
 
 
 @dataclass
 class _Entry:
-    among: np.ndarray      # edge indices that had a visible, salient sample
-    spacing_px: float      # the spacing of the full sampling (full-resolution px)
-    probes: np.ndarray     # (k, 3) world points of visible samples
-    uv: np.ndarray         # (k, 2) their pinhole pixels (full resolution) at that pose
+    among: np.ndarray  # edge indices that had a visible, salient sample
+    spacing_px: float  # the spacing of the full sampling (full-resolution px)
+    probes: np.ndarray  # (k, 3) world points of visible samples
+    uv: np.ndarray  # (k, 2) their pinhole pixels (full resolution) at that pose
 
 
 class CandidateEdges:
@@ -44,7 +44,7 @@ class CandidateEdges:
     def __init__(self, edges: model.EdgeSet):
         self.edges = edges
         self.entries: dict = {}
-        self.full_samplings = 0      # how often the level was sampled in full (a figure for tests)
+        self.full_samplings = 0  # how often the level was sampled in full (a figure for tests)
 
     def sample(self, camera: Camera, scale: float, spacing_px: float, max_count: int) -> tuple:
         """``(samples, fresh)``: the candidate samples at ``camera``'s pose (before the depth test) and
@@ -67,8 +67,9 @@ class CandidateEdges:
         """Keep the edges of the ``visible`` (and salient) samples of a full sampling at ``camera``'s pose."""
         pick = np.linspace(0, len(visible) - 1, min(_PROBES, len(visible))).astype(int) if len(visible) else []
         probes = visible.points[pick]
-        self.entries[scale] = _Entry(np.unique(visible.edge), visible.spacing_px, probes,
-                                     model.project_pinhole(camera, probes))
+        self.entries[scale] = _Entry(
+            np.unique(visible.edge), visible.spacing_px, probes, model.project_pinhole(camera, probes)
+        )
 
 
 __all__ = ["CandidateEdges", "REUSE_PX"]

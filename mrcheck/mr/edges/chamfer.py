@@ -24,9 +24,9 @@ import cv2
 import numpy as np
 
 BINS = 8
-TRUNCATE_PX = 4.0          # chamfer distances beyond this (level px) are "no edge here"
-_CANNY_HIGH = 3.0          # Canny's high threshold: this many times the median gradient ...
-_CANNY_LOW = 1.5           # ... and its low one
+TRUNCATE_PX = 4.0  # chamfer distances beyond this (level px) are "no edge here"
+_CANNY_HIGH = 3.0  # Canny's high threshold: this many times the median gradient ...
+_CANNY_LOW = 1.5  # ... and its low one
 
 
 @dataclass
@@ -83,8 +83,12 @@ def lookup(cmap: ChamferMap, uv: np.ndarray, bins: np.ndarray) -> tuple:
     fu, fv = np.clip(u - u0, 0, 1), np.clip(v - v0, 0, 1)
 
     def sample(image):
-        return ((1 - fu) * (1 - fv) * image[bins, v0, u0] + fu * (1 - fv) * image[bins, v0, u0 + 1]
-                + (1 - fu) * fv * image[bins, v0 + 1, u0] + fu * fv * image[bins, v0 + 1, u0 + 1])
+        return (
+            (1 - fu) * (1 - fv) * image[bins, v0, u0]
+            + fu * (1 - fv) * image[bins, v0, u0 + 1]
+            + (1 - fu) * fv * image[bins, v0 + 1, u0]
+            + fu * fv * image[bins, v0 + 1, u0 + 1]
+        )
 
     d = np.where(inside, sample(cmap.distance), TRUNCATE_PX)
     g = np.column_stack([np.where(inside, sample(cmap.dx), 0.0), np.where(inside, sample(cmap.dy), 0.0)])

@@ -22,9 +22,9 @@ import numpy as np
 
 from mrcheck.mr.edges import chamfer, search, solver
 
-HUBER_PX = 1.0          # the chamfer residual's Huber threshold (level px)
-_CONVERGED_PX = 0.05    # a step moving no sample more than this (level px) ends the level
-_RIDGE = 1e-4           # times the trace of the normal equations (see chamfer_level)
+HUBER_PX = 1.0  # the chamfer residual's Huber threshold (level px)
+_CONVERGED_PX = 0.05  # a step moving no sample more than this (level px) ends the level
+_RIDGE = 1e-4  # times the trace of the normal equations (see chamfer_level)
 
 
 @dataclass
@@ -69,7 +69,7 @@ def chamfer_level(fitter, cmap, iterations: int, rerender_px: float) -> tuple:
         if step is None:
             break
         shift = float(np.max(np.abs(rows @ step)))
-        if shift > chamfer.TRUNCATE_PX:           # a trust region: the truncation's width
+        if shift > chamfer.TRUNCATE_PX:  # a trust region: the truncation's width
             step, shift = step * (chamfer.TRUNCATE_PX / shift), chamfer.TRUNCATE_PX
         before = fitter.state
         fitter.state = before.moved(step)
@@ -95,12 +95,12 @@ def coarse_align(fitter, grey, levels: int, search_px: float, iterations: int, r
     has the lowest chamfer cost (measured, seeds 0-9: a wrong pose's 9.5 against the truth's 10.2)."""
     images = grey_levels(grey, levels)
     first = search.search_level([image.shape[1] for image in images])
-    cmap = chamfer.chamfer_map(images[first], 0.5 ** first)
+    cmap = chamfer.chamfer_map(images[first], 0.5**first)
     found = search.search_pose(fitter, cmap, search_px)
     reports = []
     for index in range(first, 0, -1):
         if index != first:
-            cmap = chamfer.chamfer_map(images[index], 0.5 ** index)
+            cmap = chamfer.chamfer_map(images[index], 0.5**index)
         reports.append((cmap.scale, *chamfer_level(fitter, cmap, iterations, rerender_px)))
     return CoarseReport(found, reports)
 

@@ -26,14 +26,14 @@ import numpy as np
 from mrcheck.core.camera import Camera
 from mrcheck.scene.model import Scene
 
-CREASE_DEG = 30.0           # a facet edge of a 12-sided cylinder (30 deg) is not yet a crease
-_WELD_DIGITS = 6            # vertices within a micrometre (metres) are one vertex
-_VISIBLE_DEPTH_TOL = 0.01   # an edge point up to 1 % behind the visible surface is still on it
-_MIN_EDGE_PX = 2.0          # edges shorter than this on screen give no sample
-_VIEW_MARGIN = 0.05          # sample_edges: edges clipped to the image widened by this share of its width
-SALIENT_NEAR_PX = 1.0       # salient(): each side of an edge probed this far (level px) ...
-SALIENT_FAR_PX = 2.0        # ... and this far: one surface over that width on both sides
-_ON_PLANE = 0.003           # a point lies in a surface's plane: within 0.3 % of the depth (6 cm at 20 m)
+CREASE_DEG = 30.0  # a facet edge of a 12-sided cylinder (30 deg) is not yet a crease
+_WELD_DIGITS = 6  # vertices within a micrometre (metres) are one vertex
+_VISIBLE_DEPTH_TOL = 0.01  # an edge point up to 1 % behind the visible surface is still on it
+_MIN_EDGE_PX = 2.0  # edges shorter than this on screen give no sample
+_VIEW_MARGIN = 0.05  # sample_edges: edges clipped to the image widened by this share of its width
+SALIENT_NEAR_PX = 1.0  # salient(): each side of an edge probed this far (level px) ...
+SALIENT_FAR_PX = 2.0  # ... and this far: one surface over that width on both sides
+_ON_PLANE = 0.003  # a point lies in a surface's plane: within 0.3 % of the depth (6 cm at 20 m)
 _SIDE_NORMAL_COS = math.cos(math.radians(20.0))
 
 
@@ -158,7 +158,7 @@ def front_edges(edges: EdgeSet, centre: np.ndarray) -> np.ndarray:
 def _facing(edges: EdgeSet, which, centre: np.ndarray) -> np.ndarray:
     """:func:`front_edges` of the edges ``which`` (an index array or a slice)."""
     oa, ob = edges.face_offsets
-    fa = edges.na[which] @ centre > oa[which]      # the face's normal . (centre - mid) > 0
+    fa = edges.na[which] @ centre > oa[which]  # the face's normal . (centre - mid) > 0
     fb = edges.nb[which] @ centre > ob[which]
     # creases whatever their faces' winding (meshes from CAD exports often mix it; the depth
     # buffer hides the ones behind); a contour needs its faces' sign to change
@@ -191,11 +191,15 @@ def clip_to_view(camera: Camera, a: np.ndarray, b: np.ndarray, near: float, marg
         return a, b, np.zeros(0, bool)
     K, w, h = camera.K, camera.width, camera.height
     # each plane as n . X + d >= 0 (camera coordinates X = R (x - centre)): near, left, right, top, bottom
-    planes = np.array([[0.0, 0.0, 1.0],
-                       [K[0, 0], K[0, 1], K[0, 2] + margin_px],
-                       [-K[0, 0], -K[0, 1], w - 1 + margin_px - K[0, 2]],
-                       [0.0, K[1, 1], K[1, 2] + margin_px],
-                       [0.0, -K[1, 1], h - 1 + margin_px - K[1, 2]]])
+    planes = np.array(
+        [
+            [0.0, 0.0, 1.0],
+            [K[0, 0], K[0, 1], K[0, 2] + margin_px],
+            [-K[0, 0], -K[0, 1], w - 1 + margin_px - K[0, 2]],
+            [0.0, K[1, 1], K[1, 2] + margin_px],
+            [0.0, -K[1, 1], h - 1 + margin_px - K[1, 2]],
+        ]
+    )
     offset = np.array([[-near], [0.0], [0.0], [0.0], [0.0]])
     # (5, n): one row per plane, so that the tests run along contiguous rows (numpy's reductions
     # over a trailing axis of 5 took most of this function's 20 ms on the generated cell); made
@@ -208,8 +212,8 @@ def clip_to_view(camera: Camera, a: np.ndarray, b: np.ndarray, near: float, marg
     for k in range(1, len(planes)):
         beyond |= out_a[k] & out_b[k]
         partly |= out_a[k] | out_b[k]
-    keep = ~beyond                                  # both ends beyond one plane: nothing in view
-    cut = np.flatnonzero(keep & partly)             # one end beyond some plane: clipped
+    keep = ~beyond  # both ends beyond one plane: nothing in view
+    cut = np.flatnonzero(keep & partly)  # one end beyond some plane: clipped
     da, db = da[:, cut], db[:, cut]
     slope = db - da
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -222,14 +226,20 @@ def clip_to_view(camera: Camera, a: np.ndarray, b: np.ndarray, near: float, marg
     keep[cut[~inside]] = False
     ca, cb = a[cut[inside]], b[cut[inside]]
     lo, hi = lo[inside, None], hi[inside, None]
-    at = np.cumsum(keep)[cut[inside]] - 1          # where the clipped ones lie among the kept
+    at = np.cumsum(keep)[cut[inside]] - 1  # where the clipped ones lie among the kept
     a, b = a[keep], b[keep]
     a[at], b[at] = ca + lo * (cb - ca), ca + hi * (cb - ca)
     return a, b, keep
 
 
-def sample_edges(edges: EdgeSet, camera: Camera, spacing_px: float, near: float = 1e-3,
-                 max_count: int | None = None, among: np.ndarray | None = None) -> Samples:
+def sample_edges(
+    edges: EdgeSet,
+    camera: Camera,
+    spacing_px: float,
+    near: float = 1e-3,
+    max_count: int | None = None,
+    among: np.ndarray | None = None,
+) -> Samples:
     """Points every ``spacing_px`` pixels (pinhole projection, evenly on screen) along the edges
     that face the camera, clipped to the part of each edge in front of the camera and inside the
     image (:func:`clip_to_view`; samples beyond a margin of one spacing dropped); the spacing
@@ -240,7 +250,7 @@ def sample_edges(edges: EdgeSet, camera: Camera, spacing_px: float, near: float 
         idx = np.flatnonzero(front_edges(edges, camera.center))
     else:
         idx = among[_facing(edges, among, camera.center)]
-    room = spacing_px + _VIEW_MARGIN * camera.width      # the lens distortion's room at the border
+    room = spacing_px + _VIEW_MARGIN * camera.width  # the lens distortion's room at the border
     a, b, keep = clip_to_view(camera, edges.a[idx], edges.b[idx], near, margin_px=room)
     idx = idx[keep]
     d = project_pinhole(camera, b) - project_pinhole(camera, a)
@@ -250,7 +260,7 @@ def sample_edges(edges: EdgeSet, camera: Camera, spacing_px: float, near: float 
     if max_count:
         spacing_px = max(spacing_px, float(np.sum(np.minimum(length, 4 * (camera.width + camera.height)))) / max_count)
     count = np.maximum(1, np.floor(length / spacing_px)).astype(np.int64)
-    count = np.minimum(count, 4096)   # a wall edge crossing the whole view: enough samples
+    count = np.minimum(count, 4096)  # a wall edge crossing the whole view: enough samples
     edge = np.repeat(np.arange(len(idx)), count)
     k = np.arange(len(edge)) - np.repeat(np.cumsum(count) - count, count)
     # evenly spaced on screen: 1/z is linear in the image, so the screen fraction f lies at
@@ -266,15 +276,25 @@ def sample_edges(edges: EdgeSet, camera: Camera, spacing_px: float, near: float 
     samples = Samples(points, tangents, edges.group[idx][edge], idx[edge], spacing_px=float(spacing_px))
     uv = project_pinhole(camera, samples.points)
     margin = spacing_px
-    inside = ((uv[:, 0] > -margin) & (uv[:, 0] < camera.width - 1 + margin)
-              & (uv[:, 1] > -margin) & (uv[:, 1] < camera.height - 1 + margin))
+    inside = (
+        (uv[:, 0] > -margin)
+        & (uv[:, 0] < camera.width - 1 + margin)
+        & (uv[:, 1] > -margin)
+        & (uv[:, 1] < camera.height - 1 + margin)
+    )
     return subset(samples, inside)
 
 
 def subset(samples: Samples, mask) -> Samples:
     outside = None if samples.outside is None else samples.outside[mask]
-    return Samples(samples.points[mask], samples.tangents[mask], samples.group[mask], samples.edge[mask], outside,
-                   samples.spacing_px)
+    return Samples(
+        samples.points[mask],
+        samples.tangents[mask],
+        samples.group[mask],
+        samples.edge[mask],
+        outside,
+        samples.spacing_px,
+    )
 
 
 def visible(samples: Samples, camera: Camera, depth: np.ndarray) -> np.ndarray:
@@ -324,9 +344,16 @@ def _lookup(image: np.ndarray, uv: np.ndarray) -> np.ndarray:
     return image.reshape(h * w, -1).take(at, axis=0).reshape((len(at),) + image.shape[2:])
 
 
-def salient(uv: np.ndarray, normals: np.ndarray, points: np.ndarray, depth: np.ndarray,
-            surface_normals: np.ndarray, K: np.ndarray, near_px: float = SALIENT_NEAR_PX,
-            far_px: float = SALIENT_FAR_PX) -> tuple:
+def salient(
+    uv: np.ndarray,
+    normals: np.ndarray,
+    points: np.ndarray,
+    depth: np.ndarray,
+    surface_normals: np.ndarray,
+    K: np.ndarray,
+    near_px: float = SALIENT_NEAR_PX,
+    far_px: float = SALIENT_FAR_PX,
+) -> tuple:
     """``(keep, outside)``: (n,) bool, the samples whose edge a photo can show as one clean step, judged on a render
     at the level's size: ``uv`` level pixels, ``normals`` unit image normals, ``points`` (n, 3)
     camera coordinates of the samples; ``depth`` (H, W, 0 = background) and ``surface_normals``
@@ -367,5 +394,17 @@ def salient(uv: np.ndarray, normals: np.ndarray, points: np.ndarray, depth: np.n
     return out_a | out_b | crease, np.where(out_b, 1.0, 0.0) - np.where(out_a, 1.0, 0.0)
 
 
-__all__ = ["EdgeSet", "Samples", "mesh_edges", "scene_edges", "front_edges", "sample_edges", "visible", "subset",
-           "project_pinhole", "pinhole_samples", "salient", "CREASE_DEG"]
+__all__ = [
+    "EdgeSet",
+    "Samples",
+    "mesh_edges",
+    "scene_edges",
+    "front_edges",
+    "sample_edges",
+    "visible",
+    "subset",
+    "project_pinhole",
+    "pinhole_samples",
+    "salient",
+    "CREASE_DEG",
+]

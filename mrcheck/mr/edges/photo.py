@@ -16,7 +16,7 @@ import numpy as np
 
 _ORIENTATION_COS = math.cos(math.radians(35.0))  # the photo's gradient within 35 deg of the CAD normal
 _OUTLINE_SHARE = 0.25  # a contour's edge: the outermost peak of at least this share of the strongest
-_NOISE_FACTOR = 4.0   # an edge is a gradient above this many times the image's median gradient
+_NOISE_FACTOR = 4.0  # an edge is a gradient above this many times the image's median gradient
 
 
 @dataclass
@@ -34,7 +34,7 @@ class Level:
 
 
 def to_level(uv: np.ndarray, scale: float) -> np.ndarray:
-    return uv * scale          # cv2.pyrDown: level pixel i is centred on pixel 2i below
+    return uv * scale  # cv2.pyrDown: level pixel i is centred on pixel 2i below
 
 
 def pyramid(grey: np.ndarray, levels: int) -> list[Level]:
@@ -51,7 +51,7 @@ def pyramid(grey: np.ndarray, levels: int) -> list[Level]:
         gy = cv2.Scharr(smooth, cv2.CV_32F, 0, 1) / 32.0
         magnitude = np.hypot(gx, gy)
         threshold = max(_NOISE_FACTOR * float(np.median(magnitude)), 2.0 / 255.0)
-        out.append(Level(0.5 ** level, gx, gy, threshold))
+        out.append(Level(0.5**level, gx, gy, threshold))
     return out
 
 
@@ -91,7 +91,7 @@ class Matches:
 def _peaks(level: Level, uv: np.ndarray, normals: np.ndarray, radius: int, polarity=None):
     """The gradient profile along each normal and its edge peaks: ``(steps, a, along, peak)``."""
     n = len(uv)
-    steps = np.arange(-radius - 1, radius + 2, dtype=np.float64)           # one extra each side
+    steps = np.arange(-radius - 1, radius + 2, dtype=np.float64)  # one extra each side
     pu = uv[:, 0:1] + steps[None, :] * normals[:, 0:1]
     pv = uv[:, 1:2] + steps[None, :] * normals[:, 1:2]
     gx, gy = (g.reshape(n, -1) for g in _bilinear((level.gx, level.gy), pu.ravel(), pv.ravel()))
@@ -136,7 +136,7 @@ def search(level: Level, uv: np.ndarray, normals: np.ndarray, radius: int, polar
         distance = np.where((outside[:, None] != 0), np.where(strong, rank, np.inf), distance)
     best = np.argmin(distance, axis=1)
     found = np.isfinite(distance[np.arange(n), best])
-    i = best + 1                                                           # index into a
+    i = best + 1  # index into a
     rows = np.arange(n)
     left, mid, right = a[rows, i - 1], a[rows, i], a[rows, i + 1]
     denom = left - 2 * mid + right
@@ -145,7 +145,7 @@ def search(level: Level, uv: np.ndarray, normals: np.ndarray, radius: int, polar
     return Matches(offset, np.where(found, mid, 0.0), np.where(found, np.sign(along[rows, i]), 0.0))
 
 
-CHANCE_OFFSETS = (-6, -5, -4, -3, 3, 4, 5, 6)   # level px along the normal: "a pose a few px off"
+CHANCE_OFFSETS = (-6, -5, -4, -3, 3, 4, 5, 6)  # level px along the normal: "a pose a few px off"
 
 
 def support_above_chance(level: Level, uv: np.ndarray, normals: np.ndarray) -> tuple:

@@ -23,22 +23,22 @@ from mrcheck.core.camera import Camera
 from mrcheck.core.errors import MrcheckError
 from mrcheck.mr.edges import coarse, model, photo, solver
 from mrcheck.mr.edges.candidates import CandidateEdges
-from mrcheck.render.settings import RenderSettings
 from mrcheck.mr.edges.uncertainty import WEAK_CORNER_PX, PoseUncertainty, parallel_edges, pose_uncertainty
+from mrcheck.render.settings import RenderSettings
 
 _COARSEST_WIDTH = 160
-_CANDIDATES = 24           # edge points made per sample kept (in a dense hall most are hidden or not salient)
+_CANDIDATES = 24  # edge points made per sample kept (in a dense hall most are hidden or not salient)
 _MIN_SAMPLES = 30
-_PART_MIN_SAMPLES = 12     # a part with fewer samples is never judged on its own
-_PART_MIN_SUPPORT = 0.2    # ... and one whose samples find support less often than this is dropped
-_CONVERGED_PX = 0.02       # a step moving no sample more than this (level px) ends the level
-_SIGMA_FLOOR_PX = 0.3      # the robust scale's floor at full resolution (level px: twice this)
-_ANNEAL = 0.7              # the robust scale shrinks by this after every step kept
-_NEXT_LEVEL_SIGMA = 1.5    # a finer level starts here (level px): the coarser one's floor, doubled
-_RENDER_MAX_WIDTH = 800    # renders for the visible edges at most this wide (see _render_size)
-_MIN_ABOVE_CHANCE = 0.08   # see _check_above_chance (measured figures there)
-_LEFT_OUT_WARN = 0.3       # _left_out_warning: above this share of the visible samples left out
-_DIVERGED_SHARE = 0.25     # the pose moved the view by more than this share of the image diagonal
+_PART_MIN_SAMPLES = 12  # a part with fewer samples is never judged on its own
+_PART_MIN_SUPPORT = 0.2  # ... and one whose samples find support less often than this is dropped
+_CONVERGED_PX = 0.02  # a step moving no sample more than this (level px) ends the level
+_SIGMA_FLOOR_PX = 0.3  # the robust scale's floor at full resolution (level px: twice this)
+_ANNEAL = 0.7  # the robust scale shrinks by this after every step kept
+_NEXT_LEVEL_SIGMA = 1.5  # a finer level starts here (level px): the coarser one's floor, doubled
+_RENDER_MAX_WIDTH = 800  # renders for the visible edges at most this wide (see _render_size)
+_MIN_ABOVE_CHANCE = 0.08  # see _check_above_chance (measured figures there)
+_LEFT_OUT_WARN = 0.3  # _left_out_warning: above this share of the visible samples left out
+_DIVERGED_SHARE = 0.25  # the pose moved the view by more than this share of the image diagonal
 
 
 class EdgeFitError(MrcheckError):
@@ -57,7 +57,8 @@ class EdgeOptions:
     generated cell's good fits reach 0.35-0.59, many of its CAD edges show no contrast in a
     photo, and its wrong ones as much: the support beyond chance is the test); ``levels``:
     pyramid levels (None: the coarsest about 160 px wide); ``rerender_px``: re-find the visible
-    edges after the pose moved by this many level pixels; ``max_left_out``: the share of the visible edge samples that the
+    edges after the pose moved by this many level pixels; ``max_left_out``: the share of the visible edge samples
+    that the
     parts left out (no support) may hold at the end (see :func:`refine_pose`); ``descent_only``:
     keep a step only when it lowers the robust cost of the re-matched samples (Levenberg-
     Marquardt, the default: from a rough pose many px off a step may jump to other edges);
@@ -78,14 +79,16 @@ class EdgeOptions:
     descent_only: bool = True
 
     def validated(self) -> "EdgeOptions":
-        checks = [(0 < self.search_px < math.inf, f"search radius must be positive, got {self.search_px}"),
-                  (0.5 <= self.spacing_px < math.inf, f"sample spacing must be >= 0.5 px, got {self.spacing_px}"),
-                  (self.max_samples >= _MIN_SAMPLES, f"max samples must be >= {_MIN_SAMPLES}, got {self.max_samples}"),
-                  (self.iterations >= 1, f"iterations must be >= 1, got {self.iterations}"),
-                  (0 <= self.min_support <= 1, f"min support must be in [0, 1], got {self.min_support}"),
-                  (0 <= self.max_left_out <= 1, f"max left-out share must be in [0, 1], got {self.max_left_out}"),
-                  (self.levels is None or 1 <= self.levels <= 8, f"levels must be 1..8, got {self.levels}"),
-                  (self.coarse in ("chamfer", "normal"), f"coarse must be chamfer or normal, got {self.coarse!r}")]
+        checks = [
+            (0 < self.search_px < math.inf, f"search radius must be positive, got {self.search_px}"),
+            (0.5 <= self.spacing_px < math.inf, f"sample spacing must be >= 0.5 px, got {self.spacing_px}"),
+            (self.max_samples >= _MIN_SAMPLES, f"max samples must be >= {_MIN_SAMPLES}, got {self.max_samples}"),
+            (self.iterations >= 1, f"iterations must be >= 1, got {self.iterations}"),
+            (0 <= self.min_support <= 1, f"min support must be in [0, 1], got {self.min_support}"),
+            (0 <= self.max_left_out <= 1, f"max left-out share must be in [0, 1], got {self.max_left_out}"),
+            (self.levels is None or 1 <= self.levels <= 8, f"levels must be 1..8, got {self.levels}"),
+            (self.coarse in ("chamfer", "normal"), f"coarse must be chamfer or normal, got {self.coarse!r}"),
+        ]
         for ok, message in checks:
             if not ok:
                 raise MrcheckError(message)
@@ -223,11 +226,11 @@ class _Fitter:
         clock.add("photo", start)
         self.dropped = np.zeros(len(edges.group_names), bool)
         self.state = None
-        self.last_full = None     # the full-resolution level's last samples (reused by _finish)
-        self.visible_groups = np.zeros(0, np.int64)   # the instance of every visible sample of the last render
-        self.all_visible = None   # the last render's visible, salient samples, the left-out parts' too
+        self.last_full = None  # the full-resolution level's last samples (reused by _finish)
+        self.visible_groups = np.zeros(0, np.int64)  # the instance of every visible sample of the last render
+        self.all_visible = None  # the last render's visible, salient samples, the left-out parts' too
         self.candidates = candidates if candidates is not None else CandidateEdges(edges)
-        self.seed = seed          # a VisibilityRender for the first full-resolution sampling
+        self.seed = seed  # a VisibilityRender for the first full-resolution sampling
 
     def visible_samples(self, scale: float, radius: int = 0):
         """Samples of the visible, salient edges at the current pose (:func:`model.salient` on
@@ -237,8 +240,9 @@ class _Fitter:
         cam = self.state.camera(self.camera)
         view, depth, normals = self.render_for(cam, scale)
         start = self.clock.add("render", start)
-        samples, fresh = self.candidates.sample(cam, scale, self.options.spacing_px / scale,
-                                                _CANDIDATES * self.options.max_samples)
+        samples, fresh = self.candidates.sample(
+            cam, scale, self.options.spacing_px / scale, _CANDIDATES * self.options.max_samples
+        )
         # seen and salient as judged from the render's viewpoint (the current one, or a given
         # render's near it): the edges' 3D points projected by the camera that made the buffers
         samples = model.subset(samples, model.visible(samples, view, depth))
@@ -286,7 +290,7 @@ class _Fitter:
         level_camera = cam.resized(*_render_size(cam, scale))
         try:
             return (cam, *render_depth(self.renderer, level_camera, with_normals=True))
-        except MrcheckError as exc:     # the pose moved into a part (measured on the generated cell)
+        except MrcheckError as exc:  # the pose moved into a part (measured on the generated cell)
             raise EdgeFitError(f"the edge fit diverged: {exc}") from None
 
     def render_ratio(self, scale: float) -> float:
@@ -296,8 +300,10 @@ class _Fitter:
     def samples_for(self, scale: float):
         samples = self.visible_samples(scale)
         if len(samples) < _MIN_SAMPLES:
-            raise EdgeFitError(f"only {len(samples)} visible CAD edge samples in view (at least {_MIN_SAMPLES} "
-                               "needed): is the rough pose looking at the scene?")
+            raise EdgeFitError(
+                f"only {len(samples)} visible CAD edge samples in view (at least {_MIN_SAMPLES} "
+                "needed): is the rough pose looking at the scene?"
+            )
         return samples
 
     def run_level(self, level, sigma: float, judge_parts: bool) -> LevelReport:
@@ -319,13 +325,15 @@ class _Fitter:
             iterations += 1
             ok = np.isfinite(now.r)
             if np.count_nonzero(now.weights) < 6:
-                raise EdgeFitError(f"the CAD's edges found no photo edges near them ({np.count_nonzero(ok)} of "
-                                   f"{len(now.r)} samples): the rough pose is too far off or the photo shows another view")
+                raise EdgeFitError(
+                    f"the CAD's edges found no photo edges near them ({np.count_nonzero(ok)} of "
+                    f"{len(now.r)} samples): the rough pose is too far off or the photo shows another view"
+                )
             step = solver.gauss_newton_step(now.rows[ok], now.r[ok], now.weights[ok], damping)
             if step is None:
                 raise EdgeFitError("the edges found do not determine the pose (singular normal equations)")
             shift = float(np.max(np.abs(now.rows @ step)))
-            limit = max(radius / 2.0, 1.0)           # a trust region: no sample moves more than half the search
+            limit = max(radius / 2.0, 1.0)  # a trust region: no sample moves more than half the search
             if shift > limit:
                 step, shift = step * (limit / shift), limit
             before = self.state
@@ -347,7 +355,7 @@ class _Fitter:
                 polarity = None
             now = self.evaluate(level, samples, radius, polarity, sigma)
             polarity = now.found.polarity if polarity is None else polarity
-        if judge_parts:     # not on the coarsest level: a part may still be off by the search radius there
+        if judge_parts:  # not on the coarsest level: a part may still be off by the search radius there
             self.drop_unsupported(samples, now.weights)
         if level.scale == 1.0:
             self.last_full = model.subset(samples, ~self.dropped[samples.group])
@@ -363,10 +371,19 @@ class _Fitter:
         self.dropped |= judged & (supported < _PART_MIN_SUPPORT * np.maximum(count, 1))
 
 
-def refine_pose(scene, camera: Camera, grey: np.ndarray, initial: Camera | None = None,
-                options: EdgeOptions | None = None, *, renderer=None, edges=None,
-                candidates: CandidateEdges | None = None, seed: VisibilityRender | None = None,
-                pyramid: list | None = None) -> EdgeFit:
+def refine_pose(
+    scene,
+    camera: Camera,
+    grey: np.ndarray,
+    initial: Camera | None = None,
+    options: EdgeOptions | None = None,
+    *,
+    renderer=None,
+    edges=None,
+    candidates: CandidateEdges | None = None,
+    seed: VisibilityRender | None = None,
+    pyramid: list | None = None,
+) -> EdgeFit:
     """Snap the pose of ``camera`` (or of ``initial``) onto the edges of the photo ``grey``.
 
     ``scene``: the :class:`~mrcheck.scene.model.Scene`; ``camera``: the photo's intrinsics (at the
@@ -391,8 +408,10 @@ def refine_pose(scene, camera: Camera, grey: np.ndarray, initial: Camera | None 
         raise MrcheckError(f"photo is {grey.shape[1]}x{grey.shape[0]} but the camera is {camera.width}x{camera.height}")
     levels = level_count(camera.width, options)
     if pyramid is not None and (len(pyramid) != levels or pyramid[0].gx.shape != grey.shape):
-        raise MrcheckError(f"the photo's pyramid ({len(pyramid)} levels of {pyramid[0].gx.shape[::-1]}) is not "
-                           f"this photo's with these options ({levels} levels)")
+        raise MrcheckError(
+            f"the photo's pyramid ({len(pyramid)} levels of {pyramid[0].gx.shape[::-1]}) is not "
+            f"this photo's with these options ({levels} levels)"
+        )
     start_total = time.perf_counter()
     clock = _Clock()
     start = time.perf_counter()
@@ -432,7 +451,9 @@ def _fit(fitter: _Fitter, rough: Camera, grey: np.ndarray) -> EdgeFit:
     if options.coarse == "normal":
         for index in reversed(range(len(fitter.pyramid))):
             # the first level's scale: the rough pose's error, a third of the search radius
-            sigma = options.search_px * fitter.pyramid[index].scale / solver.TUKEY_C if not reports else _NEXT_LEVEL_SIGMA
+            sigma = (
+                options.search_px * fitter.pyramid[index].scale / solver.TUKEY_C if not reports else _NEXT_LEVEL_SIGMA
+            )
             reports.append(fitter.run_level(fitter.pyramid[index], sigma, judge_parts=bool(reports)))
         return _finish(fitter, rough, reports)
     start, before = time.perf_counter(), dict(fitter.clock.times)
@@ -462,10 +483,12 @@ def _finish(fitter: _Fitter, rough: Camera, reports: list) -> EdgeFit:
     # the finest level's samples, found within rerender_px of this pose (a render less per fit:
     # a video frame's snap is a third render and edge search otherwise)
     samples = fitter.last_full if fitter.last_full is not None else fitter.visible_samples(1.0)
-    if len(samples) < _MIN_SAMPLES:     # every part left out, or the view moved off the scene
-        raise EdgeFitError(f"too little support: only {len(samples)} visible CAD edge samples of parts that found "
-                           f"photo edges (at least {_MIN_SAMPLES} needed); is the rough pose within "
-                           f"{options.search_px:g} px, and does the photo show the scene?")
+    if len(samples) < _MIN_SAMPLES:  # every part left out, or the view moved off the scene
+        raise EdgeFitError(
+            f"too little support: only {len(samples)} visible CAD edge samples of parts that found "
+            f"photo edges (at least {_MIN_SAMPLES} needed); is the rough pose within "
+            f"{options.search_px:g} px, and does the photo show the scene?"
+        )
     r, rows, proj, _ = fitter.match(fitter.pyramid[0], samples, 3, None)
     start = time.perf_counter()
     ok = np.isfinite(r)
@@ -478,9 +501,11 @@ def _finish(fitter: _Fitter, rough: Camera, reports: list) -> EdgeFit:
     if moved > _DIVERGED_SHARE * math.hypot(camera.width, camera.height):
         raise EdgeFitError(f"the edge fit diverged: it moved the view by {moved:.0f} px from the rough pose")
     if support < options.min_support:
-        raise EdgeFitError(f"too little support: {support:.0%} of {len(r)} CAD edge samples found a photo edge "
-                           f"(at least {options.min_support:.0%} needed); is the rough pose within "
-                           f"{options.search_px:g} px, and does the photo show the scene?")
+        raise EdgeFitError(
+            f"too little support: {support:.0%} of {len(r)} CAD edge samples found a photo edge "
+            f"(at least {options.min_support:.0%} needed); is the rough pose within "
+            f"{options.search_px:g} px, and does the photo show the scene?"
+        )
     _check_left_out(fitter, support)
     above = _check_above_chance(fitter)
     rows_full = rows / fitter.pyramid[0].scale
@@ -490,8 +515,9 @@ def _finish(fitter: _Fitter, rough: Camera, reports: list) -> EdgeFit:
     fitter.clock.add("uncertainty", start)
     warnings = _warnings(uncertainty, proj.normal[weights > 0], weights[weights > 0]) + _left_out_warning(fitter)
     dropped = [name for name, d in zip(fitter.edges.group_names, fitter.dropped) if d]
-    return EdgeFit(fitted, rms, support, len(r), uncertainty, warnings, dropped=dropped, levels=reports,
-                   above_chance=above)
+    return EdgeFit(
+        fitted, rms, support, len(r), uncertainty, warnings, dropped=dropped, levels=reports, above_chance=above
+    )
 
 
 def _check_left_out(fitter: _Fitter, support: float) -> None:
@@ -509,11 +535,13 @@ def _check_left_out(fitter: _Fitter, support: float) -> None:
     share, count = _left_out(fitter)
     if share > fitter.options.max_left_out:
         groups = fitter.visible_groups
-        raise EdgeFitError(f"too little support across the CAD: the {count} parts that found no photo edge hold "
-                           f"{share:.0%} of the {len(groups)} visible edge samples (at most "
-                           f"{fitter.options.max_left_out:.0%}), the others {support:.0%}: most likely a wrong pose; "
-                           f"is the rough pose within {fitter.options.search_px:g} px, and is that much of the CAD "
-                           "really missing in the hall?")
+        raise EdgeFitError(
+            f"too little support across the CAD: the {count} parts that found no photo edge hold "
+            f"{share:.0%} of the {len(groups)} visible edge samples (at most "
+            f"{fitter.options.max_left_out:.0%}), the others {support:.0%}: most likely a wrong pose; "
+            f"is the rough pose within {fitter.options.search_px:g} px, and is that much of the CAD "
+            "really missing in the hall?"
+        )
 
 
 def _check_above_chance(fitter: _Fitter) -> float:
@@ -537,11 +565,13 @@ def _check_above_chance(fitter: _Fitter) -> float:
     proj = solver.project(fitter.state, fitter.camera, samples.points, samples.tangents)
     support, chance, above = photo.support_above_chance(fitter.pyramid[0], proj.uv, proj.normal)
     if above < _MIN_ABOVE_CHANCE:
-        raise EdgeFitError(f"too little support beyond chance: {support:.0%} of the {len(samples)} visible CAD edge "
-                           f"samples lie on a photo edge, {chance:.0%} would 3-6 px off (at least "
-                           f"{_MIN_ABOVE_CHANCE:.0%} of the rest needed): the pose does not stand out among the "
-                           f"photo's edges, most likely a wrong pose; is the rough pose within "
-                           f"{fitter.options.search_px:g} px?")
+        raise EdgeFitError(
+            f"too little support beyond chance: {support:.0%} of the {len(samples)} visible CAD edge "
+            f"samples lie on a photo edge, {chance:.0%} would 3-6 px off (at least "
+            f"{_MIN_ABOVE_CHANCE:.0%} of the rest needed): the pose does not stand out among the "
+            f"photo's edges, most likely a wrong pose; is the rough pose within "
+            f"{fitter.options.search_px:g} px?"
+        )
     return above
 
 
@@ -561,22 +591,37 @@ def _left_out_warning(fitter: _Fitter) -> list:
     share, count = _left_out(fitter)
     if share <= _LEFT_OUT_WARN:
         return []
-    return [f"{count} parts holding {share:.0%} of the visible CAD edges found no photo edge (missing in the hall, "
-            "or without contrast in the photo) and were left out: the pose rests on the others"]
+    return [
+        f"{count} parts holding {share:.0%} of the visible CAD edges found no photo edge (missing in the hall, "
+        "or without contrast in the photo) and were left out: the pose rests on the others"
+    ]
 
 
 def _warnings(uncertainty: PoseUncertainty, normals, weights) -> list:
     out = []
     angle = parallel_edges(normals, weights)
     if angle is not None:
-        out.append(f"the edges found are nearly all parallel (at {angle:.0f} deg in the image): the pose is poorly "
-                   "constrained along them")
+        out.append(
+            f"the edges found are nearly all parallel (at {angle:.0f} deg in the image): the pose is poorly "
+            "constrained along them"
+        )
     if uncertainty.max_corner_px > WEAK_CORNER_PX or (uncertainty.weak and angle is not None):
         weak = f"; weakest: {uncertainty.weak}" if uncertainty.weak else ""
-        out.append(f"the pose is poorly constrained: up to {uncertainty.max_corner_px:.1f} px (1 sigma) at the image "
-                   f"corners{weak}")
+        out.append(
+            f"the pose is poorly constrained: up to {uncertainty.max_corner_px:.1f} px (1 sigma) at the image "
+            f"corners{weak}"
+        )
     return out
 
 
-__all__ = ["refine_pose", "photo_pyramid", "EdgeFit", "EdgeOptions", "EdgeFitError", "LevelReport", "VisibilityRender",
-           "render_depth", "level_count"]
+__all__ = [
+    "refine_pose",
+    "photo_pyramid",
+    "EdgeFit",
+    "EdgeOptions",
+    "EdgeFitError",
+    "LevelReport",
+    "VisibilityRender",
+    "render_depth",
+    "level_count",
+]

@@ -42,15 +42,15 @@ import numpy as np
 
 from mrcheck.mr.edges import chamfer, solver
 
-SEARCH_WIDTH_PX = 320     # the pyramid level searched: the one nearest this width (see search_level)
-SAMPLES = 400             # samples scored per candidate
-FIRST = 12000             # candidates drawn from the prior
-ELITE = 100               # candidates kept per round
-CHILDREN = 30             # neighbours drawn per kept candidate and round
+SEARCH_WIDTH_PX = 320  # the pyramid level searched: the one nearest this width (see search_level)
+SAMPLES = 400  # samples scored per candidate
+FIRST = 12000  # candidates drawn from the prior
+ELITE = 100  # candidates kept per round
+CHILDREN = 30  # neighbours drawn per kept candidate and round
 ROUNDS = (4.0, 8.0, 16.0)  # the rounds' neighbourhood: the search radius over these
-NEAR_BEST = 0.02          # of the candidates within this share of the lowest cost, the nearest is taken
-_BATCH = 500              # candidates scored at once (memory: BATCH x SAMPLES x 2 floats)
-_MOTION_SAMPLES = 100     # samples the median image motion of a candidate is measured on
+NEAR_BEST = 0.02  # of the candidates within this share of the lowest cost, the nearest is taken
+_BATCH = 500  # candidates scored at once (memory: BATCH x SAMPLES x 2 floats)
+_MOTION_SAMPLES = 100  # samples the median image motion of a candidate is measured on
 
 
 @dataclass
@@ -86,10 +86,10 @@ class _Candidates:
         self.bins = chamfer.bins_of(proj.normal[pick])
         _, self.h, self.w = cmap.distance.shape
         self.flat = cmap.distance.reshape(-1)
-        self.base = self.bins * (self.h * self.w)       # where each sample's direction bin starts
+        self.base = self.bins * (self.h * self.w)  # where each sample's direction bin starts
         self.rows = self.J.reshape(-1, 6)
         depth = float(np.median(proj.depth))
-        self.units = np.array([1.0, 1.0, 1.0, depth, depth, depth])   # radians; metres over the depth
+        self.units = np.array([1.0, 1.0, 1.0, depth, depth, depth])  # radians; metres over the depth
         some = np.unique(np.linspace(0, len(pick) - 1, min(_MOTION_SAMPLES, len(pick))).astype(np.int64))
         # the u and v rows apart, (6, m) each: two matrix products per batch of candidates (the
         # einsum into an (h, m, 2) array and its norm over the last axis took 55 of the 75 ms
@@ -109,14 +109,14 @@ class _Candidates:
 
     def cost(self, D: np.ndarray) -> np.ndarray:
         """(h,) truncated chamfer cost of the samples moved by the pose changes ``D`` (nearest pixel)."""
-        return np.concatenate([self._cost(D[i:i + _BATCH]) for i in range(0, len(D), _BATCH)])
+        return np.concatenate([self._cost(D[i : i + _BATCH]) for i in range(0, len(D), _BATCH)])
 
     def _cost(self, D: np.ndarray) -> np.ndarray:
         # one matrix product for all candidates: rows u0, v0, u1, v1, ... of the samples
-        moved = self.rows @ D.T                                          # (2 n, h)
+        moved = self.rows @ D.T  # (2 n, h)
         u = np.clip(np.rint(moved[0::2] + self.uv0[:, 0:1]), 0, self.w - 1).astype(np.intp)
         v = np.clip(np.rint(moved[1::2] + self.uv0[:, 1:2]), 0, self.h - 1).astype(np.intp)
-        d = self.flat[self.base[:, None] + v * self.w + u]               # (n, h)
+        d = self.flat[self.base[:, None] + v * self.w + u]  # (n, h)
         return np.mean(d * d, axis=0)
 
 
@@ -135,8 +135,9 @@ def search_pose(fitter, cmap: chamfer.ChamferMap, radius_px: float, seed: int = 
     for divisor in ROUNDS:
         keep = np.argsort(cost)[:ELITE]
         count = len(keep) * CHILDREN
-        children = (np.repeat(D[keep], CHILDREN, axis=0)
-                    + pool.directions(count, rng) * rng.uniform(0.0, radius / divisor, (count, 1)))
+        children = np.repeat(D[keep], CHILDREN, axis=0) + pool.directions(count, rng) * rng.uniform(
+            0.0, radius / divisor, (count, 1)
+        )
         child_cost = pool.cost(children)
         D, cost = np.vstack([D[keep], children]), np.concatenate([cost[keep], child_cost])
         scored.append(children)

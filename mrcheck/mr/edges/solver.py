@@ -23,10 +23,10 @@ import numpy as np
 
 from mrcheck.core.camera import Camera
 
-TUKEY_C = 4.685        # 95 % efficiency at the normal distribution
+TUKEY_C = 4.685  # 95 % efficiency at the normal distribution
 _MAD_TO_SIGMA = 1.4826
 _RIDGE = 1e-12
-MIN_PART_CLUSTERS = 20    # covariance(): parts as clusters only when at least this many found support
+MIN_PART_CLUSTERS = 20  # covariance(): parts as clusters only when at least this many found support
 
 
 @dataclass
@@ -68,14 +68,14 @@ class Projection:
 
 def project(state: PoseState, camera: Camera, points: np.ndarray, tangents: np.ndarray) -> Projection:
     """The samples at ``state`` through ``camera``'s lens; the normal from the projected tangent."""
-    if len(points) == 0:              # cv2.projectPoints returns None for no points
+    if len(points) == 0:  # cv2.projectPoints returns None for no points
         return Projection(np.zeros((0, 2)), np.zeros((0, 2, 6)), np.zeros((0, 2)), np.zeros(0))
     local = points - state.centre
     uv, jac = cv2.projectPoints(local, state.rvec, state.t, camera.K, camera.dist)
     uv = uv.reshape(-1, 2)
     J = jac[:, :6].reshape(-1, 2, 6)
     depth = local @ state.R[2] + state.t[2]
-    step = (1e-3 * depth)[:, None] * tangents          # a millimetre per metre along the edge
+    step = (1e-3 * depth)[:, None] * tangents  # a millimetre per metre along the edge
     ahead, _ = cv2.projectPoints(local + step, state.rvec, state.t, camera.K, camera.dist)
     d = ahead.reshape(-1, 2) - uv
     d /= np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-12)
@@ -104,8 +104,9 @@ def normal_rows(projection: Projection, scale: float) -> np.ndarray:
     return np.einsum("ni,nij->nj", projection.normal, projection.J) * scale
 
 
-def gauss_newton_step(rows: np.ndarray, residuals: np.ndarray, weights: np.ndarray, damping: float = 1e-4,
-                      ridge: float = _RIDGE):
+def gauss_newton_step(
+    rows: np.ndarray, residuals: np.ndarray, weights: np.ndarray, damping: float = 1e-4, ridge: float = _RIDGE
+):
     """The step ``delta`` minimising ``sum w (r + row . delta)^2``, Levenberg-damped (the
     diagonal times ``1 + damping``), or None when the normal equations are singular.
     ``ridge``: times the trace, added to the diagonal (see below)."""
@@ -120,8 +121,9 @@ def gauss_newton_step(rows: np.ndarray, residuals: np.ndarray, weights: np.ndarr
         return None
 
 
-def covariance(rows: np.ndarray, residuals: np.ndarray, weights: np.ndarray, clusters: np.ndarray,
-               parts: np.ndarray | None = None) -> np.ndarray:
+def covariance(
+    rows: np.ndarray, residuals: np.ndarray, weights: np.ndarray, clusters: np.ndarray, parts: np.ndarray | None = None
+) -> np.ndarray:
     """(6, 6) covariance of ``(rvec, t)`` at the solution (full-resolution pixel rows).
 
     Samples along one CAD edge do not err independently (the photo's edge is bent, blurred or
@@ -140,12 +142,12 @@ def covariance(rows: np.ndarray, residuals: np.ndarray, weights: np.ndarray, clu
     used = weights > 0
     rows, residuals, weights, clusters = rows[used], residuals[used], weights[used], clusters[used]
     H = rows.T @ (weights[:, None] * rows)
-    H = H + _RIDGE * max(np.trace(H), 1e-30) * np.eye(6)   # an unconstrained direction: huge, not singular
+    H = H + _RIDGE * max(np.trace(H), 1e-30) * np.eye(6)  # an unconstrained direction: huge, not singular
     try:
         H_inv = np.linalg.inv(H)
     except np.linalg.LinAlgError:
         return np.full((6, 6), np.inf)
-    sigma2 = float(np.sum(weights * residuals ** 2) / max(np.sum(weights) - 6, 1))
+    sigma2 = float(np.sum(weights * residuals**2) / max(np.sum(weights) - 6, 1))
     candidates = [sigma2 * H_inv, *_clustered(rows, residuals, weights, clusters, H_inv, sigma2)]
     if parts is not None and len(np.unique(np.asarray(parts)[used])) >= MIN_PART_CLUSTERS:
         candidates += _clustered(rows, residuals, weights, np.asarray(parts)[used], H_inv, sigma2)
@@ -160,7 +162,7 @@ def _clustered(rows, residuals, weights, clusters, H_inv, sigma2) -> tuple:
     m = int(cluster.max()) + 1 if n else 0
     S = np.zeros((m, 6))
     np.add.at(S, cluster, score)
-    correction = (m / max(m - 1, 1)) * ((n - 1) / max(n - 6, 1))    # the usual small-sample factor
+    correction = (m / max(m - 1, 1)) * ((n - 1) / max(n - 6, 1))  # the usual small-sample factor
     sandwich = correction * H_inv @ (S.T @ S) @ H_inv
     # a cluster's samples share one error of its position (a shadow beside an edge, a bent or
     # worn real edge, a part set a little off): counted as ONE measurement of the residuals'
@@ -178,5 +180,14 @@ def _clustered(rows, residuals, weights, clusters, H_inv, sigma2) -> tuple:
     return sandwich, per_cluster
 
 
-__all__ = ["PoseState", "Projection", "project", "tukey_weights", "tukey_cost", "normal_rows", "gauss_newton_step", "covariance",
-           "TUKEY_C"]
+__all__ = [
+    "PoseState",
+    "Projection",
+    "project",
+    "tukey_weights",
+    "tukey_cost",
+    "normal_rows",
+    "gauss_newton_step",
+    "covariance",
+    "TUKEY_C",
+]

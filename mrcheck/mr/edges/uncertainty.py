@@ -17,12 +17,18 @@ import numpy as np
 
 from mrcheck.mr.edges.solver import PoseState
 
-WEAK_RATIO = 4.0          # the largest pose sigma this many times the next: one direction is weak
-WEAK_CORNER_PX = 2.0      # ... or the corners' 1-sigma error above this
-PARALLEL_RATIO = 0.03     # the edges' normals: smaller / larger eigenvalue below this = all parallel
+WEAK_RATIO = 4.0  # the largest pose sigma this many times the next: one direction is weak
+WEAK_CORNER_PX = 2.0  # ... or the corners' 1-sigma error above this
+PARALLEL_RATIO = 0.03  # the edges' normals: smaller / larger eigenvalue below this = all parallel
 _CORNERS = ("top left", "top right", "bottom right", "bottom left")
-_DIRECTIONS = ("sideways (camera x)", "up/down (camera y)", "forward/back (along the view)",
-               "tilt (about camera x)", "pan (about camera y)", "roll (about the view axis)")
+_DIRECTIONS = (
+    "sideways (camera x)",
+    "up/down (camera y)",
+    "forward/back (along the view)",
+    "tilt (about camera x)",
+    "pan (about camera y)",
+    "roll (about the view axis)",
+)
 
 
 @dataclass
@@ -50,13 +56,16 @@ class PoseUncertainty:
         return float(max(self.corner_px))
 
     def to_dict(self) -> dict:
-        return {"corner_px": dict(zip(("top_left", "top_right", "bottom_right", "bottom_left"),
-                                      [round(v, 4) for v in self.corner_px])),
-                "depth_m": round(self.depth_m, 4),
-                "position_mm": [round(v, 3) for v in self.position_mm],
-                "position_camera_mm": [round(v, 3) for v in self.position_camera_mm],
-                "angle_deg": [round(v, 5) for v in self.angle_deg],
-                "weak_direction": self.weak}
+        return {
+            "corner_px": dict(
+                zip(("top_left", "top_right", "bottom_right", "bottom_left"), [round(v, 4) for v in self.corner_px])
+            ),
+            "depth_m": round(self.depth_m, 4),
+            "position_mm": [round(v, 3) for v in self.position_mm],
+            "position_camera_mm": [round(v, 3) for v in self.position_camera_mm],
+            "angle_deg": [round(v, 5) for v in self.angle_deg],
+            "weak_direction": self.weak,
+        }
 
 
 def corner_jacobians(state: PoseState, camera, depth: float) -> np.ndarray:
@@ -66,7 +75,7 @@ def corner_jacobians(state: PoseState, camera, depth: float) -> np.ndarray:
     corners = np.array([[0, 0], [w - 1, 0], [w - 1, h - 1], [0, h - 1]], np.float64)
     rays = np.linalg.solve(camera.K, np.column_stack([corners, np.ones(4)]).T).T
     R = state.R
-    local = (depth * rays - state.t) @ R                 # R^T (P - t), row-wise
+    local = (depth * rays - state.t) @ R  # R^T (P - t), row-wise
     _, jac = cv2.projectPoints(local, state.rvec, state.t, camera.K, np.zeros(5))
     return jac[:, :6].reshape(4, 2, 6)
 
@@ -100,10 +109,18 @@ def pose_uncertainty(state: PoseState, camera, cov: np.ndarray, depth: float) ->
     cov_p, cov_a = Jp @ cov @ Jp.T, Ja @ cov @ Ja.T
     cov_pc = R0 @ cov_p @ R0.T
     sd = lambda c: [math.sqrt(max(v, 0.0)) for v in np.diag(c)]  # noqa: E731
-    weak = weak_direction(np.vstack([R0 @ Jp * 1000.0, Ja * depth * 1000.0]) @ cov
-                          @ np.vstack([R0 @ Jp * 1000.0, Ja * depth * 1000.0]).T)
-    return PoseUncertainty(corner, float(depth), [v * 1000 for v in sd(cov_p)], [v * 1000 for v in sd(cov_pc)],
-                           [math.degrees(v) for v in sd(cov_a)], weak, cov)
+    weak = weak_direction(
+        np.vstack([R0 @ Jp * 1000.0, Ja * depth * 1000.0]) @ cov @ np.vstack([R0 @ Jp * 1000.0, Ja * depth * 1000.0]).T
+    )
+    return PoseUncertainty(
+        corner,
+        float(depth),
+        [v * 1000 for v in sd(cov_p)],
+        [v * 1000 for v in sd(cov_pc)],
+        [math.degrees(v) for v in sd(cov_a)],
+        weak,
+        cov,
+    )
 
 
 def weak_direction(cov_mm: np.ndarray) -> str | None:
@@ -132,8 +149,14 @@ def parallel_edges(normals: np.ndarray, weights: np.ndarray) -> float | None:
     if values[1] <= 0 or values[0] / values[1] >= PARALLEL_RATIO:
         return None
     nx, ny = vectors[:, 1]
-    return float(round(math.degrees(math.atan2(nx, -ny))) % 180)   # the edge direction, perpendicular to n
+    return float(round(math.degrees(math.atan2(nx, -ny))) % 180)  # the edge direction, perpendicular to n
 
 
-__all__ = ["PoseUncertainty", "pose_uncertainty", "weak_direction", "parallel_edges", "corner_jacobians",
-           "WEAK_CORNER_PX"]
+__all__ = [
+    "PoseUncertainty",
+    "pose_uncertainty",
+    "weak_direction",
+    "parallel_edges",
+    "corner_jacobians",
+    "WEAK_CORNER_PX",
+]

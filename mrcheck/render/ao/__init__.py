@@ -18,7 +18,14 @@ from mrcheck.render.ao.ssao import StandardSSAO
 from mrcheck.render.ao.vbao import VBAO
 from mrcheck.render.ao.vector import VectorAO
 
-AO_METHODS = {"vector": VectorAO, "ssao": StandardSSAO, "crytek": CrytekAO, "hbao": HBAO, "alchemy": AlchemyAO,
-              "gtao": GTAO, "vbao": VBAO}
+AO_METHODS = {
+    "vector": VectorAO,
+    "ssao": StandardSSAO,
+    "crytek": CrytekAO,
+    "hbao": HBAO,
+    "alchemy": AlchemyAO,
+    "gtao": GTAO,
+    "vbao": VBAO,
+}
 
 __all__ = ["AOPass", "AO_METHODS", "VectorAO", "StandardSSAO", "CrytekAO", "HBAO", "AlchemyAO", "GTAO", "VBAO"]

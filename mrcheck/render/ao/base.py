@@ -19,15 +19,16 @@ class AOPass:
     """
 
     shader: str = ""
-    mode: str = ""      # the mode's name (MODES): its default strength (settings.default_intensity)
+    mode: str = ""  # the mode's name (MODES): its default strength (settings.default_intensity)
     offsets = staticmethod(kernel.sphere_kernel)
 
     def __init__(self, ctx: moderngl.Context, samples: int, seed: int = 0, stride: int = 1):
         self.ctx = ctx
         self.samples = int(samples)
         self.stride = int(stride)
-        self.program = load_program(ctx, self.shader, {**kernel.defines(samples, stride),
-                                                       **self.method_defines(self.samples)})
+        self.program = load_program(
+            ctx, self.shader, {**kernel.defines(samples, stride), **self.method_defines(self.samples)}
+        )
         if "u_kernel" in self.program:  # a method may not use the kernel (hbao)
             self.program["u_kernel"].write(self.offsets(self.samples, seed).tobytes())
         tile = kernel.rotation_tile(seed)
@@ -37,8 +38,15 @@ class AOPass:
             set_if_present(self.program, name, unit)  # crytek reads no normal
         self.vao = ctx.vertex_array(self.program, [])
 
-    def run(self, target: moderngl.Framebuffer, depth: moderngl.Texture, normal: moderngl.Texture,
-            intrinsics, settings, scale: float = 1.0) -> None:
+    def run(
+        self,
+        target: moderngl.Framebuffer,
+        depth: moderngl.Texture,
+        normal: moderngl.Texture,
+        intrinsics,
+        settings,
+        scale: float = 1.0,
+    ) -> None:
         """Write (AO, depth) texels into ``target`` (RG32F, the G-buffer's size / stride; see
         ``shaders/ao_common.glsl``).
 
@@ -81,7 +89,7 @@ def draw_covered(ctx: moderngl.Context, target: moderngl.Framebuffer, vao: moder
     unrolled than as a loop).
     """
     target.use()
-    target.depth_mask = False                 # the clear and the pass leave the G-buffer's depth alone
+    target.depth_mask = False  # the clear and the pass leave the G-buffer's depth alone
     target.clear(1.0, 0.0, 0.0, 0.0)
     ctx.enable(moderngl.DEPTH_TEST)
     ctx.depth_func = "<"

@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-NOISE_SIZE = 4          # the rotation tile is NOISE_SIZE x NOISE_SIZE pixels
-MIN_OFFSET = 0.1        # shortest offset, as a fraction of the sampling radius
+NOISE_SIZE = 4  # the rotation tile is NOISE_SIZE x NOISE_SIZE pixels
+MIN_OFFSET = 0.1  # shortest offset, as a fraction of the sampling radius
 PAPER_SAMPLE_COUNTS = (16, 36, 64, 128)  # Scheer & Keutel, table 1
 
 
@@ -54,7 +54,7 @@ def stratified_kernel(samples: int, seed: int = 0) -> np.ndarray:
     phi = np.pi * (3.0 - np.sqrt(5.0)) * i
     r = np.sqrt(np.maximum(1.0 - z * z, 0.0))
     lattice = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
-    q, _ = np.linalg.qr(np.random.default_rng(seed).normal(size=(3, 3)))   # a random rotation
+    q, _ = np.linalg.qr(np.random.default_rng(seed).normal(size=(3, 3)))  # a random rotation
     directions = (lattice @ q.T)[np.argsort((np.arange(samples) * GOLDEN) % 1.0)]
     t = (np.arange(samples) + 1.0) / samples
     lengths = MIN_OFFSET + (1.0 - MIN_OFFSET) * t * t

@@ -15,6 +15,7 @@ from mrcheck.render.ao.gtao import GTAO
 
 class VBAO(GTAO):
     """GTAO's slices, sample budget and radius uniforms; its own shader and the thickness."""
+
     shader = "ao_vbao"
     mode = "vbao"
 

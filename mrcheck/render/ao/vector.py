@@ -18,7 +18,7 @@ from mrcheck.render.ao.screen_radius import set_screen_radius
 class VectorAO(AOPass):
     shader = "ao_vector"
     mode = "vector"
-    offsets = staticmethod(stratified_kernel)   # evenly spread directions: less variance (kernel.py)
+    offsets = staticmethod(stratified_kernel)  # evenly spread directions: less variance (kernel.py)
 
     def _set_method_uniforms(self, settings, scale: float) -> None:
         set_screen_radius(self.program, settings, scale)

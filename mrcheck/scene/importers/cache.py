@@ -27,7 +27,7 @@ from mrcheck.scene.importers.records import ImportResult, ImportSettings, defaul
 from mrcheck.scene.importers.sniff import file_digest
 from mrcheck.scene.importers.writer import write_scene
 
-IMPORTER_VERSION = "2"    # bump when the importers' output changes: old entries are then misses
+IMPORTER_VERSION = "2"  # bump when the importers' output changes: old entries are then misses
 
 
 def cache_root() -> Path:
@@ -46,18 +46,33 @@ def cache_key(path, settings: ImportSettings) -> str:
 
 
 def _header(path: Path, settings: ImportSettings) -> str:
-    return f"from {path.name} (coordinates {settings.coordinates}, STEP tolerance {settings.tolerance_px:g} px at " \
-           f"{settings.distance_m:g} m)"
+    return (
+        f"from {path.name} (coordinates {settings.coordinates}, STEP tolerance {settings.tolerance_px:g} px at "
+        f"{settings.distance_m:g} m)"
+    )
 
 
 def _result(manifest: Path, model, seconds: float, cached: bool) -> ImportResult:
-    return ImportResult(manifest=manifest, model_name=model.name, kind=model.kind, schema=model.schema,
-                        parts=len(model.parts), elements=model.element_count, triangles=model.triangle_count,
-                        failed=list(model.failed), seconds=seconds, cached=cached,
-                        origin=tuple(float(v) for v in model.origin), crs=model.crs, notes=list(model.notes))
+    return ImportResult(
+        manifest=manifest,
+        model_name=model.name,
+        kind=model.kind,
+        schema=model.schema,
+        parts=len(model.parts),
+        elements=model.element_count,
+        triangles=model.triangle_count,
+        failed=list(model.failed),
+        seconds=seconds,
+        cached=cached,
+        origin=tuple(float(v) for v in model.origin),
+        crs=model.crs,
+        notes=list(model.notes),
+    )
 
 
-def import_scene(path, outdir, settings: ImportSettings | None = None, progress: Progress = no_progress) -> ImportResult:
+def import_scene(
+    path, outdir, settings: ImportSettings | None = None, progress: Progress = no_progress
+) -> ImportResult:
     """Import an .ifc/.step file into the scene folder ``outdir`` (``mrcheck scene import``).
 
     Nothing is written when the import fails; an existing folder is replaced only when it holds
@@ -65,7 +80,7 @@ def import_scene(path, outdir, settings: ImportSettings | None = None, progress:
     from mrcheck.scene.importers.writer import check_import_dir
 
     path, settings = Path(path), settings or ImportSettings()
-    check_import_dir(Path(outdir))        # before the work, not after it
+    check_import_dir(Path(outdir))  # before the work, not after it
     start = time.perf_counter()
     model = read_model(path, settings, progress)
     manifest = write_scene(model, Path(outdir), _header(path, settings))
@@ -79,26 +94,37 @@ def cached_manifest(path, settings: ImportSettings | None = None, progress: Prog
     start = time.perf_counter()
     from mrcheck.scene.importers.sniff import sniff
 
-    sniff(path)                       # wrong extension, truncation, ...: the same errors as an import
+    sniff(path)  # wrong extension, truncation, ...: the same errors as an import
     root = cache_root()
     entry = root / cache_key(path, settings)
     manifest = entry / "scene.toml"
     if manifest.is_file():
-        return ImportResult(manifest=manifest, model_name=path.stem, kind="", schema="", parts=0, elements=0,
-                            triangles=0, failed=[], seconds=time.perf_counter() - start, cached=True)
+        return ImportResult(
+            manifest=manifest,
+            model_name=path.stem,
+            kind="",
+            schema="",
+            parts=0,
+            elements=0,
+            triangles=0,
+            failed=[],
+            seconds=time.perf_counter() - start,
+            cached=True,
+        )
     model = read_model(path, settings, progress)
     try:
         root.mkdir(parents=True, exist_ok=True)
         work = Path(tempfile.mkdtemp(prefix=".partial-", dir=root))
     except OSError as exc:
-        raise MrcheckError(f"cannot write the import cache ({exc.strerror or exc}; set MRCHECK_CACHE_DIR to a "
-                           "writable folder)", root) from None
+        raise MrcheckError(
+            f"cannot write the import cache ({exc.strerror or exc}; set MRCHECK_CACHE_DIR to a writable folder)", root
+        ) from None
     try:
         write_scene(model, work / "scene", _header(path, settings))
         try:
             os.rename(work / "scene", entry)
         except OSError:
-            if not manifest.is_file():    # not another process's entry that landed first
+            if not manifest.is_file():  # not another process's entry that landed first
                 raise
     finally:
         shutil.rmtree(work, ignore_errors=True)
@@ -139,4 +165,12 @@ def load_model(path, units=None, progress: bool = False, settings: ImportSetting
     return scene
 
 
-__all__ = ["load_model", "import_scene", "cached_manifest", "failed_summary", "cache_root", "cache_key", "IMPORTER_VERSION"]
+__all__ = [
+    "load_model",
+    "import_scene",
+    "cached_manifest",
+    "failed_summary",
+    "cache_root",
+    "cache_key",
+    "IMPORTER_VERSION",
+]

@@ -29,9 +29,9 @@ class Placement:
     crs: str = ""
     notes: list = field(default_factory=list)
 
-
-
     """Metres per unit of an IfcNamedUnit (SI with prefix, or a conversion-based unit)."""
+
+
 def _si_scale(unit) -> float:
     prefixes = {"MILLI": 1e-3, "CENTI": 1e-2, "DECI": 1e-1, "KILO": 1e3, None: 1.0}
     if unit.is_a("IfcSIUnit"):

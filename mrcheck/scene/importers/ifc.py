@@ -24,8 +24,14 @@ from mrcheck.core.progress import Progress, no_progress
 from mrcheck.core.quiet import native_output
 from mrcheck.scene.importers.georef import map_conversion, site_origin
 from mrcheck.scene.importers.ifc_mapped import Placements, mesh_maps, shape_arrays, shape_colour, split_mapped
-from mrcheck.scene.importers.records import (FailedElement, ImportedInstance, ImportedModel, ImportedPart, ImportSettings,
-                                             unique_part_names)
+from mrcheck.scene.importers.records import (
+    FailedElement,
+    ImportedInstance,
+    ImportedModel,
+    ImportedPart,
+    ImportSettings,
+    unique_part_names,
+)
 from mrcheck.scene.importers.sniff import FileKind
 
 # IfcSpace and IfcOpeningElement have Body geometry that is not built: rooms' air and the voids
@@ -43,7 +49,8 @@ def default_threads() -> int:
 def read_ifc(path: Path, kind: FileKind, settings: ImportSettings, progress: Progress = no_progress) -> ImportedModel:
     """The model of an IFC file (already checked by :func:`mrcheck.scene.importers.sniff.sniff`).
 
-    ``progress`` (:data:`mrcheck.core.progress.Progress`) shows the shapes as they are built. Raises MrcheckError for a file
+    ``progress`` (:data:`mrcheck.core.progress.Progress`) shows the shapes as they are built. Raises MrcheckError for
+    a file
     IfcOpenShell cannot parse, a model without any element with a Body representation, and one
     where no element's geometry could be built.
     """
@@ -51,20 +58,36 @@ def read_ifc(path: Path, kind: FileKind, settings: ImportSettings, progress: Pro
     bodies = _body_elements(model)
     if not bodies:
         products = len(model.by_type("IfcProduct"))
-        raise MrcheckError(f"no element has a body representation ({products} IfcProduct entities, none with "
-                           "3-D 'Body' geometry): nothing to render", path)
+        raise MrcheckError(
+            f"no element has a body representation ({products} IfcProduct entities, none with "
+            "3-D 'Body' geometry): nothing to render",
+            path,
+        )
     placement = _placement(model, settings, path)
     storeys = storey_names(model)
     parts, seen = _iterate(model, settings, bodies, storeys, placement.matrix, (progress, f"importing {path.name}"))
-    failed = [FailedElement(e.GlobalId, e.is_a(), "IfcOpenShell built no geometry")
-              for e in bodies if e.id() not in seen]
+    failed = [
+        FailedElement(e.GlobalId, e.is_a(), "IfcOpenShell built no geometry") for e in bodies if e.id() not in seen
+    ]
     if not parts:
-        raise MrcheckError(f"no element's geometry could be built ({len(failed)} of them failed, e.g. "
-                           f"{failed[0].ifc_class} {failed[0].id})", path)
+        raise MrcheckError(
+            f"no element's geometry could be built ({len(failed)} of them failed, e.g. "
+            f"{failed[0].ifc_class} {failed[0].id})",
+            path,
+        )
     project = (model.by_type("IfcProject") or [None])[0]
     name = (getattr(project, "Name", None) or path.stem) if project is not None else path.stem
-    return ImportedModel(name=str(name), source=path, kind="ifc", schema=kind.schema, parts=_named(parts),
-                         origin=placement.origin, crs=placement.crs, failed=failed, notes=placement.notes)
+    return ImportedModel(
+        name=str(name),
+        source=path,
+        kind="ifc",
+        schema=kind.schema,
+        parts=_named(parts),
+        origin=placement.origin,
+        crs=placement.crs,
+        failed=failed,
+        notes=placement.notes,
+    )
 
 
 def _open(path: Path):
@@ -72,11 +95,11 @@ def _open(path: Path):
     is a syntax error: an element silently missing from the model would be a wrong check."""
     import ifcopenshell
 
-    ifcopenshell.get_log()   # reading the log empties it: what follows is this file's
+    ifcopenshell.get_log()  # reading the log empties it: what follows is this file's
     try:
         with native_output():
             model = ifcopenshell.open(str(path))
-    except Exception as exc:   # ifcopenshell raises its own, RuntimeError and others for a broken file
+    except Exception as exc:  # ifcopenshell raises its own, RuntimeError and others for a broken file
         reason = " ".join(str(exc).split())[:200] or type(exc).__name__
         raise MrcheckError(f"cannot parse IFC ({reason})", path) from None
     errors = [line for line in ifcopenshell.get_log().splitlines() if line.startswith("[error]")]
@@ -154,8 +177,10 @@ def _placement(model, settings: ImportSettings, path: Path):
     placement = site_origin(model)
     if conversion is not None:
         placement.crs = ""
-        placement.notes.append(f"the file has a map conversion (to {conversion.crs or 'a map CRS'}); "
-                               "--coordinates map places the model there")
+        placement.notes.append(
+            f"the file has a map conversion (to {conversion.crs or 'a map CRS'}); "
+            "--coordinates map places the model there"
+        )
     return placement
 
 
@@ -163,9 +188,9 @@ def _geometry_settings(settings: ImportSettings):
     import ifcopenshell.geom
 
     geom = ifcopenshell.geom.settings()
-    geom.set("use-world-coords", False)    # local coordinates: shared representations stay shared
-    geom.set("weld-vertices", False)       # faster; the renderer needs no shared vertices
-    geom.set("no-normals", True)           # the renderer computes its own
+    geom.set("use-world-coords", False)  # local coordinates: shared representations stay shared
+    geom.set("weld-vertices", False)  # faster; the renderer needs no shared vertices
+    geom.set("no-normals", True)  # the renderer computes its own
     geom.set("mesher-linear-deflection", max(settings.deflection_m(), 1e-4))
     return geom
 
@@ -208,8 +233,9 @@ def _add_mapped(parts, seen, mesh, members, todo, frame) -> None:
         todo += [element for element, _ in members]
         return
     map_id = members[0][1].MappingSource.id()
-    part = parts[f"map{map_id}"] = ImportedPart(name=_part_name(members[0][0]), vertices=mesh.vertices,
-                                                faces=mesh.faces, color=mesh.color or DEFAULT_COLOR)
+    part = parts[f"map{map_id}"] = ImportedPart(
+        name=_part_name(members[0][0]), vertices=mesh.vertices, faces=mesh.faces, color=mesh.color or DEFAULT_COLOR
+    )
     for element, item in members:
         part.instances.append(_instance(element, world @ placements.element(element, item), storeys))
         seen.add(element.id())
@@ -230,8 +256,13 @@ def _add_shape(model, parts, seen, shape, world, storeys) -> None:
 
 
 def _instance(element, matrix, storeys) -> ImportedInstance:
-    return ImportedInstance(id=str(element.GlobalId), matrix=matrix, name=str(element.Name or ""),
-                            ifc_class=element.is_a(), storey=storeys.get(element.id(), ""))
+    return ImportedInstance(
+        id=str(element.GlobalId),
+        matrix=matrix,
+        name=str(element.Name or ""),
+        ifc_class=element.is_a(),
+        storey=storeys.get(element.id(), ""),
+    )
 
 
 def _run_iterator(model, settings, kernel, include):
@@ -241,8 +272,9 @@ def _run_iterator(model, settings, kernel, include):
 
     threads = settings.threads or default_threads()
     # IfcOpenShell logs failures to its own log (not stderr): the caller lists what was not built
-    iterator = ifcopenshell.geom.iterator(_geometry_settings(settings), model, threads, geometry_library=kernel,
-                                          include=include)
+    iterator = ifcopenshell.geom.iterator(
+        _geometry_settings(settings), model, threads, geometry_library=kernel, include=include
+    )
     ok = iterator.initialize()
     while ok:
         yield iterator.get()
@@ -251,8 +283,9 @@ def _run_iterator(model, settings, kernel, include):
 
 def _part(geometry, element) -> ImportedPart:
     vertices, faces = shape_arrays(geometry)
-    return ImportedPart(name=_part_name(element), vertices=vertices, faces=faces,
-                        color=shape_colour(geometry) or DEFAULT_COLOR)
+    return ImportedPart(
+        name=_part_name(element), vertices=vertices, faces=faces, color=shape_colour(geometry) or DEFAULT_COLOR
+    )
 
 
 def _part_name(element) -> str:

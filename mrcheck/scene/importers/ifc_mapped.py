@@ -50,9 +50,9 @@ def split_mapped(bodies) -> tuple[dict, list]:
 class MapMesh:
     """The triangles of one IfcRepresentationMap in its own coordinates, metres."""
 
-    vertices: np.ndarray       # (n, 3) float64
-    faces: np.ndarray          # (m, 3) int64
-    color: tuple | None        # linear RGB of its style, None when it has none
+    vertices: np.ndarray  # (n, 3) float64
+    faces: np.ndarray  # (m, 3) int64
+    color: tuple | None  # linear RGB of its style, None when it has none
 
 
 def mesh_maps(model, settings, groups: dict, kernels, threads: int, unit_m: float) -> dict:
@@ -70,7 +70,7 @@ def mesh_maps(model, settings, groups: dict, kernels, threads: int, unit_m: floa
         for kernel in kernels:
             try:
                 shape = ifcopenshell.geom.create_shape(settings, representation, geometry_library=kernel)
-            except Exception:   # noqa: BLE001 -- IfcOpenShell raises RuntimeError and others: try the next kernel
+            except Exception:  # noqa: BLE001 -- IfcOpenShell raises RuntimeError and others: try the next kernel
                 continue
             if shape is not None and len(shape.faces):
                 return map_id, MapMesh(*shape_arrays(shape), shape_colour(shape))
@@ -95,7 +95,7 @@ def triangulated(representation, unit_m: float) -> MapMesh | None:
         if pn:
             index = np.asarray(pn, np.int64)[index] - 1
         if index.ndim != 2 or index.shape[1] != 3 or index.min() < 0 or index.max() >= len(points):
-            return None           # malformed: IfcOpenShell decides what to make of it
+            return None  # malformed: IfcOpenShell decides what to make of it
         vertices.append(points)
         faces.append(index + offset)
         offset += len(points)
@@ -158,7 +158,7 @@ class Placements:
             if placement.is_a("IfcLocalPlacement"):
                 own = axis2placement(placement.RelativePlacement)
                 self._local[key] = self.local(placement.PlacementRelTo) @ own
-            else:   # grid placements and the like: IfcOpenShell's own resolution
+            else:  # grid placements and the like: IfcOpenShell's own resolution
                 self._local[key] = np.asarray(ifcopenshell.util.placement.get_local_placement(placement), np.float64)
         return self._local[key]
 
@@ -172,18 +172,26 @@ class Placements:
         if key not in self._mapped:
             self._mapped[key] = np.asarray(ifcopenshell.util.placement.get_mappeditem_transformation(item), np.float64)
         matrix = self.local(element.ObjectPlacement) @ self._mapped[key]
-        matrix[:3, 3] *= self.unit_m   # placements are in the project's length unit, the mesh in metres
+        matrix[:3, 3] *= self.unit_m  # placements are in the project's length unit, the mesh in metres
         return matrix
 
 
 def operator_key(operator) -> tuple:
     """The values of an IfcCartesianTransformationOperator3D(nonUniform), hashable."""
+
     def ratios(direction):
         return tuple(direction.DirectionRatios) if direction is not None else None
 
-    return (operator.is_a(), ratios(operator.Axis1), ratios(operator.Axis2), ratios(operator.Axis3),
-            tuple(operator.LocalOrigin.Coordinates), operator.Scale, getattr(operator, "Scale2", None),
-            getattr(operator, "Scale3", None))
+    return (
+        operator.is_a(),
+        ratios(operator.Axis1),
+        ratios(operator.Axis2),
+        ratios(operator.Axis3),
+        tuple(operator.LocalOrigin.Coordinates),
+        operator.Scale,
+        getattr(operator, "Scale2", None),
+        getattr(operator, "Scale3", None),
+    )
 
 
 def axis2placement(placement) -> np.ndarray:
@@ -199,7 +207,7 @@ def axis2placement(placement) -> np.ndarray:
     location = [float(v) for v in placement.Location.Coordinates]
     z = _unit(placement.Axis.DirectionRatios if placement.Axis is not None else (0.0, 0.0, 1.0))
     x = placement.RefDirection.DirectionRatios if placement.RefDirection is not None else (1.0, 0.0, 0.0)
-    if abs(_dot(_unit(x), z)) > 1.0 - 1e-12:   # parallel to z: IFC's default choice of x
+    if abs(_dot(_unit(x), z)) > 1.0 - 1e-12:  # parallel to z: IFC's default choice of x
         x = (1.0, 0.0, 0.0) if abs(z[0]) < 0.9 else (0.0, 1.0, 0.0)
     dot = _dot(x, z)
     x = _unit([x[i] - dot * z[i] for i in range(3)])
@@ -219,5 +227,16 @@ def _unit(v):
     return [c / n for c in v]
 
 
-__all__ = ["single_mapped_item", "split_mapped", "mesh_maps", "triangulated", "item_colour", "shape_arrays",
-           "shape_colour", "Placements", "MapMesh", "axis2placement", "operator_key"]
+__all__ = [
+    "single_mapped_item",
+    "split_mapped",
+    "mesh_maps",
+    "triangulated",
+    "item_colour",
+    "shape_arrays",
+    "shape_colour",
+    "Placements",
+    "MapMesh",
+    "axis2placement",
+    "operator_key",
+]

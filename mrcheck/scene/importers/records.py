@@ -15,8 +15,8 @@ import numpy as np
 
 # the import settings a cached scene depends on (threads do not change the result)
 COORDINATES = ("model", "map")
-DEFAULT_TOLERANCE_PX = 0.5      # STEP tessellation: chord error in pixels ...
-DEFAULT_DISTANCE_M = 2.0        # ... of a 1024-pixel, 60-degree camera at this distance
+DEFAULT_TOLERANCE_PX = 0.5  # STEP tessellation: chord error in pixels ...
+DEFAULT_DISTANCE_M = 2.0  # ... of a 1024-pixel, 60-degree camera at this distance
 
 
 @dataclass(frozen=True)
@@ -66,7 +66,7 @@ class ImportedInstance:
     occurrence (id = the assembly path)."""
 
     id: str
-    matrix: np.ndarray            # (4, 4) float64 part -> world, world relative to the model's origin
+    matrix: np.ndarray  # (4, 4) float64 part -> world, world relative to the model's origin
     name: str = ""
     ifc_class: str = ""
     storey: str = ""
@@ -77,8 +77,8 @@ class ImportedPart:
     """One distinct shape: triangles in metres, drawn at every instance."""
 
     name: str
-    vertices: np.ndarray          # (n, 3) float64 metres
-    faces: np.ndarray             # (m, 3) int64
+    vertices: np.ndarray  # (n, 3) float64 metres
+    faces: np.ndarray  # (m, 3) int64
     color: tuple
     instances: list[ImportedInstance] = field(default_factory=list)
     ifc_class: str = ""
@@ -106,13 +106,13 @@ class ImportedModel:
 
     name: str
     source: Path
-    kind: str                      # "ifc" or "step"
+    kind: str  # "ifc" or "step"
     schema: str
     parts: list[ImportedPart]
     origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
     crs: str = ""
     failed: list[FailedElement] = field(default_factory=list)
-    notes: list[str] = field(default_factory=list)   # what the summary says besides counts
+    notes: list[str] = field(default_factory=list)  # what the summary says besides counts
 
     @property
     def element_count(self) -> int:
@@ -146,16 +146,21 @@ class ImportResult:
         """The line ``scene import`` prints: what was imported, from where, how long it took."""
         if self.cached:
             return f"{self.manifest}: from the import cache"
-        origin = "" if not any(self.origin) else \
-            f", origin {', '.join(f'{v:.3f}' for v in self.origin)} m" + (f" ({self.crs})" if self.crs else "")
+        origin = (
+            ""
+            if not any(self.origin)
+            else f", origin {', '.join(f'{v:.3f}' for v in self.origin)} m" + (f" ({self.crs})" if self.crs else "")
+        )
         what = "element" if self.kind == "ifc" else "instance"
-        return (f"imported {self.model_name} ({self.schema.split()[0]}): {_count(self.elements, what)} in "
-                f"{_count(self.parts, 'part')}, {self.triangles:,} triangles, {len(self.failed)} left out{origin}; "
-                f"{self.seconds:.1f} s")
+        return (
+            f"imported {self.model_name} ({self.schema.split()[0]}): {_count(self.elements, what)} in "
+            f"{_count(self.parts, 'part')}, {self.triangles:,} triangles, {len(self.failed)} left out{origin}; "
+            f"{self.seconds:.1f} s"
+        )
 
 
 def _count(n: int, noun: str) -> str:
-    """"1 part", "2 parts", "7,981 elements"."""
+    """ "1 part", "2 parts", "7,981 elements"."""
     return f"{n:,} {noun}" + ("" if n == 1 else "s")
 
 
@@ -173,5 +178,17 @@ def unique_part_names(parts: list[ImportedPart]) -> None:
         part.name = base if count == 0 else f"{base}_{count + 1}"
 
 
-__all__ = ["unique_part_names", "set_default_settings", "default_settings", "ImportSettings", "ImportedInstance", "ImportedPart", "ImportedModel", "FailedElement", "ImportResult",
-           "COORDINATES", "DEFAULT_TOLERANCE_PX", "DEFAULT_DISTANCE_M"]
+__all__ = [
+    "unique_part_names",
+    "set_default_settings",
+    "default_settings",
+    "ImportSettings",
+    "ImportedInstance",
+    "ImportedPart",
+    "ImportedModel",
+    "FailedElement",
+    "ImportResult",
+    "COORDINATES",
+    "DEFAULT_TOLERANCE_PX",
+    "DEFAULT_DISTANCE_M",
+]

@@ -17,25 +17,27 @@ from mrcheck.core.inputs import check_input
 IFC_SUFFIXES = (".ifc",)
 STEP_SUFFIXES = (".step", ".stp")
 IMPORT_SUFFIXES = IFC_SUFFIXES + STEP_SUFFIXES
-IFC_SCHEMAS = ("IFC2X3", "IFC4", "IFC4X3")   # what ifcopenshell 0.8+ reads (IFC4X3_ADD2 etc. are IFC4X3)
-HEAD_BYTES = 1 << 16                          # the header section is at most a few kB
+IFC_SCHEMAS = ("IFC2X3", "IFC4", "IFC4X3")  # what ifcopenshell 0.8+ reads (IFC4X3_ADD2 etc. are IFC4X3)
+HEAD_BYTES = 1 << 16  # the header section is at most a few kB
 TAIL_BYTES = 4096
 
 _SCHEMA = re.compile(rb"FILE_SCHEMA\s*\(\s*\(\s*'([^']*)'", re.IGNORECASE)
-_STEP_NAMES = {   # what a planner calls the application protocols (FILE_SCHEMA's first word)
-    "CONFIG_CONTROL_DESIGN": "AP203", "AP203_CONFIGURATION_CONTROLLED_3D_DESIGN": "AP203 ed.2",
-    "AUTOMOTIVE_DESIGN": "AP214", "AP242_MANAGED_MODEL_BASED_3D_ENGINEERING": "AP242",
+_STEP_NAMES = {  # what a planner calls the application protocols (FILE_SCHEMA's first word)
+    "CONFIG_CONTROL_DESIGN": "AP203",
+    "AP203_CONFIGURATION_CONTROLLED_3D_DESIGN": "AP203 ed.2",
+    "AUTOMOTIVE_DESIGN": "AP214",
+    "AP242_MANAGED_MODEL_BASED_3D_ENGINEERING": "AP242",
 }
 
 
 @dataclass(frozen=True)
 class FileKind:
-    kind: str        # "ifc" or "step"
-    schema: str      # as the header names it: "IFC4", "AUTOMOTIVE_DESIGN { 1 0 10303 214 1 1 1 1 }"
+    kind: str  # "ifc" or "step"
+    schema: str  # as the header names it: "IFC4", "AUTOMOTIVE_DESIGN { 1 0 10303 214 1 1 1 1 }"
 
     @property
     def label(self) -> str:
-        """"IFC4", "STEP AP214": how messages and summaries name the file's format."""
+        """ "IFC4", "STEP AP214": how messages and summaries name the file's format."""
         if self.kind == "ifc":
             return self.schema
         name = self.schema.split()[0].upper() if self.schema else ""
@@ -73,13 +75,18 @@ def sniff(path) -> FileKind:
         raise MrcheckError(f"cannot read model file ({exc.strerror or exc})", path) from None
     kind = _kind_from_header(head, path)
     if b"END-ISO-10303-21" not in tail.upper():
-        raise MrcheckError(f"truncated {kind.label} file: it does not end with END-ISO-10303-21; "
-                           f"({size:,} bytes; an interrupted download or copy?)", path)
+        raise MrcheckError(
+            f"truncated {kind.label} file: it does not end with END-ISO-10303-21; "
+            f"({size:,} bytes; an interrupted download or copy?)",
+            path,
+        )
     suffix = path.suffix.lower()
     if kind.kind == "ifc" and suffix in STEP_SUFFIXES:
         raise MrcheckError(f"the file is an IFC model ({kind.schema}), not a STEP part: rename it to .ifc", path)
     if kind.kind == "step" and suffix in IFC_SUFFIXES:
-        raise MrcheckError(f"the file is a {kind.label} CAD file ({kind.schema.split()[0]}), not IFC: rename it to .step", path)
+        raise MrcheckError(
+            f"the file is a {kind.label} CAD file ({kind.schema.split()[0]}), not IFC: rename it to .step", path
+        )
     if kind.kind == "ifc" and ifc_schema_family(kind.schema) is None:
         raise MrcheckError(f"unknown IFC schema {kind.schema!r} (mrcheck reads {', '.join(IFC_SCHEMAS)})", path)
     return kind
@@ -119,5 +126,13 @@ def file_digest(path, chunk: int = 1 << 22) -> str:
     return digest.hexdigest()
 
 
-__all__ = ["FileKind", "sniff", "file_digest", "ifc_schema_family", "IMPORT_SUFFIXES", "IFC_SUFFIXES",
-           "STEP_SUFFIXES", "IFC_SCHEMAS"]
+__all__ = [
+    "FileKind",
+    "sniff",
+    "file_digest",
+    "ifc_schema_family",
+    "IMPORT_SUFFIXES",
+    "IFC_SUFFIXES",
+    "STEP_SUFFIXES",
+    "IFC_SCHEMAS",
+]

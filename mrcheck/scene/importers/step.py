@@ -24,12 +24,18 @@ import numpy as np
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.progress import Progress, no_progress
 from mrcheck.core.quiet import native_output
-from mrcheck.scene.importers.records import (FailedElement, ImportedInstance, ImportedModel, ImportedPart, ImportSettings,
-                                             unique_part_names)
+from mrcheck.scene.importers.records import (
+    FailedElement,
+    ImportedInstance,
+    ImportedModel,
+    ImportedPart,
+    ImportSettings,
+    unique_part_names,
+)
 from mrcheck.scene.importers.sniff import FileKind
 
 DEFAULT_COLOR = (0.7, 0.7, 0.7)
-ANGULAR_DEFLECTION = 0.5   # rad: curved faces get at least one segment per ~29 degrees
+ANGULAR_DEFLECTION = 0.5  # rad: curved faces get at least one segment per ~29 degrees
 
 
 @dataclass
@@ -37,7 +43,7 @@ class _Prototype:
     name: str
     shape: object
     color: tuple | None
-    instances: list = field(default_factory=list)   # (path, matrix, color)
+    instances: list = field(default_factory=list)  # (path, matrix, color)
 
 
 def read_step(path: Path, kind: FileKind, settings: ImportSettings, progress: Progress = no_progress) -> ImportedModel:
@@ -59,12 +65,16 @@ def read_step(path: Path, kind: FileKind, settings: ImportSettings, progress: Pr
         for proto in items:
             skipped += _add_prototype(proto, settings.deflection_m() / unit_m, colours, unit_m, parts, failed)
     if not parts:
-        raise MrcheckError(f"no shape of the {kind.label} file tessellates ({len(failed)} failed to mesh, {skipped} "
-                           "have no faces left: broken or missing surfaces?)", path)
+        raise MrcheckError(
+            f"no shape of the {kind.label} file tessellates ({len(failed)} failed to mesh, {skipped} "
+            "have no faces left: broken or missing surfaces?)",
+            path,
+        )
     unique_part_names(parts)
     notes = [f"{skipped} shape(s) without faces (wireframe or points) left out"] if skipped else []
-    return ImportedModel(name=path.stem, source=path, kind="step", schema=kind.schema, parts=parts, failed=failed,
-                         notes=notes)
+    return ImportedModel(
+        name=path.stem, source=path, kind="step", schema=kind.schema, parts=parts, failed=failed, notes=notes
+    )
 
 
 def _add_prototype(proto, deflection: float, colours, unit_m: float, parts: list, failed: list) -> int:
@@ -78,8 +88,15 @@ def _add_prototype(proto, deflection: float, colours, unit_m: float, parts: list
             return 0
         return len(proto.instances)
     instances = [ImportedInstance(id=p, matrix=m, name=p.rsplit("/", 1)[-1]) for p, m, _ in proto.instances]
-    parts.append(ImportedPart(name=proto.name, vertices=vertices * unit_m, faces=faces,
-                              color=proto.color or face_colour or DEFAULT_COLOR, instances=instances))
+    parts.append(
+        ImportedPart(
+            name=proto.name,
+            vertices=vertices * unit_m,
+            faces=faces,
+            color=proto.color or face_colour or DEFAULT_COLOR,
+            instances=instances,
+        )
+    )
     return 0
 
 
@@ -104,7 +121,7 @@ def _read_document(path: Path):
     reader.SetColorMode(True)
     reader.SetNameMode(True)
     reader.SetLayerMode(False)
-    with native_output(fds=(1, 2)) as printed:   # the reader prints its statistics and complaints
+    with native_output(fds=(1, 2)) as printed:  # the reader prints its statistics and complaints
         status = reader.ReadFile(str(path))
         ok = status == IFSelect_ReturnStatus.IFSelect_RetDone and reader.Transfer(doc)
     if not ok:
@@ -113,9 +130,9 @@ def _read_document(path: Path):
     unit = [0.0]
     try:
         found = XCAFDoc_DocumentTool.GetLengthUnit_s(doc, unit, UnitsMethods_LengthUnit.UnitsMethods_LengthUnit_Meter)
-    except TypeError:   # bindings that return the value instead of filling the list
+    except TypeError:  # bindings that return the value instead of filling the list
         found = False
-    return doc, (float(unit[0]) if found and unit[0] > 0 else 0.001)   # OpenCascade's default: millimetres
+    return doc, (float(unit[0]) if found and unit[0] > 0 else 0.001)  # OpenCascade's default: millimetres
 
 
 def label_name(label) -> str:
@@ -204,8 +221,9 @@ def _walk(shapes, colours, label, matrix, path, colour, prototypes, used, unit_m
     entry = _entry(label)
     proto = prototypes.get(entry)
     if proto is None:
-        proto = prototypes[entry] = _Prototype(label_name(label) or path[-1], shapes.GetShape_s(label),
-                                               _label_colour(colours, label))
+        proto = prototypes[entry] = _Prototype(
+            label_name(label) or path[-1], shapes.GetShape_s(label), _label_colour(colours, label)
+        )
     instance_id = "/".join(path)
     count = used.get(instance_id, 0)
     used[instance_id] = count + 1

@@ -23,10 +23,10 @@ from mrcheck.core.errors import MrcheckError
 from mrcheck.scene.importers.records import ImportedModel, ImportedPart
 from mrcheck.scene.manifest import dumps_manifest, write_generated
 
-MARKER = "Imported by mrcheck scene import"   # a folder whose scene.toml starts with this may be replaced
+MARKER = "Imported by mrcheck scene import"  # a folder whose scene.toml starts with this may be replaced
 OWN = ("scene.toml", "meshes", "README.md")
 OVERVIEW = "overview"
-INLINE_INSTANCES = 16            # more instances of a part go to meshes/NAME.instances.json
+INLINE_INSTANCES = 16  # more instances of a part go to meshes/NAME.instances.json
 OVERVIEW_SIZE = (1024, 768)
 OVERVIEW_FOV_DEG = 60.0
 
@@ -40,8 +40,11 @@ def check_import_dir(outdir: Path) -> None:
         manifest = outdir / "scene.toml"
         head = manifest.read_text(errors="replace")[:200] if manifest.is_file() else ""
         if MARKER not in head:
-            raise MrcheckError("output folder is not empty and holds no imported scene; not replacing it "
-                               "(pick a new folder or empty it)", outdir)
+            raise MrcheckError(
+                "output folder is not empty and holds no imported scene; not replacing it "
+                "(pick a new folder or empty it)",
+                outdir,
+            )
 
 
 def write_scene(model: ImportedModel, outdir: Path, header: str) -> Path:
@@ -69,8 +72,10 @@ def _fill(work: Path, model: ImportedModel, header: str) -> None:
 
 def describe(model: ImportedModel) -> str:
     what = "elements" if model.kind == "ifc" else "instances"
-    text = (f"Imported from {model.source.name} ({model.schema.split()[0]}): {model.element_count} {what} in "
-            f"{len(model.parts)} parts, {model.triangle_count:,} triangles as rendered.")
+    text = (
+        f"Imported from {model.source.name} ({model.schema.split()[0]}): {model.element_count} {what} in "
+        f"{len(model.parts)} parts, {model.triangle_count:,} triangles as rendered."
+    )
     if model.failed:
         text += f" {len(model.failed)} element(s) without geometry left out."
     return text
@@ -86,13 +91,17 @@ def _write_part(work: Path, part: ImportedPart) -> dict:
     shift[:3, 3] = centre
     mesh = trimesh.Trimesh(vertices=vertices - centre, faces=part.faces, process=False)
     mesh.export(work / "meshes" / f"{part.name}.glb", file_type="glb")
-    table = {"name": part.name, "mesh": f"meshes/{part.name}.glb", "units": "m",
-             "color": [round(float(c), 6) for c in part.color]}
+    table = {
+        "name": part.name,
+        "mesh": f"meshes/{part.name}.glb",
+        "units": "m",
+        "color": [round(float(c), 6) for c in part.color],
+    }
     for key in ("ifc_class", "storey"):
         if getattr(part, key):
             table[key] = getattr(part, key)
     instances = [_instance(i, shift) for i in part.instances]
-    if len(instances) > INLINE_INSTANCES:   # thousands of matrices: JSON beside the mesh, not TOML
+    if len(instances) > INLINE_INSTANCES:  # thousands of matrices: JSON beside the mesh, not TOML
         name = f"meshes/{part.name}.instances.json"
         (work / name).write_text(json.dumps(instances, separators=(",", ":")), encoding="utf-8")
         table["instances_file"] = name
@@ -125,8 +134,15 @@ def overview(model: ImportedModel) -> dict:
     distance = radius / np.sin(np.radians(OVERVIEW_FOV_DEG / 2.0)) * 1.05
     direction = np.array([-0.55, -0.7, 0.45])
     eye = centre + direction / np.linalg.norm(direction) * distance
-    return {"name": OVERVIEW, "eye": [float(v) for v in eye], "target": [float(v) for v in centre], "up": [0.0, 0.0, 1.0],
-            "fov_y_deg": OVERVIEW_FOV_DEG, "width": OVERVIEW_SIZE[0], "height": OVERVIEW_SIZE[1]}
+    return {
+        "name": OVERVIEW,
+        "eye": [float(v) for v in eye],
+        "target": [float(v) for v in centre],
+        "up": [0.0, 0.0, 1.0],
+        "fov_y_deg": OVERVIEW_FOV_DEG,
+        "width": OVERVIEW_SIZE[0],
+        "height": OVERVIEW_SIZE[1],
+    }
 
 
 def _readme(model: ImportedModel, header: str) -> str:

@@ -46,9 +46,11 @@ def _pose(scan) -> np.ndarray:
         w, x, y, z = (float(_node(q, k).value()) for k in "wxyz")
         n = np.sqrt(w * w + x * x + y * y + z * z) or 1.0
         w, x, y, z = w / n, x / n, y / n, z / n
-        T[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]]
+        T[:3, :3] = [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
     if pose.isDefined("translation"):
         t = _node(pose, "translation")
         T[:3, 3] = [float(_node(t, k).value()) for k in "xyz"]
@@ -96,8 +98,9 @@ class _ScanReader:
         prototype = libe57.StructureNode(self.points.prototype())
         self.coords, self.invalid, self.colour, self.intensity, self.skipped = _fields(path, get_fields(prototype))
         self.colour_limits = [_limits(scan, prototype, "colorLimits", c, c) for c in COLOURS] if self.colour else None
-        self.intensity_limits = (_limits(scan, prototype, "intensityLimits", "intensity", "intensity")
-                                 if self.intensity else None)
+        self.intensity_limits = (
+            _limits(scan, prototype, "intensityLimits", "intensity", "intensity") if self.intensity else None
+        )
         self.image_file, self.buffers = e57.image_file, {}
 
     def start(self):
@@ -105,8 +108,12 @@ class _ScanReader:
         of 100 scans does not hold 100 sets)."""
         from pye57 import libe57
 
-        names = [*self.coords, *([self.invalid] if self.invalid else []),
-                 *(COLOURS if self.colour else ()), *(("intensity",) if self.intensity else ())]
+        names = [
+            *self.coords,
+            *([self.invalid] if self.invalid else []),
+            *(COLOURS if self.colour else ()),
+            *(("intensity",) if self.intensity else ()),
+        ]
         self.buffers = {n: np.empty(CHUNK_POINTS, np.int8 if n == self.invalid else np.float64) for n in names}
         vector = libe57.VectorSourceDestBuffer()
         for name, array in self.buffers.items():
@@ -121,7 +128,7 @@ class _ScanReader:
         if n == 0:
             return False
         b = {k: v[:n] for k, v in self.buffers.items()}
-        if self.invalid is not None:           # 0: valid, 1: direction only, 2: invalid
+        if self.invalid is not None:  # 0: valid, 1: direction only, 2: invalid
             keep = b[self.invalid] == 0
             b = {k: v[keep] for k, v in b.items()} if not keep.all() else b
         m = len(b[self.coords[0]])
@@ -129,7 +136,7 @@ class _ScanReader:
         if self.coords == CARTESIAN:
             for axis, name in enumerate(CARTESIAN):
                 xyz[:, axis] = b[name]
-        else:   # E57 8.4.18: azimuth in the xy plane from +x, elevation from the xy plane
+        else:  # E57 8.4.18: azimuth in the xy plane from +x, elevation from the xy plane
             r, az, el = (b[c] for c in SPHERICAL)
             xyz[:] = np.stack([r * np.cos(el) * np.cos(az), r * np.cos(el) * np.sin(az), r * np.sin(el)], axis=1)
         # float64 throughout: map coordinates stay exact
@@ -172,7 +179,9 @@ def read_e57(path, progress: Progress) -> ScanCloud:
         readers = [_ScanReader(e57, s, path) for s in scans]
         builder = CloudBuilder(sum(counts), any(r.colour for r in readers), any(r.intensity for r in readers))
         poses, skipped = [], set()
-        steps = progress([(i, c) for i, n in enumerate(counts) for c in chunks(n, CHUNK_POINTS)], f"reading {path.name}", "Mpt")
+        steps = progress(
+            [(i, c) for i, n in enumerate(counts) for c in chunks(n, CHUNK_POINTS)], f"reading {path.name}", "Mpt"
+        )
         with contextlib.closing(steps):
             current = reader = None
             for index, _ in steps:

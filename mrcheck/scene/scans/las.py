@@ -31,8 +31,6 @@ _ANGLES = ("degree", "radian", "grad")
 logging.getLogger("laspy").addHandler(logging.NullHandler())
 
 
-
-
 def _wkt_crs(wkt: str):
     """(name, (unit name, metres per unit) or None) of an OGC WKT (1 or 2) string."""
     name = _WKT_NAME.match(wkt)
@@ -70,8 +68,9 @@ def _backends(path, header):
 
     available = laspy.LazBackend.detect_available()
     if header.are_points_compressed and not available:
-        raise MrcheckError("the scan is LAZ-compressed but no LAZ backend is installed "
-                           "(install lazrs: pip install 'lazrs>=0.6')", path)
+        raise MrcheckError(
+            "the scan is LAZ-compressed but no LAZ backend is installed (install lazrs: pip install 'lazrs>=0.6')", path
+        )
     return available
 
 
@@ -99,9 +98,12 @@ def _read_chunks(path, reader, steps, builder: CloudBuilder, how) -> None:
     for _ in steps:
         try:
             chunk = reader.read_points(CHUNK_POINTS)
-        except Exception as exc:   # lazrs: "IoError: failed to fill whole buffer"; laspy: LaspyException
-            raise MrcheckError(f"truncated or corrupt LAS/LAZ: cannot read past point {builder.size} of "
-                               f"{reader.header.point_count} ({' '.join(str(exc).split())[:120]})", path) from None
+        except Exception as exc:  # lazrs: "IoError: failed to fill whole buffer"; laspy: LaspyException
+            raise MrcheckError(
+                f"truncated or corrupt LAS/LAZ: cannot read past point {builder.size} of "
+                f"{reader.header.point_count} ({' '.join(str(exc).split())[:120]})",
+                path,
+            ) from None
         if len(chunk) == 0:
             break
         builder.add(*_chunk(chunk, *how))
@@ -112,7 +114,7 @@ def read_las(path, progress: Progress) -> ScanCloud:
     ``metres_per_unit`` of the result: the CRS's linear unit when it names one)."""
     import laspy
 
-    with open(path, "rb") as handle:    # the header alone: opening a LAZ without a backend fails
+    with open(path, "rb") as handle:  # the header alone: opening a LAZ without a backend fails
         backends = _backends(path, laspy.LasHeader.read_from(handle))
     with laspy.open(str(path), laz_backend=backends or None) as reader:
         header = reader.header
@@ -125,9 +127,11 @@ def read_las(path, progress: Progress) -> ScanCloud:
         with contextlib.closing(steps):
             _read_chunks(path, reader, steps, builder, (scale, offset, colour))
         crs, unit = las_crs(header)
-    _eight_bit_colours(builder.colours[:builder.size] if colour else None)
+    _eight_bit_colours(builder.colours[: builder.size] if colour else None)
     if builder.size < count:
-        raise MrcheckError(f"truncated or corrupt LAS/LAZ: {builder.size} of the header's {count} points could be read", path)
+        raise MrcheckError(
+            f"truncated or corrupt LAS/LAZ: {builder.size} of the header's {count} points could be read", path
+        )
     units, factor = unit if unit is not None else (None, None)
     return builder.cloud([ScanPose(path.stem, 0, builder.size)], crs=crs, units=units, metres_per_unit=factor)
 

@@ -14,11 +14,26 @@ import numpy as np
 
 from mrcheck.core.errors import MrcheckError
 
-_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
-          "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
-          "float": "f4", "float32": "f4", "double": "f8", "float64": "f8"}
+_TYPES = {
+    "char": "i1",
+    "int8": "i1",
+    "uchar": "u1",
+    "uint8": "u1",
+    "short": "i2",
+    "int16": "i2",
+    "ushort": "u2",
+    "uint16": "u2",
+    "int": "i4",
+    "int32": "i4",
+    "uint": "u4",
+    "uint32": "u4",
+    "float": "f4",
+    "float32": "f4",
+    "double": "f8",
+    "float64": "f8",
+}
 _ORDER = {"binary_little_endian": "<", "binary_big_endian": ">"}
-HEADER_LIMIT = 1 << 16        # bytes: a PLY header is a few hundred
+HEADER_LIMIT = 1 << 16  # bytes: a PLY header is a few hundred
 
 
 def _header(path: Path) -> tuple[list[str], int] | None:
@@ -46,13 +61,13 @@ def _vertex_dtype(lines: list[str]) -> tuple[np.dtype, int] | None:
             order = _ORDER.get(words[1]) if len(words) > 1 else None
         elif words[0] == "element":
             if count is not None:
-                break                      # the vertex element ends at the next one
+                break  # the vertex element ends at the next one
             if len(words) != 3 or words[1] != "vertex" or not words[2].isdigit():
                 return None
             count = int(words[2])
         elif words[0] == "property" and count is not None:
             if len(words) != 3 or words[1] not in _TYPES:
-                return None                # a list property: not a plain point record
+                return None  # a list property: not a plain point record
             fields.append((words[2], order + _TYPES[words[1]] if order else ""))
     names = [name for name, _ in fields]
     if order is None or count is None or not {"x", "y", "z"} <= set(names) or len(set(names)) < len(names):
@@ -69,12 +84,15 @@ def read_binary_ply(path: Path) -> np.ndarray | None:
     dtype, count = parsed
     size = path.stat().st_size - header[1]
     if size < count * dtype.itemsize:
-        raise MrcheckError(f"cannot read scan, corrupt or truncated (the header says {count} points, "
-                           f"the file holds {size // dtype.itemsize})", path)
+        raise MrcheckError(
+            f"cannot read scan, corrupt or truncated (the header says {count} points, "
+            f"the file holds {size // dtype.itemsize})",
+            path,
+        )
     records = np.fromfile(path, dtype=dtype, count=count, offset=header[1])
     xyz = dtype.names.index("x"), dtype.names.index("y"), dtype.names.index("z")
     if xyz == (0, 1, 2) and len(dtype.names) == 3 and all(dtype[i] == np.dtype("<f8") for i in xyz):
-        return records.view(np.float64).reshape(count, 3)          # x, y, z doubles only: no copy
+        return records.view(np.float64).reshape(count, 3)  # x, y, z doubles only: no copy
     points = np.empty((count, 3), np.float64)
     for column, name in enumerate("xyz"):
         points[:, column] = records[name]

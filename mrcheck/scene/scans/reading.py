@@ -19,8 +19,16 @@ from mrcheck.scene.scans.record import ScanCloud, ScanPose
 from mrcheck.scene.scans.text import read_pcd, read_ply, read_text_points
 
 # suffix -> the format its content must be ("text" accepts anything that is not a known binary)
-FORMATS = {".e57": "E57", ".las": "LAS/LAZ", ".laz": "LAS/LAZ", ".ply": "PLY", ".pcd": "PCD",
-           ".xyz": "text", ".txt": "text", ".pts": "text"}
+FORMATS = {
+    ".e57": "E57",
+    ".las": "LAS/LAZ",
+    ".laz": "LAS/LAZ",
+    ".ply": "PLY",
+    ".pcd": "PCD",
+    ".xyz": "text",
+    ".txt": "text",
+    ".pts": "text",
+}
 SCAN_SUFFIXES = tuple(FORMATS)
 _SUFFIX_OF = {"E57": ".e57", "LAS/LAZ": ".las or .laz", "PLY": ".ply", "PCD": ".pcd"}
 
@@ -29,12 +37,18 @@ def _points_only(read):
     def reader(path: Path, progress: Progress) -> ScanCloud:
         points = np.asarray(read(path), np.float64).reshape(-1, 3)
         return ScanCloud(points, scans=[ScanPose(path.stem, 0, len(points))])
+
     return reader
 
 
 # format -> reader(path, progress) -> ScanCloud in the file's own units
-READERS = {"E57": read_e57, "LAS/LAZ": read_las, "PLY": _points_only(read_ply), "PCD": _points_only(read_pcd),
-           "text": _points_only(read_text_points)}
+READERS = {
+    "E57": read_e57,
+    "LAS/LAZ": read_las,
+    "PLY": _points_only(read_ply),
+    "PCD": _points_only(read_pcd),
+    "text": _points_only(read_text_points),
+}
 
 
 def sniff(path: Path) -> str | None:
@@ -53,12 +67,15 @@ def sniff(path: Path) -> str | None:
 
 def _check_content(path: Path, wanted: str) -> None:
     found = sniff(path)
-    if found == wanted or (wanted == "PLY" and found is None):    # header-less "x y z" named .ply
+    if found == wanted or (wanted == "PLY" and found is None):  # header-less "x y z" named .ply
         return
     suffix = path.suffix.lower()
     if found is not None:
-        raise MrcheckError(f"the file's content is {found}, not {wanted} as its {suffix} suffix says "
-                           f"(rename it to {_SUFFIX_OF[found]})", path)
+        raise MrcheckError(
+            f"the file's content is {found}, not {wanted} as its {suffix} suffix says "
+            f"(rename it to {_SUFFIX_OF[found]})",
+            path,
+        )
     if wanted != "text":
         raise MrcheckError(f"not an {wanted} file (its first bytes are not the {wanted} signature)", path)
 
@@ -87,7 +104,7 @@ def read_scan(path, units: str | None = None, progress: Progress | None = None) 
         raise MrcheckError(f"unsupported scan format {suffix or '(none)'} (use {', '.join(SCAN_SUFFIXES)})", path)
     if size == 0:
         raise MrcheckError("scan file is empty (no points)", path)
-    unit_scale(units, path)       # an unknown unit before the read
+    unit_scale(units, path)  # an unknown unit before the read
     _check_content(path, FORMATS[suffix])
     try:
         cloud = READERS[FORMATS[suffix]](path, progress or shown_progress())
@@ -99,7 +116,7 @@ def read_scan(path, units: str | None = None, progress: Progress | None = None) 
     if len(cloud.points) == 0:
         raise MrcheckError("scan has no points (empty or unreadable cloud)", path)
     finite = np.isfinite(cloud.points)
-    if not finite.all():    # (all() of the whole array first: 10x faster than per row)
+    if not finite.all():  # (all() of the whole array first: 10x faster than per row)
         bad = ~np.all(finite, axis=1)
         raise MrcheckError(f"scan has {int(bad.sum())} points with NaN or infinite coordinates", path)
     _metres(cloud, units, path)

@@ -55,7 +55,7 @@ def _values(line: str) -> list[str] | None:
     if "," not in line:
         return line.split()
     fields = [f.strip() for f in line.split(",")]
-    if any(len(f.split()) > 1 for f in fields):   # white space inside a comma-separated field
+    if any(len(f.split()) > 1 for f in fields):  # white space inside a comma-separated field
         return None
     return [f for f in fields if f]
 
@@ -81,14 +81,17 @@ def read_text_points(path: Path) -> np.ndarray:
         text = path.read_text(encoding="ascii")
     except UnicodeDecodeError:
         raise MrcheckError("not a text x y z point file (binary content)", path) from None
-    lines = [(n, line) for n, line in enumerate(text.splitlines(), 1)
-             if line.strip() and not line.lstrip().startswith(_COMMENTS)]
+    lines = [
+        (n, line)
+        for n, line in enumerate(text.splitlines(), 1)
+        if line.strip() and not line.lstrip().startswith(_COMMENTS)
+    ]
     rows = [_values(line) for _, line in lines]
     points = [r[:3] for r in rows if r is not None and len(r) >= 3]
     try:
         if None in rows:
             raise ValueError("decimal commas")
-        data = np.array(points, np.float64).reshape(-1, 3)   # "nan" parses: caught as NaN below
+        data = np.array(points, np.float64).reshape(-1, 3)  # "nan" parses: caught as NaN below
     except ValueError:
         raise MrcheckError(f"not a text x y z point file ({_text_problem(lines)})", path) from None
     if len(points) < len(rows):
@@ -100,7 +103,7 @@ def read_ply(path: Path) -> np.ndarray:
     # sniff, do not trust the suffix: header-less "x y z" files are often named .ply
     if not _is_ply_binary_or_header(path):
         return read_text_points(path)
-    points = read_binary_ply(path)          # numpy for the plain binary case, else Open3D
+    points = read_binary_ply(path)  # numpy for the plain binary case, else Open3D
     return _read_cloud(path, "ply") if points is None else points
 
 

@@ -1,4 +1,4 @@
-""""Add photo": register a photo by clicking pairs of points on it and on a CAD view, save it as
+""" "Add photo": register a photo by clicking pairs of points on it and on a CAD view, save it as
 a shot (:mod:`mrcheck.apps.review.addphoto`). Every problem the planner can cause (fewer than 4
 pairs, a CAD click on nothing, collinear clicks, a file that is no image, intrinsics of another
 aspect ratio) is a 422 with one line; nothing is saved before ``save``."""
@@ -51,8 +51,12 @@ def files(review: Current):
 
 
 @router.post(UPLOAD_PATH.removeprefix("/api/addphoto"), status_code=201)
-def upload(review: Current, kind: Literal["photo", "intrinsics"], data: Annotated[bytes, Body(media_type=OCTETS)],
-           filename: str = Query(..., min_length=1, max_length=255)):
+def upload(
+    review: Current,
+    kind: Literal["photo", "intrinsics"],
+    data: Annotated[bytes, Body(media_type=OCTETS)],
+    filename: str = Query(..., min_length=1, max_length=255),
+):
     # the body read by FastAPI, as a marker's is: a chunked body past the limit is its 413
     return _planner_error(review.addphoto.upload, kind, filename, data)
 
@@ -66,6 +70,7 @@ def photo_info(review: Current, photo: str, intrinsics: str):
         path, image, camera = review.addphoto.photo_and_camera(photo, intrinsics)
         _, warnings = fit_camera(camera, image.shape[1], image.shape[0], path.name)
         return {"width": image.shape[1], "height": image.shape[0], "warnings": warnings}
+
     return _planner_error(check)
 
 
@@ -79,8 +84,10 @@ def photo_png(review: Current, photo: str):
 def views(review: Current):
     from mrcheck.apps.review.addphoto import cad_views
 
-    return [{"name": v.name, "label": v.label, "width": v.camera.width, "height": v.camera.height}
-            for v in cad_views(review.source).values()]
+    return [
+        {"name": v.name, "label": v.label, "width": v.camera.width, "height": v.camera.height}
+        for v in cad_views(review.source).values()
+    ]
 
 
 @router.get("/views/{name}/render.png")
@@ -95,14 +102,32 @@ def view_pick(review: Current, name: str, x: float = Query(...), y: float = Quer
 
 @router.post("/solve")
 def solve(review: Current, body: SolveIn):
-    ident, solved = _planner_error(review.addphoto.solve, body.photo, body.intrinsics, body.view,
-                                   [p.photo for p in body.pairs], [p.cad for p in body.pairs], body.snap)
+    ident, solved = _planner_error(
+        review.addphoto.solve,
+        body.photo,
+        body.intrinsics,
+        body.view,
+        [p.photo for p in body.pairs],
+        [p.cad for p in body.pairs],
+        body.snap,
+    )
     result, shot = solved.solve, solved.solve.shot
-    return {"id": ident, "method": shot["method"], "snapped": result.snapped, "note": result.snap_note,
-            "residuals_px": result.residuals_px, "click_residuals_px": result.click_residuals_px,
-            "rejected": result.rejected, "rms_px": round(result.rms_px, 3), "edge_rms_px": shot["rms"] if result.snapped else None,
-            "support": shot.get("support"), "camera_position": shot["camera_position"],
-            "warnings": result.warnings, "width": result.camera.width, "height": result.camera.height}
+    return {
+        "id": ident,
+        "method": shot["method"],
+        "snapped": result.snapped,
+        "note": result.snap_note,
+        "residuals_px": result.residuals_px,
+        "click_residuals_px": result.click_residuals_px,
+        "rejected": result.rejected,
+        "rms_px": round(result.rms_px, 3),
+        "edge_rms_px": shot["rms"] if result.snapped else None,
+        "support": shot.get("support"),
+        "camera_position": shot["camera_position"],
+        "warnings": result.warnings,
+        "width": result.camera.width,
+        "height": result.camera.height,
+    }
 
 
 @router.get("/results/{ident}/overlay.png")
@@ -114,5 +139,11 @@ def overlay(review: Current, ident: str):
 @router.post("/results/{ident}/save", status_code=201)
 def save(review: Current, ident: str):
     shot = _planner_error(review.addphoto.save, ident)
-    return {"name": shot.name, "error_px": shot.error_px, "width": shot.size[0], "height": shot.size[1],
-            "photo": shot.photo.name, "folder": review.addphoto.files()["folder"]}
+    return {
+        "name": shot.name,
+        "error_px": shot.error_px,
+        "width": shot.size[0],
+        "height": shot.size[1],
+        "photo": shot.photo.name,
+        "folder": review.addphoto.files()["folder"],
+    }

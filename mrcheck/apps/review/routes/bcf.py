@@ -18,8 +18,11 @@ REVIEW_BCF = "review.bcfzip"
 
 @router.get("/markers.bcfzip")
 def export_markers(review: Current):
-    return Response(export_bcf(review), media_type="application/octet-stream",
-                    headers={"Content-Disposition": f'attachment; filename="{REVIEW_BCF}"'})
+    return Response(
+        export_bcf(review),
+        media_type="application/octet-stream",
+        headers={"Content-Disposition": f'attachment; filename="{REVIEW_BCF}"'},
+    )
 
 
 @router.post("/import")

@@ -17,14 +17,18 @@ Current = Annotated[Review, Depends(current)]
 
 @router.get("/report.html")
 def export_html(review: Current):
-    return HTMLResponse(report_html(review.source, review.renders, review.store.markers()),
-                        headers={"Content-Disposition": f'attachment; filename="{REVIEW_REPORT}"'})
+    return HTMLResponse(
+        report_html(review.source, review.renders, review.store.markers()),
+        headers={"Content-Disposition": f'attachment; filename="{REVIEW_REPORT}"'},
+    )
 
 
 @router.get("/markers.csv")
 def export_csv(review: Current):
     # UTF-8 with a byte-order mark: Excel, the planners' usual tool, otherwise reads notes
     # with umlauts as Latin-1
-    return Response(("\ufeff" + markers_csv(review.store.markers())).encode("utf-8"),
-                    media_type="text/csv; charset=utf-8",
-                    headers={"Content-Disposition": f'attachment; filename="{REVIEW_CSV}"'})
+    return Response(
+        ("\ufeff" + markers_csv(review.store.markers())).encode("utf-8"),
+        media_type="text/csv; charset=utf-8",
+        headers={"Content-Disposition": f'attachment; filename="{REVIEW_CSV}"'},
+    )

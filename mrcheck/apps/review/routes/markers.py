@@ -35,8 +35,11 @@ def edit_marker(review: Current, marker_id: int, patch: MarkerPatch):
     if "x" in values or "y" in values:
         shot = review.source.shots.get(current_marker["shot"])
         if shot is None:  # left in the database by an earlier review of this folder
-            raise HTTPException(409, f"marker {marker_id} is on shot {current_marker['shot']!r}, which this review "
-                                     "no longer has: it can be edited or deleted, not moved")
+            raise HTTPException(
+                409,
+                f"marker {marker_id} is on shot {current_marker['shot']!r}, which this review "
+                "no longer has: it can be edited or deleted, not moved",
+            )
         x, y = values.get("x", current_marker["x"]), values.get("y", current_marker["y"])
         check_xy(shot, x, y)
         values.update(review.cad_under(shot, x, y))

@@ -7,8 +7,12 @@ from importlib import resources
 from fastapi import APIRouter, HTTPException
 from fastapi.responses import HTMLResponse, Response
 
-STATIC = {"index.html": "text/html", "app.js": "text/javascript", "addphoto.js": "text/javascript",
-          "style.css": "text/css"}
+STATIC = {
+    "index.html": "text/html",
+    "app.js": "text/javascript",
+    "addphoto.js": "text/javascript",
+    "style.css": "text/css",
+}
 
 router = APIRouter()
 

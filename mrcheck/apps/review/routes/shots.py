@@ -21,14 +21,22 @@ Current = Annotated[Review, Depends(current)]
 
 @router.get("/info")
 def info(review: Current):
-    return {"label": review.source.label, "modes": list(MODES), "labels": STUDY_LABELS,
-            "intensities": list(INTENSITIES), "categories": list(CATEGORIES), "max_note": MAX_NOTE}
+    return {
+        "label": review.source.label,
+        "modes": list(MODES),
+        "labels": STUDY_LABELS,
+        "intensities": list(INTENSITIES),
+        "categories": list(CATEGORIES),
+        "max_note": MAX_NOTE,
+    }
 
 
 @router.get("/shots")
 def shots(review: Current):
-    return [{"name": s.name, "error_px": s.error_px, "width": s.size[0], "height": s.size[1]}
-            for s in review.source.shots.values()]
+    return [
+        {"name": s.name, "error_px": s.error_px, "width": s.size[0], "height": s.size[1]}
+        for s in review.source.shots.values()
+    ]
 
 
 @router.get("/shots/{name}/{kind}.png")
