@@ -144,8 +144,7 @@ FIRST_DEMO_IMAGE = "robot_study.png"  # the sample cell's robot in D1 | D2 | D3:
     type=click.Choice(defaults.TONES),
     default=defaults.DEFAULT_TONE,
     show_default=True,
-    help="filmic: light surfaces roll off below white; clip: linear light clipped at white "
-    "(the renders before the tone curve).",
+    help="filmic: light surfaces roll off below white; clip: linear light clipped at white (no tone curve).",
 )
 @click.option(
     "--light",

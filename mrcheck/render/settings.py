@@ -85,7 +85,7 @@ class RenderSettings:
         once per surface they hold, the AO once per pixel (:mod:`mrcheck.render.antialias`); with
         ``ao_scale`` 0.5 the frame is not anti-aliased.
     tone : how linear light becomes the output's sRGB: ``filmic`` (a shoulder below white) or
-        ``clip`` (linear, clipped at 1: renders before the tone curve).
+        ``clip`` (linear, clipped at 1: no tone curve).
     """
 
     samples: int = DEFAULT_SAMPLES
