@@ -3,7 +3,7 @@
 //
 // AO_SAMPLES points uniformly on a disk parallel to the image plane of world radius R around
 // P; its projection, r_px = R * f_y / Z pixels (Loos & Sloan's construction, Puri fig. 2.11),
-// is sampled with the kernel's (x, y) (a disk, see mrcheck/ao/alchemy.py) rotated per pixel by
+// is sampled with the kernel's (x, y) (a disk, see mrcheck/render/ao/alchemy.py) rotated per pixel by
 // the 4x4 tile. The visible surface point Q_i at each sample's pixel gives v_i = Q_i - P.
 //
 // The paper's final estimator (McGuire et al. eq. 10; Puri's last equation):

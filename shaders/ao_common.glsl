@@ -1,5 +1,5 @@
 // Shared by the AO passes: G-buffer access, the sample kernel and the 4x4 rotation tile.
-// Defines injected from Python (mrcheck/ao/kernel.py): AO_SAMPLES, NOISE_SIZE, AO_STRIDE.
+// Defines injected from Python (mrcheck/render/ao/kernel.py): AO_SAMPLES, NOISE_SIZE, AO_STRIDE.
 //
 // AO_STRIDE 2 is half-resolution AO (the paper's "Half Res."): pass pixel (i, j) reads the
 // full-resolution G-buffer at (2i, 2j) and uses intrinsics fx/2, fy/2, cx/2, cy/2, so every

@@ -5,7 +5,7 @@
 // them lie behind it and read as occluded: Crytek's famous grey flat walls (thesis fig. 17 C).
 // This is kept on purpose; it is the comparison mode with the highest false occlusion.
 //
-// For each of AO_SAMPLES offsets (thesis 4.3.1.2; antipodal pairs, see mrcheck/ao/crytek.py):
+// For each of AO_SAMPLES offsets (thesis 4.3.1.2; antipodal pairs, see mrcheck/render/ao/crytek.py):
 //   S          = P + reflect(offset, plane) * R      sphere of constant camera-space radius R
 //   Z(S)       = depth buffer at S's pixel
 //   visible    = Z(S) > S.z                          the sample is in front of the surface

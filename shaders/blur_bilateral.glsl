@@ -6,7 +6,7 @@
 uniform sampler2D u_ao_depth;
 uniform ivec2 u_size;
 uniform ivec2 u_step;                       // (1, 0) horizontal, (0, 1) vertical
-uniform float u_weights[BLUR_RADIUS + 1];   // Gaussian, centre first (mrcheck/blur.py)
+uniform float u_weights[BLUR_RADIUS + 1];   // Gaussian, centre first (mrcheck/render/blur.py)
 
 #include "depth_tolerance.glsl"   // DEPTH_TOLERANCE: a tap's weight falls to 1/e there
 

@@ -1,6 +1,6 @@
 // Composite: Blinn-Phong with one light (a headlight just above and left of the camera, or a directional "sun"),
 // and an ambient term that the AO modulates (optionally the direct light too). Output: linear
-// colour into an sRGB attachment, which encodes it (mrcheck/gl.py, srgb_texture).
+// colour into an sRGB attachment, which encodes it (mrcheck/render/gl.py, srgb_texture).
 uniform sampler2D u_depth;
 uniform sampler2D u_normal;
 uniform sampler2D u_albedo;

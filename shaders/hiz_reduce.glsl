@@ -1,5 +1,5 @@
 // Occlusion culling, step 1: the farthest depth of every HIZ_BLOCK x HIZ_BLOCK block of the
-// G-buffer's linear depth after the occluders are drawn (mrcheck/culling.py). Background
+// G-buffer's linear depth after the occluders are drawn (mrcheck/render/culling.py). Background
 // (depth 0) counts as infinitely far, so a block with any uncovered pixel hides nothing.
 // One pass of HIZ_BLOCK^2 fetches per output texel (64 at 8x8: as many fetches as one
 // full-resolution pass in total); the rest of the pyramid is built from this 1/64 read-back.

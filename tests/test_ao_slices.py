@@ -69,7 +69,7 @@ def test_distance_retention(ctx, mode, record_property):
     far = _ring_darkening(ao, ao_without, far_mask, int(radius_px))
     record_property(f"{mode}_far_over_near", far / near)
     print(f"{mode}: darkening near {near:.4f}, far {far:.4f}, far/near {far / near:.2f}")
-    # measured 2026-12-02: gtao 0.46, vbao 0.46 (vector 0.54, ssao 0.01; vector's test asks 0.5,
+    # measured: gtao 0.46, vbao 0.46 (vector 0.54, ssao 0.01; vector's test asks 0.5,
     # which these two miss: reported in docs/method.md); far above a world radius's fade
     assert near > 0.02 and far / near >= 0.4
 

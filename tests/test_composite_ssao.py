@@ -66,7 +66,7 @@ def _srgb_bytes(linear: np.ndarray) -> np.ndarray:
     return np.round(encoded * 255.0).astype(int)
 
 
-# the model, written out independently of mrcheck/composite.py and shaders/composite.glsl
+# the model, written out independently of mrcheck/render/composite.py and shaders/composite.glsl
 AMBIENT, DIFFUSE, SPECULAR, SHININESS = 0.60, 0.45, 0.12, 40.0
 HEADLIGHT_CAMERA = np.array([-0.2, -0.35, -1.0])  # camera space: up-left, towards the viewer
 SUN_WORLD = np.array([0.35, -0.25, 0.90])  # world space, z up

@@ -88,8 +88,8 @@ def crate_fits():
 
 def test_snap_is_within_a_pixel_in_nine_of_ten_cases(crate_fits):
     """Median reprojection error on the scene points <= 1 px in at least 9 of 10 seeds (the
-    target), here in all 10 (measured: 0.02-0.12 px with the whole-pose search, fifth session;
-    0.03-0.28 px since the chamfer coarse stage; before it,
+    target), here in all 10 (measured: 0.02-0.12 px with the whole-pose search;
+    0.03-0.28 px with the chamfer coarse stage alone; with neither,
     9 of 10 with seed 0, 28 px off, failing with "too little support"). A case that fails must
     say so, never return a wrong pose quietly."""
     assert all(15.0 <= case.offset_px <= 40.0 for case, _ in crate_fits)
@@ -145,7 +145,7 @@ def cell_fits():
 
 
 def test_the_dense_cell_snaps_within_a_pixel_and_its_uncertainty_covers_the_error(cell_fits):
-    """Measured (seeds 0-19, fifth session): all within 1 px, 0.14-0.65 px, the true corner
+    """Measured (seeds 0-19): all within 1 px, 0.14-0.65 px, the true corner
     error at most 1.9x the reported 1-sigma (0.3-1.9 px); before the whole-pose
     search every seed failed (0 of 10), before the parts as clusters of the covariance the true
     error reached 6x the sigma."""

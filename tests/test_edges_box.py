@@ -63,18 +63,18 @@ def test_the_outline_reference_is_found_on_the_lit_segments(box_fits):
 
 
 def test_the_snap_from_15_px_off_lies_on_the_outline(box_fits):
-    """Measured (sixth session, seeds 1-4, the reference following the weak rim): BC 0.18-0.19
+    """Measured (seeds 1-4, the reference following the weak rim): BC 0.18-0.19
     px, CD 0.20-0.24 px, FB 1.9-2.8 px (three of the four end on one pose, FB 2.8). The target
     of 1.5 px is met on BC and CD and MISSED on FB: this asserts the level reached there, not the
-    target. (The fifth session's reference needed a 20-level step, so on CD, whose rim is 10-12
-    levels above the table, it took the printed border 3-5 px inside: CD read 2.8 px.) Why FB is
+    target. (A reference that needs a 20-level step would, on CD, whose rim is 10-12 levels above
+    the table, take the printed border 3-5 px inside: CD would read 2.8 px.) Why FB is
     missed (docs/edge-registration.md, Limits): a pose with all six lit segments within 0.65 px
     exists, but the registration's own robust cost, on the lit edges alone and at every scale
     from 0.3 to 0.8 px, is lower at the pose that keeps the creases AB, AD, AE within 0.2 px and
     leaves FB 2.8 px off: through this nominal (uncalibrated) camera the photo's box is not the
     mesh's cuboid to better than about 1 px; the next test shows by how much (a mesh 2 % taller
-    meets the target from every start). Before the second session (nearest edge along the
-    normal) the snap moved onto the printed border, 4-13 px inside the outline."""
+    meets the target from every start). Taking the nearest edge along the normal instead of the
+    outermost moves the snap onto the printed border, 4-13 px inside the outline."""
     _, fits = box_fits
     for start, snapped in fits:
         assert max(start.values()) > 7.0  # the start is really off (here 7.0-16.4 px on its worst segment)
@@ -83,7 +83,7 @@ def test_the_snap_from_15_px_off_lies_on_the_outline(box_fits):
 
 
 def test_a_mesh_two_percent_taller_lies_on_the_outline_from_every_start(tmp_path):
-    """The diagnosis of the miss above (fourteenth session, 6 Dec 2026): the same snap, photo,
+    """The diagnosis of the miss above: the same snap, photo,
     camera and starts on box.ply stretched in height by 2 % (7.65 cm instead of 7.5, by a
     part's ``matrix``) put all three segments within 1.5 px from all four starts (measured: BC
     0.15-0.41, CD 0.18-0.19, FB 0.64-1.07 px). Heights +1.5 % to +3 % gave FB 0.41-1.07 from all

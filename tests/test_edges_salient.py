@@ -1,4 +1,4 @@
-"""The edge registration's sample selection and coarse stage (issue 20, second session): which
+"""The edge registration's sample selection and coarse stage (issue 20): which
 CAD edges a photo can show (:func:`mrcheck.mr.edges.model.salient`), the oriented chamfer map
 and the search over the view direction (:mod:`mrcheck.mr.edges.chamfer`), and the outermost
 edge for contours (:func:`mrcheck.mr.edges.photo.search`)."""

@@ -9,7 +9,7 @@ from mrcheck.apps.discrepancies import light
 
 
 def _per_direction(q, w, d):
-    """The reference: ``np.linalg.lstsq`` for one direction after another (the fifth session's code)."""
+    """The reference: ``np.linalg.lstsq`` for one direction after another (the straightforward loop the batched solve replaces)."""
     out = []
     for column in d.T:
         design = np.stack((np.ones_like(column), column), -1) * w[:, None]

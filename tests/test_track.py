@@ -133,8 +133,8 @@ def test_a_lost_frame_inside_a_part_is_written_without_overlay(video, tmp_path):
 def test_each_frame_finds_its_visible_edges_on_the_last_overlay(video, tmp_path, monkeypatch):
     """From the second frame on, the snap is given the frame before's overlay render (its depth
     and normals at that frame's pose) instead of rendering at its start: one render less per
-    frame (sixth session, eight cell walks: the whole run 3.3-4.2 -> 4.3-5.5 frames/s); since the
-    thirteenth session it serves the whole fit, and only a frame that would be lost renders."""
+    frame (measured on eight cell walks: the whole run 3.3-4.2 -> 4.3-5.5 frames/s); it serves the
+    whole fit, and only a frame that would be lost renders."""
     import mrcheck.apps.track as track
 
     folder, manifest, _, _ = video
@@ -227,8 +227,8 @@ def test_no_second_snap_right_after_a_lost_frame(video, tmp_path, monkeypatch):
 
 def test_numpy_blas_runs_on_one_thread_while_tracking(video, tmp_path, monkeypatch):
     """OpenBLAS's idle threads spin on the core that llvmpipe and the encoder need: the track
-    keeps numpy's BLAS on one thread while it runs and gives the threads back after (measured,
-    seventh session: 20 interleaved walk pairs, faster in 17, median +10 %, the poses identical)."""
+    keeps numpy's BLAS on one thread while it runs and gives the threads back after (measured
+    over 20 interleaved walk pairs: faster in 17, median +10 %, the poses identical)."""
     from threadpoolctl import threadpool_info
 
     import mrcheck.apps.track as track

@@ -173,7 +173,7 @@ def register(scene_path, photo, intrinsics, markers, points, initial, refine, ma
     "--antialias/--no-antialias",
     default=defaults.DEFAULT_ANTIALIAS,
     show_default=True,
-    help="Anti-aliased CAD edges (2x2 supersampled geometry and shading).",
+    help="Anti-aliased CAD edges (4x multisampled geometry, edge pixels shaded per surface).",
 )
 @click.option(
     "--samples",

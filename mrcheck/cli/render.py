@@ -136,15 +136,15 @@ FIRST_DEMO_IMAGE = "robot_study.png"  # the sample cell's robot in D1 | D2 | D3:
     "--antialias/--no-antialias",
     default=defaults.DEFAULT_ANTIALIAS,
     show_default=True,
-    help="Anti-aliased edges: geometry and shading 2x2 supersampled, the AO once per pixel.",
+    help="Anti-aliased edges: 4x multisampled geometry (MSAA), edge pixels shaded per surface, the AO once per "
+    "pixel; off with --ao-scale 0.5.",
 )
 @click.option(
     "--tone",
     type=click.Choice(defaults.TONES),
     default=defaults.DEFAULT_TONE,
     show_default=True,
-    help="filmic: light surfaces roll off below white; clip: linear light clipped at white "
-    "(the renders before the tone curve).",
+    help="filmic: light surfaces roll off below white; clip: linear light clipped at white (no tone curve).",
 )
 @click.option(
     "--light",

@@ -23,10 +23,9 @@ from mrcheck.core.camera import Camera
 
 # grey levels between the table and the box's rim at a profile. Why 8: on the photo's table
 # beside the three lit segments the grey level varies by a standard deviation of at most 1.3
-# and a peak-to-peak of at most 4.1 over 6 px (measured, 3 Dec 2026), and on CD the rim is only
-# 10-12 levels brighter than the table. With the earlier 20 the rim was skipped there and the
-# reference took the printed border 3-5 px inside it (the registration's fit then measured 2.8
-# px "off" while lying on the rim's step).
+# and a peak-to-peak of at most 4.1 over 6 px, and on CD the rim is only 10-12 levels brighter
+# than the table. At 20 the rim is skipped there and the reference takes the printed border 3-5
+# px inside it (the registration's fit would read 2.8 px "off" while lying on the rim's step).
 MIN_CONTRAST = 8.0
 PROFILE_PX = 14.0  # the profile reaches this far each side of the reference outline
 _STEP = 0.25

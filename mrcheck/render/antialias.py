@@ -16,8 +16,8 @@ edges near the image axes -- columns, racks, the wires of mesh fences -- to a qu
   depth-aware at its first sample's position) weighted by the samples it covers, blended in
   linear light into the sRGB output: the mean of the four samples' colours.
 
-An earlier version supersampled the geometry and the composite on a 2x grid (4x the composite's
-pixels and a resolve pass): 1.6-2.35x the frame, against 1.2-1.5x for this one (docs/performance.md).
+Why not supersampling: the geometry and the composite on a 2x grid (4x the composite's pixels and a
+resolve pass) cost 1.6-2.35x the frame, against 1.2-1.5x for this (docs/rendering.md).
 The yardstick is :mod:`mrcheck.eval.aa_reference` (the view rendered at 4x4 the pixels, area-averaged);
 its helpers live here because the reference is made of the renderer's own frames.
 """

@@ -46,7 +46,7 @@ DEFAULT_BLUR_SIZE = 9  # bilateral kernel size, pixels, odd (the paper's 9x9 / 1
 DEFAULT_AO_SCALE = 1.0  # AO resolution over the output's: 1.0 full, 0.5 half (the paper's 'Half Res.')
 DEFAULT_LIGHT = "headlight"  # one of LIGHTS
 DEFAULT_SEED = 0  # seed of the AO kernel and rotation tile (renders are reproducible)
-DEFAULT_ANTIALIAS = True  # 2x2 supersampled geometry and composite (mrcheck.render.antialias)
+DEFAULT_ANTIALIAS = True  # 4x multisampled G-buffer, edge pixels shaded per surface (mrcheck.render.antialias)
 DEFAULT_TONE = "filmic"  # one of TONES (shaders/composite.glsl, tone())
 DEFAULT_LOD_PX = 0.5  # allowed error of a level of detail on screen, pixels (mrcheck.render.lod)
 MAX_LOD_PX = 4.0  # larger: coarse levels visibly move silhouettes
@@ -81,10 +81,11 @@ class RenderSettings:
     ao_scale : 1.0 full-resolution AO, 0.5 half resolution with depth-aware upsampling.
     lod_px : allowed error of a level of detail on screen, pixels (0: every part at full detail;
         see :mod:`mrcheck.render.lod`).
-    antialias : 2x2 supersampled geometry and composite, the AO at the output resolution
-        (:mod:`mrcheck.render.antialias`); with ``ao_scale`` 0.5 the frame is not supersampled.
+    antialias : the geometry drawn into a 4x multisampled G-buffer (MSAA), the edge pixels shaded
+        once per surface they hold, the AO once per pixel (:mod:`mrcheck.render.antialias`); with
+        ``ao_scale`` 0.5 the frame is not anti-aliased.
     tone : how linear light becomes the output's sRGB: ``filmic`` (a shoulder below white) or
-        ``clip`` (linear, clipped at 1: renders before the tone curve).
+        ``clip`` (linear, clipped at 1: no tone curve).
     """
 
     samples: int = DEFAULT_SAMPLES

@@ -90,7 +90,7 @@ def _fit_all(q: np.ndarray, w: np.ndarray, d: np.ndarray) -> tuple:
     for every direction): the weighted least squares of ``q ~ ambient + diffuse * d`` (weights
     ``w``), solved for all directions at once by its 2x2 normal equations. Why not
     ``np.linalg.lstsq`` per direction: on 20 000 pixels the 400 calls took 0.21-0.22 s, these
-    products 0.05 s after the first call (measured 3 Dec 2026, the same light chosen). Where
+    products 0.05 s after the first call (measured, the same light chosen). Where
     ``d`` is the same for every pixel (a direction that faces none of them: d = 0) the two
     weights are not determined; they get lstsq's minimum-norm answer. ``rms`` in units of
     albedo."""

@@ -73,7 +73,7 @@ class Stage:
         self.ctx = renderer.ctx
         self.passes = renderer.passes(camera)
         self._floors = {}
-        # levels of detail loaded or built before timing, as a long session has them (a first
+        # levels of detail loaded or built before timing, as a long-running program has them (a first
         # render builds only those of parts with many instances; see mrcheck.render.lod)
         with made_current(self.ctx):
             renderer.geometry.prepare_levels()
