@@ -15,7 +15,7 @@ from mrcheck.core.camera import Camera
 from mrcheck.eval.edgephotos import corner_errors, make_case, reprojection_error, synthetic_photo
 from mrcheck.eval.edgescenes import crate_camera, crate_scene
 from mrcheck.mr.edges import EdgeFitError, model, refine_pose, scene_edges
-from mrcheck.mr.edges.refine import render_depth
+from mrcheck.mr.edges.fitter import render_depth
 from mrcheck.render.renderer import Renderer
 from mrcheck.scene.model import Scene, make_part
 

@@ -13,7 +13,7 @@ import trimesh
 
 from mrcheck.core.camera import Camera
 from mrcheck.mr.edges import chamfer, model, photo, search, solver
-from mrcheck.mr.edges.refine import render_depth
+from mrcheck.mr.edges.fitter import render_depth
 from mrcheck.render.renderer import Renderer
 from mrcheck.scene.model import Scene, make_part
 
@@ -76,9 +76,9 @@ def _square_photo(shift=(0.0, 0.0)):
     return image
 
 
-class _SquareFitter:
+class _Square:
     """What :func:`search.search_pose` needs of a fit: a square's edge samples 5 m ahead of a
-    160x120 camera, at the current pose."""
+    160x120 camera, and the start pose."""
 
     def __init__(self):
         self.camera = Camera.from_look_at([0.0, 0.0, 0.0], [0.0, 5.0, 0.0], [0, 0, 1], 50.0, 160, 120)
@@ -91,20 +91,17 @@ class _SquareFitter:
         self.samples = model.Samples(points, tangents, np.zeros(n, np.int64), np.repeat(np.arange(4), 40))
         self.state = solver.PoseState.of(self.camera, corners.mean(axis=0))
 
-    def samples_for(self, scale):
-        return self.samples
-
 
 def test_the_pose_search_finds_a_square_moved_by_twelve_pixels():
     """The photo shows the square 12 px right and 5 px up of where the start pose puts it: the
     search moves the pose so that the samples land within a pixel of the photo's square."""
-    fitter = _SquareFitter()
-    uv = fitter.camera.project(fitter.samples.points)
+    square = _Square()
+    uv = square.camera.project(square.samples.points)
     lo, hi = uv.min(axis=0) + (12, -5), uv.max(axis=0) + (12, -5)
     image = np.full((120, 160), 0.3, np.float32)
     cv2.rectangle(image, tuple(np.rint(lo).astype(int)), tuple(np.rint(hi).astype(int)), 0.8, -1)
-    report = search.search_pose(fitter, chamfer.chamfer_map(image, 1.0), 24.0)
-    moved = fitter.state.camera(fitter.camera).project(fitter.samples.points) - uv
+    report = search.search_pose(square.state, square.camera, square.samples, chamfer.chamfer_map(image, 1.0), 24.0)
+    moved = report.pose.camera(square.camera).project(square.samples.points) - uv
     assert np.allclose(np.median(moved, axis=0), (12, -5), atol=1.0), np.median(moved, axis=0)
     assert report.cost < 1.0 < report.start_cost and abs(report.moved_px - 13.0) < 1.5
 

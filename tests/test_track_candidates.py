@@ -48,7 +48,7 @@ def test_a_render_given_to_the_fit_replaces_its_first_render_and_it_stays_exact(
     sampling are judged on a render from a nearby pose (a video's frame before), not on one
     of its own; the fit renders once less and lands where it lands without."""
     from mrcheck.mr.edges import VisibilityRender
-    from mrcheck.mr.edges.refine import render_depth
+    from mrcheck.mr.edges.fitter import render_depth
 
     scene, truth = crate_scene(), crate_camera(320, 240)
     grey, _, _ = synthetic_photo(scene, truth, 0, clutter=0, leave_out=False)

@@ -58,21 +58,21 @@ LOST_SUPPORT = 0.25
 # frame to frame (after the constant-velocity prediction): one level, the search along the normal,
 # 8 px, 800 samples (measured on the crate walk: 0.13 px, 0.4 s per frame at load 9, against
 # 0.14 px and 0.75-1.5 s with two levels and 1500 samples); every step kept (descent_only off:
-# iteratively reweighted least squares) and 6 iterations: with the cost test of Levenberg-
-# Marquardt a frame whose prediction was 2.7 px off kept no step at all (re-matching makes the
-# robust cost jump by more than a good step lowers it), the pose stayed at the prediction and
-# the walk drifted 5-7 px for 20 frames; measured on ten walks (4 Dec 2026) per-walk median
+# iteratively reweighted least squares) and 6 iterations: with the cost test of
+# Levenberg-Marquardt a frame whose prediction was 2.7 px off kept no step at all (re-matching
+# makes the robust cost jump by more than a good step lowers it), the pose stayed at the
+# prediction and the walk drifted 5-7 px for 20 frames; measured on ten walks: per-walk median
 # 0.07-0.45 px, no frame beyond 1.4 px, against 0.14-0.88 and 13 frames beyond 2 px with 4
 # iterations and the cost test (docs/edge-registration.md); the first frame, from ROUGH.json,
 # gets the full snap (FIRST_OPTIONS: coarse to fine from up to 48 px off). The visible edges
 # are those of the frame before's overlay render for the whole fit (rerender_px inf: no render of
 # the snap's own), and the render saved pays for 8 iterations instead of 6; a frame that would be
 # lost so is snapped once more with RETRY_OPTIONS. Measured on the six 24-frame cell walks of
-# `mrcheck bench --track` against a re-render after 3 px and 6 iterations (thirteenth session, 4
-# Dec 2026, four interleaved rounds, a process per run): the `robot_cell` walks +2 to +39 % per
-# pair (median +14 to +24 % per walk), the `overview` walks -9 to +14 % (medians -4 to +6 %), the
-# crates +5 %; over the 144 frames the median error 0.165 -> 0.151 px, the mean 0.242 -> 0.222,
-# frames beyond 1 px 6 -> 3, the worst 1.41 -> 1.49 (docs/edge-registration.md)
+# `mrcheck bench --track` against a re-render after 3 px and 6 iterations (four interleaved
+# rounds, a process per run): the `robot_cell` walks +2 to +39 % per pair (median +14 to +24 %
+# per walk), the `overview` walks -9 to +14 % (medians -4 to +6 %), the crates +5 %; over the
+# 144 frames the median error 0.165 -> 0.151 px, the mean 0.242 -> 0.222, frames beyond 1 px
+# 6 -> 3, the worst 1.41 -> 1.49 (docs/edge-registration.md)
 TRACK_OPTIONS = EdgeOptions(
     search_px=8.0,
     levels=1,
@@ -84,14 +84,14 @@ TRACK_OPTIONS = EdgeOptions(
     rerender_px=math.inf,
 )
 # a frame lost with TRACK_OPTIONS, snapped again from its start with a render of its own there and
-# the visible edges found again after 3 px of steps (the twelfth session's schedule): the frame
-# before's render is a frame's motion old, and where much comes into view or goes out of it (the
-# 60-frame `robot_cell` walk, frames 38 and 41) the support it gives falls below LOST_SUPPORT;
-# not after a lost frame (see _track_frame)
+# the visible edges found again after 3 px of steps (the schedule TRACK_OPTIONS was measured
+# against): the frame before's render is a frame's motion old, and where much comes into view or
+# goes out of it (the 60-frame `robot_cell` walk, frames 38 and 41) the support it gives falls below
+# LOST_SUPPORT; not after a lost frame (see _track_frame)
 RETRY_OPTIONS = replace(TRACK_OPTIONS, iterations=6, rerender_px=3.0)
 # the first frame: 1500 samples instead of register's 3000 (the generated cell from 15-40 px off,
 # seeds 0-9 at 640x480: 10 of 10 within 1 px, 0.06-0.37 px, 0.70 s per fit median, against
-# 0.06-0.45 px and 0.81 s; the crates the same, they have fewer; 4 Dec 2026)
+# 0.06-0.45 px and 0.81 s; the crates the same, they have fewer)
 FIRST_OPTIONS = EdgeOptions(min_support=0.0, max_samples=1500)
 # full detail (lod_px 0): the overlay's depth and normals find the next frame's visible edges
 # (VisibilityRender), and a simplified mesh moves surfaces off the exact edges' planes
@@ -246,7 +246,7 @@ def track_video(
     # numpy's OpenBLAS on one thread: its idle threads spin on the second core after every
     # matrix product, where llvmpipe's rasteriser and the video encoder run (measured on a
     # 60-frame cell walk: 23 s of CPU in 13-14 s wall with the default two threads, 15 s in 12 s
-    # with one, the poses identical; 3 Dec 2026, see docs/edge-registration.md)
+    # with one, the poses identical; see docs/edge-registration.md)
     with threadpool_limits(limits=1, user_api="blas"):
         return _track_video(video, scene, intrinsics, initial, output, poses_path, alpha, progress)
 

@@ -12,21 +12,17 @@ Public API (stable; the review's click registration and the discrepancy check bu
   :class:`VisibilityRender`, :class:`~mrcheck.mr.edges.uncertainty.PoseUncertainty`.
 * :func:`~mrcheck.mr.edges.model.scene_edges` (the scene's edges, to reuse between frames).
 
-Modules: ``model`` (the CAD's visible edges), ``photo`` (the photo's edges, the search along
-the normal), ``solver`` (residuals, robust Gauss-Newton, covariance), ``uncertainty`` (px, mm,
-degrees, the weak direction), ``refine`` (coarse to fine).
+Modules: ``model`` (the CAD's visible edges), ``candidates`` (those kept between renders),
+``photo`` (the photo's edges, the search along the normal), ``solver`` (residuals, robust
+Gauss-Newton, covariance), ``uncertainty`` (px, mm, degrees, the weak direction), ``options``
+(the settings and results), ``fitter`` (one pyramid level's fit), ``chamfer``, ``search`` and
+``coarse`` (the coarse stage), ``verdict`` (the statistics and the failure tests), ``refine``
+(coarse to fine).
 """
 
 from mrcheck.mr.edges.model import scene_edges
-from mrcheck.mr.edges.refine import (
-    EdgeFit,
-    EdgeFitError,
-    EdgeOptions,
-    LevelReport,
-    VisibilityRender,
-    photo_pyramid,
-    refine_pose,
-)
+from mrcheck.mr.edges.options import EdgeFit, EdgeFitError, EdgeOptions, LevelReport, VisibilityRender
+from mrcheck.mr.edges.refine import photo_pyramid, refine_pose
 from mrcheck.mr.edges.uncertainty import PoseUncertainty
 
 __all__ = [

@@ -65,7 +65,9 @@ class CandidateEdges:
 
     def remember(self, camera: Camera, scale: float, visible: model.Samples) -> None:
         """Keep the edges of the ``visible`` (and salient) samples of a full sampling at ``camera``'s pose."""
-        pick = np.linspace(0, len(visible) - 1, min(_PROBES, len(visible))).astype(int) if len(visible) else []
+        pick: np.ndarray | list[int] = (
+            np.linspace(0, len(visible) - 1, min(_PROBES, len(visible))).astype(int) if len(visible) else []
+        )
         probes = visible.points[pick]
         self.entries[scale] = _Entry(
             np.unique(visible.edge), visible.spacing_px, probes, model.project_pinhole(camera, probes)

@@ -62,7 +62,8 @@ def chamfer_map(grey: np.ndarray, scale: float) -> ChamferMap:
         mask = edges & ((own == b) | (other == b))
         free = np.where(mask, 0, 255).astype(np.uint8)
         distance[b] = np.minimum(cv2.distanceTransform(free, cv2.DIST_L2, cv2.DIST_MASK_PRECISE), TRUNCATE_PX)
-    dy, dx = np.gradient(distance, axis=(1, 2))
+    gradient = np.gradient(distance, axis=(1, 2))  # along the rows, then the columns
+    dy, dx = gradient[0], gradient[1]
     return ChamferMap(scale, distance, dx.astype(np.float32), dy.astype(np.float32))
 
 

@@ -15,47 +15,77 @@ the residuals the uncertainty is computed from.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
-from mrcheck.mr.edges import chamfer, search, solver
+from mrcheck.core.camera import Camera
+from mrcheck.mr.edges import chamfer, model, search, solver
 
 HUBER_PX = 1.0  # the chamfer residual's Huber threshold (level px)
 _CONVERGED_PX = 0.05  # a step moving no sample more than this (level px) ends the level
 _RIDGE = 1e-4  # times the trace of the normal equations (see chamfer_level)
 
+Sampler = Callable[[solver.PoseState, float], model.Samples]
+"""The visible, salient edge samples at a pose and a level scale
+(:meth:`mrcheck.mr.edges.fitter.Fitter.samples_for`)."""
+
+
+@dataclass
+class ChamferLevelReport:
+    """What step 2 did on one level: ``pose`` the pose it ended at, ``scale`` the level's,
+    ``iterations``, ``samples`` and ``near`` the share of samples within the truncation."""
+
+    pose: solver.PoseState
+    scale: float
+    iterations: int
+    samples: int
+    near: float
+
 
 @dataclass
 class CoarseReport:
-    """What the coarse stage did: the pose search (:class:`~mrcheck.mr.edges.search.SearchReport`),
-    and per level ``(scale, iterations, samples, share of samples within the truncation)``."""
+    """What the coarse stage did: ``pose`` the pose it ended at, ``search`` the pose search
+    (:class:`~mrcheck.mr.edges.search.SearchReport`) and ``levels`` step 2 per level."""
 
+    pose: solver.PoseState
     search: search.SearchReport
-    levels: list
+    levels: list[ChamferLevelReport]
 
 
-def grey_levels(grey: np.ndarray, count: int) -> list:
+def grey_levels(grey: np.ndarray, count: int) -> list[np.ndarray]:
     """The photo (float 0..1) at ``count`` pyramid levels (``cv2.pyrDown``), level 0 first."""
     image = grey.astype(np.float32) / (255.0 if grey.dtype == np.uint8 else 1.0)
-    out = [image]
+    out: list[np.ndarray] = [image]
     for _ in range(count - 1):
         out.append(cv2.pyrDown(out[-1]))
     return out
 
 
-def _chamfer(fitter, cmap, samples):
-    proj = solver.project(fitter.state, fitter.camera, samples.points, samples.tangents)
+def _chamfer(
+    pose: solver.PoseState, camera: Camera, cmap: chamfer.ChamferMap, samples: model.Samples
+) -> tuple[np.ndarray, np.ndarray]:
+    """The samples' chamfer distances at ``pose`` and their rows (d distance / d pose)."""
+    proj = solver.project(pose, camera, samples.points, samples.tangents)
     d, g = chamfer.lookup(cmap, proj.uv * cmap.scale, chamfer.bins_of(proj.normal))
     rows = np.einsum("ni,nij->nj", g, proj.J) * cmap.scale
     return d, rows
 
 
-def chamfer_level(fitter, cmap, iterations: int, rerender_px: float) -> tuple:
-    """Step 2 on one level: ``(iterations, samples, share within the truncation)``."""
-    samples = fitter.samples_for(cmap.scale)
-    d, rows = _chamfer(fitter, cmap, samples)
+def chamfer_level(
+    pose: solver.PoseState,
+    camera: Camera,
+    sampler: Sampler,
+    cmap: chamfer.ChamferMap,
+    iterations: int,
+    rerender_px: float,
+) -> ChamferLevelReport:
+    """Step 2 on one level from ``pose`` (``camera``: the photo's intrinsics; ``sampler``: the
+    visible edges at a pose, found again after ``rerender_px`` level px of steps)."""
+    samples = sampler(pose, cmap.scale)
+    d, rows = _chamfer(pose, camera, cmap, samples)
     now, damping, moved, done = chamfer.cost(d), 1e-3, 0.0, 0
     while done < iterations and damping < 1e4:
         done += 1
@@ -71,38 +101,59 @@ def chamfer_level(fitter, cmap, iterations: int, rerender_px: float) -> tuple:
         shift = float(np.max(np.abs(rows @ step)))
         if shift > chamfer.TRUNCATE_PX:  # a trust region: the truncation's width
             step, shift = step * (chamfer.TRUNCATE_PX / shift), chamfer.TRUNCATE_PX
-        before = fitter.state
-        fitter.state = before.moved(step)
-        d_new, rows_new = _chamfer(fitter, cmap, samples)
+        trial = pose.moved(step)
+        d_new, rows_new = _chamfer(trial, camera, cmap, samples)
         if chamfer.cost(d_new) >= now:
-            fitter.state, damping = before, damping * 10.0
+            damping = damping * 10.0
             continue
+        pose = trial
         damping, moved = max(damping / 10.0, 1e-6), moved + shift
         if shift < _CONVERGED_PX:
             d = d_new
             break
         if moved > rerender_px:
-            samples, moved = fitter.samples_for(cmap.scale), 0.0
-            d_new, rows_new = _chamfer(fitter, cmap, samples)
+            samples, moved = sampler(pose, cmap.scale), 0.0
+            d_new, rows_new = _chamfer(pose, camera, cmap, samples)
         d, rows, now = d_new, rows_new, chamfer.cost(d_new)
-    return done, len(samples), float(np.mean(d < chamfer.TRUNCATE_PX))
+    return ChamferLevelReport(pose, cmap.scale, done, len(samples), float(np.mean(d < chamfer.TRUNCATE_PX)))
 
 
-def coarse_align(fitter, grey, levels: int, search_px: float, iterations: int, rerender_px: float) -> CoarseReport:
+def coarse_align(
+    pose: solver.PoseState,
+    camera: Camera,
+    sampler: Sampler,
+    grey: np.ndarray,
+    levels: int,
+    search_px: float,
+    iterations: int,
+    rerender_px: float,
+) -> CoarseReport:
     """Step 1 on the level :func:`~mrcheck.mr.edges.search.search_level` picks, step 2 on that
-    level and the finer ones down to level 1 (only step 1 when ``levels`` is 1). Levels coarser
-    than the searched one are not used: at 160 px wide the generated cell's true pose no longer
-    has the lowest chamfer cost (measured, seeds 0-9: a wrong pose's 9.5 against the truth's 10.2)."""
+    level and the finer ones down to level 1 (only step 1 when ``levels`` is 1), from the rough
+    ``pose``; the report holds the pose reached (``camera``, ``sampler``: see
+    :func:`chamfer_level`). Levels coarser than the searched one are not used: at 160 px wide
+    the generated cell's true pose does not have the lowest chamfer cost (measured, seeds 0-9:
+    a wrong pose's 9.5 against the truth's 10.2)."""
     images = grey_levels(grey, levels)
     first = search.search_level([image.shape[1] for image in images])
     cmap = chamfer.chamfer_map(images[first], 0.5**first)
-    found = search.search_pose(fitter, cmap, search_px)
+    found = search.search_pose(pose, camera, sampler(pose, cmap.scale), cmap, search_px)
+    pose = found.pose
     reports = []
     for index in range(first, 0, -1):
         if index != first:
             cmap = chamfer.chamfer_map(images[index], 0.5**index)
-        reports.append((cmap.scale, *chamfer_level(fitter, cmap, iterations, rerender_px)))
-    return CoarseReport(found, reports)
+        reports.append(chamfer_level(pose, camera, sampler, cmap, iterations, rerender_px))
+        pose = reports[-1].pose
+    return CoarseReport(pose, found, reports)
 
 
-__all__ = ["CoarseReport", "grey_levels", "chamfer_level", "coarse_align", "HUBER_PX"]
+__all__ = [
+    "CoarseReport",
+    "ChamferLevelReport",
+    "Sampler",
+    "grey_levels",
+    "chamfer_level",
+    "coarse_align",
+    "HUBER_PX",
+]

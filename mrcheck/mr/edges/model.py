@@ -52,7 +52,7 @@ class EdgeSet:
     nb: np.ndarray
     crease: np.ndarray
     group: np.ndarray
-    group_names: list
+    group_names: list[str]
 
     def __len__(self) -> int:
         return len(self.a)
@@ -130,7 +130,7 @@ def mesh_edges(vertices: np.ndarray, faces: np.ndarray, crease_deg: float = CREA
 def scene_edges(scene: Scene, crease_deg: float = CREASE_DEG) -> EdgeSet:
     """Every instance's edges in world coordinates (a mesh's edges found once, then placed)."""
     parts = []
-    names = []
+    names: list[str] = []
     for part in scene.parts:
         a, b, na, nb, crease = mesh_edges(part.vertices, part.faces, crease_deg)
         for transform, name in zip(part.transforms, part.instance_ids):
@@ -145,8 +145,8 @@ def scene_edges(scene: Scene, crease_deg: float = CREASE_DEG) -> EdgeSet:
     if not parts:
         empty = np.zeros((0, 3))
         return EdgeSet(empty, empty, empty, empty, np.zeros(0, bool), np.zeros(0, int), [])
-    columns = [np.concatenate(c) for c in zip(*parts)]
-    return EdgeSet(*columns, group_names=names)
+    a, b, na, nb, crease, group = (np.concatenate(c) for c in zip(*parts))
+    return EdgeSet(a, b, na, nb, crease, group, names)
 
 
 def front_edges(edges: EdgeSet, centre: np.ndarray) -> np.ndarray:

@@ -39,7 +39,7 @@ def to_level(uv: np.ndarray, scale: float) -> np.ndarray:
 
 def pyramid(grey: np.ndarray, levels: int) -> list[Level]:
     """``levels`` levels of the (H, W) grey photo, level 0 at full resolution."""
-    image = grey.astype(np.float32) / (255.0 if grey.dtype == np.uint8 else 1.0)
+    image: np.ndarray = grey.astype(np.float32) / (255.0 if grey.dtype == np.uint8 else 1.0)
     out = []
     for level in range(levels):
         if level:

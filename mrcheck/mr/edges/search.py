@@ -40,7 +40,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mrcheck.mr.edges import chamfer, solver
+from mrcheck.core.camera import Camera
+from mrcheck.mr.edges import chamfer, model, solver
 
 SEARCH_WIDTH_PX = 320  # the pyramid level searched: the one nearest this width (see search_level)
 SAMPLES = 400  # samples scored per candidate
@@ -55,10 +56,11 @@ _MOTION_SAMPLES = 100  # samples the median image motion of a candidate is measu
 
 @dataclass
 class SearchReport:
-    """What :func:`search_pose` did: ``moved_px`` the chosen change's median image motion (full
-    resolution px), ``cost`` / ``start_cost`` the chamfer cost there and at the rough pose,
-    ``candidates`` how many were scored, ``scale`` the level searched."""
+    """What :func:`search_pose` did: ``pose`` the pose chosen, ``moved_px`` the chosen change's
+    median image motion (full resolution px), ``cost`` / ``start_cost`` the chamfer cost there
+    and at the rough pose, ``candidates`` how many were scored, ``scale`` the level searched."""
 
+    pose: solver.PoseState
     moved_px: float
     cost: float
     start_cost: float
@@ -120,12 +122,19 @@ class _Candidates:
         return np.mean(d * d, axis=0)
 
 
-def search_pose(fitter, cmap: chamfer.ChamferMap, radius_px: float, seed: int = 0) -> SearchReport:
+def search_pose(
+    pose: solver.PoseState,
+    camera: Camera,
+    samples: model.Samples,
+    cmap: chamfer.ChamferMap,
+    radius_px: float,
+    seed: int = 0,
+) -> SearchReport:
     """Steps 1-3 on the level of ``cmap`` within ``radius_px`` (full-resolution median image
-    motion); the pose chosen (:func:`_nearest_of_the_best`) is applied to ``fitter.state``.
+    motion) from ``pose`` (``camera``: the photo's intrinsics; ``samples``: the visible edges
+    at ``pose`` on this level); the report holds the pose chosen (:func:`_nearest_of_the_best`).
     Seeded: the same photo and start give the same pose on every run."""
-    samples = fitter.samples_for(cmap.scale)
-    proj = solver.project(fitter.state, fitter.camera, samples.points, samples.tangents)
+    proj = solver.project(pose, camera, samples.points, samples.tangents)
     radius = radius_px * cmap.scale
     pool = _Candidates(cmap, proj)
     rng = np.random.default_rng(seed)
@@ -144,8 +153,7 @@ def search_pose(fitter, cmap: chamfer.ChamferMap, radius_px: float, seed: int = 
         scores.append(child_cost)
     D, cost = np.vstack(scored), np.concatenate(scores)
     best, moved = _nearest_of_the_best(D, cost, pool.motion)
-    fitter.state = fitter.state.moved(D[best])
-    return SearchReport(moved / cmap.scale, float(cost[best]), float(cost[0]), len(D), cmap.scale)
+    return SearchReport(pose.moved(D[best]), moved / cmap.scale, float(cost[best]), float(cost[0]), len(D), cmap.scale)
 
 
 def _nearest_of_the_best(D: np.ndarray, cost: np.ndarray, motion) -> tuple:
