@@ -34,7 +34,7 @@ def _snaps(scene, size) -> tuple:
     for four starts 15 px off, ``(start, snapped)`` outline distances of a box ``size``."""
     camera, photo = read_camera(BOX / "canon.json"), BOX / "resized_IMG_3875.JPG"
     shot = register_photo(photo, camera, points=load_points(BOX / "corners.json"))
-    clicked = camera.with_pose(np.array(shot["R"]), np.array(shot["t"]))
+    clicked = camera.with_pose(shot.camera.R, shot.camera.t)
     grey = read_photo(photo, grey=True)
     nominal, segments = box_segments(SIZE), box_segments(size)
     lines = [line for line in photo_outline(grey, clicked, nominal) if line.name in MEASURED]

@@ -83,7 +83,7 @@ def job_dir(ctx, tmp_path_factory):
         write_image(path, photo)
     (root / "photos" / f"{BROKEN}.png").write_bytes(b"\x89PNG\r\n\x1a\n but not really a PNG")
     shot = register_photo(root / "given" / "given.png", intrinsics, marker_map=marker_map)
-    (root / "given" / "given.json").write_text(json.dumps(shot))
+    (root / "given" / "given.json").write_text(json.dumps(shot.to_dict()))
     (root / "job.toml").write_text(f'''
 scene = "{sample_scene_path()}"
 modes = ["phong", "vector"]

@@ -207,8 +207,8 @@ def test_marker_round_trip_with_register_markers(marker_shot):
     shot = registration.register_markers(
         np.ascontiguousarray(photo[..., ::-1]), intrinsics, marker_map
     )  # BGR, as imread
-    assert (shot["width"], shot["height"]) == (truth.width, truth.height)
-    _assert_round_trip(scene, truth, Camera.from_dict(shot))
+    assert (shot.camera.width, shot.camera.height) == (truth.width, truth.height)
+    _assert_round_trip(scene, truth, shot.camera)
 
 
 # -- 3. blending and the command line -------------------------------------------------------------

@@ -18,7 +18,9 @@ from mrcheck.cli import main
 from mrcheck.core.camera import Camera
 from mrcheck.core.camerafiles import load_camera, load_shot
 from mrcheck.core.camerafiles import read_photo as read_rgb_photo
-from mrcheck.mr.registration import register_markers, register_points, summary_lines
+from mrcheck.core.shot import Shot
+from mrcheck.mr.register import summary_lines
+from mrcheck.mr.registration import register_markers, register_points
 
 
 def read_photo(path):
@@ -96,11 +98,11 @@ def run(files, *extra, photo=CHARUCO / "choriginal.jpg", intrinsics="cam.json"):
 
 def test_charuco_photo_registers_sub_pixel():
     shot = register_markers(read_photo(CHARUCO / "choriginal.jpg"), charuco_camera(), BOARD_MAP)
-    assert shot["method"] == "markers"
-    assert shot["rms"] < 0.4  # measured 0.22 px; the calibration's own RMS is 0.18 px
-    assert shot["used"][0]["board"] == 0 and shot["used"][0]["corners"] == 24
-    assert shot["rejected"] == [] and shot["unknown_ids"] == []
-    assert 0.2 < np.linalg.norm(shot["camera_position"]) < 0.8  # a desk photo of a 20 x 28 cm board
+    assert shot.report["method"] == "markers"
+    assert shot.report["rms"] < 0.4  # measured 0.22 px; the calibration's own RMS is 0.18 px
+    assert shot.report["used"][0]["board"] == 0 and shot.report["used"][0]["corners"] == 24
+    assert shot.report["rejected"] == [] and shot.report["unknown_ids"] == []
+    assert 0.2 < np.linalg.norm(shot.report["camera_position"]) < 0.8  # a desk photo of a 20 x 28 cm board
 
 
 FAR = [1.0e6, -2.0e6, 3.0e5]  # a factory's survey coordinates: a million metres from the origin
@@ -128,16 +130,18 @@ def test_charuco_registration_does_not_depend_on_the_board_pose(board_frame_shot
     where the board sits in the world (EPnP RANSAC on the world coordinates failed for about half
     of the orientations, and far from the origin, where OpenCV's RANSAC rounds them to float32)."""
     shot = register_markers(read_photo(CHARUCO / "choriginal.jpg"), charuco_camera(), _board_map(R, t))
-    assert shot["rms"] < 0.4
-    assert shot["used"][0]["corners"] == 24 and shot["rejected"] == []
+    assert shot.report["rms"] < 0.4
+    assert shot.report["used"][0]["corners"] == 24 and shot.report["rejected"] == []
     # X_board -> X_world = R X_board + t, so the board-frame camera (R0, t0) becomes R0 R^T, centre R c0 + t
-    base, found = Camera.from_dict(board_frame_shot), Camera.from_dict(shot)
+    base, found = board_frame_shot.camera, shot.camera
     assert np.linalg.norm(found.center - (R @ base.center + t)) < 1e-3
-    assert np.linalg.norm(np.asarray(shot["camera_position"]) - (R @ base.center + t)) < 1e-3
+    assert np.linalg.norm(np.asarray(shot.report["camera_position"]) - (R @ base.center + t)) < 1e-3
     angle = np.degrees(np.linalg.norm(cv2.Rodrigues(found.R @ (base.R @ R.T).T)[0]))
     assert angle < 0.1
-    assert shot["rms"] == pytest.approx(board_frame_shot["rms"], abs=0.01)
-    assert shot["expected_overlay_error_px"] == pytest.approx(board_frame_shot["expected_overlay_error_px"], abs=0.02)
+    assert shot.report["rms"] == pytest.approx(board_frame_shot.report["rms"], abs=0.01)
+    assert shot.report["expected_overlay_error_px"] == pytest.approx(
+        board_frame_shot.report["expected_overlay_error_px"], abs=0.02
+    )
 
 
 def test_cli_writes_a_shot_that_is_a_camera(files, capsys):
@@ -189,9 +193,9 @@ def test_apriltag_rotation_series_consistent():
     distances, first = {}, None
     for angle in ANGLES:
         shot = register_markers(read_photo(APRILTAG / f"test_image_rotation_{angle}.png"), camera, marker_map)
-        R, t = np.array(shot["R"]), np.array(shot["t"])  # t = the tag centre in the camera frame
+        R, t = np.array(shot.camera.R), np.array(shot.camera.t)  # t = the tag centre in the camera frame
         distances[angle] = np.linalg.norm(t)
-        assert shot["rms"] < 1.5
+        assert shot.report["rms"] < 1.5
         # the tag turns about its vertical axis: its normal leaves the line of sight by the angle
         # (a nearly frontal single tag is ambiguous by a few degrees, hence only from 20 deg)
         viewing = np.degrees(np.arccos(abs(R[:, 2] @ t) / np.linalg.norm(t)))
@@ -201,8 +205,8 @@ def test_apriltag_rotation_series_consistent():
             assert np.sign(rotation[1]) == -np.sign(angle)  # turns the other way for negative angles
         if angle == 0:
             first = R
-            assert any("one plane facing the camera" in w for w in shot["warnings"])
-        assert any("only one marker" in w for w in shot["warnings"])
+            assert any("one plane facing the camera" in w for w in shot.report["warnings"])
+        assert any("only one marker" in w for w in shot.report["warnings"])
     d = np.array(list(distances.values()))
     assert d.max() / d.min() < 1.05  # measured 0.2075 .. 0.2143 m
 
@@ -212,9 +216,9 @@ def test_resized_photo_same_aspect_rescales_k_and_warns():
     image = read_photo(APRILTAG / "test_image_rotation_30.png")
     full = register_markers(image, camera, marker_map)
     half = register_markers(cv2.resize(image, (528, 396), interpolation=cv2.INTER_AREA), camera, marker_map)
-    assert (half["width"], half["height"]) == (528, 396)
-    assert any("K rescaled" in w for w in half["warnings"])
-    assert np.linalg.norm(half["t"]) == pytest.approx(np.linalg.norm(full["t"]), rel=0.02)
+    assert (half.camera.width, half.camera.height) == (528, 396)
+    assert any("K rescaled" in w for w in half.report["warnings"])
+    assert np.linalg.norm(half.camera.t) == pytest.approx(np.linalg.norm(full.camera.t), rel=0.02)
 
 
 def test_points_with_outliers_are_rejected_and_pose_recovered():
@@ -226,10 +230,10 @@ def test_points_with_outliers_are_rejected_and_pose_recovered():
     pixels[[3, 9]] += [[40.0, -25.0], [-60.0, 80.0]]  # two mis-clicks
     pairs = {"points": [{"pixel": p.tolist(), "world": w.tolist()} for p, w in zip(pixels, world)]}
     shot = register_points(Camera(1920, 1080, truth.K, dist=truth.dist), pairs)
-    assert sorted(r["index"] for r in shot["rejected"]) == [3, 9]
-    assert all(r["error_px"] > 20 for r in shot["rejected"]) and len(shot["used"]) == 12
-    assert shot["rms"] < 1e-6
-    found = Camera.from_dict(shot)
+    assert sorted(r["index"] for r in shot.report["rejected"]) == [3, 9]
+    assert all(r["error_px"] > 20 for r in shot.report["rejected"]) and len(shot.report["used"]) == 12
+    assert shot.report["rms"] < 1e-6
+    found = shot.camera
     assert np.linalg.norm(found.center - truth.center) < 1e-3
     angle = np.degrees(np.linalg.norm(cv2.Rodrigues(found.R @ truth.R.T)[0]))
     assert angle < 0.01
@@ -252,12 +256,12 @@ def test_coplanar_points_off_the_xy_plane_register(k, offset):
     pixels[[2, 7]] += [[35.0, -20.0], [-50.0, 60.0]]  # two mis-clicks
     pairs = {"points": [{"pixel": p.tolist(), "world": w.tolist()} for p, w in zip(pixels, world)]}
     shot = register_points(Camera(1920, 1080, truth.K, dist=truth.dist), pairs)
-    assert sorted(r["index"] for r in shot["rejected"]) == [2, 7] and len(shot["used"]) == 10
-    assert shot["rms"] < 1e-4
-    found = Camera.from_dict(shot)
+    assert sorted(r["index"] for r in shot.report["rejected"]) == [2, 7] and len(shot.report["used"]) == 10
+    assert shot.report["rms"] < 1e-4
+    found = shot.camera
     assert np.linalg.norm(found.center - truth.center) < 1e-3
     assert np.degrees(np.linalg.norm(cv2.Rodrigues(found.R @ truth.R.T)[0])) < 0.01
-    assert np.isfinite(shot["expected_overlay_error_px"])
+    assert np.isfinite(shot.report["expected_overlay_error_px"])
 
 
 def _points_file(files, world, pixels=None):
@@ -389,14 +393,14 @@ def test_a_scene_argument_that_is_no_scene_is_one_line(files, capsys):
 def test_the_summary_counts_many_points_instead_of_listing_them(capsys):
     """54 chessboard corners as clicks: "used 52 of 54", the rejected ones listed."""
     entry = lambda i, error=0.2: {"index": i, "pixel": [0, 0], "world": [0, 0, 0], "error_px": error}  # noqa: E731
-    shot = {
+    report = {
         "method": "points",
-        "photo": "p.jpg",
-        "camera_position": [0, 0, 0],
         "rms": 0.3,
-        "expected_overlay_error_px": 0.5,
-        "warnings": [],
         "used": [entry(i) for i in range(54) if i not in (7, 40)],
         "rejected": [entry(7, 9.0), entry(40, 12.5)],
+        "camera_position": [0, 0, 0],
+        "expected_overlay_error_px": 0.5,
+        "warnings": [],
     }
+    shot = Shot(Camera(640, 480, np.diag([500.0, 500.0, 1.0])), Path("p.jpg"), report)
     assert "used 52 of 54; rejected 7 (9.0 px), 40 (12.5 px)" in "\n".join(summary_lines(shot, "SHOT.json"))

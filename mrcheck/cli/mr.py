@@ -117,24 +117,7 @@ def register(scene_path, photo, intrinsics, markers, points, initial, refine, ma
       mrcheck scene camera hall/scene.toml --view aisle --intrinsics camera.json -o rough.json
       mrcheck register hall/scene.toml --photo p2.jpg --intrinsics camera.json --initial rough.json -o p2.json
     """
-    if initial is not None or refine:
-        from mrcheck.mr.edgeshot import register_edges_command
-
-        echo_lines(
-            register_edges_command(
-                scene=scene_path,
-                photo=photo,
-                intrinsics=intrinsics,
-                initial=initial,
-                markers=markers,
-                points=points,
-                refine=refine,
-                max_error=max_error,
-                output=output,
-            ).summary()
-        )
-        return
-    from mrcheck.mr.registration import register_command
+    from mrcheck.mr.register import register_command
 
     done = register_command(
         scene=scene_path,
@@ -142,6 +125,8 @@ def register(scene_path, photo, intrinsics, markers, points, initial, refine, ma
         intrinsics=intrinsics,
         markers=markers,
         points=points,
+        initial=initial,
+        refine=refine,
         max_error=max_error,
         output=output,
     )

@@ -7,6 +7,8 @@ Public API, by module:
 * ``camera``: :class:`Camera` (the pinhole model, no file I/O), :func:`gl_projection`, :func:`fit_size`;
 * ``camerafiles``: every camera and shot file: :func:`load_camera` (a camera to render from),
   :func:`read_camera` (intrinsics), :func:`write_camera`, :func:`load_shot`, :func:`read_photo`;
+* ``shot``: :class:`Shot` (a registered photo, SHOT.json), its one reader :func:`read_shot` and
+  one writer :func:`write_shot` (:func:`shot_text`), :func:`photo_reference`;
 * ``jsonfile``: :func:`read_json`; ``inputs``: :func:`check_input`, :func:`read_input`;
   ``images``: :func:`read_image`, :func:`encode_image`;
 * ``output``: atomic writes (:func:`write_image`, :func:`write_text`, ...), output checks

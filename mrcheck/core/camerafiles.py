@@ -7,7 +7,8 @@ A camera JSON is :meth:`Camera.to_dict`'s keys (plus extras: a SHOT.json is a ca
 * :func:`load_camera`: a camera to render from (pose required unless ``need_pose=False``);
   :func:`read_camera`: a calibration's intrinsics (a pose, if any, is kept but not required);
 * :func:`write_camera`: either format, atomically;
-* :func:`load_shot`: a registered SHOT.json's camera and the path of its photo;
+* :func:`load_shot`: a registered SHOT.json's camera and the path of its photo (the whole
+  record: :mod:`mrcheck.core.shot`);
   :func:`read_photo`: that photo, RGB (or grey), checked against the camera's size.
 
 The model (:class:`mrcheck.core.camera.Camera`) reads no file, so this module imports it and
@@ -29,6 +30,7 @@ from mrcheck.core.images import read_image
 from mrcheck.core.inputs import check_input, read_input_text
 from mrcheck.core.jsonfile import read_json
 from mrcheck.core.output import write_text
+from mrcheck.core.shot import read_shot
 
 YAML_SUFFIXES = (".yml", ".yaml")
 CAMERA_SUFFIXES = (".json",) + YAML_SUFFIXES
@@ -121,17 +123,10 @@ def read_camera(path) -> Camera:
 
 
 def load_shot(path) -> tuple[Camera, Path]:
-    """The camera of a registered SHOT.json and the absolute path of its photo."""
-    path = Path(path)
-    data = read_json(path, "shot")  # a shot is JSON (camera keys + "photo"), never OpenCV YAML
-    camera = Camera.from_dict(data, path)
-    photo = data.get("photo")
-    if not isinstance(photo, str) or not photo:
-        raise MrcheckError('shot JSON has no "photo" path', path)
-    photo_path = Path(photo)
-    if not photo_path.is_absolute():
-        photo_path = path.resolve().parent / photo_path
-    return camera, photo_path
+    """The camera of a registered SHOT.json and the absolute path of its photo (:func:`mrcheck.core.shot.read_shot`)."""
+    shot = read_shot(path)
+    assert shot.photo is not None  # read_shot refuses a file without one
+    return shot.camera, shot.photo
 
 
 def read_photo(path, camera: Camera | None = None, grey: bool = False) -> np.ndarray:

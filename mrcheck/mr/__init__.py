@@ -6,8 +6,10 @@ Public API, by module:
 * ``calibration``: :func:`calibrate`, :func:`calibrate_command` (``mrcheck calibrate``);
 * ``markers``: :func:`load_marker_map`, :func:`detect_markers` (ArUco, AprilTag, ChArUco);
 * ``pose``: :func:`solve_pose` (robust PnP), :func:`expected_overlay_error`;
-* ``registration``: :func:`register_photo`, :func:`register_command` (``mrcheck register``),
-  :func:`photo_reference`, :func:`load_points`;
+* ``registration``: :func:`register_photo` (markers or points), :func:`load_points`;
+* ``edgeshot``: :func:`snap_photo` (the CAD snapped onto the photo's edges), :func:`view_camera`;
+* ``register``: :func:`register_command` (``mrcheck register``: a start, then optional edges),
+  :class:`RegistrationResult`;
 * ``lens``: :func:`distortion_map`, :func:`padded_camera`, :func:`distort_to_photo`;
 * ``overlay``: blending only: :func:`overlay_images`, :func:`blend`, :func:`study_sheet`;
 * ``shot``: :func:`render_for_photo`, :func:`cad_edges`, :func:`overlay_shot` (``mrcheck overlay``).

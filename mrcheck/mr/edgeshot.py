@@ -1,5 +1,6 @@
-"""``mrcheck register --initial ROUGH.json`` (and ``--markers/--points ... --refine``): a shot
-registered by snapping the CAD onto the photo's edges (:func:`mrcheck.mr.edges.refine_pose`).
+"""A shot registered by snapping the CAD onto the photo's edges (:func:`mrcheck.mr.edges.refine_pose`):
+the edge stage of ``mrcheck register --initial ROUGH.json`` (and ``--markers/--points ... --refine``,
+:mod:`mrcheck.mr.register`), and ``mrcheck scene camera``'s rough start.
 
 SHOT.json of an edge registration: the camera JSON (so ``render --camera`` and ``overlay`` take it
 as is) plus::
@@ -19,36 +20,33 @@ as is) plus::
         (median over the edge samples), "left_out": instance ids whose edges found no support,
     "times_s": seconds per stage, "warnings": [str, ...]
 
-A failed fit (diverged, too little support) is an error: nothing is written, exit status 1.
+These keys after ``photo`` are the :class:`mrcheck.core.shot.Shot`'s ``report``. A failed fit
+(diverged, too little support) is an error: nothing is written, exit status 1.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from mrcheck.core.camera import Camera
-from mrcheck.core.camerafiles import load_camera, read_camera, read_photo, write_camera
-from mrcheck.core.errors import MrcheckError
+from mrcheck.core.camerafiles import read_camera, read_photo, write_camera
 from mrcheck.core.inputs import check_input
 from mrcheck.core.output import check_not_inputs, check_output_path
+from mrcheck.core.shot import Shot
 from mrcheck.mr.edges import EdgeFit, EdgeFitError, EdgeOptions, refine_pose
-from mrcheck.mr.markers import load_marker_map
-from mrcheck.mr.registration import fit_camera, load_points, photo_reference, register_photo
+from mrcheck.mr.registration import fit_camera
 from mrcheck.scene.manifest import scene_files
 from mrcheck.scene.model import load_scene
 
 
-def edge_shot(fit: EdgeFit, photo, start: str, rough: Camera) -> dict:
-    """The SHOT.json dict of an edge fit (absolute ``photo`` path; see the module docstring)."""
+def edge_shot(fit: EdgeFit, photo, start: str, rough: Camera) -> Shot:
+    """The shot of an edge fit of the photo file ``photo`` (see the module docstring)."""
     u = fit.uncertainty
     camera = fit.camera
     corners = np.array(u.corner_px)
-    return {
-        **camera.to_dict(),
-        "photo": str(Path(photo).resolve()),
+    report = {
         "method": "edges",
         "start": start,
         "rms": round(fit.rms_px, 4),
@@ -63,6 +61,7 @@ def edge_shot(fit: EdgeFit, photo, start: str, rough: Camera) -> dict:
         "times_s": {k: round(v, 3) for k, v in fit.times_s.items()},
         "warnings": list(fit.warnings),
     }
+    return Shot(camera, Path(photo).resolve(), report)
 
 
 def _moved(rough: Camera, camera: Camera) -> float:
@@ -78,8 +77,8 @@ def _moved(rough: Camera, camera: Camera) -> float:
 
 def snap_photo(
     photo, camera: Camera, scene, rough: Camera, start: str = "initial", options: EdgeOptions | None = None
-) -> dict:
-    """The SHOT dict of ``photo`` (a path) registered by snapping ``scene`` onto its edges from
+) -> Shot:
+    """The shot of ``photo`` (a path) registered by snapping ``scene`` onto its edges from
     the pose of ``rough``; ``camera``: the photo's intrinsics (rescaled to the photo when it was
     resized). Raises :class:`~mrcheck.mr.edges.EdgeFitError` (naming the photo) on failure."""
     grey = read_photo(photo, grey=True)
@@ -90,106 +89,7 @@ def snap_photo(
     except EdgeFitError as exc:
         raise EdgeFitError(f"edge registration failed: {exc}", photo) from None
     shot = edge_shot(fit, photo, start, rough)
-    shot["warnings"] = warnings + shot["warnings"]
-    return shot
-
-
-@dataclass
-class EdgeRegistered:
-    """What ``mrcheck register`` with edges did: the shot dict written (``"photo"`` absolute) and where."""
-
-    shot: dict
-    output: Path
-
-    def summary(self) -> list[str]:
-        """The lines ``mrcheck register`` prints (:func:`summary_lines`)."""
-        return summary_lines(self.shot, self.output)
-
-
-def register_edges_command(
-    scene, photo, intrinsics, initial=None, markers=None, points=None, refine=True, max_error=None, output="SHOT.json"
-) -> EdgeRegistered:
-    """``mrcheck register`` with edges: the start from ``initial`` (a camera JSON with R and t),
-    or from ``markers`` / ``points`` (refined by the edges unless ``refine`` is False, which is
-    the plain marker registration); writes SHOT.json atomically (``photo`` relative to it) and
-    returns what it did (the shot's ``photo`` absolute); the CLI prints its ``summary()``."""
-    output = check_output_path(output, (".json",), "shot")
-    starts = [
-        name
-        for name, value in (("--initial", initial), ("--markers", markers), ("--points", points))
-        if value is not None
-    ]
-    if len(starts) != 1:
-        raise MrcheckError("give exactly one start: --initial ROUGH.json, --markers MAP.json or --points CORR.json")
-    check_not_inputs(
-        [output],
-        [
-            ("--photo", photo),
-            ("--intrinsics", intrinsics),
-            ("--initial", initial),
-            ("--markers", markers),
-            ("--points", points),
-            ("the scene", scene_files(scene)),
-        ],
-    )
-    check_input(scene, "scene", folder_ok=True)
-    camera = read_camera(intrinsics)
-    model = load_scene(scene, progress=True)
-    if initial is not None:
-        rough, start = load_camera(initial), "initial"
-        if refine is False:
-            raise MrcheckError("--no-refine needs --markers or --points (--initial is only a start for the edges)")
-    else:
-        start = "markers" if markers is not None else "points"
-        first = register_photo(
-            photo,
-            camera,
-            marker_map=load_marker_map(markers) if markers else None,
-            points=load_points(points) if points else None,
-            max_error=max_error,
-            scene_bounds=model.bounds(),
-            points_file=points,
-        )
-        rough = Camera.from_dict(first)
-    shot = snap_photo(photo, camera, model, rough, start)
-    extra = {k: v for k, v in shot.items() if k not in ("width", "height", "K", "dist", "R", "t")}
-    write_camera(output, Camera.from_dict(shot), {**extra, "photo": photo_reference(shot["photo"], output)})
-    return EdgeRegistered(shot, output)
-
-
-def _beyond(shot: dict) -> str:
-    value = shot.get("above_chance")
-    return "" if value is None else f" ({value:.2f} beyond chance)"
-
-
-def summary_lines(shot: dict, output) -> list[str]:
-    """The console report of an edge registration (what ``mrcheck register`` prints)."""
-    u = shot["uncertainty"]
-    x, y, z = shot["camera_position"]
-    corners = u["corner_px"]
-    px, py, pz = u["position_mm"]
-    tilt, pan, roll = u["angle_deg"]
-    times = shot["times_s"]
-    stages = ", ".join(f"{k} {v:.2f}" for k, v in times.items() if k != "total")
-    lines = [
-        f"registered {shot['photo']} from edges (start: {shot['start']}): edge rms {shot['rms']:.3f} px, "
-        f"support {shot['support']:.0%} of {shot['samples']} samples{_beyond(shot)}, "
-        f"moved {shot['moved_px']:.1f} px",
-        f"  camera at ({x:.3f}, {y:.3f}, {z:.3f}) m; 1-sigma: {px:.1f} / {py:.1f} / {pz:.1f} mm (x/y/z), "
-        f"tilt {tilt:.3f}, pan {pan:.3f}, roll {roll:.3f} deg",
-        "  overlay 1-sigma at the corners: "
-        + ", ".join(f"{k.replace('_', ' ')} {v:.2f} px" for k, v in corners.items())
-        + f" (at {u['depth_m']:.1f} m)",
-    ]
-    if shot["left_out"]:
-        lines.append(
-            f"  left out (no support in the photo): {', '.join(shot['left_out'][:12])}"
-            + (f" and {len(shot['left_out']) - 12} more" if len(shot["left_out"]) > 12 else "")
-        )
-    lines.append(f"  time {times['total']:.2f} s ({stages})")
-    lines += [f"  warning: {w}" for w in shot["warnings"]]
-    lines.append(f"wrote {output}")
-    return lines
+    return shot.with_report(warnings=warnings + shot.warnings)
 
 
 def view_camera(scene_path, view: str, intrinsics=None) -> Camera:
@@ -212,12 +112,4 @@ def scene_camera_command(scene, view, intrinsics=None, output="ROUGH.json") -> P
     return write_camera(output, camera, {"view": view})
 
 
-__all__ = [
-    "EdgeRegistered",
-    "edge_shot",
-    "snap_photo",
-    "register_edges_command",
-    "summary_lines",
-    "view_camera",
-    "scene_camera_command",
-]
+__all__ = ["edge_shot", "snap_photo", "view_camera", "scene_camera_command"]

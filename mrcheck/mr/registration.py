@@ -11,7 +11,7 @@ Inputs: a calibrated camera (intrinsics; its R, t are ignored) and either a mark
 Output, SHOT.json: the camera JSON (``width``, ``height``, ``K``, ``dist``, ``R``, ``t``, so
 ``mrcheck render --camera SHOT.json`` takes it as is) plus::
 
-    "photo": the photo's path relative to the SHOT.json's folder (:func:`photo_reference`),
+    "photo": the photo's path relative to the SHOT.json's folder (:func:`mrcheck.core.shot.photo_reference`),
     "method": "markers" | "points",
     "rms": reprojection RMS on the inliers (px),  "inlier_threshold_px": the RANSAC threshold,
     "used" / "rejected": [{"id": 7, "dictionary": ..., "error_px": worst corner}, {"board": 0, ...,
@@ -20,27 +20,24 @@ Output, SHOT.json: the camera JSON (``width``, ``height``, ``K``, ``dist``, ``R`
     "expected_overlay_error_px": predicted overlay error at the points' depth (1 sigma, RMS
         over the image, first order, from the pose covariance), "warnings": [str, ...]
 
-The pose itself is solved in :mod:`mrcheck.mr.pose`.
+The record is :class:`mrcheck.core.shot.Shot` (these keys after ``photo`` are its ``report``); the
+pose itself is solved in :mod:`mrcheck.mr.pose`; ``mrcheck register`` is :mod:`mrcheck.mr.register`.
 """
 
 from __future__ import annotations
 
-import json
 import math
-import os
-from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
 import numpy as np
 
 from mrcheck.core.camera import Camera
-from mrcheck.core.camerafiles import read_camera, read_photo
+from mrcheck.core.camerafiles import read_photo
 from mrcheck.core.errors import MrcheckError
-from mrcheck.core.inputs import check_input
 from mrcheck.core.jsonfile import read_json
-from mrcheck.core.output import check_not_inputs, check_output_path, write_text
-from mrcheck.mr.markers import Group, detect_markers, load_marker_map, parse_marker_map
+from mrcheck.core.shot import Shot
+from mrcheck.mr.markers import Group, detect_markers, parse_marker_map
 from mrcheck.mr.pose import (
     Pose,
     expected_overlay_error,
@@ -48,9 +45,6 @@ from mrcheck.mr.pose import (
     reprojection_errors,
     solve_pose,
 )
-from mrcheck.scene.manifest import scene_files
-from mrcheck.scene.meshes import MESH_SUFFIXES
-from mrcheck.scene.model import load_scene
 
 # corner noise assumed when the residuals cannot tell (exact synthetic data, a single marker):
 # subpixel ArUco/ChArUco corners are good to a few tenths of a pixel
@@ -59,7 +53,6 @@ _WARN_OVERLAY_PX = 3.0  # predicted overlay error worth a warning
 _WARN_DISTANCE_RATIO = 15.0  # mean distance / extent of the points
 _WARN_FRONTAL_DEG = 20.0  # coplanar points whose plane faces the camera within this angle
 _FAR_MARGIN_M = 5.0  # a camera this far outside the scene (or one scene extent) is suspicious
-_LIST_MAX = 12  # the summary line lists the markers or points used up to this many
 
 
 def fit_camera(camera: Camera, width: int, height: int, source=None):
@@ -148,8 +141,8 @@ def _geometry_warnings(camera: Camera, world, pose: Pose, single_marker: bool):
 # -- registration -----------------------------------------------------------------------------
 
 
-def _register(camera: Camera, groups: list, method: str, max_error, warnings: list) -> dict:
-    """Solve the pose over all groups jointly, reject bad markers or pairs, and build the shot dict."""
+def _register(camera: Camera, groups: list, method: str, max_error, warnings: list) -> Shot:
+    """Solve the pose over all groups jointly, reject bad markers or pairs: the shot (no photo file yet)."""
     pixels = np.concatenate([g.pixels for g in groups])
     world = np.concatenate([g.world for g in groups])
     owner = np.concatenate([np.full(len(g.world), i) for i, g in enumerate(groups)])
@@ -187,18 +180,17 @@ def _register(camera: Camera, groups: list, method: str, max_error, warnings: li
     warnings += _consensus_warnings(pose, owner, method)
     single = len(used) == 1 and method == "markers" and "id" in used[0]  # a board is many corners
     overlay, more = _geometry_warnings(posed, world[pose.inliers], pose, single)
-    shot = posed.to_dict()
-    shot.update(
-        method=method,
-        rms=round(pose.rms, 4),
-        inlier_threshold_px=round(pose.threshold, 3),
-        used=used,
-        rejected=rejected,
-        camera_position=posed.center.tolist(),
-        expected_overlay_error_px=round(overlay, 2),
-        warnings=warnings + more,
-    )
-    return shot
+    report = {
+        "method": method,
+        "rms": round(pose.rms, 4),
+        "inlier_threshold_px": round(pose.threshold, 3),
+        "used": used,
+        "rejected": rejected,
+        "camera_position": posed.center.tolist(),
+        "expected_overlay_error_px": round(overlay, 2),
+        "warnings": warnings + more,
+    }
+    return Shot(posed, None, report)
 
 
 def _consensus_warnings(pose: Pose, owner: np.ndarray, method: str) -> list:
@@ -222,8 +214,8 @@ def _consensus_warnings(pose: Pose, owner: np.ndarray, method: str) -> list:
     return out
 
 
-def register_markers(image: np.ndarray, camera: Camera, marker_map, max_error=None) -> dict:
-    """The shot dict (see the module docstring) of a photo with markers of ``marker_map``
+def register_markers(image: np.ndarray, camera: Camera, marker_map, max_error=None) -> Shot:
+    """The shot (see the module docstring; no photo file) of an image with markers of ``marker_map``
     (parsed JSON or :class:`~mrcheck.mr.markers.MarkerMap`); ``camera`` is rescaled to the photo."""
     marker_map = parse_marker_map(marker_map)
     camera, warnings = fit_camera(camera, image.shape[1], image.shape[0])
@@ -243,8 +235,7 @@ def register_markers(image: np.ndarray, camera: Camera, marker_map, max_error=No
             else ""
         )
         raise MrcheckError(f"{exc} (detected: {_detected(detection.groups)}{order})", exc.path) from None
-    shot.update(unknown_ids=detection.unknown, unseen_ids=detection.unseen)
-    return shot
+    return shot.with_report(unknown_ids=detection.unknown, unseen_ids=detection.unseen)
 
 
 def _detected(groups: list) -> str:
@@ -254,18 +245,18 @@ def _detected(groups: list) -> str:
     return ", ".join(boards + ([f"marker{'s' * (len(markers) > 1)} {', '.join(markers)}"] if markers else []))
 
 
-def register_points(camera: Camera, pairs, max_error=None) -> dict:
-    """The shot dict of manual correspondences: ``{"points": [...]}`` or its list of
+def register_points(camera: Camera, pairs, max_error=None) -> Shot:
+    """The shot (no photo file) of manual correspondences: ``{"points": [...]}`` or its list of
     ``{"pixel": [u, v], "world": [x, y, z]}`` (the camera must be at the photo's size)."""
     return _register(camera, _parse_points(pairs), "points", max_error, [])
 
 
 def register_photo(
     photo, camera: Camera, marker_map=None, points=None, max_error=None, scene_bounds=None, points_file=None
-) -> dict:
-    """The SHOT.json dict of the photo file ``photo``: registered from ``marker_map`` (a
+) -> Shot:
+    """The shot of the photo file ``photo``: registered from ``marker_map`` (a
     :class:`~mrcheck.mr.markers.MarkerMap` or its JSON) or from ``points`` (groups of
-    :func:`load_points`, or the correspondences JSON), with the absolute ``"photo"`` path.
+    :func:`load_points`, or the correspondences JSON).
     ``camera`` holds the intrinsics (rescaled to the photo when needed). ``scene_bounds``: the
     (2, 3) bounds of the scene the shot is for; a camera far outside them is a warning.
     ``points_file``: where ``points`` came from, named by errors about them (else the photo)."""
@@ -286,13 +277,9 @@ def register_photo(
         if exc.path is None:  # "no consistent pose", "collinear": of which photo or points file
             raise MrcheckError(str(exc), points_file if marker_map is None and points_file else photo) from None
         raise
-    if scene_bounds is not None and (warning := _far_from_scene(np.asarray(shot["camera_position"]), scene_bounds)):
-        shot["warnings"].append(warning)
-    return {
-        **{k: shot[k] for k in ("width", "height", "K", "dist", "R", "t") if k in shot},
-        "photo": str(Path(photo).resolve()),
-        **shot,
-    }
+    if scene_bounds is not None and (warning := _far_from_scene(shot.camera.center, scene_bounds)):
+        shot = shot.with_report(warnings=[*shot.report["warnings"], warning])
+    return shot.with_photo(photo)
 
 
 def _check_pixels_inside(groups: list, width: int, height: int) -> None:
@@ -304,65 +291,6 @@ def _check_pixels_inside(groups: list, width: int, height: int) -> None:
             raise MrcheckError(
                 f"point #{g.label['index']}: pixel ({u:g}, {v:g}) lies outside the {width}x{height} photo"
             )
-
-
-@dataclass(frozen=True)
-class Registered:
-    """What ``mrcheck register`` did: the shot dict written (its ``"photo"`` absolute) and where."""
-
-    shot: dict
-    output: Path
-
-    def summary(self) -> list[str]:
-        """The lines ``mrcheck register`` prints: what was used and rejected, the rms, the camera
-        position, the expected overlay error, each warning, and the file written."""
-        return summary_lines(self.shot, self.output)
-
-
-def register_command(
-    scene, photo, intrinsics, markers=None, points=None, max_error=None, output="SHOT.json"
-) -> Registered:
-    """``mrcheck register``: register ``photo`` and write SHOT.json atomically."""
-    output = check_output_path(output, (".json",), "shot")
-    if (markers is None) == (points is None):
-        raise MrcheckError("give either --markers MAP.json or --points CORR.json (exactly one)")
-    check_not_inputs(
-        [output],
-        [
-            ("--photo", photo),
-            ("--intrinsics", intrinsics),
-            ("--markers", markers),
-            ("--points", points),
-            ("the scene", scene_files(scene)),
-        ],
-    )
-    # fail before the work: the scene the overlay will need must load, and a quick check first
-    check_input(scene, "scene", folder_ok=True)
-    if Path(scene).is_file() and Path(scene).suffix.lower() not in (".toml", *MESH_SUFFIXES):
-        raise MrcheckError(f"not a scene (a .toml manifest or a mesh: {', '.join(MESH_SUFFIXES)})", scene)
-    camera = read_camera(intrinsics)  # its pose, if any, is ignored: the photo's is solved
-    marker_map = load_marker_map(markers) if markers is not None else None
-    pairs = load_points(points) if points is not None else None
-    bounds = load_scene(scene, progress=True).bounds()
-    shot = register_photo(
-        photo, camera, marker_map=marker_map, points=pairs, max_error=max_error, scene_bounds=bounds, points_file=points
-    )
-    write_text(output, json.dumps({**shot, "photo": photo_reference(shot["photo"], output)}, indent=2) + "\n")
-    return Registered(shot, output)
-
-
-def photo_reference(photo, shot_file) -> str:
-    """The ``"photo"`` value of a SHOT.json written to ``shot_file``: the photo's path relative
-    to the shot's folder (:func:`mrcheck.core.camerafiles.load_shot` resolves it against that folder), so that a
-    project folder of shots and photos, or an export folder with the photos beside it, can be
-    moved or copied to another machine as a whole; absolute when no relative path exists (a
-    photo on another Windows drive). Pure path arithmetic: an export's Dask worker computes it
-    for a folder on the client."""
-    photo, folder = os.path.realpath(photo), os.path.dirname(os.path.realpath(shot_file))
-    try:
-        return Path(os.path.relpath(photo, folder)).as_posix()
-    except ValueError:
-        return photo
 
 
 def _far_from_scene(position: np.ndarray, bounds: np.ndarray) -> str | None:
@@ -379,40 +307,10 @@ def _far_from_scene(position: np.ndarray, bounds: np.ndarray) -> str | None:
     )
 
 
-def summary_lines(shot: dict, output) -> list[str]:
-    """A registration's summary: markers or points used and rejected, rms, camera position,
-    expected overlay error, the shot's warnings, the file written."""
-
-    def names(entries, errors=False):
-        out = []
-        for e in entries:
-            name = str(e.get("id", e.get("index", f"board {e.get('board')}")))
-            out.append(f"{name} ({e['error_px']:.1f} px)" if errors and "error_px" in e else name)
-        return ", ".join(out) or "none"
-
-    x, y, z = shot["camera_position"]
-    which = "points (0-based positions in the points file)" if shot["method"] == "points" else "markers"
-    used = shot["used"]
-    # 54 chessboard corners are a count, not a list (the rejected are always listed)
-    total = f" of {len(used) + len(shot['rejected'])}" if shot["method"] == "points" else ""  # a board can be in both
-    used_text = names(used) if len(used) <= _LIST_MAX else f"{len(used)}{total}"
-    return [
-        f"registered {shot['photo']} from {which}: used {used_text}; rejected {names(shot['rejected'], errors=True)}",
-        f"  rms {shot['rms']:.3f} px, camera at ({x:.3f}, {y:.3f}, {z:.3f}) m, "
-        f"expected overlay error ~{shot['expected_overlay_error_px']:.1f} px",
-        *(f"  warning: {warning}" for warning in shot["warnings"]),
-        f"wrote {output}",
-    ]
-
-
 __all__ = [
-    "register_command",
     "register_photo",
-    "photo_reference",
     "register_markers",
     "register_points",
     "fit_camera",
     "load_points",
-    "summary_lines",
-    "Registered",
 ]

@@ -39,7 +39,7 @@ marker file) is a one-line ``error: JOB.toml: ...`` before anything is written.
 Per shot, under ``OUTDIR/shots/NAME/`` (``{x:g}`` numbers: ``i1``, ``i0.5``, ``a0``):
 
 * ``SHOT.json`` -- the registered shot (a copy when the job gives one), its photo path relative
-  to this folder (:func:`mrcheck.mr.registration.photo_reference`);
+  to this folder (:func:`mrcheck.core.shot.photo_reference`);
 * ``render_phong.png`` and ``render_MODE_iI.png`` for every AO mode and every intensity: the CAD
   alone in the photo's geometry (lens distortion applied, the photo's size);
 * ``overlay_MODE_aA.png`` for phong and ``overlay_MODE_iI_aA.png`` for every AO mode, every alpha,

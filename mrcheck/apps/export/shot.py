@@ -7,7 +7,6 @@ export does.
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
@@ -17,11 +16,11 @@ from mrcheck.apps.export.folders import store_shot
 from mrcheck.apps.export.job import SHEET_ALPHA, JobSettings, ShotInputs
 from mrcheck.apps.export.tasks import ShotRecord, ShotTask, plan_outputs
 from mrcheck.apps.names import SHEET, SHOT_FILE, overlay_name, render_name
-from mrcheck.core.camera import Camera
-from mrcheck.core.camerafiles import load_shot, read_photo
+from mrcheck.core.camerafiles import read_photo
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.images import encode_image
-from mrcheck.core.jsonfile import is_number, read_json
+from mrcheck.core.jsonfile import is_number
+from mrcheck.core.shot import Shot, read_shot, shot_text
 from mrcheck.mr.lens import distortion_map
 from mrcheck.mr.overlay import STUDY_ORDER, overlay_images, study_sheet
 from mrcheck.mr.shot import render_for_photo
@@ -56,33 +55,33 @@ class ShotFailed(MrcheckError):
         self.registration = registration
 
 
-def registration_summary(shot: dict) -> dict:
+def registration_summary(shot: Shot) -> dict:
     """What the record and the report say of a shot's registration."""
+    report = shot.report
     names = lambda entries: [e.get("id", e.get("index", f"board {e.get('board')}")) for e in entries or []]  # noqa: E731
     return {
-        "method": shot.get("method", "given"),
-        "rms_px": shot.get("rms"),
-        "expected_overlay_error_px": shot.get("expected_overlay_error_px"),
-        "used": names(shot.get("used")),
-        "rejected": names(shot.get("rejected")),
-        "warnings": list(shot.get("warnings") or []),
+        "method": report.get("method", "given"),
+        "rms_px": report.get("rms"),
+        "expected_overlay_error_px": report.get("expected_overlay_error_px"),
+        "used": names(report.get("used")),
+        "rejected": names(report.get("rejected")),
+        "warnings": list(report.get("warnings") or []),
     }
 
 
-def register_shot(inputs: ShotInputs, max_error, scene_bounds) -> tuple[dict, Camera, Path]:
-    """The shot dict, its camera and photo path: given, or registered from markers / points
-    (with register's warnings, a camera far outside ``scene_bounds`` among them). A registration
-    error above ``max_error`` (px; None: no limit) is a :class:`ShotFailed`."""
+def register_shot(inputs: ShotInputs, max_error, scene_bounds) -> Shot:
+    """The shot: given, or registered from markers / points (with register's warnings, a
+    camera far outside ``scene_bounds`` among them). A registration error above ``max_error``
+    (px; None: no limit) is a :class:`ShotFailed`."""
     from mrcheck.core.camerafiles import read_camera
     from mrcheck.mr.markers import load_marker_map
     from mrcheck.mr.registration import load_points, register_photo
 
     if inputs.shot is not None:
-        camera, photo = load_shot(inputs.shot)
-        shot = read_json(inputs.shot, "shot")
-        shot["photo"] = str(photo)
-        if not is_number(shot.get("rms", 0.0)):  # unknown, as the review shows it: NaN is no JSON for the outputs
-            shot["rms"] = None
+        shot = read_shot(inputs.shot)
+        # an rms that is no number is unknown, as the review shows it: NaN is no JSON for the outputs
+        if not is_number(shot.report.get("rms", 0.0)):
+            shot = shot.with_report(rms=None)
     else:
         shot = register_photo(
             Path(inputs.photo),
@@ -92,19 +91,19 @@ def register_shot(inputs: ShotInputs, max_error, scene_bounds) -> tuple[dict, Ca
             scene_bounds=scene_bounds,
             points_file=inputs.points,
         )
-        camera, photo = Camera.from_dict(shot), Path(shot["photo"])
-    rms = shot.get("rms")
+    rms = shot.report.get("rms")
     if max_error is not None and is_number(rms) and rms > max_error:
         raise ShotFailed(
             f"registration error {rms:.3f} px is above the job's limit of {max_error:g} px", registration_summary(shot)
         )
-    return shot, camera, photo
+    return shot
 
 
 def _fitted_photo(task: ShotTask, renderer):
     """The registered shot, its camera and photo at the job's width, the registration summary."""
     settings = task.settings
-    shot, camera, photo_path = register_shot(task.inputs, settings.max_error, renderer.scene.bounds())
+    shot = register_shot(task.inputs, settings.max_error, renderer.scene.bounds())
+    camera, photo_path = shot.camera, shot.photo
     registration = registration_summary(shot)
     photo = read_photo(photo_path, camera)
     if settings.width and settings.width > camera.width:
@@ -167,8 +166,6 @@ def _images(renderer, camera, photo, settings: JobSettings, timings: dict) -> di
 
 def _shot_files(task: ShotTask, timings: dict, scene=None) -> tuple[dict, dict]:
     """Every output of one shot as ``{file name: bytes}`` and what the record says of it."""
-    from mrcheck.mr.registration import photo_reference
-
     t = time.perf_counter()
     renderer = _renderer(task.settings.scene, scene, task.scene_stamp)
     timings["scene"] = time.perf_counter() - t
@@ -178,8 +175,7 @@ def _shot_files(task: ShotTask, timings: dict, scene=None) -> tuple[dict, dict]:
     images = _images(renderer, camera, photo, task.settings, timings)
     t = time.perf_counter()
     files = {name: encode_image(name, image) for name, image in images.items()}
-    shot_file = task.folder / SHOT_FILE
-    files[SHOT_FILE] = (json.dumps({**shot, "photo": photo_reference(photo_path, shot_file)}, indent=2) + "\n").encode()
+    files[SHOT_FILE] = shot_text(shot, task.folder / SHOT_FILE).encode()
     timings["encode"] = time.perf_counter() - t
     return files, {"registration": registration, "size": [camera.width, camera.height], "photo": str(photo_path)}
 

@@ -24,14 +24,14 @@ from mrcheck.apps.names import shot_name
 from mrcheck.apps.review.clicks import ClickSolve, cad_points, solve_clicks
 from mrcheck.apps.review.source import ADDED_SHOTS, Shot
 from mrcheck.core.camera import Camera
-from mrcheck.core.camerafiles import CAMERA_SUFFIXES, read_camera, read_photo, write_camera
+from mrcheck.core.camerafiles import CAMERA_SUFFIXES, read_camera, read_photo
 from mrcheck.core.errors import MrcheckError, display
 from mrcheck.core.images import decode_image, encode_image
 from mrcheck.core.output import IMAGE_SUFFIXES
+from mrcheck.core.shot import write_shot
 from mrcheck.mr.edges import EdgeOptions, refine_pose, scene_edges
 from mrcheck.mr.lens import distort_to_photo, distortion_map, padded_camera
 from mrcheck.mr.overlay import DEFAULT_EDGE_COLOR, draw_edges, overlay_images
-from mrcheck.mr.registration import photo_reference
 from mrcheck.mr.shot import cad_edges
 from mrcheck.render.settings import RenderSettings
 
@@ -266,14 +266,13 @@ class AddPhoto:
                 copied = photo = _copy_new(solved.photo, folder, solved.photo_name)
             try:
                 name, shot_file = _free_shot(folder, shot_name(Path(photo).stem), source.shots)
-                shot = dict(solved.solve.shot)
-                extra = {k: v for k, v in shot.items() if k not in ("width", "height", "K", "dist", "R", "t")}
-                write_camera(shot_file, solved.solve.camera, {**extra, "photo": photo_reference(photo, shot_file)})
+                shot = solved.solve.shot.with_photo(photo)
+                write_shot(shot_file, shot)
             except BaseException:
                 if copied is not None:
                     copied.unlink(missing_ok=True)
                 raise
-            added = Shot(name, solved.solve.camera, Path(photo).resolve(), float(shot["rms"]))
+            added = Shot(name, shot.camera, shot.photo, shot.rms)
             source.shots[name] = added
             source.files.append(shot_file)
             self._solved.pop(ident, None)

@@ -23,6 +23,7 @@ import numpy as np
 
 from mrcheck.core.camera import Camera
 from mrcheck.core.errors import MrcheckError
+from mrcheck.core.shot import Shot
 from mrcheck.mr.edgeshot import edge_shot
 from mrcheck.mr.pose import reprojection_errors
 from mrcheck.mr.registration import fit_camera, register_points
@@ -42,13 +43,13 @@ class CadPoint:
 class ClickSolve:
     """The result of :func:`solve_clicks`.
 
-    ``shot``: the SHOT.json dict (as ``mrcheck register`` writes it, ``"photo"`` absolute, plus
-    ``"clicks"``); ``camera``: the pose saved; ``residuals_px``: per pair, under that pose;
+    ``shot``: the shot (as ``mrcheck register`` makes it, its report with ``"clicks"`` too);
+    ``camera``: the pose saved (the shot's); ``residuals_px``: per pair, under that pose;
     ``click_residuals_px``: per pair, under the pose of the clicks alone; ``snapped``: whether the
     edge snap was kept; ``snap_note``: what the snap did, in a sentence; ``warnings``: the
     shot's; ``rejected``: the pairs (0-based) the pose solver found inconsistent and left out."""
 
-    shot: dict
+    shot: Shot
     camera: Camera
     residuals_px: list
     click_residuals_px: list
@@ -112,20 +113,18 @@ def solve_clicks(photo, shape: tuple, intrinsics: Camera, photo_pixels, cad: lis
     world = np.asarray([c.world for c in cad], np.float64)
     pairs = [{"pixel": p.tolist(), "world": w.tolist()} for p, w in zip(pixels, world)]
     clicked = register_points(camera, pairs)
-    rough = Camera.from_dict(clicked)
+    rough = clicked.camera
     before = _errors(rough, pixels, world)
-    shot, final, note = dict(clicked), rough, "edge snap not asked for: the pose of the clicks"
+    shot, final, note = clicked, rough, "edge snap not asked for: the pose of the clicks"
     if snap is not None:
         shot, final, note = _snapped(snap, rough, clicked, photo, pixels, world, before)
     after = _errors(final, pixels, world)
-    rejected = {r["index"] for r in clicked["rejected"]}
+    rejected = {r["index"] for r in clicked.report["rejected"]}
     # the clicks' own warnings (a rejected mis-click, only 4 pairs) stay when the edges' are added
-    own = clicked["warnings"] + (list(shot["warnings"]) if shot is not clicked else [])
-    shot = {
-        **shot,
-        "photo": str(photo),
-        "warnings": warnings + own + ([note] if final is rough else []),
-        "clicks": [
+    own = clicked.warnings + (shot.warnings if shot is not clicked else [])
+    shot = shot.with_photo(photo).with_report(
+        warnings=warnings + own + ([note] if final is rough else []),
+        clicks=[
             {
                 "pixel": p.tolist(),
                 "world": w.tolist(),
@@ -136,7 +135,7 @@ def solve_clicks(photo, shape: tuple, intrinsics: Camera, photo_pixels, cad: lis
             }
             for i, (p, w, c, e, b) in enumerate(zip(pixels, world, cad, after, before))
         ],
-    }
+    )
     return ClickSolve(
         shot,
         final,
@@ -144,24 +143,24 @@ def solve_clicks(photo, shape: tuple, intrinsics: Camera, photo_pixels, cad: lis
         [round(float(e), 3) for e in before],
         final is not rough,
         note,
-        shot["warnings"],
+        shot.report["warnings"],
         sorted(rejected),
     )
 
 
-def _snapped(snap, rough: Camera, clicked: dict, photo, pixels, world, before) -> tuple[dict, Camera, str]:
-    """(shot dict, camera, note) of the edge snap from ``rough``, or of the clicks when it fails
+def _snapped(snap, rough: Camera, clicked: Shot, photo, pixels, world, before) -> tuple[Shot, Camera, str]:
+    """(shot, camera, note) of the edge snap from ``rough``, or of the clicks when it fails
     or moves the view away from the clicks (see the module docstring)."""
     try:
         fit = snap(rough)
     except MrcheckError as exc:  # an EdgeFitError (too little support, diverged) or any other input problem
         return clicked, rough, f"edge snap failed ({exc.problem}): the pose of the clicks is kept"
     used = np.ones(len(pixels), bool)
-    used[[r["index"] for r in clicked["rejected"]]] = False  # a mis-click the solver left out is no measure
+    used[[r["index"] for r in clicked.report["rejected"]]] = False  # a mis-click the solver left out is no measure
     rms_before = float(np.sqrt(np.mean(before[used] ** 2)))
     after = _errors(fit.camera, pixels, world)
     rms_after = float(np.sqrt(np.mean(after[used] ** 2)))
-    if rms_after > rms_before + clicked["inlier_threshold_px"]:
+    if rms_after > rms_before + clicked.report["inlier_threshold_px"]:
         return (
             clicked,
             rough,
@@ -175,7 +174,7 @@ def _snapped(snap, rough: Camera, clicked: dict, photo, pixels, world, before) -
         f"snapped onto the photo's edges: edge RMS {fit.rms_px:.2f} px, support {fit.support:.0%}; "
         f"click RMS {rms_before:.2f} -> {rms_after:.2f} px"
     )
-    return {**shot, "click_rms": round(rms_before, 4)}, fit.camera, note
+    return shot.with_report(click_rms=round(rms_before, 4)), fit.camera, note
 
 
 __all__ = ["CadPoint", "ClickSolve", "cad_points", "check_pairs", "solve_clicks", "MIN_PAIRS"]

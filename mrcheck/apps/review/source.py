@@ -12,10 +12,10 @@ from pathlib import Path
 
 from mrcheck.apps.names import MANIFEST, REPORT, SHOT_FILE, shot_folder, shot_name
 from mrcheck.core.camera import Camera
-from mrcheck.core.camerafiles import load_shot, read_photo
+from mrcheck.core.camerafiles import read_photo
 from mrcheck.core.errors import MrcheckError, MrcheckWarning, display
 from mrcheck.core.inputs import check_input
-from mrcheck.core.jsonfile import is_number, read_json
+from mrcheck.core.shot import read_shot
 from mrcheck.scene.manifest import files_stamp, read_manifest, scene_files
 from mrcheck.scene.model import MANIFEST_KEYS, load_scene
 
@@ -86,16 +86,9 @@ class Source:
         return display(Path(os.path.relpath(Path(self.origin).resolve(), Path(db_path).resolve().parent)).as_posix())
 
 
-def _rms(shot: dict) -> float | None:
-    """The registration error of a shot dict, None when absent or not a finite number (a NaN
-    would make the shot list invalid JSON)."""
-    rms = shot.get("rms")
-    return float(rms) if is_number(rms) else None
-
-
 def _shot(name, path) -> Shot:
-    camera, photo = load_shot(path)
-    return Shot(name, camera, photo, _rms(read_json(path, "shot")))
+    registered = read_shot(path)
+    return Shot(name, registered.camera, registered.photo, registered.rms)
 
 
 def _checked_name(name: str, path) -> str:
@@ -163,14 +156,14 @@ def from_job(job_path: Path) -> Source:
     for entry in job.shots:
         files += input_files(entry.inputs)
         try:
-            data, camera, photo = register_shot(entry.inputs, None, bounds)
+            registered = register_shot(entry.inputs, None, bounds)
         except MrcheckError as exc:
             _warn(f"shot {entry.name} skipped: {exc}")
             continue
-        for warning in data["warnings"] if entry.inputs.shot is None else ():  # registered here, as export would
+        for warning in registered.warnings if entry.inputs.shot is None else ():  # registered here, as export would
             _warn(f"shot {entry.name}: {warning}")
         name = _checked_name(entry.name, job_path)
-        shots[name] = Shot(name, camera, Path(photo), _rms(data))
+        shots[name] = Shot(name, registered.camera, registered.photo, registered.rms)
     if not shots:
         raise MrcheckError("no usable shots to review: every shot was skipped (see the warnings above)", job_path)
     return Source(

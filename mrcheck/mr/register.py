@@ -1,0 +1,191 @@
+"""``mrcheck register``: one pipeline, a start then an optional edge refinement, and its result.
+
+The start is one of markers (:func:`mrcheck.mr.registration.register_photo` with a marker map),
+clicked points (the same with correspondences) or a rough pose (``--initial``, any camera JSON
+with R and t). The edge stage (:func:`mrcheck.mr.edgeshot.snap_photo`) snaps the start's pose onto
+the photo's edges: always after ``--initial``, after markers or points with ``--refine``. The
+shot is written once, by :func:`mrcheck.core.shot.write_shot`; what the command did is a
+:class:`RegistrationResult` (the shot and where it went), whose :meth:`~RegistrationResult.summary`
+the CLI prints.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from mrcheck.core.camera import Camera
+from mrcheck.core.camerafiles import load_camera, read_camera
+from mrcheck.core.errors import MrcheckError
+from mrcheck.core.inputs import check_input
+from mrcheck.core.output import check_not_inputs, check_output_path
+from mrcheck.core.shot import Shot, write_shot
+from mrcheck.mr.edgeshot import snap_photo
+from mrcheck.mr.markers import load_marker_map
+from mrcheck.mr.registration import load_points, register_photo
+from mrcheck.scene.manifest import scene_files
+from mrcheck.scene.meshes import MESH_SUFFIXES
+from mrcheck.scene.model import load_scene
+
+PathArg = str | os.PathLike[str]  # a file the command is given
+_LIST_MAX = 12  # the summary line lists the markers or points used up to this many
+_LEFT_OUT_MAX = 12  # ... and the instances the edges left out
+
+
+@dataclass(frozen=True)
+class RegistrationResult:
+    """What ``mrcheck register`` did: the shot written (its ``photo`` absolute) and where."""
+
+    shot: Shot
+    output: Path
+
+    def summary(self) -> list[str]:
+        """The lines ``mrcheck register`` prints (:func:`summary_lines`)."""
+        return summary_lines(self.shot, self.output)
+
+
+def _start_option(initial: PathArg | None, markers: PathArg | None, points: PathArg | None, edges: bool) -> None:
+    """Exactly one start; ``--no-refine`` only after markers or points."""
+    given = [value for value in (initial, markers, points) if value is not None]
+    if len(given) != 1:
+        raise MrcheckError(
+            "give exactly one start: --initial ROUGH.json, --markers MAP.json or --points CORR.json"
+            if edges
+            else "give either --markers MAP.json or --points CORR.json (exactly one)"
+        )
+
+
+def _check_inputs(
+    scene: PathArg,
+    photo: PathArg,
+    intrinsics: PathArg,
+    initial: PathArg | None,
+    markers: PathArg | None,
+    points: PathArg | None,
+    output: Path,
+) -> None:
+    """Before the work: no input is the output, and the scene the overlay will need is one."""
+    check_not_inputs(
+        [output],
+        [
+            ("--photo", photo),
+            ("--intrinsics", intrinsics),
+            ("--initial", initial),
+            ("--markers", markers),
+            ("--points", points),
+            ("the scene", scene_files(scene)),
+        ],
+    )
+    check_input(scene, "scene", folder_ok=True)
+    if Path(scene).is_file() and Path(scene).suffix.lower() not in (".toml", *MESH_SUFFIXES):
+        raise MrcheckError(f"not a scene (a .toml manifest or a mesh: {', '.join(MESH_SUFFIXES)})", scene)
+
+
+def register_command(
+    scene: PathArg,
+    photo: PathArg,
+    intrinsics: PathArg,
+    markers: PathArg | None = None,
+    points: PathArg | None = None,
+    initial: PathArg | None = None,
+    refine: bool | None = None,
+    max_error: float | None = None,
+    output: PathArg = "SHOT.json",
+) -> RegistrationResult:
+    """``mrcheck register``: the start (``markers`` | ``points`` | ``initial``), the edge stage
+    when ``initial`` is given or ``refine`` is true, then SHOT.json written atomically (its
+    ``photo`` relative to it). Every input is read before the scene is loaded."""
+    output = check_output_path(output, (".json",), "shot")
+    edges = initial is not None or bool(refine)
+    _start_option(initial, markers, points, edges)
+    if initial is not None and refine is False:
+        raise MrcheckError("--no-refine needs --markers or --points (--initial is only a start for the edges)")
+    _check_inputs(scene, photo, intrinsics, initial, markers, points, output)
+    camera = read_camera(intrinsics)  # its pose, if any, is ignored: the photo's is solved
+    marker_map = load_marker_map(markers) if markers is not None else None
+    pairs = load_points(points) if points is not None else None
+    rough: Camera | None = load_camera(initial) if initial is not None else None
+    model = load_scene(scene, progress=True)
+    if rough is None:
+        first = register_photo(
+            photo,
+            camera,
+            marker_map=marker_map,
+            points=pairs,
+            max_error=max_error,
+            scene_bounds=model.bounds(),
+            points_file=points,
+        )
+        shot, rough = first, first.camera
+    if edges:
+        start = "initial" if initial is not None else "markers" if markers is not None else "points"
+        shot = snap_photo(photo, camera, model, rough, start)
+    write_shot(output, shot)
+    return RegistrationResult(shot, output)
+
+
+def summary_lines(shot: Shot, output: PathArg) -> list[str]:
+    """A registration's console report: how the pose was found and how well, the camera
+    position, each warning, the file written."""
+    body = _edge_lines(shot) if shot.method == "edges" else _point_lines(shot)
+    return [*body, *(f"  warning: {warning}" for warning in shot.warnings), f"wrote {output}"]
+
+
+def _names(entries: list[dict[str, Any]], errors: bool = False) -> str:
+    """Markers, boards or points by id, index or board number; with ``errors``, each one's error."""
+    out = []
+    for e in entries:
+        name = str(e.get("id", e.get("index", f"board {e.get('board')}")))
+        out.append(f"{name} ({e['error_px']:.1f} px)" if errors and "error_px" in e else name)
+    return ", ".join(out) or "none"
+
+
+def _point_lines(shot: Shot) -> list[str]:
+    """Markers or points: those used and rejected, rms, camera position, expected overlay error."""
+    r = shot.report
+    x, y, z = r["camera_position"]
+    which = "points (0-based positions in the points file)" if r["method"] == "points" else "markers"
+    used = r["used"]
+    # 54 chessboard corners are a count, not a list (the rejected are always listed)
+    total = f" of {len(used) + len(r['rejected'])}" if r["method"] == "points" else ""  # a board can be in both
+    used_text = _names(used) if len(used) <= _LIST_MAX else f"{len(used)}{total}"
+    return [
+        f"registered {shot.photo} from {which}: used {used_text}; rejected {_names(r['rejected'], errors=True)}",
+        f"  rms {r['rms']:.3f} px, camera at ({x:.3f}, {y:.3f}, {z:.3f}) m, "
+        f"expected overlay error ~{r['expected_overlay_error_px']:.1f} px",
+    ]
+
+
+def _edge_lines(shot: Shot) -> list[str]:
+    """Edges: rms, support, how far the snap moved, the pose's 1-sigma, the instances left out, the times."""
+    r = shot.report
+    u = r["uncertainty"]
+    x, y, z = r["camera_position"]
+    px, py, pz = u["position_mm"]
+    tilt, pan, roll = u["angle_deg"]
+    times = r["times_s"]
+    stages = ", ".join(f"{k} {v:.2f}" for k, v in times.items() if k != "total")
+    beyond = "" if r.get("above_chance") is None else f" ({r['above_chance']:.2f} beyond chance)"
+    lines = [
+        f"registered {shot.photo} from edges (start: {r['start']}): edge rms {r['rms']:.3f} px, "
+        f"support {r['support']:.0%} of {r['samples']} samples{beyond}, moved {r['moved_px']:.1f} px",
+        f"  camera at ({x:.3f}, {y:.3f}, {z:.3f}) m; 1-sigma: {px:.1f} / {py:.1f} / {pz:.1f} mm (x/y/z), "
+        f"tilt {tilt:.3f}, pan {pan:.3f}, roll {roll:.3f} deg",
+        "  overlay 1-sigma at the corners: "
+        + ", ".join(f"{k.replace('_', ' ')} {v:.2f} px" for k, v in u["corner_px"].items())
+        + f" (at {u['depth_m']:.1f} m)",
+    ]
+    left_out = r["left_out"]
+    if left_out:
+        more = len(left_out) - _LEFT_OUT_MAX
+        lines.append(
+            f"  left out (no support in the photo): {', '.join(left_out[:_LEFT_OUT_MAX])}"
+            + (f" and {more} more" if more > 0 else "")
+        )
+    lines.append(f"  time {times['total']:.2f} s ({stages})")
+    return lines
+
+
+__all__ = ["RegistrationResult", "register_command", "summary_lines"]
