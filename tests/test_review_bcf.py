@@ -24,6 +24,7 @@ from mrcheck.scene.model import load_scene  # noqa: E402
 from .mr_helpers import _camera, _photo  # noqa: E402
 from .test_bcf import validate_bcfzip  # noqa: E402
 
+OCTETS = {"Content-Type": "application/octet-stream"}  # what the page sends
 EYE, TARGET = np.array([-11.4, -6.2, 1.7]), np.array([-5.0, -4.2, 0.9])
 
 
@@ -85,7 +86,7 @@ def test_markers_out_as_bcf_and_back(client):
         t.guid for t in topics.values()
     }
 
-    got = client.post("/api/bcf/import", content=_changed(r.content))
+    got = client.post("/api/bcf/import", content=_changed(r.content), headers=OCTETS)
     assert got.status_code == 200 and got.json() == {"matched": 2, "unknown": 0}
     by_id = {m["id"]: m for m in client.get("/api/markers").json()}
     assert by_id[a["id"]]["status"] == "Closed" and by_id[a["id"]]["severity"] == 3
@@ -97,5 +98,5 @@ def test_markers_out_as_bcf_and_back(client):
 
 
 def test_a_bad_upload_is_a_400(client):
-    r = client.post("/api/bcf/import", content=b"not a zip")
+    r = client.post("/api/bcf/import", content=b"not a zip", headers=OCTETS)
     assert r.status_code == 400 and "not a BCF file" in r.json()["error"]

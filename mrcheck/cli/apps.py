@@ -110,6 +110,15 @@ class _ExportBar:
             self.bar.close()
 
 
+def _pixels(value: str) -> int:
+    from mrcheck.apps.review.server import parse_pixels
+
+    try:
+        return parse_pixels(value)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc)) from None
+
+
 @cli.command()
 @click.argument("target", metavar="(JOB.toml | OUTDIR | SCENE)")
 @click.option("--shots", "shots_dir", metavar="DIR", help="With SCENE: a folder of registered SHOT.json files.")
@@ -153,12 +162,20 @@ class _ExportBar:
     help='Refuse photos and camera files uploaded by "Add photo" larger than this (413).',
 )
 @click.option(
+    "--max-pixels",
+    default="64MP",
+    show_default=True,
+    metavar="PIXELS",
+    callback=lambda ctx, param, value: _pixels(value),
+    help="Refuse photos of more pixels than this, from their header before decoding (e.g. 100MP).",
+)
+@click.option(
     "--antialias/--no-antialias",
     default=True,
     show_default=True,
     help="Anti-aliased CAD renders (4x MSAA; --no-antialias: about 1.3-1.5x faster).",
 )
-def review(target, shots_dir, host, port, token, db, suggestions, max_body, max_upload, antialias):
+def review(target, shots_dir, host, port, token, db, suggestions, max_body, max_upload, max_pixels, antialias):
     """Review shots in the browser and mark discrepancies.
 
     Photo and CAD blended, modes, zoom, discrepancy markers with a category, severity and note,
@@ -183,6 +200,7 @@ def review(target, shots_dir, host, port, token, db, suggestions, max_body, max_
             max_body=max_body,
             max_upload=max_upload,
             antialias=antialias,
+            max_pixels=max_pixels,
         )
         try:
             for line in server.messages():

@@ -129,10 +129,11 @@ def load_shot(path) -> tuple[Camera, Path]:
     return shot.camera, shot.photo
 
 
-def read_photo(path, camera: Camera | None = None, grey: bool = False) -> np.ndarray:
+def read_photo(path, camera: Camera | None = None, grey: bool = False, max_pixels: int | None = None) -> np.ndarray:
     """The photo of a shot: (H, W, 3) uint8 RGB, or (H, W) uint8 with ``grey``, or a one-line
-    error. Given the shot's ``camera``, a photo of another size is an error too."""
-    image = read_image(path, "photo", grey=grey)
+    error. Given the shot's ``camera``, a photo of another size is an error too; ``max_pixels``:
+    a photo of more pixels is refused before it is decoded (:func:`mrcheck.core.images.check_pixels`)."""
+    image = read_image(path, "photo", grey=grey, max_pixels=max_pixels)
     h, w = image.shape[:2]
     if camera is not None and (w, h) != (camera.width, camera.height):
         raise MrcheckError(f"photo is {w}x{h} but the shot was registered at {camera.width}x{camera.height}", path)

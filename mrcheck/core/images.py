@@ -23,6 +23,7 @@ import cv2
 import numpy as np
 
 from mrcheck.core.errors import MrcheckError
+from mrcheck.core.imagesize import READABLE, HeaderError, image_size
 from mrcheck.core.inputs import read_input
 from mrcheck.core.quiet import native_output
 
@@ -94,12 +95,42 @@ def _decode_problem(data: bytes, log: list) -> str:
     return f"corrupt or truncated {kind}" + (f" ({' '.join(reason.split())[:160]})" if reason else "")
 
 
-def decode_image(data: bytes, source=None, what: str = "image", grey: bool = False) -> np.ndarray:
+def check_pixels(data: bytes, max_pixels: int, source=None, what: str = "image") -> tuple[int, int]:
+    """(width, height) of the encoded image ``data`` from its header (:mod:`.imagesize`), or
+    MrcheckError when it has more than ``max_pixels`` pixels (``--max-pixels``), when its format's
+    header is not read there, or when that header is broken: nothing is decoded."""
+    kind = image_format(data)
+    try:
+        size = image_size(data, kind)
+    except HeaderError as exc:
+        raise MrcheckError(f"cannot read {what}: {kind} header broken ({exc})", source) from None
+    if size is None:  # unknown here: only its decoding would tell its size
+        problem = (
+            "a text file, not an image"
+            if kind is None and _is_text(data)
+            else f"{f'a {kind} image' if kind else 'not an image'}: only {READABLE} are taken, "
+            "whose size is checked before decoding"
+        )
+        raise MrcheckError(f"cannot read {what}: {problem}", source)
+    w, h = size
+    if w * h > max_pixels:
+        raise MrcheckError(
+            f"{what} is {w}x{h} px ({w * h / 1e6:.1f} MP), over the limit of {max_pixels / 1e6:g} MP (--max-pixels)",
+            source,
+        )
+    return w, h
+
+
+def decode_image(
+    data: bytes, source=None, what: str = "image", grey: bool = False, max_pixels: int | None = None
+) -> np.ndarray:
     """(H, W, 3) uint8 RGB (``grey``: (H, W) uint8) of the encoded image ``data`` (EXIF
     orientation applied, as ``cv2.imread`` does), or MrcheckError "cannot read {what}: ..."
-    naming ``source``."""
+    naming ``source``. With ``max_pixels``, the header is checked first (:func:`check_pixels`)."""
     if not data:
         raise MrcheckError(f"{what} is empty (0 bytes)", source)
+    if max_pixels is not None:
+        check_pixels(data, max_pixels, source, what)
     flags = cv2.IMREAD_GRAYSCALE if grey else cv2.IMREAD_COLOR
     with native_output() as log:
         try:
@@ -114,10 +145,11 @@ def decode_image(data: bytes, source=None, what: str = "image", grey: bool = Fal
     return image if grey else cv2.cvtColor(image, cv2.COLOR_BGR2RGB)
 
 
-def read_image(path, what: str = "image", grey: bool = False) -> np.ndarray:
+def read_image(path, what: str = "image", grey: bool = False, max_pixels: int | None = None) -> np.ndarray:
     """(H, W, 3) uint8 RGB (``grey``: (H, W) uint8) of an image file; every problem with the
-    path (:func:`mrcheck.core.inputs.read_input`) or the content is MrcheckError naming ``path``."""
-    return decode_image(read_input(path, what), path, what, grey)
+    path (:func:`mrcheck.core.inputs.read_input`) or the content is MrcheckError naming ``path``;
+    ``max_pixels``: see :func:`decode_image`."""
+    return decode_image(read_input(path, what), path, what, grey, max_pixels)
 
 
 def encode_image(name, image: np.ndarray, quality: int | None = None) -> bytes:
@@ -137,4 +169,4 @@ def encode_image(name, image: np.ndarray, quality: int | None = None) -> bytes:
     return encoded.tobytes()
 
 
-__all__ = ["read_image", "decode_image", "encode_image", "image_format", "SUPPORTED"]
+__all__ = ["read_image", "decode_image", "check_pixels", "encode_image", "image_format", "SUPPORTED"]

@@ -9,20 +9,23 @@ and requests for a few hundred lines of XML.
 
 * ``model`` -- :class:`BcfTopic`, :class:`BcfComment`, :class:`BcfCamera` (the file's content);
 * ``write`` -- :func:`bcf_bytes`: topics -> the bytes of a ``.bcfzip``;
-* ``read`` -- :func:`read_bcf`: a ``.bcfzip`` -> topics (statuses and comments another tool changed);
+* ``read`` -- :func:`read_bcf`: a ``.bcfzip`` -> topics (statuses and comments another tool changed),
+  through ``archive`` (:class:`BcfArchive`: a zip read within limits, refusing zip bombs);
 * ``topics`` -- :class:`Finding` (a marker or a suspect) -> :func:`finding_topic`;
 * ``findings`` -- what mrcheck's results become: :func:`bcf_camera` from a shot's camera,
   :func:`priority` from a severity, :func:`topic_guid` (stable ids, so a round trip finds its
   topics again), :func:`element_component` (an IFC GlobalId only where the scene has one).
 """
 
+from mrcheck.apps.bcf.archive import BcfArchive
 from mrcheck.apps.bcf.findings import bcf_camera, element_component, ifc_global_id, priority, severity_of, topic_guid
 from mrcheck.apps.bcf.model import BcfCamera, BcfComment, BcfComponent, BcfTopic
-from mrcheck.apps.bcf.read import read_bcf, read_bcf_bytes
+from mrcheck.apps.bcf.read import read_bcf, read_bcf_bytes, read_bcf_file
 from mrcheck.apps.bcf.topics import Finding, finding_topic
 from mrcheck.apps.bcf.write import bcf_bytes
 
 __all__ = [
+    "BcfArchive",
     "BcfTopic",
     "BcfComment",
     "BcfCamera",
@@ -30,6 +33,7 @@ __all__ = [
     "bcf_bytes",
     "read_bcf",
     "read_bcf_bytes",
+    "read_bcf_file",
     "bcf_camera",
     "priority",
     "severity_of",

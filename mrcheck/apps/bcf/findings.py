@@ -33,8 +33,9 @@ def severity_of(text: str) -> int | None:
 
 
 def topic_guid(*key) -> str:
-    """A stable topic Guid from what identifies the finding (the review's database and marker
-    id, a run's output folder and instance id): exported twice, a finding keeps its topic."""
+    """A stable topic Guid from what identifies the finding (a run's output folder and instance
+    id; the review's database and marker id for markers of a database without their own GUID,
+    :meth:`mrcheck.apps.review.storage.Store.guids`): exported twice, a finding keeps its topic."""
     text = "\x1f".join(str(k) for k in key)
     # a path of undecodable bytes (surrogate escapes) must still give its own, stable id
     return str(uuid.uuid5(NAMESPACE, text.encode("utf-8", "surrogateescape").decode("latin-1")))

@@ -1,20 +1,24 @@
 """Topics back from a ``.bcfzip`` (BCF 2.1, also what 2.0 and 3.0 files share: the topic's
 status, priority, title, description, comments, first viewpoint's camera and components).
-A file that is no zip, or a topic without a readable ``markup.bcf``, is a one-line error."""
+A file that is no zip, a topic without a readable ``markup.bcf``, and a file over the limits of
+:mod:`.archive` (or of :data:`MAX_TOPICS` topics, XML entries of :data:`MAX_XML` bytes) is a
+one-line error. Snapshots are read only when asked for (``snapshots=True``)."""
 
 from __future__ import annotations
 
 import io
 import xml.etree.ElementTree as ET
-import zipfile
 from datetime import datetime
 from pathlib import Path
 
+from mrcheck.apps.bcf.archive import BcfArchive
 from mrcheck.apps.bcf.model import BcfCamera, BcfComment, BcfComponent, BcfTopic
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.inputs import read_input
 
-MAX_ENTRY = 64 << 20  # bytes: a larger entry is refused (a zip bomb, not a BCF)
+MAX_SNAPSHOT = 64 << 20  # bytes: a larger snapshot is refused
+MAX_XML = 16 << 20  # bytes of one markup or viewpoint: a topic's hundreds of comments fit in 1 MB
+MAX_TOPICS = 5000  # topics read from one file
 
 
 def _date(text: str | None) -> datetime | None:
@@ -55,44 +59,37 @@ def _components(root) -> list[BcfComponent]:
     ]
 
 
-def _entry(archive: zipfile.ZipFile, name: str, path) -> bytes:
-    info = archive.getinfo(name)
-    if info.file_size > MAX_ENTRY:
-        raise MrcheckError(f"BCF entry {name} is {info.file_size} bytes (more than {MAX_ENTRY})", path)
-    return archive.read(name)
-
-
-def _xml(archive, name: str, path):
+def _xml(archive: BcfArchive, name: str):
     try:
-        return ET.fromstring(_entry(archive, name, path))
+        return ET.fromstring(archive.read(name, MAX_XML))
     except ET.ParseError as exc:
-        raise MrcheckError(f"malformed BCF entry {name} ({exc})", path) from None
+        raise MrcheckError(f"malformed BCF entry {name} ({exc})", archive.path) from None
 
 
-def _viewpoint(topic: BcfTopic, markup, archive, folder: str, path) -> None:
+def _viewpoint(topic: BcfTopic, markup, archive: BcfArchive, folder: str, snapshots: bool) -> None:
     view = markup.find("Viewpoints")
     if view is None:
         return
     topic.viewpoint_guid = view.get("Guid")
-    names = set(archive.namelist())
+    names = archive.infos
     visinfo = folder + (_child(view, "Viewpoint") or "viewpoint.bcfv")
     if visinfo in names:
-        root = _xml(archive, visinfo, path)
+        root = _xml(archive, visinfo)
         try:
             topic.camera = _camera(root)
         except (TypeError, ValueError):
             topic.camera = None  # a camera another tool wrote without numbers: none
         topic.components = _components(root)
     snapshot = folder + _child(view, "Snapshot")
-    if _child(view, "Snapshot") and snapshot in names:
-        topic.snapshot_png = _entry(archive, snapshot, path)
+    if snapshots and _child(view, "Snapshot") and snapshot in names:
+        topic.snapshot_png = archive.read(snapshot, MAX_SNAPSHOT)
 
 
-def _topic(archive, name: str, path) -> BcfTopic:
-    markup = _xml(archive, name, path)
+def _topic(archive: BcfArchive, name: str, snapshots: bool) -> BcfTopic:
+    markup = _xml(archive, name)
     node = markup.find("Topic")
     if node is None or not node.get("Guid"):
-        raise MrcheckError(f"BCF entry {name} has no Topic with a Guid", path)
+        raise MrcheckError(f"BCF entry {name} has no Topic with a Guid", archive.path)
     topic = BcfTopic(
         guid=node.get("Guid"),
         title=_child(node, "Title"),
@@ -110,27 +107,31 @@ def _topic(archive, name: str, path) -> BcfTopic:
         BcfComment(c.get("Guid", ""), _date(_child(c, "Date")), _child(c, "Author"), _child(c, "Comment"))
         for c in markup.findall("Comment")
     ]
-    _viewpoint(topic, markup, archive, name[: -len("markup.bcf")], path)
+    _viewpoint(topic, markup, archive, name[: -len("markup.bcf")], snapshots)
     return topic
 
 
-def read_bcf_bytes(data: bytes, path="the BCF file") -> list[BcfTopic]:
-    """The topics of a ``.bcfzip``'s bytes, in the archive's order."""
-    try:
-        archive = zipfile.ZipFile(io.BytesIO(data))
-    except zipfile.BadZipFile:
-        raise MrcheckError("not a BCF file (.bcfzip is a zip archive)", path) from None
-    with archive:
-        names = [n for n in archive.namelist() if n.endswith("/markup.bcf") and n.count("/") == 1]
-        if not names and "bcf.version" not in archive.namelist():
+def read_bcf_file(file, path="the BCF file", snapshots: bool = False) -> list[BcfTopic]:
+    """The topics of a ``.bcfzip`` in the binary file object ``file``, in the archive's order;
+    their ``snapshot_png`` only with ``snapshots``."""
+    with BcfArchive(file, path) as archive:
+        names = [n for n in archive.names() if n.endswith("/markup.bcf") and n.count("/") == 1]
+        if not names and "bcf.version" not in archive.infos:
             raise MrcheckError("not a BCF file (no bcf.version and no topic folders)", path)
-        return [_topic(archive, name, path) for name in names]
+        if len(names) > MAX_TOPICS:
+            raise MrcheckError(f"BCF file has {len(names)} topics (at most {MAX_TOPICS} are read)", path)
+        return [_topic(archive, name, snapshots) for name in names]
 
 
-def read_bcf(path) -> list[BcfTopic]:
+def read_bcf_bytes(data: bytes, path="the BCF file", snapshots: bool = True) -> list[BcfTopic]:
+    """The topics of a ``.bcfzip``'s bytes, with their snapshots (``snapshots``)."""
+    return read_bcf_file(io.BytesIO(data), path, snapshots)
+
+
+def read_bcf(path, snapshots: bool = True) -> list[BcfTopic]:
     """The topics of the ``.bcfzip`` at ``path``."""
     path = Path(path)
-    return read_bcf_bytes(read_input(path, "BCF file"), path)
+    return read_bcf_bytes(read_input(path, "BCF file"), path, snapshots)
 
 
-__all__ = ["read_bcf", "read_bcf_bytes"]
+__all__ = ["read_bcf", "read_bcf_bytes", "read_bcf_file", "MAX_TOPICS", "MAX_XML"]

@@ -136,8 +136,8 @@ class AddPhoto:
         allowed = IMAGE_SUFFIXES if kind == "photo" else CAMERA_SUFFIXES
         if suffix not in allowed:
             raise MrcheckError(f"a {kind} file must end in {', '.join(allowed)}", display(name))
-        if kind == "photo":
-            decode_image(data, display(name), "photo")  # not an image: a one-line error, nothing kept
+        if kind == "photo":  # not an image, or one of too many pixels: a one-line error, nothing kept
+            decode_image(data, display(name), "photo", max_pixels=self.review.source.max_pixels)
         ident = secrets.token_hex(8)
         self.uploads.mkdir(parents=True, exist_ok=True)
         path = self.uploads / f"{ident}{suffix}"
@@ -174,7 +174,7 @@ class AddPhoto:
             camera = read_camera(path)
         except MrcheckError as exc:
             raise MrcheckError(exc.problem, name) from None
-        return photo, read_photo(photo), camera
+        return photo, read_photo(photo, max_pixels=self.review.source.max_pixels), camera
 
     def photo_name(self, photo_ref: str) -> str:
         return self.resolve("photo", photo_ref)[1]
@@ -184,7 +184,7 @@ class AddPhoto:
         import cv2
 
         photo, _ = self.resolve("photo", photo_ref)
-        image = read_photo(photo)
+        image = read_photo(photo, max_pixels=self.review.source.max_pixels)
         h, w = image.shape[:2]
         if w > SERVED_WIDTH:
             image = cv2.resize(image, (SERVED_WIDTH, max(1, round(SERVED_WIDTH * h / w))), interpolation=cv2.INTER_AREA)

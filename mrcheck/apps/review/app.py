@@ -2,8 +2,9 @@
 and a Picker, shared as ``app.state.review`` (:class:`.state.Review`).
 
 Files are served by shot name + kind only (never by a client-given path); static files from a
-fixed table. Before anything else, a request must name this server in its Host header (else 403)
-and its body must be within the limit (else 413), see :mod:`.guard`. With a token, every request
+fixed table. Before anything else, a request must name this server in its Host header (else 403),
+must not change state from another site's page (else 403, :mod:`.crosssite`) and its body must be
+within the limit (else 413), see :mod:`.guard`. With a token, every request
 needs it (query ``token``, header ``X-Review-Token`` or the cookie set when the page is opened
 with ``?token=``), else 401 (:mod:`.middleware`).
 """

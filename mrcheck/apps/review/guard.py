@@ -1,11 +1,14 @@
-"""The review server's limits on requests: the Host they name and the size of their body, both
-checked by :class:`RequestCheck` (pure ASGI) in front of the token check and every route.
+"""The review server's limits on requests: the Host they name, the site they come from and the
+size of their body, checked by :class:`RequestCheck` (pure ASGI) in front of the token check and
+every route.
 
 * **Host**: a request must name this server in its Host header (:func:`host_names`), else 403.
   Without it, DNS rebinding lets a page on another site read the review: its name is made to
   resolve to 127.0.0.1, the browser then sends the page's requests to this server and lets the
   page read the answers (same origin), with ``Host: attacker.example``. A browser always sends
   the name of the URL it opened, so an IP literal never comes from a rebound name.
+* **Site**: a request that changes state from another site's page is 403
+  (:func:`.crosssite.cross_site_problem`).
 * **Body size**: a Content-Length over the limit is a 413 before anything is read or any route
   runs; a chunked body is counted as it is read (Starlette's RequestBodyLimitMiddleware, which
   FastAPI's ``max_body_size`` is made of) and refused with 413 once it passes the limit, the
@@ -24,6 +27,8 @@ from dataclasses import dataclass
 from fastapi.responses import JSONResponse
 from starlette.datastructures import Headers
 from starlette.middleware.body_limit import RequestBodyLimitMiddleware
+
+from mrcheck.apps.review.crosssite import cross_site_problem
 
 MAX_BODY = 1 << 20  # the default limit: 1 MiB, some 40 x the largest marker
 MIN_MAX_BODY = 64 << 10  # a smaller limit would refuse markers with long notes
@@ -106,7 +111,8 @@ def _parse_host(header: str | None) -> str | None:
 
 
 class RequestCheck:
-    """In front of the app: 403 for a Host header not in ``hosts`` (None: no Host check), 413 for a
+    """In front of the app: 403 for a Host header not in ``hosts`` (None: no Host check) or a
+    state-changing request from another site (:mod:`.crosssite`), 413 for a
     Content-Length over ``max_body``, before the body is read or any route runs; a body without
     one is counted as it is read, by Starlette's RequestBodyLimitMiddleware behind this check
     (whose own answer to a declared size is a plain-text 413, not the app's JSON error)."""
@@ -119,18 +125,20 @@ class RequestCheck:
     async def __call__(self, scope, receive, send):
         upload = scope["type"] == "http" and scope.get("path") == UPLOAD_PATH
         if scope["type"] == "http":  # the app has no websocket routes: the router refuses those
-            refused = self._refused(Headers(scope=scope), upload)
+            refused = self._refused(Headers(scope=scope), upload, scope.get("method", "GET"))
             if refused is not None:
                 return await JSONResponse({"error": refused[1]}, status_code=refused[0])(scope, receive, send)
         await (self.upload_app if upload else self.app)(scope, receive, send)
 
-    def _refused(self, headers, upload: bool) -> tuple[int, str] | None:
+    def _refused(self, headers, upload: bool, method: str) -> tuple[int, str] | None:
         if self.hosts is not None:
             given = headers.get("host")
             name = _parse_host(given)
             if name is None or not self.hosts.allows(name):
                 what = "no Host header" if given is None else f"Host {given!r} is not a name of this server"
                 return 403, f"{what} (it answers to {self.hosts.describe()})"
+        if problem := cross_site_problem(method, headers):
+            return 403, problem
         length = headers.get("content-length")
         limit = self.max_upload if upload else self.max_body
         if length is not None and length.isdigit() and int(length) > limit:

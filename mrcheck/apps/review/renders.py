@@ -161,7 +161,7 @@ class RenderService:
 
     def _photo(self, shot):
         camera = shot.served_camera()
-        photo = read_photo(shot.photo, shot.camera)
+        photo = read_photo(shot.photo, shot.camera, max_pixels=self.source.max_pixels)
         if (camera.width, camera.height) != (shot.camera.width, shot.camera.height):
             photo = cv2.resize(photo, (camera.width, camera.height), interpolation=cv2.INTER_AREA)
         return camera, photo

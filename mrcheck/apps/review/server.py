@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import errno
 import os
+import re
 import secrets
 import socket
 from dataclasses import dataclass
@@ -22,6 +23,18 @@ from mrcheck.apps.review.guard import (
 )
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.output import check_not_inputs
+
+_PIXELS = re.compile(r"(?P<number>[0-9]+(?:\.[0-9]+)?)\s*(?P<mega>m(?:p|px)?)?")
+
+
+def parse_pixels(text: str) -> int:
+    """Pixels of a count such as ``64MP``, ``50M``, ``0.5MP`` or ``12000000`` (M: a million);
+    ValueError saying what is wrong."""
+    match = _PIXELS.fullmatch(str(text).strip().lower())
+    pixels = 0 if match is None else int(float(match["number"]) * (1_000_000 if match["mega"] else 1))
+    if pixels < 1:
+        raise ValueError(f"{text!r} is not a pixel count (e.g. 64MP, 50M or 12000000)")
+    return pixels
 
 
 def _url_host(host: str) -> str:
@@ -113,14 +126,16 @@ def start(
     max_body=MAX_BODY,
     max_upload=MAX_UPLOAD,
     antialias: bool = True,
+    max_pixels: int | None = None,
 ) -> ReviewServer:
     """Everything but serving: the source opened and checked, the port bound, the app made (its
-    database written). A bad input is a :class:`MrcheckError` before the port is bound."""
+    database written). A bad input is a :class:`MrcheckError` before the port is bound. ``max_pixels``:
+    the largest photo read (None: :data:`.source.MAX_PIXELS`)."""
     from mrcheck.apps.review.source import open_source
     from mrcheck.apps.review.suggestions import load_suggestions, suggestions_file
 
     _check_options(token, db, max_body)
-    source = open_source(target, shots_dir)
+    source = open_source(target, shots_dir, **({} if max_pixels is None else {"max_pixels": max_pixels}))
     suggested = load_suggestions(source, suggestions)
     database = database_path(source, db)
     # SQLite writes the database and its -wal, -shm and -journal files; the cache prunes its own folder
@@ -150,4 +165,4 @@ def start(
     return ReviewServer(app, sock, url, bool(suggested))
 
 
-__all__ = ["start", "listen", "ReviewServer"]
+__all__ = ["start", "listen", "parse_pixels", "ReviewServer"]

@@ -26,6 +26,10 @@ MAX_SIZE = 1280  # renders and photos are served at most this wide (same aspect 
 # an export's shot names (never "." or ".."), at most 128 characters: a path segment of the API's URLs
 _NAME = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9._-]{0,127}")
 ADDED_SHOTS = "added-shots"  # shots added in the review ("Add photo") of an export or a job, beside it
+# the largest photo read (--max-pixels), checked on its header before decoding: 64 MP takes the
+# 61 MP of the largest full-frame sensors and a phone's 48/50 MP mode; decoded, that is 192 MB of
+# RGB, and "Add photo"'s edge snap makes float copies of it (4 bytes a pixel each)
+MAX_PIXELS = 64_000_000
 
 
 @dataclass
@@ -68,6 +72,7 @@ class Source:
     origin: Path | None = None  # the job file, export folder or shots folder reviewed
     files: list = field(default_factory=list)  # the files read to find the shots (job, manifest, SHOT.json, ...)
     kind: str = "scene"  # what is reviewed: "scene" (SCENE --shots DIR), "export" or "job"
+    max_pixels: int = MAX_PIXELS  # a photo of more pixels is refused before it is decoded
 
     def inputs(self) -> list:
         """``(what, paths)`` of every file the review reads (:func:`mrcheck.core.output.check_not_inputs`)."""
@@ -227,8 +232,9 @@ def _check_scene_target(target: Path) -> None:
         raise MrcheckError("is a job file, not a scene: review it without --shots", target)
 
 
-def open_source(target, shots_dir=None) -> Source:
-    """``JOB.toml`` | ``OUTDIR`` (with manifest.json) | ``SCENE`` with ``shots_dir``."""
+def open_source(target, shots_dir=None, max_pixels: int = MAX_PIXELS) -> Source:
+    """``JOB.toml`` | ``OUTDIR`` (with manifest.json) | ``SCENE`` with ``shots_dir``; ``max_pixels``:
+    the largest photo the review reads (checked on its header before decoding)."""
     target = Path(target)
     if os.path.lexists(target):  # a missing one: the usage below; a symlink loop, a FIFO: say so
         check_input(target, "review target", folder_ok=True)
@@ -253,20 +259,21 @@ def open_source(target, shots_dir=None) -> Source:
         source = from_job(target)
     else:
         raise MrcheckError("pass JOB.toml, an export OUTDIR or SCENE --shots DIR", target)
+    source.max_pixels = max_pixels
     if source.kind != "scene" and (Path(source.home) / ADDED_SHOTS).is_dir():  # shots added in an earlier review
         source.files += _folder_shots(Path(source.home) / ADDED_SHOTS, source.shots)
     _check_files(source, target)
     return source
 
 
-def _check_photos(shots) -> None:
+def _check_photos(shots, max_pixels: int) -> None:
     """Every photo decodes and has its shot's size (read_photo's one-line errors): the files are
     read in parallel (a network share's latency overlaps); the decodes take turns, as every
     decode does (mrcheck.core.quiet: the codecs' own messages are captured), about 0.25 s per 12 MP
     JPEG on this machine's cores."""
 
     def check(shot) -> None:  # the decoded image is not kept: dozens of them would not fit in memory
-        read_photo(Path(shot.photo), shot.camera)
+        read_photo(Path(shot.photo), shot.camera, max_pixels=max_pixels)
 
     with concurrent.futures.ThreadPoolExecutor(max_workers=min(8, os.cpu_count() or 1)) as pool:
         list(pool.map(check, shots))  # raises the error of the first bad photo in shot order
@@ -288,7 +295,7 @@ def _check_files(source: Source, target: Path) -> None:
     for shot in source.shots.values():
         if not os.path.lexists(shot.photo):
             raise MrcheckError(f"photo of shot {shot.name!r} not found", shot.photo)
-    _check_photos(source.shots.values())
+    _check_photos(source.shots.values(), source.max_pixels)
     source.scene_stamp = files_stamp(files)
     if source.loaded is None:
         source.loaded = load_scene(source.scene, progress=True)

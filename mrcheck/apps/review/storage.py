@@ -5,8 +5,11 @@ from __future__ import annotations
 import json
 import sqlite3
 import time
+import uuid
+from dataclasses import dataclass
 from pathlib import Path
 
+from mrcheck.apps.bcf import topic_guid
 from mrcheck.core.errors import MrcheckError
 
 CATEGORIES = ("missing", "moved", "extra", "wrong size", "other", "suggested")
@@ -34,6 +37,17 @@ CREATE TABLE IF NOT EXISTS imported (review INTEGER NOT NULL, shot TEXT NOT NULL
 CREATE TABLE IF NOT EXISTS bcf (review INTEGER NOT NULL, marker INTEGER NOT NULL, status TEXT NOT NULL,
     comments TEXT NOT NULL, PRIMARY KEY (review, marker));
 """
+
+
+@dataclass(frozen=True)
+class BcfChange:
+    """What a BCF import sets on one marker: its status, comments and, when the topic's priority
+    says one, its severity."""
+
+    marker: int
+    status: str
+    comments: list  # dicts of guid, date, author, text
+    severity: int | None = None
 
 
 class Store:
@@ -66,6 +80,7 @@ class Store:
                 for statement in filter(str.strip, SCHEMA.split(";")):  # executescript would commit first
                     db.execute(statement)
                 self.review, self.created = self._review(db, review, version)
+                self._add_guids(db)
                 if version < 1:
                     for shot, (sx, sy) in (served_scales or {}).items():
                         db.execute(
@@ -92,6 +107,18 @@ class Store:
         if row is not None:
             return row[0], False
         return db.execute("INSERT INTO reviews(source, created) VALUES (?, ?)", (name, time.time())).lastrowid, True
+
+    def _add_guids(self, db) -> None:
+        """Every marker's BCF topic GUID (markers.guid): a random uuid4 given when the marker is
+        made, so no other page can guess it. A database without the column gets it here, and a
+        marker without a GUID (made before, or by an earlier mrcheck using this database) gets
+        the one its exports had (uuid5 of the database path, review and id), so a BIM tool
+        holding its topic still finds it."""
+        if "guid" not in {row[1] for row in db.execute("PRAGMA table_info(markers)")}:
+            db.execute("ALTER TABLE markers ADD COLUMN guid TEXT")
+        for row in db.execute("SELECT id, review FROM markers WHERE guid IS NULL").fetchall():
+            legacy = topic_guid("review", self.path.resolve(), row["review"], row["id"])
+            db.execute("UPDATE markers SET guid = ? WHERE id = ?", (legacy, row["id"]))
 
     def _connect(self):
         db = sqlite3.connect(self.path, timeout=10, isolation_level=None)  # autocommit: each statement commits
@@ -125,9 +152,14 @@ class Store:
         keys = ("shot", "x", "y", "category", "severity", "note", "part", "distance", "mode")
         columns, slots = ", ".join(keys), ", ".join("?" * len(keys))
         return db.execute(
-            f"INSERT INTO markers(review, {columns}, created, updated) VALUES (?, {slots}, ?, ?)",
-            (self.review, *[values.get(k) for k in keys], now, now),
+            f"INSERT INTO markers(review, {columns}, created, updated, guid) VALUES (?, {slots}, ?, ?, ?)",
+            (self.review, *[values.get(k) for k in keys], now, now, str(uuid.uuid4())),
         ).lastrowid
+
+    def guids(self) -> dict[int, str]:
+        """{marker id: its BCF topic GUID} of this review's markers."""
+        with self._connect() as db:
+            return {r[0]: r[1] for r in db.execute("SELECT id, guid FROM markers WHERE review = ?", (self.review,))}
 
     def imported_keys(self, shot: str) -> set[str]:
         """The keys of the suggestions imported into this review's ``shot`` before."""
@@ -174,13 +206,23 @@ class Store:
             rows = db.execute("SELECT marker, status, comments FROM bcf WHERE review = ?", (self.review,))
             return {r["marker"]: {"status": r["status"], "comments": json.loads(r["comments"])} for r in rows}
 
-    def set_bcf_state(self, marker_id: int, status: str, comments: list) -> None:
-        """A marker's BCF status and comments (dicts of date, author, text), as another tool left them."""
+    def set_bcf_states(self, changes: list[BcfChange]) -> None:
+        """Markers' BCF status and comments (dicts of date, author, text) as another tool left
+        them, and their new severities: one transaction, whatever the number of markers."""
+        now = time.time()
         with self._connect() as db:
-            db.execute(
-                "INSERT OR REPLACE INTO bcf(review, marker, status, comments) VALUES (?, ?, ?, ?)",
-                (self.review, marker_id, status, json.dumps(comments, ensure_ascii=False)),
-            )
+            db.execute("BEGIN IMMEDIATE")
+            for c in changes:
+                db.execute(
+                    "INSERT OR REPLACE INTO bcf(review, marker, status, comments) VALUES (?, ?, ?, ?)",
+                    (self.review, c.marker, c.status, json.dumps(c.comments, ensure_ascii=False)),
+                )
+                if c.severity is not None:
+                    db.execute(
+                        "UPDATE markers SET severity = ?, updated = ? WHERE review = ? AND id = ? AND severity != ?",
+                        (c.severity, now, self.review, c.marker, c.severity),
+                    )
+            db.execute("COMMIT")
 
     def delete(self, marker_id: int) -> bool:
         with self._connect() as db:

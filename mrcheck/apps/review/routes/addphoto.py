@@ -11,6 +11,7 @@ from fastapi import APIRouter, Body, Depends, HTTPException, Query
 from fastapi.responses import Response
 from pydantic import BaseModel, ConfigDict, Field
 
+from mrcheck.apps.review.crosssite import JSON, OCTETS, requires
 from mrcheck.apps.review.guard import UPLOAD_PATH
 from mrcheck.apps.review.state import Review, current
 from mrcheck.core.errors import MrcheckError
@@ -18,7 +19,6 @@ from mrcheck.core.errors import MrcheckError
 router = APIRouter(prefix="/api/addphoto")
 Current = Annotated[Review, Depends(current)]
 _PNG = {"Cache-Control": "no-store"}
-OCTETS = "application/octet-stream"
 Pixel = Annotated[list[float], Field(min_length=2, max_length=2)]
 
 
@@ -50,7 +50,7 @@ def files(review: Current):
     return review.addphoto.files()
 
 
-@router.post(UPLOAD_PATH.removeprefix("/api/addphoto"), status_code=201)
+@router.post(UPLOAD_PATH.removeprefix("/api/addphoto"), status_code=201, dependencies=[Depends(requires(OCTETS))])
 def upload(
     review: Current,
     kind: Literal["photo", "intrinsics"],
@@ -100,7 +100,7 @@ def view_pick(review: Current, name: str, x: float = Query(...), y: float = Quer
     return _planner_error(review.addphoto.pick, name, x, y)
 
 
-@router.post("/solve")
+@router.post("/solve", dependencies=[Depends(requires(JSON))])
 def solve(review: Current, body: SolveIn):
     ident, solved = _planner_error(
         review.addphoto.solve,

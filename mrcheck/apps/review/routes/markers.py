@@ -7,11 +7,13 @@ from typing import Annotated
 from fastapi import APIRouter, Depends, HTTPException
 
 from mrcheck.apps.review.bcf import with_bcf_state
+from mrcheck.apps.review.crosssite import JSON, requires
 from mrcheck.apps.review.models import MarkerIn, MarkerPatch
 from mrcheck.apps.review.state import MAX_ID, Review, check_xy, current
 
 router = APIRouter(prefix="/api/markers")
 Current = Annotated[Review, Depends(current)]
+AS_JSON = [Depends(requires(JSON))]
 
 
 @router.get("")
@@ -21,14 +23,14 @@ def list_markers(review: Current, shot: str | None = None):
     return with_bcf_state(review, review.store.markers(shot))
 
 
-@router.post("", status_code=201)
+@router.post("", status_code=201, dependencies=AS_JSON)
 def add_marker(review: Current, marker: MarkerIn):
     shot = review.shot_or_404(marker.shot)
     check_xy(shot, marker.x, marker.y)
     return review.store.add({**marker.model_dump(), **review.cad_under(shot, marker.x, marker.y)})
 
 
-@router.patch("/{marker_id}")
+@router.patch("/{marker_id}", dependencies=AS_JSON)
 def edit_marker(review: Current, marker_id: int, patch: MarkerPatch):
     current_marker = review.marker_or_404(marker_id)
     values = patch.model_dump(exclude_unset=True)
