@@ -10,12 +10,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mrcheck.apps.discrepancies import detect, planned_view, synthetic_photo
+from mrcheck.apps.discrepancies import detect, planned_view
 from mrcheck.apps.discrepancies.light import estimate_light
 from mrcheck.cli import main
 from mrcheck.core.camera import Camera
 from mrcheck.core.camerafiles import load_shot, read_photo
 from mrcheck.core.resources import sample_scene_path
+from mrcheck.eval.discrepancy_eval import synthetic_photo
 from mrcheck.render.composite import light_direction
 from mrcheck.render.renderer import Renderer
 from mrcheck.scene.model import load_scene
