@@ -185,10 +185,11 @@ def _annotated(tree: ast.AST, names: dict) -> dict:
 
 
 def _receiver(node: ast.AST) -> str:
-    """``self``/``cls``/``super()`` (the object's own members), a name, or "" for anything else."""
+    """``self`` for ``self``/``super()`` (the object's own members), a dotted name
+    (``mrcheck.apps.track``, ``r``), or "" for anything else."""
     if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "super":
         return "self"
-    return node.id if isinstance(node, ast.Name) else ""
+    return _dotted(node)
 
 
 def _private_uses(path: str, tree: ast.AST, defined: dict) -> set:
@@ -200,11 +201,16 @@ def _private_uses(path: str, tree: ast.AST, defined: dict) -> set:
     aliases, names = _bindings(path, tree, modules)
     annotated = _annotated(tree, names)
 
+    def module_of(receiver: str) -> str | None:
+        first, _, rest = receiver.partition(".")
+        module = aliases.get(first, "") + (f".{rest}" if rest else "")
+        return module if first in aliases and module in modules else None
+
     def foreign(receiver: str, name: str) -> bool:
         if receiver in ("self", "cls"):
             return False
-        if receiver in aliases:  # a module: its own top-level names are its business only
-            return aliases[receiver] != here
+        if module_of(receiver):  # a module: its own top-level names are its business only
+            return module_of(receiver) != here
         if receiver in names or receiver in annotated:  # a class, or an instance, of another module
             return (names.get(receiver) or annotated[receiver]) != here
         return name in elsewhere and name not in own.members
@@ -421,10 +427,10 @@ def test_the_checks_see_what_they_look_for():
     private-name check tells a module's own names from another's of the same name."""
     source = (
         "from mrcheck.render.renderer import _helper, Renderer\nimport click\n"
-        "import mrcheck.apps.track as track\n"
+        "import mrcheck.apps.track as track\nimport mrcheck.apps\n"
         "def _timed():\n    pass\n"
         "def f(r, s: Renderer, monkeypatch):\n    r._timed()\n    click.echo('x')\n    print('y')\n"
-        "    s._own()\n    track._Loop\n    Renderer._blur\n"
+        "    s._own()\n    track._Loop\n    Renderer._blur\n    mrcheck.apps.track._frames\n"
         "    monkeypatch.setattr(track, '_Reader', None)\n"
         "    monkeypatch.setattr('mrcheck.render.renderer._ao', None)\n"
         "class Mine:\n    def _Loop(self):\n        super()._timed()\n"
@@ -434,11 +440,11 @@ def test_the_checks_see_what_they_look_for():
     defined = {
         "x.py": _defined_private(bad),
         "mrcheck/render/renderer.py": Defined(top={"_helper"}, members={"_timed", "_blur", "_ao", "_own"}),
-        "mrcheck/apps/track.py": Defined(top={"_Loop", "_Reader"}),
+        "mrcheck/apps/track.py": Defined(top={"_Loop", "_Reader", "_frames"}),
     }
     assert defined["x.py"] == Defined(top={"_timed"}, members={"_Loop"})
     assert _private_uses("x.py", bad, defined) == {
-        ("x.py", name) for name in ("_helper", "_timed", "_own", "_Loop", "_blur", "_Reader", "_ao")
+        ("x.py", name) for name in ("_helper", "_timed", "_own", "_Loop", "_blur", "_Reader", "_ao", "_frames")
     }
     # a member of its own class, on another instance of it: not reported
     mine = ast.parse("class Mine:\n    def _own(self):\n        pass\n    def g(self, other):\n        other._own()\n")
