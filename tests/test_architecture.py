@@ -147,10 +147,9 @@ def _bindings(path: str, tree: ast.AST, modules: set) -> tuple[dict, dict]:
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             for alias in node.names:
-                if alias.name.split(".")[0] in PRIVATE_CHECKED:
-                    aliases[alias.asname] = alias.name if alias.asname else None
-                    if not alias.asname:
-                        aliases[alias.name.split(".")[0]] = alias.name.split(".")[0]
+                first = alias.name.split(".")[0]
+                if first in PRIVATE_CHECKED:  # import a.b.c binds a; import a.b.c as m binds m
+                    aliases[alias.asname or first] = alias.name if alias.asname else first
         elif isinstance(node, ast.ImportFrom):
             source = _absolute(path, node)
             if source.split(".")[0] not in PRIVATE_CHECKED:
@@ -161,8 +160,13 @@ def _bindings(path: str, tree: ast.AST, modules: set) -> tuple[dict, dict]:
                     aliases[local] = f"{source}.{alias.name}"
                 else:
                     names[local] = source
-    aliases.pop(None, None)
     return aliases, names
+
+
+def _annotation_names(annotation: ast.expr) -> set:
+    if isinstance(annotation, ast.Constant) and isinstance(annotation.value, str):
+        annotation = ast.parse(annotation.value, mode="eval").body
+    return {node.id for node in ast.walk(annotation) if isinstance(node, ast.Name)}
 
 
 def _annotated(tree: ast.AST, names: dict) -> dict:
@@ -176,9 +180,7 @@ def _annotated(tree: ast.AST, names: dict) -> dict:
         for arg in [*arguments.posonlyargs, *arguments.args, *arguments.kwonlyargs]:
             if arg.annotation is None:
                 continue
-            text = ast.unparse(arg.annotation).strip("'\"")
-            words = {word.strip("'\" []") for part in text.split("|") for word in part.split("[")}
-            modules = {names[word] for word in words if word in names}
+            modules = {names[name] for name in _annotation_names(arg.annotation) if name in names}
             if modules:
                 found[arg.arg] = sorted(modules)[0]
     return found
@@ -429,7 +431,7 @@ def test_the_checks_see_what_they_look_for():
         "from mrcheck.render.renderer import _helper, Renderer\nimport click\n"
         "import mrcheck.apps.track as track\nimport mrcheck.apps\n"
         "def _timed():\n    pass\n"
-        "def f(r, s: Renderer, monkeypatch):\n    r._timed()\n    click.echo('x')\n    print('y')\n"
+        "def f(r, s: 'Renderer | None', monkeypatch):\n    r._timed()\n    click.echo('x')\n    print('y')\n"
         "    s._own()\n    track._Loop\n    Renderer._blur\n    mrcheck.apps.track._frames\n"
         "    monkeypatch.setattr(track, '_Reader', None)\n"
         "    monkeypatch.setattr('mrcheck.render.renderer._ao', None)\n"
