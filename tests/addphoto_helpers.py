@@ -16,7 +16,7 @@ from mrcheck.core.output import write_image
 from mrcheck.core.resources import sample_scene_path
 from mrcheck.scene.model import load_scene
 
-from .mr_helpers import _camera, _photo
+from .mr_helpers import make_camera, render_photo
 
 SIZE = (480, 360)
 TRUTH_EYE, TRUTH_TARGET = np.array([2.6, -6.6, 2.0]), np.array([3.2, -2.4, 0.8])
@@ -24,7 +24,7 @@ VIEW = "view:robot"  # the CAD view clicked on: the sample cell's named viewpoin
 
 
 def truth_camera() -> Camera:
-    return _camera(*SIZE, 420.0, dist=(-0.06, 0.0, 0.0, 0.0, 0.0), eye=TRUTH_EYE, target=TRUTH_TARGET)
+    return make_camera(*SIZE, 420.0, dist=(-0.06, 0.0, 0.0, 0.0, 0.0), eye=TRUTH_EYE, target=TRUTH_TARGET)
 
 
 def make_folder(ctx, folder: Path) -> Path:
@@ -33,9 +33,9 @@ def make_folder(ctx, folder: Path) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     scene = load_scene(sample_scene_path())
     truth = truth_camera()
-    write_image(folder / "photo.png", _photo(ctx, scene, truth))
+    write_image(folder / "photo.png", render_photo(ctx, scene, truth))
     (folder / "cam.json").write_text(json.dumps(truth.to_dict(pose=False)))
-    other = _camera(*SIZE, 420.0, eye=TRUTH_EYE + (-1.0, 0.5, 0.0), target=TRUTH_TARGET)
+    other = make_camera(*SIZE, 420.0, eye=TRUTH_EYE + (-1.0, 0.5, 0.0), target=TRUTH_TARGET)
     (folder / "other.json").write_text(json.dumps({**other.to_dict(), "photo": "photo.png"}))
     return folder
 

@@ -14,7 +14,7 @@ from mrcheck.scene.model import make_part
 from .conftest import box
 
 
-def _camera(width, height, f, dist=(), eye=None, target=None, principal=(0.0, 0.0)):
+def make_camera(width, height, f, dist=(), eye=None, target=None, principal=(0.0, 0.0)):
     """A camera of focal length ``f`` (pixels), optionally looking from ``eye`` at ``target``."""
     R, t = np.eye(3), np.zeros(3)
     if eye is not None:
@@ -24,7 +24,7 @@ def _camera(width, height, f, dist=(), eye=None, target=None, principal=(0.0, 0.
     return Camera(width, height, K, R, t, np.asarray(dist, np.float64))
 
 
-def _photo(ctx, scene, camera, supersample=1) -> np.ndarray:
+def render_photo(ctx, scene, camera, supersample=1) -> np.ndarray:
     """A synthetic photo: the ideal render of ``camera`` distorted by its lens (optionally
     rendered at ``supersample`` x the size and area-averaged, for cleaner marker edges)."""
     big = camera.resized(camera.width * supersample, camera.height * supersample)
@@ -40,7 +40,7 @@ def _photo(ctx, scene, camera, supersample=1) -> np.ndarray:
 DICTIONARY = "DICT_6X6_250"
 
 
-def _marker_parts(markers):
+def marker_parts(markers):
     """Two parts (white plates, black cells) for markers given as (id, centre, right, down, size).
 
     A plate is the marker plus one white cell of quiet zone on every side; each black cell is a

@@ -16,6 +16,7 @@ import pytest
 
 from mrcheck.core.camera import Camera
 from mrcheck.core.errors import MrcheckWarning
+from mrcheck.core.resources import sample_scene_path
 from mrcheck.render.antialias import MSAA_SAMPLES, SAMPLE_OFFSETS, linear_to_srgb, srgb_to_linear
 from mrcheck.render.gbuffer import PALETTE_MAX
 from mrcheck.render.gl import made_current
@@ -80,7 +81,7 @@ def test_the_driver_places_the_samples_where_the_composite_reads_them(ctx):
 
 @pytest.fixture(scope="module")
 def sample_cell(ctx):
-    renderer = Renderer(load_scene("factory_scenes/sample_cell"), ctx=ctx)
+    renderer = Renderer(load_scene(sample_scene_path()), ctx=ctx)
     yield renderer
     renderer.release()
 

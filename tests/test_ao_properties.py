@@ -117,7 +117,7 @@ def test_projected_sampling_radius_is_constant_with_depth(ctx, mode):
         assert totals[200.0] < 0.05 * totals[2.0]
 
 
-def _ring_darkening(ao, ao_without, mask, width_px):
+def ring_darkening(ao, ao_without, mask, width_px):
     """Mean darkening an object causes (AO without it minus AO with it) in a ring ``width_px``
     wide around its silhouette. The difference removes what the ground does on its own."""
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * width_px + 1, 2 * width_px + 1))
@@ -162,8 +162,8 @@ def test_distance_retention_vector_keeps_ao_far_away_ssao_loses_it(ctx, record_p
         settings = dict(samples=36, radius_px=radius_px, radius_world=radius_world)
         ao = render_ao(ctx, scene, camera, mode, **settings)
         ao_without = render_ao(ctx, slabs, camera, mode, **settings)
-        near = _ring_darkening(ao, ao_without, near_mask, int(radius_px))
-        far = _ring_darkening(ao, ao_without, far_mask, int(radius_px))
+        near = ring_darkening(ao, ao_without, near_mask, int(radius_px))
+        far = ring_darkening(ao, ao_without, far_mask, int(radius_px))
         ratios[mode] = far / near
         record_property(f"{mode}_far_over_near", ratios[mode])
         print(f"{mode}: darkening near {near:.4f}, far {far:.4f}, far/near {far / near:.2f}")

@@ -14,7 +14,7 @@ from mrcheck.render.ao.gtao import slices_and_steps
 from mrcheck.render.renderer import DEFAULT_RADIUS_FRACTION, RenderSettings
 
 from .conftest import box, render_ao, render_depth, scene_of
-from .test_ao_properties import _ring_darkening, bands_at_2_and_200_m, blocks_at_5_and_100_m
+from .test_ao_properties import bands_at_2_and_200_m, blocks_at_5_and_100_m, ring_darkening
 
 W, H = 320, 240
 SLICE_MODES = ["gtao", "vbao"]
@@ -65,8 +65,8 @@ def test_distance_retention(ctx, mode, record_property):
     radius_px = DEFAULT_RADIUS_FRACTION * camera.height
     ao = render_ao(ctx, scene, camera, mode, samples=36, radius_px=radius_px)
     ao_without = render_ao(ctx, slabs, camera, mode, samples=36, radius_px=radius_px)
-    near = _ring_darkening(ao, ao_without, near_mask, int(radius_px))
-    far = _ring_darkening(ao, ao_without, far_mask, int(radius_px))
+    near = ring_darkening(ao, ao_without, near_mask, int(radius_px))
+    far = ring_darkening(ao, ao_without, far_mask, int(radius_px))
     record_property(f"{mode}_far_over_near", far / near)
     print(f"{mode}: darkening near {near:.4f}, far {far:.4f}, far/near {far / near:.2f}")
     # measured: gtao 0.46, vbao 0.46 (vector 0.54, ssao 0.01; vector's test asks 0.5,

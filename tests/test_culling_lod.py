@@ -14,7 +14,7 @@ import trimesh
 
 from mrcheck.core.camera import Camera
 from mrcheck.core.progress import showing_progress
-from mrcheck.core.resources import factory_scenes_dir
+from mrcheck.core.resources import shipped_scene
 from mrcheck.render import culling, lod
 from mrcheck.render.gbuffer import FLUSH_TRIANGLES, DrawOptions, GBuffer
 from mrcheck.render.gl import made_current
@@ -152,7 +152,7 @@ def test_backface_culling_on_the_line_scene_changes_only_crack_pixels(view):
     """Exact in theory; in practice a ray through the crack between two bodies' faces (T-junction)
     may see a back face inside the neighbour, with culling the face behind it, at nearly the same
     depth."""
-    scene = load_scene(factory_scenes_dir() / "line" / "scene.toml")
+    scene = load_scene(shipped_scene("line"))
     camera = scene.camera(view, W, H)
     renderer = Renderer(scene)
     try:

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mrcheck.core.resources import factory_scenes_dir
+from mrcheck.core.resources import shipped_scene
 from mrcheck.render.renderer import Renderer, RenderSettings
 from mrcheck.scene.model import load_scene
 
@@ -37,7 +37,7 @@ def dot_share(ao: np.ndarray, normals: np.ndarray, step: float = 4.0 / 255.0) ->
 
 @pytest.fixture(scope="module")
 def cell(ctx):
-    renderer = Renderer(load_scene(factory_scenes_dir() / "cell" / "scene.toml"), ctx=ctx)
+    renderer = Renderer(load_scene(shipped_scene("cell")), ctx=ctx)
     yield renderer
     renderer.release()
 

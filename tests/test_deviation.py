@@ -21,7 +21,7 @@ from mrcheck.core.resources import sample_scene_path
 from mrcheck.scene.asbuilt import make_asbuilt
 from mrcheck.scene.model import load_scene
 
-from .mr_helpers import _camera, _photo
+from .mr_helpers import make_camera, render_photo
 
 BUNNY = Path(__file__).parent / "data" / "scans" / "bunny"
 SCAN, MESH = BUNNY / "bun000.ply", BUNNY / "bun_zipper_res3_from_opencv.ply"
@@ -191,8 +191,8 @@ def test_shot_overlay_with_legend(ctx, asbuilt_scan, tmp_path, capsys):
     scan, _, count = asbuilt_scan
     scene = load_scene(sample_scene_path())
     vp = scene.viewpoints["overview"]
-    camera = _camera(320, 240, 260.0, dist=(-0.12, 0.02, 0.0, 0.0, 0.0), eye=vp["eye"], target=vp["target"])
-    photo = _photo(ctx, scene, camera)
+    camera = make_camera(320, 240, 260.0, dist=(-0.12, 0.02, 0.0, 0.0, 0.0), eye=vp["eye"], target=vp["target"])
+    photo = render_photo(ctx, scene, camera)
     cv2.imwrite(str(tmp_path / "photo.png"), photo[..., ::-1])
     shot = tmp_path / "shot.json"
     shot.write_text(json.dumps({**camera.to_dict(), "photo": "photo.png"}))

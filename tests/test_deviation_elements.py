@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from mrcheck.apps.deviation.distances import closest_surface
-from mrcheck.apps.deviation.element_eval import score_seed
 from mrcheck.apps.deviation.elements import element_status, fit_offsets, grouped_quantile
 from mrcheck.cli import main
 from mrcheck.core.resources import sample_scene_path
+from mrcheck.eval.deviation_eval import score_seed
 from mrcheck.eval.scansim import clutter_parts, scanner_stations, shifted_variant, simulate_scan
 from mrcheck.scene.model import Part, Scene, load_scene
 

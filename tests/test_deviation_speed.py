@@ -14,8 +14,8 @@ import pytest
 from mrcheck.apps.bcf import BcfTopic, bcf_bytes, topic_guid
 from mrcheck.apps.deviation.images import splat
 from mrcheck.core.arrays import bounding_box
-from mrcheck.eval.raycast import build_caster, coherent_order, triangle_soup
 from mrcheck.scene.model import Scene, make_part
+from mrcheck.scene.raycast import build_caster, coherent_order, triangle_soup
 
 from .conftest import box
 

@@ -1,5 +1,5 @@
 """``mrcheck discrepancies``: object ids, suspects, heat map, and precision / recall measured on
-as-built variants of the sample cell (protocol: :mod:`mrcheck.apps.discrepancies.evaluation`)."""
+as-built variants of the sample cell (protocol: :mod:`mrcheck.eval.discrepancy_eval`)."""
 
 from __future__ import annotations
 
@@ -9,14 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
-from mrcheck.apps.discrepancies import (
-    SAMPLE_CELL_FAR_VIEWS,
-    behind_ids,
-    detect,
-    evaluate,
-    object_ids,
-    synthetic_photo,
-)
+from mrcheck.apps.discrepancies import behind_ids, detect, object_ids
 from mrcheck.apps.discrepancies.thresholds import (
     DISCRIMINATIVE_FLOOR,
     DISCRIMINATIVE_THRESHOLD,
@@ -25,6 +18,7 @@ from mrcheck.apps.discrepancies.thresholds import (
 from mrcheck.cli import main
 from mrcheck.core.camera import Camera
 from mrcheck.core.resources import sample_scene_path
+from mrcheck.eval.discrepancy_eval import SAMPLE_CELL_FAR_VIEWS, evaluate, synthetic_photo
 from mrcheck.render.renderer import Renderer
 from mrcheck.scene.model import load_scene
 

@@ -10,18 +10,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mrcheck.apps.discrepancies import detect, planned_view, synthetic_photo
+from mrcheck.apps.discrepancies import detect, planned_view
 from mrcheck.apps.discrepancies.light import estimate_light
 from mrcheck.cli import main
 from mrcheck.core.camera import Camera
 from mrcheck.core.camerafiles import load_shot, read_photo
-from mrcheck.core.resources import sample_scene_path
+from mrcheck.core.resources import sample_scene_path, shipped_scene
+from mrcheck.eval.discrepancy_eval import synthetic_photo
 from mrcheck.render.composite import light_direction
 from mrcheck.render.renderer import Renderer
 from mrcheck.scene.model import load_scene
 
 BOX = Path(__file__).resolve().parent / "data" / "pose" / "box"
-CELL = Path(__file__).resolve().parents[1] / "factory_scenes" / "cell" / "scene.toml"
+CELL = shipped_scene("cell")
 
 
 def _view_camera(scene, view, w, h, k1):

@@ -127,10 +127,10 @@ def cell_fits():
     """The generated cell's ``overview`` at 640x480 (the crates' lens distortion), Open3D photos
     with sun, shadows, clutter and a part left out, from 15-40 px off: the dense scene (fences,
     trusses, roof decks) on which the coarse stage's shift search failed in every case."""
-    from mrcheck.core.resources import factory_scenes_dir
+    from mrcheck.core.resources import shipped_scene
     from mrcheck.scene.model import load_scene
 
-    cell = load_scene(factory_scenes_dir() / "cell" / "scene.toml")
+    cell = load_scene(shipped_scene("cell"))
     view = cell.camera("overview", 640)
     camera = Camera(view.width, view.height, view.K, view.R, view.t, crate_camera(640, 480).dist)
     edges, renderer = scene_edges(cell), Renderer(cell)

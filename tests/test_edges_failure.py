@@ -12,13 +12,13 @@ import pytest
 from mrcheck.cli import main
 from mrcheck.core.camera import Camera
 from mrcheck.core.camerafiles import write_camera
-from mrcheck.core.resources import factory_scenes_dir
+from mrcheck.core.resources import shipped_scene
 from mrcheck.eval.edgephotos import make_case, reprojection_error, synthetic_photo
 from mrcheck.eval.edgescenes import crate_camera, crate_scene
 from mrcheck.mr.edges import EdgeFitError, EdgeOptions, refine_pose
 from mrcheck.scene.model import Scene, load_scene
 
-CELL = factory_scenes_dir() / "cell" / "scene.toml"
+CELL = shipped_scene("cell")
 
 
 def _photo_of(parts: set | None, seed: int = 0):

@@ -27,7 +27,7 @@ from mrcheck.core.resources import sample_scene_path
 from mrcheck.mr.registration import register_photo
 from mrcheck.scene.model import Scene, load_scene
 
-from .mr_helpers import _camera, _marker_parts, _photo
+from .mr_helpers import make_camera, marker_parts, render_photo
 
 EYE, TARGET = np.array([-11.4, -6.2, 1.7]), np.array([-5.0, -4.2, 0.9])
 OFFSETS = [(0.0, 0.0, 0.0), (0.3, -0.2, 0.1), (-0.3, 0.2, -0.1), (0.2, 0.3, 0.0), (-0.2, -0.3, 0.1)]
@@ -61,7 +61,7 @@ def _markers():
         n = to_cam / np.linalg.norm(to_cam)
         right = np.cross((0, 0, 1.0), n)
         markers.append((marker_id, centre, right, np.cross(right, n), 0.7))
-    return _marker_parts(markers)
+    return marker_parts(markers)
 
 
 @pytest.fixture(scope="module")
@@ -71,14 +71,14 @@ def job_dir(ctx, tmp_path_factory):
     parts, marker_map = _markers()
     scene = Scene("markers", sample.source, sample.parts + parts, sample.viewpoints)
     dist = (-0.05, 0.0, 0.0, 0.0, 0.0)
-    intrinsics = _camera(320, 240, 250.0, dist=dist)
+    intrinsics = make_camera(320, 240, 250.0, dist=dist)
     (root / "camera.json").write_text(json.dumps(intrinsics.to_dict()))
     (root / "markers.json").write_text(json.dumps(marker_map))
     (root / "photos").mkdir()
     (root / "given").mkdir()
     for i, offset in enumerate(OFFSETS):
-        truth = _camera(320, 240, 250.0, dist=dist, eye=EYE + offset, target=TARGET)
-        photo = _photo(ctx, scene, truth, supersample=4)
+        truth = make_camera(320, 240, 250.0, dist=dist, eye=EYE + offset, target=TARGET)
+        photo = render_photo(ctx, scene, truth, supersample=4)
         path = root / ("given/given.png" if i == 4 else f"photos/cam-{i}.png")
         write_image(path, photo)
     (root / "photos" / f"{BROKEN}.png").write_bytes(b"\x89PNG\r\n\x1a\n but not really a PNG")

@@ -17,7 +17,7 @@ import numpy as np
 from mrcheck.cli import main
 from mrcheck.core.resources import sample_scene_path
 
-from .mr_helpers import _camera
+from .mr_helpers import make_camera
 
 SHOTS = 30  # some seconds with two workers: the parent is killed after the first few records
 EYE, TARGET = np.array([-11.4, -6.2, 1.7]), np.array([-5.0, -4.2, 0.9])
@@ -25,7 +25,7 @@ EYE, TARGET = np.array([-11.4, -6.2, 1.7]), np.array([-5.0, -4.2, 0.9])
 
 def _job(folder: Path) -> Path:
     """SHOTS copies of one registered shot (a noise photo: nothing is registered, only rendered)."""
-    camera = _camera(160, 120, 125.0, eye=EYE, target=TARGET)
+    camera = make_camera(160, 120, 125.0, eye=EYE, target=TARGET)
     cv2.imwrite(str(folder / "photo.png"), np.random.default_rng(0).integers(0, 255, (120, 160, 3), np.uint8))
     (folder / "shot.json").write_text(json.dumps(dict(camera.to_dict(), photo="photo.png")))
     shots = "".join(f'[[shots]]\nname = "s{i:02d}"\nshot = "shot.json"\n' for i in range(SHOTS))

@@ -21,7 +21,7 @@ def test_hover_pick_names_the_element():
 
 def test_discrepancy_report_carries_the_element(tmp_path):
     from mrcheck.apps.discrepancies.detector import detect
-    from mrcheck.apps.discrepancies.evaluation import synthetic_photo
+    from mrcheck.eval.discrepancy_eval import synthetic_photo
 
     scene = load_scene(WALL)
     camera = scene.camera("overview", 320, 240)

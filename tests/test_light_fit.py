@@ -32,11 +32,11 @@ def test_the_joint_fit_matches_least_squares_per_direction():
     sun = np.array([0.3, -0.8, -0.5]) / np.linalg.norm([0.3, -0.8, -0.5])
     w = rng.uniform(0.05, 1.0, len(n))
     q = 0.4 + 0.6 * np.maximum(n @ sun, 0.0) + rng.normal(0, 0.02, len(n))
-    directions = light._directions(light.LIGHT_DIRECTIONS)
+    directions = light.sphere_directions(light.LIGHT_DIRECTIONS)
     d = np.maximum(n @ directions.T, 0.0)
     d[:, 7] = 0.0  # a direction that faces no pixel
     d[:, 8] = 0.25  # one that lights every pixel alike
-    got, want = np.array(light._fit_all(q, w, d)), _per_direction(q, w, d)
+    got, want = np.array(light.fit_all_directions(q, w, d)), _per_direction(q, w, d)
     assert np.allclose(got, want, rtol=1e-7, atol=1e-9), np.abs(got - want).max(axis=1)
     assert np.argmin(got[2]) == np.argmin(want[2])
 
@@ -46,7 +46,7 @@ def test_the_estimated_light_is_the_one_that_lit_the_pixels():
     h, w = 120, 160
     normals = _pixels(rng, h * w).reshape(h, w, 3).astype(np.float32)
     albedo = rng.uniform(0.2, 0.8, (h, w, 1)) * np.ones((1, 1, 3))
-    sun = light._directions(light.LIGHT_DIRECTIONS)[123]
+    sun = light.sphere_directions(light.LIGHT_DIRECTIONS)[123]
     linear = albedo * (0.5 + 0.5 * np.maximum(normals @ sun, 0.0))[..., None]
     from mrcheck.render.antialias import linear_to_srgb
 

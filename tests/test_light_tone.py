@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mrcheck.core.resources import factory_scenes_dir, sample_scene_path
+from mrcheck.core.resources import sample_scene_path, shipped_scene
 from mrcheck.eval.aa_reference import image_mae, supersampled_reference
 from mrcheck.eval.reference import REFERENCE_LOD_PX, reference_ao
 from mrcheck.render.renderer import Renderer, RenderSettings
@@ -17,8 +17,8 @@ from mrcheck.scene.model import load_scene
 
 SCENES = {
     "sample": sample_scene_path(),
-    "cell": factory_scenes_dir() / "cell" / "scene.toml",
-    "line": factory_scenes_dir() / "line" / "scene.toml",
+    "cell": shipped_scene("cell"),
+    "line": shipped_scene("line"),
 }
 STUDY = ["phong", "vector", "ssao"]
 

@@ -23,7 +23,7 @@ from mrcheck.render.renderer import Renderer, RenderSettings
 from mrcheck.scene.model import Scene, load_scene
 
 from .conftest import box, scene_of
-from .mr_helpers import DICTIONARY, _camera, _marker_parts, _photo
+from .mr_helpers import DICTIONARY, make_camera, marker_parts, render_photo
 
 MAGENTA = (255, 0, 255)
 
@@ -39,8 +39,8 @@ def test_cad_edges_follow_the_distorted_lens_into_the_corners(ctx):
     # a long plate 5 m ahead whose top edge (y = 2.2 m, OpenCV y down) crosses the whole image
     # near its bottom corners, where k1 = -0.3 bends it by many pixels
     scene = scene_of(box((20.0, 7.8, 0.2), (0.0, 6.1, 5.0)))
-    camera = _camera(320, 240, 200.0, dist=(-0.3, 0.1, 0.0, 0.0, 0.0))
-    photo = _photo(ctx, scene, camera)
+    camera = make_camera(320, 240, 200.0, dist=(-0.3, 0.1, 0.0, 0.0, 0.0))
+    photo = render_photo(ctx, scene, camera)
     renderer = Renderer(scene, ctx=ctx)
     renders, edges, offset, maps = render_for_photo(renderer, camera, ["phong"], RenderSettings(), True)
     assert offset != (0, 0)  # barrel distortion: the photo's corners see beyond the pinhole frame
@@ -84,15 +84,15 @@ def test_cad_edges_follow_the_distorted_lens_into_the_corners(ctx):
 
 
 def test_distortion_map_inverts_the_lens():
-    camera = _camera(320, 240, 200.0, dist=(-0.3, 0.1, 0.001, -0.002, 0.0))
+    camera = make_camera(320, 240, 200.0, dist=(-0.3, 0.1, 0.001, -0.002, 0.0))
     map_x, map_y = distortion_map(camera)
     ideal = np.column_stack((map_x.ravel(), map_y.ravel()))[::97]
     photo_px = np.argwhere(np.ones((240, 320), bool))[::97][:, ::-1]
     rays = np.column_stack(((ideal - camera.K[:2, 2]) / camera.fx, np.ones(len(ideal))))
     back, _ = cv2.projectPoints(rays, np.zeros(3), np.zeros(3), camera.K, camera.dist)
     assert np.abs(back.reshape(-1, 2) - photo_px).max() < 0.01
-    assert distortion_map(_camera(32, 24, 20.0)) is None
-    assert padded_camera(_camera(32, 24, 20.0))[1] == (0, 0)
+    assert distortion_map(make_camera(32, 24, 20.0)) is None
+    assert padded_camera(make_camera(32, 24, 20.0))[1] == (0, 0)
 
 
 def test_edges_flat_faces_are_quiet_at_grazing_angles():
@@ -112,7 +112,7 @@ def marker_shot(ctx):
     """The sample cell with four markers 4-6 m from a distorted 640x480 camera, and its photo."""
     sample = load_scene(sample_scene_path())
     eye, target = np.array([-11.4, -6.2, 1.7]), np.array([-5.0, -4.2, 0.9])
-    truth = _camera(640, 480, 500.0, dist=(-0.1, 0.0, 0.0, 0.0, 0.0), eye=eye, target=target, principal=(1.3, -1.3))
+    truth = make_camera(640, 480, 500.0, dist=(-0.1, 0.0, 0.0, 0.0, 0.0), eye=eye, target=target, principal=(1.3, -1.3))
     fwd = (target - eye) / np.linalg.norm(target - eye)
     side = np.cross(fwd, (0, 0, 1.0))
     side /= np.linalg.norm(side)
@@ -146,9 +146,9 @@ def marker_shot(ctx):
     away /= np.linalg.norm(away)
     markers.append((61, floor_centre, np.cross(away, (0, 0, 1.0)), -away, 0.5))
 
-    parts, marker_map = _marker_parts(markers)
+    parts, marker_map = marker_parts(markers)
     scene = Scene("markers", sample.source, sample.parts + parts, sample.viewpoints)
-    photo = _photo(ctx, scene, truth, supersample=4)  # 4x: antialiased edges, cleaner corners
+    photo = render_photo(ctx, scene, truth, supersample=4)  # 4x: antialiased edges, cleaner corners
     return scene, truth, photo, marker_map
 
 
@@ -215,7 +215,7 @@ def test_marker_round_trip_with_register_markers(marker_shot):
 def test_blend_is_exact_at_the_ends_and_the_mean_between():
     rng = np.random.default_rng(1)
     photo, render = (rng.integers(0, 256, (24, 32, 3), dtype=np.uint8) for _ in range(2))
-    camera = _camera(32, 24, 30.0)
+    camera = make_camera(32, 24, 30.0)
     assert np.array_equal(overlay_images(photo, {"a": render}, camera, 0.0)["a"], render)
     assert np.array_equal(overlay_images(photo, {"a": render}, camera, 1.0)["a"], photo)
     half = overlay_images(photo, {"a": render}, camera, 0.5)["a"].astype(np.float64)

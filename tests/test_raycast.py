@@ -1,4 +1,4 @@
-"""The one ray caster (:mod:`mrcheck.eval.raycast`): hits and closest points name the part
+"""The one ray caster (:mod:`mrcheck.scene.raycast`): hits and closest points name the part
 instance and its triangle, hold their precision a million metres from the origin, and a scene
 without triangles has no caster. Plus the warning / progress reporting of the commands that use
 it (:mod:`mrcheck.cli.messages`, ``reference_ao``'s callback)."""
@@ -13,9 +13,9 @@ import pytest
 from mrcheck.cli.messages import warning_lines
 from mrcheck.core.camera import Camera
 from mrcheck.core.errors import MrcheckWarning
-from mrcheck.eval.raycast import NO_HIT, build_caster, instance_labels
 from mrcheck.eval.reference import PROGRESS_STAGE, reference_ao
 from mrcheck.scene.model import Scene, make_part
+from mrcheck.scene.raycast import NO_HIT, build_caster, instance_labels
 
 from .conftest import box
 

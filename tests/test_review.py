@@ -30,7 +30,7 @@ from mrcheck.core.resources import sample_scene_path  # noqa: E402
 from mrcheck.render.settings import MODES  # noqa: E402
 from mrcheck.scene.model import load_scene  # noqa: E402
 
-from .mr_helpers import _camera, _photo  # noqa: E402
+from .mr_helpers import make_camera, render_photo  # noqa: E402
 
 EYE, TARGET = np.array([-11.4, -6.2, 1.7]), np.array([-5.0, -4.2, 0.9])
 CHROMIUM = "/usr/bin/chromium"
@@ -41,8 +41,8 @@ def outdir(ctx, tmp_path_factory):
     root = tmp_path_factory.mktemp("review_job")
     scene = load_scene(sample_scene_path())
     for i, offset in enumerate([(0, 0, 0), (0.4, -0.3, 0.1)]):
-        cam = _camera(320, 240, 250.0, dist=(-0.05, 0, 0, 0, 0), eye=EYE + offset, target=TARGET)
-        write_image(root / f"shot{i}.png", _photo(ctx, scene, cam))
+        cam = make_camera(320, 240, 250.0, dist=(-0.05, 0, 0, 0, 0), eye=EYE + offset, target=TARGET)
+        write_image(root / f"shot{i}.png", render_photo(ctx, scene, cam))
         (root / f"shot{i}.json").write_text(json.dumps({**cam.to_dict(), "photo": f"shot{i}.png", "rms": 0.1 + i}))
     shots = "".join(f'\n[[shots]]\nshot = "shot{i}.json"\n' for i in range(2))
     (root / "job.toml").write_text(
@@ -320,7 +320,7 @@ def test_one_database_keeps_the_reviews_of_two_exports_apart(outdir, tmp_path):
     """A --db given to two reviews showed the first one's markers in the second (on any shot of
     the same name, too)."""
     db = tmp_path / "team.sqlite"
-    reviews = {"cell": open_source(outdir), "box": _box_review(tmp_path / "box", (0.0, 0.0, 0.0))}
+    reviews = {"cell": open_source(outdir), "box": box_review(tmp_path / "box", (0.0, 0.0, 0.0))}
     for name, source in reviews.items():
         with TestClient(create_app(source, db_path=db, cache_dir=tmp_path / "cache", samples=2)) as c:
             shot = next(iter(source.shots))
@@ -347,7 +347,7 @@ def test_one_database_keeps_the_reviews_of_two_exports_apart(outdir, tmp_path):
     assert [m["note"] for m in moved.markers()] == ["own db"] and moved.others == []
 
 
-def _box_review(folder, centre, size=(64, 48)):
+def box_review(folder, centre, size=(64, 48)):
     """A review of one 64x48 shot of a 1 m box (a single-mesh scene) at ``centre``: SCENE --shots DIR."""
     import trimesh
 
@@ -409,7 +409,7 @@ def test_coordinates_are_the_photos_pixels_when_it_is_served_smaller(tmp_path, s
 
     from mrcheck.apps.review.suggestions import load_suggestions
 
-    source = _box_review(tmp_path, (0.0, 0.0, 0.0), size=(160, 120))
+    source = box_review(tmp_path, (0.0, 0.0, 0.0), size=(160, 120))
     suspects = tmp_path / "suspects.json"
     suspects.write_text(
         json.dumps(
@@ -459,7 +459,7 @@ def test_a_database_of_served_pixels_is_upgraded(tmp_path, served_small):
 
     from mrcheck.apps.review.storage import SCHEMA
 
-    source = _box_review(tmp_path, (0.0, 0.0, 0.0), size=(160, 120))
+    source = box_review(tmp_path, (0.0, 0.0, 0.0), size=(160, 120))
     with contextlib.closing(sqlite3.connect(tmp_path / "r.sqlite")) as db:
         db.executescript(SCHEMA)
         db.execute("INSERT INTO reviews(source, created) VALUES ('old', 0)")
@@ -483,10 +483,10 @@ def test_render_cache_follows_a_changed_scene(tmp_path):
             assert r.status_code == 200, r.text
             return r.content
 
-    before = render(_box_review(tmp_path, (0.0, 0.0, 0.0)))
+    before = render(box_review(tmp_path, (0.0, 0.0, 0.0)))
     assert render(open_source(tmp_path / "box.stl", tmp_path / "shots")) == before  # a restart: the cached file
     assert len(list((tmp_path / "cache").rglob("render_*.png"))) == 1
-    assert render(_box_review(tmp_path, (0.0, 1.2, 0.0))) != before  # the box moved
+    assert render(box_review(tmp_path, (0.0, 1.2, 0.0))) != before  # the box moved
     # the old render went at start-up (stale stamps); a vanished shot's folder and the user's
     # own files in the cache folder are handled as such: ours removed, theirs kept
     assert len(list((tmp_path / "cache").rglob("render_*.png"))) == 1
@@ -501,7 +501,7 @@ def test_render_cache_follows_a_changed_scene(tmp_path):
 def test_the_review_renders_anti_aliased_unless_told_not_to(tmp_path):
     """`mrcheck review --no-antialias` (create_app antialias=False) renders without anti-aliasing:
     a render of its own in the cache, so that a switch never serves the other setting's file."""
-    source = _box_review(tmp_path, (0.0, 0.0, 0.0))
+    source = box_review(tmp_path, (0.0, 0.0, 0.0))
 
     def render(antialias):
         app = create_app(
@@ -523,7 +523,7 @@ def test_the_review_renders_anti_aliased_unless_told_not_to(tmp_path):
 @pytest.mark.parametrize("rms", [float("nan"), float("inf")])
 def test_a_registration_error_that_is_no_number_is_n_a(tmp_path, rms):
     """ "rms": NaN in a SHOT.json made the shot list a 500 (invalid JSON): the page never loaded."""
-    _box_review(tmp_path, (0.0, 0.0, 0.0))
+    box_review(tmp_path, (0.0, 0.0, 0.0))
     shot = tmp_path / "shots" / "a.json"
     shot.write_text(json.dumps({**json.loads(shot.read_text()), "rms": rms}))
     source = open_source(tmp_path / "box.stl", tmp_path / "shots")
@@ -553,7 +553,7 @@ def test_an_unexpected_error_has_the_apis_error_shape(client, monkeypatch, capsy
 
 
 def test_a_photo_gone_after_start_is_a_json_404(tmp_path):
-    source = _box_review(tmp_path, (0.0, 0.0, 0.0))
+    source = box_review(tmp_path, (0.0, 0.0, 0.0))
     (tmp_path / "shots" / "photo.png").unlink()
     with TestClient(create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache")) as c:
         r = c.get("/api/shots/a/photo.png")
@@ -563,7 +563,7 @@ def test_a_photo_gone_after_start_is_a_json_404(tmp_path):
 def test_a_photo_replaced_after_start_breaks_its_shot_not_the_report(tmp_path):
     """The photo replaced by one of another size after start-up: the cached old photo was still
     served, and the HTML report failed (404) for every shot because of this one."""
-    source = _box_review(tmp_path, (0.0, 0.0, 0.0))
+    source = box_review(tmp_path, (0.0, 0.0, 0.0))
     with TestClient(create_app(source, db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache", samples=2)) as c:
         assert c.get("/api/shots/a/photo.png").status_code == 200  # now in the cache
         assert (
@@ -656,7 +656,7 @@ def test_unknown_routes_and_methods_have_the_apps_error_shape(client):
 
 
 # -- end to end in a real browser -------------------------------------------------------------
-def _free_port():
+def free_port():
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
@@ -684,7 +684,7 @@ def _start(outdir, db, port):
 def test_ctrl_c_stops_the_server_quietly(outdir, tmp_path):
     import signal
 
-    proc = _start(outdir, tmp_path / "r.sqlite", _free_port())
+    proc = _start(outdir, tmp_path / "r.sqlite", free_port())
     proc.send_signal(signal.SIGINT)
     out, _ = proc.communicate(timeout=60)
     assert proc.returncode == 0 and b"error" not in out, out
@@ -695,7 +695,7 @@ needs_chromium = pytest.mark.skipif(
 )
 
 
-def _browser(pw, tmp_path):
+def open_browser(pw, tmp_path):
     """Headless Debian chromium driven by Playwright (a persistent profile in ``tmp_path``)."""
     args = [
         "--headless",
@@ -718,7 +718,7 @@ def _browser(pw, tmp_path):
 
 
 @contextlib.contextmanager
-def _served(app):
+def served_app(app):
     """``app`` served by uvicorn in a thread of this process; yields its URL."""
     import threading
 
@@ -741,16 +741,16 @@ def _served(app):
 
 @contextlib.contextmanager
 def _box_page(tmp_path, size=(64, 48)):
-    """A box review (:func:`_box_review`) served, and a page in headless chromium: (app, page, url)."""
+    """A box review (:func:`box_review`) served, and a page in headless chromium: (app, page, url)."""
     sync_api = pytest.importorskip("playwright.sync_api")
     app = create_app(
-        _box_review(tmp_path, (0.0, 0.0, 0.0), size=size),
+        box_review(tmp_path, (0.0, 0.0, 0.0), size=size),
         db_path=tmp_path / "r.sqlite",
         cache_dir=tmp_path / "cache",
         samples=2,
     )
-    with _served(app) as url, sync_api.sync_playwright() as pw:
-        browser = _browser(pw, tmp_path)
+    with served_app(app) as url, sync_api.sync_playwright() as pw:
+        browser = open_browser(pw, tmp_path)
         yield app, browser.new_page(), url
         browser.close()
 
@@ -867,12 +867,12 @@ def test_the_page_keeps_long_notes_in_the_sidebar(tmp_path):
 @needs_chromium
 def test_browser_end_to_end(outdir, tmp_path):
     sync_api = pytest.importorskip("playwright.sync_api")
-    port, db = _free_port(), tmp_path / "e2e.sqlite"
+    port, db = free_port(), tmp_path / "e2e.sqlite"
     url = f"http://127.0.0.1:{port}/"
     proc = _start(outdir, db, port)
     try:
         with sync_api.sync_playwright() as pw:
-            browser = _browser(pw, tmp_path)
+            browser = open_browser(pw, tmp_path)
             page = browser.new_page()
             page.goto(url)
             page.wait_for_selector("body[data-loaded='shot0|phong|1']", timeout=60000)

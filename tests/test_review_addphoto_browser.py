@@ -19,7 +19,7 @@ from mrcheck.core.resources import sample_scene_path  # noqa: E402
 from mrcheck.scene.model import load_scene  # noqa: E402
 
 from .addphoto_helpers import VIEW, make_folder, median_error_px, project, scene_points, truth_camera  # noqa: E402
-from .test_review import _browser, _served, needs_chromium  # noqa: E402
+from .test_review import needs_chromium, open_browser, served_app  # noqa: E402
 
 TOLERANCE_PX, TOLERANCE_M = 1.0, 0.02  # 1 px: the edge registration's accuracy target (issue 20)
 
@@ -41,8 +41,8 @@ def test_add_a_photo_by_clicking_in_the_browser(ctx, tmp_path):
     app = create_app(
         open_source(sample_scene_path(), shots), db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "cache", samples=2
     )
-    with _served(app) as url, sync_api.sync_playwright() as pw:
-        browser = _browser(pw, tmp_path)
+    with served_app(app) as url, sync_api.sync_playwright() as pw:
+        browser = open_browser(pw, tmp_path)
         page = browser.new_page()
         page.goto(url)
         page.wait_for_selector("body[data-ready='1']", timeout=60000)

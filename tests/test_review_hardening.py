@@ -31,7 +31,7 @@ from mrcheck.apps.bcf import BcfComment, BcfTopic, bcf_bytes, read_bcf_bytes, to
 from mrcheck.apps.review.app import create_app  # noqa: E402
 from mrcheck.cli import main  # noqa: E402
 
-from .test_review import _box_review, _free_port  # noqa: E402
+from .test_review import box_review, free_port  # noqa: E402
 
 ORIGIN = "http://127.0.0.1:8765"
 MARKER = {"shot": "a", "x": 10.0, "y": 10.0, "category": "other", "severity": 1}
@@ -41,7 +41,7 @@ MB = 1 << 20
 
 @pytest.fixture()
 def box(tmp_path):
-    return _box_review(tmp_path / "box", (0.0, 0.0, 0.0))
+    return box_review(tmp_path / "box", (0.0, 0.0, 0.0))
 
 
 @contextlib.contextmanager
@@ -163,8 +163,8 @@ def lying_bomb():
 def server(tmp_path):
     """``mrcheck review SCENE --shots DIR --max-body 8MiB`` on a free port: (port, process)."""
     folder = tmp_path / "box"
-    _box_review(folder, (0.0, 0.0, 0.0))
-    port = _free_port()
+    box_review(folder, (0.0, 0.0, 0.0))
+    port = free_port()
     command = [sys.executable, "-m", "mrcheck.cli", "review", str(folder / "box.stl"), "--shots", str(folder / "shots")]
     proc = subprocess.Popen(
         [*command, "--port", str(port), "--db", str(tmp_path / "r.sqlite"), "--max-body", "8MiB"],
@@ -430,7 +430,7 @@ def test_a_photo_over_the_limit_is_refused_everywhere(tmp_path, capsys):
     """Upload, the folder's photos on GET, and the shots at start-up (--max-pixels)."""
     from mrcheck.apps.review.source import open_source
 
-    box = _box_review(tmp_path / "box", (0.0, 0.0, 0.0))
+    box = box_review(tmp_path / "box", (0.0, 0.0, 0.0))
     photo = (tmp_path / "box" / "shots" / "photo.png").read_bytes()  # 64 x 48
     with _client(box, tmp_path) as c:
         c.app.state.review.source.max_pixels = 3000

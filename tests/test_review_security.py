@@ -25,7 +25,7 @@ from mrcheck.apps.review.app import create_app  # noqa: E402
 from mrcheck.apps.review.guard import MAX_BODY, MIN_MAX_BODY, is_loopback, parse_size  # noqa: E402
 from mrcheck.cli import main  # noqa: E402
 
-from .test_review import _box_review, _free_port  # noqa: E402
+from .test_review import box_review, free_port  # noqa: E402
 
 CSV = "/api/export/markers.csv"  # what a rebinding page would read: every marker and its note
 MARKER = {"shot": "a", "x": 10.0, "y": 10.0, "category": "other", "severity": 1}
@@ -33,7 +33,7 @@ MARKER = {"shot": "a", "x": 10.0, "y": 10.0, "category": "other", "severity": 1}
 
 @pytest.fixture()
 def box(tmp_path):
-    return _box_review(tmp_path / "box", (0.0, 0.0, 0.0))
+    return box_review(tmp_path / "box", (0.0, 0.0, 0.0))
 
 
 @contextlib.contextmanager
@@ -170,8 +170,8 @@ def test_a_bad_max_body_is_one_line(box, tmp_path, capsys, value, message):
 def server(tmp_path):
     """``mrcheck review SCENE --shots DIR --max-body 64KiB`` on a free port: (port, process)."""
     folder = tmp_path / "box"
-    _box_review(folder, (0.0, 0.0, 0.0))
-    port = _free_port()
+    box_review(folder, (0.0, 0.0, 0.0))
+    port = free_port()
     proc = subprocess.Popen(
         [
             sys.executable,

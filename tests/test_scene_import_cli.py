@@ -9,9 +9,10 @@ from pathlib import Path
 import pytest
 
 from mrcheck.cli import main
+from mrcheck.core.resources import robot_assets_dir
 
 DATA = Path(__file__).parent / "data" / "cad"
-UR5 = Path(__file__).resolve().parents[1] / "factory_scenes" / "assets" / "robots" / "ur5"
+UR5 = robot_assets_dir() / "ur5"
 
 
 def test_scene_import_writes_a_scene_every_command_reads(tmp_path, capsys):

@@ -268,16 +268,18 @@ def test_numpy_blas_runs_on_one_thread_while_tracking(video, tmp_path, monkeypat
 
 
 def test_the_next_frame_is_decoded_and_its_pyramid_made_on_a_thread_beside_the_snap(video, tmp_path, monkeypatch):
-    """The reader (``_Reader``) makes frame k+1's gradient pyramid on its thread while frame k is
-    snapped (each snap below waits until that has happened: without the thread it never would),
-    and every snap is given its own frame's pyramid, made with its own options."""
+    """The reader (:class:`~mrcheck.apps.trackframes.FrameReader`) makes frame k+1's gradient
+    pyramid on its thread while frame k is snapped (each snap below waits until that has happened:
+    without the thread it never would), and every snap is given its own frame's pyramid, made
+    with its own options."""
     import threading
 
     import mrcheck.apps.track as track
+    import mrcheck.apps.trackframes as trackframes
     from mrcheck.mr.edges import photo_pyramid
 
     folder, manifest, _, _ = video
-    made, snaps, real_pyramid, real_refine = [], [], track.photo_pyramid, track.refine_pose
+    made, snaps, real_pyramid, real_refine = [], [], trackframes.photo_pyramid, track.refine_pose
     ahead = [threading.Event() for _ in range(FRAMES + 1)]
 
     def pyramid(grey, options):
@@ -292,7 +294,7 @@ def test_the_next_frame_is_decoded_and_its_pyramid_made_on_a_thread_beside_the_s
             assert ahead[k + 1].wait(timeout=30), f"frame {k + 1} was not read beside the snap of frame {k}"
         return real_refine(scene, camera, grey, options=options, pyramid=pyramid, **kwargs)
 
-    monkeypatch.setattr(track, "photo_pyramid", pyramid)
+    monkeypatch.setattr(trackframes, "photo_pyramid", pyramid)
     monkeypatch.setattr(track, "refine_pose", refine)
     monkeypatch.setattr(track, "RETRY_OPTIONS", None)  # one snap per frame
     code = main(
@@ -320,7 +322,8 @@ def test_the_next_frame_is_decoded_and_its_pyramid_made_on_a_thread_beside_the_s
 
 def test_a_frame_that_cannot_be_decoded_is_raised_by_the_reader():
     """An error on the reader's thread (FFmpeg failing on a frame) reaches the loop at that frame."""
-    from mrcheck.apps.track import _Reader
+    from mrcheck.apps.track import frame_options
+    from mrcheck.apps.trackframes import FrameReader
 
     class Frame:
         time = 0.5
@@ -332,7 +335,7 @@ def test_a_frame_that_cannot_be_decoded_is_raised_by_the_reader():
         yield Frame()
         raise av.error.InvalidDataError(1094995529, "corrupt frame")
 
-    reader = _Reader(frames())
+    reader = FrameReader(frames(), frame_options)
     try:
         first = reader.next()
         assert first.time_s == 0.5 and first.grey.shape == (24, 32)

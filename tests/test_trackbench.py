@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import mrcheck.eval.walks as walks
-from mrcheck.apps.trackbench import TrackRun, run_walk, summary_lines
 from mrcheck.cli import main
 from mrcheck.eval.edgescenes import crate_camera, crate_scene, write_crate_scene
+from mrcheck.eval.trackbench import TrackRun, run_walk, summary_lines
 from mrcheck.eval.walks import make_walk, walk_camera
 
 
@@ -26,7 +26,7 @@ def small_walk(tmp_path_factory):
 def test_a_walk_is_tracked_in_a_process_of_its_own_and_measured_against_its_true_path(
     small_walk, tmp_path, monkeypatch
 ):
-    import mrcheck.apps.trackbench as bench
+    import mrcheck.eval.trackbench as bench
 
     # a fresh process imports the module anew: this replacement is not what it runs
     monkeypatch.setattr(bench, "track_command", lambda *args: pytest.fail("tracked in the bench's own process"))
@@ -86,7 +86,7 @@ def test_the_track_bench_refuses_a_second_bench_and_a_bad_json_path_before_any_w
 
 
 def test_the_track_bench_makes_its_walks_once_and_writes_its_runs_as_json(tmp_path, monkeypatch):
-    import mrcheck.apps.trackbench as bench
+    import mrcheck.eval.trackbench as bench
 
     plan = [
         bench.WalkPlan(

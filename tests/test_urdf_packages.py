@@ -9,10 +9,11 @@ from pathlib import Path
 import pytest
 
 from mrcheck.core.errors import MrcheckError
+from mrcheck.core.resources import robot_assets_dir
 from mrcheck.scene import packages
 from mrcheck.scene.model import load_scene
 
-UR5 = Path(__file__).resolve().parents[1] / "factory_scenes" / "assets" / "robots" / "ur5"
+UR5 = robot_assets_dir() / "ur5"
 
 
 @pytest.fixture(autouse=True)

@@ -7,10 +7,11 @@ Presets (Z up, metres, floor top at z = 0, the hall centred on the origin, its l
 ``cell`` (one fenced robot cell, ~20 x 15 x 6 m), ``line`` (one production line with 2-4
 robot cells and a rack aisle, ~60 x 30 x 8 m), ``hall`` (~200 x 80 x 12 m: lines, rack zone,
 cranes, mezzanine, pits, services). Modules: ``presets`` (what each preset holds), ``layout``
-(placement), ``plan`` (the placed parts, built at any level), ``detail`` (levels of detail),
-``budget`` (meeting a triangle target), the part builders ``geometry``, ``structure``,
-``equipment``, ``storage``, ``services``, the robots ``arms``, and the writers ``glb``,
-``manifest``.
+(placement, in order: ``hall`` the column grid and zones, then one module per zone:
+``place_racks``, ``place_building``, ``place_lines``, ``place_services``), ``plan`` (the
+placed parts, built at any level), ``detail`` (levels of detail), ``budget`` (meeting a
+triangle target), the part builders ``geometry``, ``structure``, ``equipment``, ``storage``,
+``services``, the robots ``arms``, and the writers ``glb``, ``manifest``.
 
 Output folder::
 

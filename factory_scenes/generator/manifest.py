@@ -14,7 +14,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import trimesh
 
-from mrcheck.scene.model import UNITS
+from mrcheck.scene.part_tables import UNITS
 
 
 @dataclass

@@ -33,17 +33,16 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-import cv2
-import numpy as np
 from threadpoolctl import threadpool_limits
 
+from mrcheck.apps.trackframes import FramePhoto, FrameReader
 from mrcheck.apps.videoout import BackgroundVideo
 from mrcheck.core.camera import Camera
 from mrcheck.core.camerafiles import load_camera, read_camera
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.inputs import check_input
 from mrcheck.core.output import check_not_inputs, check_output_path, replace_output, write_text
-from mrcheck.mr.edges import EdgeFitError, EdgeOptions, VisibilityRender, photo_pyramid, refine_pose, scene_edges
+from mrcheck.mr.edges import EdgeFitError, EdgeOptions, VisibilityRender, refine_pose, scene_edges
 from mrcheck.mr.edges.candidates import CandidateEdges
 from mrcheck.mr.lens import distortion_map
 from mrcheck.mr.overlay import overlay_images
@@ -262,7 +261,7 @@ def _track_video(video, scene, intrinsics, initial, output, poses_path, alpha, p
             stream = source.streams.video[0]
             total = stream.frames or 0
             # the first frame is decoded and its pyramid made beside the start-up below
-            reader = _Reader(source.decode(stream))
+            reader = FrameReader(source.decode(stream), frame_options)
             try:
                 edges = scene_edges(scene)
                 renderer = Renderer(scene)
@@ -303,58 +302,6 @@ def _track_video(video, scene, intrinsics, initial, output, poses_path, alpha, p
     return result
 
 
-@dataclass
-class _Photo:
-    """A decoded frame: its RGB image, time, grey photo and the snap's gradient pyramid of it."""
-
-    rgb: np.ndarray
-    time_s: float
-    grey: np.ndarray
-    pyramid: list
-
-
-class _Reader:
-    """The video's frames, each decoded, made grey and turned into the snap's gradient pyramid
-    (:func:`~mrcheck.mr.edges.photo_pyramid`) one frame ahead on a thread. Why: FFmpeg's decode
-    and OpenCV's filters release the GIL, so the next frame's 15 ms of them (the cell's walks:
-    decode 4-6 ms, pyramid 10) run on the second core beside this frame's snap (mostly numpy on
-    one core) instead of before the next one (measured: docs/edge-registration.md, Figures).
-    ``times_s``: the thread's ``decode`` and ``photo`` seconds; an error on the thread (a corrupt
-    frame) is raised by :meth:`next`."""
-
-    def __init__(self, frames):
-        self._frames = frames
-        self.times_s = {"decode": 0.0, "photo": 0.0}
-        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mrcheck-video-reader")
-        self._read_count = 0
-        self._next = self._pool.submit(self._read)
-
-    def _read(self) -> _Photo | None:
-        began = time.perf_counter()
-        frame = next(self._frames, None)
-        if frame is None:
-            return None
-        options = frame_options(self._read_count)
-        self._read_count += 1
-        rgb = frame.to_ndarray(format="rgb24")
-        decoded = time.perf_counter()
-        self.times_s["decode"] += decoded - began
-        grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
-        photo = _Photo(rgb, float(frame.time or 0.0), grey, photo_pyramid(grey, options))
-        self.times_s["photo"] += time.perf_counter() - decoded
-        return photo
-
-    def next(self) -> _Photo | None:
-        """The next frame (None after the last); the one after it is started on the thread."""
-        photo = self._next.result()
-        self._next = self._pool.submit(self._read) if photo is not None else None
-        return photo
-
-    def close(self) -> None:
-        """Wait for the thread (the video is closed after this)."""
-        self._pool.shutdown(wait=True)
-
-
 class _Loop:
     """The per-frame work of :func:`track_video` and what the frames share (camera, lens map,
     writer, the stage clock in ``result.times_s``)."""
@@ -375,7 +322,7 @@ class _Loop:
         self.times[stage] = self.times.get(stage, 0.0) + now - began
         return now
 
-    def frame(self, photo: _Photo, video, tmp_video, rate) -> None:
+    def frame(self, photo: FramePhoto, video, tmp_video, rate) -> None:
         rgb = photo.rgb
         if self.camera is None:
             self.camera, _ = fit_camera(self.intrinsics, rgb.shape[1], rgb.shape[0], video)
@@ -445,7 +392,7 @@ class _Loop:
 
 
 def _track_frame(
-    previous, scene, camera, photo: _Photo, initial, renderer, edges, index, candidates=None, seed=None
+    previous, scene, camera, photo: FramePhoto, initial, renderer, edges, index, candidates=None, seed=None
 ) -> FramePose:
     start = camera.with_pose(initial.R, initial.t) if not previous else predicted(previous)
     began = time.perf_counter()

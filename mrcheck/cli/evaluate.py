@@ -90,7 +90,7 @@ def bench(quick, json_path, repeat, edges, track):
 
 
 def _track_bench(quick, repeat, json_path) -> None:
-    from mrcheck.apps.trackbench import track_bench
+    from mrcheck.eval.trackbench import track_bench
 
     _, lines = track_bench(quick=quick, rounds=repeat, json_path=json_path, progress=_progress_bar("frame"))
     for line in lines:

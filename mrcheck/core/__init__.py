@@ -14,6 +14,7 @@ Public API, by module:
 * ``output``: atomic writes (:func:`write_image`, :func:`write_text`, ...), output checks
   (:func:`check_output_path`, :func:`check_not_inputs`), :func:`labelled_sheet`;
 * ``progress``: the :data:`Progress` callback long loops take, :func:`no_progress`;
-* ``resources``: :func:`shader_dir`, :func:`sample_scene_path`, :func:`factory_scenes_dir`;
+* ``resources``: :func:`shader_dir`, :func:`shipped_scene`, :func:`sample_scene_path`,
+  :func:`robot_assets_dir` (the one module that knows where ``factory_scenes`` keeps them);
   ``quiet``: :func:`native_output` (silencing C libraries).
 """

@@ -1,12 +1,15 @@
-"""Judging the rendering: ray-traced reference, compare, metrics, bench.
+"""Judging the rendering and the apps: ray-traced reference, compare, metrics, benches, harnesses.
 
-* ``raycast`` -- :class:`~mrcheck.eval.raycast.SceneCaster` (``build_caster``): ray casts and
-  closest points against every part instance of a scene, float32-safe far from the origin; the
-  one ray caster of mrcheck (the reference, the discrepancy check, the deviation, the review's
-  picker);
+This layer sits above :mod:`mrcheck.apps` (it judges them) and below the command line.
+
 * ``reference`` -- ``reference_ao``: the ray-traced AO the screen-space modes are judged
   against, and ``reference_command`` (``mrcheck reference``);
 * ``metrics`` -- MAE, RMSE, SSIM, false occlusion, distance retention over covered pixels;
 * ``compare`` -- ``compare_command`` (``mrcheck compare``): every AO mode against its reference;
-* ``bench/`` -- ``mrcheck bench``: timings on this machine and against peer renderers.
+* ``bench/`` -- ``mrcheck bench``: timings on this machine and against peer renderers;
+* ``edgebench``, ``trackbench`` -- ``bench --edges`` and ``bench --track`` (test photos from
+  ``edgephotos`` and ``edgescenes``, walk videos from ``walks``);
+* ``discrepancy_eval`` -- :func:`evaluate`: the discrepancy check's precision and recall on
+  as-built variants; ``deviation_eval`` -- :func:`score_seed`: the deviation's element statuses
+  on simulated scans (``scansim``) of shifted variants.
 """

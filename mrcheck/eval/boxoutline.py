@@ -28,7 +28,7 @@ from mrcheck.core.camera import Camera
 # px inside it (the registration's fit would read 2.8 px "off" while lying on the rim's step).
 MIN_CONTRAST = 8.0
 PROFILE_PX = 14.0  # the profile reaches this far each side of the reference outline
-_STEP = 0.25
+PROFILE_STEP = 0.25  # px between the samples of a profile across the outline
 
 
 @dataclass
@@ -45,7 +45,7 @@ class OutlineLine:
         return np.abs(d[:, 0] * self.direction[1] - d[:, 1] * self.direction[0])
 
 
-def _crossing(profile: np.ndarray) -> float | None:
+def profile_crossing(profile: np.ndarray) -> float | None:
     """The outermost half-contrast crossing (index into ``profile``, outward increasing): the
     table level is the profile's outer end; the box's level the extremum within 3 px inside
     the outermost sample that differs from it by :data:`MIN_CONTRAST` (the rim, not the print
@@ -57,7 +57,7 @@ def _crossing(profile: np.ndarray) -> float | None:
         return None
     outer = int(strong[-1])
     sign = np.sign(excess[outer])
-    window = excess[max(0, outer - int(3 / _STEP)) : outer + 1] * sign
+    window = excess[max(0, outer - int(3 / PROFILE_STEP)) : outer + 1] * sign
     half = 0.5 * float(window.max())
     above = np.flatnonzero(excess[: outer + 1] * sign > half)
     i = int(above[-1])
@@ -73,7 +73,7 @@ def photo_outline(grey: np.ndarray, reference: Camera, segments: dict) -> list[O
     image = grey.astype(np.float32)
     centre = reference.project(np.concatenate(list(segments.values())))
     centre = centre.mean(axis=0)
-    steps = np.arange(-PROFILE_PX, PROFILE_PX + 1e-9, _STEP)
+    steps = np.arange(-PROFILE_PX, PROFILE_PX + 1e-9, PROFILE_STEP)
     out = []
     for name, ends in segments.items():
         a, b = reference.project(np.asarray(ends, np.float64))
@@ -85,9 +85,9 @@ def photo_outline(grey: np.ndarray, reference: Camera, segments: dict) -> list[O
             p = a + f * (b - a)
             pts = (p + steps[:, None] * n).astype(np.float32)
             profile = cv2.remap(image, pts[:, 0:1], pts[:, 1:2], cv2.INTER_LINEAR).ravel()
-            i = _crossing(profile)
+            i = profile_crossing(profile)
             if i is not None:
-                hits.append(p + (steps[0] + i * _STEP) * n)
+                hits.append(p + (steps[0] + i * PROFILE_STEP) * n)
         if len(hits) >= 5:
             out.append(_fit_line(name, np.array(hits)))
     return out
@@ -133,4 +133,13 @@ def outline_distances(lines: list[OutlineLine], camera: Camera, segments: dict) 
     return out
 
 
-__all__ = ["OutlineLine", "photo_outline", "box_segments", "outline_distances", "MIN_CONTRAST"]
+__all__ = [
+    "OutlineLine",
+    "photo_outline",
+    "box_segments",
+    "outline_distances",
+    "profile_crossing",
+    "MIN_CONTRAST",
+    "PROFILE_PX",
+    "PROFILE_STEP",
+]

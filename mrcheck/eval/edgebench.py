@@ -153,12 +153,12 @@ def edge_bench(quick: bool = False, progress=None) -> list[str]:
     """``mrcheck bench --edges``: both methods on the crate scene
     (:mod:`mrcheck.eval.edgescenes`) and on the generated cell's ``overview``, at 640x480 with
     lens distortion, 10 seeds each (3 with ``quick``); the lines of :func:`summary_lines` per scene."""
-    from mrcheck.core.resources import factory_scenes_dir
+    from mrcheck.core.resources import shipped_scene
     from mrcheck.eval.edgescenes import crate_camera, crate_scene
     from mrcheck.scene.model import load_scene
 
     seeds = range(3 if quick else 10)
-    cell = load_scene(factory_scenes_dir() / "cell" / "scene.toml")
+    cell = load_scene(shipped_scene("cell"))
     crates = crate_camera(640, 480)
     lines = []
     for name, scene, camera in (

@@ -42,8 +42,8 @@ import numpy as np
 
 from mrcheck.core.camera import Camera
 from mrcheck.core.errors import MrcheckError, MrcheckWarning
-from mrcheck.eval.raycast import build_caster
 from mrcheck.scene.model import Scene
+from mrcheck.scene.raycast import build_caster
 
 # Level-of-detail error of the render whose G-buffer the rays start from: none. Measured with the
 # sample cell's robot view at 320x240: vector's RMSE against the reference was 0.134 from a render

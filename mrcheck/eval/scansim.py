@@ -22,9 +22,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from mrcheck.eval.raycast import build_caster
 from mrcheck.scene.asbuilt_plan import excluded_parts
 from mrcheck.scene.model import Scene, make_part
+from mrcheck.scene.raycast import build_caster
 
 EYE_HEIGHT = 1.6
 STRAY_SHARE = 0.005

@@ -25,7 +25,7 @@ from mrcheck.core.output import (
     write_ao,
     write_image,
 )
-from mrcheck.core.resources import factory_scenes_dir, sample_scene_path
+from mrcheck.core.resources import sample_scene_path, shipped_scene
 from mrcheck.render.renderer import MODES, STUDY_LABELS, Renderer, RenderSettings
 from mrcheck.scene.manifest import scene_files
 from mrcheck.scene.model import load_scene
@@ -139,7 +139,7 @@ def demo_command(
     goes to ``on_written`` as it is written; ``progress(views, desc=..., unit=...)`` wraps each
     scene's views (a tqdm bar in the CLI). Returns the paths written."""
     outdir = check_output_dir(Path(outdir).resolve())
-    scenes = [("", sample_scene_path()), ("cell_", factory_scenes_dir() / "cell" / "scene.toml")]
+    scenes = [("", sample_scene_path()), ("cell_", shipped_scene("cell"))]
     written = []
 
     def write(path, image):

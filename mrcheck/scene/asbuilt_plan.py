@@ -15,7 +15,7 @@ import numpy as np
 
 from mrcheck.core.errors import warn
 from mrcheck.core.progress import Progress, no_progress
-from mrcheck.scene.model import transform_from_table
+from mrcheck.scene.part_tables import transform_from_table
 
 KINDS = ("moved", "rotated", "missing", "added", "replaced")
 SHARE = 0.10  # of the scene's instances that change

@@ -45,7 +45,6 @@ Manifest (format 1)::
 from __future__ import annotations
 
 import contextlib
-import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -63,17 +62,18 @@ from mrcheck.scene.elements import (
     manifest_crs,
     manifest_origin,
     manifest_package_path,
-    matrices_in_bulk,
     part_element_fields,
     read_instances_file,
     shifted,
-    vector3,
     viewpoint_in_world,
 )
+from mrcheck.scene.importers.cache import cached_manifest
+from mrcheck.scene.importers.records import ImportSettings
+from mrcheck.scene.importers.sniff import IMPORT_SUFFIXES
 from mrcheck.scene.meshes import JointError, read_mesh
+from mrcheck.scene.part_tables import UNITS, part_color, part_joints, part_transforms, transform_from_table, unit_scale
 from mrcheck.scene.precision import float32_or_float64
 
-UNITS = {"mm": 0.001, "cm": 0.01, "m": 1.0, "in": 0.0254, "ft": 0.3048}  # metres per unit
 DEFAULT_COLOR = (0.7, 0.7, 0.7)  # linear RGB of parts without a colour
 
 
@@ -212,57 +212,6 @@ class Scene:
             raise MrcheckError(f"viewpoint {view!r}: {exc}", self.source) from None
 
 
-# -- transforms ------------------------------------------------------------------------------------
-def _rotation_xyz(degrees) -> np.ndarray:
-    rx, ry, rz = np.radians(degrees)
-    cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
-    Rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
-    Ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
-    Rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
-    return Rz @ Ry @ Rx  # about world x first, then y, then z
-
-
-def transform_from_table(table: dict, where: str) -> np.ndarray:
-    """(4, 4) float64 from ``translate`` / ``rotate_deg`` / ``scale`` or a full ``matrix``."""
-    M = np.eye(4)
-    try:
-        if "matrix" in table:
-            if any(k in table for k in ("translate", "rotate_deg", "scale")):
-                raise MrcheckError(f"{where}: give either matrix or translate/rotate_deg/scale, not both")
-            M = np.array(table["matrix"], dtype=np.float64)
-            if M.shape != (4, 4):
-                raise MrcheckError(f"{where}: matrix must be 4x4")
-            if not np.all(np.isfinite(M)):
-                raise MrcheckError(f"{where}: matrix has NaN or infinite values")
-            A = M[:3, :3]
-            if not np.allclose(M[3], (0, 0, 0, 1)):
-                raise MrcheckError(f"{where}: matrix bottom row must be [0, 0, 0, 1] (an affine transform)")
-            # a singular matrix flattens the part, and its normals (inverse transpose) would be NaN
-            if not abs(np.linalg.det(A)) > 1e-12 * np.linalg.norm(A) ** 3:
-                raise MrcheckError(f"{where}: matrix is singular")
-        else:
-            scale = float(table.get("scale", 1.0))
-            if not math.isfinite(scale):
-                raise MrcheckError(f"{where}: scale: {scale} is not a finite number")
-            if not scale > 0:
-                raise MrcheckError(f"{where}: scale must be positive, got {scale}")
-            M[:3, :3] = _rotation_xyz(vector3(table.get("rotate_deg", (0, 0, 0)), f"{where} rotate_deg")) * scale
-            M[:3, 3] = vector3(table.get("translate", (0, 0, 0)), f"{where} translate")
-    except (TypeError, ValueError):
-        raise MrcheckError(f"{where}: transform values must be numbers") from None
-    if not np.all(np.isfinite(M)):
-        raise MrcheckError(f"{where}: transform has NaN or infinite values")
-    return M
-
-
-def unit_scale(units, where) -> float:
-    if units is None:
-        return 1.0
-    if not isinstance(units, str) or units not in UNITS:  # a TOML list is not hashable
-        raise MrcheckError(f"unknown units {units!r} (use one of {', '.join(UNITS)})", where)
-    return UNITS[units]
-
-
 def make_part(
     name,
     source,
@@ -302,19 +251,17 @@ def make_part(
 
 
 # -- loading ------------------------------------------------------------------------------------
-def load_scene(path, units: str | None = None, progress: bool = False, import_settings=None) -> Scene:
+def load_scene(
+    path, units: str | None = None, progress: bool = False, import_settings: ImportSettings | None = None
+) -> Scene:
     """A manifest (``.toml``), an IFC/STEP model (imported through the cache,
     :mod:`mrcheck.scene.importers.cache`, with ``import_settings``) or any single mesh file (then
     ``units`` says its unit); ``progress``: the loading shown through
     :func:`mrcheck.core.progress.shown_progress`."""
     path = Path(path)
     check_input(path, "scene file", folder_ok=True)
-    from mrcheck.scene.importers.sniff import IMPORT_SUFFIXES
-
     if path.suffix.lower() in IMPORT_SUFFIXES and not path.is_dir():
-        from mrcheck.scene.importers.cache import load_model
-
-        return load_model(path, units, progress, import_settings)
+        return _load_model(path, units, progress, import_settings)
     if path.is_dir():
         candidates = [path / "scene.toml", *sorted(path.glob("*.toml"))]
         manifest = next((c for c in candidates if c.exists()), None)
@@ -328,6 +275,16 @@ def load_scene(path, units: str | None = None, progress: bool = False, import_se
     vertices, faces = read_mesh(path)
     part = make_part(path.stem, path, vertices, faces, np.eye(4), units=units)
     return Scene(name=path.stem, source=path, parts=[part])
+
+
+def _load_model(path: Path, units, progress: bool, settings: ImportSettings | None) -> Scene:
+    """The scene of an IFC/STEP file through the import cache; its source is the model file."""
+    if units is not None:
+        raise MrcheckError("--units applies to a mesh file; an IFC or STEP file declares its own units", path)
+    result = cached_manifest(path, settings, shown_progress() if progress else no_progress)
+    scene = load_scene(result.manifest, progress=progress)
+    scene.source = path
+    return scene
 
 
 def _load_manifest(path: Path, progress: bool) -> Scene:
@@ -419,9 +376,9 @@ def _part_from_table(
         unknown = sorted(set(t) - _INSTANCE_KEYS)
         if unknown:
             raise MrcheckError(f"{where} instance {i}: unknown key(s) {', '.join(unknown)}", path)
-    transforms = shifted(_transforms(table, instances, where, path), origin if origin is not None else np.zeros(3))
-    color = _part_color(table, where, path)
-    joints = _part_joints(table, where, path)
+    transforms = shifted(part_transforms(table, instances, where, path), origin if origin is not None else np.zeros(3))
+    color = part_color(table, where, path)
+    joints = part_joints(table, where, path)
     ids = _instance_ids(name, instances, owners, path)
     try:
         vertices, faces = read_mesh(path.parent / table["mesh"], joints, package_folders)
@@ -443,47 +400,6 @@ def _part_from_table(
         element_info(instances, where, path),
         *part_element_fields(table, where, path),
     )
-
-
-def _transforms(table: dict, instances: list, where: str, path: Path) -> list:
-    """Every instance's transform @ the part's (checked at once for an import's plain matrices)."""
-    try:
-        base = transform_from_table(table, where)
-        bulk = matrices_in_bulk(instances)
-        if bulk is not None:
-            return list(bulk @ base)
-        return [transform_from_table(t, f"{where} instance {i}") @ base for i, t in enumerate(instances)]
-    except MrcheckError as exc:
-        raise MrcheckError(str(exc), path) from None
-
-
-def _part_color(table: dict, where: str, path: Path):
-    """The part's ``color`` as three floats in 0..1, or None when it has none."""
-    color = table.get("color")
-    if color is not None:
-        try:
-            color = np.asarray(color, dtype=np.float64)
-        except (TypeError, ValueError):
-            color = None  # reported just below, like a colour out of range
-        if color is None or color.shape != (3,) or not np.all((color >= 0) & (color <= 1)):
-            raise MrcheckError(f"{where}: color must be three numbers in 0..1, got {table['color']!r}", path)
-    return color
-
-
-def _part_joints(table: dict, where: str, path: Path):
-    """The part's ``joints`` table (None when it has none), each value a finite number."""
-    joints = table.get("joints")
-    if joints is not None and not isinstance(joints, dict):
-        raise MrcheckError(f"{where}: joints must be a table of name = value", path)
-    for joint, value in (joints or {}).items():
-        # TOML's true would pass float() as 1 rad, and nan would pose the arm anyhow
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise MrcheckError(
-                f"{where}: joint {joint!r} must be a finite number (radians, or metres for a "
-                f"prismatic joint), got {value!r}",
-                path,
-            )
-    return joints
 
 
 def _instance_ids(name: str, instances: list, owners: dict, path: Path) -> list[str]:
@@ -509,4 +425,4 @@ def _instance_ids(name: str, instances: list, owners: dict, path: Path) -> list[
     return ids
 
 
-__all__ = ["ElementInfo", "Part", "Scene", "UNITS", "load_scene", "make_part", "transform_from_table"]
+__all__ = ["ElementInfo", "Part", "Scene", "UNITS", "load_scene", "make_part", "transform_from_table", "unit_scale"]

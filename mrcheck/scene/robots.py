@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from mrcheck.core.errors import MrcheckError
-from mrcheck.core.resources import factory_scenes_dir
+from mrcheck.core.resources import robot_assets_dir
 
 ROBOT_NAMES = ("kuka_iiwa", "ur5", "ur10", "abb_irb140")
 
@@ -77,7 +77,7 @@ def robot_dir(name) -> Path:
     MrcheckError
         For a name not in :data:`ROBOT_NAMES`.
     """
-    return factory_scenes_dir() / "assets" / "robots" / _check_name(name)
+    return robot_assets_dir() / _check_name(name)
 
 
 def robot_urdf(name) -> Path:

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mrcheck.eval.raycast import triangle_owners
+from mrcheck.scene.raycast import triangle_owners
 
 SAMPLE_SPACING = 0.05  # metres between surface samples on average
 MIN_SAMPLES, MAX_SAMPLES = 32, 1024

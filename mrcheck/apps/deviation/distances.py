@@ -2,7 +2,7 @@
 and the checks that a scan belongs to the scene at all.
 
 For every scan point ``p`` the closest point ``c`` on the planned CAD (every part, every
-instance; :meth:`mrcheck.eval.raycast.SceneCaster.closest_points`) and that triangle's normal
+instance; :meth:`mrcheck.scene.raycast.SceneCaster.closest_points`) and that triangle's normal
 ``n`` give the **signed distance**::
 
     d(p) = sign((p - c) . n) * |p - c|      (metres; > 0 outside / in front of the CAD surface)
@@ -42,8 +42,8 @@ import numpy as np
 from mrcheck.core.arrays import bounding_box
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.progress import shown_progress
-from mrcheck.eval.raycast import build_caster, coherent_order, triangle_owners
 from mrcheck.scene.model import UNITS, Scene
+from mrcheck.scene.raycast import build_caster, coherent_order, triangle_owners
 
 QUERY_CHUNK = 1 << 20  # points per closest-point query (~100 MB of results)
 UNIT_RATIO_LIMIT = 20.0  # scan bbox diagonal / scene bbox diagonal beyond which units are wrong
@@ -152,7 +152,7 @@ def signed_distances(scene: Scene, points: np.ndarray):
     """Signed distance (module docstring) and owning instance of every point.
 
     Returns ``(d, owner)``: (N,) float64 metres and (N,) int64 indices into
-    :func:`mrcheck.eval.raycast.triangle_owners`'s list.
+    :func:`mrcheck.scene.raycast.triangle_owners`'s list.
     """
     surface = closest_surface(scene, points)
     return surface.d, surface.owner

@@ -40,7 +40,7 @@ import numpy as np
 from mrcheck.apps.bcf.findings import ifc_global_id
 from mrcheck.apps.deviation.coverage import coverage
 from mrcheck.core.progress import shown_progress
-from mrcheck.eval.raycast import triangle_owners
+from mrcheck.scene.raycast import triangle_owners
 
 TOLERANCE_MM = 20.0
 SEARCH_MM = 100.0

@@ -3,7 +3,7 @@
 Modules, in the order the data flows:
 
 * ``ids`` -- :func:`object_ids`, :func:`behind_ids`: the instance every photo pixel sees, and
-  what lies behind it (ray casts through :mod:`mrcheck.eval.raycast`);
+  what lies behind it (ray casts through :mod:`mrcheck.scene.raycast`);
 * ``edges`` -- photo edges, CAD outlines and their oriented support;
 * ``planned`` -- :func:`planned_view` -> :class:`PlannedView`: the planned scene through the
   camera (render, CAD edges, ids, scored and discriminative outlines);
@@ -11,9 +11,10 @@ Modules, in the order the data flows:
 * ``detector`` -- :func:`detect` -> :class:`Detection` (:class:`Suspect`, :class:`Region`,
   :class:`Marker`; ``Detection.to_dict()`` is the JSON part); the method in its docstring;
 * ``heatmap`` -- :func:`heatmap`; ``report`` -- ``suspects.json``, ``suspects.md``, the console line;
-* ``command`` -- :func:`discrepancies_command` -> :class:`DiscrepancyRun` (what the CLI calls);
-* ``evaluation`` -- :func:`evaluate` -> :class:`Evaluation`, :func:`synthetic_photo`: the
-  precision / recall harness on as-built variants.
+* ``command`` -- :func:`discrepancies_command` -> :class:`DiscrepancyRun` (what the CLI calls).
+
+The precision / recall harness on as-built variants judges this app from above it:
+:mod:`mrcheck.eval.discrepancy_eval`.
 """
 
 from mrcheck.apps.discrepancies.command import DiscrepancyRun, discrepancies_command
@@ -23,12 +24,6 @@ from mrcheck.apps.discrepancies.detector import (
     Region,
     Suspect,
     detect,
-)
-from mrcheck.apps.discrepancies.evaluation import (
-    SAMPLE_CELL_FAR_VIEWS,
-    Evaluation,
-    evaluate,
-    synthetic_photo,
 )
 from mrcheck.apps.discrepancies.heatmap import heatmap
 from mrcheck.apps.discrepancies.ids import behind_ids, object_ids
@@ -42,10 +37,6 @@ __all__ = [
     "Suspect",
     "Region",
     "Marker",
-    "evaluate",
-    "Evaluation",
-    "synthetic_photo",
-    "SAMPLE_CELL_FAR_VIEWS",
     "heatmap",
     "object_ids",
     "behind_ids",

@@ -5,7 +5,7 @@ Method
 1. **Object ids in the photo's lens geometry.** For every photo pixel the undistorted (ideal)
    pixel comes from :func:`mrcheck.mr.overlay.distortion_map`; one ray per pixel is cast through
    it with Open3D's ``RaycastingScene`` over the triangle soup of every part at every instance
-   (:class:`mrcheck.eval.raycast.SceneCaster`, relative to the camera centre for float32
+   (:class:`mrcheck.scene.raycast.SceneCaster`, relative to the camera centre for float32
    precision; :mod:`mrcheck.apps.discrepancies.ids`). The hit's triangle gives the instance
    (``Part.instance_ids``); its ``t_hit`` is the camera-space depth (the ray's z is 1). No
    renderer change is needed and the ids are exactly in the photo's (distorted) frame.
@@ -77,7 +77,7 @@ The functions named above are in the package's modules ``ids`` (id buffers), ``e
 ``planned``; the constants in :mod:`mrcheck.apps.discrepancies.thresholds`. The heat map, the report
 and the evaluation harness (protocol, and what the method still misses) are the modules
 :mod:`~mrcheck.apps.discrepancies.heatmap`, :mod:`~mrcheck.apps.discrepancies.report` and
-:mod:`~mrcheck.apps.discrepancies.evaluation`.
+:mod:`~mrcheck.eval.discrepancy_eval`.
 """
 
 from __future__ import annotations

@@ -2,9 +2,9 @@
 
 For every photo pixel the undistorted (ideal) pixel comes from
 :func:`mrcheck.mr.overlay.distortion_map`; one ray per pixel is cast through it with
-:class:`mrcheck.eval.raycast.SceneCaster` (the triangle soup of every part at every instance,
+:class:`mrcheck.scene.raycast.SceneCaster` (the triangle soup of every part at every instance,
 relative to the camera centre for float32 precision). The hit's instance index
-(:func:`mrcheck.eval.raycast.instance_labels`) gives the part instance, its ``t`` the camera-space
+(:func:`mrcheck.scene.raycast.instance_labels`) gives the part instance, its ``t`` the camera-space
 depth (the ray's z is 1). No renderer change is needed and the ids are exactly in the photo's
 (distorted) frame.
 """
@@ -14,9 +14,9 @@ from __future__ import annotations
 import numpy as np
 
 from mrcheck.core.camera import Camera
-from mrcheck.eval.raycast import NO_HIT, build_caster, instance_labels
 from mrcheck.mr.lens import distortion_map
 from mrcheck.scene.model import Scene
+from mrcheck.scene.raycast import NO_HIT, build_caster, instance_labels
 
 BACKGROUND = NO_HIT  # the id of a pixel that sees no part
 BEHIND_PASSES = 10  # ray casts per pixel at most to get behind its first instance
@@ -39,7 +39,7 @@ def object_ids(scene: Scene, camera: Camera, maps=None, caster=None):
     Returns ``(ids (H, W) int32, depth (H, W) float32 (0 = nothing), labels)``; ``labels[i]``
     is ``(part name, instance id)``. Rays go through the *undistorted* pixel of each photo
     pixel, so the buffer is in the photo's lens geometry. ``caster``: the
-    :class:`~mrcheck.eval.raycast.SceneCaster` of ``scene`` around ``camera.center``, when the
+    :class:`~mrcheck.scene.raycast.SceneCaster` of ``scene`` around ``camera.center``, when the
     caller has built it already.
     """
     h, w = camera.height, camera.width

@@ -43,7 +43,7 @@ class Light:
     residual: float  # rms of the fit, in units of albedo
 
 
-def _directions(n: int) -> np.ndarray:
+def sphere_directions(n: int) -> np.ndarray:
     """(n, 3) unit vectors evenly spread over the sphere (a Fibonacci lattice)."""
     k = np.arange(n) + 0.5
     z = 1.0 - 2.0 * k / n
@@ -75,8 +75,8 @@ def estimate_light(
     n = normals.reshape(-1, 3)[flat]
     keep = a > 1e-3
     q, n, w = seen[keep] / a[keep], n[keep], a[keep]  # shading; weighted by albedo (dark parts are noisy)
-    directions = _directions(LIGHT_DIRECTIONS)
-    ambient, diffuse, rms = _fit_all(q, w, np.maximum(n @ directions.T, 0.0))
+    directions = sphere_directions(LIGHT_DIRECTIONS)
+    ambient, diffuse, rms = fit_all_directions(q, w, np.maximum(n @ directions.T, 0.0))
     # darkening what it faces is no light either; bright beyond MAX_DIRECT is a grazing floor fit
     rms = np.where((diffuse >= 0.0) & (diffuse <= MAX_DIRECT * ambient), rms, np.inf)
     if not np.isfinite(rms).any():
@@ -85,7 +85,7 @@ def estimate_light(
     return Light(directions[best], float(ambient[best]), float(diffuse[best]), float(rms[best]))
 
 
-def _fit_all(q: np.ndarray, w: np.ndarray, d: np.ndarray) -> tuple:
+def fit_all_directions(q: np.ndarray, w: np.ndarray, d: np.ndarray) -> tuple:
     """``(ambient, diffuse, rms)`` per column of ``d`` ((m, k): max(n . l, 0) of every pixel
     for every direction): the weighted least squares of ``q ~ ambient + diffuse * d`` (weights
     ``w``), solved for all directions at once by its 2x2 normal equations. Why not
@@ -130,6 +130,8 @@ __all__ = [
     "estimate_light",
     "relit",
     "shading",
+    "sphere_directions",
+    "fit_all_directions",
     "LIGHT_DIRECTIONS",
     "FIT_PIXELS",
     "EDGE_CLEARANCE",

@@ -34,13 +34,13 @@ from mrcheck.apps.discrepancies.thresholds import (
     shift_radius,
 )
 from mrcheck.core.camera import Camera
-from mrcheck.eval.raycast import build_caster
 from mrcheck.mr.lens import distort_to_photo, distortion_map
 from mrcheck.mr.shot import cad_edges, photo_frame
 from mrcheck.render.composite import BACKGROUND as RENDER_BACKGROUND
 from mrcheck.render.composite import SHADING, light_direction
 from mrcheck.render.renderer import Renderer, RenderSettings
 from mrcheck.scene.model import Scene
+from mrcheck.scene.raycast import build_caster
 
 
 @dataclass(frozen=True)

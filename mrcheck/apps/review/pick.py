@@ -9,7 +9,7 @@ every shot whose camera stands within :data:`ORIGIN_RADIUS_M` of its origin (the
 hall share one); a shot elsewhere gets its own, around its camera centre. The ray starts at the
 camera centre and goes through the *undistorted* pixel: the photo carries the lens distortion,
 so the pixel is undistorted with the shot's K and dist first. The ray casting itself is
-:class:`mrcheck.eval.raycast.SceneCaster`'s (its hits name the part instance and the triangle).
+:class:`mrcheck.scene.raycast.SceneCaster`'s (its hits name the part instance and the triangle).
 """
 
 from __future__ import annotations
@@ -20,8 +20,8 @@ import cv2
 import numpy as np
 
 from mrcheck.core.camera import Camera
-from mrcheck.eval.raycast import SceneCaster, build_caster
 from mrcheck.scene.model import Scene
+from mrcheck.scene.raycast import SceneCaster, build_caster
 
 ORIGIN_RADIUS_M = 1000.0  # float32 spacing 6e-5 m at 1 km: picks to the millimetre nearby
 MAX_ORIGINS = 4  # ray-casting scenes kept (each holds the whole scene once)

@@ -75,7 +75,7 @@ QUICK_HALL_TRIANGLES = (1_000_000, 20_000_000)
 HALL_SEED, HALL_VIEW = 0, "aisle"
 # Whole frame (geometry + vector AO + blur + composite, full-resolution AO) on the ``line`` scene
 # from its first viewpoint: (size, samples, blur) -- the setting of docs/performance.md and the peers' setting.
-LINE_SCENE = ("line", "scene.toml")  # under the factory_scenes package
+LINE_SCENE = "line"  # a shipped scene (mrcheck.core.resources.shipped_scene)
 PEER_SIZE, PEER_SAMPLES, PEER_BLUR = (1024, 768), 32, 9
 FRAME_SETTINGS = ((PAPER_SIZE, 16, 13), (PEER_SIZE, PEER_SAMPLES, PEER_BLUR))
 FRAME_PASSES = "geometry + ao + blur + composite + read back RGB"

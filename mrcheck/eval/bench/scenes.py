@@ -16,7 +16,7 @@ import numpy as np
 
 from mrcheck.core.camera import Camera
 from mrcheck.core.errors import MrcheckWarning
-from mrcheck.core.resources import factory_scenes_dir, sample_scene_path
+from mrcheck.core.resources import sample_scene_path, shipped_scene
 from mrcheck.eval.bench.figures import (
     BLOCK_HALF_WIDTH,
     BLOCK_PITCH,
@@ -134,7 +134,7 @@ def hall_ifc_path(hall: HallGenerator, triangles: int, seed: int = HALL_SEED) ->
 
 
 def line_scene_path() -> Path:
-    return factory_scenes_dir().joinpath(*LINE_SCENE)
+    return shipped_scene(LINE_SCENE)
 
 
 def flattened_mesh(scene: Scene) -> tuple[np.ndarray, np.ndarray]:

@@ -150,23 +150,7 @@ def _warn_left_out(path: Path, model) -> None:
         warn(note, path)
 
 
-def load_model(path, units=None, progress: bool = False, settings: ImportSettings | None = None):
-    """The :class:`mrcheck.scene.model.Scene` of an IFC/STEP file through the cache (what
-    ``load_scene`` does with one); the scene's source is the model file."""
-    from mrcheck.core.progress import shown_progress
-    from mrcheck.scene.model import load_scene
-
-    path = Path(path)
-    if units is not None:
-        raise MrcheckError("--units applies to a mesh file; an IFC or STEP file declares its own units", path)
-    result = cached_manifest(path, settings, shown_progress() if progress else no_progress)
-    scene = load_scene(result.manifest, progress=progress)
-    scene.source = path
-    return scene
-
-
 __all__ = [
-    "load_model",
     "import_scene",
     "cached_manifest",
     "failed_summary",

@@ -12,7 +12,7 @@ import numpy as np
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.inputs import check_input
 from mrcheck.core.progress import Progress, shown_progress
-from mrcheck.scene.model import unit_scale
+from mrcheck.scene.part_tables import unit_scale
 from mrcheck.scene.scans.e57 import read_e57
 from mrcheck.scene.scans.las import read_las
 from mrcheck.scene.scans.record import ScanCloud, ScanPose

@@ -28,7 +28,7 @@ class ScanCloud:
 
     ``points`` are float64 metres (after ``units``) at the file's own coordinates, map
     coordinates included: nothing is re-centred or rounded to float32 here (the closest-point
-    queries take them relative to the scan's centre, see ``mrcheck.eval.raycast``).
+    queries take them relative to the scan's centre, see ``mrcheck.scene.raycast``).
     ``colours`` are 16-bit (0..65535 is the file's full colour range: 8-bit colours are scaled by
     257), ``intensity`` is 0..1 of the file's intensity range; both None when the file has none.
     """

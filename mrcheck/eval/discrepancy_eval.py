@@ -38,7 +38,7 @@ moved 5 px (0.51).
 
 Reproduce (seeds 0-9 chose the threshold; 10-19 are the held-out figures in docs/discrepancy-evaluation.md)::
 
-    from mrcheck.apps.discrepancies.evaluation import SAMPLE_CELL_FAR_VIEWS, evaluate
+    from mrcheck.eval.discrepancy_eval import SAMPLE_CELL_FAR_VIEWS, evaluate
     from mrcheck.core.resources import sample_scene_path
     print(evaluate(sample_scene_path(), seeds=range(10, 20), views=("overview", "conveyor", *SAMPLE_CELL_FAR_VIEWS),
                    width=640, height=480, workdir="/tmp/eval").summary)

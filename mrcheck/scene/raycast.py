@@ -58,7 +58,9 @@ def instance_labels(scene: Scene) -> list[tuple[str, str]]:
 def triangle_soup(scene: Scene, origin: np.ndarray):
     """(V, 3) float32 vertices relative to ``origin`` (float64 until then) and (F, 3) uint32
     faces of every part at every instance transform; ``(None, None)`` without triangles."""
-    vertices, faces, base = [], [], 0
+    vertices: list[np.ndarray] = []
+    faces: list[np.ndarray] = []
+    base = 0
     for part in scene.parts:
         if not _has_triangles(part):
             continue
@@ -71,10 +73,17 @@ def triangle_soup(scene: Scene, origin: np.ndarray):
             base += len(local)
     if not vertices:
         return None, None
-    faces = np.concatenate(faces)
     if base > np.iinfo(np.uint32).max:
         raise MrcheckError(f"the scene has too many vertices for the ray caster ({base})")
-    return np.concatenate(vertices), faces.astype(np.uint32)
+    return np.concatenate(vertices), np.concatenate(faces).astype(np.uint32)
+
+
+def _tensor(array: np.ndarray):
+    """An Open3D tensor holding a copy of ``array``, of its dtype. (Open3D's stubs give
+    ``Tensor(np_array, dtype, device)`` no defaults, which the binding has.)"""
+    import open3d as o3d
+
+    return o3d.core.Tensor(array)  # type: ignore[call-overload]
 
 
 MORTON_BITS = 8  # per axis: 256^3 cells over the points' box (24-bit codes)
@@ -126,7 +135,7 @@ class SceneCaster:
         self.origin = np.array(origin, np.float64)
         self.owners, self.first = triangle_owners(scene)
         self._scene = o3d.t.geometry.RaycastingScene()
-        self._scene.add_triangles(o3d.core.Tensor(vertices), o3d.core.Tensor(faces))
+        self._scene.add_triangles(_tensor(vertices), _tensor(faces))
 
     def label(self, instance: int) -> tuple[str, str]:
         """``(part name, instance id)`` of an instance index."""
@@ -140,7 +149,7 @@ class SceneCaster:
         """First hits of (N, 6) float32 rays ``(origin relative to self.origin, direction)``."""
         import open3d as o3d
 
-        answer = self._scene.cast_rays(o3d.core.Tensor(np.ascontiguousarray(rays, np.float32)))
+        answer = self._scene.cast_rays(_tensor(np.ascontiguousarray(rays, np.float32)))
         t = answer["t_hit"].numpy()
         primitive = answer["primitive_ids"].numpy().astype(np.int64)
         ok = np.isfinite(t) & (primitive != o3d.t.geometry.RaycastingScene.INVALID_ID)
@@ -151,10 +160,8 @@ class SceneCaster:
     def occluded(self, rays: np.ndarray, tfar: float) -> np.ndarray:
         """(N,) bool: does ray ``i`` hit anything for a parameter in [0, tfar]? (Cheaper than
         :meth:`cast`: any hit ends the search.)"""
-        import open3d as o3d
-
-        rays = o3d.core.Tensor(np.ascontiguousarray(rays, np.float32))
-        return self._scene.test_occlusions(rays, tnear=0.0, tfar=tfar).numpy().astype(bool)
+        tensor = _tensor(np.ascontiguousarray(rays, np.float32))
+        return self._scene.test_occlusions(tensor, tnear=0.0, tfar=tfar).numpy().astype(bool)
 
     def closest_points(self, points: np.ndarray, coherent: bool = False) -> ClosestPoints:
         """Closest surface points of (N, 3) float64 *world* points, which are taken relative to
@@ -166,14 +173,10 @@ class SceneCaster:
         scan's Fibonacci sweep jumps across the hall from one point to the next: 20-35 % less
         CPU on 10 M points against the 1.5 M-triangle line scene). ``coherent``: the points come
         in such an order already (a chunk of a larger set the caller ordered), queried as given."""
-        import open3d as o3d
-
         relative = np.asarray(points, np.float64) - self.origin
         query = relative.astype(np.float32)
         order = None if coherent else coherent_order(relative)
-        answer = self._scene.compute_closest_points(
-            o3d.core.Tensor(query if order is None else np.take(query, order, axis=0))
-        )
+        answer = self._scene.compute_closest_points(_tensor(query if order is None else np.take(query, order, axis=0)))
         closest, normal, primitive = (answer[k].numpy() for k in ("points", "primitive_normals", "primitive_ids"))
         if order is not None:
             back = np.empty(len(order), np.intp)  # np.take with the inverse order: twice as fast as a scatter

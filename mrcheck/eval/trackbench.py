@@ -113,13 +113,13 @@ class WalkPlan:
 
 def bench_plan(quick: bool, folder: Path) -> list[WalkPlan]:
     """The walks of the module docstring (the crate scene written as files into ``folder``)."""
-    from mrcheck.core.resources import factory_scenes_dir
+    from mrcheck.core.resources import shipped_scene
     from mrcheck.eval.edgescenes import crate_camera, crate_scene, write_crate_scene
     from mrcheck.scene.manifest import scene_files
     from mrcheck.scene.model import load_scene
 
     frames = QUICK_FRAMES if quick else FRAMES
-    manifest = factory_scenes_dir() / "cell" / "scene.toml"
+    manifest = shipped_scene("cell")
     cell = load_scene(manifest)
     key = b"".join(path.read_bytes() for path in scene_files(manifest))
     views = ("robot_cell",) if quick else ("robot_cell", "overview")
