@@ -101,6 +101,7 @@ def decode_image(data: bytes, source=None, what: str = "image", grey: bool = Fal
     if not data:
         raise MrcheckError(f"{what} is empty (0 bytes)", source)
     flags = cv2.IMREAD_GRAYSCALE if grey else cv2.IMREAD_COLOR
+    log_error: str | None
     with native_output() as log:
         try:
             image = cv2.imdecode(np.frombuffer(data, np.uint8), flags)
