@@ -78,7 +78,7 @@ class AOPass:
 def draw_covered(ctx: moderngl.Context, target: moderngl.Framebuffer, vao: moderngl.VertexArray) -> None:
     """Draw a full-screen pass into ``target`` only where the G-buffer has geometry: ``target``
     carries the G-buffer's depth buffer at full resolution, the coverage pass's at half
-    (``renderer._Targets``; both 0 on the background).
+    (:class:`mrcheck.render.targets.RenderTargets`; both 0 on the background).
 
     The background's texels are cleared to (AO 1, depth 0) and an early depth test rejects its
     fragments: the full-screen triangle lies at depth 0, the reversed-Z background too, so
