@@ -242,10 +242,10 @@ def _check_pinhole(K: np.ndarray) -> None:
 
 def _whole(value, name) -> int:
     # numbers.Real takes numpy scalars too; isfinite first, as int(inf) raises (JSON allows Infinity)
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
-        raise MrcheckError(f"camera {name} must be a whole number, got {value!r}")
-    whole = int(cast(SupportsInt, value))  # every Real converts; typeshed's numbers.Real declares no __int__
-    if whole != value:
+    whole = None
+    if not isinstance(value, bool) and isinstance(value, numbers.Real) and math.isfinite(value):
+        whole = int(cast(SupportsInt, value))  # every Real converts; typeshed's numbers.Real declares no __int__
+    if whole is None or whole != value:
         raise MrcheckError(f"camera {name} must be a whole number, got {value!r}")
     return whole
 

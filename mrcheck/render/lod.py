@@ -187,7 +187,7 @@ def _distance_query(vertices, faces):
 
 
 def _tensor(array: np.ndarray) -> o3d.core.Tensor:
-    """An Open3D tensor of a copy of ``array``, of its dtype, on the CPU."""
+    """An Open3D tensor of ``array``, of its dtype, on the CPU."""
     import open3d as o3d
 
     # Open3D's stubs make dtype and device required; they default to the array's and the CPU
