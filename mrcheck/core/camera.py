@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 import numbers
 from dataclasses import dataclass, field
+from typing import SupportsInt, cast
 
 import numpy as np
 
@@ -241,14 +242,12 @@ def _check_pinhole(K: np.ndarray) -> None:
 
 def _whole(value, name) -> int:
     # numbers.Real takes numpy scalars too; isfinite first, as int(inf) raises (JSON allows Infinity)
-    if (
-        isinstance(value, bool)
-        or not isinstance(value, numbers.Real)
-        or not math.isfinite(value)
-        or int(value) != value
-    ):
+    whole = None
+    if not isinstance(value, bool) and isinstance(value, numbers.Real) and math.isfinite(value):
+        whole = int(cast(SupportsInt, value))  # every Real converts; typeshed's numbers.Real declares no __int__
+    if whole is None or whole != value:
         raise MrcheckError(f"camera {name} must be a whole number, got {value!r}")
-    return int(value)
+    return whole
 
 
 def _numbers(value, name) -> np.ndarray:

@@ -49,7 +49,7 @@ def _is_yaml(path: Path) -> bool:
     return path.suffix.lower() in YAML_SUFFIXES
 
 
-def write_camera(path, camera: Camera, extra: dict = None, pose: bool = True) -> Path:
+def write_camera(path, camera: Camera, extra: dict | None = None, pose: bool = True) -> Path:
     """Camera JSON (camera keys + ``extra``), or OpenCV FileStorage YAML for .yml/.yaml, atomically.
     ``pose=False`` writes intrinsics only (no R, t), which a render refuses rather than standing
     the camera at the world origin."""

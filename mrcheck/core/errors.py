@@ -53,7 +53,8 @@ _REASONS = {
 
 def os_reason(exc: OSError) -> str:
     """The problem of an OSError on a file, without the file name (the message names it once)."""
-    return _REASONS.get(exc.errno) or exc.strerror or " ".join(str(exc).split()) or type(exc).__name__
+    reason = _REASONS.get(exc.errno) if exc.errno is not None else None
+    return reason or exc.strerror or " ".join(str(exc).split()) or type(exc).__name__
 
 
 class MrcheckError(Exception):

@@ -132,6 +132,7 @@ def decode_image(
     if max_pixels is not None:
         check_pixels(data, max_pixels, source, what)
     flags = cv2.IMREAD_GRAYSCALE if grey else cv2.IMREAD_COLOR
+    log_error: str | None
     with native_output() as log:
         try:
             image = cv2.imdecode(np.frombuffer(data, np.uint8), flags)

@@ -77,7 +77,7 @@ def check_not_inputs(outputs, inputs, folders=()) -> None:
     The same file is the same inode (``os.path.samefile``: through a symlink, a hard link or
     another spelling of the path); an output or input that does not exist is never the same.
     """
-    named = {}  # (device, inode) -> (what, path), in the order given
+    named: dict[tuple[int, int], tuple[str, object]] = {}  # (device, inode) -> (what, path), in the order given
     listed = []  # (what, path) of every input, for the folders
     for what, paths in inputs:
         for path in [paths] if isinstance(paths, (str, os.PathLike)) else (paths or ()):
@@ -208,7 +208,7 @@ def _text_width(text: str, scale: float) -> int:
 def _wrap(label: str, scale: float, width: int) -> list[str]:
     """``label`` broken at spaces into lines of at most ``width`` pixels at ``scale`` (a word
     longer than that stays a line of its own)."""
-    lines = []
+    lines: list[str] = []
     for word in label.split():
         if lines and _text_width(f"{lines[-1]} {word}", scale) <= width:
             lines[-1] += f" {word}"

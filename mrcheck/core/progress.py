@@ -1,6 +1,6 @@
 """Progress reporting without printing: long loops take a ``progress`` callback.
 
-A :data:`Progress` is ``progress(items, desc, unit) -> iterator``: it yields ``items`` one by
+A :data:`Progress` is ``progress(items, desc, unit) -> generator``: it yields ``items`` one by
 one and shows the progress however it likes (the command line: a tqdm bar on stderr, see
 :func:`mrcheck.cli.messages.progress_bar`). The default, :func:`no_progress`, shows nothing.
 The loop runs it inside ``contextlib.closing`` so that a bar is taken down on an error too,
@@ -11,12 +11,14 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Generator, Iterable
+from typing import Any
 
-Progress = Callable[[Iterable, str, str], Iterator]
+# a generator, not any iterator: the loops close it (contextlib.closing)
+Progress = Callable[[Iterable, str, str], Generator[Any, None, None]]
 
 
-def no_progress(items: Iterable, desc: str = "", unit: str = "") -> Iterator:
+def no_progress(items: Iterable, desc: str = "", unit: str = "") -> Generator[Any, None, None]:
     """The items, showing nothing (a generator, so that ``contextlib.closing`` can close it)."""
     yield from items
 

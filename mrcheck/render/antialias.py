@@ -57,7 +57,7 @@ class GBufferResolve:
         self.ctx = ctx
         self.program = load_program(ctx, "gbuffer_resolve", {"MSAA": MSAA_SAMPLES})
         for unit, name in enumerate(("u_packed", "u_palette")):
-            self.program[name].value = unit
+            self.program[name] = unit
         self.vao = ctx.vertex_array(self.program, [])
 
     def run(self, multisampled: GBuffer, target: GBuffer, palette: moderngl.Texture) -> None:

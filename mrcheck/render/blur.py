@@ -11,7 +11,7 @@ import moderngl
 import numpy as np
 
 from mrcheck.core.errors import MrcheckError
-from mrcheck.render.gl import load_program
+from mrcheck.render.gl import color_texture, load_program, uniform
 from mrcheck.render.settings import (  # the rule lives with the settings
     MAX_BLUR_SIZE,
     blur_size_problem,
@@ -34,16 +34,16 @@ class BilateralBlur:
         self.ctx = ctx
         self.size = size
         self.program = load_program(ctx, "blur_bilateral", {"BLUR_RADIUS": size // 2})
-        self.program["u_weights"].write(gaussian_weights(size).tobytes())
-        self.program["u_ao_depth"].value = 0
+        uniform(self.program, "u_weights").write(gaussian_weights(size).tobytes())
+        self.program["u_ao_depth"] = 0
         self.vao = ctx.vertex_array(self.program, [])
 
     def run(self, source: moderngl.Texture, scratch: moderngl.Framebuffer, target: moderngl.Framebuffer) -> None:
         """Blur the AO of ``source`` into ``target`` through ``scratch`` (all RG32F (AO, depth)
         texels of one size; see ``shaders/ao_common.glsl``)."""
-        self.program["u_size"].value = source.size
-        for step, src, dst in (((1, 0), source, scratch), ((0, 1), scratch.color_attachments[0], target)):
-            self.program["u_step"].value = step
+        self.program["u_size"] = source.size
+        for step, src, dst in (((1, 0), source, scratch), ((0, 1), color_texture(scratch), target)):
+            self.program["u_step"] = step
             src.use(0)
             dst.use()
             self.vao.render(moderngl.TRIANGLES, vertices=3)

@@ -12,6 +12,7 @@ import numpy as np
 from mrcheck.core.camera import Camera
 from mrcheck.render.antialias import sample_offsets_glsl
 from mrcheck.render.ao.base import set_if_present
+from mrcheck.render.gbuffer import GBuffer
 from mrcheck.render.gl import GL_FRAMEBUFFER_SRGB, load_program
 from mrcheck.render.settings import DEFAULT_LIGHT, DEFAULT_TONE, LIGHTS, TONES
 
@@ -26,7 +27,7 @@ class EdgePass:
     palette of part colours, and the colour target with the resolved depth buffer, whose
     values mark the edge pixels (:mod:`mrcheck.render.antialias`)."""
 
-    multisampled: object  # mrcheck.render.gbuffer.GBuffer, packed
+    multisampled: GBuffer  # packed (GBuffer.create_packed)
     palette: moderngl.Texture
     target: moderngl.Framebuffer
 
@@ -56,13 +57,13 @@ class Composite:
 
     def __init__(self, ctx: moderngl.Context):
         self.ctx = ctx
-        self.variants = {}
+        self.variants: dict[tuple[bool, bool], tuple[moderngl.Program, moderngl.VertexArray]] = {}
         for half in (False, True):
             self._variant(half, False)
 
-    def _variant(self, half: bool, msaa: bool):
+    def _variant(self, half: bool, msaa: bool) -> tuple[moderngl.Program, moderngl.VertexArray]:
         if (half, msaa) not in self.variants:
-            defines = {"AO_HALF": half, "MSAA": msaa, **TONE_CURVE, **SHADING}
+            defines: dict[str, object] = {"AO_HALF": half, "MSAA": msaa, **TONE_CURVE, **SHADING}
             if msaa:
                 defines.update(SCREEN_DEPTH=EDGE_PASS_DEPTH, SAMPLE_OFFSETS=sample_offsets_glsl())
             program = load_program(self.ctx, "composite", defines)
@@ -76,7 +77,7 @@ class Composite:
     def run(
         self,
         target: moderngl.Framebuffer,
-        gbuffer,
+        gbuffer: GBuffer,
         ao: moderngl.Texture,
         camera: Camera,
         use_ao: bool,
@@ -88,13 +89,16 @@ class Composite:
     ) -> None:
         """Shade into ``target``; ``ao`` holds (AO, depth) texels, at half resolution when
         ``ao_half``; ``edges``: anti-aliased, then the edge pixels' other surfaces blended on."""
-        textures = [gbuffer.depth, gbuffer.normal, gbuffer.albedo, ao]
+        normal, albedo = gbuffer.normal, gbuffer.albedo
+        if normal is None or albedo is None:
+            raise ValueError("the composite shades a single-sampled G-buffer (the multisampled one packs its normals)")
+        textures = [gbuffer.depth, normal, albedo, ao]
         if edges is not None:
             textures += [edges.multisampled.depth, edges.palette]
         for unit, texture in enumerate(textures):
             texture.use(unit)
         self.ctx.enable_direct(GL_FRAMEBUFFER_SRGB)  # encode into the sRGB target (gl.srgb_texture)
-        uniforms = {
+        uniforms: dict[str, object] = {
             "u_intrinsics": (camera.fx, camera.fy, camera.cx, camera.cy),
             "u_light_dir": tuple(light_direction(camera, light)),
             "u_ao_weight": 1.0 if use_ao else 0.0,
@@ -103,7 +107,9 @@ class Composite:
         }
         if ao_half:
             uniforms["u_size_half"] = ao.size
-        variants = [(False, target)] + ([(True, edges.target)] if edges is not None else [])
+        variants: list[tuple[bool, moderngl.Framebuffer]] = [(False, target)] + (
+            [(True, edges.target)] if edges is not None else []
+        )
         for msaa, fbo in variants:
             p, vao = self._variant(ao_half, msaa)
             for name, value in uniforms.items():
@@ -113,8 +119,9 @@ class Composite:
                 fbo.depth_mask = False
                 self.ctx.enable(moderngl.DEPTH_TEST | moderngl.BLEND)
                 self.ctx.depth_func = "<"
-                # colour: the other surfaces' share plus the first pass's times its share (alpha)
-                self.ctx.blend_func = moderngl.ONE, moderngl.SRC_ALPHA, moderngl.ZERO, moderngl.ONE
+                # colour: the other surfaces' share plus the first pass's times its share (alpha);
+                # separate colour and alpha factors, which moderngl takes though its stubs allow two
+                self.ctx.blend_func = moderngl.ONE, moderngl.SRC_ALPHA, moderngl.ZERO, moderngl.ONE  # type: ignore[assignment]
             vao.render(moderngl.TRIANGLES, vertices=3)
             self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         self.ctx.disable_direct(GL_FRAMEBUFFER_SRGB)

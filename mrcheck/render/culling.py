@@ -33,7 +33,9 @@ drawing everything.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import moderngl
 import numpy as np
@@ -41,7 +43,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from mrcheck.core.camera import Camera
-from mrcheck.render.gl import load_program
+from mrcheck.render.gl import color_texture, load_program
 
 # An instance whose bounding box covers this share of the image is drawn as an occluder.
 OCCLUDER_AREA = 0.005
@@ -63,6 +65,19 @@ HIZ_BLOCK = 8
 DEPTH_BANDS = 2
 
 
+class Instanced(Protocol):
+    """What culling reads of a part (the geometry pass's parts on the GPU): its instances'
+    ``transforms`` (k, 4, 4) local -> world and their largest stretch ``scales`` (k,), the
+    ``local_corners`` (8, 4) of its local bounds and its ``triangles`` at full detail."""
+
+    transforms: np.ndarray
+    scales: np.ndarray
+    local_corners: np.ndarray
+
+    @property
+    def triangles(self) -> int: ...
+
+
 @dataclass
 class Batch:
     """Instances of one part that are drawn together.
@@ -73,7 +88,7 @@ class Batch:
     the largest stretch of each instance's transform.
     """
 
-    part: object
+    part: Instanced
     mv: np.ndarray
     z_near: np.ndarray
     z_far: np.ndarray
@@ -99,7 +114,7 @@ class Boxes:
     (on a quiet machine 5.5 against 5.9 ms).
     """
 
-    def __init__(self, parts):
+    def __init__(self, parts: Sequence[Instanced]):
         self.parts = parts
         counts = [len(part.transforms) for part in parts]
         self.start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
@@ -189,7 +204,8 @@ def closed_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
 def split_occluders(batches: list[Batch], camera: Camera) -> tuple[list[Batch], list[Batch]]:
     """(occluders, candidates): instances covering >= OCCLUDER_AREA of the image, and the rest."""
     area_min = OCCLUDER_AREA * camera.width * camera.height
-    occluders, candidates = [], []
+    occluders: list[Batch] = []
+    candidates: list[Batch] = []
     for batch in batches:
         r = batch.rect
         big = ((r[:, 2] - r[:, 0]) * (r[:, 3] - r[:, 1]) >= area_min) | (batch.z_near <= 0)
@@ -224,11 +240,11 @@ class HiZ:
     def __init__(self, ctx: moderngl.Context):
         self.ctx = ctx
         # one variant per sample count of the G-buffer (0: single-sampled; 4: anti-aliased)
-        self.variants = {}
-        self._target = None
+        self.variants: dict[int, moderngl.VertexArray] = {}
+        self._target: moderngl.Framebuffer | None = None
         self.levels: list[np.ndarray] = []
 
-    def _target_for(self, size):
+    def _target_for(self, size: tuple[int, int]) -> moderngl.Framebuffer:
         reduced = (-(-size[0] // HIZ_BLOCK), -(-size[1] // HIZ_BLOCK))
         if self._target is None or self._target.size != reduced:
             self.release_target()
@@ -236,10 +252,10 @@ class HiZ:
             self._target = self.ctx.framebuffer([texture])
         return self._target
 
-    def _variant(self, samples: int):
+    def _variant(self, samples: int) -> moderngl.VertexArray:
         if samples not in self.variants:
             program = load_program(self.ctx, "hiz_reduce", {"HIZ_BLOCK": HIZ_BLOCK, "MSAA": samples})
-            program["u_depth"].value = 0
+            program["u_depth"] = 0
             self.variants[samples] = self.ctx.vertex_array(program, [])
         return self.variants[samples]
 
@@ -251,7 +267,7 @@ class HiZ:
         depth.use(0)
         self._variant(samples if samples > 1 else 0).render(moderngl.TRIANGLES, vertices=3)
         w, h = target.size
-        level = np.frombuffer(target.color_attachments[0].read(), np.float32).reshape(h, w)
+        level = np.frombuffer(color_texture(target).read(), np.float32).reshape(h, w)
         self.levels = [level]
         while max(level.shape) > 1:
             h, w = level.shape
@@ -294,6 +310,7 @@ class HiZ:
 __all__ = [
     "Batch",
     "Boxes",
+    "Instanced",
     "HiZ",
     "closed_faces",
     "frustum",

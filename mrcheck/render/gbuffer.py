@@ -30,7 +30,7 @@ import numpy as np
 from mrcheck.core.camera import Camera, gl_projection
 from mrcheck.core.errors import MrcheckError
 from mrcheck.render import culling, lod
-from mrcheck.render.gl import float_depth_texture, flush, load_program
+from mrcheck.render.gl import float_depth_texture, flush, load_program, uniform
 from mrcheck.render.settings import DEFAULT_LOD_PX
 from mrcheck.scene.model import Scene
 from mrcheck.scene.precision import float32_tiles
@@ -62,8 +62,8 @@ class DrawOptions:
 class GBuffer:
     size: tuple
     depth: moderngl.Texture
-    normal: moderngl.Texture
-    albedo: moderngl.Texture
+    normal: moderngl.Texture | None  # None: the multisampled G-buffer (packed into ``depth``)
+    albedo: moderngl.Texture | None
     zbuffer: moderngl.Texture
     fbo: moderngl.Framebuffer
     frame: int = 0  # counts the geometry passes drawn into it (what is derived from it is per frame)
@@ -96,7 +96,15 @@ class GBuffer:
     def read_front_facing(self) -> np.ndarray:
         """(H, W) bool: the visible surface is a front face (by the mesh's winding)."""
         w, h = self.size
-        return np.frombuffer(self.albedo.read(), np.uint8).reshape(h, w, 4)[..., 3] > 127
+        _, _, albedo = self.single_sampled()
+        return np.frombuffer(albedo.read(), np.uint8).reshape(h, w, 4)[..., 3] > 127
+
+    def single_sampled(self) -> tuple[moderngl.Texture, moderngl.Texture, moderngl.Texture]:
+        """(depth, normal, albedo): what the passes after the geometry read. The multisampled
+        G-buffer has only ``depth`` (all three packed), which the resolve and the edge pass read."""
+        if self.normal is None or self.albedo is None:
+            raise ValueError("the multisampled G-buffer packs its normal and albedo into its depth")
+        return self.depth, self.normal, self.albedo
 
     def release(self) -> None:
         for obj in (self.fbo, self.depth, self.normal, self.albedo, self.zbuffer):
@@ -180,7 +188,7 @@ class GeometryPass:
         self.palette = Palette.of(ctx, [gpu.color for gpu in self.parts])
         self.boxes = culling.Boxes(self.parts)
         self.hiz = culling.HiZ(ctx)
-        self.last_stats = {}
+        self.last_stats: dict = {}
 
     def _upload_mesh(self, vertices, faces, instance_count: int) -> _GpuMesh:
         ctx = self.ctx
@@ -244,8 +252,8 @@ class GeometryPass:
         batches = culling.frustum(self.boxes, camera)
         near, far = near_plane(batches)
         P = gl_projection(camera, near)
-        self.program["u_projection"].write(P.T.astype(np.float32).tobytes())
-        self.program["u_pack"].value = gbuffer.samples > 1
+        uniform(self.program, "u_projection").write(P.T.astype(np.float32).tobytes())
+        self.program["u_pack"] = gbuffer.samples > 1
 
         gbuffer.fbo.use()
         gbuffer.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0)
@@ -335,12 +343,12 @@ class GeometryPass:
             mesh.instances.orphan(64 * count)
             # column-major for GLSL: transpose each 4x4
             mesh.instances.write(np.ascontiguousarray(draw.mv.transpose(0, 2, 1), np.float32).tobytes())
-            self.program["u_albedo"].value = draw.color
-            self.program["u_albedo_index"].value = self.palette.index[tuple(draw.color)]
+            self.program["u_albedo"] = draw.color
+            self.program["u_albedo_index"] = self.palette.index[tuple(draw.color)]
             # closed bodies with back-face culling, the rest (open shells, inconsistent winding:
             # CAD exports have both) without; normals face the camera either way
             culled = 3 * mesh.closed if draw.cull else 0
-            if culled:
+            if culled and draw.cull:
                 ctx.enable(moderngl.CULL_FACE)
                 ctx.cull_face = draw.cull
                 mesh.vao.render(moderngl.TRIANGLES, vertices=culled, instances=count)

@@ -72,7 +72,8 @@ def _extra(ctx: moderngl.Context) -> dict:
 def create_context() -> moderngl.Context:
     """An OpenGL 4.5 core context through EGL, or a one-line :class:`MrcheckError`."""
     try:
-        ctx = moderngl.create_standalone_context(backend="egl", require=GL_VERSION)
+        # the stubs type moderngl's keyword settings as dicts; glcontext takes the backend's name
+        ctx = moderngl.create_standalone_context(backend="egl", require=GL_VERSION)  # type: ignore[arg-type]
     except Exception as exc:  # moderngl/glcontext raise bare Exceptions with multi-line text
         reason = " ".join(str(exc).split()) or type(exc).__name__
         raise MrcheckError(
@@ -255,6 +256,24 @@ def load_program(
     return program
 
 
+def uniform(program: moderngl.Program, name: str) -> moderngl.Uniform:
+    """The uniform ``name`` of ``program``, for writing an array into it (``program[name] = value``
+    sets a single value). moderngl types a member as any kind (uniform, block, attribute, varying)."""
+    member = program[name]
+    if not isinstance(member, moderngl.Uniform):
+        raise TypeError(f"{name} is a {type(member).__name__} of the program, not a uniform")
+    return member
+
+
+def color_texture(fbo: moderngl.Framebuffer) -> moderngl.Texture:
+    """The texture of ``fbo``'s first colour attachment (the framebuffers mrcheck reads back or
+    samples from are made on textures; a renderbuffer attachment could be neither)."""
+    attachment = fbo.color_attachments[0]
+    if not isinstance(attachment, moderngl.Texture):
+        raise TypeError(f"the framebuffer's colour attachment is a {type(attachment).__name__}, not a texture")
+    return attachment
+
+
 def timed_ms(ctx: moderngl.Context, work) -> float:
     """Milliseconds of the GL work of ``work()``, measured with the pipeline drained before and
     after (``ctx.finish()``), so that the figure includes llvmpipe's rasterisation threads."""
@@ -276,6 +295,8 @@ __all__ = [
     "float_depth_texture",
     "srgb_texture",
     "load_program",
+    "uniform",
+    "color_texture",
     "compile_errors",
     "timed_ms",
     "shader_path",

@@ -39,11 +39,15 @@ import os
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from mrcheck.core.progress import shown_progress
 from mrcheck.render.settings import DEFAULT_LOD_PX
+
+if TYPE_CHECKING:  # imported where used: importing Open3D takes about 3 s
+    import open3d as o3d
 
 LOD_PIXELS = DEFAULT_LOD_PX  # the default allowed error, pixels (mrcheck.render.settings)
 MIN_TRIANGLES = 64  # fewer: a coarser copy saves less than its extra draw call costs
@@ -94,7 +98,7 @@ def levels_for(vertices: np.ndarray, faces: np.ndarray, name: str | None = None)
     except (OSError, KeyError, ValueError):
         pass  # not cached yet, or a damaged file: build (and replace it)
     levels = build_levels(vertices, faces, name)
-    arrays = {"errors": np.array([level.error for level in levels])}
+    arrays: dict[str, Any] = {"errors": np.array([level.error for level in levels])}
     for i, level in enumerate(levels):
         arrays[f"v{i}"], arrays[f"f{i}"] = level.vertices, level.faces
     try:
@@ -178,10 +182,16 @@ def _distance_query(vertices, faces):
     import open3d as o3d
 
     scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(
-        o3d.core.Tensor(np.asarray(vertices, np.float32)), o3d.core.Tensor(np.asarray(faces, np.uint32))
-    )
-    return lambda points: scene.compute_distance(o3d.core.Tensor(np.asarray(points, np.float32))).numpy()
+    scene.add_triangles(_tensor(np.asarray(vertices, np.float32)), _tensor(np.asarray(faces, np.uint32)))
+    return lambda points: scene.compute_distance(_tensor(np.asarray(points, np.float32))).numpy()
+
+
+def _tensor(array: np.ndarray) -> o3d.core.Tensor:
+    """An Open3D tensor of ``array``, of its dtype, on the CPU."""
+    import open3d as o3d
+
+    # Open3D's stubs make dtype and device required; they default to the array's and the CPU
+    return o3d.core.Tensor(array)  # type: ignore[call-overload]
 
 
 __all__ = ["Level", "LOD_PIXELS", "allowed_error", "build_levels", "cache_dir", "choose", "eligible", "levels_for"]

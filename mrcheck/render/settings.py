@@ -151,7 +151,7 @@ class RenderSettings:
                 f"level-of-detail error must be in [0, {MAX_LOD_PX:g}] pixels, got {self.lod_px}",
             ),
             (hi is None or 0 < hi < math.inf, f"maximum world radius must be > 0 and finite, got {hi}"),
-            (None in (lo, hi) or lo <= hi, f"minimum world radius {lo} exceeds the maximum {hi}"),
+            (lo is None or hi is None or lo <= hi, f"minimum world radius {lo} exceeds the maximum {hi}"),
         ]
 
 

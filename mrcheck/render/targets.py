@@ -19,28 +19,39 @@ class AOBuffers:
     """The AO buffers of one AO resolution: (texture, framebuffer) x 3 -- raw, scratch, blurred --
     of RG32F (AO, depth) texels (``shaders/ao_common.glsl``); ``half``: at half the output size."""
 
-    buffers: list
+    buffers: list[tuple[moderngl.Texture, moderngl.Framebuffer]]
     half: bool
 
     @property
-    def raw(self):
+    def raw(self) -> tuple[moderngl.Texture, moderngl.Framebuffer]:
         return self.buffers[0]
 
     @property
-    def scratch(self):
+    def scratch(self) -> tuple[moderngl.Texture, moderngl.Framebuffer]:
         return self.buffers[1]
 
     @property
-    def blurred(self):
+    def blurred(self) -> tuple[moderngl.Texture, moderngl.Framebuffer]:
         return self.buffers[2]
 
 
-def _ao_target(ctx: moderngl.Context, size, zbuffer=None):
+def _ao_target(
+    ctx: moderngl.Context, size: tuple[int, int], zbuffer: moderngl.Texture | None = None
+) -> tuple[moderngl.Texture, moderngl.Framebuffer]:
     """RG32F (AO, depth) texels: what the AO passes and the blur write (ao_common.glsl)."""
     texture = ctx.texture(size, 2, dtype="f4")
     texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
     texture.repeat_x = texture.repeat_y = False  # gathers at the border clamp, not wrap
     return texture, ctx.framebuffer([texture], zbuffer)
+
+
+@dataclass
+class _HalfResolution:
+    """The half-resolution AO buffers and their depth buffer, the coverage depth."""
+
+    ao: AOBuffers
+    coverage: moderngl.Texture
+    coverage_fbo: moderngl.Framebuffer
 
 
 class RenderTargets:
@@ -49,7 +60,7 @@ class RenderTargets:
     the blur and composite never depth-test); the half-resolution ones, made on first use,
     carry the half-resolution coverage (shaders/ao_coverage.glsl), which plays that part there."""
 
-    def __init__(self, ctx: moderngl.Context, size):
+    def __init__(self, ctx: moderngl.Context, size: tuple[int, int]):
         w, h = size
         self.ctx = ctx
         self.size = (w, h)
@@ -61,19 +72,24 @@ class RenderTargets:
         # anti-aliasing's edge pass: the colour target, depth-tested against the resolved G-buffer's
         # depth buffer, which marks the edge pixels (shaders/gbuffer_resolve.glsl)
         self.color_edges_fbo = ctx.framebuffer([self.color], self.gbuffer.zbuffer)
-        self._half = None
-        self._multisampled = None
-        self.half_coverage = self.half_coverage_fbo = None
+        self._half: _HalfResolution | None = None
+        self._multisampled: GBuffer | None = None
         self.half_coverage_frame = -1  # the G-buffer frame the coverage was made from
 
     def ao_buffers(self, scale: float) -> AOBuffers:
         """The AO buffers (raw, scratch, blurred) of the AO resolution ``scale`` (1.0 or 0.5)."""
-        if scale == 1.0:
-            return self.full
+        return self.full if scale == 1.0 else self._half_resolution().ao
+
+    def half_coverage_target(self) -> moderngl.Framebuffer:
+        """The framebuffer of the half-resolution coverage depth (shaders/ao_coverage.glsl)."""
+        return self._half_resolution().coverage_fbo
+
+    def _half_resolution(self) -> _HalfResolution:
         if self._half is None:
-            self.half_coverage = float_depth_texture(self.ctx, self.half_size)
-            self.half_coverage_fbo = self.ctx.framebuffer([], self.half_coverage)
-            self._half = AOBuffers([_ao_target(self.ctx, self.half_size, self.half_coverage) for _ in range(3)], True)
+            coverage = float_depth_texture(self.ctx, self.half_size)
+            coverage_fbo = self.ctx.framebuffer([], coverage)
+            ao = AOBuffers([_ao_target(self.ctx, self.half_size, coverage) for _ in range(3)], True)
+            self._half = _HalfResolution(ao, coverage, coverage_fbo)
         return self._half
 
     def multisampled(self) -> GBuffer:
@@ -92,7 +108,8 @@ class RenderTargets:
         """(H, W, 3) float32 unit camera-space normals of the G-buffer (OpenCV axes, facing the
         camera; zero on the background)."""
         w, h = self.size
-        normal = np.frombuffer(self.gbuffer.normal.read(), np.float16).reshape(h, w * 4)
+        _, normal_texture, _ = self.gbuffer.single_sampled()
+        normal = np.frombuffer(normal_texture.read(), np.float16).reshape(h, w * 4)
         # OpenCV's half-to-float conversion and channel drop (SIMD): 0.2 ms at 640x480, where
         # numpy's astype of the strided view took 2.4 ms (a video frame has one or two renders)
         return cv2.cvtColor(cv2.multiply(normal, 1.0, dtype=cv2.CV_32F).reshape(h, w, 4), cv2.COLOR_RGBA2RGB)
@@ -101,14 +118,12 @@ class RenderTargets:
         self.gbuffer.release()
         if self._multisampled is not None:
             self._multisampled.release()
-        ao = self.full.buffers + (self._half.buffers if self._half is not None else [])
-        half = [self.half_coverage_fbo, self.half_coverage] if self._half is not None else []
-        for obj in (
-            [fbo for _, fbo in ao]
-            + [texture for texture, _ in ao]
-            + half
-            + [self.color_edges_fbo, self.color_fbo, self.color]
-        ):
+        ao = self.full.buffers + (self._half.ao.buffers if self._half is not None else [])
+        objects: list[moderngl.Framebuffer | moderngl.Texture] = [fbo for _, fbo in ao]
+        objects += [texture for texture, _ in ao]
+        if self._half is not None:
+            objects += [self._half.coverage_fbo, self._half.coverage]
+        for obj in [*objects, self.color_edges_fbo, self.color_fbo, self.color]:
             obj.release()
 
 

@@ -11,6 +11,8 @@ import warnings
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
+import numpy as np
+
 from mrcheck.core.camera import Camera
 from mrcheck.core.camerafiles import load_camera
 from mrcheck.core.errors import MrcheckError, MrcheckWarning
@@ -26,7 +28,7 @@ from mrcheck.core.output import (
     write_image,
 )
 from mrcheck.core.resources import sample_scene_path, shipped_scene
-from mrcheck.render.renderer import MODES, STUDY_LABELS, Renderer, RenderSettings
+from mrcheck.render.renderer import MODES, STUDY_LABELS, Renderer, RenderResult, RenderSettings
 from mrcheck.scene.manifest import scene_files
 from mrcheck.scene.model import load_scene
 
@@ -86,6 +88,13 @@ def _ao_paths(output_ao: Path, modes) -> dict:
     return {m: output_ao.with_name(f"{output_ao.stem}_{m}{output_ao.suffix}") for m in ao_modes}
 
 
+def _rendered_ao(result: RenderResult) -> np.ndarray:
+    """The AO of a result rendered with ``want_ao``."""
+    if result.ao is None:
+        raise ValueError(f"the {result.mode} result was rendered without its AO")
+    return result.ao
+
+
 def render_command(
     scene, view, camera_path, mode, width, height, units, output, output_ao, settings: dict
 ) -> list[Path]:
@@ -104,14 +113,14 @@ def render_command(
             if path.resolve() == output.resolve():  # one would overwrite the other
                 raise MrcheckError("the image and an AO output are the same file", path)
     check_not_inputs([output, *ao_paths.values()], [("the scene", scene_files(scene)), ("--camera", camera_path)])
-    settings = RenderSettings(**settings)
-    settings.validated(None)  # option errors before a long scene load
+    render_settings = RenderSettings(**settings)
+    render_settings.validated(None)  # option errors before a long scene load
     loaded, camera = scene_and_camera(scene, units, view, camera_path, width, height)
-    settings.validated(camera.height)  # option errors before the GL context is made
+    render_settings.validated(camera.height)  # option errors before the GL context is made
 
     renderer = Renderer(loaded)
     try:
-        results = renderer.render(camera, modes, settings, want_ao=output_ao is not None)
+        results = renderer.render(camera, modes, render_settings, want_ao=output_ao is not None)
         warn_if_nothing_in_view(results.depth, view, camera_path)
     finally:
         renderer.release()
@@ -119,7 +128,7 @@ def render_command(
         image = labelled_sheet([results[m].image for m in modes], [STUDY_LABELS[m] for m in modes])
     else:
         image = results[mode].image
-    writes = [lambda m=m, path=path: write_ao(path, results[m].ao) for m, path in ao_paths.items()]
+    writes = [lambda m=m, path=path: write_ao(path, _rendered_ao(results[m])) for m, path in ao_paths.items()]
     return list(write_all_or_none([*writes, lambda: write_image(output, image)]))
 
 

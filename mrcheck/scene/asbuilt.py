@@ -140,7 +140,7 @@ def _entry(inst, kind, magnitude, unit, detail) -> dict:
 def _asbuilt_tables(tables, scene, changes) -> tuple[list, list]:
     """The as-built [[parts]] tables and the discrepancy records, in manifest order."""
     by_id = {inst.id: (kind, inst, change) for kind, inst, change, _ in changes if kind != "added"}
-    added = {}
+    added: dict[str, list] = {}
     for kind, inst, change, new_id in changes:
         if kind == "added":
             added.setdefault(inst.part, []).append((inst, change, new_id))
@@ -200,7 +200,7 @@ def _layout(manifest: Path, tables) -> dict:
         # scene.toml) would be the licence of whatever project holds the scene: left out
         notices = [n for n in notice_files(mesh) if not inside[table["mesh"]] or home in n.parents]
         files[table["mesh"]] = list(dict.fromkeys(found + notices))
-    roots = []
+    roots: list[Path] = []
     for root in sorted(
         {Path(os.path.commonpath([f.parent for f in found])) for mesh, found in files.items() if not inside[mesh]},
         key=lambda p: p.parts,

@@ -77,7 +77,9 @@ class Change:
             # Rz(a) @ Rz(c) Ry(b) Rx(a0) = Rz(c + a) Ry(b) Rx(a0): the turn adds to the Euler z angle
             z = r[2] + self.angle_deg
             r[2] = z - 360.0 if z > 180.0 else z + 360.0 if z <= -180.0 else z
-        out = {"translate": rounded(np.add(self.pivot, self.shift) + self.linear() @ (t - self.pivot))}
+        out: dict[str, list[float] | float] = {
+            "translate": rounded(np.add(self.pivot, self.shift) + self.linear() @ (t - self.pivot))
+        }
         if np.any(r != 0):
             out["rotate_deg"] = rounded(r)
         if s != 1.0:
@@ -85,7 +87,7 @@ class Change:
         return out
 
 
-def rounded(values) -> list:
+def rounded(values) -> list[float]:
     return [round(float(v), DECIMALS) + 0.0 for v in values]  # + 0.0: no -0.0 in the files
 
 
@@ -128,7 +130,7 @@ def moved_box(inst: Instance, change: Change) -> np.ndarray:
 def excluded_parts(scene) -> dict:
     """{part name: reason} of the parts that never change (the building)."""
     footprint = {p.name: max(float(np.prod(b[1, :2] - b[0, :2])) for b in p.instance_bounds()) for p in scene.parts}
-    largest = max(footprint, key=footprint.get)  # first of equals: manifest order
+    largest = max(footprint, key=footprint.__getitem__)  # first of equals: manifest order
     reasons = {largest: "largest footprint"}
     for part in scene.parts:
         word = next((w for w in STRUCTURE_WORDS if w in part.name.lower()), None)
@@ -265,7 +267,7 @@ class Planner:
     def _plan_one(self, kind):
         # parts first, then their instances, both in random order: each part is as likely to
         # change as any other, however many instances it has (18 fence panels, 1 robot)
-        by_part = {}
+        by_part: dict[str, list] = {}
         for inst in self._pool(kind):
             by_part.setdefault(inst.part, []).append(inst)
         order = list(by_part)

@@ -125,11 +125,12 @@ def _element_fields(part) -> dict:
     }
 
 
-def _size(n: int) -> str:
-    for unit in ("B", "KB", "MB", "GB"):
-        if n < 1000 or unit == "GB":
+def _size(n: float) -> str:
+    for unit in ("B", "KB", "MB"):
+        if n < 1000:
             return f"{n} {unit}" if unit == "B" else f"{n:.1f} {unit}"
         n /= 1000.0
+    return f"{n:.1f} GB"
 
 
 def _columns(header: list, rows: list, right: set) -> list[str]:

@@ -79,10 +79,10 @@ def _obj_companions(path: Path) -> list[Path]:
     with open(path, "rb") as handle:
         for raw in handle:
             if raw[:6] == b"mtllib":  # cheap test first: an OBJ can have millions of lines
-                line = raw.decode("utf-8", "replace").split(None, 1)
-                if len(line) == 2:
+                words = raw.decode("utf-8", "replace").split(None, 1)
+                if len(words) == 2:
                     # a name may contain spaces; else several names separated by spaces
-                    names = [line[1]] if _local(path.parent, line[1]) else line[1].split()
+                    names = [words[1]] if _local(path.parent, words[1]) else words[1].split()
                     found += [p for p in (_local(path.parent, n) for n in names) if p]
     for mtl in list(found):
         for line in mtl.read_text(errors="replace").splitlines():
@@ -224,8 +224,10 @@ def write_generated(outdir, fill, stale=()) -> None:
 
     outdir = Path(os.path.abspath(outdir))
     made = [p for p in [outdir, *outdir.parents] if not p.exists()]
-    work = trash = None
-    moved_old, moved_new = [], []
+    work: Path | None = None
+    trash: Path | None = None
+    moved_old: list[str] = []
+    moved_new: list[str] = []
     try:
         outdir.mkdir(parents=True, exist_ok=True)
         work = Path(tempfile.mkdtemp(prefix=".mrcheck-partial-", dir=outdir))
@@ -240,10 +242,13 @@ def write_generated(outdir, fill, stale=()) -> None:
             os.rename(work / name, outdir / name)
             moved_new.append(name)
     except BaseException as exc:
-        for name in moved_new:  # undo in reverse: the new out, the old back
-            os.rename(outdir / name, work / name)
-        for name in moved_old:
-            os.rename(trash / name, outdir / name)
+        # undo in reverse: the new out, the old back (an entry moved means its folder was made)
+        if work is not None:
+            for name in moved_new:
+                os.rename(outdir / name, work / name)
+        if trash is not None:
+            for name in moved_old:
+                os.rename(trash / name, outdir / name)
         for folder in (work, trash):
             if folder is not None:
                 shutil.rmtree(folder, ignore_errors=True)

@@ -15,6 +15,7 @@ import os
 import tempfile
 from functools import partial
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -54,13 +55,16 @@ def read_mesh(path: Path, joints: dict | None = None, package_folders=()):
             # An open file, not the name: trimesh names the mesh's scene node after the file and
             # hashes that name as UTF-8, which one that is not valid UTF-8 has not; the resolver
             # finds an OBJ's materials and a glTF's buffers beside it, as trimesh.load(path) does
+            # force="mesh": a Trimesh (trimesh types it as any Geometry); anything else
+            # has no faces, an error like any other below
+            mesh: Any
             with open(path, "rb") as handle:
                 mesh = trimesh.load(
                     handle,
                     file_type=suffix[1:],
                     force="mesh",
                     process=False,
-                    resolver=trimesh.resolvers.FilePathResolver(path),
+                    resolver=trimesh.resolvers.FilePathResolver(str(path)),
                 )
             vertices, faces = np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64)
     except MrcheckError:

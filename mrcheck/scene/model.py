@@ -323,7 +323,9 @@ def _load_manifest(path: Path, progress: bool) -> Scene:
             raise MrcheckError(f"two viewpoints are named {name!r}", path)
         viewpoints[name] = viewpoint_in_world(table, origin, path)
 
-    parts, names, owners = [], set(), {}
+    parts: list[Part] = []
+    names: set[str] = set()
+    owners: dict[str, str] = {}  # instance id -> part name
     show = shown_progress() if progress else no_progress
     # closing: a bar is taken down on an error too, so the error line starts a clean line
     with contextlib.closing(show(tables, "loading scene", "part")) as items:

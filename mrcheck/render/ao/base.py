@@ -5,7 +5,7 @@ from __future__ import annotations
 import moderngl
 
 from mrcheck.render.ao import kernel
-from mrcheck.render.gl import load_program
+from mrcheck.render.gl import load_program, uniform
 from mrcheck.render.settings import intensity_of
 
 
@@ -30,7 +30,7 @@ class AOPass:
             ctx, self.shader, {**kernel.defines(samples, stride), **self.method_defines(self.samples)}
         )
         if "u_kernel" in self.program:  # a method may not use the kernel (hbao)
-            self.program["u_kernel"].write(self.offsets(self.samples, seed).tobytes())
+            uniform(self.program, "u_kernel").write(self.offsets(self.samples, seed).tobytes())
         tile = kernel.rotation_tile(seed)
         self.noise = ctx.texture((kernel.NOISE_SIZE, kernel.NOISE_SIZE), 3, tile.tobytes(), dtype="f4")
         self.noise.filter = (moderngl.NEAREST, moderngl.NEAREST)
@@ -54,9 +54,9 @@ class AOPass:
         resolution over the output resolution (0.5 for half-resolution AO).
         """
         fx, fy, cx, cy = intrinsics
-        self.program["u_intrinsics"].value = (fx, fy, cx, cy)
-        self.program["u_size"].value = target.size
-        self.program["u_intensity"].value = intensity_of(settings, self.mode)
+        self.program["u_intrinsics"] = (fx, fy, cx, cy)
+        self.program["u_size"] = target.size
+        self.program["u_intensity"] = intensity_of(settings, self.mode)
         self._set_method_uniforms(settings, scale)
         depth.use(0)
         normal.use(1)
@@ -68,7 +68,7 @@ class AOPass:
         return {}
 
     def _set_method_uniforms(self, settings, scale: float) -> None:
-        self.program["u_radius_world"].value = float(settings.radius_world)
+        self.program["u_radius_world"] = float(settings.radius_world)
 
     def release(self) -> None:
         self.noise.release()
@@ -100,7 +100,7 @@ def draw_covered(ctx: moderngl.Context, target: moderngl.Framebuffer, vao: moder
 def set_if_present(program: moderngl.Program, name: str, value) -> None:
     """Set a uniform the compiler may have optimised away (then there is nothing to set)."""
     if name in program:
-        program[name].value = value
+        program[name] = value
 
 
 __all__ = ["AOPass", "draw_covered", "set_if_present"]

@@ -19,11 +19,11 @@ def set_screen_radius(program: moderngl.Program, settings, scale: float) -> None
     radius_px is at the output resolution; a half-resolution pass (``scale`` 0.5) has half the
     pixels (its f_y is halved too, so the world radius r_px * Z / f_y stays the same).
     """
-    program["u_radius_px"].value = float(settings.radius_px) * scale
+    program["u_radius_px"] = float(settings.radius_px) * scale
     lo = settings.min_world_radius or NO_CLAMP[0]
     hi = settings.max_world_radius or NO_CLAMP[1]
-    program["u_radius_clamp"].value = (float(lo), float(hi))
-    program["u_falloff"].value = float(settings.falloff)
+    program["u_radius_clamp"] = (float(lo), float(hi))
+    program["u_falloff"] = float(settings.falloff)
 
 
 __all__ = ["NO_CLAMP", "set_screen_radius"]

@@ -20,7 +20,7 @@ class StandardSSAO(AOPass):
 
     def _set_method_uniforms(self, settings, scale: float) -> None:
         super()._set_method_uniforms(settings, scale)  # the world radius
-        self.program["u_falloff"].value = float(settings.falloff)
+        self.program["u_falloff"] = float(settings.falloff)
 
 
 __all__ = ["StandardSSAO"]

@@ -21,7 +21,7 @@ class VBAO(GTAO):
 
     def _set_method_uniforms(self, settings, scale: float) -> None:
         super()._set_method_uniforms(settings, scale)
-        self.program["u_thickness"].value = float(settings.thickness)
+        self.program["u_thickness"] = float(settings.thickness)
 
 
 __all__ = ["VBAO"]

@@ -206,7 +206,8 @@ def _iterate(model, settings, bodies, storeys, world, show):
     IfcOpenShell's iterator (cgal-simple, then OpenCascade for what that left out)."""
     import ifcopenshell.util.unit
 
-    parts, seen = {}, set()
+    parts: dict[str, ImportedPart] = {}  # by geometry id, "map<id>" for a representation map
+    seen: set[int] = set()
     progress, desc = show
     groups, todo = split_mapped(bodies)
     threads = settings.threads or default_threads()
@@ -275,10 +276,11 @@ def _run_iterator(model, settings, kernel, include):
     iterator = ifcopenshell.geom.iterator(
         _geometry_settings(settings), model, threads, geometry_library=kernel, include=include
     )
-    ok = iterator.initialize()
-    while ok:
-        yield iterator.get()
-        ok = iterator.next()
+    if iterator.initialize():
+        while True:
+            yield iterator.get()
+            if not iterator.next():  # the next element, or None when none is left
+                break
 
 
 def _part(geometry, element) -> ImportedPart:

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -36,7 +37,8 @@ def single_mapped_item(element):
 
 def split_mapped(bodies) -> tuple[dict, list]:
     """({IfcRepresentationMap id: [(element, mapped item), ...]}, the other elements)."""
-    groups, rest = {}, []
+    groups: dict[int, list] = {}
+    rest = []
     for element in bodies:
         item = single_mapped_item(element)
         if item is None:
@@ -68,6 +70,8 @@ def mesh_maps(model, settings, groups: dict, kernels, threads: int, unit_m: floa
         if direct is not None:
             return map_id, direct
         for kernel in kernels:
+            # with these settings a triangulation; IfcOpenShell types it as every kind of result
+            shape: Any
             try:
                 shape = ifcopenshell.geom.create_shape(settings, representation, geometry_library=kernel)
             except Exception:  # noqa: BLE001 -- IfcOpenShell raises RuntimeError and others: try the next kernel
@@ -116,7 +120,7 @@ def item_colour(item) -> tuple | None:
     return None
 
 
-def shape_arrays(geometry):
+def shape_arrays(geometry) -> tuple[np.ndarray, np.ndarray]:
     """(vertices (n, 3) float64, faces (m, 3) int64) of an IfcOpenShell triangulation."""
     vertices = np.asarray(geometry.verts, np.float64).reshape(-1, 3)
     faces = np.asarray(geometry.faces, np.int64).reshape(-1, 3)

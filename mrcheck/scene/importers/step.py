@@ -60,7 +60,9 @@ def read_step(path: Path, kind: FileKind, settings: ImportSettings, progress: Pr
     prototypes = _collect(shapes, colours, unit_m)
     if not prototypes:
         raise MrcheckError(f"{kind.label} file holds no shape", path)
-    parts, failed, skipped = [], [], 0
+    parts: list[ImportedPart] = []
+    failed: list[FailedElement] = []
+    skipped = 0
     with contextlib.closing(progress(list(prototypes.values()), f"importing {path.name}", "shape")) as items:
         for proto in items:
             skipped += _add_prototype(proto, settings.deflection_m() / unit_m, colours, unit_m, parts, failed)
@@ -267,7 +269,9 @@ def _tessellate(shape, deflection: float, colours):
 
     with native_output(fds=(1, 2)):
         BRepMesh_IncrementalMesh(shape, max(deflection, 1e-9), False, ANGULAR_DEFLECTION, True)
-    vertices, faces, face_colours = [], [], {}
+    vertices: list[np.ndarray] = []
+    faces: list[np.ndarray] = []
+    face_colours: dict[tuple, int] = {}
     offset = 0
     explorer = TopExp_Explorer(shape, TopAbs_FACE)
     while explorer.More():
@@ -291,7 +295,7 @@ def _tessellate(shape, deflection: float, colours):
             face_colours[colour] = face_colours.get(colour, 0) + len(triangles)
     if not faces:
         return np.zeros((0, 3)), np.zeros((0, 3), np.int64), None
-    dominant = max(face_colours, key=face_colours.get) if face_colours else None
+    dominant = max(face_colours, key=face_colours.__getitem__) if face_colours else None
     return np.concatenate(vertices), np.concatenate(faces), dominant
 
 

@@ -42,7 +42,8 @@ def _geokeys_crs(keys):
     """(name, unit) from the GeoKeyDirectory: ``EPSG:code`` of the projected (else geographic) CRS."""
     values = {k.id: k.value_offset for k in keys if k.tiff_tag_location == 0}
     code = next((values[k] for k in (PROJECTED_CS, GEOGRAPHIC_CS) if values.get(k, USER_DEFINED) != USER_DEFINED), None)
-    unit = EPSG_UNITS.get(values.get(LINEAR_UNITS))
+    linear = values.get(LINEAR_UNITS)
+    unit = EPSG_UNITS.get(linear) if linear is not None else None
     name = f"EPSG:{code}" if code else ("user-defined (GeoTIFF keys)" if values else None)
     return name, unit
 
@@ -127,7 +128,8 @@ def read_las(path, progress: Progress) -> ScanCloud:
         with contextlib.closing(steps):
             _read_chunks(path, reader, steps, builder, (scale, offset, colour))
         crs, unit = las_crs(header)
-    _eight_bit_colours(builder.colours[: builder.size] if colour else None)
+    colours = builder.colours  # None unless the points have colour
+    _eight_bit_colours(colours[: builder.size] if colours is not None else None)
     if builder.size < count:
         raise MrcheckError(
             f"truncated or corrupt LAS/LAZ: {builder.size} of the header's {count} points could be read", path

@@ -79,19 +79,20 @@ def read_binary_ply(path: Path) -> np.ndarray | None:
     """(N, 3) float64 points of a binary PLY (module docstring), None when it is not the plain case."""
     header = _header(path)
     parsed = _vertex_dtype(header[0]) if header else None
-    if parsed is None:
+    if header is None or parsed is None:
         return None
-    dtype, count = parsed
-    size = path.stat().st_size - header[1]
+    (_, offset), (dtype, count) = header, parsed
+    size = path.stat().st_size - offset
     if size < count * dtype.itemsize:
         raise MrcheckError(
             f"cannot read scan, corrupt or truncated (the header says {count} points, "
             f"the file holds {size // dtype.itemsize})",
             path,
         )
-    records = np.fromfile(path, dtype=dtype, count=count, offset=header[1])
-    xyz = dtype.names.index("x"), dtype.names.index("y"), dtype.names.index("z")
-    if xyz == (0, 1, 2) and len(dtype.names) == 3 and all(dtype[i] == np.dtype("<f8") for i in xyz):
+    records = np.fromfile(path, dtype=dtype, count=count, offset=offset)
+    names = dtype.names or ()  # a structured dtype (_vertex_dtype): never empty
+    xyz = names.index("x"), names.index("y"), names.index("z")
+    if xyz == (0, 1, 2) and len(names) == 3 and all(dtype[i] == np.dtype("<f8") for i in xyz):
         return records.view(np.float64).reshape(count, 3)  # x, y, z doubles only: no copy
     points = np.empty((count, 3), np.float64)
     for column, name in enumerate("xyz"):

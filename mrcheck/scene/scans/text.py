@@ -32,7 +32,13 @@ def _read_cloud(path: Path, fmt: str) -> np.ndarray:
     import open3d as o3d
 
     with native_output(fds=(1, 2), python=True) as messages:
-        cloud = o3d.io.read_point_cloud(str(path), format=fmt, remove_nan_points=False, remove_infinite_points=False)
+        # a str, which every supported Open3D takes (0.20's stubs name os.PathLike only)
+        cloud = o3d.io.read_point_cloud(
+            str(path),  # type: ignore[arg-type]
+            format=fmt,
+            remove_nan_points=False,
+            remove_infinite_points=False,
+        )
     failed = [line for line in messages if "failed" in line.lower() or "error" in line.lower()]
     if failed:
         raise MrcheckError(f"cannot read scan, corrupt or truncated ({failed[0]})", path)
