@@ -72,6 +72,7 @@ def test_behind_ids_see_past_the_first_instance(sample):
     assert len(behind) > 100 and np.mean([labels[i][1] == "floor" for i in behind]) > 0.8
 
 
+@pytest.mark.slow
 def test_precision_and_recall_on_asbuilt_variants(ctx, tmp_path):
     """Measured (seeds 0-2, views overview + conveyor + far_overview + far_back, 640x480 -- the
     evaluation's default size --, k1 -0.12, sun light, blur, noise): recall 0.64 (43/67),
@@ -105,6 +106,7 @@ def test_precision_and_recall_on_asbuilt_variants(ctx, tmp_path):
     assert max(s["false_suspects_planned"]) <= 1
 
 
+@pytest.mark.slow
 def test_planned_scene_as_photo_gives_few_suspects(ctx, sample):
     camera = _camera(sample)
     photo = synthetic_photo(sample, camera, Renderer(sample, ctx=ctx))
@@ -127,6 +129,7 @@ def test_planned_scene_as_photo_gives_few_suspects(ctx, sample):
     assert np.median([s.best_shift_support - s.support for s in solid]) < 0.05
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("encode", [None, ".jpg"])
 def test_a_clean_photo_of_the_planned_scene_gives_few_suspects(ctx, sample, encode):
     """Without sensor noise (a render, a low-noise photo, its JPEG) the non-zero gradients are
@@ -149,6 +152,7 @@ def _shot(tmp_path, scene, camera, photo):
     return shot
 
 
+@pytest.mark.slow
 def test_cli_writes_heatmap_suspects_and_markers(ctx, sample, tmp_path):
     from mrcheck.scene.asbuilt import make_asbuilt
 

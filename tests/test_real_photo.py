@@ -117,6 +117,7 @@ def _discrepancy(shot_path: Path, outdir: Path) -> dict:
     return box
 
 
+@pytest.mark.slow
 def test_overlay_and_the_photo_edges_agree_and_a_moved_pose_is_seen(shot, tmp_path):
     """The overlay has the photo's size; the photo's edges support the CAD box (it is as
     planned), and the shift that would fit them best is small. Moving the camera so that the CAD
@@ -165,6 +166,7 @@ def test_the_summary_names_the_rejected_clicks_with_their_errors(tmp_path, capsy
     )
 
 
+@pytest.mark.slow
 def test_a_pose_that_sees_no_part_is_not_reported_as_all_clear(shot, tmp_path, capsys):
     """With the box behind the camera nothing is checked; "no suspects" alone read as "as planned"."""
     good = tmp_path / "good"
