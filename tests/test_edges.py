@@ -107,8 +107,10 @@ def test_snap_is_within_a_pixel_in_nine_of_ten_cases(crate_fits):
 
 @pytest.mark.slow
 def test_the_reported_uncertainty_covers_the_true_error(crate_fits):
-    """At every image corner the true error is within 3x the reported 1-sigma (measured: up to
-    2.8x), and the sigma is not a blanket (below 1 px at the corners on this easy scene)."""
+    """At every image corner the true error is within 3x the reported 1-sigma (measured over the
+    ten seeds: 0.15-1.38x, the same with OpenCV 5.1.0.95 / numpy 2.4.6 and 5.0.0.93 / 2.2.6; an
+    earlier fitter reached 2.8x), and the sigma is not a blanket (below 1 px at the corners on
+    this easy scene)."""
     for case, fit in crate_fits:
         if isinstance(fit, EdgeFitError):
             continue

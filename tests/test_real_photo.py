@@ -122,14 +122,17 @@ def test_overlay_and_the_photo_edges_agree_and_a_moved_pose_is_seen(shot, tmp_pa
     """The overlay has the photo's size; the photo's edges support the CAD box (it is as
     planned), and the shift that would fit them best is small. Moving the camera so that the CAD
     lands 4 px to the right moves that best shift by 4 px: the check sees misalignment on this
-    photo (the box's printed artwork gives many edges of its own)."""
+    photo (the box's printed artwork gives many edges of its own). Measured: support 0.899, best
+    shift (-2, 2), moved 0.810 and (-6, 2), the same with OpenCV 5.1.0.95 / numpy 2.4.6 and
+    5.0.0.93 / 2.2.6; the shift is searched in whole pixels, so its bound allows one step more
+    than measured in either direction."""
     out = tmp_path / "overlay.png"
     assert main(["overlay", str(shot), "--scene", str(SCENE), "--mode", "phong", "--edges", "-o", str(out)]) == 0
     assert cv2.imread(str(out)).shape == (480, 718, 3)
 
     box = _discrepancy(shot, tmp_path / "disc")
     assert not box["suspect"] and box["support"] > 0.85  # measured 0.899
-    assert np.hypot(*box["best_shift"]) <= 3.0  # measured (-2, 2)
+    assert np.hypot(*box["best_shift"]) <= 4.0  # measured (-2, 2): 2.8 px; (-3, 2) is 3.6
 
     data = json.loads(shot.read_text())
     camera = load_camera(shot)
