@@ -108,7 +108,7 @@ lock() {
 system = tomllib.load(open("pyproject.toml", "rb"))["build-system"]
 backend = importlib.import_module(system["build-backend"])
 print("\n".join(system["requires"] + backend.get_requires_for_build_editable()))')
-    local compile=(.venv/bin/uv pip compile pyproject.toml - --universal --python-version 3.11 --generate-hashes
+    local compile=(.venv/bin/uv pip compile pyproject.toml - --universal --python-version 3.11 --fork-strategy fewest --generate-hashes
                    --annotation-style line --custom-compile-command "./bootstrap.sh lock")
     if [[ ${1:-} == --keep ]]; then
         shift
