@@ -1,4 +1,14 @@
-"""Shared fixtures: one headless GL context per test session, and small scene builders."""
+"""Shared fixtures: one headless GL context per test session, and small scene builders.
+
+Which tests are marked ``slow`` (left out of the fast loop, ``./bootstrap.sh test -m "not slow"``;
+CI runs them all): a test is slow when one of its cases takes 1 s or more here (set-up, call and
+tear-down, in a full run with ``--durations=0`` on the 2-core machine under its usual load), and
+so is every test of a module fixture that takes that long (the fixture's set-up would otherwise
+move to the next test). That takes in the browser tests, the ones that run the command line or
+workers in subprocesses, and the multi-seed evaluations. A whole module that is slow says so
+with ``pytestmark = pytest.mark.slow``. A new test over 1 s gets the mark; every run prints the
+15 slowest (``--durations=15``) to show which.
+"""
 
 from __future__ import annotations
 

@@ -86,6 +86,7 @@ def sample_cell(ctx):
     renderer.release()
 
 
+@pytest.mark.slow
 def test_inside_surfaces_the_frame_is_the_one_without_anti_aliasing(sample_cell):
     """The packed G-buffer (10-bit octahedral normals, a palette index, the face) and the resolve
     keep a pixel that one surface covers as it was: its normal within 0.15 degrees of the
@@ -172,6 +173,7 @@ def test_back_faces_stay_back_faces_through_the_packing(ctx):
         renderer.release()
 
 
+@pytest.mark.slow
 def test_more_part_colours_than_the_palette_holds_render_without_anti_aliasing(ctx):
     """Past PALETTE_MAX distinct part colours the packed index cannot tell them apart: the frame
     is rendered without anti-aliasing (the same image), with one warning naming the count."""

@@ -136,6 +136,7 @@ MAE_LIMITS = {
 RATIO_LIMITS = {1.0: (0.90, 1.16), 4.0: (0.80, 1.08)}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("falloff", [1.0, 4.0])
 @pytest.mark.parametrize("name", list(SCENES))
 def test_vector_ao_matches_the_ray_traced_reference(ctx, name, falloff, record_property):
@@ -261,6 +262,7 @@ def _distant_box_on_floor():
     )
 
 
+@pytest.mark.slow
 def test_min_world_radius_grows_the_ao_to_the_world_reference(ctx):
     """Guards ``min_world_radius`` (NOTES 6, ``--min-world-radius``): the clamp
     ``r_S = clamp(r_px Z / f_y, min, max)``. Seen from 9-16 m, a screen radius of 3 px is

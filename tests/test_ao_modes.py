@@ -140,6 +140,7 @@ def test_half_resolution_coverage_follows_the_geometry(sample, ctx):
         assert (after[mode].ao < 0.9).mean() > 0.01  # AO was computed, not skipped
 
 
+@pytest.mark.slow
 def test_a_new_image_size_frees_the_old_render_targets():
     """The review server renders photos of many sizes with one renderer: each size's G-buffer
     and AO targets stayed allocated when the next size replaced them. Counted in the driver: as

@@ -100,6 +100,7 @@ def bands_at_2_and_200_m(ctx, mode, **settings):
     return widths, totals
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mode", ["vector", "ssao", "vector clamped"])
 def test_projected_sampling_radius_is_constant_with_depth(ctx, mode):
     # A wall facing the camera with a block standing 0.1 m out of it at 2 m, and the same scaled
@@ -149,6 +150,7 @@ def blocks_at_5_and_100_m(ctx):
     return camera, scene, slabs, near_mask, far_mask
 
 
+@pytest.mark.slow
 def test_distance_retention_vector_keeps_ao_far_away_ssao_loses_it(ctx, record_property):
     # The paper's central claim (section 3): identical objects at 5 m and 100 m. Each stands on
     # its own slab seen at the same angle, so distance is the only difference. (On one common

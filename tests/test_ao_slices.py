@@ -58,6 +58,7 @@ def test_projected_sampling_radius_is_constant_with_depth(ctx, mode):
         assert totals[200.0] == pytest.approx(totals[2.0], rel=0.05)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mode", SLICE_MODES)
 def test_distance_retention(ctx, mode, record_property):
     # tests/test_ao_properties.py's scene: the same block at 5 m and at 100 m, seen at one angle

@@ -198,6 +198,7 @@ def test_sample_variant_has_every_kind_within_range_and_matches_the_geometry(sam
     assert not {d["part"] for d in report["discrepancies"]} & set(excluded)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [1, 2, 5])
 def test_other_seeds_match_the_geometry_and_put_nothing_into_anything(tmp_path, seed):
     report = check_variant(SAMPLE, make_asbuilt(SAMPLE, tmp_path / "out", seed=seed)[0].parent)

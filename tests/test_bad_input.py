@@ -396,6 +396,7 @@ def test_usage_error_exits_2(folder, capsys):
     assert "Missing option '-o'" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_real_process(folder):
     """The contract holds for a real process: exit status 1, one stderr line (no progress bar
     either, stderr being a pipe), no output file."""

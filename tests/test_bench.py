@@ -79,6 +79,7 @@ def _one(report, **match) -> dict:
     return hits[0]
 
 
+@pytest.mark.slow
 def test_bench_quick_ratios_are_the_named_figures(quick):
     """With one timed round each ratio is the ratio of the one run of the two figures it names,
     in the issue's direction (vector / ssao, half / full, 10 M / 1 M, 20 M / 1 M, peer / mrcheck)."""
@@ -133,6 +134,7 @@ def test_bench_quick_ratios_are_the_named_figures(quick):
             )
 
 
+@pytest.mark.slow
 def test_bench_quick_measures_every_item_of_the_issue(quick):
     """Every figure the issue asks for, in the quick plan: the AO pass and the whole frame of the
     five AO modes and the fetch floor at 1280x1024, 16 and 64 samples, full and half resolution;
@@ -200,6 +202,7 @@ def test_bench_quick_measures_every_item_of_the_issue(quick):
     assert "vector_over_ssao" in printed and "GTX285" in printed
 
 
+@pytest.mark.slow
 def test_the_progress_total_is_the_figures_measured(quick):
     """The plan's count is what a run measures: 80 figures quick, 268 in a full run (2 sizes x
     (4 sample counts x 30 + 6) on the sample cell -- 7 AO modes' passes and frames at 2
@@ -211,6 +214,7 @@ def test_the_progress_total_is_the_figures_measured(quick):
     assert bench_plan.planned_figures(quick=False) == 268
 
 
+@pytest.mark.slow
 def test_the_papers_column_is_beside_its_own_method_only(quick):
     """Scheer & Keutel timed their vector method alone (Tables 1 and 2, GTX 285, 1280x1024)."""
     report, _ = quick
@@ -230,6 +234,7 @@ def test_the_papers_column_is_beside_its_own_method_only(quick):
     }  # 16 samples, 13x13 blur: Table 2
 
 
+@pytest.mark.slow
 def test_bench_quick_timings_are_plausible(quick):
     """Positive, in milliseconds and not absurdly small: a pass that is not waited for (no
     ctx.finish()) would take microseconds."""
@@ -270,6 +275,7 @@ def test_bench_quick_timings_are_plausible(quick):
             assert _one(report, name="frame", mode=peer)["median_ms"] >= 1.0  # 1024x768 with AO, read back
 
 
+@pytest.mark.slow
 def test_a_null_ratio_has_its_reason_next_to_it(quick):
     """A peer that did not run: each of its ratios (the half-resolution one too) is null with
     the peer's reason beside it in ``ratios``, in the top-level ``reasons`` and printed with it."""
@@ -287,6 +293,7 @@ def test_a_null_ratio_has_its_reason_next_to_it(quick):
     assert all(not line.strip().startswith("vtk_over_mrcheck_frame_reason") for line in printed)
 
 
+@pytest.mark.slow
 def test_a_ratio_keeps_its_rounds(quick):
     """Each paired ratio keeps its per-round ratios, printed as their spread beside it; a quick
     run says that its verdicts are indicative."""
@@ -313,6 +320,7 @@ def test_a_ratio_keeps_its_rounds(quick):
     assert "verdicts from 3 rounds are indicative" in text
 
 
+@pytest.mark.slow
 def test_vector_over_ssao_is_judged_at_every_sample_count(quick):
     """The target is "at equal samples": a miss at 64 samples shows, though 16 meets it; the
     floor and half/full targets are the issue's at 16 samples only, and say so elsewhere."""
@@ -429,6 +437,7 @@ def test_peak_memory_is_reset_before_an_entry():
     after.close()
 
 
+@pytest.mark.slow
 def test_bench_writes_the_json_before_printing(quick, tmp_path, monkeypatch):
     """A reader that goes away (`mrcheck bench --json X | head`) costs the printout, not the run."""
     report, _ = quick
@@ -503,6 +512,7 @@ def test_peer_worker_that_dies_at_start_gives_a_one_line_reason(tmp_path, monkey
         assert "\n" not in reasons[peer]
 
 
+@pytest.mark.slow
 def test_peer_error_answer_and_garbage_are_reasons(tmp_path):
     error = PeerWorker(
         "vtk",
@@ -577,6 +587,7 @@ def test_peer_worker_that_crashes_mid_run_gives_null_and_reason(ctx, tmp_path):
     assert not hits  # so _ratios reports vtk_over_mrcheck_frame as None
 
 
+@pytest.mark.slow
 def test_a_peer_that_cannot_be_imported_is_not_installed_one_that_breaks_fails(tmp_path, monkeypatch):
     """The real worker with stand-ins for pyvista and vtk first ahead on the path: one whose
     import fails (a shared library missing) is not installed; one that imports but is broken

@@ -5,11 +5,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from mrcheck.eval.bench.imports import format_imports, measure_cache, measure_ifc, measure_step
 
 DATA = Path(__file__).parent / "data" / "cad"
 
 
+@pytest.mark.slow
 def test_import_figures_are_measured_and_reported(tmp_path):
     ifc = measure_ifc(DATA / "ifc" / "basin-faceted-brep.ifc", rounds=2)
     assert set(ifc.rounds) == {1, 2} and all(len(r) == 2 and min(r) > 0 for r in ifc.rounds.values())
@@ -24,6 +27,7 @@ def test_import_figures_are_measured_and_reported(tmp_path):
     assert any("cached reload" in line for line in lines) and any("s per MB" in line for line in lines)
 
 
+@pytest.mark.slow
 def test_bench_command_measures_the_hall_as_ifc(tmp_path, monkeypatch):
     """bench's import section: the hall written once as IFC beside the generated scene (a
     stand-in generator here: the real one makes the 5 M-triangle hall), imported and reported."""

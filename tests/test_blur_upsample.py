@@ -243,6 +243,7 @@ def test_composite_shades_with_the_same_upsampled_ao_as_the_ao_output(gl):
     assert np.abs(images[0] - images[1]).max() <= 1
 
 
+@pytest.mark.slow
 def test_half_resolution_ao_lands_where_full_resolution_ao_puts_it(ctx):
     """Alignment through the renderer: the half-res AO pass (texel (i, j) reads full-res pixel
     (2i, 2j)) and the upsampling agree, so the dark band along a crease lies where the full-res

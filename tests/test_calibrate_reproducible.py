@@ -11,6 +11,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.slow  # every test here is slow (tests/conftest.py)
+
 DATA = Path(__file__).parent / "data" / "calibration"
 BOARDS = {
     "chessboard": (sorted((DATA / "opencv_chessboard").glob("left[0-9]*.jpg")), "chessboard:9x6:0.025", 5),

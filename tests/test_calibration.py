@@ -134,6 +134,7 @@ def test_yaml_without_size_asks_for_json(tmp_path):
         read_camera(path)
 
 
+@pytest.mark.slow
 def test_views_without_board_and_corrupt_files_are_skipped(tmp_path, capsys):
     noise = tmp_path / "noise.png"
     cv2.imwrite(str(noise), np.random.default_rng(0).integers(0, 256, (480, 640), np.uint8))
@@ -216,6 +217,7 @@ def upscaled(images, folder, factor=6.3):
     return paths
 
 
+@pytest.mark.slow
 def test_large_photos_match_the_originals(tmp_path, capsys):
     # at full size the detectors missed 6 of these 13 boards and took up to 7 s a photo; the board is
     # found on a 1280 px copy and its corners are refined in the 4032 x 3024 photo
@@ -236,6 +238,7 @@ def test_large_photos_match_the_originals(tmp_path, capsys):
     assert big["rms"] / factor == pytest.approx(small["rms"], rel=0.15)  # in pixels of the original photo
 
 
+@pytest.mark.slow
 def test_large_charuco_photos_corners_match_the_originals(tmp_path):
     board, factor, offsets = parse_board(CHARUCO_SPEC), 6.3, []
     for name, path in zip(CHARUCO, upscaled(CHARUCO, tmp_path, factor)):
@@ -284,6 +287,7 @@ def test_poorly_determined_camera_is_warned(tmp_path, capsys):
     assert code == 0 and "poorly determined" not in err
 
 
+@pytest.mark.slow
 def test_wrong_board_finds_nothing(tmp_path, capsys):
     code, _, err = run(capsys, *CHESS[:5], "--board", "chessboard:7x7:0.025", "-o", tmp_path / "c.json")
     # (the sector-based fallback detector can lock onto a 7x7 grid of one photo, never on 5)
@@ -291,6 +295,7 @@ def test_wrong_board_finds_nothing(tmp_path, capsys):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_squares_counted_for_inner_corners_hints_the_spec(tmp_path, capsys):
     # 10x7 counts the squares; the stray left.jpg (no board) comes first and is passed over
     stray = str(DATA / "opencv_chessboard" / "left.jpg")
@@ -365,6 +370,7 @@ def test_odd_size_names_the_odd_photo(tmp_path, capsys):
     assert not (tmp_path / "c.json").exists()
 
 
+@pytest.mark.slow
 def test_outlier_views_rejected_then_recalibrated(tmp_path, capsys):
     out = tmp_path / "cam.json"
     code, stdout, _ = run(capsys, *CHESS, "--board", CHESS_SPEC, "--max-view-error", 0.2, "-o", out)

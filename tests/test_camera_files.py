@@ -76,6 +76,7 @@ def test_truncated_yaml_intrinsics_is_one_line_error(tmp_path, capsys, register_
     assert_one_line_error(result, truncated, "cannot read OpenCV YAML camera")
 
 
+@pytest.mark.slow
 def test_yaml_cut_anywhere_loads_or_is_mrcheck_error(tmp_path):
     posed = load_camera(CONVEYOR).with_pose(cv2.Rodrigues(np.array([0.1, -0.2, 0.3]))[0], [1.0, 2.0, 3.0])
     text = write_camera(tmp_path / "whole.yml", posed, {"rms": 0.3}).read_bytes()
@@ -152,6 +153,7 @@ def test_yaml_intrinsics_have_no_pose_for_a_render(tmp_path):
         assert camera.fx == 500.0 and camera.dist.size == 5 and np.array_equal(camera.R, np.eye(3))
 
 
+@pytest.mark.slow
 def test_render_and_reference_take_a_yaml_camera(tmp_path, capsys):
     yml = write_camera(tmp_path / "cam.yml", load_camera(CONVEYOR))
     images = {}
@@ -256,6 +258,7 @@ def test_width_and_height_of_another_aspect_ratio_are_refused_for_a_camera(tmp_p
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_width_and_height_within_a_pixel_of_the_aspect_ratio_are_accepted(tmp_path, capsys):
     # 65x48 and 64x49 are 64x48 up to the rounding of one side (what --width alone rounds too)
     for size in (("65", "48"), ("64", "49")):

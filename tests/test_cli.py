@@ -28,6 +28,7 @@ def test_render_all_writes_the_labelled_study_sheet(tmp_path, capsys):
     assert str(out) in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_output_ao_npy_contract(tmp_path):
     out, ao_path = tmp_path / "v.png", tmp_path / "ao.npy"
     args = ["render", SCENE, "--view", "robot", "--mode", "vector", "--no-blur", *SMALL, "-o", str(out)]
@@ -92,6 +93,7 @@ def test_half_resolution_ao_is_close_to_full_resolution(ctx):
     assert np.abs(full - half).mean() < 0.03
 
 
+@pytest.mark.slow
 def test_demo_writes_every_view_and_mode(tmp_path, capsys, monkeypatch):
     from mrcheck.render.renderer import Renderer
 
@@ -135,6 +137,7 @@ def test_help_explains_every_option(capsys):
         assert option in text
 
 
+@pytest.mark.slow
 def test_wheel_carries_shaders_and_sample_scene_and_renders_installed(tmp_path):
     # A non-editable install must find its shaders and the sample scene inside the package.
     wheel_dir, site = tmp_path / "wheel", tmp_path / "site"

@@ -83,6 +83,7 @@ def test_every_command_help_has_an_example_the_command_line_accepts(capsys, path
     command.make_context(words[1], list(args), resilient_parsing=False)
 
 
+@pytest.mark.slow
 def test_demo_says_which_image_to_open_first(tmp_path, capsys):
     assert main(["demo", "-o", str(tmp_path), "--width", "64", "--height", "48"]) == 0
     err = capsys.readouterr().err.strip().splitlines()

@@ -81,6 +81,7 @@ def test_no_covered_pixel_is_undefined_everywhere():
 
 
 # -- the command -----------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_compare_writes_figure_and_metrics(tmp_path, capsys):
     out = tmp_path / "cmp"
     argv = [

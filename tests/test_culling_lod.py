@@ -147,6 +147,7 @@ def test_backface_culling_skips_closed_back_faces_and_changes_no_pixel():
     np.testing.assert_array_equal(depth_culled, depth_plain)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("view", ["aisle", "robot_cell"])
 def test_backface_culling_on_the_line_scene_changes_only_crack_pixels(view):
     """Exact in theory; in practice a ray through the crack between two bodies' faces (T-junction)

@@ -18,6 +18,8 @@ from mrcheck.core.resources import shipped_scene
 from mrcheck.render.renderer import Renderer, RenderSettings
 from mrcheck.scene.model import load_scene
 
+pytestmark = pytest.mark.slow  # every test here is slow (tests/conftest.py)
+
 # the back wall in the cell's overview at the demo's 1024x768: rows, columns of a crop beside the
 # control cabinet, whose wall pixels are picked by their normal (the wall's, within 5 degrees)
 WALL_ROWS, WALL_COLS = slice(272, 330), slice(110, 380)

@@ -39,6 +39,7 @@ def _bunny_points() -> np.ndarray:
     return np.array([r for r in rows if len(r) == 3], np.float64)
 
 
+@pytest.mark.slow
 def test_bunny_scan_against_its_mesh(tmp_path, capsys):
     out = tmp_path / "out"
     code, stdout, err = _run(capsys, SCAN, "--scene", MESH, "-o", out)
@@ -82,6 +83,7 @@ def asbuilt_scan(tmp_path_factory):
     return scan, report, len(points)
 
 
+@pytest.mark.slow
 def test_synthetic_asbuilt_scan_finds_the_moved_parts(asbuilt_scan, tmp_path, capsys):
     scan, truth, count = asbuilt_scan
     assert 100_000 < count < 1_000_000
@@ -110,6 +112,7 @@ def test_synthetic_asbuilt_scan_finds_the_moved_parts(asbuilt_scan, tmp_path, ca
     assert md.count("\n| ") == len(parts) + 1 and moved[0] in md
 
 
+@pytest.mark.slow
 def test_units_option_scales_the_scan(tmp_path, capsys):
     scan = tmp_path / "bunny_mm.xyz"
     np.savetxt(scan, _bunny_points() * 1000.0)
@@ -152,6 +155,7 @@ def _bad(tmp_path, kind) -> Path:
     return path
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "kind, message",
     [
@@ -187,6 +191,7 @@ def test_scan_in_the_box_but_off_the_surfaces(tmp_path, capsys):
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.slow
 def test_shot_overlay_with_legend(ctx, asbuilt_scan, tmp_path, capsys):
     scan, _, count = asbuilt_scan
     scene = load_scene(sample_scene_path())
@@ -213,6 +218,7 @@ def test_shot_errors_come_first(tmp_path, capsys):
     assert code == 1 and "none.json" in err and not (tmp_path / "out").exists()
 
 
+@pytest.mark.slow
 def test_a_small_scan_close_to_the_scene_is_not_refused_as_unregistered(tmp_path, capsys):
     """The "not registered" check compared the median |d| with the scan's own diagonal only: one
     real bunny point 1.2 mm off the mesh (a diagonal of 0) was "0.00122 m away from the scene"."""
@@ -234,6 +240,7 @@ def test_a_small_scan_close_to_the_scene_is_not_refused_as_unregistered(tmp_path
     assert code == 0, err
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("separator", [",", ", ", ";"])
 def test_xyz_with_commas_or_semicolons_reads_as_with_spaces(tmp_path, capsys, separator):
     """x,y,z lines (CloudCompare's ASCII export) were "lines with fewer than 3 values"."""
@@ -246,6 +253,7 @@ def test_xyz_with_commas_or_semicolons_reads_as_with_spaces(tmp_path, capsys, se
     assert np.load(tmp_path / "out" / "deviations.npy").shape == (2000,)
 
 
+@pytest.mark.slow
 def test_xyz_with_decimal_commas_is_refused_not_misread(tmp_path, capsys):
     path = tmp_path / "decimal.xyz"
     path.write_text("".join(f"{x:.4f};{y:.4f};{z:.4f}\n".replace(".", ",") for x, y, z in _bunny_points()[:100]))

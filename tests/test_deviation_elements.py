@@ -37,6 +37,7 @@ def simulated(sample):
     return simulate_scan(scanned, stations, 300_000, 0), shifts
 
 
+@pytest.mark.slow
 def test_small_shifts_are_found_at_a_10_mm_tolerance(sample):
     """The issue's figure at test size, pooled over seeds 0 and 1 (the first two; docs/discrepancies.md
     has more): F1 >= 0.95 for 5-50 mm shifts at a 10 mm tolerance."""
@@ -47,6 +48,7 @@ def test_small_shifts_are_found_at_a_10_mm_tolerance(sample):
     assert f1 >= 0.95, (f1, [s.misses for s in scores])
 
 
+@pytest.mark.slow
 def test_the_same_scan_gives_the_same_table_and_no_nan(sample, simulated):
     scan, _ = simulated
     runs = []
@@ -127,6 +129,7 @@ def test_grouped_quantile_matches_numpy():
     assert np.isnan(got[5])
 
 
+@pytest.mark.slow
 def test_cli_writes_the_table_picture_and_bcf(sample, simulated, tmp_path, capsys):
     import open3d as o3d
 

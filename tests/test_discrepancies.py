@@ -66,14 +66,23 @@ def test_behind_ids_see_past_the_first_instance(sample):
     assert len(behind) > 100 and np.mean([labels[i][1] == "floor" for i in behind]) > 0.8
 
 
+@pytest.mark.slow
 def test_precision_and_recall_on_asbuilt_variants(ctx, tmp_path):
-    """Measured (seeds 0-2, views overview + conveyor + far_overview + far_back, 640x480 -- the
-    evaluation's default size --, k1 -0.12, sun light, blur, noise): recall 0.64 (43/67),
-    precision 0.82 (54 true / 12 false), moved >= 0.2 m 11/13, missing 8/11, false suspects on
-    the unchanged scene 0, 1, 0, 0. With the outline the headlight render shows (and the support
-    cap it needed) the same set gave recall 0.60, precision 0.80 and missing 6/11; with every
-    outline pixel scored, recall 0.70, precision 0.69 and up to 6 false suspects per view. So the
-    precision, recall and missing asserts fail if the relit expected outline stops working."""
+    """A regression floor under the detector's figures, not their goal (issue 41's; the figures
+    are in docs/discrepancy-evaluation.md). Protocol: seeds 0-2, views overview + conveyor +
+    far_overview + far_back, 640x480 (the evaluation's default size), k1 -0.12, sun light, blur,
+    noise.
+
+    Measured: recall 0.642 (43/67), precision 0.818 (54 true / 12 false), moved >= 0.2 m 11/13,
+    missing 8/11, false suspects on the unchanged scene 0, 1, 0, 0 -- every case the same with
+    OpenCV 5.1.0.95 / numpy 2.4.6 (the lock) and OpenCV 5.0.0.93 / numpy 2.2.6; recall 0.627
+    (42/67) with the lock's versions on another machine (issue 38). Other seeds spread far wider
+    (per seed 0.36-0.81; seeds 3-5 together 34/70, 0.486), so the seeds stay fixed. The floors
+    allow one item beyond that spread: recall 41/67, two more false suspects, one move and one
+    missing part fewer. The outline the headlight render shows gave recall 0.60 (40/67) and
+    missing 6/11 on this set, so the recall and missing floors fail if the relit expected outline
+    stops working (its precision, 0.80, is above the floor); scoring every outline pixel gave
+    precision 0.69 and up to 6 false suspects per view."""
     result = evaluate(
         SAMPLE,
         seeds=(0, 1, 2),
@@ -86,10 +95,10 @@ def test_precision_and_recall_on_asbuilt_variants(ctx, tmp_path):
     s = result.summary
     print(json.dumps(s, indent=1))
     kinds = s["per_kind"]
-    assert kinds["moved >=0.2 m"]["recall"] >= 0.84
-    assert s["recall"] >= 0.63
-    assert s["precision"] >= 0.81
-    assert kinds["missing"]["recall"] >= 0.7
+    assert kinds["moved >=0.2 m"]["recall"] >= 0.76  # 10/13
+    assert s["recall"] >= 0.61  # 41/67
+    assert s["precision"] >= 0.79  # 54 / (54 + 14)
+    assert kinds["missing"]["recall"] >= 0.63  # 7/11
     # every truth item in view has a distance band, and the bands add up
     assert (
         sum(kinds.get(b, {"in_view": 0})["in_view"] for b in ("at <10 m", "at 10-20 m", "at >=20 m"))
@@ -99,6 +108,7 @@ def test_precision_and_recall_on_asbuilt_variants(ctx, tmp_path):
     assert max(s["false_suspects_planned"]) <= 1
 
 
+@pytest.mark.slow
 def test_planned_scene_as_photo_gives_few_suspects(ctx, sample):
     camera = _camera(sample)
     photo = synthetic_photo(sample, camera, Renderer(sample, ctx=ctx))
@@ -121,6 +131,7 @@ def test_planned_scene_as_photo_gives_few_suspects(ctx, sample):
     assert np.median([s.best_shift_support - s.support for s in solid]) < 0.05
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("encode", [None, ".jpg"])
 def test_a_clean_photo_of_the_planned_scene_gives_few_suspects(ctx, sample, encode):
     """Without sensor noise (a render, a low-noise photo, its JPEG) the non-zero gradients are
@@ -143,6 +154,7 @@ def _shot(tmp_path, scene, camera, photo):
     return shot
 
 
+@pytest.mark.slow
 def test_cli_writes_heatmap_suspects_and_markers(ctx, sample, tmp_path):
     from mrcheck.scene.asbuilt import make_asbuilt
 

@@ -55,6 +55,7 @@ def box_detection(tmp_path_factory):
     return detect(load_scene(BOX / "scene.toml"), camera, photo)
 
 
+@pytest.mark.slow
 def test_the_box_artwork_is_texture_not_structure(box_detection):
     """The real box photo's printed artwork lies inside the CAD box's faces: before, it made 3
     regions there (14053, 3810 and 2566 edge px; 16 in all, the rest on the table and the
@@ -76,6 +77,7 @@ def test_the_box_artwork_is_texture_not_structure(box_detection):
     assert not box.suspect and box.support > 0.85
 
 
+@pytest.mark.slow
 def test_the_floor_is_ground_and_walls_and_machines_are_not(ctx):
     """ground_pixels: upward faces at the lowest seen level -- the floor, not a wall, a machine's
     top or a conveyor (objects are added on the floor; structure elsewhere on a face is texture)."""
@@ -89,6 +91,7 @@ def test_the_floor_is_ground_and_walls_and_machines_are_not(ctx):
     assert pv.ground[(seen != "floor") & (pv.ids >= 0)].mean() < 0.05
 
 
+@pytest.mark.slow
 def test_suggested_markers_lie_on_their_own_part(ctx, tmp_path):
     """A suspect's marker is put on a pixel of its own planned image (the centre of its
     unsupported outline may lie on the floor next to it: the review then named the floor)."""
@@ -111,6 +114,7 @@ def test_suggested_markers_lie_on_their_own_part(ctx, tmp_path):
     json.dumps([m.__dict__ for m in d.suggested_markers])  # still a plain JSON record
 
 
+@pytest.mark.slow
 def test_the_light_fitted_to_a_sun_lit_photo_is_the_sun(ctx):
     """estimate_light on the evaluation's sun-lit photo of the planned sample cell (conveyor,
     320x240) finds the sun's direction (measured 5.8 degrees off), and on the headlight render
@@ -130,6 +134,7 @@ def test_the_light_fitted_to_a_sun_lit_photo_is_the_sun(ctx):
         assert off < 15, (light, off)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path, view, most", [(sample_scene_path(), "robot", 1), (CELL, "overview", 1)])
 def test_an_unchanged_sun_lit_view_gives_at_most_one_suspect(ctx, path, view, most):
     """The planned scene as its own sun-lit photo (blur, noise), 320x240: judged on the outline

@@ -86,6 +86,7 @@ def crate_fits():
     return out
 
 
+@pytest.mark.slow
 def test_snap_is_within_a_pixel_in_nine_of_ten_cases(crate_fits):
     """Median reprojection error on the scene points <= 1 px in at least 9 of 10 seeds (the
     target), here in all 10 (measured: 0.02-0.12 px with the whole-pose search;
@@ -104,9 +105,12 @@ def test_snap_is_within_a_pixel_in_nine_of_ten_cases(crate_fits):
     assert sum(e <= 1.0 for e in errors) == 10, errors
 
 
+@pytest.mark.slow
 def test_the_reported_uncertainty_covers_the_true_error(crate_fits):
-    """At every image corner the true error is within 3x the reported 1-sigma (measured: up to
-    2.8x), and the sigma is not a blanket (below 1 px at the corners on this easy scene)."""
+    """At every image corner the true error is within 3x the reported 1-sigma (measured over the
+    ten seeds: 0.15-1.38x, the same with OpenCV 5.1.0.95 / numpy 2.4.6 and 5.0.0.93 / 2.2.6; an
+    earlier fitter reached 2.8x), and the sigma is not a blanket (below 1 px at the corners on
+    this easy scene)."""
     for case, fit in crate_fits:
         if isinstance(fit, EdgeFitError):
             continue
@@ -144,6 +148,7 @@ def cell_fits():
         renderer.release()
 
 
+@pytest.mark.slow
 def test_the_dense_cell_snaps_within_a_pixel_and_its_uncertainty_covers_the_error(cell_fits):
     """Measured (seeds 0-19): all within 1 px, 0.14-0.65 px, the true corner
     error at most 1.9x the reported 1-sigma (0.3-1.9 px); before the whole-pose
@@ -157,6 +162,7 @@ def test_the_dense_cell_snaps_within_a_pixel_and_its_uncertainty_covers_the_erro
         assert np.all(true <= 3.0 * reported) and reported.max() < 2.0, (true, reported)
 
 
+@pytest.mark.slow
 def test_the_part_missing_in_the_hall_is_left_out(crate_fits):
     """The crate left out of the photo finds too little support and is dropped (measured: in 8 of
     the 9 fits; in the ninth it keeps enough support, cause not investigated). The column, which
@@ -166,12 +172,14 @@ def test_the_part_missing_in_the_hall_is_left_out(crate_fits):
     assert sum(case.left_out in fit.dropped for case, fit in fitted) >= len(fitted) - 1
 
 
+@pytest.mark.slow
 def test_stage_times_are_reported(crate_fits):
     fit = next(f for _, f in crate_fits if not isinstance(f, EdgeFitError))
     assert set(fit.times_s) >= {"render", "edges", "photo", "match", "solve", "uncertainty", "total"}
     assert sum(v for k, v in fit.times_s.items() if k != "total") <= fit.times_s["total"] * 1.01
 
 
+@pytest.mark.slow
 def test_a_pyramid_made_beforehand_gives_the_same_fit_and_a_wrong_one_is_refused():
     """``refine_pose(pyramid=...)`` (a video's next frame, made on a thread): the pose is bitwise
     the one fitted to the photo itself; the pyramid of a blank photo is really used (the fit
@@ -197,6 +205,7 @@ def test_a_pyramid_made_beforehand_gives_the_same_fit_and_a_wrong_one_is_refused
             refine_pose(scene, camera, case.photo, initial=case.rough, options=options, pyramid=other)
 
 
+@pytest.mark.slow
 def test_a_photo_of_something_else_fails_with_a_reason():
     scene, camera = crate_scene(), crate_camera(320, 240)
     blank = np.full((240, 320), 128, np.uint8) + np.random.default_rng(0).integers(0, 6, (240, 320)).astype(np.uint8)
@@ -204,6 +213,7 @@ def test_a_photo_of_something_else_fails_with_a_reason():
         refine_pose(scene, camera, blank)
 
 
+@pytest.mark.slow
 def test_parallel_edges_warn_and_name_the_weak_direction():
     """A long bar across the view: every edge is horizontal, nothing pins the pose sideways."""
     vertices, faces = _box(extents=(40.0, 0.2, 0.2))

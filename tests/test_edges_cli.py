@@ -45,6 +45,7 @@ def _register(folder, manifest, *extra):
     )
 
 
+@pytest.mark.slow
 def test_register_initial_writes_an_edge_shot(project, capsys):
     folder, manifest, case = project
     out = folder / "shot.json"
@@ -63,6 +64,7 @@ def test_register_initial_writes_an_edge_shot(project, capsys):
     assert printed.rstrip().endswith(f"wrote {out}")
 
 
+@pytest.mark.slow
 def test_a_failed_snap_exits_1_and_writes_nothing(project, tmp_path, capsys):
     folder, manifest, _ = project
     blank = tmp_path / "blank.png"
@@ -87,6 +89,7 @@ def test_a_failed_snap_exits_1_and_writes_nothing(project, tmp_path, capsys):
     assert len(err) == 1 and "edge registration failed" in err[0] and "blank.png" in err[0]
 
 
+@pytest.mark.slow
 def test_no_refine_needs_markers_or_points(project, tmp_path, capsys):
     folder, manifest, _ = project
     code = _register(
@@ -120,6 +123,7 @@ def test_points_then_edges_on_the_real_photo(tmp_path, capsys):
     assert shot["method"] == "edges" and shot["start"] == "points"
 
 
+@pytest.mark.slow
 def test_scene_camera_writes_the_viewpoint_with_the_photo_intrinsics(project, tmp_path, capsys):
     folder, manifest, _ = project
     out = tmp_path / "rough.json"

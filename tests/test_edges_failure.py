@@ -28,6 +28,7 @@ def _photo_of(parts: set | None, seed: int = 0):
     return full, camera, photo
 
 
+@pytest.mark.slow
 def test_a_fit_to_a_few_parts_of_the_cad_warns_and_the_limit_fails_it():
     """The photo shows one crate of six (and the floor, the wall): from the true pose the snap
     fits that crate and leaves out the others, which hold about 45 % of the visible edge samples.
@@ -42,6 +43,7 @@ def test_a_fit_to_a_few_parts_of_the_cad_warns_and_the_limit_fails_it():
         refine_pose(scene, camera, photo, options=EdgeOptions(max_left_out=0.3))
 
 
+@pytest.mark.slow
 def test_parts_missing_in_the_hall_within_the_limit_still_fit():
     """All parts shown: none left out but the column (measured); three of six crates missing: they
     are left out (about a quarter of the samples) and the fit is kept."""
@@ -72,6 +74,7 @@ def _far_cell_case():
     return cell, camera, make_case(cell, camera, 20, offset_px=55.0)
 
 
+@pytest.mark.slow
 def test_support_above_chance_tells_wrong_poses_from_good_ones():
     """The figure behind the failure: the generated cell, seed 20, from 55 px off (beyond the
     search radius) ends 37 px off, 0.03 beyond chance (measured; by default the left-out share,
@@ -86,6 +89,7 @@ def test_support_above_chance_tells_wrong_poses_from_good_ones():
     assert np.median(reprojection_error(case.truth, fit.camera, case.points)) < 1.0
 
 
+@pytest.mark.slow
 def test_a_wrong_pose_fails_through_the_cli(tmp_path, capsys):
     """Exit 1, one line naming the photo and saying why, no SHOT written."""
     _, camera, case = _far_cell_case()

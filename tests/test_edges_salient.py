@@ -9,6 +9,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import pytest
 import trimesh
 
 from mrcheck.core.camera import Camera
@@ -92,6 +93,7 @@ class _Square:
         self.state = solver.PoseState.of(self.camera, corners.mean(axis=0))
 
 
+@pytest.mark.slow
 def test_the_pose_search_finds_a_square_moved_by_twelve_pixels():
     """The photo shows the square 12 px right and 5 px up of where the start pose puts it: the
     search moves the pose so that the samples land within a pixel of the photo's square."""

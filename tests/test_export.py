@@ -126,6 +126,7 @@ def first_run(job_dir):
     return out, code, time.perf_counter() - start
 
 
+@pytest.mark.slow
 def test_six_shots_five_done_one_failed(first_run, capsys):
     out, code, seconds = first_run
     print(f"first run (1 worker, 6 shots): {seconds:.1f} s")
@@ -186,6 +187,7 @@ def test_six_shots_five_done_one_failed(first_run, capsys):
     assert not list(out.rglob("*.part"))
 
 
+@pytest.mark.slow
 def test_rerun_skips_and_force_redoes_byte_identically(first_run, job_dir, capsys):
     out, _, first_seconds = first_run
     job = job_dir / "job.toml"
@@ -219,6 +221,7 @@ def test_rerun_skips_and_force_redoes_byte_identically(first_run, job_dir, capsy
     assert all(p.stat().st_mtime_ns != mtimes[p] for p in out.glob("shots/cam-0/*.png"))
 
 
+@pytest.mark.slow
 def test_two_workers_give_the_same_bytes(first_run, job_dir, capsys):
     out = job_dir / "out_workers2"
     code, stdout, _, seconds = _export(capsys, job_dir / "job.toml", out, "--workers", 2)
@@ -227,6 +230,7 @@ def test_two_workers_give_the_same_bytes(first_run, job_dir, capsys):
     assert _pngs(out) == _pngs(first_run[0]) and len(_pngs(out)) == 5 * 8
 
 
+@pytest.mark.slow
 def test_dask_local_cluster_gives_the_same_bytes(first_run, job_dir, capsys):
     distributed = pytest.importorskip("distributed")
     out = job_dir / "out_dask"
@@ -296,6 +300,7 @@ def _touch(path):
     os.utime(path, ns=(st.st_atime_ns, max(st.st_mtime_ns, time.time_ns()) + 1_000_000_000))
 
 
+@pytest.mark.slow
 def test_rerun_redoes_shots_whose_input_files_changed(small_job, capsys):
     job = small_job()
     out = job.parent / "out"
@@ -334,6 +339,7 @@ class _ClosedReader:
         return False
 
 
+@pytest.mark.slow
 def test_a_closed_progress_reader_does_not_stop_the_export(small_job, monkeypatch):
     """The progress lines fail; the shots, the manifest and the report are still written (the
     export died after the first progress line, with neither)."""
@@ -344,6 +350,7 @@ def test_a_closed_progress_reader_does_not_stop_the_export(small_job, monkeypatc
     assert manifest["summary"]["done"] == 2 and (job.parent / "out" / "report.html").is_file()
 
 
+@pytest.mark.slow
 def test_the_manifest_counts_the_processes_that_ran_and_upscaling_is_a_warning(small_job, capsys):
     """--workers 8 for one shot runs it here: the manifest says 1 worker, not 8. A width above
     the photo's (320 px) upscales it: a warning in the manifest, the report and the summary."""
@@ -359,6 +366,7 @@ def test_the_manifest_counts_the_processes_that_ran_and_upscaling_is_a_warning(s
     assert "1 shot(s) with registration warnings (cam-0): see report.html" in stdout
 
 
+@pytest.mark.slow
 def test_progress_in_a_log_is_lines_not_a_bar(small_job, capsys):
     job = small_job()
     code, _, err, _ = _export(capsys, job, job.parent / "out")  # captured stderr is not a terminal
@@ -368,6 +376,7 @@ def test_progress_in_a_log_is_lines_not_a_bar(small_job, capsys):
     assert all(re.fullmatch(r"export: [12]/2 shots, (cam-0|given) done, ETA \d+ s", line) for line in lines), lines
 
 
+@pytest.mark.slow
 def test_a_failed_shot_keeps_no_earlier_outputs_and_goes_when_dropped(small_job, capsys):
     """A shot done once, then failing (its photo replaced by a blank one): the earlier images no
     longer match its inputs and go, a failed record.json stays; dropped from the job, its
@@ -389,6 +398,7 @@ def test_a_failed_shot_keeps_no_earlier_outputs_and_goes_when_dropped(small_job,
     assert not folder.exists() and not (out / "shots" / "given").exists()
 
 
+@pytest.mark.slow
 def test_outputs_the_job_no_longer_produces_are_removed(small_job, capsys):
     job = small_job()
     out = job.parent / "out"

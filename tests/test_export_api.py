@@ -51,6 +51,7 @@ def test_progress_is_a_callback_and_nothing_is_printed(job, tmp_path, capsys):
     assert steps == [ShotProgress(1, 1)]  # the rerun: the shot is finished, skipped from the start
 
 
+@pytest.mark.slow
 def test_workers_with_a_scheduler_is_a_python_warning(job, tmp_path):
     with pytest.warns(UserWarning, match="--workers is ignored with --scheduler"), pytest.raises(Exception):
         run_export(job, tmp_path / "out", workers=2, scheduler="notanaddress")

@@ -129,6 +129,7 @@ def test_a_job_file_with_a_byte_order_mark_is_read(job, tmp_path, capsys):
     assert code == 0, err
 
 
+@pytest.mark.slow
 def test_antialias_comes_from_the_job_and_the_command_line_overrides_it(job, tmp_path, capsys):
     """`antialias = false` in the job, or `--no-antialias`, renders without anti-aliasing; the
     setting is part of the manifest's settings and of the shots' fingerprints, so a switch redoes

@@ -13,11 +13,14 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import pytest
 
 from mrcheck.cli import main
 from mrcheck.core.resources import sample_scene_path
 
 from .mr_helpers import make_camera
+
+pytestmark = pytest.mark.slow  # every test here is slow (tests/conftest.py)
 
 SHOTS = 30  # some seconds with two workers: the parent is killed after the first few records
 EYE, TARGET = np.array([-11.4, -6.2, 1.7]), np.array([-5.0, -4.2, 0.9])

@@ -193,6 +193,7 @@ def test_a_bad_file_of_such_a_name_is_named_as_xfc(ws, capfd, name, role, conten
 
 
 # -- a real process: what the terminal and a pipe get -------------------------------------------------------
+@pytest.mark.slow
 def test_a_real_process_prints_such_names(ws, tmp_path):
     """stdout carries an output path as its bytes (a script can use it, as with ls and find);
     stderr shows it as \\xfc; with a strict UTF-8 stdout too (PYTHONIOENCODING=utf-8, as in a
@@ -233,6 +234,7 @@ def test_a_real_process_prints_such_names(ws, tmp_path):
     )
 
 
+@pytest.mark.slow
 def test_overlay_in_a_real_process_does_not_crash(ws):
     """The crash itself: cv2.imread on the photo's name was SIGSEGV (exit 139)."""
     result = subprocess.run(

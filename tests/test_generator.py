@@ -56,6 +56,7 @@ def manifest(folder: Path, name="scene.toml") -> dict:
 
 
 # -- determinism -----------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_same_seed_same_bytes_other_seed_other_scene(scene_dir, tmp_path):
     first = scene_dir("cell", 50_000)
     again = tmp_path / "again"
@@ -68,6 +69,7 @@ def test_same_seed_same_bytes_other_seed_other_scene(scene_dir, tmp_path):
 
 
 # -- triangle targets ------------------------------------------------------------------------------
+@pytest.mark.slow
 @pytest.mark.parametrize("preset, target", [("cell", 50_000), ("line", 200_000), ("hall", 1_000_000)])
 def test_triangles_as_rendered_within_ten_percent(scene_dir, preset, target):
     scene = load_scene(scene_dir(preset, target) / "scene.toml")
@@ -76,6 +78,7 @@ def test_triangles_as_rendered_within_ten_percent(scene_dir, preset, target):
     assert f"{scene.triangle_count:,} triangles as rendered" in manifest(scene_dir(preset, target))["description"]
 
 
+@pytest.mark.slow
 def test_preset_default_target_works_for_seeds_whose_robot_is_heavy(tmp_path, capsys):
     """Seed 1 of the cell draws a UR5 (96 k of the 150 k default): the level below the target
     left the racks full and 12 % short, which used to be refused."""
@@ -87,6 +90,7 @@ def test_preset_default_target_works_for_seeds_whose_robot_is_heavy(tmp_path, ca
     assert capsys.readouterr().err == ""
 
 
+@pytest.mark.slow
 def test_missed_default_target_is_a_warning_an_explicit_one_an_error(tmp_path, capsys):
     # a 300 x 250 m building alone is more than the cell's default 150 k triangles
     out = tmp_path / "big"
@@ -107,6 +111,7 @@ def world_vertices(part) -> np.ndarray:
     return np.einsum("kij,nj->kni", part.transforms, v)[..., :3]
 
 
+@pytest.mark.slow
 def test_units_mix_loads_to_the_same_metres(scene_dir):
     plain = load_scene(scene_dir("cell", 50_000) / "scene.toml")
     mixed_dir = scene_dir("cell", 50_000, units_mix=True)
@@ -128,6 +133,7 @@ def test_units_mix_loads_to_the_same_metres(scene_dir):
     assert 3900 < np.ptp(conveyor.vertices[:, 0]) < 4100  # a 4 m segment, in mm
 
 
+@pytest.mark.slow
 def test_unit_missing_variant_forgets_one_mm_part(scene_dir):
     folder = scene_dir("cell", 50_000, units_mix=True)
     declared = {p["name"]: p for p in manifest(folder)["parts"]}
@@ -144,6 +150,7 @@ def test_unit_missing_variant_forgets_one_mm_part(scene_dir):
 
 
 # -- instancing ------------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_twenty_million_triangle_hall_is_instanced(tmp_path):
     """The 20 M-triangle hall: its files are a few per cent of what the drawn triangles would
     take, and mrcheck loads it within a few GB."""
@@ -171,6 +178,7 @@ def test_twenty_million_triangle_hall_is_instanced(tmp_path):
 
 
 # -- ids, robots, placement ------------------------------------------------------------------------
+@pytest.mark.slow
 def test_instances_carry_stable_ids(scene_dir):
     data = manifest(scene_dir("hall", 1_000_000))
     ids = {p["name"]: [i.get("id") for i in p.get("instances", [])] for p in data["parts"]}
@@ -182,6 +190,7 @@ def test_instances_carry_stable_ids(scene_dir):
     assert "crane-1" in ids["hall_crane"]
 
 
+@pytest.mark.slow
 def test_robots_are_real_posed_on_pedestals_inside_fences(scene_dir):
     folder = scene_dir("line", 200_000)
     data = manifest(folder)
@@ -205,6 +214,7 @@ def test_robots_are_real_posed_on_pedestals_inside_fences(scene_dir):
     assert len(set(poses)) == len(poses)
 
 
+@pytest.mark.slow
 def test_nothing_sinks_into_the_floor(scene_dir):
     scene = load_scene(scene_dir("hall", 1_000_000) / "scene.toml")
     for part in scene.parts:
@@ -214,6 +224,7 @@ def test_nothing_sinks_into_the_floor(scene_dir):
 
 
 # -- viewpoints ------------------------------------------------------------------------------------
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "preset, target, far", [("cell", 50_000, 12.0), ("line", 200_000, 40.0), ("hall", 1_000_000, 150.0)]
 )
@@ -234,6 +245,7 @@ def test_viewpoints_see_near_and_far(ctx, scene_dir, preset, target, far):
 
 
 # -- output folder and arguments -------------------------------------------------------------------
+@pytest.mark.slow
 def test_failed_generation_leaves_the_old_folder(scene_dir, tmp_path, monkeypatch):
     out = tmp_path / "scene"
     generate("cell", out, target_triangles=50_000, progress=False)
@@ -249,6 +261,7 @@ def test_failed_generation_leaves_the_old_folder(scene_dir, tmp_path, monkeypatc
     assert sorted(p.name for p in tmp_path.iterdir()) == ["scene"]  # no partial folder left
 
 
+@pytest.mark.slow
 def test_regenerating_replaces_only_the_generated_files(tmp_path):
     out = tmp_path / "c"
     generate("cell", out, target_triangles=50_000, units_mix=True, progress=False)
@@ -273,6 +286,7 @@ def test_regenerating_replaces_only_the_generated_files(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c", "fresh"]
 
 
+@pytest.mark.slow
 def test_output_given_relative_to_a_folder_inside_it(tmp_path, monkeypatch, capsys):
     """`-o .` and `-o ../c` from inside the scene: the same folder, regenerated in place."""
     from mrcheck.cli import main
@@ -306,6 +320,7 @@ def test_output_given_relative_to_a_folder_inside_it(tmp_path, monkeypatch, caps
     assert not [p for p in out.iterdir() if p.name.startswith(".")]
 
 
+@pytest.mark.slow
 def test_failed_regeneration_keeps_the_scene_and_the_other_files(tmp_path, monkeypatch):
     out = tmp_path / "scene"
     generate("cell", out, target_triangles=50_000, progress=False)

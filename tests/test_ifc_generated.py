@@ -18,6 +18,8 @@ from mrcheck.scene.model import load_scene
 
 from .test_golden import TOLERANCE
 
+pytestmark = pytest.mark.slow  # every test here is slow (tests/conftest.py)
+
 SHIFT = np.array([458658.78, 5438232.79, 113.7])
 W, H = 320, 240
 
@@ -57,6 +59,7 @@ def _shifted_camera(scene, view, shift) -> Camera:
     )
 
 
+@pytest.mark.slow
 def test_round_trip_renders_the_glb_scenes_image(ctx, generated):
     manifest, own, _ = generated
     glb, ifc = load_scene(manifest), load_scene(own)  # the .ifc itself, through the import cache
@@ -82,6 +85,7 @@ def test_generated_ifc_classes_and_ids(generated):
     assert scene.element(column.instance_ids[0])[2].ifc_class == "IfcColumn"
 
 
+@pytest.mark.slow
 def test_generated_ifc_is_the_same_bytes_for_the_same_arguments(generated, tmp_path):
     from factory_scenes.generator.ifc import write_ifc
 
@@ -91,6 +95,7 @@ def test_generated_ifc_is_the_same_bytes_for_the_same_arguments(generated, tmp_p
     assert again.read_bytes() == own.read_bytes()  # GlobalIds, relationship order, time stamp: all fixed
 
 
+@pytest.mark.slow
 def test_map_coordinates_render_the_same_image_from_the_same_relative_camera(ctx, generated, tmp_path):
     manifest, _, mapped = generated
     glb = load_scene(manifest)
@@ -107,6 +112,7 @@ def test_map_coordinates_render_the_same_image_from_the_same_relative_camera(ctx
     )
 
 
+@pytest.mark.slow
 def test_a_camera_json_in_map_coordinates_works_unchanged(generated, tmp_path, capsys):
     from mrcheck.cli import main
 
@@ -145,6 +151,7 @@ def test_a_camera_json_in_map_coordinates_works_unchanged(generated, tmp_path, c
     _assert_same_image(read_image(out_map), read_image(out_own))
 
 
+@pytest.mark.slow
 def test_a_manifest_origin_shifts_every_placement_and_viewpoint(ctx, generated, tmp_path):
     import tomllib
 
@@ -160,6 +167,7 @@ def test_a_manifest_origin_shifts_every_placement_and_viewpoint(ctx, generated, 
     _assert_same_image(_image(ctx, near, near.camera("overview", W, H)), _image(ctx, far, far.camera("overview", W, H)))
 
 
+@pytest.mark.slow
 def test_ray_casting_and_deviation_at_map_coordinates(generated, tmp_path):
     """The discrepancy check's ray cast (which instance each pixel sees) and the scan deviation
     (cloud-to-mesh distance) of the model at map coordinates equal those at its own, to 0.1 mm."""

@@ -123,6 +123,7 @@ def _terrain(n: int):
     return vertices, faces
 
 
+@pytest.mark.slow
 def test_ten_million_triangles_far_from_the_origin_render_like_at_the_origin(ctx):
     from mrcheck.scene.model import Scene, make_part
 

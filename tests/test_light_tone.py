@@ -15,6 +15,8 @@ from mrcheck.eval.reference import REFERENCE_LOD_PX, reference_ao
 from mrcheck.render.renderer import Renderer, RenderSettings
 from mrcheck.scene.model import load_scene
 
+pytestmark = pytest.mark.slow  # every test here is slow (tests/conftest.py)
+
 SCENES = {
     "sample": sample_scene_path(),
     "cell": shipped_scene("cell"),

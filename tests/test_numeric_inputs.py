@@ -506,6 +506,7 @@ def test_nan_and_infinity_are_refused(project, capsys, args, fragments, files):
     run_refused(capsys, args, files, *fragments)
 
 
+@pytest.mark.slow
 def test_a_nan_in_one_shot_of_an_export_fails_that_shot_only(project, capsys):
     """A shot's own SHOT.json is read when the shot runs: a NaN there fails that shot, named with
     its file and the problem, and the other shots are exported."""

@@ -35,6 +35,7 @@ def _project(camera: Camera, points) -> np.ndarray:
 
 
 # -- 1. distortion -----------------------------------------------------------------------------
+@pytest.mark.slow
 def test_cad_edges_follow_the_distorted_lens_into_the_corners(ctx):
     # a long plate 5 m ahead whose top edge (y = 2.2 m, OpenCV y down) crosses the whole image
     # near its bottom corners, where k1 = -0.3 bends it by many pixels
@@ -194,12 +195,14 @@ def _assert_round_trip(scene, truth, found):
     assert position < 0.01 and angle < 0.1 and overlay < 1.0
 
 
+@pytest.mark.slow
 def test_marker_round_trip_with_plain_opencv(marker_shot):
     # the synthetic photo is right: its markers, through the lens model, give the true pose back
     scene, truth, photo, marker_map = marker_shot
     _assert_round_trip(scene, truth, _solve_reference(photo, truth.with_pose(np.eye(3), np.zeros(3)), marker_map))
 
 
+@pytest.mark.slow
 def test_marker_round_trip_with_register_markers(marker_shot):
     registration = pytest.importorskip("mrcheck.mr.registration")
     scene, truth, photo, marker_map = marker_shot
@@ -238,6 +241,7 @@ def _run(capsys, *args):
     return code, capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_alpha_zero_is_the_render_and_one_the_photo(shot_files, tmp_path, capsys):
     shot, photo = shot_files
     out0, out1, ref = tmp_path / "a0.png", tmp_path / "a1.png", tmp_path / "render.png"
@@ -253,6 +257,7 @@ def test_alpha_zero_is_the_render_and_one_the_photo(shot_files, tmp_path, capsys
     assert np.abs(cv2.imread(str(out))[..., ::-1] - expected).max() <= 0.5 + 1e-9
 
 
+@pytest.mark.slow
 def test_mode_all_writes_the_two_row_sheet(shot_files, tmp_path, capsys):
     shot, _ = shot_files
     out = tmp_path / "all.png"

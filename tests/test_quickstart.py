@@ -114,6 +114,7 @@ def review_once(argv: list[str], workdir: Path, env: dict) -> None:
     assert code == 0, f"review stopped by Ctrl-C exited {code}"
 
 
+@pytest.mark.slow
 def test_the_quick_start_runs_end_to_end(workdir, env):
     lines = quickstart_lines(README.read_text())
     commands = [shlex.split(line) for line in lines]

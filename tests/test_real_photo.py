@@ -117,18 +117,22 @@ def _discrepancy(shot_path: Path, outdir: Path) -> dict:
     return box
 
 
+@pytest.mark.slow
 def test_overlay_and_the_photo_edges_agree_and_a_moved_pose_is_seen(shot, tmp_path):
     """The overlay has the photo's size; the photo's edges support the CAD box (it is as
     planned), and the shift that would fit them best is small. Moving the camera so that the CAD
     lands 4 px to the right moves that best shift by 4 px: the check sees misalignment on this
-    photo (the box's printed artwork gives many edges of its own)."""
+    photo (the box's printed artwork gives many edges of its own). Measured: support 0.899, best
+    shift (-2, 2), moved 0.810 and (-6, 2), the same with OpenCV 5.1.0.95 / numpy 2.4.6 and
+    5.0.0.93 / 2.2.6; the shift is searched in whole pixels, so its bound allows one step more
+    than measured in either direction."""
     out = tmp_path / "overlay.png"
     assert main(["overlay", str(shot), "--scene", str(SCENE), "--mode", "phong", "--edges", "-o", str(out)]) == 0
     assert cv2.imread(str(out)).shape == (480, 718, 3)
 
     box = _discrepancy(shot, tmp_path / "disc")
     assert not box["suspect"] and box["support"] > 0.85  # measured 0.899
-    assert np.hypot(*box["best_shift"]) <= 3.0  # measured (-2, 2)
+    assert np.hypot(*box["best_shift"]) <= 4.0  # measured (-2, 2): 2.8 px; (-3, 2) is 3.6
 
     data = json.loads(shot.read_text())
     camera = load_camera(shot)
@@ -165,6 +169,7 @@ def test_the_summary_names_the_rejected_clicks_with_their_errors(tmp_path, capsy
     )
 
 
+@pytest.mark.slow
 def test_a_pose_that_sees_no_part_is_not_reported_as_all_clear(shot, tmp_path, capsys):
     """With the box behind the camera nothing is checked; "no suspects" alone read as "as planned"."""
     good = tmp_path / "good"

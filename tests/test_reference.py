@@ -55,6 +55,7 @@ def crease_ao_expected(x, r, c, steps=1500):
     return 1.0 - occlusion
 
 
+@pytest.mark.slow
 def test_quadrature_sanity():
     # the two limits the quadrature must reproduce: at the crease half the hemisphere is wall
     assert crease_ao_expected(0.0, 1.0, 1.0) == pytest.approx(0.5, abs=1e-3)
@@ -79,6 +80,7 @@ def _floor_pixels(camera, depth, normals):
     return floor, 6.0 - X[..., 1]
 
 
+@pytest.mark.slow
 def test_floor_and_crease_match_the_analytic_values(ctx):
     scene, camera = _wall_scene(), _wall_camera()
     depth, normals = gbuffer(ctx, scene, camera)
@@ -114,6 +116,7 @@ def test_floor_and_crease_match_the_analytic_values(ctx):
     assert np.all(ao0[floor & (x > r0 + 0.05)] == 1.0)
 
 
+@pytest.mark.slow
 def test_converges_on_the_sample_scene(ctx):
     scene = load_scene(SCENE)
     camera = scene.camera("robot", 96, 72)
@@ -139,6 +142,7 @@ def test_translation_by_a_million_metres_gives_the_same_reference(ctx):
     assert np.abs(near - far).mean() < 0.005
 
 
+@pytest.mark.slow
 def test_cli_writes_the_ao_contract(ctx, tmp_path, capsys):
     out = tmp_path / "sub" / "ref.npy"
     assert (

@@ -54,6 +54,7 @@ def _every_pass(renderer: Renderer, camera) -> None:
             assert frame.depth.shape == frame.normals.shape[:2] == (camera.height, camera.width)
 
 
+@pytest.mark.slow
 def test_release_frees_every_gl_object_the_renderer_made(fresh_ctx):
     """The blurs', the screen passes' and the composite's vertex arrays stayed alive after release."""
     before = live_gl_objects(fresh_ctx)
@@ -78,6 +79,7 @@ def test_a_second_release_does_nothing(fresh_ctx):
     assert live_gl_objects(fresh_ctx) == before
 
 
+@pytest.mark.slow
 def test_the_frame_carries_the_depth_of_its_g_buffer(fresh_ctx):
     """What ``last_depth()`` used to read after a render is in the render's result."""
     scene = load_scene(sample_scene_path())
@@ -143,6 +145,7 @@ def test_a_shader_that_compiles_from_another_folder(tmp_path, fresh_ctx):
         assert load_program(fresh_ctx, "broken", directory=tmp_path) is not None
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("samples", [1, 3, 4, 36, 64])
 def test_hbao_compiles_at_every_split_of_its_budget(fresh_ctx, samples):
     """HBAO's directions and steps come from Python (one place): every budget compiles and gives

@@ -59,6 +59,7 @@ def client(outdir, tmp_path):
         yield c
 
 
+@pytest.mark.slow
 def test_shots_images_and_pick(client):
     shots = client.get("/api/shots").json()
     assert [s["name"] for s in shots] == ["shot0", "shot1"] and shots[0]["width"] == 320
@@ -130,6 +131,7 @@ def test_wrong_types_and_unknown_fields_are_a_422(client):
     client.delete(f"/api/markers/{m['id']}")
 
 
+@pytest.mark.slow
 def test_marker_crud_and_persistence(client, outdir, tmp_path):
     r = client.post(
         "/api/markers",
@@ -170,6 +172,7 @@ def test_token_required(outdir, tmp_path):
         assert c.get("/api/shots").status_code == 200  # the cookie set by the page
 
 
+@pytest.mark.slow
 def test_suggested_markers_of_a_discrepancies_run(outdir, tmp_path, monkeypatch):
     """--suggestions: a suspects.json's suggested markers become editable markers of category
     "suggested" on the shot with the same photo; a deleted one does not come back on restart."""
@@ -257,6 +260,7 @@ def test_suggested_markers_of_a_discrepancies_run(outdir, tmp_path, monkeypatch)
         load_suggestions(source, [str(tmp_path / "bad.json")])
 
 
+@pytest.mark.slow
 def test_a_rerun_of_discrepancies_does_not_add_its_parts_again(outdir, tmp_path):
     """The import key was x, y and the note, whose percentage changes with every run: a re-run
     (here: other notes, a region's centre 1 px away) added every part again."""
@@ -316,6 +320,7 @@ def test_a_rerun_of_discrepancies_does_not_add_its_parts_again(outdir, tmp_path)
     assert app.state.imported == {"shot1": 2}
 
 
+@pytest.mark.slow
 def test_one_database_keeps_the_reviews_of_two_exports_apart(outdir, tmp_path):
     """A --db given to two reviews showed the first one's markers in the second (on any shot of
     the same name, too)."""
@@ -402,6 +407,7 @@ def served_small(monkeypatch):
     monkeypatch.setattr(mrcheck.apps.review.source, "MAX_SIZE", 80)
 
 
+@pytest.mark.slow
 def test_coordinates_are_the_photos_pixels_when_it_is_served_smaller(tmp_path, served_small):
     """Markers, picks, suggestions and both exports are in the photo's own pixels (the CSV and the
     report gave those of the downscaled copy served to the browser, suspects.json the photo's)."""
@@ -610,6 +616,7 @@ def test_markers_of_a_shot_the_review_no_longer_has(outdir, tmp_path):
         assert "wall-5" in c.get("/api/export/markers.csv").text
 
 
+@pytest.mark.slow
 def test_the_report_says_in_which_mode_a_marker_was_placed(client):
     m = client.post(
         "/api/markers", json={"shot": "shot0", "x": 20, "y": 20, "category": "moved", "severity": 2, "mode": "vector"}
@@ -681,6 +688,7 @@ def _start(outdir, db, port):
     raise AssertionError(proc.stdout.read().decode())
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_the_server_quietly(outdir, tmp_path):
     import signal
 
@@ -760,6 +768,7 @@ def _open(page, url):
     page.wait_for_selector("body[data-loaded='a|phong|1']", timeout=30000)
 
 
+@pytest.mark.slow
 @needs_chromium
 def test_the_page_shows_why_a_photo_failed(tmp_path):
     """A photo replaced by one of another size after start-up: the page said "render failed"."""
@@ -770,6 +779,7 @@ def test_the_page_shows_why_a_photo_failed(tmp_path):
         assert "photo is 32x24 but the shot was registered at 64x48" in page.text_content("#status")
 
 
+@pytest.mark.slow
 @needs_chromium
 def test_the_page_says_why_an_export_failed(tmp_path, monkeypatch):
     """The export links were plain downloads: a failed report ended as "canceled" in the
@@ -790,6 +800,7 @@ def test_the_page_says_why_an_export_failed(tmp_path, monkeypatch):
         assert info.value.suggested_filename == "review.csv"
 
 
+@pytest.mark.slow
 @needs_chromium
 def test_a_click_places_a_marker_in_the_photos_pixels(tmp_path, served_small):
     """The page shows the 80 px image served for a 160 px photo: a click in the middle is (80, 60)."""
@@ -802,6 +813,7 @@ def test_a_click_places_a_marker_in_the_photos_pixels(tmp_path, served_small):
         assert abs(m["x"] - 80) < 1 and abs(m["y"] - 60) < 1, m
 
 
+@pytest.mark.slow
 @needs_chromium
 def test_editing_markers_loses_nothing_and_adds_nothing_by_accident(tmp_path):
     """A typed note was dropped by a click on the image, which also placed a stray marker; another
@@ -841,6 +853,7 @@ def test_editing_markers_loses_nothing_and_adds_nothing_by_accident(tmp_path):
         assert [m["note"] for m in store.markers()] == ["second"]
 
 
+@pytest.mark.slow
 @needs_chromium
 def test_the_page_keeps_long_notes_in_the_sidebar(tmp_path):
     """A 2000-character note filled the whole sidebar, an unbroken URL overflowed it; the opacity
@@ -864,6 +877,7 @@ def test_the_page_keeps_long_notes_in_the_sidebar(tmp_path):
         assert c.get("/favicon.ico").status_code == 204
 
 
+@pytest.mark.slow
 @needs_chromium
 def test_browser_end_to_end(outdir, tmp_path):
     sync_api = pytest.importorskip("playwright.sync_api")

@@ -83,6 +83,7 @@ def _solve(client, pairs, photo="folder:photo.png", intrinsics="folder:cam.json"
     )
 
 
+@pytest.mark.slow
 def test_clicks_snapped_and_saved_as_a_shot(client, shots, clicks):
     world, photo, cad = clicks
     listed = client.get("/api/addphoto/files").json()
@@ -111,6 +112,7 @@ def test_clicks_snapped_and_saved_as_a_shot(client, shots, clicks):
     assert "photo" in open_source(sample_scene_path(), shots).shots  # and at the next start
 
 
+@pytest.mark.slow
 def test_without_the_snap_the_click_pose_is_saved(client, clicks):
     world, photo, cad = clicks
     result = _solve(client, _pairs(photo, cad), snap=False).json()
@@ -124,6 +126,7 @@ def _saved(client, result):
     return client.app.state.source.shots[name].camera.to_dict()
 
 
+@pytest.mark.slow
 def test_a_snap_that_fails_keeps_the_click_pose_and_says_so(client, shots, clicks):
     """A photo without the CAD's edges (a plain grey one): too little support."""
     world, photo, cad = clicks
@@ -162,6 +165,7 @@ def test_the_planners_mistakes_are_one_line_errors_and_nothing_is_saved(client, 
     assert list(client.app.state.source.shots) == ["other"]
 
 
+@pytest.mark.slow
 def test_an_uploaded_photo_is_copied_under_a_new_name(client, shots, clicks):
     """Photo and intrinsics uploaded: the photo copied beside its shot, never over a file."""
     world, photo, cad = clicks
@@ -183,6 +187,7 @@ def test_an_uploaded_photo_is_copied_under_a_new_name(client, shots, clicks):
     assert list(staged.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_the_upload_has_its_own_limit_and_the_guards(shots, tmp_path):
     small = _app(shots, tmp_path, max_body=64 << 10, max_upload=256 << 10)
     with TestClient(small) as c:
@@ -205,6 +210,7 @@ def test_the_upload_has_its_own_limit_and_the_guards(shots, tmp_path):
         assert _upload(c, "photo", "p.png", b"x").status_code == 403
 
 
+@pytest.mark.slow
 def test_a_shot_added_to_a_job_review_is_kept_beside_the_job(tmp_path, folder, clicks):
     world, photo, cad = clicks
     shutil.copytree(folder, tmp_path / "data")
@@ -220,6 +226,7 @@ def test_a_shot_added_to_a_job_review_is_kept_beside_the_job(tmp_path, folder, c
     assert list(open_source(job).shots) == ["other", "new"]
 
 
+@pytest.mark.slow
 def test_a_mis_click_is_left_out_and_named(client, clicks):
     """One of eight pairs clicked on another point: the pose solver leaves it out, the result
     names it (0-based) with its residual, and the pose stays on the truth."""
@@ -231,6 +238,7 @@ def test_a_mis_click_is_left_out_and_named(client, clicks):
     assert median_error_px(Camera.from_dict(_saved(client, result)), world) < 0.5
 
 
+@pytest.mark.slow
 def test_intrinsics_of_the_same_aspect_ratio_are_rescaled_with_a_warning(client, shots):
     """As ``mrcheck register`` does: a calibration at half the photo's size is rescaled, and said."""
     (shots / "half.json").write_text(json.dumps(truth_camera().resized(240, 180).to_dict(pose=False)))
@@ -238,6 +246,7 @@ def test_intrinsics_of_the_same_aspect_ratio_are_rescaled_with_a_warning(client,
     assert info.status_code == 200 and "K rescaled" in info.json()["warnings"][0], info.text
 
 
+@pytest.mark.slow
 def test_a_forgotten_upload_is_a_one_line_error_at_save(client, shots, clicks, monkeypatch):
     import mrcheck.apps.review.addphoto as addphoto
 

@@ -21,6 +21,8 @@ from mrcheck.scene.model import load_scene  # noqa: E402
 from .addphoto_helpers import VIEW, make_folder, median_error_px, project, scene_points, truth_camera  # noqa: E402
 from .test_review import needs_chromium, open_browser, served_app  # noqa: E402
 
+pytestmark = pytest.mark.slow  # every test here is slow (tests/conftest.py)
+
 TOLERANCE_PX, TOLERANCE_M = 1.0, 0.02  # 1 px: the edge registration's accuracy target (issue 20)
 
 

@@ -67,6 +67,7 @@ def _changed(data: bytes) -> bytes:
     return out.getvalue()
 
 
+@pytest.mark.slow
 def test_markers_out_as_bcf_and_back(client):
     a = client.post(
         "/api/markers",

@@ -280,6 +280,7 @@ def test_a_bad_suggested_marker_is_named(outdir, tmp_path, capsys, marker, probl
     assert not (outdir / "review.sqlite").exists()
 
 
+@pytest.mark.slow
 def test_the_suggestions_count_is_what_was_imported(outdir, tmp_path, capsys, monkeypatch):
     """Every start printed the file's count, also when nothing was new; the same file twice counted twice."""
     monkeypatch.setattr(uvicorn.Server, "run", lambda self, sockets=None: None)  # start, print, stop

@@ -222,6 +222,7 @@ def _exchange(port, head: str, body=(), timeout=10.0):
         ) else text
 
 
+@pytest.mark.slow
 def test_the_real_server_answers_only_its_own_names(server):
     port, _ = server
     status, error = _exchange(port, f"GET {CSV} HTTP/1.1\r\nHost: attacker.example")
@@ -231,6 +232,7 @@ def test_the_real_server_answers_only_its_own_names(server):
     assert status == 403 and error["error"].startswith("no Host header")
 
 
+@pytest.mark.slow
 def test_the_real_server_refuses_a_huge_declared_body_without_reading_it(server):
     port, _ = server
     start = time.perf_counter()
@@ -245,6 +247,7 @@ def test_the_real_server_refuses_a_huge_declared_body_without_reading_it(server)
     assert time.perf_counter() - start < 5
 
 
+@pytest.mark.slow
 def test_the_real_server_stops_reading_a_chunked_body_at_the_limit(server):
     port, proc = server
     # 64 KiB + 1 byte in chunks and no last chunk: a server that waits for the end times out here

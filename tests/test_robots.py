@@ -66,6 +66,7 @@ def test_each_robot_loads_through_a_manifest_at_its_real_size(copies, name):
     assert low < robots.base_footprint(name) < high
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", robots.ROBOT_NAMES)
 def test_sampled_poses_are_seeded_within_limits_and_above_the_base(copies, name):
     limits = robots.joint_limits(name)
@@ -132,6 +133,7 @@ def test_joint_values_at_their_limits_and_unknown_joints(copies):
         load_scene(manifest)
 
 
+@pytest.mark.slow
 def test_robot_mesh_is_the_posed_robot_in_metres():
     pose = robots.sample_joints("ur5", np.random.default_rng(7))
     vertices, faces = robots.robot_mesh("ur5", pose)
@@ -183,6 +185,7 @@ def test_unknown_robot_names_list_the_known_ones(call):
     assert "kuka_kr16" in str(caught.value) and all(n in str(caught.value) for n in robots.ROBOT_NAMES)
 
 
+@pytest.mark.slow
 def test_the_four_robots_render_side_by_side(ctx, copies):
     """Smoke test: a floor and the four robots in a row, upright, seen level from the front."""
     folder, urdfs = copies

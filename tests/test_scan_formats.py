@@ -263,6 +263,7 @@ def test_laz_without_a_laz_backend(tmp_path, monkeypatch, capsys):
 
 
 # -- the bench's scan figures ----------------------------------------------------------------------
+@pytest.mark.slow
 def test_bench_scan_figures_read_what_they_wrote(tmp_path):
     from mrcheck.eval.bench.scans import measure_scan_reading, scan_figures_text
 

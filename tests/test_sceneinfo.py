@@ -162,6 +162,7 @@ def test_cli_missing_scene_is_one_error_line(tmp_path, capsys):
     assert captured.out == "" and captured.err.count("\n") == 1 and captured.err.startswith("error: ")
 
 
+@pytest.mark.slow
 def test_describe_needs_no_gl():
     code = (
         "import sys; from mrcheck.scene.info import describe; from mrcheck.core.resources import sample_scene_path; "

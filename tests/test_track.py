@@ -41,6 +41,7 @@ def video(tmp_path_factory):
     return folder, manifest, truths, scene_points(scene, camera)
 
 
+@pytest.mark.slow
 def test_track_writes_the_overlay_video_and_the_poses(video, capsys):
     folder, manifest, truths, points = video
     out = folder / "overlay.mp4"
@@ -102,6 +103,7 @@ def test_a_single_frame_has_no_rate_after_the_first():
     assert "2.00 after the first frame, which took 1.00 s" in result.summary_line()
 
 
+@pytest.mark.slow
 def test_a_lost_frame_inside_a_part_is_written_without_overlay(video, tmp_path):
     """A start pose inside a crate (as a lost frame's prediction can coast into a part): every
     frame is lost, the renderer refuses the pose, and the run still writes its video and log
@@ -130,6 +132,7 @@ def test_a_lost_frame_inside_a_part_is_written_without_overlay(video, tmp_path):
     assert all("no overlay drawn" in p["reason"] and "inside geometry" in p["reason"] for p in poses), poses[0]
 
 
+@pytest.mark.slow
 def test_each_frame_finds_its_visible_edges_on_the_last_overlay(video, tmp_path, monkeypatch):
     """From the second frame on, the snap is given the frame before's overlay render (its depth
     and normals at that frame's pose) instead of rendering at its start: one render less per
@@ -172,6 +175,7 @@ def test_each_frame_finds_its_visible_edges_on_the_last_overlay(video, tmp_path,
         assert seed.normals.shape == (*seed.depth.shape, 3) and np.any(seed.depth > 0)
 
 
+@pytest.mark.slow
 def test_a_frame_lost_on_the_last_overlay_is_snapped_again_with_a_render_of_its_own(video, tmp_path, monkeypatch):
     """A later frame whose snap on the frame before's overlay fails is snapped once more from the
     same start with RETRY_OPTIONS and no seed (a render at its start, re-renders after 3 px), and
@@ -201,6 +205,7 @@ def test_a_frame_lost_on_the_last_overlay_is_snapped_again_with_a_render_of_its_
     assert not frame.lost and np.median(reprojection_error(truths[2], frame.camera, points)) < 1.0
 
 
+@pytest.mark.slow
 def test_no_second_snap_right_after_a_lost_frame(video, tmp_path, monkeypatch):
     """Within a lost stretch both snaps would start from the same coasting prediction: the frame
     after the blank (lost) one, made to fail here, is not snapped again and is lost too."""
@@ -225,6 +230,7 @@ def test_no_second_snap_right_after_a_lost_frame(video, tmp_path, monkeypatch):
     assert len(calls) == FRAMES + 1
 
 
+@pytest.mark.slow
 def test_numpy_blas_runs_on_one_thread_while_tracking(video, tmp_path, monkeypatch):
     """OpenBLAS's idle threads spin on the core that llvmpipe and the encoder need: the track
     keeps numpy's BLAS on one thread while it runs and gives the threads back after (measured
@@ -267,6 +273,7 @@ def test_numpy_blas_runs_on_one_thread_while_tracking(video, tmp_path, monkeypat
     assert blas_threads() == before
 
 
+@pytest.mark.slow
 def test_the_next_frame_is_decoded_and_its_pyramid_made_on_a_thread_beside_the_snap(video, tmp_path, monkeypatch):
     """The reader (:class:`~mrcheck.apps.trackframes.FrameReader`) makes frame k+1's gradient
     pyramid on its thread while frame k is snapped (each snap below waits until that has happened:

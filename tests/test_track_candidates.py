@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
+import pytest
 
 from mrcheck.apps.track import TRACK_OPTIONS
 from mrcheck.eval.edgephotos import reprojection_error, scene_points, synthetic_photo
@@ -12,6 +13,8 @@ from mrcheck.eval.edgescenes import crate_camera, crate_scene
 from mrcheck.mr.edges import refine_pose, scene_edges
 from mrcheck.mr.edges.candidates import CandidateEdges
 from mrcheck.render.renderer import Renderer
+
+pytestmark = pytest.mark.slow  # every test here is slow (tests/conftest.py)
 
 
 def test_the_next_frame_reuses_the_edges_seen_and_stays_exact():

@@ -23,6 +23,7 @@ def small_walk(tmp_path_factory):
     return make_walk(scene, crate_camera(320, 240), "side", 4, folder), scene, folder
 
 
+@pytest.mark.slow
 def test_a_walk_is_tracked_in_a_process_of_its_own_and_measured_against_its_true_path(
     small_walk, tmp_path, monkeypatch
 ):
@@ -43,6 +44,7 @@ def test_a_walk_is_tracked_in_a_process_of_its_own_and_measured_against_its_true
     assert not list(out.iterdir())  # the overlay video, poses and cameras are not left behind
 
 
+@pytest.mark.slow
 def test_a_walk_is_made_once_and_again_when_what_it_depends_on_changes(tmp_path, monkeypatch):
     scene, camera = crate_scene(), crate_camera(160, 120)
     walk = make_walk(scene, camera, "side", 2, tmp_path)
@@ -85,6 +87,7 @@ def test_the_track_bench_refuses_a_second_bench_and_a_bad_json_path_before_any_w
     assert "JSON output must end in .json" in err and "Traceback" not in err
 
 
+@pytest.mark.slow
 def test_the_track_bench_makes_its_walks_once_and_writes_its_runs_as_json(tmp_path, monkeypatch):
     import mrcheck.eval.trackbench as bench
 

@@ -136,6 +136,7 @@ def _file(ws: dict, role: str) -> Path:
     return Path(ws[role])
 
 
+@pytest.mark.slow
 @pytest.mark.usefixtures("no_serving", "time_limit")
 @pytest.mark.parametrize("name, role, kind", list(_params()))
 def test_an_unreadable_input_is_one_line_naming_it(ws, capfd, name, role, kind):
