@@ -18,6 +18,9 @@ from pathlib import Path
 
 import pytest
 
+# mypy runs of 2-3 s each: slow by tests/conftest.py's rule (./bootstrap.sh check runs the tree's checks anyway)
+pytestmark = pytest.mark.slow
+
 REPO = Path(__file__).resolve().parent.parent
 PYPROJECT = REPO / "pyproject.toml"
 

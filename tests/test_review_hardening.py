@@ -33,6 +33,9 @@ from mrcheck.cli import main  # noqa: E402
 
 from .test_review import box_review, free_port  # noqa: E402
 
+# module fixtures of 3-5 s (a served review) and calls over 1 s: slow by tests/conftest.py's rule
+pytestmark = pytest.mark.slow
+
 ORIGIN = "http://127.0.0.1:8765"
 MARKER = {"shot": "a", "x": 10.0, "y": 10.0, "category": "other", "severity": 1}
 OCTETS = {"Content-Type": "application/octet-stream"}
