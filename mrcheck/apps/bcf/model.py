@@ -30,7 +30,7 @@ class BcfComponent:
 @dataclass(frozen=True)
 class BcfComment:
     guid: str
-    date: datetime
+    date: datetime | None  # None: a comment without a (readable) date
     author: str
     text: str
 

@@ -62,7 +62,7 @@ class BcfMarker:
     guid: str
     status: str
     comments: list
-    created: float
+    created: float | None  # None: now
 
 
 def merged_comments(old: list, new: list) -> list:
@@ -239,7 +239,7 @@ class Store:
             rows = db.execute("SELECT marker, status, comments FROM bcf WHERE review = ?", (self.review,))
             return {r["marker"]: {"status": r["status"], "comments": json.loads(r["comments"])} for r in rows}
 
-    def apply_bcf(self, changes: list[BcfChange], new: list[BcfMarker] = ()) -> None:
+    def apply_bcf(self, changes: list[BcfChange], new: tuple | list = ()) -> None:
         """A BCF import in one transaction: markers' status, comments added to theirs (none
         removed), new severities; and the markers of topics another tool made (``new``)."""
         now = time.time()
