@@ -79,7 +79,7 @@ def test_markers_out_as_bcf_and_back(client):
     assert sum(n.endswith("markup.bcf") for n in validate_bcfzip(r.content)) == 2
     topics = {t.title: t for t in read_bcf_bytes(r.content)}
     first = next(t for t in topics.values() if t.description == "conveyor 3 cm off")
-    assert first.priority == "Low" and first.status == "Open" and first.snapshot_png.startswith(b"\x89PNG")
+    assert first.priority == "Low" and first.status == "Open" and first.snapshot_png.startswith(b"\xff\xd8\xff")  # JPEG
     assert first.components and first.components[0].tool_id == a["part"] and first.components[0].ifc_guid is None
     assert np.allclose(first.camera.viewpoint, EYE)
     # the same markers give the same topic ids: the round trip finds them again
@@ -88,7 +88,7 @@ def test_markers_out_as_bcf_and_back(client):
     }
 
     got = client.post("/api/bcf/import", content=_changed(r.content), headers=OCTETS)
-    assert got.status_code == 200 and got.json() == {"matched": 2, "unknown": 0}
+    assert got.status_code == 200 and got.json() == {"matched": 2, "added": 0, "unknown": 0}
     by_id = {m["id"]: m for m in client.get("/api/markers").json()}
     assert by_id[a["id"]]["status"] == "Closed" and by_id[a["id"]]["severity"] == 3
     assert by_id[a["id"]]["comments"][0]["text"] == "fixed on site"

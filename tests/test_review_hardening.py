@@ -263,7 +263,7 @@ def test_the_server_answers_other_requests_while_a_bcf_file_is_imported(server):
     (status, answer), seconds, slowest, _ = _while_answering(
         port, proc.pid, lambda: _post(port, "/api/bcf/import", data), answered
     )
-    assert status == 200 and answer == {"matched": 0, "unknown": 4000}, answer
+    assert status == 200 and answer == {"matched": 0, "added": 0, "unknown": 4000}, answer
     measured = f"import {seconds:.2f} s, slowest other request {slowest:.2f} s, {len(answered)} answered meanwhile"
     assert slowest < 0.5 and len(answered) >= 3, measured
 
@@ -305,7 +305,11 @@ def test_bcf_comments_are_capped_as_notes_are(client):
         assert r.status_code == 400 and reason in r.json()["error"], r.text
         assert client.get("/api/markers").json()[0]["comments"] == []
     fine = _zip({f"{guid}/markup.bcf": _markup(guid, comments=[("site", "x" * 2000)])})
-    assert client.post("/api/bcf/import", content=fine, headers=OCTETS).json() == {"matched": 1, "unknown": 0}
+    assert client.post("/api/bcf/import", content=fine, headers=OCTETS).json() == {
+        "matched": 1,
+        "added": 0,
+        "unknown": 0,
+    }
     assert client.get("/api/markers").json()[0]["comments"][0]["text"] == "x" * 2000
 
 

@@ -10,6 +10,10 @@ from mrcheck.cli.group import cli
 from mrcheck.cli.messages import ProgressStream, console
 from mrcheck.cli.options import FINITE, positive, size
 
+AUTHOR = click.option(
+    "--author", metavar="NAME", help="Author of the BCF topics and comments written [default: the OS user]."
+)
+
 
 @cli.command()
 @click.argument("job", metavar="JOB.toml")
@@ -159,7 +163,7 @@ def _pixels(value: str) -> int:
     show_default=True,
     metavar="SIZE",
     callback=size,
-    help='Refuse photos and camera files uploaded by "Add photo" larger than this (413).',
+    help='Refuse photos and camera files uploaded by "Add photo", and BCF files imported, larger than this (413).',
 )
 @click.option(
     "--max-pixels",
@@ -175,7 +179,8 @@ def _pixels(value: str) -> int:
     show_default=True,
     help="Anti-aliased CAD renders (4x MSAA; --no-antialias: about 1.3-1.5x faster).",
 )
-def review(target, shots_dir, host, port, token, db, suggestions, max_body, max_upload, max_pixels, antialias):
+@AUTHOR
+def review(target, shots_dir, host, port, token, db, suggestions, max_body, max_upload, max_pixels, antialias, author):
     """Review shots in the browser and mark discrepancies.
 
     Photo and CAD blended, modes, zoom, discrepancy markers with a category, severity and note,
@@ -201,6 +206,7 @@ def review(target, shots_dir, host, port, token, db, suggestions, max_body, max_
             max_upload=max_upload,
             antialias=antialias,
             max_pixels=max_pixels,
+            author=author,
         )
         try:
             for line in server.messages():
@@ -230,7 +236,8 @@ def review(target, shots_dir, host, port, token, db, suggestions, max_body, max_
     help="Folder for heatmap.png, suspects.json (ranked parts, for the review tool), suspects.md and "
     "suspects.bcfzip (BCF 2.1).",
 )
-def discrepancies(shot, scene_path, tolerance_px, outdir):
+@AUTHOR
+def discrepancies(shot, scene_path, tolerance_px, outdir, author):
     """Rank the CAD parts the photo disagrees with, with a heat map.
 
     CAD silhouette and crease edges against the photo's edges, per part, with a heat map and a
@@ -240,10 +247,13 @@ def discrepancies(shot, scene_path, tolerance_px, outdir):
     Example:
       mrcheck discrepancies p1.json --scene hall/scene.toml -o suspects
     """
+    from mrcheck.apps.bcf import default_author
     from mrcheck.apps.discrepancies.command import discrepancies_command
 
     with console():
-        run = discrepancies_command(shot=shot, scene=scene_path, tolerance_px=tolerance_px, outdir=outdir)
+        run = discrepancies_command(
+            shot=shot, scene=scene_path, tolerance_px=tolerance_px, outdir=outdir, author=author or default_author()
+        )
     click.echo(run.summary)
     for path in run.paths:
         click.echo(path)
@@ -288,7 +298,8 @@ def discrepancies(shot, scene_path, tolerance_px, outdir):
     metavar="OUTDIR",
     help="Folder for deviations, the coloured images and the per-part list.",
 )
-def deviation(scan, scene_path, shot, units, per_element, tolerance_mm, search_mm, outdir):
+@AUTHOR
+def deviation(scan, scene_path, shot, units, per_element, tolerance_mm, search_mm, outdir, author):
     """Signed distances from a laser scan to the planned CAD.
 
     Signed cloud-to-mesh distances from a laser scan (E57 with every scan's pose, LAS/LAZ at
@@ -300,9 +311,10 @@ def deviation(scan, scene_path, shot, units, per_element, tolerance_mm, search_m
       mrcheck deviation hall.e57 --scene hall/scene.toml --shot p1.json -o deviation
       mrcheck deviation hall.e57 --scene hall/scene.toml --per-element --tolerance-mm 10 -o deviation
     """
+    from mrcheck.apps.bcf import default_author
     from mrcheck.apps.deviation.command import PerElement, deviation_command
 
-    settings = PerElement(tolerance_mm, search_mm) if per_element else None
+    settings = PerElement(tolerance_mm, search_mm, author or default_author()) if per_element else None
     with console():
         run = deviation_command(
             scan=scan, scene=scene_path, shot=shot, units=units, outdir=outdir, per_element=settings

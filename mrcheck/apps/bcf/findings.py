@@ -1,10 +1,14 @@
 """What mrcheck's results become in BCF: a shot's camera as a perspective camera, a severity
-as a priority, stable topic ids, and the element a finding is about as a component."""
+as a priority, stable topic ids, the element a finding is about as a component (and as a person
+reads it: :func:`element_label`), and the IFC file a scene came from (:func:`ifc_file_of`)."""
 
 from __future__ import annotations
 
+import getpass
 import math
+import re
 import uuid
+from pathlib import Path
 
 import numpy as np
 
@@ -44,7 +48,7 @@ def topic_guid(*key) -> str:
 def bcf_camera(camera) -> BcfCamera:
     """A :class:`~mrcheck.core.camera.Camera`'s pose as a BCF perspective camera: the eye, the
     viewing direction (the optical axis, OpenCV +z) and up (OpenCV -y) in world coordinates;
-    the vertical field of view from fy (the schema clamps it to 45..60 degrees on writing)."""
+    the vertical field of view from fy and the image height, the shot's own (not clamped)."""
     R = np.asarray(camera.R, np.float64)
     direction, up = R.T @ np.array([0.0, 0.0, 1.0]), R.T @ np.array([0.0, -1.0, 0.0])
     fov = math.degrees(2.0 * math.atan(camera.height / (2.0 * camera.fy)))
@@ -72,4 +76,59 @@ def element_component(scene, instance_id: str | None) -> list[BcfComponent]:
     return [BcfComponent(guid, instance_id)]
 
 
-__all__ = ["priority", "severity_of", "topic_guid", "bcf_camera", "element_component", "ifc_global_id", "PRIORITIES"]
+def default_author() -> str:
+    """Who writes BCF topics and comments when no ``--author`` is given: the OS user."""
+    try:
+        return getpass.getuser()
+    except (KeyError, OSError):  # no user name in the environment nor the password database
+        return "mrcheck"
+
+
+def element_label(scene, instance_id: str | None) -> str:
+    """How a person reads an element: its name with its IFC class and storey, "Basic Wall:Interior
+    138mm (IfcWallStandardCase, Level 1)", where an import knows its name; else its id (a
+    manifest's instance names are readable already); "" for none. The GlobalId stays in the data."""
+    if not instance_id:
+        return ""
+    found = scene.element(instance_id) if scene is not None else None
+    info = found[2] if found else None
+    if info is None or not info.name:
+        return instance_id
+    where = ", ".join(v for v in (info.ifc_class, info.storey) if v)
+    return f"{info.name} ({where})" if where else info.name
+
+
+IFC_SUFFIXES = (".ifc", ".ifczip", ".ifcxml")
+_IMPORTED_FROM = re.compile(r"^#\s*Imported by mrcheck scene import from (?P<name>.+?\.ifc(?:zip|xml)?) \(", re.I)
+
+
+def ifc_file_of(scene) -> str:
+    """The name of the IFC file a scene came from, "" when it did not: the model itself
+    (``scene.source``, a scene loaded from its IFC file), or the file named on the first line
+    of the manifest ``scene import`` wrote from one."""
+    source = Path(getattr(scene, "source", "") or "")
+    if source.suffix.lower() in IFC_SUFFIXES:
+        return source.name
+    if source.suffix.lower() != ".toml" or not source.is_file():
+        return ""
+    try:
+        with source.open(encoding="utf-8", errors="replace") as f:
+            first = f.readline(4096)
+    except OSError:
+        return ""
+    found = _IMPORTED_FROM.match(first)
+    return found["name"] if found else ""
+
+
+__all__ = [
+    "default_author",
+    "element_label",
+    "ifc_file_of",
+    "priority",
+    "severity_of",
+    "topic_guid",
+    "bcf_camera",
+    "element_component",
+    "ifc_global_id",
+    "PRIORITIES",
+]

@@ -9,7 +9,8 @@ from datetime import datetime
 @dataclass(frozen=True)
 class BcfCamera:
     """A perspective camera (visinfo.xsd PerspectiveCamera): world metres, unit vectors, the
-    vertical field of view in degrees (BCF 2.1's schema allows 45..60 only)."""
+    vertical field of view in degrees (the shot's own: BCF 2.1's schema says 45..60 "currently",
+    and that viewers should expect other values; BCF 3.0 allows 0..180)."""
 
     viewpoint: tuple
     direction: tuple
@@ -29,7 +30,7 @@ class BcfComponent:
 @dataclass(frozen=True)
 class BcfComment:
     guid: str
-    date: datetime
+    date: datetime | None  # None: a comment without a (readable) date
     author: str
     text: str
 
@@ -37,7 +38,9 @@ class BcfComment:
 @dataclass
 class BcfTopic:
     """One issue. ``status`` (TopicStatus) is free text in BCF 2.1: mrcheck writes "Open";
-    other tools write "In Progress", "Resolved", "Closed", ... and the review shows them."""
+    other tools write "In Progress", "Resolved", "Closed", ... and the review shows them.
+    ``snapshot_png``: the snapshot's bytes, PNG or JPEG; ``ifc_file``: the name of the IFC file
+    the scene came from (the markup's Header), "" for none."""
 
     guid: str
     title: str
@@ -55,6 +58,7 @@ class BcfTopic:
     snapshot_png: bytes | None = None
     comments: list = field(default_factory=list)  # BcfComment
     viewpoint_guid: str | None = None
+    ifc_file: str = ""
 
 
 __all__ = ["BcfTopic", "BcfComment", "BcfCamera", "BcfComponent"]

@@ -1,5 +1,10 @@
-"""Topics back from a ``.bcfzip`` (BCF 2.1, also what 2.0 and 3.0 files share: the topic's
-status, priority, title, description, comments, first viewpoint's camera and components).
+"""Topics back from a ``.bcfzip``, BCF 2.0, 2.1 and 3.0: the topic's status, priority, title,
+description, labels, dates, every comment, the IFC file of its header, its first viewpoint's
+camera and components. The versions differ in where they keep these: 2.x has the comments and
+viewpoints beside the topic (``Markup/Comment``, ``Markup/Viewpoints``), the header's files
+and the labels directly (``Header/File``, ``Topic/Labels``); 3.0 nests them
+(``Topic/Comments/Comment``, ``Topic/Viewpoints/ViewPoint``, ``Header/Files/File``,
+``Topic/Labels/Label``). Both are read, whichever a file holds.
 A file that is no zip, a topic without a readable ``markup.bcf``, and a file over the limits of
 :mod:`.archive` (or of :data:`MAX_TOPICS` topics, XML entries of :data:`MAX_XML` bytes) is a
 one-line error. Snapshots are read only when asked for (``snapshots=True``)."""
@@ -67,7 +72,9 @@ def _xml(archive: BcfArchive, name: str):
 
 
 def _viewpoint(topic: BcfTopic, markup, archive: BcfArchive, folder: str, snapshots: bool) -> None:
-    view = markup.find("Viewpoints")
+    view = markup.find("Viewpoints")  # 2.x
+    if view is None:
+        view = markup.find("Topic/Viewpoints/ViewPoint")  # 3.0
     if view is None:
         return
     topic.viewpoint_guid = view.get("Guid")
@@ -97,7 +104,7 @@ def _topic(archive: BcfArchive, name: str, snapshots: bool) -> BcfTopic:
         priority=_child(node, "Priority"),
         description=_child(node, "Description"),
         topic_type=node.get("TopicType", ""),
-        labels=[(e.text or "").strip() for e in node.findall("Labels")],
+        labels=[t for e in node.findall("Labels") + node.findall("Labels/Label") if (t := (e.text or "").strip())],
         created=_date(_child(node, "CreationDate")),
         author=_child(node, "CreationAuthor"),
         modified=_date(_child(node, "ModifiedDate")),
@@ -105,8 +112,10 @@ def _topic(archive: BcfArchive, name: str, snapshots: bool) -> BcfTopic:
     )
     topic.comments = [
         BcfComment(c.get("Guid", ""), _date(_child(c, "Date")), _child(c, "Author"), _child(c, "Comment"))
-        for c in markup.findall("Comment")
+        for c in markup.findall("Comment") + markup.findall("Topic/Comments/Comment")
     ]
+    files = markup.findall("Header/File") + markup.findall("Header/Files/File")
+    topic.ifc_file = next((_child(f, "Filename") for f in files if _child(f, "Filename")), "")
     _viewpoint(topic, markup, archive, name[: -len("markup.bcf")], snapshots)
     return topic
 

@@ -1,6 +1,17 @@
 """A ``.bcfzip`` (BCF 2.1) from :class:`~mrcheck.apps.bcf.model.BcfTopic` s: ``bcf.version``,
-``project.bcfp`` and per topic ``<guid>/markup.bcf``, ``viewpoint.bcfv`` and ``snapshot.png``.
-Elements in the order the schemas' sequences demand (a validator refuses any other)."""
+``project.bcfp`` and per topic ``<guid>/markup.bcf``, ``viewpoint.bcfv`` and ``snapshot.png``
+(or ``snapshot.jpg``). Elements in the order the schemas' sequences demand (a validator refuses
+any other).
+
+A snapshot is what a BIM tool shows beside the topic, some hundreds of pixels wide: one wider
+than :data:`SNAPSHOT_WIDTH` is downscaled to it and stored as JPEG, and a snapshot several topics
+share (the heat map of a discrepancies run, the status picture of a deviation run) is
+downscaled once. So a file of 16 topics over 4-megapixel photos stays near 1 MB (full size:
+22 MB), within what the review's import takes.
+
+The field of view is the shot's own (BCF 2.1's visinfo.xsd restricts it to 45..60 degrees
+"currently" and tells viewers to expect other values; BCF 3.0 allows 0..180): a 15 degree photo
+written as 45 degrees opens a three times wider view in the BIM tool."""
 
 from __future__ import annotations
 
@@ -8,13 +19,19 @@ import io
 import uuid
 import xml.etree.ElementTree as ET
 import zipfile
+from dataclasses import replace
 from datetime import datetime, timezone
+
+import cv2
+import numpy as np
 
 from mrcheck.apps.bcf.model import BcfCamera, BcfTopic
 
 VERSION = "2.1"
-VIEWPOINT, SNAPSHOT = "viewpoint.bcfv", "snapshot.png"
-FOV_RANGE = (45.0, 60.0)  # visinfo.xsd (2.1): FieldOfView between 45 and 60 degrees
+VIEWPOINT = "viewpoint.bcfv"
+SNAPSHOT_WIDTH = 800  # pixels: what BIM tools show beside a topic
+JPEG_QUALITY = 85
+PNG_MAGIC, JPEG_MAGIC = b"\x89PNG", b"\xff\xd8\xff"
 # a fixed time stamp for the zip entries: the same topics give the same bytes
 ZIP_TIME = (2020, 1, 1, 0, 0, 0)
 
@@ -42,8 +59,35 @@ def _xml(root: ET.Element) -> bytes:
     return ET.tostring(root, encoding="utf-8", xml_declaration=True)
 
 
+def snapshot_name(data: bytes) -> str:
+    """The snapshot's entry name: BCF tools take PNG and JPEG, told apart by the name."""
+    return "snapshot.jpg" if data.startswith(JPEG_MAGIC) else "snapshot.png"
+
+
+def small_snapshot(data: bytes) -> bytes:
+    """``data`` at most :data:`SNAPSHOT_WIDTH` wide: a wider PNG or JPEG downscaled (area
+    averaging) and stored as JPEG; a narrower one, or bytes that do not decode, as they are."""
+    if not data.startswith((PNG_MAGIC, JPEG_MAGIC)):
+        return data
+    image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
+    if image is None or image.shape[1] <= SNAPSHOT_WIDTH:
+        return data
+    scale = SNAPSHOT_WIDTH / image.shape[1]
+    small = cv2.resize(image, (SNAPSHOT_WIDTH, max(1, round(image.shape[0] * scale))), interpolation=cv2.INTER_AREA)
+    ok, encoded = cv2.imencode(".jpg", small, [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY])
+    return encoded.tobytes() if ok else data
+
+
+def _header(root, ifc_file: str) -> None:
+    header = ET.SubElement(root, "Header")
+    file = ET.SubElement(header, "File", isExternal="true")
+    _text(file, "Filename", ifc_file)
+
+
 def markup_xml(topic: BcfTopic) -> bytes:
     root = ET.Element("Markup")
+    if topic.ifc_file:
+        _header(root, topic.ifc_file)
     t = ET.SubElement(
         root, "Topic", Guid=topic.guid, TopicType=shown(topic.topic_type), TopicStatus=shown(topic.status)
     )
@@ -68,7 +112,7 @@ def markup_xml(topic: BcfTopic) -> bytes:
         v = ET.SubElement(root, "Viewpoints", Guid=topic.viewpoint_guid)
         _text(v, "Viewpoint", VIEWPOINT)
         if topic.snapshot_png is not None:
-            _text(v, "Snapshot", SNAPSHOT)
+            _text(v, "Snapshot", snapshot_name(topic.snapshot_png))
     return _xml(root)
 
 
@@ -83,7 +127,7 @@ def _camera(parent, camera: BcfCamera) -> None:
     _vector(c, "CameraViewPoint", camera.viewpoint)
     _vector(c, "CameraDirection", camera.direction)
     _vector(c, "CameraUpVector", camera.up)
-    _text(c, "FieldOfView", repr(min(max(float(camera.field_of_view), FOV_RANGE[0]), FOV_RANGE[1])))
+    _text(c, "FieldOfView", repr(float(camera.field_of_view)))
 
 
 def visinfo_xml(topic: BcfTopic) -> bytes:
@@ -122,7 +166,9 @@ def _add(archive: zipfile.ZipFile, name: str, data: bytes, compress: bool = True
 
 def bcf_bytes(topics: list[BcfTopic], project: str = "mrcheck") -> bytes:
     """The ``.bcfzip`` of ``topics``. A topic with a camera or components gets a viewpoint (its
-    ``viewpoint_guid``, made from the topic's when None)."""
+    ``viewpoint_guid``, made from the topic's when None); snapshots at most
+    :data:`SNAPSHOT_WIDTH` wide (:func:`small_snapshot`, once per shared snapshot)."""
+    small: dict[int, tuple[bytes, bytes]] = {}  # id of a snapshot -> (it, kept alive; its small copy)
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w") as archive:
         _add(archive, "bcf.version", version_xml())
@@ -134,13 +180,27 @@ def bcf_bytes(topics: list[BcfTopic], project: str = "mrcheck") -> bytes:
         for topic in topics:
             if topic.viewpoint_guid is None and (topic.camera is not None or topic.components):
                 topic.viewpoint_guid = str(uuid.uuid5(uuid.UUID(topic.guid), "viewpoint"))
+            if topic.snapshot_png is not None:
+                if id(topic.snapshot_png) not in small:
+                    small[id(topic.snapshot_png)] = (topic.snapshot_png, small_snapshot(topic.snapshot_png))
+                topic = replace(topic, snapshot_png=small[id(topic.snapshot_png)][1])
             _add(archive, f"{topic.guid}/markup.bcf", markup_xml(topic))
             if topic.viewpoint_guid:
                 _add(archive, f"{topic.guid}/{VIEWPOINT}", visinfo_xml(topic))
                 if topic.snapshot_png is not None:
-                    # stored: a PNG is deflated already (deflating it again took 8 s for 218 topics)
-                    _add(archive, f"{topic.guid}/{SNAPSHOT}", topic.snapshot_png, compress=False)
+                    # stored: PNG and JPEG are compressed already (deflating again took 8 s for 218 topics)
+                    name = snapshot_name(topic.snapshot_png)
+                    _add(archive, f"{topic.guid}/{name}", topic.snapshot_png, compress=False)
     return buffer.getvalue()
 
 
-__all__ = ["bcf_bytes", "markup_xml", "visinfo_xml", "version_xml", "project_xml", "VERSION", "FOV_RANGE"]
+__all__ = [
+    "bcf_bytes",
+    "markup_xml",
+    "visinfo_xml",
+    "version_xml",
+    "project_xml",
+    "VERSION",
+    "SNAPSHOT_WIDTH",
+    "small_snapshot",
+]

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mrcheck.apps.bcf import element_label
 from mrcheck.apps.deviation.distances import deviation
 from mrcheck.apps.deviation.element_image import element_image, overview_camera
 from mrcheck.apps.deviation.element_report import (
@@ -79,6 +80,7 @@ class DeviationRun:
     outdir: Path
     report: DeviationReport
     elements: ElementReport | None = None  # with --per-element
+    top_label: str = ""  # the top instance as a person reads it (its name, class, storey), "" for its id
 
     @property
     def summary(self) -> str:
@@ -86,7 +88,7 @@ class DeviationRun:
         r = self.report
         line = (
             f"deviation: {r.points} points, median |d| {r.median_abs * 1000:.3f} mm, "
-            f"p95 {r.p95_abs * 1000:.3f} mm; top: {r.parts[0].id}"
+            f"p95 {r.p95_abs * 1000:.3f} mm; top: {self.top_label or r.parts[0].id}"
         )
         if self.elements is not None:
             c = self.elements.counts
@@ -103,6 +105,7 @@ class PerElement:
 
     tolerance_mm: float = TOLERANCE_MM
     search_mm: float = SEARCH_MM
+    author: str = "mrcheck"  # of the BCF topics (--author)
 
 
 def _output_names(shot, per_element) -> list[str]:
@@ -133,7 +136,13 @@ def element_outputs(
     picture = element_image(loaded, rows, settings.tolerance_mm, shot_camera, photo)
     report = make_element_report(rows, scan, scene, settings.tolerance_mm, settings.search_mm, scanners)
     bcf = elements_bcf(
-        rows, loaded, settings.tolerance_mm, str(outdir.resolve()), shot_camera, encode_image(ELEMENTS_PNG, picture)
+        rows,
+        loaded,
+        settings.tolerance_mm,
+        str(outdir.resolve()),
+        shot_camera,
+        encode_image(ELEMENTS_PNG, picture),
+        settings.author,
     )
     return report, {
         ELEMENTS_CSV: elements_csv(rows),
@@ -192,7 +201,7 @@ def deviation_command(
         outputs.update(more)
     # all or none: a deviations.npy without its parts.json would pass for a complete result
     write_all_or_none([_writer(outdir / name, content) for name, content in outputs.items()])
-    return DeviationRun(outdir, report, elements)
+    return DeviationRun(outdir, report, elements, element_label(loaded, report.parts[0].id))
 
 
 __all__ = ["deviation_command", "DeviationRun", "PerElement", "element_outputs", "scanner_positions"]

@@ -9,7 +9,15 @@ import io
 import json
 from dataclasses import asdict, dataclass
 
-from mrcheck.apps.bcf import BcfTopic, bcf_bytes, bcf_camera, element_component, topic_guid
+from mrcheck.apps.bcf import (
+    BcfTopic,
+    bcf_bytes,
+    bcf_camera,
+    element_component,
+    element_label,
+    ifc_file_of,
+    topic_guid,
+)
 
 ELEMENTS_CSV, ELEMENTS_JSON, ELEMENTS_PNG, ELEMENTS_BCF = (
     "elements.csv",
@@ -104,9 +112,12 @@ def _description(row, tolerance_mm: float) -> str:
     )
 
 
-def element_topics(rows, scene, tolerance_mm: float, key: str, camera=None, snapshot_png=None) -> list[BcfTopic]:
+def element_topics(
+    rows, scene, tolerance_mm: float, key: str, camera=None, snapshot_png=None, author: str = "mrcheck"
+) -> list[BcfTopic]:
     """One topic per element out of tolerance, worst first; priority High at 3x the tolerance or
-    more, else Normal. ``key`` (the output folder) makes the topic ids stable."""
+    more, else Normal. ``key`` (the output folder) makes the topic ids stable; the title names
+    the element (:func:`element_label`), the component carries its GlobalId."""
     out = [r for r in rows if r.status == "out of tolerance"]
     out.sort(key=lambda r: -max(r.offset_norm_mm or 0.0, r.residual_mm or 0.0))
     topics = []
@@ -115,7 +126,9 @@ def element_topics(rows, scene, tolerance_mm: float, key: str, camera=None, snap
         topics.append(
             BcfTopic(
                 guid=topic_guid("deviation", key, r.id),
-                title=f"out of tolerance: {r.id}",
+                title=f"out of tolerance: {element_label(scene, r.id)}",
+                author=author,
+                ifc_file=ifc_file_of(scene),
                 priority="High" if worst >= 3 * tolerance_mm else "Normal",
                 description=_description(r, tolerance_mm),
                 labels=["deviation", "out of tolerance"],
@@ -127,8 +140,11 @@ def element_topics(rows, scene, tolerance_mm: float, key: str, camera=None, snap
     return topics
 
 
-def elements_bcf(rows, scene, tolerance_mm: float, key: str, camera=None, snapshot_png=None) -> bytes:
-    return bcf_bytes(element_topics(rows, scene, tolerance_mm, key, camera, snapshot_png), project=scene.name)
+def elements_bcf(
+    rows, scene, tolerance_mm: float, key: str, camera=None, snapshot_png=None, author: str = "mrcheck"
+) -> bytes:
+    topics = element_topics(rows, scene, tolerance_mm, key, camera, snapshot_png, author)
+    return bcf_bytes(topics, project=scene.name)
 
 
 __all__ = [

@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
-from mrcheck.apps.bcf import Finding, bcf_bytes, finding_topic, topic_guid
+from mrcheck.apps.bcf import Finding, bcf_bytes, element_label, finding_topic, topic_guid
 from mrcheck.apps.discrepancies.detector import Detection, detect
 from mrcheck.apps.discrepancies.heatmap import heatmap
 from mrcheck.apps.discrepancies.report import (
@@ -51,11 +51,12 @@ class DiscrepancyRun:
 
     detection: Detection
     paths: list[Path]  # heatmap.png, suspects.json, suspects.md
+    labels: dict = field(default_factory=dict)  # {instance id: its name, class and storey} where known
 
     @property
     def summary(self) -> str:
-        """The console line: parts checked, suspects, regions."""
-        return summary_line(self.detection)
+        """The console line: parts checked, suspects (by name where the scene knows it), regions."""
+        return summary_line(self.detection, self.labels)
 
 
 def _check_tolerance_limit(tolerance_px, camera, shot) -> None:
@@ -70,7 +71,7 @@ def _check_tolerance_limit(tolerance_px, camera, shot) -> None:
         )
 
 
-def discrepancies_command(shot, scene, tolerance_px=None, outdir=None) -> DiscrepancyRun:
+def discrepancies_command(shot, scene, tolerance_px=None, outdir=None, author: str = "mrcheck") -> DiscrepancyRun:
     """Validate, detect, then write heatmap.png, suspects.json and suspects.md into ``outdir``.
     A shot that sees no CAD part is warned about (``MrcheckWarning``) and says so in its files."""
     if tolerance_px is not None and not (math.isfinite(tolerance_px) and tolerance_px > 0):
@@ -90,7 +91,7 @@ def discrepancies_command(shot, scene, tolerance_px=None, outdir=None) -> Discre
     for warning in detection.warnings:
         warnings.warn(MrcheckWarning(warning))
     image = heatmap(photo, detection)
-    bcf = suspects_bcf(detection, loaded, camera, encode_image(HEATMAP, image), Path(shot).stem, outdir)
+    bcf = suspects_bcf(detection, loaded, camera, encode_image(HEATMAP, image), Path(shot).stem, outdir, author)
     paths = write_all_or_none(
         [
             lambda: write_image(outdir / HEATMAP, image),
@@ -99,12 +100,16 @@ def discrepancies_command(shot, scene, tolerance_px=None, outdir=None) -> Discre
             lambda: write_bytes(outdir / SUSPECTS_BCF, bcf),
         ]
     )
-    return DiscrepancyRun(detection, list(paths))
+    labels = {s.id: label for s in detection.flagged if (label := element_label(loaded, s.id)) != s.id}
+    return DiscrepancyRun(detection, list(paths), labels)
 
 
-def suspects_bcf(detection: Detection, scene, camera, snapshot_png: bytes, shot_name: str, outdir: Path) -> bytes:
+def suspects_bcf(
+    detection: Detection, scene, camera, snapshot_png: bytes, shot_name: str, outdir: Path, author: str = "mrcheck"
+) -> bytes:
     """``suspects.bcfzip``: a topic per suggested marker (its part's IFC GlobalId where the scene
-    has one), with the shot's camera and the heat map as snapshot; ids stable per output folder."""
+    has one), with the shot's camera and the heat map as snapshot (downscaled once for all,
+    :func:`mrcheck.apps.bcf.write.small_snapshot`); ids stable per output folder."""
     key = str(Path(outdir).resolve())
     topics = [
         finding_topic(
@@ -112,6 +117,7 @@ def suspects_bcf(detection: Detection, scene, camera, snapshot_png: bytes, shot_
             scene,
             camera,
             snapshot_png,
+            author=author,
         )
         for i, m in enumerate(detection.suggested_markers)
     ]

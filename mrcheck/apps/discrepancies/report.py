@@ -60,10 +60,13 @@ def markdown(detection: Detection, shot) -> str:
     return "\n".join(lines) + "\n"
 
 
-def summary_line(detection: Detection) -> str:
-    """One line for the console: what was checked and what stands out."""
-    flagged = detection.flagged
-    top = ", ".join(f"{s.id} {s.score:.2f}" for s in flagged[:5]) + (", ..." if len(flagged) > 5 else "")
+def summary_line(detection: Detection, labels: dict | None = None) -> str:
+    """One line for the console: what was checked and what stands out; ``labels``: {instance id:
+    its name, class and storey} to show instead of the id (an IFC GlobalId)."""
+    flagged, labels = detection.flagged, labels or {}
+    top = ", ".join(f"{labels.get(s.id, s.id)} {s.score:.2f}" for s in flagged[:5]) + (
+        ", ..." if len(flagged) > 5 else ""
+    )
     return (
         f"checked {len(detection.suspects)} part instance(s): {len(flagged)} suspect(s)"
         f"{f' ({top})' if flagged else ''}, {len(detection.regions)} unexplained structure region(s)"

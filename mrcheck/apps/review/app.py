@@ -16,6 +16,7 @@ from pathlib import Path
 
 from fastapi import FastAPI
 
+from mrcheck.apps.bcf import default_author
 from mrcheck.apps.names import REVIEW_CACHE, REVIEW_DATABASE
 from mrcheck.apps.review import middleware
 from mrcheck.apps.review.addphoto import AddPhoto
@@ -47,13 +48,15 @@ def create_app(
     max_body: int = MAX_BODY,
     max_upload: int = MAX_UPLOAD,
     antialias: bool = True,
+    author: str | None = None,
 ) -> FastAPI:
     """``suggestions``: {shot name: markers} (:func:`.suggestions.load_suggestions`), imported
     into the review's markers once; ``app.state.imported``: {shot name: markers added now}.
     ``host``: the address the server is bound to, whose names alone a request's Host header may
     give (:func:`.guard.host_names`); None checks no Host (an app not on a socket, as in tests).
     ``max_body``: the largest request body, in bytes; ``max_upload``: the largest upload of "Add photo".
-    ``antialias``: the CAD renders anti-aliased (mrcheck.render.antialias)."""
+    ``antialias``: the CAD renders anti-aliased (mrcheck.render.antialias); ``author``: who
+    writes the BCF topics and the comments made in the review (None: the OS user)."""
     db_path = database_path(source, db_path)
     store = Store(
         db_path,
@@ -61,7 +64,7 @@ def create_app(
         served_scales={s.name: s.served_scale() for s in source.shots.values() if s.served_size != s.size},
     )
     renders = RenderService(source, cache_dir or cache_path(db_path), samples=samples, antialias=antialias)
-    review = Review(source, store, renders)
+    review = Review(source, store, renders, author=author or default_author())
     review.addphoto = AddPhoto(review, renders.cache)
     review.import_suggestions(suggestions or {})
 

@@ -13,8 +13,11 @@ every route.
   runs; a chunked body is counted as it is read (Starlette's RequestBodyLimitMiddleware, which
   FastAPI's ``max_body_size`` is made of) and refused with 413 once it passes the limit, the
   rest unread. The largest body the app takes is a marker with the longest note, some 26 kB
-  (2000 characters, JSON-escaped as 12 bytes each at worst). The one exception is the upload
-  of "Add photo" (:data:`UPLOAD_PATH`: a photo or a camera file), limited to ``max_upload``.
+  (2000 characters, JSON-escaped as 12 bytes each at worst). The exceptions are the files
+  uploaded (:data:`UPLOAD_PATHS`): a photo or camera file of "Add photo", and a BCF file to
+  import (the review's own export of 16 markers is some 1.5 MB, another tool's with full-size
+  snapshots more), limited to ``max_upload``; a BCF file is bounded again, unpacked, by
+  :mod:`mrcheck.apps.bcf.archive`.
 """
 
 from __future__ import annotations
@@ -34,6 +37,8 @@ MAX_BODY = 1 << 20  # the default limit: 1 MiB, some 40 x the largest marker
 MIN_MAX_BODY = 64 << 10  # a smaller limit would refuse markers with long notes
 MAX_UPLOAD = 64 << 20  # an uploaded photo: a 24 MP JPEG is some 12 MB, a 16-bit TIFF more
 UPLOAD_PATH = "/api/addphoto/upload"
+BCF_IMPORT_PATH = "/api/bcf/import"
+UPLOAD_PATHS = (UPLOAD_PATH, BCF_IMPORT_PATH)  # bodies limited to max_upload, not max_body
 ALL_INTERFACES = ("0.0.0.0", "::", "")
 LOOPBACK_NAMES = ("localhost", "127.0.0.1", "[::1]")
 _HOST = re.compile(r"(?P<name>\[[0-9a-f:.]+\]|[a-z0-9_.-]+)(?::[0-9]{1,5})?")
@@ -123,7 +128,7 @@ class RequestCheck:
         self.hosts, self.max_body, self.max_upload = hosts, max_body, max_upload
 
     async def __call__(self, scope, receive, send):
-        upload = scope["type"] == "http" and scope.get("path") == UPLOAD_PATH
+        upload = scope["type"] == "http" and scope.get("path") in UPLOAD_PATHS
         if scope["type"] == "http":  # the app has no websocket routes: the router refuses those
             refused = self._refused(Headers(scope=scope), upload, scope.get("method", "GET"))
             if refused is not None:

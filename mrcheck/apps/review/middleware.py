@@ -15,7 +15,7 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-from mrcheck.apps.review.guard import UPLOAD_PATH, RequestCheck, host_names, too_large
+from mrcheck.apps.review.guard import UPLOAD_PATHS, RequestCheck, host_names, too_large
 from mrcheck.core.errors import MrcheckError, bug_reason
 
 COOKIE = "mrcheck_review_token"
@@ -31,7 +31,7 @@ def _error_handlers(app: FastAPI, max_body: int, max_upload: int) -> None:
     @app.exception_handler(StarletteHTTPException)  # the routing's own 404 / 405 too, not only ours
     async def _http(request, exc):
         # the body limit's own "Content Too Large" names neither the limit nor the option
-        upload = request.url.path == UPLOAD_PATH
+        upload = request.url.path in UPLOAD_PATHS
         detail = (
             too_large(max_upload if upload else max_body, option="--max-upload" if upload else "--max-body")
             if exc.status_code == 413

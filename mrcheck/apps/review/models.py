@@ -6,6 +6,7 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from mrcheck.apps.review.bcf import MAX_FIELD
 from mrcheck.apps.review.storage import CATEGORIES, MAX_NOTE
 from mrcheck.render.renderer import MODES
 
@@ -38,3 +39,11 @@ class MarkerPatch(BaseModel):
     severity: int = Field(default=None, ge=1, le=3)
     note: str = Field(default=None, max_length=MAX_NOTE)
     mode: Mode = None
+    status: str = Field(default=None, min_length=1, max_length=MAX_FIELD)  # BCF TopicStatus: free text
+
+
+class CommentIn(BaseModel):
+    """A comment written in the review's marker editor (author: the review's ``--author``)."""
+
+    model_config = _STRICT
+    text: str = Field(min_length=1, max_length=MAX_NOTE)

@@ -127,10 +127,12 @@ def start(
     max_upload=MAX_UPLOAD,
     antialias: bool = True,
     max_pixels: int | None = None,
+    author: str | None = None,
 ) -> ReviewServer:
     """Everything but serving: the source opened and checked, the port bound, the app made (its
     database written). A bad input is a :class:`MrcheckError` before the port is bound. ``max_pixels``:
-    the largest photo read (None: :data:`.source.MAX_PIXELS`)."""
+    the largest photo read (None: :data:`.source.MAX_PIXELS`); ``author``: of the BCF topics and
+    comments (None: the OS user)."""
     from mrcheck.apps.review.source import open_source
     from mrcheck.apps.review.suggestions import load_suggestions, suggestions_file
 
@@ -157,6 +159,7 @@ def start(
             max_body=max_body,
             max_upload=max_upload,
             antialias=antialias,
+            author=author,
         )
     except BaseException:
         sock.close()

@@ -22,6 +22,7 @@ class Review:
     store: Store
     renders: RenderService
     imported: dict = field(default_factory=dict)  # shot -> suggestions added at this start
+    author: str = "mrcheck"  # who writes the BCF topics and the comments made here (--author)
     addphoto: object = field(default=None, repr=False)  # "Add photo" (:class:`.addphoto.AddPhoto`), set by create_app
     _picker: object = field(default=None, init=False, repr=False)
     _lock: threading.Lock = field(default_factory=threading.Lock, init=False, repr=False)

@@ -7,6 +7,7 @@ import sqlite3
 import time
 import uuid
 from dataclasses import dataclass
+from datetime import datetime, timezone
 from pathlib import Path
 
 from mrcheck.apps.bcf import topic_guid
@@ -15,6 +16,7 @@ from mrcheck.core.errors import MrcheckError
 CATEGORIES = ("missing", "moved", "extra", "wrong size", "other", "suggested")
 SEVERITIES = (1, 2, 3)
 MAX_NOTE = 2000
+DEFAULT_STATUS = "Open"  # a marker's BCF status until one is set (in the review or by an import)
 # PRAGMA user_version of the database; 0 (before): marker coordinates in the pixels of the
 # images served (at most 1280 wide), and the first review used whatever was reviewed; 1: native
 # pixels, one review per job, export or shots folder (reviews.source: its path relative to the database)
@@ -41,13 +43,42 @@ CREATE TABLE IF NOT EXISTS bcf (review INTEGER NOT NULL, marker INTEGER NOT NULL
 
 @dataclass(frozen=True)
 class BcfChange:
-    """What a BCF import sets on one marker: its status, comments and, when the topic's priority
-    says one, its severity."""
+    """What a BCF import sets on one marker: its status, the comments it adds (those the marker
+    has not got yet: none is ever removed) and, when the topic's priority says one, its severity."""
 
     marker: int
     status: str
     comments: list  # dicts of guid, date, author, text
     severity: int | None = None
+
+
+@dataclass(frozen=True)
+class BcfMarker:
+    """A marker a BCF import adds for a topic of another tool: the marker's fields (shot, x, y,
+    category, severity, note, part), the topic's GUID (a later import matches it), its status,
+    comments and creation time (seconds since the epoch)."""
+
+    values: dict
+    guid: str
+    status: str
+    comments: list
+    created: float | None  # None: now
+
+
+def merged_comments(old: list, new: list) -> list:
+    """``old`` and then the comments of ``new`` it lacks (by GUID; by date, author and text for
+    a comment without one): an import adds comments, it never removes one."""
+
+    def key(c: dict) -> tuple:
+        return (c.get("guid"),) if c.get("guid") else (c.get("date"), c.get("author"), c.get("text"))
+
+    seen = {key(c) for c in old}
+    added = []
+    for c in new:
+        if key(c) not in seen:
+            seen.add(key(c))
+            added.append(c)
+    return [*old, *added]
 
 
 class Store:
@@ -147,13 +178,15 @@ class Store:
             marker_id = self._insert(db, values)
         return self.get(marker_id)
 
-    def _insert(self, db, values: dict) -> int:
+    def _insert(self, db, values: dict, guid: str | None = None, created: float | None = None) -> int:
+        """A new marker; ``guid``: its BCF topic's (a topic another tool made), else a new uuid4."""
         now = time.time()
+        created = now if created is None else created
         keys = ("shot", "x", "y", "category", "severity", "note", "part", "distance", "mode")
         columns, slots = ", ".join(keys), ", ".join("?" * len(keys))
         return db.execute(
             f"INSERT INTO markers(review, {columns}, created, updated, guid) VALUES (?, {slots}, ?, ?, ?)",
-            (self.review, *[values.get(k) for k in keys], now, now, str(uuid.uuid4())),
+            (self.review, *[values.get(k) for k in keys], created, created, guid or str(uuid.uuid4())),
         ).lastrowid
 
     def guids(self) -> dict[int, str]:
@@ -206,23 +239,57 @@ class Store:
             rows = db.execute("SELECT marker, status, comments FROM bcf WHERE review = ?", (self.review,))
             return {r["marker"]: {"status": r["status"], "comments": json.loads(r["comments"])} for r in rows}
 
-    def set_bcf_states(self, changes: list[BcfChange]) -> None:
-        """Markers' BCF status and comments (dicts of date, author, text) as another tool left
-        them, and their new severities: one transaction, whatever the number of markers."""
+    def apply_bcf(self, changes: list[BcfChange], new: tuple | list = ()) -> None:
+        """A BCF import in one transaction: markers' status, comments added to theirs (none
+        removed), new severities; and the markers of topics another tool made (``new``)."""
         now = time.time()
         with self._connect() as db:
             db.execute("BEGIN IMMEDIATE")
             for c in changes:
-                db.execute(
-                    "INSERT OR REPLACE INTO bcf(review, marker, status, comments) VALUES (?, ?, ?, ?)",
-                    (self.review, c.marker, c.status, json.dumps(c.comments, ensure_ascii=False)),
-                )
+                self._set_bcf(db, c.marker, c.status, c.comments)
                 if c.severity is not None:
                     db.execute(
                         "UPDATE markers SET severity = ?, updated = ? WHERE review = ? AND id = ? AND severity != ?",
                         (c.severity, now, self.review, c.marker, c.severity),
                     )
+            for m in new:
+                self._set_bcf(db, self._insert(db, m.values, m.guid, m.created), m.status, m.comments)
+            db.execute("COMMIT")  # on an exception the connection closes uncommitted: nothing is kept
+
+    def _set_bcf(self, db, marker: int, status: str | None, comments: list) -> None:
+        """The marker's status (None: kept) and its comments with ``comments`` added."""
+        row = db.execute("SELECT status, comments FROM bcf WHERE review = ? AND marker = ?", (self.review, marker))
+        row = row.fetchone()
+        old = json.loads(row["comments"]) if row else []
+        status = status if status is not None else (row["status"] if row else DEFAULT_STATUS)
+        db.execute(
+            "INSERT OR REPLACE INTO bcf(review, marker, status, comments) VALUES (?, ?, ?, ?)",
+            (self.review, marker, status, json.dumps(merged_comments(old, comments), ensure_ascii=False)),
+        )
+
+    def set_status(self, marker_id: int, status: str) -> None:
+        """The marker's BCF status, set in the review (a change: ``updated`` too)."""
+        with self._connect() as db:
+            db.execute("BEGIN IMMEDIATE")
+            self._set_bcf(db, marker_id, status, [])
+            db.execute(
+                "UPDATE markers SET updated = ? WHERE review = ? AND id = ?", (time.time(), self.review, marker_id)
+            )
             db.execute("COMMIT")
+
+    def add_comment(self, marker_id: int, author: str, text: str) -> dict:
+        """A comment written in the review (a new GUID, now, ``author``) added to the marker's."""
+        comment = {
+            "guid": str(uuid.uuid4()),
+            "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            "author": author,
+            "text": text,
+        }
+        with self._connect() as db:
+            db.execute("BEGIN IMMEDIATE")
+            self._set_bcf(db, marker_id, None, [comment])
+            db.execute("COMMIT")
+        return comment
 
     def delete(self, marker_id: int) -> bool:
         with self._connect() as db:

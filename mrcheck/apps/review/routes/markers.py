@@ -1,4 +1,6 @@
-"""The markers: list, add, edit (moving one picks the CAD part under it again), delete."""
+"""The markers: list, add, edit (moving one picks the CAD part under it again; its BCF status
+too), comment, delete. Every answer carries a marker's BCF status and comments and its part's
+name (:func:`.bcf.with_bcf_state`)."""
 
 from __future__ import annotations
 
@@ -8,7 +10,7 @@ from fastapi import APIRouter, Depends, HTTPException
 
 from mrcheck.apps.review.bcf import with_bcf_state
 from mrcheck.apps.review.crosssite import JSON, requires
-from mrcheck.apps.review.models import MarkerIn, MarkerPatch
+from mrcheck.apps.review.models import CommentIn, MarkerIn, MarkerPatch
 from mrcheck.apps.review.state import MAX_ID, Review, check_xy, current
 
 router = APIRouter(prefix="/api/markers")
@@ -27,13 +29,19 @@ def list_markers(review: Current, shot: str | None = None):
 def add_marker(review: Current, marker: MarkerIn):
     shot = review.shot_or_404(marker.shot)
     check_xy(shot, marker.x, marker.y)
-    return review.store.add({**marker.model_dump(), **review.cad_under(shot, marker.x, marker.y)})
+    return _shown(review, review.store.add({**marker.model_dump(), **review.cad_under(shot, marker.x, marker.y)}))
+
+
+def _shown(review: Review, marker: dict) -> dict:
+    return with_bcf_state(review, [marker])[0]
 
 
 @router.patch("/{marker_id}", dependencies=AS_JSON)
 def edit_marker(review: Current, marker_id: int, patch: MarkerPatch):
     current_marker = review.marker_or_404(marker_id)
     values = patch.model_dump(exclude_unset=True)
+    if "status" in values:
+        review.store.set_status(marker_id, values.pop("status"))
     if "x" in values or "y" in values:
         shot = review.source.shots.get(current_marker["shot"])
         if shot is None:  # left in the database by an earlier review of this folder
@@ -45,7 +53,14 @@ def edit_marker(review: Current, marker_id: int, patch: MarkerPatch):
         x, y = values.get("x", current_marker["x"]), values.get("y", current_marker["y"])
         check_xy(shot, x, y)
         values.update(review.cad_under(shot, x, y))
-    return review.store.update(marker_id, values)
+    return _shown(review, review.store.update(marker_id, values))
+
+
+@router.post("/{marker_id}/comments", status_code=201, dependencies=AS_JSON)
+def add_comment(review: Current, marker_id: int, comment: CommentIn):
+    review.marker_or_404(marker_id)
+    review.store.add_comment(marker_id, review.author, comment.text)
+    return _shown(review, review.marker_or_404(marker_id))
 
 
 @router.delete("/{marker_id}")

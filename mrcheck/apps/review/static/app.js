@@ -87,17 +87,26 @@ async function exportFile(link) {
   status(`${what}: saved`);
 }
 
-// a BCF file back from a BIM tool: statuses, comments and priorities onto the markers
+// a BCF file back from a BIM tool: statuses, comments and priorities onto the markers, new topics
+// as markers; the result or the refusal in full beside the link (the status line would cut it)
+function bcfResult(text, error) {
+  const box = $("#bcf-result"); box.textContent = text; box.classList.toggle("error", !!error);
+  status(text);
+}
 async function importBcf(ev) {
   const file = ev.target.files[0]; ev.target.value = "";
   if (!file) return;
-  status("Import BCF...");
+  bcfResult("Import BCF...");
   const res = await fetch("api/bcf/import", { method: "POST", body: await file.arrayBuffer(),
     headers: { "Content-Type": "application/octet-stream" } }).catch(() => null);
-  if (!res || !res.ok) return failed("Import BCF", res);
+  if (!res || !res.ok) {
+    const data = res ? await res.json().catch(() => ({})) : {};
+    return bcfResult(`Import BCF failed: ${data.error || (res ? res.status : "no connection to the server")}`, true);
+  }
   const got = await res.json();
   S.markers = await api("GET", `api/markers?shot=${enc(S.shot.name)}`); drawMarkers();
-  status(`Import BCF: ${got.matched} marker(s) updated, ${got.unknown} topic(s) of no marker here`);
+  bcfResult(`Import BCF: ${got.matched} marker(s) updated, ${got.added} added from new topics, ` +
+    `${got.unknown} topic(s) no shot sees`);
 }
 
 // -- shots ---------------------------------------------------------------------------------
@@ -135,7 +144,7 @@ function drawMarkers() {
     li.dataset.id = m.id; li.classList.toggle("selected", S.selected === m.id);
     // a BCF import's status (when another tool changed it) and comments show on the marker
     const bcf = (m.status && m.status !== "Open" ? ` [${m.status}]` : "") + (m.comments && m.comments.length ? ` (${m.comments.length} comment${m.comments.length > 1 ? "s" : ""})` : "");
-    li.textContent = `#${m.id} ${m.category} (sev ${m.severity}) ${m.part || "-"}: ${m.note}${bcf}`;
+    li.textContent = `#${m.id} ${m.category} (sev ${m.severity}) ${m.part_label || m.part || "-"}: ${m.note}${bcf}`;
     li.title = [m.note, ...(m.comments || []).map((c) => `${c.author}: ${c.text}`)].join("\n");
     li.onclick = () => select(m.id);
     list.appendChild(li);
@@ -147,7 +156,8 @@ function drawMarkers() {
 function editorChanges() {
   const m = S.markers.find((k) => k.id === S.selected);
   if (!m || $("#editor").hidden) return null;
-  const now = { category: $("#ed-category").value, severity: Number($("#ed-severity").value), note: $("#ed-note").value };
+  const now = { category: $("#ed-category").value, severity: Number($("#ed-severity").value), note: $("#ed-note").value,
+    status: $("#ed-status").value };
   const diff = Object.fromEntries(Object.entries(now).filter(([k, v]) => m[k] !== v));
   return Object.keys(diff).length ? diff : null;
 }
@@ -172,10 +182,38 @@ async function select(id) {
   $("#editor").hidden = !m;
   if (m) {
     $("#ed-id").textContent = "#" + m.id;
-    $("#ed-part").textContent = m.part ? `on ${m.part}` + (m.distance != null ? ` (${m.distance.toFixed(2)} m)` : "") : "(no CAD part)";
+    // the element's name (class, storey) where the scene knows it; its id (a GlobalId) on hover
+    $("#ed-part").textContent = m.part ? `on ${m.part_label || m.part}` + (m.distance != null ? ` (${m.distance.toFixed(2)} m)` : "") : "(no CAD part)";
+    $("#ed-part").title = m.part || "";
     $("#ed-category").value = m.category; $("#ed-severity").value = m.severity; $("#ed-note").value = m.note;
+    fillStatus(m.status || "Open"); fillComments(m);
   }
   drawMarkers();
+}
+// a status another tool wrote (BCF's TopicStatus is free text) is offered beside the usual four
+function fillStatus(value) {
+  const select = $("#ed-status");
+  for (const o of [...select.options]) if (o.dataset.extra) o.remove();
+  if (![...select.options].some((o) => o.value === value)) {
+    const o = new Option(value, value); o.dataset.extra = "1"; select.add(o);
+  }
+  select.value = value;
+}
+function fillComments(m) {
+  const list = $("#ed-comment-list"); list.textContent = "";
+  for (const c of m.comments || []) {
+    const li = document.createElement("li"), who = document.createElement("small");
+    who.textContent = `${c.author}${c.date ? ", " + c.date.slice(0, 16).replace("T", " ") : ""}: `;
+    li.append(who, c.text); list.appendChild(li);
+  }
+}
+async function addComment() {
+  const text = $("#ed-comment").value.trim(), id = S.selected;
+  if (!text || id === null) return;
+  try {
+    const m = await api("POST", `api/markers/${id}/comments`, { text });
+    replaceMarker(m); $("#ed-comment").value = ""; fillComments(m); drawMarkers(); status(`marker #${id}: comment added`);
+  } catch (e) { /* api() shows the error; the text stays in the box */ }
 }
 async function addMarker(x, y) {
   const m = await api("POST", "api/markers", { shot: S.shot.name, x, y, category: "missing", severity: 2, note: "", mode: S.mode });
@@ -203,7 +241,8 @@ $("#editor").addEventListener("submit", async (ev) => {
   ev.preventDefault();
   if (await saveEdits()) status(`marker #${S.selected} saved`);
 });
-for (const field of ["#ed-category", "#ed-severity", "#ed-note"]) $(field).addEventListener("change", saveEdits);
+for (const field of ["#ed-category", "#ed-severity", "#ed-note", "#ed-status"]) $(field).addEventListener("change", saveEdits);
+$("#ed-comment-add").onclick = addComment;
 $("#ed-delete").onclick = async () => {
   const id = S.selected;
   if (!confirm(`Delete marker #${id}? This cannot be undone.`)) return;
