@@ -27,7 +27,7 @@ from mrcheck.core.output import write_image  # noqa: E402
 from mrcheck.core.resources import sample_scene_path  # noqa: E402
 from mrcheck.scene.model import load_scene  # noqa: E402
 
-from .mr_helpers import _camera  # noqa: E402
+from .mr_helpers import make_camera  # noqa: E402
 from .test_bcf import validate_bcfzip  # noqa: E402
 
 OCTETS = {"Content-Type": "application/octet-stream"}
@@ -48,7 +48,7 @@ def _photo_like(width: int, height: int, seed: int = 3) -> np.ndarray:
 @pytest.fixture(scope="module")
 def shots(tmp_path_factory):
     root = tmp_path_factory.mktemp("bcf_roundtrip")
-    cam = _camera(W, H, F, eye=EYE, target=TARGET)
+    cam = make_camera(W, H, F, eye=EYE, target=TARGET)
     write_image(root / "p1.png", _photo_like(W, H))
     (root / "p1.json").write_text(json.dumps({**cam.to_dict(), "photo": "p1.png"}))
     return root
@@ -441,13 +441,12 @@ def test_discrepancies_author_option(ctx, tmp_path):
     from mrcheck.render.renderer import Renderer
     from mrcheck.scene.asbuilt import make_asbuilt
 
-    from .test_discrepancies import SAMPLE, _shot, synthetic_photo
-    from .test_discrepancies import _camera as sample_camera
+    from .test_discrepancies import SAMPLE, sample_camera, synthetic_photo, write_shot_files
 
     make_asbuilt(SAMPLE, tmp_path / "built", seed=2)
     built = load_scene(tmp_path / "built" / "scene.toml")
     camera = sample_camera(load_scene(SAMPLE))
-    shot = _shot(tmp_path, built, camera, synthetic_photo(built, camera, Renderer(built, ctx=ctx)))
+    shot = write_shot_files(tmp_path, built, camera, synthetic_photo(built, camera, Renderer(built, ctx=ctx)))
     out = tmp_path / "out"
     assert main(["discrepancies", str(shot), "--scene", str(SAMPLE), "-o", str(out), "--author", "ana"]) == 0
     topics = read_bcf_bytes((out / "suspects.bcfzip").read_bytes())

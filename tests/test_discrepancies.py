@@ -26,7 +26,7 @@ SAMPLE = sample_scene_path()
 W, H = 400, 300
 
 
-def _camera(scene, view="conveyor", k1=-0.12):
+def sample_camera(scene, view="conveyor", k1=-0.12):
     cam = scene.camera(view, W, H)
     return Camera(W, H, cam.K, cam.R, cam.t, np.array([k1, 0.0, 0.0, 0.0]))
 
@@ -38,7 +38,7 @@ def sample():
 
 def test_object_ids_match_the_render_silhouette(ctx, sample):
     """The ray-cast id buffer covers what the renderer draws, and names real instances."""
-    camera = _camera(sample, k1=0.0)
+    camera = sample_camera(sample, k1=0.0)
     ids, depth, labels = object_ids(sample, camera)
     renderer = Renderer(sample, ctx=ctx)
     gl_depth = renderer.render(camera, ["phong"]).depth
@@ -54,7 +54,7 @@ def test_object_ids_match_the_render_silhouette(ctx, sample):
 def test_behind_ids_see_past_the_first_instance(sample):
     """The second layer: never the pixel's own instance, always farther than it, and the floor
     behind the conveyor's pixels (it stands on the floor, in front of nothing else there)."""
-    camera = _camera(sample, k1=0.0)
+    camera = sample_camera(sample, k1=0.0)
     ids, depth, labels = object_ids(sample, camera)
     bids, bdepth = behind_ids(sample, camera, ids, depth)
     hit = bids >= 0
@@ -110,7 +110,7 @@ def test_precision_and_recall_on_asbuilt_variants(ctx, tmp_path):
 
 @pytest.mark.slow
 def test_planned_scene_as_photo_gives_few_suspects(ctx, sample):
-    camera = _camera(sample)
+    camera = sample_camera(sample)
     photo = synthetic_photo(sample, camera, Renderer(sample, ctx=ctx))
     result = detect(sample, camera, photo, renderer=Renderer(sample, ctx=ctx))
     scored = result.suspects
@@ -137,7 +137,7 @@ def test_a_clean_photo_of_the_planned_scene_gives_few_suspects(ctx, sample, enco
     """Without sensor noise (a render, a low-noise photo, its JPEG) the non-zero gradients are
     mostly edges: a threshold from their median rejected the edges themselves and flagged a
     third of the parts (26 of 64 here); the measured noise now caps it."""
-    camera = _camera(sample)
+    camera = sample_camera(sample)
     photo = synthetic_photo(sample, camera, Renderer(sample, ctx=ctx), noise=0.0)
     if encode:
         photo = cv2.imdecode(cv2.imencode(encode, photo, [cv2.IMWRITE_JPEG_QUALITY, 90])[1], cv2.IMREAD_COLOR)
@@ -147,7 +147,7 @@ def test_a_clean_photo_of_the_planned_scene_gives_few_suspects(ctx, sample, enco
     assert all(s.score >= 0.0 for s in result.suspects)
 
 
-def _shot(tmp_path, scene, camera, photo):
+def write_shot_files(tmp_path, scene, camera, photo):
     cv2.imwrite(str(tmp_path / "photo.png"), photo[..., ::-1])
     shot = tmp_path / "shot.json"
     shot.write_text(json.dumps({**camera.to_dict(), "photo": "photo.png"}))
@@ -160,8 +160,8 @@ def test_cli_writes_heatmap_suspects_and_markers(ctx, sample, tmp_path):
 
     make_asbuilt(SAMPLE, tmp_path / "built", seed=2)
     built = load_scene(tmp_path / "built" / "scene.toml")
-    camera = _camera(sample)
-    shot = _shot(tmp_path, built, camera, synthetic_photo(built, camera, Renderer(built, ctx=ctx)))
+    camera = sample_camera(sample)
+    shot = write_shot_files(tmp_path, built, camera, synthetic_photo(built, camera, Renderer(built, ctx=ctx)))
     out = tmp_path / "out"
     assert main(["discrepancies", str(shot), "--scene", str(SAMPLE), "-o", str(out)]) == 0
     heat = cv2.imread(str(out / "heatmap.png"))
@@ -190,7 +190,7 @@ def test_cli_writes_heatmap_suspects_and_markers(ctx, sample, tmp_path):
 def test_bad_input_exits_1_with_one_line_and_no_files(sample, tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["discrepancies", str(tmp_path / "nope.json"), "--scene", str(SAMPLE), "-o", str(out)]) == 1
-    camera = _camera(sample)
+    camera = sample_camera(sample)
     shot = tmp_path / "shot.json"
     shot.write_text(json.dumps({**camera.to_dict(), "photo": "missing.png"}))
     assert main(["discrepancies", str(shot), "--scene", str(SAMPLE), "-o", str(out)]) == 1

@@ -18,8 +18,8 @@ from mrcheck.core.output import write_image  # noqa: E402
 from mrcheck.core.resources import sample_scene_path  # noqa: E402
 from mrcheck.scene.model import load_scene  # noqa: E402
 
-from .mr_helpers import _camera, _photo  # noqa: E402
-from .test_review import _browser, _served, needs_chromium  # noqa: E402
+from .mr_helpers import make_camera, render_photo  # noqa: E402
+from .test_review import needs_chromium, open_browser, served_app  # noqa: E402
 from .test_review_bcf import EYE, TARGET  # noqa: E402
 
 
@@ -27,8 +27,8 @@ from .test_review_bcf import EYE, TARGET  # noqa: E402
 def shots(ctx, tmp_path):
     root = tmp_path / "shots"
     root.mkdir()
-    cam = _camera(320, 240, 250.0, eye=EYE, target=TARGET)
-    write_image(root / "p1.png", _photo(ctx, load_scene(sample_scene_path()), cam))
+    cam = make_camera(320, 240, 250.0, eye=EYE, target=TARGET)
+    write_image(root / "p1.png", render_photo(ctx, load_scene(sample_scene_path()), cam))
     (root / "p1.json").write_text(json.dumps({**cam.to_dict(), "photo": "p1.png"}))
     return root
 
@@ -51,8 +51,8 @@ def test_status_and_comments_in_the_marker_editor(shots, tmp_path):
         marker = client.post(
             "/api/markers", json={"shot": "p1", "x": 160, "y": 150, "category": "moved", "severity": 2}
         ).json()
-    with _served(app) as url, sync_api.sync_playwright() as pw:
-        browser = _browser(pw, tmp_path)
+    with served_app(app) as url, sync_api.sync_playwright() as pw:
+        browser = open_browser(pw, tmp_path)
         page = browser.new_page()
         page.on("dialog", lambda d: d.accept())
         page.goto(url)
