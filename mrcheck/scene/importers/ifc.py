@@ -5,8 +5,8 @@ gives every element that maps it (an IfcMappedItem of a type's IfcRepresentation
 same representation reused) the same geometry id, so repeated elements become instances of one
 part. Every instance's id is its element's GlobalId; part and instance keep the element's name,
 IFC class and storey. Coordinates come in metres whatever the file's unit assignment (the
-iterator converts them). An element whose geometry fails is listed (GlobalId and class) and the
-rest imports.
+iterator converts them). An element whose geometry fails or builds empty is listed (class, name,
+GlobalId and why) and the rest imports.
 
 The iterator runs on ``threads`` cores (C++ threads: the Python loop only collects results).
 """
@@ -23,7 +23,14 @@ from mrcheck.core.errors import MrcheckError
 from mrcheck.core.progress import Progress, no_progress
 from mrcheck.core.quiet import native_output
 from mrcheck.scene.importers.georef import map_conversion, site_origin
-from mrcheck.scene.importers.ifc_mapped import Placements, mesh_maps, shape_arrays, shape_colour, split_mapped
+from mrcheck.scene.importers.ifc_mapped import (
+    Booleans,
+    Placements,
+    mesh_maps,
+    shape_arrays,
+    shape_colour,
+    split_mapped,
+)
 from mrcheck.scene.importers.records import (
     FailedElement,
     ImportedInstance,
@@ -65,10 +72,10 @@ def read_ifc(path: Path, kind: FileKind, settings: ImportSettings, progress: Pro
         )
     placement = _placement(model, settings, path)
     storeys = storey_names(model)
-    parts, seen = _iterate(model, settings, bodies, storeys, placement.matrix, (progress, f"importing {path.name}"))
-    failed = [
-        FailedElement(e.GlobalId, e.is_a(), "IfcOpenShell built no geometry") for e in bodies if e.id() not in seen
-    ]
+    parts, seen, empty = _iterate(
+        model, settings, bodies, storeys, placement.matrix, (progress, f"importing {path.name}")
+    )
+    failed = [_failed(e, e.id() in empty) for e in bodies if e.id() not in seen]
     if not parts:
         raise MrcheckError(
             f"no element's geometry could be built ({len(failed)} of them failed, e.g. "
@@ -88,6 +95,13 @@ def read_ifc(path: Path, kind: FileKind, settings: ImportSettings, progress: Pro
         failed=failed,
         notes=placement.notes,
     )
+
+
+def _failed(element, empty: bool) -> FailedElement:
+    reason = (
+        "its shape is empty (openings or clippings remove all of it)" if empty else "IfcOpenShell built no geometry"
+    )
+    return FailedElement(str(element.GlobalId), element.is_a(), reason, name=str(element.Name or ""))
 
 
 def _open(path: Path):
@@ -196,17 +210,19 @@ def _geometry_settings(settings: ImportSettings):
 
 
 # cgal-simple builds tessellated and extruded shapes some 8x faster than OpenCascade but no
-# Booleans (the CSG bath): the elements it leaves out get a second pass with OpenCascade
+# Booleans (openings, clippings; the CSG bath): elements that need them, and those it leaves
+# out or builds empty, get a pass with OpenCascade
 KERNELS = ("cgal-simple", "opencascade")
 
 
 def _iterate(model, settings, bodies, storeys, world, show):
-    """{geometry id: ImportedPart} of every built element, and the step ids built: elements that
-    only map a type's shape through :mod:`.ifc_mapped` (each shape meshed once), the rest through
-    IfcOpenShell's iterator (cgal-simple, then OpenCascade for what that left out)."""
+    """{geometry id: ImportedPart} of every built element, the step ids built and those built
+    empty: elements that only map a type's shape through :mod:`.ifc_mapped` (each shape meshed
+    once), the rest through IfcOpenShell's iterator (cgal-simple, then OpenCascade for what that
+    left out or built empty, and for every element whose shape needs Booleans)."""
     import ifcopenshell.util.unit
 
-    parts, seen = {}, set()
+    parts, seen, empty = {}, set(), set()
     progress, desc = show
     groups, todo = split_mapped(bodies)
     threads = settings.threads or default_threads()
@@ -216,13 +232,15 @@ def _iterate(model, settings, bodies, storeys, world, show):
     with contextlib.closing(progress(list(groups.items()), desc, "shape")) as items:
         for map_id, members in items:
             _add_mapped(parts, seen, meshes.get(map_id), members, todo, (world, placements, storeys))
+    booleans = Booleans()
     for kernel in KERNELS:
         todo = [e for e in todo if e.id() not in seen]
-        if todo:
-            with contextlib.closing(progress(_run_iterator(model, settings, kernel, todo), desc, "element")) as shapes:
+        batch = todo if kernel == KERNELS[-1] else [e for e in todo if not booleans.element(e)]
+        if batch:
+            with contextlib.closing(progress(_run_iterator(model, settings, kernel, batch), desc, "element")) as shapes:
                 for shape in shapes:
-                    _add_shape(model, parts, seen, shape, world, storeys)
-    return [p for p in parts.values() if len(p.faces)], seen
+                    _add_shape(model, parts, (seen, empty), shape, (world, storeys))
+    return list(parts.values()), seen, empty - seen
 
 
 def _add_mapped(parts, seen, mesh, members, todo, frame) -> None:
@@ -241,13 +259,19 @@ def _add_mapped(parts, seen, mesh, members, todo, frame) -> None:
         seen.add(element.id())
 
 
-def _add_shape(model, parts, seen, shape, world, storeys) -> None:
-    """One element the iterator built: an instance of the part of its geometry id."""
+def _add_shape(model, parts, done, shape, frame) -> None:
+    """One element the iterator built: an instance of the part of its geometry id; an empty
+    shape is noted in ``done``'s second set (a later kernel may build it)."""
     import ifcopenshell.util.shape
 
+    seen, empty = done
+    world, storeys = frame
+    geometry = shape.geometry
+    if not len(geometry.faces):
+        empty.add(shape.id)
+        return
     element = model.by_id(shape.id)
     seen.add(shape.id)
-    geometry = shape.geometry
     part = parts.get(geometry.id)
     if part is None:
         part = parts[geometry.id] = _part(geometry, element)

@@ -92,6 +92,11 @@ class FailedElement:
     id: str
     ifc_class: str
     reason: str = ""
+    name: str = ""
+
+    def label(self) -> str:
+        """ "IfcWallStandardCase 'Basic Wall 0' 2ebDUHeC5BNfwjQtFf6prP": how lists name it."""
+        return f"{self.ifc_class} {self.name!r} {self.id}" if self.name else f"{self.ifc_class} {self.id}"
 
 
 @dataclass

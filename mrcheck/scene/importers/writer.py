@@ -146,7 +146,7 @@ def overview(model: ImportedModel) -> dict:
 
 
 def _readme(model: ImportedModel, header: str) -> str:
-    failed = "\n".join(f"- {f.ifc_class} `{f.id}`: {f.reason}" for f in model.failed[:200]) or "none"
+    failed = "\n".join(f"- {f.ifc_class} {f.name!r} `{f.id}`: {f.reason}" for f in model.failed[:200]) or "none"
     notes = "\n".join(f"- {n}" for n in model.notes) or "none"
     origin = ", ".join(f"{v:.3f}" for v in model.origin)
     return f"""# {model.name}: imported scene
