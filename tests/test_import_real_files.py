@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mrcheck.core.errors import MrcheckError
 from mrcheck.scene.importers import ImportSettings, read_model
 from mrcheck.scene.importers.cache import failed_summary
 
@@ -82,3 +83,25 @@ def test_an_element_that_builds_empty_is_listed_with_class_name_and_reason(tmp_p
 def test_shipped_ifc_files_still_import_without_losses(name):
     model = read_model(SHIPPED / name, ImportSettings(threads=1))
     assert model.parts and not model.failed
+
+
+@pytest.mark.parametrize("scale", [0.0, -1.0])
+def test_map_conversion_with_scale_zero_is_refused(tmp_path, scale):
+    """A map conversion of scale 0 would put every element at the map origin (a zero matrix)."""
+    import ifcopenshell
+    import ifcopenshell.api.georeference
+
+    model = ifcopenshell.open(str(SHIPPED / "wall-standard-case.ifc"))
+    ifcopenshell.api.georeference.add_georeferencing(model, name="EPSG:25832")
+    ifcopenshell.api.georeference.edit_georeferencing(
+        model,
+        projected_crs={"Name": "EPSG:25832"},
+        coordinate_operation={"Eastings": 458658780.0, "Northings": 5438232790.0, "Scale": scale},
+    )
+    path = tmp_path / "flat_map.ifc"
+    model.write(str(path))
+    with pytest.raises(MrcheckError, match=r"flat_map\.ifc.*IfcMapConversion.*Scale") as caught:
+        read_model(path, ImportSettings(coordinates="map"))
+    assert "\n" not in str(caught.value)
+    own = read_model(path)  # its own coordinates do not use the conversion: a note says what is wrong
+    assert own.parts and any(f"Scale {scale!r}" in n and "--coordinates map refuses it" in n for n in own.notes)

@@ -181,14 +181,24 @@ def storey_names(model) -> dict:
 
 def _placement(model, settings: ImportSettings, path: Path):
     """World frame of the import: the file's own coordinates, or its map coordinates."""
-    conversion = map_conversion(model)
-    if settings.coordinates == "map":
-        if conversion is not None:
-            return conversion
-        placement = site_origin(model)
-        placement.notes.append("no IfcMapConversion in the file: its site placement is taken as the map position")
-        return placement
+    if settings.coordinates != "map":
+        return _own_placement(model, path)
+    conversion = map_conversion(model, path)
+    if conversion is not None:
+        return conversion
     placement = site_origin(model)
+    placement.notes.append("no IfcMapConversion in the file: its site placement is taken as the map position")
+    return placement
+
+
+def _own_placement(model, path: Path):
+    """The file's own coordinates; a note when it has a map conversion (an unusable one too)."""
+    placement = site_origin(model)
+    try:
+        conversion = map_conversion(model, path)
+    except MrcheckError as exc:
+        placement.notes.append(f"{exc.problem}; --coordinates map refuses it")
+        return placement
     if conversion is not None:
         placement.crs = ""
         placement.notes.append(
