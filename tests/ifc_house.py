@@ -31,6 +31,7 @@ def build_house(path: Path, *, length_unit: str = "MILLIMETRE", schema: str = "I
     import ifcopenshell.api.unit
 
     s = 1000.0 if length_unit == "MILLIMETRE" else 1.0  # file units per metre
+    a = 1.0 if units else s  # ifcopenshell.api takes metres and converts them to the declared unit
     f = ifcopenshell.api.project.create_file(version=schema)
     restore = _owner(f) if schema == "IFC2X3" else None
     project = ifcopenshell.api.root.create_entity(f, ifc_class="IfcProject", name="house")
@@ -57,14 +58,16 @@ def build_house(path: Path, *, length_unit: str = "MILLIMETRE", schema: str = "I
     for i, (x, y, angle, length) in enumerate([(0, 0, 0, 6), (6, 0, 90, 4), (6, 4, 180, 6), (0, 4, 270, 4)]):
         wall = ifcopenshell.api.root.create_entity(f, ifc_class="IfcWallStandardCase", name=f"Basic Wall {i}")
         rep = ifcopenshell.api.geometry.add_wall_representation(
-            f, context=body, length=length, height=2.7, thickness=0.2
+            f, context=body, length=length * a, height=2.7 * a, thickness=0.2 * a
         )
         ifcopenshell.api.geometry.assign_representation(f, product=wall, representation=rep)
         c, sn = np.cos(np.radians(angle)), np.sin(np.radians(angle))
         matrix = np.array([[c, -sn, 0, x * s], [sn, c, 0, y * s], [0, 0, 1, 0], [0, 0, 0, 1]], float)
         ifcopenshell.api.geometry.edit_object_placement(f, product=wall, matrix=matrix, is_si=False)
         opening = ifcopenshell.api.root.create_entity(f, ifc_class="IfcOpeningElement", name=f"window {i}")
-        hole = ifcopenshell.api.geometry.add_wall_representation(f, context=body, length=1.0, height=1.2, thickness=0.6)
+        hole = ifcopenshell.api.geometry.add_wall_representation(
+            f, context=body, length=1.0 * a, height=1.2 * a, thickness=0.6 * a
+        )
         ifcopenshell.api.geometry.assign_representation(f, product=opening, representation=hole)
         # placed relative to its wall, as exporters write openings
         at = f.createIfcAxis2Placement3D(f.createIfcCartesianPoint((1.0 * s, -0.2 * s, 0.9 * s)), None, None)
@@ -90,6 +93,7 @@ def build_house(path: Path, *, length_unit: str = "MILLIMETRE", schema: str = "I
         contained.append(roof)
         counts[slab.is_a()] = counts.get(slab.is_a(), 0) + 1
     # furnishings: one type, its shape a representation map, drawn at three places
+    furniture = "IfcFurnishingElement" if schema == "IFC2X3" else "IfcFurniture"
     kind = ifcopenshell.api.root.create_entity(f, ifc_class="IfcFurnitureType", name="Table 1200x800")
     top = _box_rep(f, body, (1.2 * s, 0.8 * s, 0.75 * s))
     # and a side shelf clipped at the top: 0.2 m beyond the table's 1.2 m only if it is built
@@ -97,7 +101,7 @@ def build_house(path: Path, *, length_unit: str = "MILLIMETRE", schema: str = "I
     top.Items = [top.Items[0], f.createIfcBooleanClippingResult("DIFFERENCE", shelf.Items[0], _pitch(f, 0.5 * s))]
     ifcopenshell.api.geometry.assign_representation(f, product=kind, representation=top)
     for i in range(3):
-        table = ifcopenshell.api.root.create_entity(f, ifc_class="IfcFurnishingElement", name=f"Table {i}")
+        table = ifcopenshell.api.root.create_entity(f, ifc_class=furniture, name=f"Table {i}")
         ifcopenshell.api.geometry.edit_object_placement(
             f, product=table, matrix=_placed(((1 + 1.5 * i) * s, 1.5 * s, 0)), is_si=False
         )

@@ -105,3 +105,90 @@ def test_map_conversion_with_scale_zero_is_refused(tmp_path, scale):
     assert "\n" not in str(caught.value)
     own = read_model(path)  # its own coordinates do not use the conversion: a note says what is wrong
     assert own.parts and any(f"Scale {scale!r}" in n and "--coordinates map refuses it" in n for n in own.notes)
+
+
+# -- length units ---------------------------------------------------------------------------
+def _wall_lengths(model) -> list[float]:
+    return sorted(round(float(np.ptp(p.vertices, axis=0).max()), 6) for p in model.parts if "Wall" in p.name)
+
+
+def test_millimetres_without_units_warn_and_name_the_option(tmp_path):
+    path = tmp_path / "no_units.ifc"
+    build_house(path, units=False, schema="IFC4")  # the numbers are millimetres, the file declares no unit
+    as_read = read_model(path, ImportSettings(threads=1))
+    assert _wall_lengths(as_read) == [4000.0, 4000.0, 6000.0, 6000.0]  # what IfcOpenShell makes of it
+    (note,) = [n for n in as_read.notes if "implausibly large" in n]
+    assert "no length unit declared" in note and "--units mm" in note
+    fixed = read_model(path, ImportSettings(threads=1, units="mm"))
+    assert _wall_lengths(fixed) == [4.0, 4.0, 6.0, 6.0]
+    assert not [n for n in fixed.notes if "implausibly" in n]
+    np.testing.assert_allclose(  # placements too: the tables stand 1.5 m apart
+        sorted(i.matrix[0, 3] for p in fixed.parts for i in p.instances if i.name.startswith("Table")),
+        [1.0, 2.5, 4.0],
+        atol=1e-9,
+    )
+
+
+@pytest.mark.parametrize("unit", ["MILLIMETRE", "METRE"])
+def test_declared_units_read_without_a_warning(tmp_path, unit):
+    path = tmp_path / "house.ifc"
+    build_house(path, length_unit=unit)
+    model = read_model(path, ImportSettings(threads=1))
+    assert _wall_lengths(model) == [4.0, 4.0, 6.0, 6.0]
+    assert not [n for n in model.notes if "implausibly" in n]
+
+
+def test_units_that_make_sizes_implausible_warn_too(tmp_path):
+    path = tmp_path / "house.ifc"
+    build_house(path, length_unit="MILLIMETRE")
+    wrong = read_model(path, ImportSettings(threads=1, units="m"))  # millimetre numbers read as metres
+    assert _wall_lengths(wrong) == [4000.0, 4000.0, 6000.0, 6000.0]
+    assert any("implausibly large" in n and "read as m (--units)" in n and "--units mm" in n for n in wrong.notes)
+    metres = tmp_path / "metres.ifc"
+    build_house(metres, length_unit="METRE", units=False, schema="IFC4")  # no unit, metre numbers: plausible
+    assert not [n for n in read_model(metres, ImportSettings(threads=1)).notes if "implausibly" in n]
+
+
+def test_ifc2x3_project_without_units_is_one_line(tmp_path):
+    """IFC2X3 requires the project's units; IfcOpenShell's iterator refuses a file without them."""
+    path = tmp_path / "no_units_2x3.ifc"
+    build_house(path, units=False)
+    with pytest.raises(MrcheckError, match=r"no_units_2x3\.ifc: .*UnitsInContext") as caught:
+        read_model(path, ImportSettings(threads=1))
+    assert "\n" not in str(caught.value)
+
+
+def test_units_on_a_step_file_is_refused():
+    step = Path(__file__).parent / "data" / "cad" / "step" / "red_cube_blue_cylinder.step"
+    with pytest.raises(MrcheckError, match=r"red_cube_blue_cylinder\.step: --units applies to an IFC file"):
+        read_model(step, ImportSettings(units="mm"))
+
+
+def test_scene_import_warns_and_units_fixes_it(tmp_path, capsys):
+    from mrcheck.cli import main
+
+    path = tmp_path / "no_units.ifc"
+    build_house(path, units=False, schema="IFC4")
+    assert main(["scene", "import", str(path), "-o", str(tmp_path / "as_read")]) == 0
+    err = capsys.readouterr().err
+    assert "9 elements in" in err and "0 left out" in err
+    (warning,) = [line for line in err.splitlines() if "implausibly large" in line]
+    assert warning.startswith("warning: ") and "no_units.ifc" in warning and "--units mm" in warning
+    assert main(["scene", "import", str(path), "--units", "mm", "-o", str(tmp_path / "fixed")]) == 0
+    assert "implausibly" not in capsys.readouterr().err
+
+
+def test_scene_import_counts_what_it_left_out(tmp_path, capsys):
+    from mrcheck.cli import main
+
+    path = tmp_path / "house.ifc"
+    build_house(path)
+    wall = clip_away_first_wall(path)
+    assert (
+        main(["scene", "import", str(path), "-o", str(tmp_path / "out")]) == 0
+    )  # the rest imports: a warning, not a failure
+    err = capsys.readouterr().err
+    assert "8 elements in" in err and "1 left out" in err
+    assert f"IfcWallStandardCase 'Basic Wall 0' {wall} (its shape is empty" in err
+    readme = (tmp_path / "out" / "README.md").read_text()
+    assert f"IfcWallStandardCase 'Basic Wall 0' `{wall}`" in readme

@@ -30,6 +30,7 @@ class Placement:
     origin: np.ndarray
     crs: str = ""
     notes: list = field(default_factory=list)
+    on_map: bool = False  # origin in map units (IfcMapConversion), not the file's length unit
 
     """Metres per unit of an IfcNamedUnit (SI with prefix, or a conversion-based unit)."""
 
@@ -69,7 +70,7 @@ def map_conversion(model, path=None) -> Placement | None:
     if not np.isfinite(origin).all():
         raise MrcheckError(f"the IfcMapConversion #{conv.id()} has an offset that is not finite", path)
     name = str(getattr(crs, "Name", "") or "") if crs is not None else ""
-    return Placement(matrix=matrix, origin=origin, crs=name)
+    return Placement(matrix=matrix, origin=origin, crs=name, on_map=True)
 
 
 def _map_unit_m(model, crs) -> float:

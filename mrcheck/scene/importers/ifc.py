@@ -31,6 +31,7 @@ from mrcheck.scene.importers.ifc_mapped import (
     shape_colour,
     split_mapped,
 )
+from mrcheck.scene.importers.ifc_units import LENGTH_UNITS, declared_unit, rescale, unit_note
 from mrcheck.scene.importers.records import (
     FailedElement,
     ImportedInstance,
@@ -70,11 +71,13 @@ def read_ifc(path: Path, kind: FileKind, settings: ImportSettings, progress: Pro
             "3-D 'Body' geometry): nothing to render",
             path,
         )
+    _check_units(model, path)
     placement = _placement(model, settings, path)
     storeys = storey_names(model)
-    parts, seen, empty = _iterate(
-        model, settings, bodies, storeys, placement.matrix, (progress, f"importing {path.name}")
-    )
+    try:
+        parts, seen, empty = _iterate(model, settings, bodies, storeys, placement.matrix, (progress, path.name))
+    except RuntimeError as exc:  # IfcOpenShell's iterator on a file that breaks the schema
+        raise MrcheckError(f"IfcOpenShell cannot build the model ({' '.join(str(exc).split())[:160]})", path) from None
     failed = [_failed(e, e.id() in empty) for e in bodies if e.id() not in seen]
     if not parts:
         raise MrcheckError(
@@ -82,6 +85,7 @@ def read_ifc(path: Path, kind: FileKind, settings: ImportSettings, progress: Pro
             f"{failed[0].ifc_class} {failed[0].id})",
             path,
         )
+    placement.notes += _length_unit(model, parts, placement, settings, path)
     project = (model.by_type("IfcProject") or [None])[0]
     name = (getattr(project, "Name", None) or path.stem) if project is not None else path.stem
     return ImportedModel(
@@ -95,6 +99,29 @@ def read_ifc(path: Path, kind: FileKind, settings: ImportSettings, progress: Pro
         failed=failed,
         notes=placement.notes,
     )
+
+
+def _check_units(model, path: Path) -> None:
+    """IFC2X3 requires the project's UnitsInContext (IfcOpenShell's iterator stops without it);
+    IFC4 makes it optional (then metres)."""
+    project = (model.by_type("IfcProject") or [None])[0]
+    if model.schema == "IFC2X3" and project is not None and project.UnitsInContext is None:
+        raise MrcheckError(
+            "the IfcProject has no UnitsInContext, which IFC2X3 requires: export the file again with its units", path
+        )
+
+
+def _length_unit(model, parts, placement, settings: ImportSettings, path: Path) -> list[str]:
+    """Rescale to ``settings.units`` when given (a file whose numbers are not in its declared
+    unit); a note when element sizes are implausible for the unit read in."""
+    if settings.units:
+        if settings.units not in LENGTH_UNITS:
+            raise MrcheckError(f"unknown --units {settings.units!r} (use one of {', '.join(LENGTH_UNITS)})", path)
+        declared = declared_unit(model)
+        factor = LENGTH_UNITS[settings.units] / (declared[1] if declared else 1.0)
+        rescale(parts, None if placement.on_map else placement.origin, factor)
+    note = unit_note(model, parts, settings.units)
+    return [note] if note else []
 
 
 def _failed(element, empty: bool) -> FailedElement:
@@ -233,7 +260,8 @@ def _iterate(model, settings, bodies, storeys, world, show):
     import ifcopenshell.util.unit
 
     parts, seen, empty = {}, set(), set()
-    progress, desc = show
+    progress, name = show
+    desc = f"importing {name}"
     groups, todo = split_mapped(bodies)
     threads = settings.threads or default_threads()
     unit_m = float(ifcopenshell.util.unit.calculate_unit_scale(model))

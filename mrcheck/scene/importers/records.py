@@ -28,16 +28,20 @@ class ImportSettings:
     tolerance_px, distance_m : the STEP tessellation's chord error, stated as pixels of a
         1024-pixel-wide 60-degree camera looking from ``distance_m`` (as the LOD states it).
     threads : geometry threads (IFC); None means every core. Not part of the cache key.
+    units : IFC: the length unit the file's numbers are in ("mm", "cm", "m", "in", "ft"),
+        instead of the one it declares (metres when it declares none); None: as declared.
     """
 
     coordinates: str = "model"
     tolerance_px: float = DEFAULT_TOLERANCE_PX
     distance_m: float = DEFAULT_DISTANCE_M
     threads: int | None = None
+    units: str | None = None
 
     def key(self) -> str:
         """The part of the cache key that changes the imported scene."""
-        return f"coordinates={self.coordinates};tolerance_px={self.tolerance_px!r};distance_m={self.distance_m!r}"
+        key = f"coordinates={self.coordinates};tolerance_px={self.tolerance_px!r};distance_m={self.distance_m!r}"
+        return key + (f";units={self.units}" if self.units else "")
 
     def deflection_m(self) -> float:
         """The chord error in metres that ``tolerance_px`` pixels are at ``distance_m``: a
