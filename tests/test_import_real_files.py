@@ -5,6 +5,8 @@ or is listed as left out with its class, name and reason."""
 
 from __future__ import annotations
 
+import os
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -192,3 +194,50 @@ def test_scene_import_counts_what_it_left_out(tmp_path, capsys):
     assert f"IfcWallStandardCase 'Basic Wall 0' {wall} (its shape is empty" in err
     readme = (tmp_path / "out" / "README.md").read_text()
     assert f"IfcWallStandardCase 'Basic Wall 0' `{wall}`" in readme
+
+
+# -- file names that are not UTF-8 ------------------------------------------------------------
+NON_UTF8 = os.fsdecode(b"Halle_S\xfcd_")  # as tests/test_file_names.py: byte 0xFC, surrogate-escaped
+
+
+def _renamed(tmp_path, source: Path) -> Path:
+    target = tmp_path / f"{NON_UTF8}{source.name}"
+    try:
+        shutil.copyfile(source, target)
+    except (OSError, UnicodeEncodeError):
+        pytest.skip("this file system refuses names that are not valid UTF-8")
+    return target
+
+
+@pytest.mark.parametrize(
+    "source", [SHIPPED / "wall-standard-case.ifc", SHIPPED.parent / "step" / "red_cube_blue_cylinder.step"]
+)
+def test_models_with_non_utf8_names_import(tmp_path, source):
+    model = read_model(_renamed(tmp_path, source))
+    assert model.parts and not model.failed
+
+
+def test_scans_with_non_utf8_names_are_read(tmp_path):
+    from mrcheck.scene.scans import read_scan
+
+    scans = Path(__file__).parent / "data" / "scans" / "formats"
+    assert len(read_scan(_renamed(tmp_path, scans / "bunnyInt32.e57"))) == 30571
+    assert len(read_scan(_renamed(tmp_path, scans / "simple.laz"))) == 1065
+
+
+def test_a_broken_ifc_with_a_non_utf8_name_says_where(tmp_path):
+    path = _renamed(tmp_path, SHIPPED / "wall-standard-case.ifc")
+    path.write_bytes(path.read_bytes().replace(b"IFCWALLSTANDARDCASE(", b"IFCWALLSTANDARDCASE(((", 1))
+    with pytest.raises(MrcheckError, match=r"Halle_S\\xfcd_wall-standard-case\.ifc: cannot parse IFC: line \d+"):
+        read_model(path)
+
+
+def test_scene_import_of_a_non_utf8_name(tmp_path, capfdbinary):
+    from mrcheck.cli import main
+
+    path = _renamed(tmp_path, SHIPPED / "wall-standard-case.ifc")
+    assert main(["scene", "import", str(path), "-o", str(tmp_path / "out")]) == 0
+    assert b"1 element in 1 part" in capfdbinary.readouterr().err
+    assert "Halle_S\\xfcd_wall-standard-case.ifc" in (tmp_path / "out" / "README.md").read_text(encoding="utf-8")
+    assert main(["scene", "info", str(path)]) == 0  # the file itself, through the cache
+    assert b"IfcWallStandardCase" in capfdbinary.readouterr().out

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from mrcheck.core.errors import MrcheckError
+from mrcheck.core.native_names import utf8_name
 from mrcheck.core.progress import Progress, no_progress
 from mrcheck.core.quiet import native_output
 from mrcheck.scene.importers.georef import map_conversion, site_origin
@@ -138,8 +139,8 @@ def _open(path: Path):
 
     ifcopenshell.get_log()  # reading the log empties it: what follows is this file's
     try:
-        with native_output():
-            model = ifcopenshell.open(str(path))
+        with native_output(), utf8_name(path) as name:
+            model = ifcopenshell.open(name)
     except Exception as exc:  # ifcopenshell raises its own, RuntimeError and others for a broken file
         reason = " ".join(str(exc).split())[:200] or type(exc).__name__
         raise MrcheckError(f"cannot parse IFC ({reason})", path) from None

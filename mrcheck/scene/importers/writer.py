@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mrcheck.core.errors import MrcheckError
+from mrcheck.core.errors import MrcheckError, display
 from mrcheck.scene.importers.records import ImportedModel, ImportedPart
 from mrcheck.scene.manifest import dumps_manifest, write_generated
 
@@ -52,6 +52,7 @@ def write_scene(model: ImportedModel, outdir: Path, header: str) -> Path:
     its scene.toml. ``header`` is the manifest's first comment line after the marker."""
     outdir = Path(os.path.abspath(outdir))
     check_import_dir(outdir)
+    header = display(header)  # a file name that is not UTF-8 as \xNN: the files are UTF-8 text
     write_generated(outdir, lambda work: _fill(work, model, header), stale=OWN)
     return outdir / "scene.toml"
 
@@ -73,7 +74,7 @@ def _fill(work: Path, model: ImportedModel, header: str) -> None:
 def describe(model: ImportedModel) -> str:
     what = "elements" if model.kind == "ifc" else "instances"
     text = (
-        f"Imported from {model.source.name} ({model.schema.split()[0]}): {model.element_count} {what} in "
+        f"Imported from {display(model.source.name)} ({model.schema.split()[0]}): {model.element_count} {what} in "
         f"{len(model.parts)} parts, {model.triangle_count:,} triangles as rendered."
     )
     if model.failed:

@@ -19,6 +19,7 @@ import warnings
 import numpy as np
 
 from mrcheck.core.errors import MrcheckError, MrcheckWarning
+from mrcheck.core.native_names import utf8_name
 from mrcheck.core.progress import Progress
 from mrcheck.scene.scans.record import CHUNK_POINTS, CloudBuilder, ScanCloud, ScanPose, chunks
 
@@ -181,7 +182,8 @@ def read_e57(path, progress: Progress) -> ScanCloud:
     """Every scan of an E57 file, its pose applied, in the file's frame (metres, E57's unit)."""
     import pye57
 
-    e57 = pye57.E57(str(path))
+    with utf8_name(path) as name:
+        e57 = pye57.E57(name)
     with contextlib.closing(e57):
         scans = [_node(e57.data3d, i) for i in range(len(e57.data3d))]
         counts = [int(_node(s, "points").childCount()) for s in scans]
