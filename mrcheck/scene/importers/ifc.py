@@ -33,6 +33,7 @@ from mrcheck.scene.importers.ifc_mapped import (
     split_mapped,
 )
 from mrcheck.scene.importers.ifc_units import LENGTH_UNITS, declared_unit, rescale, unit_note
+from mrcheck.scene.importers.ifc_views import file_viewpoints
 from mrcheck.scene.importers.records import (
     FailedElement,
     ImportedInstance,
@@ -86,7 +87,8 @@ def read_ifc(path: Path, kind: FileKind, settings: ImportSettings, progress: Pro
             f"{failed[0].ifc_class} {failed[0].id})",
             path,
         )
-    placement.notes += _length_unit(model, parts, placement, settings, path)
+    scale = _length_unit(model, parts, placement, settings, path)
+    views, view_notes = file_viewpoints(model, placement.matrix, scale)
     project = (model.by_type("IfcProject") or [None])[0]
     name = (getattr(project, "Name", None) or path.stem) if project is not None else path.stem
     return ImportedModel(
@@ -98,7 +100,8 @@ def read_ifc(path: Path, kind: FileKind, settings: ImportSettings, progress: Pro
         origin=placement.origin,
         crs=placement.crs,
         failed=failed,
-        notes=placement.notes,
+        notes=placement.notes + view_notes,
+        viewpoints=views,
     )
 
 
@@ -112,9 +115,10 @@ def _check_units(model, path: Path) -> None:
         )
 
 
-def _length_unit(model, parts, placement, settings: ImportSettings, path: Path) -> list[str]:
+def _length_unit(model, parts, placement, settings: ImportSettings, path: Path) -> float:
     """Rescale to ``settings.units`` when given (a file whose numbers are not in its declared
-    unit); a note when element sizes are implausible for the unit read in."""
+    unit), and the factor; a note when element sizes are implausible for the unit read in."""
+    factor = 1.0
     if settings.units:
         if settings.units not in LENGTH_UNITS:
             raise MrcheckError(f"unknown --units {settings.units!r} (use one of {', '.join(LENGTH_UNITS)})", path)
@@ -122,7 +126,8 @@ def _length_unit(model, parts, placement, settings: ImportSettings, path: Path) 
         factor = LENGTH_UNITS[settings.units] / (declared[1] if declared else 1.0)
         rescale(parts, None if placement.on_map else placement.origin, factor)
     note = unit_note(model, parts, settings.units)
-    return [note] if note else []
+    placement.notes += [note] if note else []
+    return factor
 
 
 def _failed(element, empty: bool) -> FailedElement:

@@ -122,6 +122,7 @@ class ImportedModel:
     crs: str = ""
     failed: list[FailedElement] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)  # what the summary says besides counts
+    viewpoints: list[dict] = field(default_factory=list)  # the file's own, as manifest tables
 
     @property
     def element_count(self) -> int:

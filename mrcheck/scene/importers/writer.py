@@ -66,7 +66,10 @@ def _fill(work: Path, model: ImportedModel, header: str) -> None:
     if model.crs:
         data["crs"] = model.crs
     data["parts"] = tables
-    data["viewpoints"] = [overview(model)]
+    # the file's own viewpoints first (the first is what a command without --view shows), then
+    # the computed overview unless the file has one of that name
+    names = {v["name"] for v in model.viewpoints}
+    data["viewpoints"] = list(model.viewpoints) + ([overview(model)] if OVERVIEW not in names else [])
     (work / "scene.toml").write_text(dumps_manifest(data, f"{MARKER} {header}"), encoding="utf-8")
     (work / "README.md").write_text(_readme(model, header), encoding="utf-8")
 
