@@ -125,3 +125,17 @@ def test_las_with_a_negative_scale_still_reads(tmp_path):
     # a negative scale mirrors an axis: unusual but a real coordinate, not a collapse
     cloud = read_scan(_las(tmp_path / "mirror.las", (-0.5, 1.0, 1.0)))
     np.testing.assert_allclose(cloud.points[:, 0], -0.5 * np.arange(5))
+
+
+def test_deviation_refuses_a_las_with_scale_zero(tmp_path, capsys):
+    import trimesh
+
+    from mrcheck.cli import main
+
+    scan = _las(tmp_path / "flat.las", (0.0, 0.0, 0.0))
+    trimesh.creation.box(extents=(1, 1, 1)).export(tmp_path / "box.stl")
+    code = main(["deviation", str(scan), "--scene", str(tmp_path / "box.stl"), "-o", str(tmp_path / "out")])
+    out, err = capsys.readouterr()
+    lines = [line for line in err.strip().splitlines() if not line.startswith("warning:")]
+    assert code == 1 and len(lines) == 1 and lines[0].startswith(f"error: {scan}: LAS header has an unusable scale")
+    assert "median" not in out + err and not (tmp_path / "out").exists()
