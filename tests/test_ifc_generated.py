@@ -187,3 +187,19 @@ def test_ray_casting_and_deviation_at_map_coordinates(generated, tmp_path):
     near, _ = signed_distances(at_own, points)
     far, _ = signed_distances(at_map, points + SHIFT)
     np.testing.assert_allclose(far, near, atol=1e-4)
+
+
+def test_viewpoints_survive_the_ifc_round_trip(ctx, generated, tmp_path):
+    """The generated scene's viewpoints (aisle, ...) come back from its IFC, in the scene's order
+    and in map coordinates too; --view aisle renders the GLB scene's image."""
+    manifest, own, mapped = generated
+    glb, ifc = load_scene(manifest), load_scene(own)
+    assert list(ifc.viewpoints) == list(glb.viewpoints) and "aisle" in ifc.viewpoints
+    for name, view in glb.viewpoints.items():
+        for key in ("eye", "target"):
+            np.testing.assert_allclose(ifc.viewpoints[name][key], view[key], atol=1e-9)
+        assert ifc.viewpoints[name]["fov_y_deg"] == view["fov_y_deg"]
+    camera = ifc.camera("aisle", W, H)
+    _assert_same_image(_image(ctx, glb, camera), _image(ctx, ifc, camera))
+    at_map = load_scene(import_scene(mapped, tmp_path / "map", ImportSettings(coordinates="map")).manifest)
+    np.testing.assert_allclose(np.asarray(at_map.viewpoints["aisle"]["eye"]) - SHIFT, glb.viewpoints["aisle"]["eye"])

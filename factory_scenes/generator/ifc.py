@@ -12,6 +12,8 @@ IfcFurnishingElement, everything else IfcBuildingElementProxy; the generator's i
 (``column-A03``) is the element's Name and Tag, its GlobalId is derived from the seed and that
 id (the same arguments write the same bytes: the header's time stamp is fixed too). Colours are
 IfcSurfaceStyle shading colours. All elements are contained in one storey, "Ground floor".
+The scene's viewpoints (``aisle``, ...) go into the IfcProject's property set
+:data:`~mrcheck.scene.importers.ifc_views.VIEWPOINTS_PSET`, which the importer reads back.
 """
 
 from __future__ import annotations
@@ -80,6 +82,7 @@ def write_ifc(
     storey = _spatial(model, project, seed)
     if map_origin is not None:
         _georeference(model, map_origin, crs)
+    _viewpoints(model, project, scene.viewpoints, seed)
     contained = []
     for index, part in enumerate(scene.parts):
         contained += _write_part(model, body, part, seed)
@@ -92,6 +95,20 @@ def write_ifc(
         relationship.GlobalId = guid(seed, f"relationship#{relationship.id()}")
     model.write(str(path))
     return path
+
+
+def _viewpoints(model, project, viewpoints: dict, seed: int) -> None:
+    """The scene's viewpoints as the project's property set (IFC has no camera entity)."""
+    from mrcheck.scene.importers.ifc_views import VIEWPOINTS_PSET, viewpoint_text
+
+    if not viewpoints:
+        return
+    values = [
+        model.createIfcPropertySingleValue(name, None, model.create_entity("IfcText", viewpoint_text(view)), None)
+        for name, view in viewpoints.items()
+    ]
+    pset = model.createIfcPropertySet(guid(seed, "viewpoints"), None, VIEWPOINTS_PSET, None, values)
+    model.createIfcRelDefinesByProperties(guid(seed, "viewpoints-of-project"), None, None, None, [project], pset)
 
 
 def _georeference(model, origin, crs: str) -> None:

@@ -127,7 +127,13 @@ def scene_generate(preset, seed, size_m, target_triangles, units_mix, fmt, outdi
     help="STEP tessellation: the viewing distance --tolerance-px is stated at (metres).",
 )
 @click.option("--threads", type=click.IntRange(min=1), help="Geometry threads [default: every core].")
-def scene_import(model, outdir, coordinates, tolerance_px, distance_m, threads):
+@click.option(
+    "--units",
+    type=click.Choice(["mm", "cm", "m", "in", "ft"]),
+    help="IFC: the unit the file's coordinates are in, instead of the one it declares (metres when it declares "
+    "none) [default: as declared].",
+)
+def scene_import(model, outdir, coordinates, tolerance_px, distance_m, threads, units):
     """Import an IFC or STEP model as a normal mrcheck scene.
 
     IFC2X3, IFC4, IFC4X3 (IfcOpenShell) and STEP AP203, AP214, AP242 (OpenCascade): one part
@@ -143,7 +149,7 @@ def scene_import(model, outdir, coordinates, tolerance_px, distance_m, threads):
     from mrcheck.scene.importers.cache import import_scene
 
     settings = ImportSettings(
-        coordinates=coordinates, tolerance_px=tolerance_px, distance_m=distance_m, threads=threads
+        coordinates=coordinates, tolerance_px=tolerance_px, distance_m=distance_m, threads=threads, units=units
     )
     result = import_scene(Path(model), Path(outdir), settings, progress_bar)
     click.echo(result.summary(), err=True)

@@ -6,8 +6,8 @@ tolerance) to red (:data:`RED_AT` x the tolerance or more) by the size of the de
 offset's length, or the residual when that is larger); the legend's bar gives the mm. The tint
 multiplies the vector-AO render's brightness, so depth stays readable (AO darkens corners and
 contacts). With a shot, the picture is in the photo's (distorted) geometry, blended 50 % over
-it; without one, it is the scene's first viewpoint (or an overview from above the scene's
-box's south-west corner when the scene has none).
+it; without one, it is the scene's first viewpoint inside the scene's box, else a view that sees
+the elements (:func:`overview_camera`: not from above a roof that hides them).
 """
 
 from __future__ import annotations
@@ -23,6 +23,10 @@ OUT_LOW, OUT_HIGH = np.array([255, 170, 40], np.float64), np.array([220, 30, 30]
 RED_AT = 5.0  # deviation / tolerance at which the tint is fully red
 PHOTO_ALPHA = 0.5
 OVERVIEW_SIZE = (1024, 768)
+PICK_SIZE = (160, 120)  # the candidate views' id renders: enough to count the elements each sees
+BETTER_BY = 2.0
+EYE_HEIGHT_M = 1.7
+INSET = 0.1  # the inside views' eyes, as a fraction of the box from its corners
 BACKGROUND = (40, 40, 40)
 
 
@@ -45,13 +49,52 @@ def status_colours(rows, tolerance_mm: float) -> np.ndarray:
 
 
 def overview_camera(scene) -> Camera:
-    """The scene's first viewpoint, else a view from above one corner of its box."""
-    if scene.viewpoints:
-        return scene.camera(next(iter(scene.viewpoints)), *OVERVIEW_SIZE)
+    """The camera of the status picture without a shot: the scene's first viewpoint whose eye is
+    inside the scene's box. With none inside (an imported IFC has only the computed overview,
+    above the roof), the first viewpoint (else a view from above one corner of the box) unless
+    a view from inside one of the box's corners at eye height sees more than
+    :data:`BETTER_BY` times as many elements: from outside a building the roof hides them."""
     lo, hi = scene.bounds()
+    for name in scene.viewpoints:
+        camera = scene.camera(name, *OVERVIEW_SIZE)
+        if _inside(camera.center, lo, hi):
+            return camera
+    outside = scene.camera(next(iter(scene.viewpoints)), *OVERVIEW_SIZE) if scene.viewpoints else _corner_view(lo, hi)
+    inside = _inside_views(lo, hi)
+    seen = [_elements_seen(scene, camera) for camera in [outside, *inside]]
+    best = int(np.argmax(seen[1:]))
+    return inside[best] if seen[1 + best] > BETTER_BY * seen[0] else outside
+
+
+def _inside(point, lo, hi) -> bool:
+    return bool(np.all(point > lo) and np.all(point < hi))
+
+
+def _corner_view(lo, hi) -> Camera:
     centre, size = (lo + hi) / 2.0, hi - lo
     eye = centre + np.array([-0.6 * size[0], -0.8 * size[1], 0.5 * max(size[0], size[1])])
     return Camera.from_look_at(eye, centre, (0, 0, 1), 50.0, *OVERVIEW_SIZE)
+
+
+def _inside_views(lo, hi) -> list[Camera]:
+    """Views from just inside the box's four lower corners at eye height, across the box."""
+    size = hi - lo
+    z = lo[2] + min(EYE_HEIGHT_M, 0.5 * size[2])
+    target = np.array([(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0, lo[2] + 0.25 * size[2]])
+    views = []
+    for fx in (INSET, 1.0 - INSET):
+        for fy in (INSET, 1.0 - INSET):
+            eye = np.array([lo[0] + fx * size[0], lo[1] + fy * size[1], z])
+            views.append(Camera.from_look_at(eye, target, (0, 0, 1), 60.0, *OVERVIEW_SIZE))
+    return views
+
+
+def _elements_seen(scene, camera: Camera) -> int:
+    """How many instances a small render of ``camera`` shows."""
+    from mrcheck.apps.discrepancies.ids import object_ids
+
+    ids, _, _ = object_ids(scene, camera.resized(*PICK_SIZE))
+    return len(np.unique(ids[ids >= 0]))
 
 
 def legend(height: int, tolerance_mm: float) -> np.ndarray:

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from mrcheck.core.errors import MrcheckError
 from mrcheck.core.progress import Progress, no_progress
 from mrcheck.scene.importers.records import ImportedModel, ImportSettings
 from mrcheck.scene.importers.sniff import IMPORT_SUFFIXES, sniff
@@ -31,6 +32,8 @@ def read_model(path, settings: ImportSettings | None = None, progress: Progress 
         from mrcheck.scene.importers.ifc import read_ifc
 
         return read_ifc(path, kind, settings, progress)
+    if settings.units:
+        raise MrcheckError("--units applies to an IFC file; a STEP file declares its own units", path)
     from mrcheck.scene.importers.step import read_step
 
     return read_step(path, kind, settings, progress)

@@ -27,7 +27,7 @@ from mrcheck.scene.importers.records import ImportResult, ImportSettings, defaul
 from mrcheck.scene.importers.sniff import file_digest
 from mrcheck.scene.importers.writer import write_scene
 
-IMPORTER_VERSION = "2"  # bump when the importers' output changes: old entries are then misses
+IMPORTER_VERSION = "3"  # bump when the importers' output changes: old entries are then misses
 
 
 def cache_root() -> Path:
@@ -137,7 +137,7 @@ SHOWN_FAILURES = 5
 
 def failed_summary(failed) -> str:
     """One line naming the elements left out (the first few; the scene's README lists all)."""
-    names = ", ".join(f"{f.ifc_class} {f.id}" for f in failed[:SHOWN_FAILURES])
+    names = ", ".join(f"{f.label()} ({f.reason})" for f in failed[:SHOWN_FAILURES])
     more = f" and {len(failed) - SHOWN_FAILURES} more" if len(failed) > SHOWN_FAILURES else ""
     return f"{len(failed)} element(s) without geometry left out: {names}{more}"
 

@@ -18,6 +18,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mrcheck.core.errors import MrcheckError
+
 
 @dataclass
 class Placement:
@@ -28,6 +30,7 @@ class Placement:
     origin: np.ndarray
     crs: str = ""
     notes: list = field(default_factory=list)
+    on_map: bool = False  # origin in map units (IfcMapConversion), not the file's length unit
 
     """Metres per unit of an IfcNamedUnit (SI with prefix, or a conversion-based unit)."""
 
@@ -42,9 +45,11 @@ def _si_scale(unit) -> float:
     return 1.0
 
 
-def map_conversion(model) -> Placement | None:
+def map_conversion(model, path=None) -> Placement | None:
     """The Placement of the model's first IfcMapConversion (None when it has none: IFC2X3
-    files, and most IFC4 exports)."""
+    files, and most IFC4 exports). Raises MrcheckError naming ``path`` for a Scale that is 0,
+    negative or not finite (a zero matrix would put every element at the map origin) and an
+    offset that is not finite."""
     conversions = model.by_type("IfcMapConversion") if model.schema != "IFC2X3" else []
     if not conversions:
         return None
@@ -52,6 +57,8 @@ def map_conversion(model) -> Placement | None:
     crs = conv.TargetCRS
     unit_m = _map_unit_m(model, crs)
     scale = float(conv.Scale) if conv.Scale is not None else 1.0
+    if not (np.isfinite(scale) and scale > 0.0):
+        raise MrcheckError(f"the IfcMapConversion #{conv.id()} has Scale {scale!r}: it must be positive", path)
     abscissa = float(conv.XAxisAbscissa) if conv.XAxisAbscissa is not None else 1.0
     ordinate = float(conv.XAxisOrdinate) if conv.XAxisOrdinate is not None else 0.0
     theta = np.arctan2(ordinate, abscissa)
@@ -60,8 +67,10 @@ def map_conversion(model) -> Placement | None:
     matrix[:2, :2] = scale * np.array([[c, -s], [s, c]])
     matrix[2, 2] = scale
     origin = np.array([float(conv.Eastings), float(conv.Northings), float(conv.OrthogonalHeight or 0.0)]) * unit_m
+    if not np.isfinite(origin).all():
+        raise MrcheckError(f"the IfcMapConversion #{conv.id()} has an offset that is not finite", path)
     name = str(getattr(crs, "Name", "") or "") if crs is not None else ""
-    return Placement(matrix=matrix, origin=origin, crs=name)
+    return Placement(matrix=matrix, origin=origin, crs=name, on_map=True)
 
 
 def _map_unit_m(model, crs) -> float:

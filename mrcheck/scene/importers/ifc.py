@@ -5,8 +5,8 @@ gives every element that maps it (an IfcMappedItem of a type's IfcRepresentation
 same representation reused) the same geometry id, so repeated elements become instances of one
 part. Every instance's id is its element's GlobalId; part and instance keep the element's name,
 IFC class and storey. Coordinates come in metres whatever the file's unit assignment (the
-iterator converts them). An element whose geometry fails is listed (GlobalId and class) and the
-rest imports.
+iterator converts them). An element whose geometry fails or builds empty is listed (class, name,
+GlobalId and why) and the rest imports.
 
 The iterator runs on ``threads`` cores (C++ threads: the Python loop only collects results).
 """
@@ -20,10 +20,20 @@ from pathlib import Path
 import numpy as np
 
 from mrcheck.core.errors import MrcheckError
+from mrcheck.core.native_names import utf8_name
 from mrcheck.core.progress import Progress, no_progress
 from mrcheck.core.quiet import native_output
 from mrcheck.scene.importers.georef import map_conversion, site_origin
-from mrcheck.scene.importers.ifc_mapped import Placements, mesh_maps, shape_arrays, shape_colour, split_mapped
+from mrcheck.scene.importers.ifc_mapped import (
+    Booleans,
+    Placements,
+    mesh_maps,
+    shape_arrays,
+    shape_colour,
+    split_mapped,
+)
+from mrcheck.scene.importers.ifc_units import LENGTH_UNITS, declared_unit, rescale, unit_note
+from mrcheck.scene.importers.ifc_views import file_viewpoints
 from mrcheck.scene.importers.records import (
     FailedElement,
     ImportedInstance,
@@ -63,18 +73,22 @@ def read_ifc(path: Path, kind: FileKind, settings: ImportSettings, progress: Pro
             "3-D 'Body' geometry): nothing to render",
             path,
         )
+    _check_units(model, path)
     placement = _placement(model, settings, path)
     storeys = storey_names(model)
-    parts, seen = _iterate(model, settings, bodies, storeys, placement.matrix, (progress, f"importing {path.name}"))
-    failed = [
-        FailedElement(e.GlobalId, e.is_a(), "IfcOpenShell built no geometry") for e in bodies if e.id() not in seen
-    ]
+    try:
+        parts, seen, empty = _iterate(model, settings, bodies, storeys, placement.matrix, (progress, path.name))
+    except RuntimeError as exc:  # IfcOpenShell's iterator on a file that breaks the schema
+        raise MrcheckError(f"IfcOpenShell cannot build the model ({' '.join(str(exc).split())[:160]})", path) from None
+    failed = [_failed(e, e.id() in empty) for e in bodies if e.id() not in seen]
     if not parts:
         raise MrcheckError(
             f"no element's geometry could be built ({len(failed)} of them failed, e.g. "
             f"{failed[0].ifc_class} {failed[0].id})",
             path,
         )
+    scale = _length_unit(model, parts, placement, settings, path)
+    views, view_notes = file_viewpoints(model, placement.matrix, scale)
     project = (model.by_type("IfcProject") or [None])[0]
     name = (getattr(project, "Name", None) or path.stem) if project is not None else path.stem
     return ImportedModel(
@@ -86,8 +100,41 @@ def read_ifc(path: Path, kind: FileKind, settings: ImportSettings, progress: Pro
         origin=placement.origin,
         crs=placement.crs,
         failed=failed,
-        notes=placement.notes,
+        notes=placement.notes + view_notes,
+        viewpoints=views,
     )
+
+
+def _check_units(model, path: Path) -> None:
+    """IFC2X3 requires the project's UnitsInContext (IfcOpenShell's iterator stops without it);
+    IFC4 makes it optional (then metres)."""
+    project = (model.by_type("IfcProject") or [None])[0]
+    if model.schema == "IFC2X3" and project is not None and project.UnitsInContext is None:
+        raise MrcheckError(
+            "the IfcProject has no UnitsInContext, which IFC2X3 requires: export the file again with its units", path
+        )
+
+
+def _length_unit(model, parts, placement, settings: ImportSettings, path: Path) -> float:
+    """Rescale to ``settings.units`` when given (a file whose numbers are not in its declared
+    unit), and the factor; a note when element sizes are implausible for the unit read in."""
+    factor = 1.0
+    if settings.units:
+        if settings.units not in LENGTH_UNITS:
+            raise MrcheckError(f"unknown --units {settings.units!r} (use one of {', '.join(LENGTH_UNITS)})", path)
+        declared = declared_unit(model)
+        factor = LENGTH_UNITS[settings.units] / (declared[1] if declared else 1.0)
+        rescale(parts, None if placement.on_map else placement.origin, factor)
+    note = unit_note(model, parts, settings.units)
+    placement.notes += [note] if note else []
+    return factor
+
+
+def _failed(element, empty: bool) -> FailedElement:
+    reason = (
+        "its shape is empty (openings or clippings remove all of it)" if empty else "IfcOpenShell built no geometry"
+    )
+    return FailedElement(str(element.GlobalId), element.is_a(), reason, name=str(element.Name or ""))
 
 
 def _open(path: Path):
@@ -97,8 +144,8 @@ def _open(path: Path):
 
     ifcopenshell.get_log()  # reading the log empties it: what follows is this file's
     try:
-        with native_output():
-            model = ifcopenshell.open(str(path))
+        with native_output(), utf8_name(path) as name:
+            model = ifcopenshell.open(name)
     except Exception as exc:  # ifcopenshell raises its own, RuntimeError and others for a broken file
         reason = " ".join(str(exc).split())[:200] or type(exc).__name__
         raise MrcheckError(f"cannot parse IFC ({reason})", path) from None
@@ -167,14 +214,24 @@ def storey_names(model) -> dict:
 
 def _placement(model, settings: ImportSettings, path: Path):
     """World frame of the import: the file's own coordinates, or its map coordinates."""
-    conversion = map_conversion(model)
-    if settings.coordinates == "map":
-        if conversion is not None:
-            return conversion
-        placement = site_origin(model)
-        placement.notes.append("no IfcMapConversion in the file: its site placement is taken as the map position")
-        return placement
+    if settings.coordinates != "map":
+        return _own_placement(model, path)
+    conversion = map_conversion(model, path)
+    if conversion is not None:
+        return conversion
     placement = site_origin(model)
+    placement.notes.append("no IfcMapConversion in the file: its site placement is taken as the map position")
+    return placement
+
+
+def _own_placement(model, path: Path):
+    """The file's own coordinates; a note when it has a map conversion (an unusable one too)."""
+    placement = site_origin(model)
+    try:
+        conversion = map_conversion(model, path)
+    except MrcheckError as exc:
+        placement.notes.append(f"{exc.problem}; --coordinates map refuses it")
+        return placement
     if conversion is not None:
         placement.crs = ""
         placement.notes.append(
@@ -196,19 +253,23 @@ def _geometry_settings(settings: ImportSettings):
 
 
 # cgal-simple builds tessellated and extruded shapes some 8x faster than OpenCascade but no
-# Booleans (the CSG bath): the elements it leaves out get a second pass with OpenCascade
+# Booleans (openings, clippings; the CSG bath): elements that need them, and those it leaves
+# out or builds empty, get a pass with OpenCascade
 KERNELS = ("cgal-simple", "opencascade")
 
 
 def _iterate(model, settings, bodies, storeys, world, show):
-    """{geometry id: ImportedPart} of every built element, and the step ids built: elements that
-    only map a type's shape through :mod:`.ifc_mapped` (each shape meshed once), the rest through
-    IfcOpenShell's iterator (cgal-simple, then OpenCascade for what that left out)."""
+    """{geometry id: ImportedPart} of every built element, the step ids built and those built
+    empty: elements that only map a type's shape through :mod:`.ifc_mapped` (each shape meshed
+    once), the rest through IfcOpenShell's iterator (cgal-simple, then OpenCascade for what that
+    left out or built empty, and for every element whose shape needs Booleans)."""
     import ifcopenshell.util.unit
 
     parts: dict[str, ImportedPart] = {}  # by geometry id, "map<id>" for a representation map
     seen: set[int] = set()
-    progress, desc = show
+    empty: set[int] = set()
+    progress, name = show
+    desc = f"importing {name}"
     groups, todo = split_mapped(bodies)
     threads = settings.threads or default_threads()
     unit_m = float(ifcopenshell.util.unit.calculate_unit_scale(model))
@@ -217,13 +278,15 @@ def _iterate(model, settings, bodies, storeys, world, show):
     with contextlib.closing(progress(list(groups.items()), desc, "shape")) as items:
         for map_id, members in items:
             _add_mapped(parts, seen, meshes.get(map_id), members, todo, (world, placements, storeys))
+    booleans = Booleans()
     for kernel in KERNELS:
         todo = [e for e in todo if e.id() not in seen]
-        if todo:
-            with contextlib.closing(progress(_run_iterator(model, settings, kernel, todo), desc, "element")) as shapes:
+        batch = todo if kernel == KERNELS[-1] else [e for e in todo if not booleans.element(e)]
+        if batch:
+            with contextlib.closing(progress(_run_iterator(model, settings, kernel, batch), desc, "element")) as shapes:
                 for shape in shapes:
-                    _add_shape(model, parts, seen, shape, world, storeys)
-    return [p for p in parts.values() if len(p.faces)], seen
+                    _add_shape(model, parts, (seen, empty), shape, (world, storeys))
+    return list(parts.values()), seen, empty - seen
 
 
 def _add_mapped(parts, seen, mesh, members, todo, frame) -> None:
@@ -242,13 +305,19 @@ def _add_mapped(parts, seen, mesh, members, todo, frame) -> None:
         seen.add(element.id())
 
 
-def _add_shape(model, parts, seen, shape, world, storeys) -> None:
-    """One element the iterator built: an instance of the part of its geometry id."""
+def _add_shape(model, parts, done, shape, frame) -> None:
+    """One element the iterator built: an instance of the part of its geometry id; an empty
+    shape is noted in ``done``'s second set (a later kernel may build it)."""
     import ifcopenshell.util.shape
 
+    seen, empty = done
+    world, storeys = frame
+    geometry = shape.geometry
+    if not len(geometry.faces):
+        empty.add(shape.id)
+        return
     element = model.by_id(shape.id)
     seen.add(shape.id)
-    geometry = shape.geometry
     part = parts.get(geometry.id)
     if part is None:
         part = parts[geometry.id] = _part(geometry, element)

@@ -10,6 +10,11 @@ mapped item's transformation (target @ origin, :func:`ifcopenshell.util.placemen
 Only elements whose Body is exactly one IfcMappedItem and that have no openings take this path
 (openings cut each element differently); everything else, and any map that fails to build here,
 goes through the iterator.
+
+cgal-simple, the fast kernel, does no Boolean operations and says nothing about it: a wall's
+openings make it an empty shape, a clipped item is left out of a shape that has others (a
+table without its clipped shelf). :class:`Booleans` tells which shapes need them; those are
+built with OpenCascade only.
 """
 
 from __future__ import annotations
@@ -48,6 +53,36 @@ def split_mapped(bodies) -> tuple[dict, list]:
     return groups, rest
 
 
+class Booleans:
+    """Whether an element's or a representation's shape needs Boolean operations: an opening,
+    an IfcBooleanResult (IfcBooleanClippingResult: Revit's roofs and clipped walls), also
+    inside the representation an IfcMappedItem maps. Memoised per representation."""
+
+    def __init__(self):
+        self._memo: dict = {}
+
+    def element(self, element) -> bool:
+        if getattr(element, "HasOpenings", None):
+            return True
+        shape = element.Representation
+        return any(
+            self.representation(r)
+            for r in (shape.Representations or () if shape is not None else ())
+            if (r.RepresentationIdentifier or "Body") == "Body"
+        )
+
+    def representation(self, representation) -> bool:
+        key = representation.id()
+        if key not in self._memo:
+            self._memo[key] = any(self._item(item) for item in representation.Items or ())
+        return self._memo[key]
+
+    def _item(self, item) -> bool:
+        if item.is_a("IfcMappedItem"):
+            return self.representation(item.MappingSource.MappedRepresentation)
+        return item.is_a("IfcBooleanResult")
+
+
 @dataclass
 class MapMesh:
     """The triangles of one IfcRepresentationMap in its own coordinates, metres."""
@@ -61,15 +96,17 @@ def mesh_maps(model, settings, groups: dict, kernels, threads: int, unit_m: floa
     """{map id: MapMesh} of every map that builds; maps that fail are left out (their elements
     go to the iterator). A map of IfcTriangulatedFaceSets is read as it is written (its indices
     are the triangles: nothing to mesh); any other through ``create_shape`` (cgal-simple first,
-    then OpenCascade)."""
+    then OpenCascade; OpenCascade alone for one with Booleans)."""
     import ifcopenshell.geom
+
+    booleans = Booleans()
 
     def build(map_id):
         representation = model.by_id(map_id).MappedRepresentation
         direct = triangulated(representation, unit_m)
         if direct is not None:
             return map_id, direct
-        for kernel in kernels:
+        for kernel in kernels[-1:] if booleans.representation(representation) else kernels:
             # with these settings a triangulation; IfcOpenShell types it as every kind of result
             shape: Any
             try:
@@ -232,6 +269,7 @@ def _unit(v):
 
 
 __all__ = [
+    "Booleans",
     "single_mapped_item",
     "split_mapped",
     "mesh_maps",

@@ -28,16 +28,20 @@ class ImportSettings:
     tolerance_px, distance_m : the STEP tessellation's chord error, stated as pixels of a
         1024-pixel-wide 60-degree camera looking from ``distance_m`` (as the LOD states it).
     threads : geometry threads (IFC); None means every core. Not part of the cache key.
+    units : IFC: the length unit the file's numbers are in ("mm", "cm", "m", "in", "ft"),
+        instead of the one it declares (metres when it declares none); None: as declared.
     """
 
     coordinates: str = "model"
     tolerance_px: float = DEFAULT_TOLERANCE_PX
     distance_m: float = DEFAULT_DISTANCE_M
     threads: int | None = None
+    units: str | None = None
 
     def key(self) -> str:
         """The part of the cache key that changes the imported scene."""
-        return f"coordinates={self.coordinates};tolerance_px={self.tolerance_px!r};distance_m={self.distance_m!r}"
+        key = f"coordinates={self.coordinates};tolerance_px={self.tolerance_px!r};distance_m={self.distance_m!r}"
+        return key + (f";units={self.units}" if self.units else "")
 
     def deflection_m(self) -> float:
         """The chord error in metres that ``tolerance_px`` pixels are at ``distance_m``: a
@@ -92,6 +96,11 @@ class FailedElement:
     id: str
     ifc_class: str
     reason: str = ""
+    name: str = ""
+
+    def label(self) -> str:
+        """ "IfcWallStandardCase 'Basic Wall 0' 2ebDUHeC5BNfwjQtFf6prP": how lists name it."""
+        return f"{self.ifc_class} {self.name!r} {self.id}" if self.name else f"{self.ifc_class} {self.id}"
 
 
 @dataclass
@@ -113,6 +122,7 @@ class ImportedModel:
     crs: str = ""
     failed: list[FailedElement] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)  # what the summary says besides counts
+    viewpoints: list[dict] = field(default_factory=list)  # the file's own, as manifest tables
 
     @property
     def element_count(self) -> int:

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from mrcheck.core.errors import MrcheckError
+from mrcheck.core.native_names import utf8_name
 from mrcheck.core.progress import Progress, no_progress
 from mrcheck.core.quiet import native_output
 from mrcheck.scene.importers.records import (
@@ -124,7 +125,8 @@ def _read_document(path: Path):
     reader.SetNameMode(True)
     reader.SetLayerMode(False)
     with native_output(fds=(1, 2)) as printed:  # the reader prints its statistics and complaints
-        status = reader.ReadFile(str(path))
+        with utf8_name(path) as name:
+            status = reader.ReadFile(name)
         ok = status == IFSelect_ReturnStatus.IFSelect_RetDone and reader.Transfer(doc)
     if not ok:
         reason = "; ".join(printed[:2]) or str(status).rsplit("_", 1)[-1]

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mrcheck.core.errors import MrcheckError
+from mrcheck.core.errors import MrcheckError, display
 from mrcheck.scene.importers.records import ImportedModel, ImportedPart
 from mrcheck.scene.manifest import dumps_manifest, write_generated
 
@@ -52,6 +52,7 @@ def write_scene(model: ImportedModel, outdir: Path, header: str) -> Path:
     its scene.toml. ``header`` is the manifest's first comment line after the marker."""
     outdir = Path(os.path.abspath(outdir))
     check_import_dir(outdir)
+    header = display(header)  # a file name that is not UTF-8 as \xNN: the files are UTF-8 text
     write_generated(outdir, lambda work: _fill(work, model, header), stale=OWN)
     return outdir / "scene.toml"
 
@@ -65,7 +66,10 @@ def _fill(work: Path, model: ImportedModel, header: str) -> None:
     if model.crs:
         data["crs"] = model.crs
     data["parts"] = tables
-    data["viewpoints"] = [overview(model)]
+    # the file's own viewpoints first (the first is what a command without --view shows), then
+    # the computed overview unless the file has one of that name
+    names = {v["name"] for v in model.viewpoints}
+    data["viewpoints"] = list(model.viewpoints) + ([overview(model)] if OVERVIEW not in names else [])
     (work / "scene.toml").write_text(dumps_manifest(data, f"{MARKER} {header}"), encoding="utf-8")
     (work / "README.md").write_text(_readme(model, header), encoding="utf-8")
 
@@ -73,7 +77,7 @@ def _fill(work: Path, model: ImportedModel, header: str) -> None:
 def describe(model: ImportedModel) -> str:
     what = "elements" if model.kind == "ifc" else "instances"
     text = (
-        f"Imported from {model.source.name} ({model.schema.split()[0]}): {model.element_count} {what} in "
+        f"Imported from {display(model.source.name)} ({model.schema.split()[0]}): {model.element_count} {what} in "
         f"{len(model.parts)} parts, {model.triangle_count:,} triangles as rendered."
     )
     if model.failed:
@@ -146,7 +150,7 @@ def overview(model: ImportedModel) -> dict:
 
 
 def _readme(model: ImportedModel, header: str) -> str:
-    failed = "\n".join(f"- {f.ifc_class} `{f.id}`: {f.reason}" for f in model.failed[:200]) or "none"
+    failed = "\n".join(f"- {f.ifc_class} {f.name!r} `{f.id}`: {f.reason}" for f in model.failed[:200]) or "none"
     notes = "\n".join(f"- {n}" for n in model.notes) or "none"
     origin = ", ".join(f"{v:.3f}" for v in model.origin)
     return f"""# {model.name}: imported scene

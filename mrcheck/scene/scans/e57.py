@@ -19,6 +19,7 @@ import warnings
 import numpy as np
 
 from mrcheck.core.errors import MrcheckError, MrcheckWarning
+from mrcheck.core.native_names import utf8_name
 from mrcheck.core.progress import Progress
 from mrcheck.scene.scans.record import CHUNK_POINTS, CloudBuilder, ScanCloud, ScanPose, chunks
 
@@ -35,6 +36,15 @@ def _node(node, name):
     return get_node(node, name)
 
 
+def _number(node) -> float:
+    """A header number as float: E57 stores one as a FloatNode, an IntegerNode or a
+    ScaledIntegerNode (raw * scale + offset) wherever the standard asks for a number, and
+    libE57 gives the scaled one no ``value()``."""
+    if hasattr(node, "scaledValue"):
+        return float(node.scaledValue())
+    return float(node.value())
+
+
 def _pose(scan) -> np.ndarray:
     """The scan's pose (E57 1.0 8.4.11: a unit quaternion w, x, y, z and a translation), 4x4 float64."""
     T = np.eye(4)
@@ -43,7 +53,7 @@ def _pose(scan) -> np.ndarray:
     pose = _node(scan, "pose")
     if pose.isDefined("rotation"):
         q = _node(pose, "rotation")
-        w, x, y, z = (float(_node(q, k).value()) for k in "wxyz")
+        w, x, y, z = (_number(_node(q, k)) for k in "wxyz")
         n = np.sqrt(w * w + x * x + y * y + z * z) or 1.0
         w, x, y, z = w / n, x / n, y / n, z / n
         T[:3, :3] = [
@@ -53,7 +63,7 @@ def _pose(scan) -> np.ndarray:
         ]
     if pose.isDefined("translation"):
         t = _node(pose, "translation")
-        T[:3, 3] = [float(_node(t, k).value()) for k in "xyz"]
+        T[:3, 3] = [_number(_node(t, k)) for k in "xyz"]
     return T
 
 
@@ -63,7 +73,7 @@ def _limits(scan, prototype, group: str, field: str, key: str) -> tuple[float, f
     if scan.isDefined(group):
         limits = _node(scan, group)
         if limits.isDefined(key + "Minimum") and limits.isDefined(key + "Maximum"):
-            lo, hi = (float(_node(limits, key + s).value()) for s in ("Minimum", "Maximum"))
+            lo, hi = (_number(_node(limits, key + s)) for s in ("Minimum", "Maximum"))
             if hi > lo:
                 return lo, hi
     node = _node(prototype, field)
@@ -172,7 +182,8 @@ def read_e57(path, progress: Progress) -> ScanCloud:
     """Every scan of an E57 file, its pose applied, in the file's frame (metres, E57's unit)."""
     import pye57
 
-    e57 = pye57.E57(str(path))
+    with utf8_name(path) as name:
+        e57 = pye57.E57(name)
     with contextlib.closing(e57):
         scans = [_node(e57.data3d, i) for i in range(len(e57.data3d))]
         counts = [int(_node(s, "points").childCount()) for s in scans]

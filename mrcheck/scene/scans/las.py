@@ -110,6 +110,18 @@ def _read_chunks(path, reader, steps, builder: CloudBuilder, how) -> None:
         builder.add(*_chunk(chunk, *how))
 
 
+def _check_scale(path, scale: np.ndarray) -> None:
+    """A scale of 0 puts every point at the offset (one point, a deviation of 0 mm): refused,
+    as is a NaN or infinite one."""
+    bad = [f"{axis} {value!r}" for axis, value in zip("xyz", scale.tolist()) if value == 0.0 or not np.isfinite(value)]
+    if bad:
+        raise MrcheckError(
+            f"LAS header has an unusable scale ({', '.join(bad)}): every coordinate is record * scale + offset, "
+            "so the points would collapse; the file's writer is broken",
+            path,
+        )
+
+
 def read_las(path, progress: Progress) -> ScanCloud:
     """A LAS or LAZ file's points in its own coordinates and units (``units`` and
     ``metres_per_unit`` of the result: the CRS's linear unit when it names one)."""
@@ -124,6 +136,7 @@ def read_las(path, progress: Progress) -> ScanCloud:
         colour = {"red", "green", "blue"} <= dims
         builder = CloudBuilder(count, colour, True)
         scale, offset = np.asarray(header.scales, np.float64), np.asarray(header.offsets, np.float64)
+        _check_scale(path, scale)
         steps = progress(chunks(count, CHUNK_POINTS), f"reading {path.name}", "Mpt")
         with contextlib.closing(steps):
             _read_chunks(path, reader, steps, builder, (scale, offset, colour))
