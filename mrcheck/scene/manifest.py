@@ -147,8 +147,11 @@ def mesh_files(path) -> list[Path]:
     """The mesh file and every existing file it needs to load, first the mesh, each once."""
     path = Path(os.path.normpath(Path(path).absolute()))
     companions = _COMPANIONS.get(path.suffix.lower())
-    files = [path, *(companions(path) if companions and path.is_file() else [])]
-    return list(dict.fromkeys(files))
+    try:
+        found = companions(path) if companions and path.is_file() else []
+    except OSError:  # unreadable (permissions, an I/O error): the mesh's loader says so, in one line
+        found = []
+    return list(dict.fromkeys([path, *found]))
 
 
 def notice_files(path) -> list[Path]:
