@@ -277,7 +277,10 @@ def test_the_project_is_a_working_one(project, capsys):
 
 
 def test_an_output_folder_beside_its_inputs_is_fine(project, capsys):
-    """An output folder that holds inputs under other names than the command's outputs is not
-    refused: discrepancies into the folder of its shot and photo."""
-    assert main(["discrepancies", "shot.json", "--scene", "scene.toml", "-o", "."]) == 0, capsys.readouterr().err
-    assert Path("heatmap.png").is_file() and Path("photo.png").is_file()
+    """An output folder beside the inputs is written; the inputs' own folder, which holds the
+    user's files, is refused (an output folder is new, empty or one mrcheck made)."""
+    assert main(["discrepancies", "shot.json", "--scene", "scene.toml", "-o", "results"]) == 0, capsys.readouterr().err
+    assert Path("results/heatmap.png").is_file() and Path("photo.png").is_file()
+    assert main(["discrepancies", "shot.json", "--scene", "scene.toml", "-o", "."]) == 1
+    assert "output folder holds other files and was not made by mrcheck" in capsys.readouterr().err
+    assert not Path("heatmap.png").exists()

@@ -36,12 +36,14 @@ from pathlib import Path
 from threadpoolctl import threadpool_limits
 
 from mrcheck.apps.trackframes import FramePhoto, FrameReader
-from mrcheck.apps.videoout import BackgroundVideo
+from mrcheck.apps.videoout import BackgroundVideo, video_stream
 from mrcheck.core.camera import Camera
 from mrcheck.core.camerafiles import load_camera, read_camera
-from mrcheck.core.errors import MrcheckError
+from mrcheck.core.errors import MrcheckError, warn
+from mrcheck.core.images import max_pixels
 from mrcheck.core.inputs import check_input
 from mrcheck.core.output import check_not_inputs, check_output_path, replace_output, write_text
+from mrcheck.core.partials import partial_prefix, remove_stale_partials
 from mrcheck.mr.edges import EdgeFitError, EdgeOptions, VisibilityRender, refine_pose, scene_edges
 from mrcheck.mr.edges.candidates import CandidateEdges
 from mrcheck.mr.lens import distortion_map
@@ -258,14 +260,17 @@ def _track_video(video, scene, intrinsics, initial, output, poses_path, alpha, p
     renderer = loop = tmp_video = None
     try:
         with av.open(str(video)) as source:
-            stream = source.streams.video[0]
+            stream = video_stream(source, video, max_pixels())
             total = stream.frames or 0
             # the first frame is decoded and its pyramid made beside the start-up below
             reader = FrameReader(source.decode(stream), frame_options)
             try:
                 edges = scene_edges(scene)
                 renderer = Renderer(scene)
-                handle, name = tempfile.mkstemp(suffix=".mp4", dir=Path(output).parent, prefix=".track-")
+                remove_stale_partials(Path(output).parent, ".track-")  # a killed run's video
+                handle, name = tempfile.mkstemp(
+                    suffix=".mp4", dir=Path(output).parent, prefix=partial_prefix(".track-")
+                )
                 os.close(handle)  # the encoder opens the file by its name
                 tmp_video = Path(name)
                 loop = _Loop(result, scene, intrinsics, initial, renderer, edges, alpha)
@@ -325,7 +330,9 @@ class _Loop:
     def frame(self, photo: FramePhoto, video, tmp_video, rate) -> None:
         rgb = photo.rgb
         if self.camera is None:
-            self.camera, _ = fit_camera(self.intrinsics, rgb.shape[1], rgb.shape[0], video)
+            self.camera, rescaled = fit_camera(self.intrinsics, rgb.shape[1], rgb.shape[0], video)
+            for warning in rescaled:  # intrinsics of another video mode: their K is a guess at this size
+                warn(warning.replace("photo is", "video is", 1), video)
             # the lens map (0.35-0.4 s at 640x480) is made beside the first frame's snap
             self._maps_job = ThreadPoolExecutor(max_workers=1)
             self._maps = self._maps_job.submit(distortion_map, self.camera)

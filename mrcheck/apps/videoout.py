@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from mrcheck.core.errors import MrcheckError
+from mrcheck.core.images import check_size
 
 QUEUE_FRAMES = 2
 # x264's "veryfast" preset: its default ("medium") looks 40 frames ahead, so a short video was
@@ -30,6 +31,18 @@ QUEUE_FRAMES = 2
 # larger on the overlay videos measured
 _OPTIONS = {"libx264": {"preset": "veryfast"}}
 _STOP = object()
+
+
+def video_stream(source, video, max_pixels: int):
+    """The first video stream of the opened container ``source`` (of the file ``video``), or a
+    one-line error: a file without one (an MP4 of audio only), or frames of more than
+    ``max_pixels`` pixels (``mrcheck --max-pixels``, from the stream's header before a frame is
+    decoded)."""
+    if not source.streams.video:
+        raise MrcheckError("has no video stream (audio only?)", video)
+    stream = source.streams.video[0]
+    check_size(stream.codec_context.width, stream.codec_context.height, max_pixels, video, "video frame")
+    return stream
 
 
 def open_writer(path: Path, width: int, height: int, rate):
@@ -115,4 +128,4 @@ class BackgroundVideo:
                 self._error = exc
 
 
-__all__ = ["BackgroundVideo", "open_writer", "QUEUE_FRAMES"]
+__all__ = ["BackgroundVideo", "open_writer", "video_stream", "QUEUE_FRAMES"]

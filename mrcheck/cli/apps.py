@@ -6,7 +6,7 @@ import sys
 
 import click
 
-from mrcheck.cli.group import cli
+from mrcheck.cli.group import cli, pixel_count
 from mrcheck.cli.messages import ProgressStream, console
 from mrcheck.cli.options import FINITE, positive, size
 
@@ -114,15 +114,6 @@ class _ExportBar:
             self.bar.close()
 
 
-def _pixels(value: str) -> int:
-    from mrcheck.apps.review.server import parse_pixels
-
-    try:
-        return parse_pixels(value)
-    except ValueError as exc:
-        raise click.BadParameter(str(exc)) from None
-
-
 @cli.command()
 @click.argument("target", metavar="(JOB.toml | OUTDIR | SCENE)")
 @click.option("--shots", "shots_dir", metavar="DIR", help="With SCENE: a folder of registered SHOT.json files.")
@@ -170,7 +161,7 @@ def _pixels(value: str) -> int:
     default="64MP",
     show_default=True,
     metavar="PIXELS",
-    callback=lambda ctx, param, value: _pixels(value),
+    callback=lambda ctx, param, value: pixel_count(value),
     help="Refuse photos of more pixels than this, from their header before decoding (e.g. 100MP).",
 )
 @click.option(

@@ -8,6 +8,16 @@ starts with a one-line summary paragraph, which ``mrcheck --help`` lists in full
 import click
 
 
+def pixel_count(value: str) -> int:
+    """The pixels of a ``--max-pixels`` value (``64MP``, ``50M``, ``12000000``)."""
+    from mrcheck.core.images import parse_pixels
+
+    try:
+        return parse_pixels(value)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc)) from None
+
+
 class Group(click.Group):
     """A click group whose command list shows each command's whole summary paragraph."""
 
@@ -41,7 +51,16 @@ class Group(click.Group):
     help="IFC files given as SCENE: keep the model's own coordinates, or place it at its map coordinates "
     "(IfcMapConversion, else the site placement).",
 )
-def cli(package_path, coordinates):
+@click.option(
+    "--max-pixels",
+    default="64MP",
+    show_default=True,
+    metavar="PIXELS",
+    callback=lambda ctx, param, value: pixel_count(value),
+    help="Refuse photos (and video frames) of more pixels than this, from their header before decoding "
+    "(e.g. 100MP); review has its own --max-pixels.",
+)
+def cli(package_path, coordinates, max_pixels):
     """mrcheck: planned factory CAD rendered from a calibrated camera, with vector-based SSAO
     (Scheer & Keutel), for mixed-reality discrepancy checks.
 
@@ -52,8 +71,10 @@ def cli(package_path, coordinates):
     Example (then open mrcheck-demo/robot_study.png):
       mrcheck demo -o mrcheck-demo
     """
+    from mrcheck.core.images import set_max_pixels
     from mrcheck.scene.importers.records import set_default_settings
     from mrcheck.scene.packages import set_package_path
 
     set_package_path(package_path)
+    set_max_pixels(max_pixels)
     set_default_settings(coordinates=coordinates)

@@ -26,6 +26,7 @@ import numpy as np
 
 from mrcheck.core.camera import Camera
 from mrcheck.core.errors import MrcheckError, display
+from mrcheck.core.images import max_pixels as default_max_pixels
 from mrcheck.core.images import read_image
 from mrcheck.core.inputs import check_input, read_input_text
 from mrcheck.core.jsonfile import read_json
@@ -131,9 +132,11 @@ def load_shot(path) -> tuple[Camera, Path]:
 
 def read_photo(path, camera: Camera | None = None, grey: bool = False, max_pixels: int | None = None) -> np.ndarray:
     """The photo of a shot: (H, W, 3) uint8 RGB, or (H, W) uint8 with ``grey``, or a one-line
-    error. Given the shot's ``camera``, a photo of another size is an error too; ``max_pixels``:
-    a photo of more pixels is refused before it is decoded (:func:`mrcheck.core.images.check_pixels`)."""
-    image = read_image(path, "photo", grey=grey, max_pixels=max_pixels)
+    error. Given the shot's ``camera``, a photo of another size is an error too; ``max_pixels``
+    (None: ``mrcheck --max-pixels``, :func:`mrcheck.core.images.max_pixels`): a photo of more
+    pixels is refused before it is decoded (:func:`mrcheck.core.images.check_pixels`)."""
+    limit = default_max_pixels() if max_pixels is None else max_pixels
+    image = read_image(path, "photo", grey=grey, max_pixels=limit)
     h, w = image.shape[:2]
     if camera is not None and (w, h) != (camera.width, camera.height):
         raise MrcheckError(f"photo is {w}x{h} but the shot was registered at {camera.width}x{camera.height}", path)

@@ -12,18 +12,38 @@ format OpenCV does not read (HEIC), truncated, or corrupt with the codec's own r
 codecs' messages (OpenCV's ``[ WARN``/``[ERROR`` lines, libpng's, libjpeg's) never reach the
 terminal (:func:`mrcheck.core.quiet.native_output`); of an image that decodes they are dropped (a
 phone JPEG with "extraneous bytes before marker 0xd9" is a good photo).
+
+A photo from someone else is bounded before it is decoded: a PNG of 30000 x 30000 px is some
+100 kB on disk and 2.7 GB decoded, so its size is read from its header first (Pillow's readers,
+:func:`check_pixels`) and a photo over ``--max-pixels`` (:func:`max_pixels`) is refused.
 """
 
 from __future__ import annotations
 
+import io
 import re
+import struct
+from collections.abc import Callable
 from pathlib import Path
 
 import cv2
 import numpy as np
+from PIL import (
+    AvifImagePlugin,
+    BmpImagePlugin,
+    GifImagePlugin,
+    Image,
+    ImageFile,
+    Jpeg2KImagePlugin,
+    JpegImagePlugin,
+    PngImagePlugin,
+    PpmImagePlugin,
+    SunImagePlugin,
+    TiffImagePlugin,
+    WebPImagePlugin,
+)
 
 from mrcheck.core.errors import MrcheckError
-from mrcheck.core.imagesize import READABLE, HeaderError, image_size
 from mrcheck.core.inputs import read_input
 from mrcheck.core.quiet import native_output
 
@@ -49,6 +69,50 @@ _JPEG_END = b"\xff\xd9"  # EOI; cameras may append a few bytes after it
 # "[ WARN:0@0.050] global grfmt_png.cpp:793 readFromStreamOrBuffer " before OpenCV's own words
 _OPENCV_PREFIX = re.compile(r"^\[\s*[A-Z]+:[^\]]*\]\s*(global\s+\S+\s+\S+\s+)?")
 SUPPORTED = "PNG, JPEG, TIFF, BMP, WebP, AVIF, JPEG 2000, GIF, PNM"
+# Pillow's reader of each format above whose size is read from its header (constructing one reads
+# the header, decodes nothing). Its classes, not ``PIL.Image.open``: open() also applies Pillow's
+# own decompression-bomb limit, which warns above 89 MP and refuses above 179 MP without saying
+# the size, whatever --max-pixels allows.
+_HEADER_READERS: dict[str, Callable[[io.BytesIO], ImageFile.ImageFile]] = {
+    "PNG": PngImagePlugin.PngImageFile,
+    "JPEG": JpegImagePlugin.JpegImageFile,
+    "TIFF": TiffImagePlugin.TiffImageFile,
+    "BMP": BmpImagePlugin.BmpImageFile,
+    "GIF": GifImagePlugin.GifImageFile,
+    "WebP": WebPImagePlugin.WebPImageFile,
+    "AVIF": AvifImagePlugin.AvifImageFile,
+    "JPEG 2000": Jpeg2KImagePlugin.Jpeg2KImageFile,
+    "PNM": PpmImagePlugin.PpmImageFile,
+    "Sun raster": SunImagePlugin.SunImageFile,
+}
+READABLE = ", ".join(_HEADER_READERS)
+# the largest photo read, checked on its header before decoding: 64 MP takes the 61 MP of the
+# largest full-frame sensors and a phone's 48/50 MP mode; decoded, that is 192 MB of RGB, and
+# edge snapping makes float copies of it (4 bytes a pixel each). ``mrcheck --max-pixels`` sets it
+# for every command (:func:`set_max_pixels`), ``review --max-pixels`` for the review.
+MAX_PIXELS = 64_000_000
+_PIXELS = re.compile(r"(?P<number>[0-9]+(?:\.[0-9]+)?)\s*(?P<mega>m(?:p|px)?)?")
+_limit = {"max_pixels": MAX_PIXELS}
+
+
+def parse_pixels(text: str) -> int:
+    """Pixels of a count such as ``64MP``, ``50M``, ``0.5MP`` or ``12000000`` (M: a million);
+    ValueError saying what is wrong."""
+    match = _PIXELS.fullmatch(str(text).strip().lower())
+    pixels = 0 if match is None else int(float(match["number"]) * (1_000_000 if match["mega"] else 1))
+    if pixels < 1:
+        raise ValueError(f"{text!r} is not a pixel count (e.g. 64MP, 50M or 12000000)")
+    return pixels
+
+
+def set_max_pixels(pixels: int) -> None:
+    """The limit of :func:`max_pixels` for this process (``mrcheck --max-pixels``)."""
+    _limit["max_pixels"] = int(pixels)
+
+
+def max_pixels() -> int:
+    """The largest photo, in pixels, that the commands read (:data:`MAX_PIXELS` unless set)."""
+    return _limit["max_pixels"]
 
 
 def image_format(data: bytes) -> str | None:
@@ -95,16 +159,24 @@ def _decode_problem(data: bytes, log: list) -> str:
     return f"corrupt or truncated {kind}" + (f" ({' '.join(reason.split())[:160]})" if reason else "")
 
 
+def check_size(width: int, height: int, limit: int, source=None, what: str = "photo") -> None:
+    """MrcheckError naming ``source`` and its pixel count when ``width`` x ``height`` is over
+    ``limit`` pixels (``--max-pixels``): a photo, or a video's frame."""
+    if width * height > limit:
+        raise MrcheckError(
+            f"{what} is {width}x{height} px ({width * height / 1e6:.1f} MP), over the limit of {limit / 1e6:g} MP"
+            " (--max-pixels)",
+            source,
+        )
+
+
 def check_pixels(data: bytes, max_pixels: int, source=None, what: str = "image") -> tuple[int, int]:
-    """(width, height) of the encoded image ``data`` from its header (:mod:`.imagesize`), or
-    MrcheckError when it has more than ``max_pixels`` pixels (``--max-pixels``), when its format's
-    header is not read there, or when that header is broken: nothing is decoded."""
+    """(width, height) of the encoded image ``data`` from its header (Pillow's reader of its
+    format), or MrcheckError when it has more than ``max_pixels`` pixels (``--max-pixels``), when
+    its format's header is not read here, or when that header is broken: nothing is decoded."""
     kind = image_format(data)
-    try:
-        size = image_size(data, kind)
-    except HeaderError as exc:
-        raise MrcheckError(f"cannot read {what}: {kind} header broken ({exc})", source) from None
-    if size is None:  # unknown here: only its decoding would tell its size
+    reader = _HEADER_READERS.get(kind or "")
+    if reader is None:  # unknown here: only its decoding would tell its size
         problem = (
             "a text file, not an image"
             if kind is None and _is_text(data)
@@ -112,12 +184,19 @@ def check_pixels(data: bytes, max_pixels: int, source=None, what: str = "image")
             "whose size is checked before decoding"
         )
         raise MrcheckError(f"cannot read {what}: {problem}", source)
-    w, h = size
-    if w * h > max_pixels:
-        raise MrcheckError(
-            f"{what} is {w}x{h} px ({w * h / 1e6:.1f} MP), over the limit of {max_pixels / 1e6:g} MP (--max-pixels)",
-            source,
-        )
+    try:
+        with reader(io.BytesIO(data)) as header:
+            w, h = header.size
+    except Image.DecompressionBombError as exc:
+        # the WebP and GIF readers refuse above Pillow's own limit (179 MP) before saying the size
+        count = re.search(r"\((\d+) pixels\)", str(exc))
+        pixels = int(count[1]) if count else 2 * (Image.MAX_IMAGE_PIXELS or 0)
+        limit = f"the limit of {max_pixels / 1e6:g} MP (--max-pixels)" if max_pixels < pixels else "what Pillow reads"
+        raise MrcheckError(f"{what} is {pixels / 1e6:.1f} MP, over {limit}", source) from None
+    except (SyntaxError, OSError, ValueError, IndexError, TypeError, struct.error, EOFError) as exc:
+        # in the words a failed decode would use: a cut-off file is "truncated", whichever reads it
+        raise MrcheckError(f"cannot read {what}: {_decode_problem(data, [f'header broken: {exc}'])}", source) from None
+    check_size(w, h, max_pixels, source, what)
     return w, h
 
 
@@ -170,4 +249,16 @@ def encode_image(name, image: np.ndarray, quality: int | None = None) -> bytes:
     return encoded.tobytes()
 
 
-__all__ = ["read_image", "decode_image", "check_pixels", "encode_image", "image_format", "SUPPORTED"]
+__all__ = [
+    "read_image",
+    "decode_image",
+    "check_pixels",
+    "check_size",
+    "encode_image",
+    "image_format",
+    "SUPPORTED",
+    "MAX_PIXELS",
+    "max_pixels",
+    "set_max_pixels",
+    "parse_pixels",
+]

@@ -39,6 +39,32 @@ def check_output_dir(outdir, what="output folder") -> Path:
     return outdir
 
 
+OUTPUT_MARK = ".mrcheck-output"  # in a folder mrcheck made for its results: it may write there again
+
+
+def check_own_output_dir(outdir, what="output folder") -> Path:
+    """:func:`check_output_dir`, and the folder is new, empty or one mrcheck made (it holds
+    :data:`OUTPUT_MARK`, written by :func:`mark_output_dir`): results are never written among a
+    user's files (``-o .`` in a scene's folder), nor over one of them of the same name."""
+    outdir = check_output_dir(outdir, what)
+    if outdir.is_dir() and not (outdir / OUTPUT_MARK).is_file() and any(outdir.iterdir()):
+        raise MrcheckError(
+            f"{what} holds other files and was not made by mrcheck; not writing among them "
+            "(pick a new or empty folder)",
+            outdir,
+        )
+    return outdir
+
+
+def mark_output_dir(outdir) -> Path:
+    """Make the output folder ``outdir`` (checked by :func:`check_own_output_dir`) and mark it as
+    mrcheck's, before its results are written."""
+    outdir = Path(outdir)
+    if not (outdir / OUTPUT_MARK).is_file():
+        write_text(outdir / OUTPUT_MARK, "Written by mrcheck: its next runs may replace the results here.\n")
+    return outdir
+
+
 def check_writable_ancestor(path: Path, what: str = "output", itself: bool = False) -> None:
     """Missing folders are made at write time, but one that is a file, or one that cannot be
     written (read-only, /proc), would fail only after the work: its nearest existing ancestor
@@ -274,6 +300,9 @@ __all__ = [
     "check_output_path",
     "replace_output",
     "check_output_dir",
+    "check_own_output_dir",
+    "mark_output_dir",
+    "OUTPUT_MARK",
     "check_writable_ancestor",
     "check_not_inputs",
     "write_all_or_none",

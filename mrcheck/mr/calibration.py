@@ -37,7 +37,7 @@ import numpy as np
 from mrcheck.core.camera import Camera
 from mrcheck.core.camerafiles import CAMERA_SUFFIXES, write_camera
 from mrcheck.core.errors import MrcheckError, display, warn
-from mrcheck.core.images import decode_image
+from mrcheck.core.images import decode_image, max_pixels
 from mrcheck.core.inputs import read_input, real_path
 from mrcheck.core.output import check_not_inputs, check_output_path
 from mrcheck.core.progress import Progress, no_progress
@@ -133,7 +133,7 @@ def _read_image(path: Path):
     except MrcheckError as exc:  # a symlink loop, a broken link, permission, a FIFO, empty
         return None, None, exc.problem
     try:
-        return data, decode_image(data, path, "image", grey=True), None
+        return data, decode_image(data, path, "image", grey=True, max_pixels=max_pixels()), None
     except MrcheckError as exc:
         return data, None, exc.problem
 

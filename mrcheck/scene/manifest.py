@@ -37,6 +37,7 @@ from pathlib import Path
 from urllib.parse import unquote
 
 from mrcheck.core.errors import MrcheckError, display
+from mrcheck.core.partials import partial_prefix, remove_stale_partials
 from mrcheck.scene import packages
 
 # files beside a URDF that carry its licence and provenance (matched case-insensitively)
@@ -146,8 +147,11 @@ def mesh_files(path) -> list[Path]:
     """The mesh file and every existing file it needs to load, first the mesh, each once."""
     path = Path(os.path.normpath(Path(path).absolute()))
     companions = _COMPANIONS.get(path.suffix.lower())
-    files = [path, *(companions(path) if companions and path.is_file() else [])]
-    return list(dict.fromkeys(files))
+    try:
+        found = companions(path) if companions and path.is_file() else []
+    except OSError:  # unreadable (permissions, an I/O error): the mesh's loader says so, in one line
+        found = []
+    return list(dict.fromkeys([path, *found]))
 
 
 def notice_files(path) -> list[Path]:
@@ -206,6 +210,16 @@ def files_stamp(paths) -> str:
 
 
 # -- writing a generated folder ----------------------------------------------------------------------
+WORK_PREFIXES = (".mrcheck-partial-", ".mrcheck-old-")  # write_generated's hidden folders in OUTDIR
+
+
+def remove_stale_work(outdir) -> None:
+    """Remove what a killed :func:`write_generated` left in ``outdir`` (its hidden folders whose
+    process is gone), so that the next run finds the folder as the last complete one left it."""
+    for prefix in WORK_PREFIXES:
+        remove_stale_partials(outdir, prefix)
+
+
 def write_generated(outdir, fill, stale=()) -> None:
     """Write a generated folder (a scene, an as-built variant) into ``outdir``, replacing only
     what the command writes: other files there (a planner's photos and notes) stay.
@@ -230,10 +244,11 @@ def write_generated(outdir, fill, stale=()) -> None:
     moved_new: list[str] = []
     try:
         outdir.mkdir(parents=True, exist_ok=True)
-        work = Path(tempfile.mkdtemp(prefix=".mrcheck-partial-", dir=outdir))
+        remove_stale_work(outdir)
+        work = Path(tempfile.mkdtemp(prefix=partial_prefix(WORK_PREFIXES[0]), dir=outdir))
         fill(work)
         new = sorted(p.name for p in work.iterdir())
-        trash = Path(tempfile.mkdtemp(prefix=".mrcheck-old-", dir=outdir))
+        trash = Path(tempfile.mkdtemp(prefix=partial_prefix(WORK_PREFIXES[1]), dir=outdir))
         for name in sorted(set(new) | set(stale)):
             if os.path.lexists(outdir / name):
                 os.rename(outdir / name, trash / name)
@@ -324,5 +339,6 @@ __all__ = [
     "files_stamp",
     "dumps_manifest",
     "write_generated",
+    "remove_stale_work",
     "NOTICE_PREFIXES",
 ]

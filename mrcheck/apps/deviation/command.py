@@ -64,6 +64,8 @@ from mrcheck.core.images import encode_image
 from mrcheck.core.output import (
     check_not_inputs,
     check_output_dir,
+    check_own_output_dir,
+    mark_output_dir,
     write_all_or_none,
     write_bytes,
     write_image,
@@ -176,6 +178,7 @@ def deviation_command(
         [outdir / name for name in _output_names(shot, per_element)],
         [("the scan", scan), ("--shot", shot), ("the shot's photo", photo_path), ("the scene", scene_files(scene))],
     )
+    check_own_output_dir(outdir)  # after the inputs: "would overwrite the input" says more
     if shot is not None:
         photo = read_photo(photo_path, camera)
     cloud = read_scan(scan, units)  # the scan's own errors before the slow scene load
@@ -200,6 +203,7 @@ def deviation_command(
         elements, more = element_outputs(result, loaded, cloud, scan, scene, per_element, outdir, camera, photo)
         outputs.update(more)
     # all or none: a deviations.npy without its parts.json would pass for a complete result
+    mark_output_dir(outdir)
     write_all_or_none([_writer(outdir / name, content) for name, content in outputs.items()])
     return DeviationRun(outdir, report, elements, element_label(loaded, report.parts[0].id))
 

@@ -32,6 +32,8 @@ from mrcheck.core.images import encode_image
 from mrcheck.core.output import (
     check_not_inputs,
     check_output_dir,
+    check_own_output_dir,
+    mark_output_dir,
     write_all_or_none,
     write_bytes,
     write_image,
@@ -83,6 +85,7 @@ def discrepancies_command(shot, scene, tolerance_px=None, outdir=None, author: s
         [outdir / name for name in OUTPUT_NAMES],
         [("the shot", shot), ("the shot's photo", photo_path), ("the scene", scene_files(scene))],
     )
+    check_own_output_dir(outdir)  # after the inputs: "would overwrite the input" says more
     photo = read_photo(photo_path, camera)  # missing, unreadable or wrong-size photo: exit 1
     loaded = load_scene(scene, progress=True)
     detection = detect(loaded, camera, photo, tolerance_px)
@@ -92,6 +95,7 @@ def discrepancies_command(shot, scene, tolerance_px=None, outdir=None, author: s
         warnings.warn(MrcheckWarning(warning))
     image = heatmap(photo, detection)
     bcf = suspects_bcf(detection, loaded, camera, encode_image(HEATMAP, image), Path(shot).stem, outdir, author)
+    mark_output_dir(outdir)
     paths = write_all_or_none(
         [
             lambda: write_image(outdir / HEATMAP, image),

@@ -18,7 +18,7 @@ from mrcheck.apps.export.tasks import ShotRecord, ShotTask, plan_outputs
 from mrcheck.apps.names import SHEET, SHOT_FILE, overlay_name, render_name
 from mrcheck.core.camerafiles import read_photo
 from mrcheck.core.errors import MrcheckError
-from mrcheck.core.images import encode_image
+from mrcheck.core.images import encode_image, set_max_pixels
 from mrcheck.core.jsonfile import is_number
 from mrcheck.core.shot import Shot, read_shot, shot_text
 from mrcheck.mr.lens import distortion_map
@@ -188,6 +188,7 @@ def run_shot(task: ShotTask, scene=None) -> ShotRecord:
     otherwise the record carries them as ``files`` (bytes) for the caller to write. ``scene``:
     the job's loaded Scene, when this runs in the process that loaded it.
     """
+    set_max_pixels(task.max_pixels)  # in a spawned or remote worker, the limit of the export's command line
     start = time.perf_counter()
     timings = {}
     record = ShotRecord(task.name, "failed", task.fingerprint, task.inputs.to_dict())

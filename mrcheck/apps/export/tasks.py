@@ -22,6 +22,7 @@ from mrcheck.apps.names import (
 )
 from mrcheck.core.camerafiles import load_shot
 from mrcheck.core.errors import MrcheckError
+from mrcheck.core.images import MAX_PIXELS, max_pixels
 from mrcheck.core.inputs import real_path
 from mrcheck.mr.overlay import STUDY_ORDER
 from mrcheck.scene.manifest import files_stamp
@@ -39,6 +40,7 @@ class ShotTask:
     input_files: list  # the files the shot reads besides the scene
     folder: Path  # OUTDIR/shots/NAME
     write: bool  # the worker writes the files itself (local); else it returns them (a cluster)
+    max_pixels: int = MAX_PIXELS  # mrcheck --max-pixels: a spawned or remote worker has its own process
 
     def own_names(self) -> list:
         """The names of every file the export writes into this shot's folder."""
@@ -182,6 +184,7 @@ def make_tasks(job: Job, outdir: Path, write: bool, scene_paths: list) -> list:
                 files,
                 shot_folder(outdir, shot.name),
                 write,
+                max_pixels(),
             )
         )
     return tasks

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import errno
 import os
-import re
 import secrets
 import socket
 from dataclasses import dataclass
@@ -22,19 +21,8 @@ from mrcheck.apps.review.guard import (
     is_loopback,
 )
 from mrcheck.core.errors import MrcheckError
+from mrcheck.core.images import parse_pixels
 from mrcheck.core.output import check_not_inputs
-
-_PIXELS = re.compile(r"(?P<number>[0-9]+(?:\.[0-9]+)?)\s*(?P<mega>m(?:p|px)?)?")
-
-
-def parse_pixels(text: str) -> int:
-    """Pixels of a count such as ``64MP``, ``50M``, ``0.5MP`` or ``12000000`` (M: a million);
-    ValueError saying what is wrong."""
-    match = _PIXELS.fullmatch(str(text).strip().lower())
-    pixels = 0 if match is None else int(float(match["number"]) * (1_000_000 if match["mega"] else 1))
-    if pixels < 1:
-        raise ValueError(f"{text!r} is not a pixel count (e.g. 64MP, 50M or 12000000)")
-    return pixels
 
 
 def _url_host(host: str) -> str:

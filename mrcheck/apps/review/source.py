@@ -14,6 +14,7 @@ from mrcheck.apps.names import MANIFEST, REPORT, SHOT_FILE, shot_folder, shot_na
 from mrcheck.core.camera import Camera
 from mrcheck.core.camerafiles import read_photo
 from mrcheck.core.errors import MrcheckError, MrcheckWarning, display
+from mrcheck.core.images import MAX_PIXELS  # the largest photo read (--max-pixels)
 from mrcheck.core.inputs import check_input
 from mrcheck.core.shot import read_shot
 from mrcheck.scene.manifest import files_stamp, read_manifest, scene_files
@@ -26,10 +27,6 @@ MAX_SIZE = 1280  # renders and photos are served at most this wide (same aspect 
 # an export's shot names (never "." or ".."), at most 128 characters: a path segment of the API's URLs
 _NAME = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9._-]{0,127}")
 ADDED_SHOTS = "added-shots"  # shots added in the review ("Add photo") of an export or a job, beside it
-# the largest photo read (--max-pixels), checked on its header before decoding: 64 MP takes the
-# 61 MP of the largest full-frame sensors and a phone's 48/50 MP mode; decoded, that is 192 MB of
-# RGB, and "Add photo"'s edge snap makes float copies of it (4 bytes a pixel each)
-MAX_PIXELS = 64_000_000
 
 
 @dataclass
@@ -38,6 +35,7 @@ class Shot:
     camera: Camera  # at the photo's native size
     photo: Path
     error_px: float | None  # registration RMS, px
+    file: Path | None = None  # its SHOT.json, where it came from one
 
     @property
     def size(self) -> tuple[int, int]:
@@ -93,7 +91,7 @@ class Source:
 
 def _shot(name, path) -> Shot:
     registered = read_shot(path)
-    return Shot(name, registered.camera, registered.photo, registered.rms)
+    return Shot(name, registered.camera, registered.photo, registered.rms, file=Path(path))
 
 
 def _checked_name(name: str, path) -> str:
@@ -266,17 +264,33 @@ def open_source(target, shots_dir=None, max_pixels: int = MAX_PIXELS) -> Source:
     return source
 
 
-def _check_photos(shots, max_pixels: int) -> None:
+def _check_photos(source: Source) -> None:
     """Every photo decodes and has its shot's size (read_photo's one-line errors): the files are
     read in parallel (a network share's latency overlaps); the decodes take turns, as every
     decode does (mrcheck.core.quiet: the codecs' own messages are captured), about 0.25 s per 12 MP
-    JPEG on this machine's cores."""
+    JPEG on this machine's cores. Of ``SCENE --shots DIR``, a shot whose photo has another size
+    than its SHOT.json is skipped with a warning naming the SHOT.json, as its other unusable
+    files are; of a job or an export, it is an error."""
 
-    def check(shot) -> None:  # the decoded image is not kept: dozens of them would not fit in memory
-        read_photo(Path(shot.photo), shot.camera, max_pixels=max_pixels)
+    def size(shot) -> tuple[int, int]:  # the decoded image is not kept: dozens of them would not fit in memory
+        if source.kind != "scene":
+            read_photo(Path(shot.photo), shot.camera, max_pixels=source.max_pixels)
+            return shot.size
+        height, width = read_photo(Path(shot.photo), max_pixels=source.max_pixels).shape[:2]
+        return width, height
 
+    shots = list(source.shots.values())
     with concurrent.futures.ThreadPoolExecutor(max_workers=min(8, os.cpu_count() or 1)) as pool:
-        list(pool.map(check, shots))  # raises the error of the first bad photo in shot order
+        sizes = list(pool.map(size, shots))  # raises the error of the first bad photo in shot order
+    for shot, (w, h) in zip(shots, sizes):
+        if (w, h) != shot.size:
+            _warn(
+                f"{shot.file}: its photo {shot.photo.name} is {w}x{h} but the shot was registered at "
+                f"{shot.size[0]}x{shot.size[1]} (skipped: not a usable shot)"
+            )
+            del source.shots[shot.name]
+    if not source.shots:
+        raise MrcheckError(f"no usable shots to review: the photos of all {len(shots)} have another size", source.home)
 
 
 def _check_files(source: Source, target: Path) -> None:
@@ -295,7 +309,7 @@ def _check_files(source: Source, target: Path) -> None:
     for shot in source.shots.values():
         if not os.path.lexists(shot.photo):
             raise MrcheckError(f"photo of shot {shot.name!r} not found", shot.photo)
-    _check_photos(source.shots.values(), source.max_pixels)
+    _check_photos(source)
     source.scene_stamp = files_stamp(files)
     if source.loaded is None:
         source.loaded = load_scene(source.scene, progress=True)

@@ -28,6 +28,7 @@ from mrcheck.scene.importers.sniff import file_digest
 from mrcheck.scene.importers.writer import write_scene
 
 IMPORTER_VERSION = "3"  # bump when the importers' output changes: old entries are then misses
+PARTIAL = ".partial-"  # an entry being written, renamed into place when complete
 
 
 def cache_root() -> Path:
@@ -98,7 +99,7 @@ def cached_manifest(path, settings: ImportSettings | None = None, progress: Prog
     root = cache_root()
     entry = root / cache_key(path, settings)
     manifest = entry / "scene.toml"
-    if manifest.is_file():
+    if manifest.is_file() and _intact(entry, path):
         return ImportResult(
             manifest=manifest,
             model_name=path.stem,
@@ -112,15 +113,19 @@ def cached_manifest(path, settings: ImportSettings | None = None, progress: Prog
             cached=True,
         )
     model = read_model(path, settings, progress)
+    from mrcheck.core.partials import partial_prefix, remove_stale_partials, seal_folder
+
     try:
         root.mkdir(parents=True, exist_ok=True)
-        work = Path(tempfile.mkdtemp(prefix=".partial-", dir=root))
+        remove_stale_partials(root, PARTIAL)  # a killed import's
+        work = Path(tempfile.mkdtemp(prefix=partial_prefix(PARTIAL), dir=root))
     except OSError as exc:
         raise MrcheckError(
             f"cannot write the import cache ({exc.strerror or exc}; set MRCHECK_CACHE_DIR to a writable folder)", root
         ) from None
     try:
         write_scene(model, work / "scene", _header(path, settings))
+        seal_folder(work / "scene")
         try:
             os.rename(work / "scene", entry)
         except OSError:
@@ -130,6 +135,26 @@ def cached_manifest(path, settings: ImportSettings | None = None, progress: Prog
         shutil.rmtree(work, ignore_errors=True)
     _warn_left_out(path, model)
     return _result(manifest, model, time.perf_counter() - start, cached=False)
+
+
+def _intact(entry: Path, path: Path) -> bool:
+    """The cache ``entry`` holds every file as it was written (:func:`mrcheck.core.partials.seal_problem`);
+    a damaged one (a GLB truncated by a full disk, a file deleted) is removed, with a warning, to
+    be imported again."""
+    from mrcheck.core.partials import SEAL, partial_prefix, seal_problem
+
+    problem = seal_problem(entry)
+    if problem is None:
+        return True
+    if (entry / SEAL).exists():  # without a seal: written before entries were sealed, not damaged
+        warn(f"the cached import is damaged ({problem}): importing it again", path)
+    try:  # renamed aside first: a concurrent reader sees the entry whole or not at all
+        aside = Path(tempfile.mkdtemp(prefix=partial_prefix(PARTIAL), dir=entry.parent))
+        os.rename(entry, aside / "scene")
+        shutil.rmtree(aside, ignore_errors=True)
+    except OSError:  # another process replaced it first
+        pass
+    return False
 
 
 SHOWN_FAILURES = 5

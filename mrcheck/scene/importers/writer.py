@@ -21,7 +21,7 @@ import numpy as np
 
 from mrcheck.core.errors import MrcheckError, display
 from mrcheck.scene.importers.records import ImportedModel, ImportedPart
-from mrcheck.scene.manifest import dumps_manifest, write_generated
+from mrcheck.scene.manifest import dumps_manifest, remove_stale_work, write_generated
 
 MARKER = "Imported by mrcheck scene import"  # a folder whose scene.toml starts with this may be replaced
 OWN = ("scene.toml", "meshes", "README.md")
@@ -32,10 +32,12 @@ OVERVIEW_FOV_DEG = 60.0
 
 
 def check_import_dir(outdir: Path) -> None:
-    """Refuse to write into a folder that holds other things than an earlier import."""
+    """Refuse to write into a folder that holds other things than an earlier import (what a
+    killed import left there is removed first: it is not the user's)."""
     outdir = Path(outdir)
     if outdir.exists() and not outdir.is_dir():
         raise MrcheckError("output exists and is not a folder", outdir)
+    remove_stale_work(outdir)
     if outdir.is_dir() and any(outdir.iterdir()):
         manifest = outdir / "scene.toml"
         head = manifest.read_text(errors="replace")[:200] if manifest.is_file() else ""
