@@ -37,6 +37,7 @@ from pathlib import Path
 from urllib.parse import unquote
 
 from mrcheck.core.errors import MrcheckError, display
+from mrcheck.core.inputs import check_input
 from mrcheck.core.partials import partial_prefix, remove_stale_partials
 from mrcheck.scene import packages
 
@@ -55,6 +56,7 @@ def read_manifest(path) -> dict:
     a part's ``instances_file`` (an import's JSON list of instance tables) is read into its
     ``instances``, so that every consumer sees one form."""
     path = Path(path)
+    check_input(path, "manifest")  # before opening: a FIFO would block the read for ever
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8-sig"))  # as mrcheck.scene.model reads it
         for part in data.get("parts", []):
