@@ -118,6 +118,22 @@ def test_unconstrained_direction_gets_no_offset():
     assert np.allclose(t[0], (0.02, 0.0, 0.0), atol=1e-6)
 
 
+def test_points_without_a_finite_normal_constrain_nothing():
+    # a scan point exactly at a mesh vertex of a degenerate face has a NaN normal: that instance's
+    # normal matrix was NaN and eigh stopped with "Eigenvalues did not converge"
+    owner = np.array([0, 0, 0, 1, 1, 1])
+    normal = np.tile([1.0, 0.0, 0.0], (6, 1))
+    normal[0] = np.nan
+    d = np.full(6, 0.02)
+    d[4] = np.nan
+    t, r = fit_offsets(owner, normal, d, 2, 0.01)
+    assert np.isfinite(t).all()
+    assert np.isnan(r[[0, 4]]).all() and np.isfinite(r[[1, 2, 3, 5]]).all()
+    all_nan = np.full((3, 3), np.nan)
+    t, _ = fit_offsets(np.zeros(3, np.int64), all_nan, np.full(3, np.nan), 1, 0.01)
+    assert np.array_equal(t, np.zeros((1, 3)))  # no data: no offset
+
+
 def test_grouped_quantile_matches_numpy():
     rng = np.random.default_rng(3)
     owner = rng.integers(0, 5, 1000)
