@@ -4,8 +4,10 @@ shifted variants of the sample cell (mrcheck.eval.scansim), its pieces, and its 
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
+import zipfile
 from dataclasses import replace
 from pathlib import Path
 
@@ -185,6 +187,11 @@ def test_cli_writes_the_table_picture_and_bcf(sample, simulated, tmp_path, capsy
     data = (out / "elements.bcfzip").read_bytes()
     assert validate_bcfzip(data)
     assert {t.components[0].tool_id for t in read_bcf_bytes(data)} == out_ids
+    # the status picture once at the root, each topic a crop of it around its element
+    with zipfile.ZipFile(io.BytesIO(data)) as archive:
+        names = archive.namelist()
+    assert [n for n in names if n.endswith(".jpg") and "/" not in n] == ["status.jpg"]
+    assert sum(n.endswith("/snapshot.jpg") for n in names) == len(out_ids)
     import cv2
 
     picture = cv2.imread(str(out / "elements.png"))
