@@ -134,6 +134,10 @@ def test_points_without_a_finite_normal_constrain_nothing():
     all_nan = np.full((3, 3), np.nan)
     t, _ = fit_offsets(np.zeros(3, np.int64), all_nan, np.full(3, np.nan), 1, 0.01)
     assert np.array_equal(t, np.zeros((1, 3)))  # no data: no offset
+    huge = np.full(3, 1e300)  # finite, but the normal matrix's sums overflow to inf
+    with np.errstate(over="ignore", invalid="ignore"):
+        t, _ = fit_offsets(np.zeros(3, np.int64), np.tile([1e200, 0.0, 0.0], (3, 1)), huge, 1, 0.01)
+    assert np.isfinite(t).all()
 
 
 def test_grouped_quantile_matches_numpy():

@@ -79,7 +79,11 @@ def _bin(owner, weights, count):
 
 
 def _solve(A: np.ndarray, b: np.ndarray, wsum: np.ndarray) -> np.ndarray:
-    """Per instance ``A t = b`` on the directions enough points constrain (module docstring)."""
+    """Per instance ``A t = b`` on the directions enough points constrain (module docstring); an
+    instance whose sums are not finite (an overflow) gets no offset rather than stopping eigh."""
+    bad = ~(np.isfinite(A).all(axis=(1, 2)) & np.isfinite(b).all(axis=1))
+    if bad.any():
+        A, b = np.where(bad[:, None, None], 0.0, A), np.where(bad[:, None], 0.0, b)
     vals, vecs = np.linalg.eigh(A)
     keep = vals > np.maximum(MIN_CONSTRAINT * wsum, MIN_CONSTRAINT_POINTS)[:, None]
     inv = np.where(keep, 1.0 / np.where(keep, vals, 1.0), 0.0)
