@@ -4,8 +4,10 @@ shifted variants of the sample cell (mrcheck.eval.scansim), its pieces, and its 
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
+import zipfile
 from dataclasses import replace
 from pathlib import Path
 
@@ -118,6 +120,26 @@ def test_unconstrained_direction_gets_no_offset():
     assert np.allclose(t[0], (0.02, 0.0, 0.0), atol=1e-6)
 
 
+def test_points_without_a_finite_normal_constrain_nothing():
+    # a scan point exactly at a mesh vertex of a degenerate face has a NaN normal: that instance's
+    # normal matrix was NaN and eigh stopped with "Eigenvalues did not converge"
+    owner = np.array([0, 0, 0, 1, 1, 1])
+    normal = np.tile([1.0, 0.0, 0.0], (6, 1))
+    normal[0] = np.nan
+    d = np.full(6, 0.02)
+    d[4] = np.nan
+    t, r = fit_offsets(owner, normal, d, 2, 0.01)
+    assert np.isfinite(t).all()
+    assert np.isnan(r[[0, 4]]).all() and np.isfinite(r[[1, 2, 3, 5]]).all()
+    all_nan = np.full((3, 3), np.nan)
+    t, _ = fit_offsets(np.zeros(3, np.int64), all_nan, np.full(3, np.nan), 1, 0.01)
+    assert np.array_equal(t, np.zeros((1, 3)))  # no data: no offset
+    huge = np.full(3, 1e300)  # finite, but the normal matrix's sums overflow to inf
+    with np.errstate(over="ignore", invalid="ignore"):
+        t, _ = fit_offsets(np.zeros(3, np.int64), np.tile([1e200, 0.0, 0.0], (3, 1)), huge, 1, 0.01)
+    assert np.isfinite(t).all()
+
+
 def test_grouped_quantile_matches_numpy():
     rng = np.random.default_rng(3)
     owner = rng.integers(0, 5, 1000)
@@ -169,6 +191,11 @@ def test_cli_writes_the_table_picture_and_bcf(sample, simulated, tmp_path, capsy
     data = (out / "elements.bcfzip").read_bytes()
     assert validate_bcfzip(data)
     assert {t.components[0].tool_id for t in read_bcf_bytes(data)} == out_ids
+    # the status picture once at the root, each topic a crop of it around its element
+    with zipfile.ZipFile(io.BytesIO(data)) as archive:
+        names = archive.namelist()
+    assert [n for n in names if n.endswith(".jpg") and "/" not in n] == ["status.jpg"]
+    assert sum(n.endswith("/snapshot.jpg") for n in names) == len(out_ids)
     import cv2
 
     picture = cv2.imread(str(out / "elements.png"))

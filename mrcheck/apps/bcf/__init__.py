@@ -31,12 +31,13 @@ from mrcheck.apps.bcf.findings import (
     severity_of,
     topic_guid,
 )
-from mrcheck.apps.bcf.model import BcfCamera, BcfComment, BcfComponent, BcfTopic
+from mrcheck.apps.bcf.model import BcfCamera, BcfComment, BcfComponent, BcfTopic, SharedPicture
 from mrcheck.apps.bcf.read import read_bcf, read_bcf_bytes, read_bcf_file
 from mrcheck.apps.bcf.topics import Finding, finding_topic
 from mrcheck.apps.bcf.write import bcf_bytes
 
 __all__ = [
+    "SharedPicture",
     "BcfArchive",
     "BcfTopic",
     "BcfComment",

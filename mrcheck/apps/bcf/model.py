@@ -35,12 +35,24 @@ class BcfComment:
     text: str
 
 
+@dataclass(frozen=True)
+class SharedPicture:
+    """A picture several topics refer to (a run's heat map or status picture): stored once at the
+    zip's root as ``name`` (its extension is replaced by the stored format's), each topic's
+    markup refers to it (DocumentReference) and takes a crop of it as its own snapshot."""
+
+    name: str  # "heatmap", "status": the entry's name without extension
+    data: bytes  # PNG or JPEG, full size
+    description: str
+
+
 @dataclass
 class BcfTopic:
     """One issue. ``status`` (TopicStatus) is free text in BCF 2.1: mrcheck writes "Open";
     other tools write "In Progress", "Resolved", "Closed", ... and the review shows them.
     ``snapshot_png``: the snapshot's bytes, PNG or JPEG; ``ifc_file``: the name of the IFC file
-    the scene came from (the markup's Header), "" for none."""
+    the scene came from (the markup's Header), "" for none. ``shared`` / ``box``: a picture the
+    run's topics share and the topic's pixel box in it (its snapshot is a crop around the box)."""
 
     guid: str
     title: str
@@ -59,6 +71,8 @@ class BcfTopic:
     comments: list = field(default_factory=list)  # BcfComment
     viewpoint_guid: str | None = None
     ifc_file: str = ""
+    shared: SharedPicture | None = None  # referenced, not copied: see write.bcf_bytes
+    box: tuple | None = None  # (x0, y0, x1, y1) pixels of what the topic is about in ``shared``
 
 
-__all__ = ["BcfTopic", "BcfComment", "BcfCamera", "BcfComponent"]
+__all__ = ["SharedPicture", "BcfTopic", "BcfComment", "BcfCamera", "BcfComponent"]

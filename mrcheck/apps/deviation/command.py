@@ -29,7 +29,7 @@ import numpy as np
 
 from mrcheck.apps.bcf import element_label
 from mrcheck.apps.deviation.distances import deviation
-from mrcheck.apps.deviation.element_image import element_image, overview_camera
+from mrcheck.apps.deviation.element_image import element_picture, overview_camera
 from mrcheck.apps.deviation.element_report import (
     ELEMENTS_BCF,
     ELEMENTS_CSV,
@@ -135,7 +135,8 @@ def element_outputs(
     scanners = scanner_positions(cloud, scan)
     rows = element_status(result.surface, loaded, cloud.points, settings.tolerance_mm, settings.search_mm, scanners)
     shot_camera = camera if camera is not None else overview_camera(loaded)
-    picture = element_image(loaded, rows, settings.tolerance_mm, shot_camera, photo)
+    drawn = element_picture(loaded, rows, settings.tolerance_mm, shot_camera, photo)
+    picture = drawn.image
     report = make_element_report(rows, scan, scene, settings.tolerance_mm, settings.search_mm, scanners)
     bcf = elements_bcf(
         rows,
@@ -145,6 +146,7 @@ def element_outputs(
         shot_camera,
         encode_image(ELEMENTS_PNG, picture),
         settings.author,
+        drawn.boxes,
     )
     return report, {
         ELEMENTS_CSV: elements_csv(rows),

@@ -12,6 +12,8 @@ the elements (:func:`overview_camera`: not from above a roof that hides them).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import cv2
 import numpy as np
 
@@ -136,9 +138,37 @@ def tinted(render: np.ndarray, ids: np.ndarray, colours: np.ndarray) -> tuple[np
     return image.astype(np.uint8), cad
 
 
+@dataclass(frozen=True)
+class ElementPicture:
+    """``elements.png`` and each row's pixel box in it (x0, y0, x1, y1; None: not seen)."""
+
+    image: np.ndarray
+    boxes: list
+
+
+def pixel_boxes(ids: np.ndarray, count: int) -> list:
+    """The box of each instance index 0..count-1 in an id image (-1: background); None unseen."""
+    ys, xs = np.nonzero(ids >= 0)
+    owner = ids[ys, xs]
+    low_x, low_y = np.full(count, np.iinfo(np.int64).max), np.full(count, np.iinfo(np.int64).max)
+    high_x, high_y = np.full(count, -1), np.full(count, -1)
+    np.minimum.at(low_x, owner, xs)
+    np.minimum.at(low_y, owner, ys)
+    np.maximum.at(high_x, owner, xs)
+    np.maximum.at(high_y, owner, ys)
+    return [
+        (int(low_x[i]), int(low_y[i]), int(high_x[i]), int(high_y[i])) if high_x[i] >= 0 else None for i in range(count)
+    ]
+
+
 def element_image(scene, rows, tolerance_mm: float, camera=None, photo=None) -> np.ndarray:
-    """``elements.png`` (module docstring). ``rows`` in :func:`triangle_owners` order (as
-    :func:`~mrcheck.apps.deviation.elements.element_status` returns them)."""
+    """``elements.png`` (module docstring), :func:`element_picture`'s image."""
+    return element_picture(scene, rows, tolerance_mm, camera, photo).image
+
+
+def element_picture(scene, rows, tolerance_mm: float, camera=None, photo=None) -> ElementPicture:
+    """``elements.png`` (module docstring) with the rows' boxes. ``rows`` in :func:`triangle_owners`
+    order (as :func:`~mrcheck.apps.deviation.elements.element_status` returns them)."""
     from mrcheck.apps.discrepancies.ids import object_ids
     from mrcheck.mr.lens import distortion_map
     from mrcheck.mr.overlay import overlay_images
@@ -159,7 +189,17 @@ def element_image(scene, rows, tolerance_mm: float, camera=None, photo=None) -> 
     if photo is not None:
         blend = PHOTO_ALPHA * photo.astype(np.float64) + (1.0 - PHOTO_ALPHA) * image
         image = np.where(cad[..., None], blend, photo).astype(np.uint8)
-    return np.hstack([image, legend(image.shape[0], tolerance_mm)])
+    picture = np.hstack([image, legend(image.shape[0], tolerance_mm)])
+    return ElementPicture(picture, pixel_boxes(ids, len(rows)))
 
 
-__all__ = ["element_image", "status_colours", "overview_camera", "legend", "tinted"]
+__all__ = [
+    "ElementPicture",
+    "element_picture",
+    "pixel_boxes",
+    "element_image",
+    "status_colours",
+    "overview_camera",
+    "legend",
+    "tinted",
+]

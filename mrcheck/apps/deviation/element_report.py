@@ -11,6 +11,7 @@ from dataclasses import asdict, dataclass
 
 from mrcheck.apps.bcf import (
     BcfTopic,
+    SharedPicture,
     bcf_bytes,
     bcf_camera,
     element_component,
@@ -113,15 +114,19 @@ def _description(row, tolerance_mm: float) -> str:
 
 
 def element_topics(
-    rows, scene, tolerance_mm: float, key: str, camera=None, snapshot_png=None, author: str = "mrcheck"
+    rows, scene, tolerance_mm: float, key: str, camera=None, snapshot_png=None, author: str = "mrcheck", boxes=None
 ) -> list[BcfTopic]:
     """One topic per element out of tolerance, worst first; priority High at 3x the tolerance or
     more, else Normal. ``key`` (the output folder) makes the topic ids stable; the title names
-    the element (:func:`element_label`), the component carries its GlobalId."""
-    out = [r for r in rows if r.status == "out of tolerance"]
-    out.sort(key=lambda r: -max(r.offset_norm_mm or 0.0, r.residual_mm or 0.0))
+    the element (:func:`element_label`), the component carries its GlobalId. ``snapshot_png``,
+    the status picture, is shared: once in the file, each topic's snapshot a crop of it around
+    the element's box in ``boxes`` (per row, None: not seen)."""
+    boxes = boxes if boxes is not None else [None] * len(rows)
+    status = None if snapshot_png is None else SharedPicture("status", snapshot_png, "status picture of the elements")
+    out = [(r, box) for r, box in zip(rows, boxes) if r.status == "out of tolerance"]
+    out.sort(key=lambda rb: -max(rb[0].offset_norm_mm or 0.0, rb[0].residual_mm or 0.0))
     topics = []
-    for r in out:
+    for r, box in out:
         worst = max(r.offset_norm_mm or 0.0, r.residual_mm or 0.0)
         topics.append(
             BcfTopic(
@@ -134,16 +139,17 @@ def element_topics(
                 labels=["deviation", "out of tolerance"],
                 components=element_component(scene, r.id),
                 camera=None if camera is None else bcf_camera(camera),
-                snapshot_png=snapshot_png,
+                shared=status,
+                box=box,
             )
         )
     return topics
 
 
 def elements_bcf(
-    rows, scene, tolerance_mm: float, key: str, camera=None, snapshot_png=None, author: str = "mrcheck"
+    rows, scene, tolerance_mm: float, key: str, camera=None, snapshot_png=None, author: str = "mrcheck", boxes=None
 ) -> bytes:
-    topics = element_topics(rows, scene, tolerance_mm, key, camera, snapshot_png, author)
+    topics = element_topics(rows, scene, tolerance_mm, key, camera, snapshot_png, author, boxes)
     return bcf_bytes(topics, project=scene.name)
 
 

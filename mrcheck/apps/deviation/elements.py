@@ -79,7 +79,11 @@ def _bin(owner, weights, count):
 
 
 def _solve(A: np.ndarray, b: np.ndarray, wsum: np.ndarray) -> np.ndarray:
-    """Per instance ``A t = b`` on the directions enough points constrain (module docstring)."""
+    """Per instance ``A t = b`` on the directions enough points constrain (module docstring); an
+    instance whose sums are not finite (an overflow) gets no offset rather than stopping eigh."""
+    bad = ~(np.isfinite(A).all(axis=(1, 2)) & np.isfinite(b).all(axis=1))
+    if bad.any():
+        A, b = np.where(bad[:, None, None], 0.0, A), np.where(bad[:, None], 0.0, b)
     vals, vecs = np.linalg.eigh(A)
     keep = vals > np.maximum(MIN_CONSTRAINT * wsum, MIN_CONSTRAINT_POINTS)[:, None]
     inv = np.where(keep, 1.0 / np.where(keep, vals, 1.0), 0.0)
@@ -90,8 +94,14 @@ def fit_offsets(owner, normal, d, count: int, scale: float) -> tuple[np.ndarray,
     """Robust point-to-plane translation per instance (module docstring, step 3): ``(t (count, 3),
     residual (N,))``, metres."""
     n = normal.astype(np.float64)
+    d = np.asarray(d, np.float64)
+    # a point without a finite normal or distance (a degenerate face at a mesh vertex) constrains
+    # nothing: one NaN in an instance's A would stop eigh ("Eigenvalues did not converge")
+    finite = np.isfinite(n).all(axis=1) & np.isfinite(d)
+    if not finite.all():
+        n, d = np.where(finite[:, None], n, 0.0), np.where(finite, d, 0.0)
     columns = [np.ascontiguousarray(n[:, i]) for i in range(3)]  # contiguous: the products run faster
-    w = np.ones(len(d))
+    w = finite.astype(np.float64)
     t = np.zeros((count, 3))
     pairs = [(i, j) for i in range(3) for j in range(i, 3)]
     for _ in range(IRLS_ROUNDS):
@@ -103,8 +113,8 @@ def fit_offsets(owner, normal, d, count: int, scale: float) -> tuple[np.ndarray,
         t = _solve(A, b, _bin(owner, w, count))
         # np.take: a third of the time of t[owner] at 10 M points, the same numbers
         r = d - np.einsum("ij,ij->i", n, np.take(t, owner, axis=0))
-        w = 1.0 / (1.0 + (r / scale) ** 2)
-    return t, r
+        w = finite / (1.0 + (r / scale) ** 2)
+    return t, np.where(finite, r, np.nan)
 
 
 def grouped_quantile(owner: np.ndarray, values: np.ndarray, count: int, q: float, bound: float) -> np.ndarray:

@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from mrcheck.apps.bcf import Finding, bcf_bytes, element_label, finding_topic, topic_guid
+from mrcheck.apps.bcf import Finding, SharedPicture, bcf_bytes, element_label, finding_topic, topic_guid
 from mrcheck.apps.discrepancies.detector import Detection, detect
 from mrcheck.apps.discrepancies.heatmap import heatmap
 from mrcheck.apps.discrepancies.report import (
@@ -108,22 +108,35 @@ def discrepancies_command(shot, scene, tolerance_px=None, outdir=None, author: s
     return DiscrepancyRun(detection, list(paths), labels)
 
 
+def marker_boxes(detection: Detection) -> list[list[int] | None]:
+    """The pixel box of each suggested marker: its suspect's, or its region's (the markers list
+    the flagged suspects, then the regions, in order)."""
+    suspects = {s.id: s.bbox for s in detection.flagged}
+    regions = iter(detection.regions)
+    return [suspects.get(m.part) if m.part else next(regions).bbox for m in detection.suggested_markers]
+
+
 def suspects_bcf(
     detection: Detection, scene, camera, snapshot_png: bytes, shot_name: str, outdir: Path, author: str = "mrcheck"
 ) -> bytes:
     """``suspects.bcfzip``: a topic per suggested marker (its part's IFC GlobalId where the scene
-    has one), with the shot's camera and the heat map as snapshot (downscaled once for all,
-    :func:`mrcheck.apps.bcf.write.small_snapshot`); ids stable per output folder."""
+    has one), with the shot's camera; the heat map once at the zip's root (``heatmap.jpg``,
+    downscaled), each topic's snapshot a crop of it around the marker's box
+    (:func:`mrcheck.apps.bcf.write.bcf_bytes`); ids stable per output folder."""
     key = str(Path(outdir).resolve())
+    heat = SharedPicture("heatmap", snapshot_png, f"heat map of {shot_name}")
     topics = [
-        finding_topic(
-            Finding(topic_guid("discrepancies", key, i), m.category, m.severity, m.note, m.part, shot_name),
-            scene,
-            camera,
-            snapshot_png,
-            author=author,
+        replace(
+            finding_topic(
+                Finding(topic_guid("discrepancies", key, i), m.category, m.severity, m.note, m.part, shot_name),
+                scene,
+                camera,
+                author=author,
+            ),
+            shared=heat,
+            box=None if box is None else tuple(box),
         )
-        for i, m in enumerate(detection.suggested_markers)
+        for i, (m, box) in enumerate(zip(detection.suggested_markers, marker_boxes(detection)))
     ]
     return bcf_bytes(topics, project=scene.name)
 
