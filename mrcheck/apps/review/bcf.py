@@ -62,7 +62,8 @@ def _time(seconds: float) -> datetime:
 
 
 def _finding(m: dict, guid: str) -> Finding:
-    """The marker as a finding: created when it was made, modified when changed since."""
+    """The marker as a finding: created when it was made, modified when changed since (told from
+    the stored times, not the whole seconds BCF writes: a change within the first second counts)."""
     created, updated = _time(m["created"]), _time(m["updated"])
     return Finding(
         guid,
@@ -72,7 +73,7 @@ def _finding(m: dict, guid: str) -> Finding:
         m["part"],
         m["shot"],
         created,
-        updated if updated > created else None,
+        updated if m["updated"] > m["created"] else None,
     )
 
 
