@@ -25,6 +25,27 @@ from mrcheck.core.errors import MrcheckError
 # up to this many points (clicks), every 4-point subset is a pose hypothesis (C(12, 4) = 495 AP3P
 # solves, ~10 ms); beyond, RANSAC's consensus alone (markers: many corners, ties are rare)
 _EXHAUSTIVE_MAX = 12
+CLICK_SIGMA_PX = 1.5  # a careful click by eye on a corner: ~1.5 px (1 sigma per axis)
+# a click's 2-D error over sigma is chi-distributed with 2 dof: 99 % of honest clicks lie within
+# sqrt(-2 ln 0.01) = 3.03 sigma; the refit on the inliers only shrinks their residuals
+CLICK_CONFIDENCE = 0.99
+_REFITS = 5  # refit on the inliers until they no longer change (two rounds are the rule)
+
+
+def click_threshold(sigma_px: float, confidence: float = CLICK_CONFIDENCE) -> float:
+    """The outlier threshold (px) for clicks with Gaussian noise ``sigma_px`` per axis: the
+    ``confidence`` quantile of the 2-D error, ``sigma * sqrt(-2 ln(1 - confidence))``."""
+    return float(sigma_px) * math.sqrt(-2.0 * math.log(1.0 - confidence))
+
+
+@dataclass(frozen=True)
+class Rival:
+    """Another consensus as large as the one used, on other points: its inliers, RMS (px) and how
+    far its camera rotation is from the pose returned (deg)."""
+
+    inliers: np.ndarray
+    rms: float
+    rotation_deg: float
 
 
 @dataclass
@@ -34,7 +55,7 @@ class Pose:
     errors: np.ndarray  # (n,) reprojection error of every point, px
     inliers: np.ndarray  # (n,) bool
     threshold: float
-    rival: tuple | None = None  # (inliers, rms) of another consensus of the same size, if any
+    rival: Rival | None = None  # another consensus of the same size, if any
 
     @property
     def rms(self) -> float:
@@ -63,7 +84,7 @@ def principal_axes(world):
     return c, np.concatenate([s, np.zeros(3 - s.size)]), Q
 
 
-def solve_pose(camera: Camera, pixels, world, max_error=None) -> Pose:
+def solve_pose(camera: Camera, pixels, world, max_error=None, noise_px=None) -> Pose:
     """Robust pose of ``camera`` from 2D-3D pairs: hypotheses of the inlier set, each refit and
     LM-refined; the most inliers win, then the lowest RMS.
 
@@ -73,7 +94,10 @@ def solve_pose(camera: Camera, pixels, world, max_error=None) -> Pose:
     mis-clicks with good points that happen to agree) are common, and the better fit must win.
 
     Solved in the points' local frame (:func:`principal_axes`) and mapped back: the same points in any
-    world frame give the same camera relative to them."""
+    world frame give the same camera relative to them.
+
+    The inlier threshold: ``max_error`` when given, else :func:`click_threshold` of ``noise_px``
+    when given (clicks), else a few pixels, more for big photos (marker corners)."""
     pixels = np.ascontiguousarray(pixels, np.float64).reshape(-1, 2)
     world = np.ascontiguousarray(world, np.float64).reshape(-1, 3)
     n = len(world)
@@ -87,8 +111,12 @@ def solve_pose(camera: Camera, pixels, world, max_error=None) -> Pose:
     if principal_axes(np.column_stack([pixels, np.zeros(n)]))[1][1] < 1e-3 * max(camera.width, camera.height):
         raise MrcheckError("the image points are collinear (or coincide): the pose is undetermined")
     planar = s[2] < 1e-3 * s[0]
-    # automatic threshold: a few pixels, more for big photos (clicks and corners scale with size)
-    threshold = float(max_error) if max_error else max(3.0, 0.003 * math.hypot(camera.width, camera.height))
+    if max_error:
+        threshold = float(max_error)
+    elif noise_px:
+        threshold = click_threshold(noise_px)
+    else:  # corners: a few pixels, more for big photos (detection errors scale with size)
+        threshold = max(3.0, 0.003 * math.hypot(camera.width, camera.height))
 
     world = np.ascontiguousarray((world - c) @ Q)  # from here on the local frame
     fits = [
@@ -108,14 +136,16 @@ def solve_pose(camera: Camera, pixels, world, max_error=None) -> Pose:
     )
     R_local = cv2.Rodrigues(best.rvec)[0]
     R = R_local @ Q.T  # X_cam = R_local Q^T (X - c) + t_local
-    return Pose(
-        R,
-        best.tvec.ravel() - R @ c,
-        best.errors,
-        best.inliers,
-        threshold,
-        rival=None if rival is None else (rival.inliers, rival.rms),
-    )
+    if rival is not None:
+        apart = rotation_angle(R_local, cv2.Rodrigues(rival.rvec)[0])
+        rival = Rival(rival.inliers, rival.rms, apart)
+    return Pose(R, best.tvec.ravel() - R @ c, best.errors, best.inliers, threshold, rival=rival)
+
+
+def rotation_angle(R1: np.ndarray, R2: np.ndarray) -> float:
+    """The angle (deg) of the rotation between two rotation matrices."""
+    cos = (np.trace(R1 @ R2.T) - 1.0) / 2.0
+    return math.degrees(math.acos(min(1.0, max(-1.0, float(cos)))))
 
 
 @dataclass
@@ -170,9 +200,9 @@ def _hypotheses(camera, pixels, world, threshold):
 
 def _refit(camera, pixels, world, inliers, seeds, planar, threshold) -> _Fit | None:
     """The best pose for one consensus: seeds plus an IPPE / SQPnP fit on the inliers, LM-refined;
-    then once more on the inliers of that fit. None when fewer than 4 points agree."""
+    then on the inliers of that fit until they stay the same. None when fewer than 4 points agree."""
     candidates, best = list(seeds), None
-    for _ in range(2):  # refit on the inliers, then once more on the inliers of the refit
+    for _ in range(_REFITS):
         if inliers.sum() < 4:
             break
         flag = cv2.SOLVEPNP_IPPE if planar else cv2.SOLVEPNP_SQPNP
@@ -187,6 +217,8 @@ def _refit(camera, pixels, world, inliers, seeds, planar, threshold) -> _Fit | N
         if found is None:
             break
         best = found
+        if ((best[2] < threshold) == inliers).all():
+            break
         inliers = best[2] < threshold
     if best is None or inliers.sum() < 4:
         return None
@@ -239,4 +271,15 @@ def expected_overlay_error(camera: Camera, world, sigma_px: float) -> float:
     return float(np.sqrt(per_point.mean()))
 
 
-__all__ = ["Pose", "solve_pose", "expected_overlay_error", "principal_axes", "reprojection_errors", "inlier_rms"]
+__all__ = [
+    "CLICK_SIGMA_PX",
+    "Pose",
+    "Rival",
+    "click_threshold",
+    "rotation_angle",
+    "solve_pose",
+    "expected_overlay_error",
+    "principal_axes",
+    "reprojection_errors",
+    "inlier_rms",
+]
