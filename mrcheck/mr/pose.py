@@ -28,7 +28,7 @@ _EXHAUSTIVE_MAX = 12
 CLICK_SIGMA_PX = 1.5  # a careful click by eye on a corner: ~1.5 px (1 sigma per axis)
 # a click's 2-D error over sigma is chi-distributed with 2 dof: 99 % of honest clicks lie within
 # sqrt(-2 ln 0.01) = 3.03 sigma; the refit on the inliers only shrinks their residuals
-CLICK_CONFIDENCE = 0.99
+CLICK_CONFIDENCE = 0.999
 _REFITS = 5  # refit on the inliers until they no longer change (two rounds are the rule)
 
 
@@ -46,6 +46,7 @@ class Rival:
     inliers: np.ndarray
     rms: float
     rotation_deg: float
+    sigma_deg: float  # the returned pose's own rotation uncertainty (1 sigma, worst axis) at the click noise
 
 
 @dataclass
@@ -138,8 +139,29 @@ def solve_pose(camera: Camera, pixels, world, max_error=None, noise_px=None) -> 
     R = R_local @ Q.T  # X_cam = R_local Q^T (X - c) + t_local
     if rival is not None:
         apart = rotation_angle(R_local, cv2.Rodrigues(rival.rvec)[0])
-        rival = Rival(rival.inliers, rival.rms, apart)
+        noise = noise_px or threshold / click_threshold(1.0)
+        sigma = rotation_sigma(camera, R_local, best.tvec.ravel(), world[best.inliers], noise)
+        rival = Rival(rival.inliers, rival.rms, apart, sigma)
     return Pose(R, best.tvec.ravel() - R @ c, best.errors, best.inliers, threshold, rival=rival)
+
+
+def rotation_sigma(camera: Camera, R: np.ndarray, t: np.ndarray, world: np.ndarray, sigma_px: float) -> float:
+    """The rotation's 1-sigma uncertainty (deg, its worst axis) of the pose ``R, t`` fit to
+    ``world``'s points with pixel noise ``sigma_px``: the covariance ``sigma^2 (J^T J)^-1`` (Gauss-
+    Newton, Hartley & Zisserman 5.2.3) with J over a small rotation applied before R and t,
+    by central differences (an rvec's derivative is not an angle away from the identity)."""
+    step = 1e-6
+
+    def project(delta):
+        turned = cv2.Rodrigues(delta[:3])[0] @ R
+        return cv2.projectPoints(world, cv2.Rodrigues(turned)[0], t + delta[3:], camera.K, camera.dist)[0].ravel()
+
+    J = np.column_stack([(project(step * e) - project(-step * e)) / (2 * step) for e in np.eye(6)])
+    try:
+        covariance = sigma_px**2 * np.linalg.inv(J.T @ J)
+    except np.linalg.LinAlgError:
+        return float("inf")
+    return math.degrees(math.sqrt(max(0.0, float(np.linalg.eigvalsh(covariance[:3, :3])[-1]))))
 
 
 def rotation_angle(R1: np.ndarray, R2: np.ndarray) -> float:
@@ -277,6 +299,7 @@ __all__ = [
     "Rival",
     "click_threshold",
     "rotation_angle",
+    "rotation_sigma",
     "solve_pose",
     "expected_overlay_error",
     "principal_axes",

@@ -138,17 +138,17 @@ def register_command(
     if initial is not None:
         shot = snap_photo(photo, camera, model, rough, "initial")
     elif edges:
-        shot = _refined(shot, photo, camera, model, "markers" if markers is not None else "points")
+        shot = gated_refinement(shot, photo, camera, model, "markers" if markers is not None else "points")
     write_shot(output, shot)
     return RegistrationResult(shot, output)
 
 
-def _refined(start: Shot, photo: PathArg, camera: Camera, model, how: str) -> Shot:
+def gated_refinement(start: Shot, photo: PathArg, camera: Camera, model, how: str) -> Shot:
     """The edge refinement of a markers or points shot, or that shot with the reason it was not applied."""
     try:
         refined = snap_photo(photo, camera, model, start.camera, how)
     except MrcheckError as exc:
-        reason = f"the edge fit failed ({str(exc).removeprefix('edge registration failed: ')})"
+        reason = f"the edge fit failed ({exc.problem.removeprefix('edge registration failed: ')})"
     else:
         reason = refinement_gate(start, refined, model.bounds())
         if reason is None:
@@ -254,4 +254,11 @@ def _edge_lines(shot: Shot) -> list[str]:
     return lines
 
 
-__all__ = ["RegistrationResult", "overlay_moved", "refinement_gate", "register_command", "summary_lines"]
+__all__ = [
+    "RegistrationResult",
+    "gated_refinement",
+    "overlay_moved",
+    "refinement_gate",
+    "register_command",
+    "summary_lines",
+]

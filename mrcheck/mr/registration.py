@@ -55,9 +55,11 @@ _WARN_OVERLAY_PX = 3.0  # predicted overlay error worth a warning
 _WARN_DISTANCE_RATIO = 15.0  # mean distance / extent of the points
 _WARN_FRONTAL_DEG = 20.0  # coplanar points whose plane faces the camera within this angle
 _FAR_MARGIN_M = 5.0  # a camera this far outside the scene (or one scene extent) is suspicious
-# two equally supported sets of clicks whose poses turn this far apart: which one is right is a
-# guess (a 2 deg turn is ~10 px at the edge of a 640 px view at 60 deg), so the clicks are refused
-AMBIGUOUS_DEG = 2.0
+# two equally supported sets of clicks whose poses turn apart by more than this many of the pose's
+# own 1-sigma rotation uncertainty (and at least AMBIGUOUS_DEG): the noise does not explain the
+# difference, one of the sets holds a mis-click and which one is a guess, so the clicks are refused
+AMBIGUOUS_SIGMAS = 3.0
+AMBIGUOUS_DEG = 2.0  # a 2 deg turn is ~10 px at the edge of a 640 px view at 60 deg
 
 
 def fit_camera(camera: Camera, width: int, height: int, source=None):
@@ -154,7 +156,7 @@ def _register(camera: Camera, groups: list, method: str, max_error, warnings: li
     owner = np.concatenate([np.full(len(g.world), i) for i, g in enumerate(groups)])
     pose = solve_pose(camera, pixels, world, max_error, noise_px)
     if method == "points":
-        _refuse_ambiguous(pose)
+        refuse_ambiguous(pose)
     atomic = [owner == i for i, g in enumerate(groups) if g.atomic]
     for _ in range(2):
         keep = pose.inliers.copy()
@@ -222,11 +224,12 @@ def _consensus_warnings(pose: Pose, owner: np.ndarray, method: str) -> list:
     return out
 
 
-def _refuse_ambiguous(pose: Pose) -> None:
+def refuse_ambiguous(pose: Pose) -> None:
     """Clicks whose two equally large consistent subsets give poses :data:`AMBIGUOUS_DEG` apart
-    are refused: returning the lower-RMS one is a coin toss on small or distant objects."""
+    and more than :data:`AMBIGUOUS_SIGMAS` of its own rotation uncertainty apart are refused:
+    returning the lower-RMS one is a coin toss on small or distant objects."""
     rival = pose.rival
-    if rival is None or rival.rotation_deg <= AMBIGUOUS_DEG:
+    if rival is None or rival.rotation_deg <= max(AMBIGUOUS_DEG, AMBIGUOUS_SIGMAS * rival.sigma_deg):
         return
 
     def names(mask):
@@ -235,7 +238,7 @@ def _refuse_ambiguous(pose: Pose) -> None:
     raise MrcheckError(
         f"ambiguous clicks: points {names(pose.inliers)} (RMS {pose.rms:.2f} px) and {names(rival.inliers)} "
         f"(RMS {rival.rms:.2f} px, 0-based) agree equally well within {pose.threshold:.1f} px but their poses "
-        f"turn {rival.rotation_deg:.1f} deg apart; fix the mis-clicks or add points"
+        f"turn {rival.rotation_deg:.1f} deg apart (1 sigma {rival.sigma_deg:.1f} deg); fix the mis-clicks or add points"
     )
 
 
@@ -347,4 +350,7 @@ __all__ = [
     "register_points",
     "fit_camera",
     "load_points",
+    "refuse_ambiguous",
+    "AMBIGUOUS_DEG",
+    "AMBIGUOUS_SIGMAS",
 ]
