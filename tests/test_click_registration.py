@@ -43,11 +43,12 @@ def test_the_threshold_is_the_999_quantile_of_a_2d_gaussian_click():
     assert pose.threshold == pytest.approx(click_threshold(2.0))
 
 
+@pytest.mark.slow
 def test_honest_clicks_are_kept_and_a_gross_misclick_rejected():
-    """40 sets of 8 clicks with 1.5 px noise, one moved 10-30 px: no honest click is lost and the
+    """12 sets of 8 clicks with 1.5 px noise, one moved 10-30 px: no honest click is lost and the
     mis-click always is; a fixed 3 px threshold (the old rule) loses honest ones."""
     honest_lost = fixed_lost = 0
-    for seed in range(40):
+    for seed in range(12):
         rng = np.random.default_rng(seed)
         world = _object(seed=seed)
         pixels = TRUTH.project(world) + rng.normal(0.0, 1.5, size=(8, 2))
@@ -62,8 +63,8 @@ def test_honest_clicks_are_kept_and_a_gross_misclick_rejected():
         honest_lost += len(rejected - {3})
         fixed = solve_pose(INTRINSICS, pixels, world, max_error=3.0)
         fixed_lost += int((~fixed.inliers).sum()) - (not fixed.inliers[3])
-    assert honest_lost <= 1, honest_lost
-    assert fixed_lost >= 5, fixed_lost  # the rule the threshold replaces
+    assert honest_lost == 0, honest_lost
+    assert fixed_lost >= 3, fixed_lost  # the rule the threshold replaces
 
 
 def test_the_pose_is_refit_on_all_inliers():

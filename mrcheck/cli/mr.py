@@ -95,7 +95,7 @@ def calibrate(images, board, min_views, max_view_error, output):
     default=None,
     callback=positive,
     metavar="PX",
-    help="RANSAC inlier threshold in pixels [default: automatic; points: 3.03 x --click-sigma].",
+    help="RANSAC inlier threshold in pixels [default: automatic; points: 3.72 x --click-sigma].",
 )
 @click.option(
     "--click-sigma",
@@ -104,7 +104,7 @@ def calibrate(images, board, min_views, max_view_error, output):
     show_default=True,
     callback=positive,
     metavar="PX",
-    help="Noise of the clicked --points (px, 1 sigma): their outlier threshold is 3.03 x this (99 %).",
+    help="Noise of the clicked --points (px, 1 sigma): outlier threshold 3.72 x this (99.9 % of honest clicks).",
 )
 @click.option(
     "-o",

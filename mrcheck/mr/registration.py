@@ -14,7 +14,7 @@ Output, SHOT.json: the camera JSON (``width``, ``height``, ``K``, ``dist``, ``R`
     "photo": the photo's path relative to the SHOT.json's folder (:func:`mrcheck.core.shot.photo_reference`),
     "method": "markers" | "points",
     "rms": reprojection RMS on the inliers (px),  "inlier_threshold_px": the RANSAC threshold
-        (points: :func:`~mrcheck.mr.pose.click_threshold` of the click noise, 3.03 sigma),
+        (points: :func:`~mrcheck.mr.pose.click_threshold` of the click noise, 3.72 sigma),
     "used" / "rejected": [{"id": 7, "dictionary": ..., "error_px": worst corner}, {"board": 0, ...,
         "corners": n}, or for points {"index": i, "pixel": .., "world": .., "error_px": ..}],
     "unknown_ids" / "unseen_ids" (markers only), "camera_position": world [x, y, z],
