@@ -122,11 +122,11 @@ def solve_pose(camera: Camera, pixels, world, max_error=None, noise_px=None) -> 
         threshold = max(3.0, 0.003 * math.hypot(camera.width, camera.height))
 
     world = np.ascontiguousarray((world - c) @ Q)  # from here on the local frame
-    fits = [
+    refits = [
         _refit(camera, pixels, world, inliers, seed, planar, threshold)
         for inliers, seed in _hypotheses(camera, pixels, world, threshold)
     ]
-    fits = sorted((f for f in fits if f is not None), key=lambda f: (-f.inliers.sum(), f.rms))
+    fits = sorted((f for f in refits if f is not None), key=lambda f: (-f.inliers.sum(), f.rms))
     if not fits:
         raise MrcheckError(
             f"no consistent pose: fewer than 4 points agree within {threshold:.1f} px "
@@ -134,16 +134,17 @@ def solve_pose(camera: Camera, pixels, world, max_error=None, noise_px=None) -> 
         )
     best = fits[0]
     # another consensus as large as the one used, on other points: the data cannot tell them apart
-    rival = next(
+    other = next(
         (f for f in fits[1:] if f.inliers.sum() == best.inliers.sum() and (f.inliers != best.inliers).any()), None
     )
     R_local = cv2.Rodrigues(best.rvec)[0]
     R = R_local @ Q.T  # X_cam = R_local Q^T (X - c) + t_local
-    if rival is not None:
-        apart = rotation_angle(R_local, cv2.Rodrigues(rival.rvec)[0])
+    rival = None
+    if other is not None:
+        apart = rotation_angle(R_local, cv2.Rodrigues(other.rvec)[0])
         noise = noise_px or threshold / click_threshold(1.0)
         sigma = rotation_sigma(camera, R_local, best.tvec.ravel(), world[best.inliers], noise)
-        rival = Rival(rival.inliers, rival.rms, apart, sigma)
+        rival = Rival(other.inliers, other.rms, apart, sigma)
     return Pose(R, best.tvec.ravel() - R @ c, best.errors, best.inliers, threshold, rival=rival)
 
 

@@ -145,6 +145,7 @@ def register_command(
 
 def gated_refinement(start: Shot, photo: PathArg, camera: Camera, model, how: str) -> Shot:
     """The edge refinement of a markers or points shot, or that shot with the reason it was not applied."""
+    reason: str | None
     try:
         refined = snap_photo(photo, camera, model, start.camera, how)
     except MrcheckError as exc:

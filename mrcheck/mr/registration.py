@@ -169,7 +169,8 @@ def _register(camera: Camera, groups: list, method: str, max_error, warnings: li
         refit = solve_pose(camera, pixels[keep], world[keep], pose.threshold)
         errors = reprojection_errors(camera, cv2.Rodrigues(refit.R)[0], refit.t, pixels, world)
         pose = Pose(refit.R, refit.t, errors, keep & (errors < refit.threshold), refit.threshold)
-    used, rejected = [], []
+    used: list[dict] = []
+    rejected: list[dict] = []
     for i, group in enumerate(groups):
         mine = owner == i
         entry = dict(group.label, error_px=round(float(pose.errors[mine].max()), 3))
