@@ -82,7 +82,7 @@ OPTIONS = {  # every float option of every command, on a command line that works
             "-o",
             "out/s.json",
         ],
-        ["--max-error"],
+        ["--max-error", "--click-sigma"],
     ),
     "calibrate": (
         ["calibrate", "photo.png", "--board", "chessboard:9x6:0.025", "-o", "out/c.json"],

@@ -74,21 +74,19 @@ def test_registration_rejects_the_two_misclicks(shot):
     assert np.abs(left - (129.2, 255.6)).max() < 1.5
 
 
-def test_a_third_bad_click_does_not_let_the_misclicks_win(tmp_path):
+def test_a_third_bad_click_makes_the_clicks_ambiguous_and_refused(tmp_path, capsys):
     """Corner 0 moved far off the photo: the two real mis-clicks and two good corners now agree
-    as well as the four good corners left (4 points each). RANSAC alone kept the first such set
-    it met (the mis-clicks, 1.0 px RMS, the overlay 20 px off); the better fit must win, and
-    the shot says that only the minimum agrees and that the data were ambiguous."""
+    as well as the four good corners left (4 points each), with poses 7.2 deg apart. RANSAC alone
+    kept the first such set it met (the mis-clicks, the overlay 20 px off); the lower RMS is no
+    proof either, so the clicks are refused, naming both sets, and no shot is written."""
     points = json.loads((BOX / "corners.json").read_text())
     points["points"][0]["pixel"] = [700.0, 20.0]  # inside the photo, nowhere near the corner
     path = tmp_path / "corners_bad0.json"
     path.write_text(json.dumps(points))
-    assert _register(path, tmp_path / "SHOT.json") == 0
-    data = json.loads((tmp_path / "SHOT.json").read_text())
-    assert sorted(p["index"] for p in data["used"]) == [1, 2, 3, 4]
-    assert data["rms"] < 0.5  # measured 0.35
-    assert any("only 4 of 7 points agree" in w for w in data["warnings"])
-    assert any("ambiguous" in w and "1, 4, 5, 6" in w for w in data["warnings"])
+    assert _register(path, tmp_path / "SHOT.json") == 1
+    err = capsys.readouterr().err
+    assert "ambiguous clicks: points 1, 2, 3, 4" in err and "and 1, 4, 5, 6" in err, err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "SHOT.json").exists()
 
 
 def test_the_seven_clicks_are_not_ambiguous(shot):

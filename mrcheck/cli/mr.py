@@ -95,7 +95,16 @@ def calibrate(images, board, min_views, max_view_error, output):
     default=None,
     callback=positive,
     metavar="PX",
-    help="RANSAC inlier threshold in pixels [default: automatic].",
+    help="RANSAC inlier threshold in pixels [default: automatic; points: 3.72 x --click-sigma].",
+)
+@click.option(
+    "--click-sigma",
+    type=FINITE,
+    default=1.5,
+    show_default=True,
+    callback=positive,
+    metavar="PX",
+    help="Noise of the clicked --points (px, 1 sigma): outlier threshold 3.72 x this (99.9 % of honest clicks).",
 )
 @click.option(
     "-o",
@@ -104,7 +113,7 @@ def calibrate(images, board, min_views, max_view_error, output):
     metavar="SHOT.json",
     help="The registered shot (camera JSON + photo, rms, method, ids used/rejected).",
 )
-def register(scene_path, photo, intrinsics, markers, points, initial, refine, max_error, output):
+def register(scene_path, photo, intrinsics, markers, points, initial, refine, max_error, click_sigma, output):
     """Find a photo's pose: markers, clicks or the CAD's edges.
 
     The pose of the calibrated camera in the factory, from surveyed markers (--markers),
@@ -129,6 +138,7 @@ def register(scene_path, photo, intrinsics, markers, points, initial, refine, ma
         refine=refine,
         max_error=max_error,
         output=output,
+        click_sigma=click_sigma,
     )
     echo_lines(done.summary())
 

@@ -25,6 +25,30 @@ from mrcheck.core.errors import MrcheckError
 # up to this many points (clicks), every 4-point subset is a pose hypothesis (C(12, 4) = 495 AP3P
 # solves, ~10 ms); beyond, RANSAC's consensus alone (markers: many corners, ties are rare)
 _EXHAUSTIVE_MAX = 12
+CLICK_SIGMA_PX = 1.5  # a careful click by eye on a corner: ~1.5 px (1 sigma per axis)
+# a click's 2-D error over sigma is chi-distributed with 2 dof: 99.9 % of honest clicks lie within
+# sqrt(-2 ln 0.001) = 3.72 sigma. At 99 % (3.03 sigma) one set of 8 clicks in 13 loses an honest
+# one (LM-O's tuning photos, 160 cases: 18 of 1120 honest clicks lost at 99 %, 3 at 99.9 %, 0 at
+# 99.99 %); 99.99 % (6.4 px at 1.5 px) would keep mis-clicks of 6-10 px, 99.9 % rejects them
+CLICK_CONFIDENCE = 0.999
+_REFITS = 5  # refit on the inliers until they no longer change (two rounds are the rule)
+
+
+def click_threshold(sigma_px: float, confidence: float = CLICK_CONFIDENCE) -> float:
+    """The outlier threshold (px) for clicks with Gaussian noise ``sigma_px`` per axis: the
+    ``confidence`` quantile of the 2-D error, ``sigma * sqrt(-2 ln(1 - confidence))``."""
+    return float(sigma_px) * math.sqrt(-2.0 * math.log(1.0 - confidence))
+
+
+@dataclass(frozen=True)
+class Rival:
+    """Another consensus as large as the one used, on other points: its inliers, RMS (px) and how
+    far its camera rotation is from the pose returned (deg)."""
+
+    inliers: np.ndarray
+    rms: float
+    rotation_deg: float
+    sigma_deg: float  # the returned pose's own rotation uncertainty (1 sigma, worst axis) at the click noise
 
 
 @dataclass
@@ -34,7 +58,7 @@ class Pose:
     errors: np.ndarray  # (n,) reprojection error of every point, px
     inliers: np.ndarray  # (n,) bool
     threshold: float
-    rival: tuple | None = None  # (inliers, rms) of another consensus of the same size, if any
+    rival: Rival | None = None  # another consensus of the same size, if any
 
     @property
     def rms(self) -> float:
@@ -63,7 +87,7 @@ def principal_axes(world):
     return c, np.concatenate([s, np.zeros(3 - s.size)]), Q
 
 
-def solve_pose(camera: Camera, pixels, world, max_error=None) -> Pose:
+def solve_pose(camera: Camera, pixels, world, max_error=None, noise_px=None) -> Pose:
     """Robust pose of ``camera`` from 2D-3D pairs: hypotheses of the inlier set, each refit and
     LM-refined; the most inliers win, then the lowest RMS.
 
@@ -73,7 +97,10 @@ def solve_pose(camera: Camera, pixels, world, max_error=None) -> Pose:
     mis-clicks with good points that happen to agree) are common, and the better fit must win.
 
     Solved in the points' local frame (:func:`principal_axes`) and mapped back: the same points in any
-    world frame give the same camera relative to them."""
+    world frame give the same camera relative to them.
+
+    The inlier threshold: ``max_error`` when given, else :func:`click_threshold` of ``noise_px``
+    when given (clicks), else a few pixels, more for big photos (marker corners)."""
     pixels = np.ascontiguousarray(pixels, np.float64).reshape(-1, 2)
     world = np.ascontiguousarray(world, np.float64).reshape(-1, 3)
     n = len(world)
@@ -87,15 +114,19 @@ def solve_pose(camera: Camera, pixels, world, max_error=None) -> Pose:
     if principal_axes(np.column_stack([pixels, np.zeros(n)]))[1][1] < 1e-3 * max(camera.width, camera.height):
         raise MrcheckError("the image points are collinear (or coincide): the pose is undetermined")
     planar = s[2] < 1e-3 * s[0]
-    # automatic threshold: a few pixels, more for big photos (clicks and corners scale with size)
-    threshold = float(max_error) if max_error else max(3.0, 0.003 * math.hypot(camera.width, camera.height))
+    if max_error:
+        threshold = float(max_error)
+    elif noise_px:
+        threshold = click_threshold(noise_px)
+    else:  # corners: a few pixels, more for big photos (detection errors scale with size)
+        threshold = max(3.0, 0.003 * math.hypot(camera.width, camera.height))
 
     world = np.ascontiguousarray((world - c) @ Q)  # from here on the local frame
-    fits = [
+    refits = [
         _refit(camera, pixels, world, inliers, seed, planar, threshold)
         for inliers, seed in _hypotheses(camera, pixels, world, threshold)
     ]
-    fits = sorted((f for f in fits if f is not None), key=lambda f: (-f.inliers.sum(), f.rms))
+    fits = sorted((f for f in refits if f is not None), key=lambda f: (-f.inliers.sum(), f.rms))
     if not fits:
         raise MrcheckError(
             f"no consistent pose: fewer than 4 points agree within {threshold:.1f} px "
@@ -103,19 +134,43 @@ def solve_pose(camera: Camera, pixels, world, max_error=None) -> Pose:
         )
     best = fits[0]
     # another consensus as large as the one used, on other points: the data cannot tell them apart
-    rival = next(
+    other = next(
         (f for f in fits[1:] if f.inliers.sum() == best.inliers.sum() and (f.inliers != best.inliers).any()), None
     )
     R_local = cv2.Rodrigues(best.rvec)[0]
     R = R_local @ Q.T  # X_cam = R_local Q^T (X - c) + t_local
-    return Pose(
-        R,
-        best.tvec.ravel() - R @ c,
-        best.errors,
-        best.inliers,
-        threshold,
-        rival=None if rival is None else (rival.inliers, rival.rms),
-    )
+    rival = None
+    if other is not None:
+        apart = rotation_angle(R_local, cv2.Rodrigues(other.rvec)[0])
+        noise = noise_px or threshold / click_threshold(1.0)
+        sigma = rotation_sigma(camera, R_local, best.tvec.ravel(), world[best.inliers], noise)
+        rival = Rival(other.inliers, other.rms, apart, sigma)
+    return Pose(R, best.tvec.ravel() - R @ c, best.errors, best.inliers, threshold, rival=rival)
+
+
+def rotation_sigma(camera: Camera, R: np.ndarray, t: np.ndarray, world: np.ndarray, sigma_px: float) -> float:
+    """The rotation's 1-sigma uncertainty (deg, its worst axis) of the pose ``R, t`` fit to
+    ``world``'s points with pixel noise ``sigma_px``: the covariance ``sigma^2 (J^T J)^-1`` (Gauss-
+    Newton, Hartley & Zisserman 5.2.3) with J over a small rotation applied before R and t,
+    by central differences (an rvec's derivative is not an angle away from the identity)."""
+    step = 1e-6
+
+    def project(delta):
+        turned = cv2.Rodrigues(delta[:3])[0] @ R
+        return cv2.projectPoints(world, cv2.Rodrigues(turned)[0], t + delta[3:], camera.K, camera.dist)[0].ravel()
+
+    J = np.column_stack([(project(step * e) - project(-step * e)) / (2 * step) for e in np.eye(6)])
+    try:
+        covariance = sigma_px**2 * np.linalg.inv(J.T @ J)
+    except np.linalg.LinAlgError:
+        return float("inf")
+    return math.degrees(math.sqrt(max(0.0, float(np.linalg.eigvalsh(covariance[:3, :3])[-1]))))
+
+
+def rotation_angle(R1: np.ndarray, R2: np.ndarray) -> float:
+    """The angle (deg) of the rotation between two rotation matrices."""
+    cos = (np.trace(R1 @ R2.T) - 1.0) / 2.0
+    return math.degrees(math.acos(min(1.0, max(-1.0, float(cos)))))
 
 
 @dataclass
@@ -170,9 +225,9 @@ def _hypotheses(camera, pixels, world, threshold):
 
 def _refit(camera, pixels, world, inliers, seeds, planar, threshold) -> _Fit | None:
     """The best pose for one consensus: seeds plus an IPPE / SQPnP fit on the inliers, LM-refined;
-    then once more on the inliers of that fit. None when fewer than 4 points agree."""
+    then on the inliers of that fit until they stay the same. None when fewer than 4 points agree."""
     candidates, best = list(seeds), None
-    for _ in range(2):  # refit on the inliers, then once more on the inliers of the refit
+    for _ in range(_REFITS):
         if inliers.sum() < 4:
             break
         flag = cv2.SOLVEPNP_IPPE if planar else cv2.SOLVEPNP_SQPNP
@@ -187,6 +242,8 @@ def _refit(camera, pixels, world, inliers, seeds, planar, threshold) -> _Fit | N
         if found is None:
             break
         best = found
+        if ((best[2] < threshold) == inliers).all():
+            break
         inliers = best[2] < threshold
     if best is None or inliers.sum() < 4:
         return None
@@ -239,4 +296,16 @@ def expected_overlay_error(camera: Camera, world, sigma_px: float) -> float:
     return float(np.sqrt(per_point.mean()))
 
 
-__all__ = ["Pose", "solve_pose", "expected_overlay_error", "principal_axes", "reprojection_errors", "inlier_rms"]
+__all__ = [
+    "CLICK_SIGMA_PX",
+    "Pose",
+    "Rival",
+    "click_threshold",
+    "rotation_angle",
+    "rotation_sigma",
+    "solve_pose",
+    "expected_overlay_error",
+    "principal_axes",
+    "reprojection_errors",
+    "inlier_rms",
+]

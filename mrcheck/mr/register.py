@@ -7,6 +7,11 @@ the photo's edges: always after ``--initial``, after markers or points with ``--
 shot is written once, by :func:`mrcheck.core.shot.write_shot`; what the command did is a
 :class:`RegistrationResult` (the shot and where it went), whose :meth:`~RegistrationResult.summary`
 the CLI prints.
+
+The refinement after markers or points is gated (:func:`refinement_gate`): the snapped pose is
+kept only if it stays within the start's uncertainty or its edge evidence is strong; otherwise
+the start's pose is written, with a warning and ``"refinement": "not applied: <reason>"`` in the
+shot's report. A failed edge fit after markers or points keeps the start the same way.
 """
 
 from __future__ import annotations
@@ -16,6 +21,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from mrcheck.core.camera import Camera
 from mrcheck.core.camerafiles import load_camera, read_camera
 from mrcheck.core.errors import MrcheckError
@@ -24,6 +31,7 @@ from mrcheck.core.output import check_not_inputs, check_output_path
 from mrcheck.core.shot import Shot, write_shot
 from mrcheck.mr.edgeshot import snap_photo
 from mrcheck.mr.markers import load_marker_map
+from mrcheck.mr.pose import CLICK_SIGMA_PX
 from mrcheck.mr.registration import load_points, register_photo
 from mrcheck.scene.manifest import scene_files
 from mrcheck.scene.meshes import MESH_SUFFIXES
@@ -32,6 +40,11 @@ from mrcheck.scene.model import load_scene
 PathArg = str | os.PathLike[str]  # a file the command is given
 _LIST_MAX = 12  # the summary line lists the markers or points used up to this many
 _LEFT_OUT_MAX = 12  # ... and the instances the edges left out
+# the refined pose may move the overlay this many times the start's 1-sigma overlay error ...
+_GATE_SIGMAS = 3.0
+_GATE_FLOOR_PX = 1.0  # ... and at least this far (a start's sigma of 0.1 px is a model, not a limit)
+# ... or further with edge support this far beyond chance (the crates' good fits 0.56-0.83)
+_GATE_STRONG = 0.5
 
 
 @dataclass(frozen=True)
@@ -93,10 +106,12 @@ def register_command(
     refine: bool | None = None,
     max_error: float | None = None,
     output: PathArg = "SHOT.json",
+    click_sigma: float = CLICK_SIGMA_PX,
 ) -> RegistrationResult:
     """``mrcheck register``: the start (``markers`` | ``points`` | ``initial``), the edge stage
     when ``initial`` is given or ``refine`` is true, then SHOT.json written atomically (its
-    ``photo`` relative to it). Every input is read before the scene is loaded."""
+    ``photo`` relative to it). Every input is read before the scene is loaded. ``click_sigma``:
+    the clicked points' noise (px), which their outlier threshold follows from."""
     output = check_output_path(output, (".json",), "shot")
     edges = initial is not None or bool(refine)
     _start_option(initial, markers, points, edges)
@@ -117,13 +132,65 @@ def register_command(
             max_error=max_error,
             scene_bounds=model.bounds(),
             points_file=points,
+            click_sigma=click_sigma,
         )
         shot, rough = first, first.camera
-    if edges:
-        start = "initial" if initial is not None else "markers" if markers is not None else "points"
-        shot = snap_photo(photo, camera, model, rough, start)
+    if initial is not None:
+        shot = snap_photo(photo, camera, model, rough, "initial")
+    elif edges:
+        shot = gated_refinement(shot, photo, camera, model, "markers" if markers is not None else "points")
     write_shot(output, shot)
     return RegistrationResult(shot, output)
+
+
+def gated_refinement(start: Shot, photo: PathArg, camera: Camera, model, how: str) -> Shot:
+    """The edge refinement of a markers or points shot, or that shot with the reason it was not applied."""
+    reason: str | None
+    try:
+        refined = snap_photo(photo, camera, model, start.camera, how)
+    except MrcheckError as exc:
+        reason = f"the edge fit failed ({exc.problem.removeprefix('edge registration failed: ')})"
+    else:
+        reason = refinement_gate(start, refined, model.bounds())
+        if reason is None:
+            return refined
+    return start.with_report(
+        refinement=f"not applied: {reason}", warnings=[*start.warnings, f"refinement not applied: {reason}"]
+    )
+
+
+def refinement_gate(start: Shot, refined: Shot, bounds: np.ndarray) -> str | None:
+    """Why the edge-refined pose must not replace the markers' or points' pose, or None to take it.
+
+    The start's pose is known to ``expected_overlay_error_px`` (1 sigma, from its covariance); a
+    refinement that moves the scene's overlay (``bounds``' corners and centre) by more than
+    :data:`_GATE_SIGMAS` of that contradicts the start, and the edges must then prove themselves
+    with support :data:`_GATE_STRONG` beyond chance: otherwise a few clutter edges win over
+    clicks or markers that were right."""
+    allowed = max(_GATE_SIGMAS * float(start.report["expected_overlay_error_px"]), _GATE_FLOOR_PX)
+    moved = overlay_moved(start.camera, refined.camera, bounds)
+    if moved <= allowed:
+        return None
+    chance = refined.report.get("above_chance")
+    if chance is not None and chance >= _GATE_STRONG:
+        return None
+    evidence = "unknown" if chance is None else f"{chance:.2f}"
+    return (
+        f"the edges moved the overlay {moved:.1f} px, beyond {_GATE_SIGMAS:g} sigma of the start "
+        f"({allowed:.1f} px), with support {evidence} beyond chance (< {_GATE_STRONG:g})"
+    )
+
+
+def overlay_moved(a: Camera, b: Camera, bounds: np.ndarray) -> float:
+    """Median image displacement (px) between two poses of a camera at the corners and the centre
+    of the box ``bounds`` (2, 3), over the points in front of both; inf if none is."""
+    lo, hi = np.asarray(bounds, float)
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    points = np.vstack([corners, (lo + hi) / 2])
+    front = ((points @ a.R.T + a.t)[:, 2] > 0) & ((points @ b.R.T + b.t)[:, 2] > 0)
+    if not front.any():
+        return float("inf")
+    return float(np.median(np.linalg.norm(a.project(points[front]) - b.project(points[front]), axis=1)))
 
 
 def summary_lines(shot: Shot, output: PathArg) -> list[str]:
@@ -188,4 +255,11 @@ def _edge_lines(shot: Shot) -> list[str]:
     return lines
 
 
-__all__ = ["RegistrationResult", "register_command", "summary_lines"]
+__all__ = [
+    "RegistrationResult",
+    "gated_refinement",
+    "overlay_moved",
+    "refinement_gate",
+    "register_command",
+    "summary_lines",
+]

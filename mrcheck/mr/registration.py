@@ -13,7 +13,8 @@ Output, SHOT.json: the camera JSON (``width``, ``height``, ``K``, ``dist``, ``R`
 
     "photo": the photo's path relative to the SHOT.json's folder (:func:`mrcheck.core.shot.photo_reference`),
     "method": "markers" | "points",
-    "rms": reprojection RMS on the inliers (px),  "inlier_threshold_px": the RANSAC threshold,
+    "rms": reprojection RMS on the inliers (px),  "inlier_threshold_px": the RANSAC threshold
+        (points: :func:`~mrcheck.mr.pose.click_threshold` of the click noise, 3.72 sigma),
     "used" / "rejected": [{"id": 7, "dictionary": ..., "error_px": worst corner}, {"board": 0, ...,
         "corners": n}, or for points {"index": i, "pixel": .., "world": .., "error_px": ..}],
     "unknown_ids" / "unseen_ids" (markers only), "camera_position": world [x, y, z],
@@ -39,6 +40,7 @@ from mrcheck.core.jsonfile import read_json
 from mrcheck.core.shot import Shot
 from mrcheck.mr.markers import Group, detect_markers, parse_marker_map
 from mrcheck.mr.pose import (
+    CLICK_SIGMA_PX,
     Pose,
     expected_overlay_error,
     principal_axes,
@@ -53,6 +55,11 @@ _WARN_OVERLAY_PX = 3.0  # predicted overlay error worth a warning
 _WARN_DISTANCE_RATIO = 15.0  # mean distance / extent of the points
 _WARN_FRONTAL_DEG = 20.0  # coplanar points whose plane faces the camera within this angle
 _FAR_MARGIN_M = 5.0  # a camera this far outside the scene (or one scene extent) is suspicious
+# two equally supported sets of clicks whose poses turn apart by more than this many of the pose's
+# own 1-sigma rotation uncertainty (and at least AMBIGUOUS_DEG): the noise does not explain the
+# difference, one of the sets holds a mis-click and which one is a guess, so the clicks are refused
+AMBIGUOUS_SIGMAS = 3.0
+AMBIGUOUS_DEG = 2.0  # a 2 deg turn is ~10 px at the edge of a 640 px view at 60 deg
 
 
 def fit_camera(camera: Camera, width: int, height: int, source=None):
@@ -141,12 +148,15 @@ def _geometry_warnings(camera: Camera, world, pose: Pose, single_marker: bool):
 # -- registration -----------------------------------------------------------------------------
 
 
-def _register(camera: Camera, groups: list, method: str, max_error, warnings: list) -> Shot:
-    """Solve the pose over all groups jointly, reject bad markers or pairs: the shot (no photo file yet)."""
+def _register(camera: Camera, groups: list, method: str, max_error, warnings: list, noise_px=None) -> Shot:
+    """Solve the pose over all groups jointly, reject bad markers or pairs: the shot (no photo file yet).
+    ``noise_px``: the click noise the points' threshold follows from (points only)."""
     pixels = np.concatenate([g.pixels for g in groups])
     world = np.concatenate([g.world for g in groups])
     owner = np.concatenate([np.full(len(g.world), i) for i, g in enumerate(groups)])
-    pose = solve_pose(camera, pixels, world, max_error)
+    pose = solve_pose(camera, pixels, world, max_error, noise_px)
+    if method == "points":
+        refuse_ambiguous(pose)
     atomic = [owner == i for i, g in enumerate(groups) if g.atomic]
     for _ in range(2):
         keep = pose.inliers.copy()
@@ -159,7 +169,8 @@ def _register(camera: Camera, groups: list, method: str, max_error, warnings: li
         refit = solve_pose(camera, pixels[keep], world[keep], pose.threshold)
         errors = reprojection_errors(camera, cv2.Rodrigues(refit.R)[0], refit.t, pixels, world)
         pose = Pose(refit.R, refit.t, errors, keep & (errors < refit.threshold), refit.threshold)
-    used, rejected = [], []
+    used: list[dict] = []
+    rejected: list[dict] = []
     for i, group in enumerate(groups):
         mine = owner == i
         entry = dict(group.label, error_px=round(float(pose.errors[mine].max()), 3))
@@ -205,13 +216,31 @@ def _consensus_warnings(pose: Pose, owner: np.ndarray, method: str) -> list:
             "add points or check the rejected ones"
         )
     if pose.rival is not None:
-        inliers, rms = pose.rival
+        inliers, rms = pose.rival.inliers, pose.rival.rms
         which = f" (0-based {', '.join(str(i) for i in np.unique(owner[inliers]))})" if method == "points" else ""
         out.append(
             f"ambiguous: another {int(inliers.sum())} {what}{which} agree as well, with RMS {rms:.2f} px "
             f"against {pose.rms:.2f} px for the ones used; check for mis-clicks or add points"
         )
     return out
+
+
+def refuse_ambiguous(pose: Pose) -> None:
+    """Clicks whose two equally large consistent subsets give poses :data:`AMBIGUOUS_DEG` apart
+    and more than :data:`AMBIGUOUS_SIGMAS` of its own rotation uncertainty apart are refused:
+    returning the lower-RMS one is a coin toss on small or distant objects."""
+    rival = pose.rival
+    if rival is None or rival.rotation_deg <= max(AMBIGUOUS_DEG, AMBIGUOUS_SIGMAS * rival.sigma_deg):
+        return
+
+    def names(mask):
+        return ", ".join(str(i) for i in np.flatnonzero(mask))
+
+    raise MrcheckError(
+        f"ambiguous clicks: points {names(pose.inliers)} (RMS {pose.rms:.2f} px) and {names(rival.inliers)} "
+        f"(RMS {rival.rms:.2f} px, 0-based) agree equally well within {pose.threshold:.1f} px but their poses "
+        f"turn {rival.rotation_deg:.1f} deg apart (1 sigma {rival.sigma_deg:.1f} deg); fix the mis-clicks or add points"
+    )
 
 
 def register_markers(image: np.ndarray, camera: Camera, marker_map, max_error=None) -> Shot:
@@ -245,21 +274,30 @@ def _detected(groups: list) -> str:
     return ", ".join(boards + ([f"marker{'s' * (len(markers) > 1)} {', '.join(markers)}"] if markers else []))
 
 
-def register_points(camera: Camera, pairs, max_error=None) -> Shot:
+def register_points(camera: Camera, pairs, max_error=None, click_sigma=CLICK_SIGMA_PX) -> Shot:
     """The shot (no photo file) of manual correspondences: ``{"points": [...]}`` or its list of
-    ``{"pixel": [u, v], "world": [x, y, z]}`` (the camera must be at the photo's size)."""
-    return _register(camera, _parse_points(pairs), "points", max_error, [])
+    ``{"pixel": [u, v], "world": [x, y, z]}`` (the camera must be at the photo's size);
+    ``click_sigma``: the clicks' noise (px, 1 sigma per axis) the outlier threshold follows from."""
+    return _register(camera, _parse_points(pairs), "points", max_error, [], click_sigma)
 
 
 def register_photo(
-    photo, camera: Camera, marker_map=None, points=None, max_error=None, scene_bounds=None, points_file=None
+    photo,
+    camera: Camera,
+    marker_map=None,
+    points=None,
+    max_error=None,
+    scene_bounds=None,
+    points_file=None,
+    click_sigma=CLICK_SIGMA_PX,
 ) -> Shot:
     """The shot of the photo file ``photo``: registered from ``marker_map`` (a
     :class:`~mrcheck.mr.markers.MarkerMap` or its JSON) or from ``points`` (groups of
     :func:`load_points`, or the correspondences JSON).
     ``camera`` holds the intrinsics (rescaled to the photo when needed). ``scene_bounds``: the
     (2, 3) bounds of the scene the shot is for; a camera far outside them is a warning.
-    ``points_file``: where ``points`` came from, named by errors about them (else the photo)."""
+    ``points_file``: where ``points`` came from, named by errors about them (else the photo).
+    ``click_sigma``: the points' click noise (px), see :func:`register_points`."""
     image = read_photo(photo, grey=True)
     try:
         if marker_map is not None:
@@ -272,7 +310,7 @@ def register_photo(
                 else _parse_points(points)
             )
             _check_pixels_inside(groups, image.shape[1], image.shape[0])
-            shot = _register(camera, groups, "points", max_error, warnings)
+            shot = _register(camera, groups, "points", max_error, warnings, click_sigma)
     except MrcheckError as exc:
         if exc.path is None:  # "no consistent pose", "collinear": of which photo or points file
             raise MrcheckError(str(exc), points_file if marker_map is None and points_file else photo) from None
@@ -313,4 +351,7 @@ __all__ = [
     "register_points",
     "fit_camera",
     "load_points",
+    "refuse_ambiguous",
+    "AMBIGUOUS_DEG",
+    "AMBIGUOUS_SIGMAS",
 ]
