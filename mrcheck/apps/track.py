@@ -411,16 +411,17 @@ def _track_frame(
             scene, camera, photo.grey, start, renderer, edges, RETRY_OPTIONS, candidates, pyramid=photo.pyramid
         )
         times = _fit_times(fit, times)
-    if reason and index > 0 and relocalise_now(previous):
-        # its own pyramid (the reader's has TRACK_OPTIONS' one level) and no candidates (their
-        # spacing is TRACK_OPTIONS')
+    if index > 0 and relocalise_now(previous):
+        # also when the snap held: from the coasted prediction it may hold on other edges (the
+        # better supported of the two is kept); its own pyramid (the reader's has TRACK_OPTIONS'
+        # one level) and no candidates (their spacing is TRACK_OPTIONS')
         again = last_good(previous, camera.with_pose(initial.R, initial.t))
         pose2, fit2, reason2 = snap_frame(scene, camera, photo.grey, again, renderer, edges, RELOCALISE_OPTIONS)
         times = _fit_times(fit2, times)
-        if reason2:
-            reason += f"; relocalised from the last good pose: {reason2}"
-        else:
+        if not reason2 and (reason or fit2.support > fit.support):
             pose, fit, reason = pose2, fit2, reason2
+        elif reason:
+            reason += f"; relocalised from the last good pose: {reason2 or 'less support'}"
     corners = list(fit.uncertainty.corner_px) if fit is not None else []
     rms, support = (None, 0.0) if fit is None else (fit.rms_px, fit.support)
     return FramePose(
