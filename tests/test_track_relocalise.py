@@ -138,3 +138,19 @@ def test_a_matrix_that_is_no_rotation_is_still_refused(matrix):
         nearest_rotation(matrix)
     with pytest.raises(MrcheckError, match="camera R is not a rotation matrix"):
         Camera(640, 480, np.diag([500.0, 500.0, 1.0]), matrix)
+
+
+def test_coasting_through_a_long_lost_stretch_keeps_a_rotation():
+    """A pose orthonormal to 1e-5 (as solvePnP's, printed), then 400 frames of constant-velocity
+    prediction: every prediction is a rotation. Kept as read, R's error compounded through the
+    products (R' = R_1 R_0^T R_1) and the sixth prediction was refused: "camera R is not a
+    rotation matrix", as on the box video with its nominal camera after a lost stretch."""
+    K = np.diag([500.0, 500.0, 1.0])
+    turn = cv2.Rodrigues(np.array([0.002, 0.03, -0.001]))[0]
+    R0 = cv2.Rodrigues(np.array([0.3, -1.1, 0.4]))[0]
+    frames = [_Frame(0, False, Camera(640, 480, K, R0)), _Frame(1, False, Camera(640, 480, K, (1 + 1e-5) * turn @ R0))]
+    for k in range(2, 400):
+        frames.append(_Frame(k, True, trackmotion.predicted(frames)))
+    R = frames[-1].camera.R
+    assert np.abs(R @ R.T - np.eye(3)).max() < 1e-12
+    assert np.abs(R - np.linalg.matrix_power(turn, 399) @ R0).max() < 1e-3  # still the walk's turn
