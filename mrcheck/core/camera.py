@@ -18,6 +18,8 @@ Camera JSON (the contract other tools rely on)::
      "dist": [k1,k2,p1,p2,k3] (optional), "R": 3x3, "t": [tx,ty,tz]}
 
 Extra keys (``photo``, ``rms``, ...) are ignored, so a registered SHOT.json is a camera too.
+An R within 1e-3 of a rotation (printed with a few digits) becomes the nearest rotation
+(:func:`nearest_rotation`); anything further off is refused.
 A ``.yml``/``.yaml`` camera file is OpenCV FileStorage instead. Reading and writing either file
 is :mod:`mrcheck.core.camerafiles` (this module is the model only: it reads no file).
 """
