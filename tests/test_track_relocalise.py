@@ -102,7 +102,7 @@ def test_a_rotation_written_with_a_few_digits_is_made_a_rotation_again(tmp_path)
     R = cv2.Rodrigues(np.array([0.3, -1.1, 0.4]))[0]
     for digits in (4, 5, 6):
         rounded = np.round(R, digits)
-        assert np.abs(rounded @ rounded.T - np.eye(3)).max() > 1e-12  # not one as written
+        assert np.abs(rounded @ rounded.T - np.eye(3)).max() > 1e-9  # not one as written
         path = tmp_path / f"shot{digits}.json"
         path.write_text(
             json.dumps(
@@ -152,5 +152,5 @@ def test_coasting_through_a_long_lost_stretch_keeps_a_rotation():
     for k in range(2, 400):
         frames.append(_Frame(k, True, trackmotion.predicted(frames)))
     R = frames[-1].camera.R
-    assert np.abs(R @ R.T - np.eye(3)).max() < 1e-12
+    assert np.abs(R @ R.T - np.eye(3)).max() < 2e-9
     assert np.abs(R - np.linalg.matrix_power(turn, 399) @ R0).max() < 1e-3  # still the walk's turn

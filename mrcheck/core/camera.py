@@ -227,9 +227,10 @@ _ROW_TOLERANCE = 1e-9
 # clicks or solvePnP printed with 4-6 digits is off by 1e-6 to 1e-4); a shear, a scale or a mirror
 # is off by far more and is refused
 ROTATION_TOLERANCE = 1e-3
-# below this R is a rotation to rounding (Rodrigues, products of rotations: 1e-15) and is kept as
-# it is, so that poses computed here pass through unchanged to the last bit
-_ROUNDING = 1e-12
+# below this R is a rotation to rounding (Rodrigues, products of rotations: 1e-15; a file printed
+# with 9 or more digits, calibration/sample_cell_conveyor.json: 6.6e-10) and is kept as it is, so
+# that those poses and the renders from them stay the same to the last bit
+_ROUNDING = 1e-9
 
 
 def nearest_rotation(R: np.ndarray) -> np.ndarray:
