@@ -18,6 +18,8 @@ Camera JSON (the contract other tools rely on)::
      "dist": [k1,k2,p1,p2,k3] (optional), "R": 3x3, "t": [tx,ty,tz]}
 
 Extra keys (``photo``, ``rms``, ...) are ignored, so a registered SHOT.json is a camera too.
+An R within 1e-3 of a rotation (printed with a few digits) becomes the nearest rotation
+(:func:`nearest_rotation`); anything further off is refused.
 A ``.yml``/``.yaml`` camera file is OpenCV FileStorage instead. Reading and writing either file
 is :mod:`mrcheck.core.camerafiles` (this module is the model only: it reads no file).
 """
@@ -90,8 +92,7 @@ class Camera:
         if self.fx <= 0 or self.fy <= 0:
             raise MrcheckError(f"camera focal lengths must be positive, got fx={self.fx}, fy={self.fy}")
         _check_pinhole(self.K)
-        if abs(np.linalg.det(self.R) - 1.0) > 1e-3 or not np.allclose(self.R @ self.R.T, np.eye(3), atol=1e-3):
-            raise MrcheckError("camera R is not a rotation matrix (R @ R.T must be I, det(R) = 1)")
+        object.__setattr__(self, "R", nearest_rotation(self.R))
 
     # -- intrinsics ---------------------------------------------------------------------------
     @property
@@ -222,6 +223,33 @@ _SKEW_TOLERANCE = 1e-6  # of the focal length, pixels: at most a millionth of a 
 _ROW_TOLERANCE = 1e-9
 
 
+# how far R may be from a rotation and still be one written with limited precision (a pose from
+# clicks or solvePnP printed with 4-6 digits is off by 1e-6 to 1e-4); a shear, a scale or a mirror
+# is off by far more and is refused
+ROTATION_TOLERANCE = 1e-3
+# below this R is a rotation to rounding (Rodrigues, products of rotations: 1e-15; a file printed
+# with 9 or more digits, calibration/sample_cell_conveyor.json: 6.6e-10) and is kept as it is, so
+# that those poses and the renders from them stay the same to the last bit
+_ROUNDING = 1e-9
+
+
+def nearest_rotation(R: np.ndarray) -> np.ndarray:
+    """``R`` (3, 3) projected onto the nearest rotation (Frobenius norm: ``U @ V.T`` of its SVD,
+    Higham 1986) when it is a rotation within :data:`ROTATION_TOLERANCE` (``R @ R.T - I`` and
+    ``det(R) - 1``); an error when it is not; ``R`` itself (read-only) when it is one to rounding."""
+    R = np.asarray(R, dtype=np.float64)
+    off = float(np.abs(R @ R.T - np.eye(3)).max())
+    det = float(np.linalg.det(R))
+    if not (off <= ROTATION_TOLERANCE and abs(det - 1.0) <= ROTATION_TOLERANCE):
+        raise MrcheckError("camera R is not a rotation matrix (R @ R.T must be I, det(R) = 1)")
+    if off <= _ROUNDING and abs(det - 1.0) <= _ROUNDING:
+        return R
+    U, _, Vt = np.linalg.svd(R)
+    rotation = U @ Vt  # det +1: det(R) is near 1, so no reflection to undo
+    rotation.flags.writeable = False
+    return rotation
+
+
 def _check_pinhole(K: np.ndarray) -> None:
     """Only fx, fy, cx, cy are drawn (the projection and every shader): a skewed or unnormalised
     K would render as the plain pinhole, an image that does not match the camera. Refused rather
@@ -304,4 +332,4 @@ def gl_projection(camera: Camera, near: float) -> np.ndarray:
     return P
 
 
-__all__ = ["Camera", "fit_size", "gl_projection", "DIST_SIZES"]
+__all__ = ["Camera", "fit_size", "gl_projection", "nearest_rotation", "DIST_SIZES", "ROTATION_TOLERANCE"]
