@@ -26,7 +26,7 @@ import numpy as np
 
 from mrcheck.core.camera import Camera
 from mrcheck.core.errors import MrcheckError
-from mrcheck.mr.edges import model, photo, solver
+from mrcheck.mr.edges import model, photo, silhouette, solver
 from mrcheck.mr.edges.candidates import CandidateEdges
 from mrcheck.mr.edges.options import MIN_SAMPLES, EdgeFitError, EdgeOptions, LevelReport, VisibilityRender
 from mrcheck.render.settings import RenderSettings
@@ -128,6 +128,7 @@ class Fitter:
         self.all_visible: model.Samples | None = None
         self.candidates = candidates if candidates is not None else CandidateEdges(edges)
         self.seed = seed
+        self.contours = silhouette.ContourModel(edges) if options.silhouette else None
 
     def visible_samples(self, pose: solver.PoseState, scale: float) -> model.Samples:
         """Samples of the visible, salient edges at ``pose`` (:func:`model.salient` on the
@@ -143,13 +144,17 @@ class Fitter:
         # seen and salient as judged from the render's viewpoint (the current one, or a given
         # render's near it): the edges' 3D points projected by the camera that made the buffers
         samples = model.subset(samples, model.visible(samples, view, depth))
-        if len(samples) >= MIN_SAMPLES:
+        if len(samples) >= MIN_SAMPLES or (self.contours is not None and len(samples)):
             uv, normal, local = model.pinhole_samples(view, samples, depth.shape)
             keep, outside = model.salient(uv, normal, local, depth, normals, view.resized(*depth.shape[::-1]).K)
             samples.outside = outside
             samples = model.subset(samples, keep)
         if fresh:
             self.candidates.remember(cam, scale, samples)
+        if self.contours is not None:  # the rendered outline's samples (mrcheck.mr.edges.silhouette)
+            spacing = self.options.spacing_px * depth.shape[1] / (self.camera.width * scale)
+            found = silhouette.contour_samples(self.contours, view, depth, spacing, self.options.max_samples)
+            samples = silhouette.joined(samples, found)
         # the left-out parts' samples are counted (the share they hold is a test of the fit, see
         # mrcheck.mr.edges.verdict)
         self.visible_groups = samples.group
