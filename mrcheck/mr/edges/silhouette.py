@@ -98,7 +98,9 @@ def contour_samples(
     edge = contours.nearest_edge(points)
     group = contours.edges.group[edge] if len(contours.edges) else np.zeros(len(points), np.int64)
     full_spacing = cell * camera.width / w
-    return model.Samples(points, tangents, group, edge, np.ones(len(points)), spacing_px=full_spacing)
+    return model.Samples(
+        points, tangents, group, edge, np.ones(len(points)), spacing_px=full_spacing, contour=np.ones(len(points), bool)
+    )
 
 
 def _backproject(K_inv: np.ndarray, uv: np.ndarray, z: np.ndarray) -> np.ndarray:
@@ -121,7 +123,12 @@ def joined(a: model.Samples, b: model.Samples) -> model.Samples:
         np.concatenate([a.edge, b.edge]),
         np.concatenate([out_a, out_b]),
         a.spacing_px or b.spacing_px,
+        np.concatenate([_contour(a), _contour(b)]),
     )
+
+
+def _contour(samples: model.Samples) -> np.ndarray:
+    return samples.contour if samples.contour is not None else np.zeros(len(samples), bool)
 
 
 __all__ = ["ContourModel", "contour_pixels", "contour_samples", "joined", "DEPTH_STEP"]
