@@ -30,6 +30,7 @@ from mrcheck.mr.edges import model
 
 DEPTH_STEP = 0.03  # a neighbour this share farther is another surface behind: an occluding contour
 _NORMAL_BLUR = 1.5  # render px: the inverse depth smoothed this much gives the contour's normal
+_HALF = 0.5
 
 
 class ContourModel:
@@ -88,7 +89,7 @@ def contour_samples(
     view = camera.resized(w, h)
     K_inv = np.linalg.inv(view.K)
     # the boundary lies half a pixel beyond the contour pixel's centre, towards the outside
-    uv = np.column_stack([cols, rows]).astype(np.float64) + 0.5 * normal
+    uv = np.column_stack([cols, rows]).astype(np.float64) + _HALF * normal
     tangent_2d = np.column_stack([normal[:, 1], -normal[:, 0]])  # model.pinhole_samples: n = (-d_y, d_x)
     local = _backproject(K_inv, uv, z)
     ahead = _backproject(K_inv, uv + tangent_2d, z)
