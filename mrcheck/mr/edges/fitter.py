@@ -133,8 +133,8 @@ class Fitter:
         self.seed = seed
         self.contours = silhouette.ContourModel(edges) if options.silhouette else None
         # the region criterion's colour bins per level and foreground posterior per level scale
-        use_region = self.contours is not None and options.region and colour is not None
-        self.bins = region.colour_levels(colour, len(pyramid)) if use_region else []
+        use_region = self.contours is not None and options.region
+        self.bins = region.colour_levels(colour, len(pyramid)) if use_region and colour is not None else []
         self.posteriors: dict[float, np.ndarray] = {}
 
     def visible_samples(self, pose: solver.PoseState, scale: float) -> model.Samples:
@@ -205,9 +205,9 @@ class Fitter:
         split (:func:`region.step_search`) refined to the gradient peak within
         :data:`_REGION_SNAP_PX` of it (the region says which edge is the outline, the gradient
         where it is); no split, no match."""
-        c = np.flatnonzero(samples.contour)
-        if len(c) == 0:
+        if samples.contour is None or not np.any(samples.contour):
             return
+        c = np.flatnonzero(samples.contour)
         bins = self.bins[[p.scale for p in self.pyramid].index(level.scale)]
         off = region.step_search(bins, self.posteriors[level.scale], uv[c], normal[c], samples.group[c], radius)
         ok = np.isfinite(off)
