@@ -1,8 +1,9 @@
 """Contour samples of the rendered parts: the silhouette term of the edge registration.
 
 Why: a scanned or smooth mesh (the objects of BOP LM-O, a pipe, a tank) has almost no crease
-edges, and its facet edges are shorter on screen than :data:`~mrcheck.mr.edges.model.CREASE_DEG`'s
-sampling keeps (under a pixel), so the mesh-edge model finds no samples on it. Its outline is
+edges, and its facet edges are under the 2 px on screen that
+:func:`~mrcheck.mr.edges.model.sample_edges` samples, so the mesh-edge model finds (almost) no
+samples on it. Its outline is
 still in the photo: region-based trackers (RBOT, Tjaden et al. 2018; SRT3D, Stoiber et al. 2022,
 section 4 "correspondence lines") sample the contour of the rendered object mask and search the
 photo along each contour point's normal. Here the contour is taken from the depth buffer the
@@ -30,7 +31,7 @@ from mrcheck.mr.edges import model
 
 DEPTH_STEP = 0.03  # a neighbour this share farther is another surface behind: an occluding contour
 _NORMAL_BLUR = 1.5  # render px: the inverse depth smoothed this much gives the contour's normal
-_HALF = 0.5
+_HALF = 0.5  # render px: a contour pixel's centre lies this far inside the outline (its border)
 
 
 class ContourModel:
