@@ -17,7 +17,8 @@ Modules: ``model`` (the CAD's visible edges), ``candidates`` (those kept between
 Gauss-Newton, covariance), ``uncertainty`` (px, mm, degrees, the weak direction), ``options``
 (the settings and results), ``fitter`` (one pyramid level's fit), ``chamfer``, ``search`` and
 ``coarse`` (the coarse stage), ``verdict`` (the statistics and the failure tests), ``refine``
-(coarse to fine).
+(coarse to fine), ``silhouette`` and ``region`` (the rendered outline's samples and their colour
+split, ``EdgeOptions.silhouette``).
 """
 
 from mrcheck.mr.edges.model import scene_edges

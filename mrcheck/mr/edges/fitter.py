@@ -22,11 +22,12 @@ import time
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+import cv2
 import numpy as np
 
 from mrcheck.core.camera import Camera
 from mrcheck.core.errors import MrcheckError
-from mrcheck.mr.edges import model, photo, solver
+from mrcheck.mr.edges import model, photo, region, silhouette, solver
 from mrcheck.mr.edges.candidates import CandidateEdges
 from mrcheck.mr.edges.options import MIN_SAMPLES, EdgeFitError, EdgeOptions, LevelReport, VisibilityRender
 from mrcheck.render.settings import RenderSettings
@@ -41,6 +42,7 @@ _PART_MIN_SUPPORT = 0.2  # ... and one whose samples find support less often tha
 _CONVERGED_PX = 0.02  # a step moving no sample more than this (level px) ends the level
 _SIGMA_FLOOR_PX = 0.3  # the robust scale's floor at full resolution (level px: twice this)
 _ANNEAL = 0.7  # the robust scale shrinks by this after every step kept
+_REGION_SNAP_PX = 1.5  # region_match: a gradient peak this near (level px) the region's split refines it
 _RENDER_MAX_WIDTH = 800  # renders for the visible edges at most this wide (see _render_size)
 STAGES = ("render", "edges", "photo", "coarse", "match", "solve", "uncertainty")  # EdgeFit.times_s
 
@@ -119,6 +121,7 @@ class Fitter:
         clock: Clock,
         candidates: CandidateEdges | None = None,
         seed: VisibilityRender | None = None,
+        colour: np.ndarray | None = None,
     ) -> None:
         self.edges, self.renderer, self.camera, self.options, self.clock = edges, renderer, camera, options, clock
         self.pyramid = pyramid
@@ -128,6 +131,11 @@ class Fitter:
         self.all_visible: model.Samples | None = None
         self.candidates = candidates if candidates is not None else CandidateEdges(edges)
         self.seed = seed
+        self.contours = silhouette.ContourModel(edges) if options.silhouette else None
+        # the region criterion's colour bins per level and foreground posterior per level scale
+        use_region = self.contours is not None and options.region
+        self.bins = region.colour_levels(colour, len(pyramid)) if use_region and colour is not None else []
+        self.posteriors: dict[float, np.ndarray] = {}
 
     def visible_samples(self, pose: solver.PoseState, scale: float) -> model.Samples:
         """Samples of the visible, salient edges at ``pose`` (:func:`model.salient` on the
@@ -143,13 +151,18 @@ class Fitter:
         # seen and salient as judged from the render's viewpoint (the current one, or a given
         # render's near it): the edges' 3D points projected by the camera that made the buffers
         samples = model.subset(samples, model.visible(samples, view, depth))
-        if len(samples) >= MIN_SAMPLES:
+        if len(samples) >= MIN_SAMPLES or (self.contours is not None and len(samples)):
             uv, normal, local = model.pinhole_samples(view, samples, depth.shape)
             keep, outside = model.salient(uv, normal, local, depth, normals, view.resized(*depth.shape[::-1]).K)
             samples.outside = outside
             samples = model.subset(samples, keep)
         if fresh:
             self.candidates.remember(cam, scale, samples)
+        if self.contours is not None:  # the rendered outline's samples (mrcheck.mr.edges.silhouette)
+            spacing = self.options.spacing_px * depth.shape[1] / (self.camera.width * scale)
+            found = silhouette.contour_samples(self.contours, view, depth, spacing, self.options.max_samples)
+            samples = silhouette.joined(samples, found)
+            self.update_posterior(depth, scale, view, found)
         # the left-out parts' samples are counted (the share they hold is a test of the fit, see
         # mrcheck.mr.edges.verdict)
         self.visible_groups = samples.group
@@ -167,8 +180,43 @@ class Fitter:
         proj = solver.project(pose, self.camera, samples.points, samples.tangents)
         uv = photo.to_level(proj.uv, level.scale)
         found = photo.search(level, uv, proj.normal, radius, polarity, outside=samples.outside)
+        if samples.contour is not None and level.scale in self.posteriors:
+            self.region_match(level, uv, proj.normal, radius, samples, found)
         self.clock.add("match", start)
         return -found.offset, solver.normal_rows(proj, level.scale), proj, found
+
+    def update_posterior(self, depth: np.ndarray, scale: float, cam: Camera, contour: model.Samples) -> None:
+        """The per-instance foreground posteriors of the level at ``scale`` from the rendered mask
+        ``depth > 0`` around the ``contour`` samples at ``cam`` (:func:`region.posteriors`)."""
+        scales = [level.scale for level in self.pyramid]
+        index = scales.index(scale) if scale in scales else -1
+        if index < 0 or index >= len(self.bins):
+            return
+        bins = self.bins[index]
+        mask = cv2.resize((depth > 0).astype(np.uint8), bins.shape[::-1], interpolation=cv2.INTER_NEAREST) > 0
+        seeds = photo.to_level(model.project_pinhole(cam, contour.points), scale)
+        groups = len(self.edges.group_names)
+        self.posteriors[scale] = region.posteriors(bins, mask, seeds, contour.group, groups)
+
+    def region_match(
+        self, level: photo.Level, uv: np.ndarray, normal: np.ndarray, radius: int, samples: model.Samples, found
+    ) -> None:
+        """Replace the matches of the ``contour`` samples in ``found`` by the region criterion's
+        split (:func:`region.step_search`) refined to the gradient peak within
+        :data:`_REGION_SNAP_PX` of it (the region says which edge is the outline, the gradient
+        where it is); no split, no match."""
+        if samples.contour is None or not np.any(samples.contour):
+            return
+        c = np.flatnonzero(samples.contour)
+        bins = self.bins[[p.scale for p in self.pyramid].index(level.scale)]
+        off = region.step_search(bins, self.posteriors[level.scale], uv[c], normal[c], samples.group[c], radius)
+        ok = np.isfinite(off)
+        at = uv[c] + np.where(ok, off, 0.0)[:, None] * normal[c]
+        near = photo.search(level, at, normal[c], 2)
+        snap = ok & np.isfinite(near.offset) & (np.abs(near.offset) <= _REGION_SNAP_PX)
+        found.offset[c] = np.where(snap, off + np.nan_to_num(near.offset), off)
+        found.strength[c] = np.where(snap, near.strength, np.where(ok, level.threshold, 0.0))
+        found.polarity[c] = 0.0
 
     def evaluate(
         self, level: photo.Level, pose: solver.PoseState, samples: model.Samples, radius: int, polarity, sigma: float

@@ -80,7 +80,9 @@ class Samples:
     error: the clusters of the uncertainty, :mod:`mrcheck.mr.edges.solver`); ``outside``: (n,)
     for a contour the side of the background along the image normal (+1 or -1), 0 for a crease
     or not known (:func:`salient`); ``spacing_px``: the spacing they were made at (pixels of the
-    camera they were sampled for; :func:`sample_edges` widens it for a dense scene).
+    camera they were sampled for; :func:`sample_edges` widens it for a dense scene); ``contour``:
+    (n,) bool, the samples of the rendered outline (:mod:`mrcheck.mr.edges.silhouette`), None
+    for none.
     """
 
     points: np.ndarray
@@ -89,6 +91,7 @@ class Samples:
     edge: np.ndarray
     outside: np.ndarray | None = None
     spacing_px: float = 0.0
+    contour: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.points)
@@ -294,6 +297,7 @@ def subset(samples: Samples, mask) -> Samples:
         samples.edge[mask],
         outside,
         samples.spacing_px,
+        None if samples.contour is None else samples.contour[mask],
     )
 
 

@@ -42,7 +42,11 @@ class EdgeOptions:
     (Levenberg-Marquardt, the default: from a rough pose many px off a step may jump to other
     edges); off, every step is kept (iteratively reweighted least squares within the trust
     region: a video frame, a few px from its prediction, where the cost test can keep the pose
-    where it began, see :data:`mrcheck.apps.track.TRACK_OPTIONS`).
+    where it began, see :data:`mrcheck.apps.track.TRACK_OPTIONS`); ``silhouette``: also sample
+    the outline of the rendered parts (:mod:`mrcheck.mr.edges.silhouette`: depth discontinuities
+    against the background or a farther part), for scanned and smooth meshes with few creases;
+    ``region``: match those outline samples by the colour region criterion
+    (:mod:`mrcheck.mr.edges.region`) instead of the nearest gradient peak (needs the photo).
     """
 
     search_px: float = 48.0
@@ -55,6 +59,8 @@ class EdgeOptions:
     coarse: str = "chamfer"
     max_left_out: float = 0.7
     descent_only: bool = True
+    silhouette: bool = False
+    region: bool = True
 
     def validated(self) -> EdgeOptions:
         checks = [

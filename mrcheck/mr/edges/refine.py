@@ -70,6 +70,7 @@ def refine_pose(
     wrong pose fitting a few parts).
     """
     options = (options or EdgeOptions()).validated()
+    colour = np.asarray(grey) if options.silhouette and options.region else None
     grey = _grey(grey)
     if grey.shape != (camera.height, camera.width):
         raise MrcheckError(f"photo is {grey.shape[1]}x{grey.shape[0]} but the camera is {camera.width}x{camera.height}")
@@ -94,7 +95,7 @@ def refine_pose(
         start = time.perf_counter()
         pyramid = pyramid if pyramid is not None else photo_pyramid(grey, options)
         clock.add("photo", start)
-        fitter = Fitter(edges, renderer, camera, pyramid, options, clock, candidates, seed)
+        fitter = Fitter(edges, renderer, camera, pyramid, options, clock, candidates, seed, colour)
         fit = _fit(fitter, start_pose, grey)
     finally:
         if own:
