@@ -133,3 +133,28 @@ def test_the_silhouette_is_off_by_default_and_validated_options_keep_it():
     options = EdgeOptions()
     assert options.silhouette is False and options.region is True
     assert EdgeOptions(silhouette=True).validated().silhouette is True
+
+
+@pytest.mark.slow
+def test_register_silhouette_flag_snaps_the_balls_from_the_command_line(balls, tmp_path, capsys):
+    """``mrcheck register --initial --silhouette``: the option reaches the edge stage with the
+    photo in colour; without it the same balls are refused for too few samples."""
+    from mrcheck.cli import main
+    from mrcheck.core.camerafiles import write_camera
+    from mrcheck.core.output import write_image
+    from mrcheck.core.shot import read_shot
+
+    _, truth, photo = balls
+    mesh = trimesh.util.concatenate(
+        [trimesh.creation.icosphere(subdivisions=4, radius=r).apply_translation(c) for c, r in _BALLS]
+    )
+    mesh.export(tmp_path / "balls.ply")
+    write_image(tmp_path / "photo.png", photo)
+    write_camera(tmp_path / "cam.json", truth)
+    write_camera(tmp_path / "rough.json", _off(truth, 1.5, 0.03))
+    args = ["register", tmp_path / "balls.ply", "--photo", tmp_path / "photo.png", "--intrinsics"]
+    args += [tmp_path / "cam.json", "--initial", tmp_path / "rough.json", "-o"]
+    assert main([str(a) for a in [*args, tmp_path / "plain.json"]]) == 1
+    assert "visible CAD edge samples" in capsys.readouterr().err
+    assert main([str(a) for a in [*args, tmp_path / "shot.json", "--silhouette"]]) == 0
+    assert _median_px(read_shot(tmp_path / "shot.json").camera, truth) < 0.5

@@ -107,13 +107,21 @@ def calibrate(images, board, min_views, max_view_error, output):
     help="Noise of the clicked --points (px, 1 sigma): outlier threshold 3.72 x this (99.9 % of honest clicks).",
 )
 @click.option(
+    "--silhouette",
+    is_flag=True,
+    help="The edge stage also matches the parts' outlines by their colour regions: for scanned and smooth "
+    "meshes with few crease edges (docs/edge-registration.md) [default: creases and contours only].",
+)
+@click.option(
     "-o",
     "--output",
     required=True,
     metavar="SHOT.json",
     help="The registered shot (camera JSON + photo, rms, method, ids used/rejected).",
 )
-def register(scene_path, photo, intrinsics, markers, points, initial, refine, max_error, click_sigma, output):
+def register(
+    scene_path, photo, intrinsics, markers, points, initial, refine, max_error, click_sigma, silhouette, output
+):
     """Find a photo's pose: markers, clicks or the CAD's edges.
 
     The pose of the calibrated camera in the factory, from surveyed markers (--markers),
@@ -139,6 +147,7 @@ def register(scene_path, photo, intrinsics, markers, points, initial, refine, ma
         max_error=max_error,
         output=output,
         click_sigma=click_sigma,
+        silhouette=silhouette,
     )
     echo_lines(done.summary())
 

@@ -81,7 +81,9 @@ def snap_photo(
     """The shot of ``photo`` (a path) registered by snapping ``scene`` onto its edges from
     the pose of ``rough``; ``camera``: the photo's intrinsics (rescaled to the photo when it was
     resized). Raises :class:`~mrcheck.mr.edges.EdgeFitError` (naming the photo) on failure."""
-    grey = read_photo(photo, grey=True)
+    # the region criterion of the silhouette samples compares colours: the photo as it is then
+    colour = options is not None and options.silhouette and options.region
+    grey = read_photo(photo, grey=not colour)
     camera, warnings = fit_camera(camera, grey.shape[1], grey.shape[0], photo)
     rough = camera.with_pose(rough.R, rough.t)
     try:

@@ -29,6 +29,7 @@ from mrcheck.core.errors import MrcheckError
 from mrcheck.core.inputs import check_input
 from mrcheck.core.output import check_not_inputs, check_output_path
 from mrcheck.core.shot import Shot, write_shot
+from mrcheck.mr.edges import EdgeOptions
 from mrcheck.mr.edgeshot import snap_photo
 from mrcheck.mr.markers import load_marker_map
 from mrcheck.mr.pose import CLICK_SIGMA_PX
@@ -107,11 +108,13 @@ def register_command(
     max_error: float | None = None,
     output: PathArg = "SHOT.json",
     click_sigma: float = CLICK_SIGMA_PX,
+    silhouette: bool = False,
 ) -> RegistrationResult:
     """``mrcheck register``: the start (``markers`` | ``points`` | ``initial``), the edge stage
     when ``initial`` is given or ``refine`` is true, then SHOT.json written atomically (its
     ``photo`` relative to it). Every input is read before the scene is loaded. ``click_sigma``:
-    the clicked points' noise (px), which their outlier threshold follows from."""
+    the clicked points' noise (px), which their outlier threshold follows from. ``silhouette``:
+    the edge stage also matches the parts' outlines by their colour regions (``EdgeOptions.silhouette``)."""
     output = check_output_path(output, (".json",), "shot")
     edges = initial is not None or bool(refine)
     _start_option(initial, markers, points, edges)
@@ -135,19 +138,23 @@ def register_command(
             click_sigma=click_sigma,
         )
         shot, rough = first, first.camera
+    options = EdgeOptions(silhouette=True) if silhouette else None
     if initial is not None:
-        shot = snap_photo(photo, camera, model, rough, "initial")
+        shot = snap_photo(photo, camera, model, rough, "initial", options)
     elif edges:
-        shot = gated_refinement(shot, photo, camera, model, "markers" if markers is not None else "points")
+        how = "markers" if markers is not None else "points"
+        shot = gated_refinement(shot, photo, camera, model, how, options)
     write_shot(output, shot)
     return RegistrationResult(shot, output)
 
 
-def gated_refinement(start: Shot, photo: PathArg, camera: Camera, model, how: str) -> Shot:
+def gated_refinement(
+    start: Shot, photo: PathArg, camera: Camera, model, how: str, options: EdgeOptions | None = None
+) -> Shot:
     """The edge refinement of a markers or points shot, or that shot with the reason it was not applied."""
     reason: str | None
     try:
-        refined = snap_photo(photo, camera, model, start.camera, how)
+        refined = snap_photo(photo, camera, model, start.camera, how, options)
     except MrcheckError as exc:
         reason = f"the edge fit failed ({exc.problem.removeprefix('edge registration failed: ')})"
     else:
