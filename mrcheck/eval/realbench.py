@@ -73,7 +73,9 @@ class RealFit:
 
     @property
     def ok_5deg5cm(self) -> bool:
-        return self.rot_deg is not None and self.rot_deg <= SUCCESS_DEG and self.trans_cm <= SUCCESS_CM
+        if self.rot_deg is None or self.trans_cm is None:
+            return False
+        return self.rot_deg <= SUCCESS_DEG and self.trans_cm <= SUCCESS_CM
 
     @property
     def ok_px(self) -> bool:
