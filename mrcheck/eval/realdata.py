@@ -103,7 +103,8 @@ def lmo_photo(root: Path, image: int, meshes: dict | None = None) -> RealPhoto:
             meshes[oid] = (np.asarray(vertices, np.float64) / 1000.0, np.asarray(faces))
         R = nearest_rotation(entry["cam_R_m2c"])
         t = np.array(entry["cam_t_m2c"], np.float64) / 1000.0
-        objects.append(RealObject(LMO_NAMES.get(oid, f"obj{oid}"), path, *meshes[oid], pose_matrix(R, t)))
+        vertices, faces = meshes[oid]
+        objects.append(RealObject(LMO_NAMES.get(oid, f"obj{oid}"), path, vertices, faces, pose_matrix(R, t)))
     rgb = folder / "rgb" / f"{image:06d}.png"
     return RealPhoto(f"lmo-{image:06d}", rgb, Camera(640, 480, K), objects)
 

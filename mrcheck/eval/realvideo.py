@@ -120,7 +120,7 @@ def outline_distance(camera: Camera, corners: np.ndarray, grey: np.ndarray, maps
 
 
 def _frames(video: Path, limit: int | None = None) -> list:
-    capture, frames = cv2.VideoCapture(str(video)), []
+    capture, frames = cv2.VideoCapture(str(video)), list[np.ndarray]()
     while limit is None or len(frames) < limit:
         ok, frame = capture.read()
         if not ok:
@@ -132,7 +132,7 @@ def _frames(video: Path, limit: int | None = None) -> list:
 
 def _write_video(path: Path, frames: list) -> Path:
     h, w = frames[0].shape[:2]
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), 25.0, (w, h))
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"mp4v"), 25.0, (w, h))
     for frame in frames:
         writer.write(frame)
     writer.release()
@@ -175,8 +175,8 @@ def video_runs(root: Path, quick: bool, progress=None) -> tuple[list, list]:
     runs, skipped = [], []
     box_scene, tea = _REPO / "examples" / "box" / "scene.toml", Path(root) / "teabox"
     clicks = _REPO / "tests" / "data"
-    with tempfile.TemporaryDirectory(prefix="mrcheck-realbench-") as out:
-        out = Path(out)
+    with tempfile.TemporaryDirectory(prefix="mrcheck-realbench-") as name:
+        out = Path(name)
         if quick:
             skipped.append("box video: left out of --quick (455 frames)")
         elif not (Path(root) / "box_video" / "box.mp4").exists() or not box_scene.exists():
