@@ -46,7 +46,15 @@ from mrcheck.render import settings as defaults
     "(--quick: two walks of 12 frames, one round): frames/s, the first frame's seconds, the errors "
     "against the true path.",
 )
-def bench(quick, json_path, repeat, edges, track):
+@click.option(
+    "--real",
+    is_flag=True,
+    help="Only the markerless registration (against cv2.rapid, same starts) and `track` on the shared real data "
+    "(../shared/data/real: LM-O, M3T, the box and tea box videos; each set absent is skipped, saying so), "
+    "photo 000819 of LM-O held out and reported apart; see docs/real-data.md (--quick: a few starts and 5 "
+    "frames of the tea box).",
+)
+def bench(quick, json_path, repeat, edges, track, real):
     """Measure the AO passes and frames on this machine.
 
     Every AO mode at full and half resolution, over
@@ -67,9 +75,17 @@ def bench(quick, json_path, repeat, edges, track):
       mrcheck bench --quick --json bench.json
       mrcheck bench --edges --quick
       mrcheck bench --track --json track.json
+      mrcheck bench --real --json real.json
     """
-    if edges and track:
-        raise click.UsageError("--edges and --track are separate benches: give one of them")
+    if edges + track + real > 1:
+        raise click.UsageError("--edges, --track and --real are separate benches: give one of them")
+    if real:
+        from mrcheck.eval.realbench import real_bench, summary_lines
+
+        result = real_bench(quick=quick, json_path=json_path, progress=lambda text: click.echo(text, err=True))
+        for line in summary_lines(result):
+            click.echo(line)
+        return
     if track:
         _track_bench(quick, repeat, json_path)
         return

@@ -1,0 +1,311 @@
+"""``mrcheck bench --real``: markerless registration and ``track`` on the shared real data.
+
+The data (``../shared/data/real/``, read in place, never copied: see its README for sources and
+licences) and the protocol:
+
+* **Held-out split, fixed before any tuning.** LM-O has three photos (``test/000002/rgb``):
+  000003 and 000402 are the photos a method may be tuned on; **000819 is held out** (all its
+  objects) and reported separately everywhere. M3T has two frames but only frame 200 has a
+  published pose (frame 201 has none), so it has no held-out frame: frame 200 is tuned-on data.
+* **LM-O**: each annotated object in turn is the anchor: the scene is the photo's 8 objects as
+  parts, world = the anchor's model frame, the others placed by their ground-truth poses; the
+  camera pose is what is registered. Starts: the truth, and the truth moved in a random
+  direction (rotation and translation mixed, :func:`mrcheck.eval.edgephotos.perturbed`) by
+  10, 20 and 40 px median reprojection of the anchor's vertices, :data:`SEEDS` seeds each.
+  From every start both mrcheck's snap (:func:`mrcheck.mr.edges.refine_pose`, what
+  ``register --initial`` runs) and ``cv2.rapid`` (:func:`mrcheck.eval.edgebench.rapid_refine`)
+  run. Recorded per fit: the anchor's rotation (degrees) and translation (cm) error, the median
+  reprojection error of its vertices (px), refused or not (the reason), seconds. Success:
+  5 deg / 5 cm (BOP's 5cm5deg, RBOT) and, separately, <= 2 px; from the truth: <= 1 px.
+  A refused fit counts as a failure (its pose is not the truth).
+* **M3T frame 200**: the two bodies in the camera frame, from the published pose and from
+  20 px off (:data:`SEEDS` seeds); error vs the published pose (px, all vertices).
+* **Videos** (:mod:`mrcheck.eval.realvideo`): ``track`` from a start solved from corners
+  marked by eye on frame 0 (``tests/data/*_clicks.json``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import asdict, dataclass, field
+
+import cv2
+import numpy as np
+
+from mrcheck.core.camera import Camera
+from mrcheck.core.errors import MrcheckError
+from mrcheck.core.output import check_output_path, write_text
+from mrcheck.eval.edgebench import rapid_refine
+from mrcheck.eval.edgephotos import perturbed, reprojection_error
+from mrcheck.eval.realdata import anchored_scene, camera_scene, lmo_photo, m3t_photo, real_root
+from mrcheck.mr.edges import EdgeFitError, refine_pose, scene_edges
+
+LMO_TUNED = (3, 402)
+LMO_HELD_OUT = (819,)
+OFFSETS_PX = (10.0, 20.0, 40.0)
+SEEDS = 2
+SUCCESS_DEG, SUCCESS_CM, SUCCESS_PX, TRUTH_PX = 5.0, 5.0, 2.0, 1.0
+METHODS = ("mrcheck", "cv2.rapid")
+_MAX_POINTS = 3000
+
+
+@dataclass
+class RealFit:
+    """One method from one start: ``split`` "tuned" or "held-out"; ``offset_px`` 0 for the
+    truth start; errors None when refused (``note`` the reason)."""
+
+    dataset: str
+    photo: str
+    split: str
+    anchor: str
+    method: str
+    seed: int
+    offset_px: float
+    start_px: float
+    error_px: float | None
+    rot_deg: float | None
+    trans_cm: float | None
+    refused: bool
+    seconds: float
+    note: str = ""
+
+    @property
+    def ok_5deg5cm(self) -> bool:
+        if self.rot_deg is None or self.trans_cm is None:
+            return False
+        return self.rot_deg <= SUCCESS_DEG and self.trans_cm <= SUCCESS_CM
+
+    @property
+    def ok_px(self) -> bool:
+        limit = TRUTH_PX if self.offset_px == 0 else SUCCESS_PX
+        return self.error_px is not None and self.error_px <= limit
+
+
+@dataclass
+class RealBench:
+    """Every fit, the video runs and what was skipped (with why)."""
+
+    fits: list = field(default_factory=list)
+    videos: list = field(default_factory=list)
+    skipped: list = field(default_factory=list)
+
+
+def pose_errors(truth: Camera, estimate: Camera) -> tuple[float, float]:
+    """Rotation (degrees) and translation (cm) error of the world-to-camera pose (the anchor's
+    model-to-camera pose when world = its model frame), as BOP's 5cm5deg."""
+    # the rotation vector's length, not acos of the trace: exact near zero as well
+    angle = float(np.linalg.norm(cv2.Rodrigues(estimate.R @ truth.R.T)[0]))
+    return math.degrees(angle), 100.0 * float(np.linalg.norm(estimate.t - truth.t))
+
+
+def _run(method, scene, truth, grey, start, edges, offset):
+    """(camera or None, seconds, note) of one method from ``start``."""
+    began = time.perf_counter()
+    try:
+        if method == "mrcheck":
+            camera = refine_pose(scene, truth, grey, initial=start, edges=edges).camera
+        else:
+            camera = rapid_refine(scene, truth, grey, start, max(1.5 * offset, 3.0))
+        return camera, time.perf_counter() - began, ""
+    except EdgeFitError as exc:
+        return None, time.perf_counter() - began, str(exc)
+    except (cv2.error, MrcheckError) as exc:
+        return None, time.perf_counter() - began, str(exc).splitlines()[0][:160]
+
+
+def fit_starts(label: dict, scene, truth: Camera, grey, points, offsets, seeds) -> list[RealFit]:
+    """Both methods from the truth and from every (offset, seed) start; ``label``: the
+    :class:`RealFit` fields naming the case (dataset, photo, split, anchor)."""
+    edges = scene_edges(scene)
+    starts = [(0.0, 0, truth)]
+    for offset in offsets:
+        for seed in range(seeds):
+            rng = np.random.default_rng(1000 * seed + int(offset))
+            starts.append((offset, seed, perturbed(truth, points, offset, rng)))
+    rows = []
+    for offset, seed, start in starts:
+        start_px = float(np.median(reprojection_error(truth, start, points)))
+        for method in METHODS:
+            camera, seconds, note = _run(method, scene, truth, grey, start, edges, offset)
+            case = {**label, "method": method, "seed": seed, "offset_px": offset, "start_px": start_px}
+            if camera is None:
+                rows.append(RealFit(**case, error_px=None, rot_deg=None, trans_cm=None, refused=True,
+                                    seconds=seconds, note=note))  # fmt: skip
+                continue
+            rot, trans = pose_errors(truth, camera)
+            error = float(np.median(reprojection_error(truth, camera, points)))
+            rows.append(RealFit(**case, error_px=error, rot_deg=rot, trans_cm=trans, refused=False, seconds=seconds))
+    return rows
+
+
+def _sample(points: np.ndarray, seed: int = 0) -> np.ndarray:
+    if len(points) <= _MAX_POINTS:
+        return points
+    return points[np.random.default_rng(seed).choice(len(points), _MAX_POINTS, replace=False)]
+
+
+def lmo_fits(root, quick: bool, progress=None) -> list[RealFit]:
+    """The LM-O cases of the module docstring (``quick``: the first two anchors of one tuned
+    photo and of the held-out photo, 20 px only, one seed)."""
+    images = (LMO_TUNED[0], LMO_HELD_OUT[0]) if quick else LMO_TUNED + LMO_HELD_OUT
+    offsets, seeds = ((20.0,), 1) if quick else (OFFSETS_PX, SEEDS)
+    meshes: dict = {}
+    rows = []
+    for image in images:
+        photo = lmo_photo(root, image, meshes)
+        grey = cv2.imread(str(photo.photo), cv2.IMREAD_GRAYSCALE)
+        split = "held-out" if image in LMO_HELD_OUT else "tuned"
+        for anchor, obj in enumerate(photo.objects[:2] if quick else photo.objects):
+            scene, truth = anchored_scene(photo, anchor)
+            label = {"dataset": "lmo", "photo": photo.name, "split": split, "anchor": obj.name}
+            rows += fit_starts(label, scene, truth, grey, _sample(obj.vertices), offsets, seeds)
+            if progress:
+                progress(f"{photo.name} anchor {obj.name}: {len(rows)} fits")
+    return rows
+
+
+def m3t_fits(root, quick: bool, progress=None) -> list[RealFit]:
+    """M3T frame 200 from the published pose and from 20 px off."""
+    photo = m3t_photo(root, 200)
+    scene, truth = camera_scene(photo)
+    grey = cv2.imread(str(photo.photo), cv2.IMREAD_GRAYSCALE)
+    points = np.concatenate([_sample(o.vertices) @ o.pose[:3, :3].T + o.pose[:3, 3] for o in photo.objects])
+    label = {"dataset": "m3t", "photo": photo.name, "split": "tuned", "anchor": "camera"}
+    rows = fit_starts(label, scene, truth, grey, points, (20.0,), 1 if quick else SEEDS)
+    if progress:
+        progress(f"{photo.name}: {len(rows)} fits")
+    return rows
+
+
+def real_bench(quick: bool = False, json_path=None, videos: bool = True, progress=None, root=None) -> RealBench:
+    """Everything of the module docstring whose data is present (else skipped, with why);
+    ``json_path``: the records written there (checked before the work)."""
+    from mrcheck.eval.realvideo import video_runs
+
+    if json_path is not None:
+        json_path = check_output_path(json_path, (".json",), "JSON output")
+    root = real_root() if root is None else root
+    bench = RealBench()
+    for name, folder, run in (("LM-O", "lmo", lmo_fits), ("M3T", "m3t", m3t_fits)):
+        if (root / folder).is_dir():
+            bench.fits += run(root, quick, progress)
+        else:
+            bench.skipped.append(f"{name}: {root / folder} is absent")
+    if videos:
+        bench.videos, skipped = video_runs(root, quick, progress)
+        bench.skipped += skipped
+    if json_path is not None:
+        write_text(json_path, json.dumps(bench_json(bench, quick), indent=2))
+    return bench
+
+
+def bench_json(bench: RealBench, quick: bool) -> dict:
+    fits = [dict(asdict(f), ok_5deg5cm=f.ok_5deg5cm, ok_px=f.ok_px) for f in bench.fits]
+    return {
+        "quick": quick,
+        "held_out": {"lmo": [f"lmo-{i:06d}" for i in LMO_HELD_OUT], "m3t": []},
+        "criteria": {"deg": SUCCESS_DEG, "cm": SUCCESS_CM, "px": SUCCESS_PX, "truth_px": TRUTH_PX},
+        "fits": fits,
+        "videos": [asdict(v) for v in bench.videos],
+        "skipped": bench.skipped,
+    }
+
+
+def _pct(values) -> str:
+    finite = [v for v in values if v is not None]
+    if not finite:
+        return "-"
+    q = np.percentile(finite, [50, 90, 100])
+    return f"{q[0]:.1f}/{q[1]:.1f}/{q[2]:.1f}"
+
+
+def fit_lines(fits: list) -> list[str]:
+    """Per data set, split, start offset and method: fits, refused, 5deg/5cm successes, px
+    successes (<= 2 px; <= 1 px from the truth), the error quantiles of the fits not refused
+    (median/90 %/max, px and degrees) and the median seconds."""
+    head = f"{'set':<5} {'split':<8} {'start':>6} {'method':<9} {'fits':>4} {'refused':>7} {'5deg5cm':>7} "
+    lines = [head + f"{'<=px':>5} {'px med/90%/max':>18} {'deg med/90%/max':>18} {'s':>5}"]
+    groups: dict = {}
+    for f in fits:
+        groups.setdefault((f.dataset, f.split, f.offset_px, f.method), []).append(f)
+    for (dataset, split, offset, method), mine in sorted(groups.items(), key=lambda kv: kv[0]):
+        start = "truth" if offset == 0 else f"{offset:g}px"
+        lines.append(
+            f"{dataset:<5} {split:<8} {start:>6} {method:<9} {len(mine):4d} {sum(f.refused for f in mine):7d} "
+            f"{sum(f.ok_5deg5cm for f in mine):7d} {sum(f.ok_px for f in mine):5d} "
+            f"{_pct([f.error_px for f in mine]):>18} {_pct([f.rot_deg for f in mine]):>18} "
+            f"{np.median([f.seconds for f in mine]):5.2f}"
+        )
+    return lines
+
+
+def reason_lines(fits: list, most: int = 6) -> list[str]:
+    """The commonest refusal reasons per method (numbers masked so that alike reasons group)."""
+    import re
+
+    lines = []
+    for method in METHODS:
+        counts: dict = {}
+        for f in fits:
+            if f.method == method and f.refused:
+                key = re.sub(r"[0-9.]+", "N", f.note)[:110]
+                counts[key] = counts.get(key, 0) + 1
+        for reason, count in sorted(counts.items(), key=lambda kv: -kv[1])[:most]:
+            lines.append(f"  {method} refused {count}x: {reason}")
+    return lines
+
+
+def video_lines(videos: list) -> list[str]:
+    lines = [
+        f"{'video':<10} {'frames':>6} {'lost':>4} {'held':>4} {'outline px med/90%/max':>22} {'fps':>5} "
+        f"{'clicks px':>9}"
+    ]
+    for v in videos:
+        if v.error:
+            lines.append(f"{v.video:<10} track failed: {v.error} (clicks RMS {v.click_rms_px:.2f} px)")
+            continue
+        finite = [d for d in v.outline_px if np.isfinite(d)]
+        lines.append(
+            f"{v.video:<10} {v.frames:6d} {v.lost:4d} {v.held:4d} {_pct(finite):>22} {v.fps:5.2f} {v.click_rms_px:9.2f}"
+        )
+    return lines
+
+
+def summary_lines(bench: RealBench) -> list[str]:
+    """The printed table: the fits (held-out rows apart by their split column), the refusal
+    reasons, the videos and what was skipped."""
+    lines = [
+        f"== mrcheck bench --real: registration (success {SUCCESS_DEG:g} deg / {SUCCESS_CM:g} cm; px: <= "
+        f"{SUCCESS_PX:g} px, from the truth <= {TRUTH_PX:g} px; held out: "
+        + ", ".join(f"lmo-{i:06d}" for i in LMO_HELD_OUT)
+        + ") ==",
+        *fit_lines(bench.fits),
+        *reason_lines(bench.fits),
+    ]
+    if bench.videos:
+        lines += [
+            "== mrcheck track on real videos (held: not lost and outline <= 3 px) ==",
+            *video_lines(bench.videos),
+        ]
+    lines += [f"skipped: {reason}" for reason in bench.skipped]
+    return lines
+
+
+__all__ = [
+    "summary_lines",
+    "RealFit",
+    "RealBench",
+    "pose_errors",
+    "fit_starts",
+    "lmo_fits",
+    "m3t_fits",
+    "real_bench",
+    "bench_json",
+    "LMO_TUNED",
+    "LMO_HELD_OUT",
+    "OFFSETS_PX",
+    "SEEDS",
+    "METHODS",
+]
