@@ -669,16 +669,17 @@ def free_port():
         return s.getsockname()[1]
 
 
-def _start(outdir, db, port):
-    env = dict(os.environ, PYTHONUNBUFFERED="1")
+def start_review(args, db, port) -> subprocess.Popen:
+    """``mrcheck review ARGS --port PORT --db DB`` in a process of its own, once it answers
+    (within 60 s; a process that ends or does not answer fails with its output)."""
     proc = subprocess.Popen(
-        [sys.executable, "-m", "mrcheck.cli", "review", str(outdir), "--port", str(port), "--db", str(db)],
-        env=env,
+        [sys.executable, "-m", "mrcheck.cli", "review", *map(str, args), "--port", str(port), "--db", str(db)],
+        env=dict(os.environ, PYTHONUNBUFFERED="1"),
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
     )
-    deadline = time.time() + 60
-    while time.time() < deadline:
+    deadline = time.monotonic() + 60
+    while proc.poll() is None and time.monotonic() < deadline:
         try:
             urllib.request.urlopen(f"http://127.0.0.1:{port}/api/info", timeout=1)
             return proc
@@ -688,11 +689,27 @@ def _start(outdir, db, port):
     raise AssertionError(proc.stdout.read().decode())
 
 
+@contextlib.contextmanager
+def served_box_review(tmp_path, max_body: str):
+    """A box review (:func:`box_review`) served by a process of its own with ``--max-body``:
+    yields (port, process); the process is killed at the end."""
+    folder = tmp_path / "box"
+    box_review(folder, (0.0, 0.0, 0.0))
+    port = free_port()
+    args = [folder / "box.stl", "--shots", folder / "shots", "--max-body", max_body]
+    proc = start_review(args, tmp_path / "r.sqlite", port)
+    try:
+        yield port, proc
+    finally:
+        proc.kill()
+        proc.wait()
+
+
 @pytest.mark.slow
 def test_ctrl_c_stops_the_server_quietly(outdir, tmp_path):
     import signal
 
-    proc = _start(outdir, tmp_path / "r.sqlite", free_port())
+    proc = start_review([outdir], tmp_path / "r.sqlite", free_port())
     proc.send_signal(signal.SIGINT)
     out, _ = proc.communicate(timeout=60)
     assert proc.returncode == 0 and b"error" not in out, out
@@ -883,7 +900,7 @@ def test_browser_end_to_end(outdir, tmp_path):
     sync_api = pytest.importorskip("playwright.sync_api")
     port, db = free_port(), tmp_path / "e2e.sqlite"
     url = f"http://127.0.0.1:{port}/"
-    proc = _start(outdir, db, port)
+    proc = start_review([outdir], db, port)
     try:
         with sync_api.sync_playwright() as pw:
             browser = open_browser(pw, tmp_path)
@@ -932,7 +949,7 @@ def test_browser_end_to_end(outdir, tmp_path):
             # kill the server, start a new one on the same database: the marker is there
             proc.kill()
             proc.wait()
-            proc = _start(outdir, db, port)
+            proc = start_review([outdir], db, port)
             page.reload()
             page.wait_for_selector("#marker-list li:has-text('wrong size')", timeout=30000)
             with page.expect_download() as info:

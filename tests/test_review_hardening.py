@@ -10,10 +10,7 @@ import concurrent.futures
 import contextlib
 import io
 import json
-import os
 import struct
-import subprocess
-import sys
 import time
 import urllib.request
 import uuid
@@ -31,7 +28,7 @@ from mrcheck.apps.bcf import BcfComment, BcfTopic, bcf_bytes, read_bcf_bytes, to
 from mrcheck.apps.review.app import create_app  # noqa: E402
 from mrcheck.cli import main  # noqa: E402
 
-from .test_review import box_review, free_port  # noqa: E402
+from .test_review import box_review, served_box_review  # noqa: E402
 
 # module fixtures of 3-5 s (a served review) and calls over 1 s: slow by tests/conftest.py's rule
 pytestmark = pytest.mark.slow
@@ -165,29 +162,8 @@ def lying_bomb():
 @pytest.fixture()
 def server(tmp_path):
     """``mrcheck review SCENE --shots DIR --max-body 8MiB`` on a free port: (port, process)."""
-    folder = tmp_path / "box"
-    box_review(folder, (0.0, 0.0, 0.0))
-    port = free_port()
-    command = [sys.executable, "-m", "mrcheck.cli", "review", str(folder / "box.stl"), "--shots", str(folder / "shots")]
-    proc = subprocess.Popen(
-        [*command, "--port", str(port), "--db", str(tmp_path / "r.sqlite"), "--max-body", "8MiB"],
-        env=dict(os.environ, PYTHONUNBUFFERED="1"),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-    )
-    try:
-        deadline = time.monotonic() + 60
-        while True:
-            try:
-                urllib.request.urlopen(f"http://127.0.0.1:{port}/api/info", timeout=1)
-                break
-            except OSError:
-                assert proc.poll() is None and time.monotonic() < deadline, proc.stdout.read().decode()
-                time.sleep(0.2)
-        yield port, proc
-    finally:
-        proc.kill()
-        proc.wait()
+    with served_box_review(tmp_path, "8MiB") as served:
+        yield served
 
 
 def _post(port, path, data: bytes, headers=OCTETS, timeout=120):

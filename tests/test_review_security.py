@@ -9,12 +9,8 @@ from __future__ import annotations
 import contextlib
 import http.client
 import json
-import os
 import socket
-import subprocess
-import sys
 import time
-import urllib.request
 
 import pytest
 
@@ -25,7 +21,7 @@ from mrcheck.apps.review.app import create_app  # noqa: E402
 from mrcheck.apps.review.guard import MAX_BODY, MIN_MAX_BODY, is_loopback, parse_size  # noqa: E402
 from mrcheck.cli import main  # noqa: E402
 
-from .test_review import box_review, free_port  # noqa: E402
+from .test_review import box_review, served_box_review  # noqa: E402
 
 CSV = "/api/export/markers.csv"  # what a rebinding page would read: every marker and its note
 MARKER = {"shot": "a", "x": 10.0, "y": 10.0, "category": "other", "severity": 1}
@@ -169,42 +165,8 @@ def test_a_bad_max_body_is_one_line(box, tmp_path, capsys, value, message):
 @pytest.fixture()
 def server(tmp_path):
     """``mrcheck review SCENE --shots DIR --max-body 64KiB`` on a free port: (port, process)."""
-    folder = tmp_path / "box"
-    box_review(folder, (0.0, 0.0, 0.0))
-    port = free_port()
-    proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "mrcheck.cli",
-            "review",
-            str(folder / "box.stl"),
-            "--shots",
-            str(folder / "shots"),
-            "--port",
-            str(port),
-            "--db",
-            str(tmp_path / "r.sqlite"),
-            "--max-body",
-            "64KiB",
-        ],
-        env=dict(os.environ, PYTHONUNBUFFERED="1"),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-    )
-    try:
-        deadline = time.monotonic() + 60
-        while True:
-            try:
-                urllib.request.urlopen(f"http://127.0.0.1:{port}/api/info", timeout=1)
-                break
-            except OSError:
-                assert proc.poll() is None and time.monotonic() < deadline, proc.stdout.read().decode()
-                time.sleep(0.2)
-        yield port, proc
-    finally:
-        proc.kill()
-        proc.wait()
+    with served_box_review(tmp_path, "64KiB") as served:
+        yield served
 
 
 def _exchange(port, head: str, body=(), timeout=10.0):
