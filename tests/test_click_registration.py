@@ -138,7 +138,7 @@ def test_a_refinement_that_moves_away_without_strong_evidence_is_not_applied():
 
 
 def test_the_start_is_kept_and_says_why(monkeypatch, tmp_path):
-    def far(photo, camera, model, rough, start):
+    def far(photo, camera, model, rough, start, options=None):
         return _moved(10.0, 0.1)
 
     class Model:
@@ -150,7 +150,7 @@ def test_the_start_is_kept_and_says_why(monkeypatch, tmp_path):
     assert kept.camera is TRUTH and kept.report["refinement"].startswith("not applied: the edges moved")
     assert kept.warnings[-1].startswith("refinement not applied: the edges moved")
 
-    def failing(photo, camera, model, rough, start):
+    def failing(photo, camera, model, rough, start, options=None):
         raise EdgeFitError("edge registration failed: only 3 visible CAD edge samples (>= 30 needed)")
 
     monkeypatch.setattr(register_module, "snap_photo", failing)
