@@ -17,7 +17,6 @@ import argparse
 import inspect
 import json
 import math
-import os
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,20 +25,10 @@ import numpy as np
 
 from mrcheck.core.camera import Camera
 from mrcheck.core.errors import MrcheckError
+from mrcheck.eval.realdata import real_root
 from mrcheck.mr.registration import register_points
 
-
-def _real_data() -> Path:
-    """``$MRCHECK_REAL_DATA``, else ``shared/data/real`` beside the repository or one folder up
-    (a worktree); the first that exists, or the first candidate."""
-    if os.environ.get("MRCHECK_REAL_DATA"):
-        return Path(os.environ["MRCHECK_REAL_DATA"])
-    repo = Path(__file__).resolve().parents[1]
-    candidates = [folder / "shared" / "data" / "real" for folder in (repo.parent, repo.parent.parent)]
-    return next((c for c in candidates if c.is_dir()), candidates[0])
-
-
-LMO = _real_data() / "lmo"
+LMO = real_root() / "lmo"
 SCENE = LMO / "test" / "000002"
 TUNE_PHOTOS = (3, 402)
 HELD_OUT = 819

@@ -8,7 +8,6 @@ within a median 3 px of a Canny edge of the frame."""
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import cv2
@@ -17,11 +16,12 @@ import pytest
 
 from mrcheck.apps.track import track_command
 from mrcheck.cli import main
+from mrcheck.eval.realdata import real_root
 
 pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[1]
-REAL = Path(os.environ.get("MRCHECK_REAL_DATA", ROOT.parent / "shared" / "data" / "real"))
+REAL = real_root()  # $MRCHECK_REAL_DATA or shared/data/real beside the repository
 DATA = ROOT / "tests" / "data" / "track"
 
 
