@@ -25,6 +25,7 @@ import cv2
 import numpy as np
 
 from mrcheck.core.camera import Camera
+from mrcheck.eval.realdata import cuboid_faces
 from mrcheck.scene.model import Scene
 
 _SUPERSAMPLE = 2
@@ -70,22 +71,7 @@ def _box(centre, size, yaw):
     c, s = np.cos(yaw), np.sin(yaw)
     x, y, z = (np.array([[i, j, k] for i in (-0.5, 0.5) for j in (-0.5, 0.5) for k in (0.0, 1.0)]) * size).T
     v = np.column_stack([c * x - s * y, s * x + c * y, z]) + centre
-    f = np.array(
-        [
-            [0, 1, 3],
-            [0, 3, 2],
-            [4, 6, 7],
-            [4, 7, 5],
-            [0, 4, 5],
-            [0, 5, 1],
-            [2, 3, 7],
-            [2, 7, 6],
-            [0, 2, 6],
-            [0, 6, 4],
-            [1, 5, 7],
-            [1, 7, 3],
-        ]
-    )
+    f = cuboid_faces()  # corners x slowest, as v above
     return v, f
 
 

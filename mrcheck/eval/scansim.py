@@ -22,6 +22,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from mrcheck.eval.realdata import cuboid_faces
 from mrcheck.scene.asbuilt_plan import excluded_parts
 from mrcheck.scene.model import Scene, make_part
 from mrcheck.scene.raycast import build_caster
@@ -65,22 +66,7 @@ def shifted_variant(scene: Scene, share: float, low_m: float, high_m: float, see
 def _box_mesh(size) -> tuple[np.ndarray, np.ndarray]:
     sx, sy, sz = size
     v = np.array([[x, y, z] for x in (0, sx) for y in (0, sy) for z in (0, sz)], np.float64)
-    f = np.array(
-        [
-            [0, 1, 3],
-            [0, 3, 2],
-            [4, 6, 7],
-            [4, 7, 5],
-            [0, 4, 5],
-            [0, 5, 1],
-            [2, 3, 7],
-            [2, 7, 6],
-            [0, 2, 6],
-            [0, 6, 4],
-            [1, 5, 7],
-            [1, 7, 3],
-        ]
-    )
+    f = cuboid_faces()  # corners x slowest, as v above
     return v, f
 
 
