@@ -108,6 +108,28 @@ def test_the_pose_search_finds_a_square_moved_by_twelve_pixels():
     assert report.cost < 1.0 < report.start_cost and abs(report.moved_px - 13.0) < 1.5
 
 
+@pytest.mark.slow
+def test_the_pose_search_offers_distinct_alternates_of_another_basin():
+    """Two squares side by side in the photo, 30 px apart: the search takes one and offers the
+    other basin as an alternate, each at least 2 px of median motion from the choice and from
+    each other, and polished onto a square (exact chamfer cost near 0)."""
+    square = _Square()
+    uv = square.camera.project(square.samples.points)
+    image = np.full((120, 160), 0.3, np.float32)
+    for dx in (-15, 15):
+        lo, hi = uv.min(axis=0) + (dx, 0), uv.max(axis=0) + (dx, 0)
+        cv2.rectangle(image, tuple(np.rint(lo).astype(int)), tuple(np.rint(hi).astype(int)), 0.8, -1)
+    cmap = chamfer.chamfer_map(image, 1.0)
+    report = search.search_pose(square.state, square.camera, square.samples, cmap, 40.0)
+    poses = [report.pose, *report.alternates]
+    assert 1 <= len(report.alternates) <= search.POLISHED
+    shifts = [np.median(p.camera(square.camera).project(square.samples.points) - uv, axis=0) for p in poses]
+    for i in range(len(shifts)):
+        for j in range(i):
+            assert np.linalg.norm(shifts[i] - shifts[j]) >= 2.0, shifts
+    assert any(abs(s[0] + 15) < 1.5 for s in shifts) and any(abs(s[0] - 15) < 1.5 for s in shifts), shifts
+
+
 def test_the_search_level_is_the_one_about_320_px_wide_but_not_the_finest():
     assert search.search_level([640, 320, 160]) == 1
     assert search.search_level([1280, 640, 320, 160]) == 2

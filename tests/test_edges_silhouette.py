@@ -73,16 +73,65 @@ def balls():
     return scene, truth, _photo(scene, truth)
 
 
-def test_smooth_balls_register_by_their_outline_only_with_the_silhouette(balls):
-    """Started a few px off, the fit with ``silhouette`` ends within half a pixel of the truth;
-    without it the balls give too few mesh-edge samples and the fit refuses (as on LM-O)."""
+def test_smooth_balls_register_by_their_outline_by_default(balls):
+    """Started a few px off, the fit with the outline term (the default for curved parts, and
+    ``silhouette=True``) ends within half a pixel of the truth; without it
+    (``silhouette=False``) the balls give too few mesh-edge samples and the fit refuses (as on
+    LM-O)."""
     scene, truth, photo = balls
     start = _off(truth, 1.5, 0.03)
     assert 3.0 < _median_px(start, truth) < 12.0
-    fit = refine_pose(scene, truth, photo, initial=start, options=EdgeOptions(silhouette=True))
-    assert _median_px(fit.camera, truth) < 0.5, _median_px(fit.camera, truth)
+    for options in (EdgeOptions(), EdgeOptions(silhouette=True)):
+        fit = refine_pose(scene, truth, photo, initial=start, options=options)
+        assert _median_px(fit.camera, truth) < 0.5, _median_px(fit.camera, truth)
     with pytest.raises(EdgeFitError, match="visible CAD edge samples"):
-        refine_pose(scene, truth, photo, initial=start, options=EdgeOptions())
+        refine_pose(scene, truth, photo, initial=start, options=EdgeOptions(silhouette=False))
+
+
+def test_curved_parts_are_the_balls_and_cylinders_not_the_boxes():
+    """:func:`silhouette.curved_parts`: a ball and a cylinder (faces meeting at under 30 deg) are
+    curved, a box (creases, and flat diagonals) and a coarse prism (8 sides, 45 deg) are not."""
+    meshes = {
+        "ball": trimesh.creation.icosphere(subdivisions=3, radius=0.1),
+        "pipe": trimesh.creation.cylinder(radius=0.05, height=1.0, sections=32),
+        "box": trimesh.creation.box((0.3, 0.2, 0.1)),
+        "prism": trimesh.creation.cylinder(radius=0.2, height=0.1, sections=8),
+    }
+    parts = [
+        make_part(name, Path(name), np.asarray(m.vertices, np.float64), np.asarray(m.faces), np.eye(4)[None], units="m")
+        for name, m in meshes.items()
+    ]
+    scene = Scene("shapes", Path("shapes"), parts)
+    edges = model.scene_edges(scene)
+    curved = dict(zip(edges.group_names, silhouette.curved_parts(edges)))
+    assert curved == {"ball": True, "pipe": True, "box": False, "prism": False}, curved
+
+
+def test_a_failed_chamfer_schedule_is_retried_along_the_normal_only_with_outlines(balls, monkeypatch):
+    """When the chamfer schedule fails, a fit sampling outlines is made again with the search
+    along the normal on every level (and succeeds on the balls); without outlines the failure
+    is the chamfer schedule's own."""
+    from mrcheck.mr.edges import refine as refine_module
+
+    def failing(*args):
+        raise EdgeFitError("chamfer schedule failed")
+
+    calls = []
+    normal = refine_module.normal_schedule
+
+    def spy(*args):
+        calls.append(1)
+        return normal(*args)
+
+    monkeypatch.setattr(refine_module, "chamfer_schedule", failing)
+    monkeypatch.setattr(refine_module, "normal_schedule", spy)
+    scene, truth, photo = balls
+    start = _off(truth, 1.5, 0.03)
+    fit = refine_pose(scene, truth, photo, initial=start)
+    assert _median_px(fit.camera, truth) < 0.5 and calls == [1]
+    with pytest.raises(EdgeFitError):
+        refine_pose(scene, truth, photo, initial=start, options=EdgeOptions(silhouette=False))
+    assert calls == [1]
 
 
 def test_the_outline_samples_lie_on_the_rendered_outline(balls):
@@ -129,16 +178,18 @@ def test_the_region_split_finds_the_colour_step_and_nothing_on_one_colour():
     assert np.all(np.isnan(far))
 
 
-def test_the_silhouette_is_off_by_default_and_validated_options_keep_it():
+def test_the_silhouette_is_automatic_by_default_and_validated_options_keep_it():
     options = EdgeOptions()
-    assert options.silhouette is False and options.region is True
+    assert options.silhouette is None and options.region is True
     assert EdgeOptions(silhouette=True).validated().silhouette is True
+    assert EdgeOptions(silhouette=False).validated().silhouette is False
 
 
 @pytest.mark.slow
 def test_register_silhouette_flag_snaps_the_balls_from_the_command_line(balls, tmp_path, capsys):
-    """``mrcheck register --initial --silhouette``: the option reaches the edge stage with the
-    photo in colour; without it the same balls are refused for too few samples."""
+    """``mrcheck register --initial``: the outline term of curved parts is on by default and
+    ``--silhouette on`` keeps it, with the photo in colour; ``--silhouette off`` refuses the
+    same balls for too few samples."""
     from mrcheck.cli import main
     from mrcheck.core.camerafiles import write_camera
     from mrcheck.core.output import write_image
@@ -154,7 +205,44 @@ def test_register_silhouette_flag_snaps_the_balls_from_the_command_line(balls, t
     write_camera(tmp_path / "rough.json", _off(truth, 1.5, 0.03))
     args = ["register", tmp_path / "balls.ply", "--photo", tmp_path / "photo.png", "--intrinsics"]
     args += [tmp_path / "cam.json", "--initial", tmp_path / "rough.json", "-o"]
-    assert main([str(a) for a in [*args, tmp_path / "plain.json"]]) == 1
+    assert main([str(a) for a in [*args, tmp_path / "plain.json", "--silhouette", "off"]]) == 1
     assert "visible CAD edge samples" in capsys.readouterr().err
-    assert main([str(a) for a in [*args, tmp_path / "shot.json", "--silhouette"]]) == 0
-    assert _median_px(read_shot(tmp_path / "shot.json").camera, truth) < 0.5
+    for name, extra in (("auto.json", []), ("on.json", ["--silhouette", "on"])):
+        assert main([str(a) for a in [*args, tmp_path / name, *extra]]) == 0
+        assert _median_px(read_shot(tmp_path / name).camera, truth) < 0.5
+
+
+def test_automatic_outlines_follow_the_view_not_only_the_mesh():
+    """``Fitter.judge_outlines``: the curved parts' outline samples are kept when they outnumber
+    the samples on crease edges in the first view, else dropped for the whole fit (contours
+    off); a curved mesh's own facet contours do not count as creases."""
+    from mrcheck.mr.edges.fitter import Fitter
+
+    meshes = {
+        "ball": trimesh.creation.icosphere(subdivisions=3, radius=0.1),
+        "box": trimesh.creation.box((0.3, 0.2, 0.1)),
+    }
+    parts = [
+        make_part(name, Path(name), np.asarray(m.vertices, np.float64), np.asarray(m.faces), np.eye(4)[None], units="m")
+        for name, m in meshes.items()
+    ]
+    edges = model.scene_edges(Scene("shapes", Path("shapes"), parts))
+    ball, box = edges.group_names.index("ball"), edges.group_names.index("box")
+    crease_edge = int(np.flatnonzero(edges.crease & (edges.group == box))[0])
+    facet_edge = int(np.flatnonzero(~edges.crease & (edges.group == ball))[0])
+
+    def samples(edge: int, group: int, count: int) -> model.Samples:
+        z = np.zeros((count, 3))
+        return model.Samples(z, z, np.full(count, group), np.full(count, edge), np.zeros(count))
+
+    def judged(creases: int, facets: int, outline: int) -> tuple[int, bool]:
+        fitter = Fitter.__new__(Fitter)
+        fitter.edges, fitter.judged = edges, False
+        fitter.outlined = silhouette.curved_parts(edges)
+        fitter.contours = silhouette.ContourModel(edges)
+        mesh = silhouette.joined(samples(crease_edge, box, creases), samples(facet_edge, ball, facets))
+        kept = fitter.judge_outlines(mesh, samples(facet_edge, ball, outline))
+        return len(kept), fitter.contours is not None
+
+    assert judged(creases=10, facets=50, outline=40) == (40, True)  # facet contours do not count
+    assert judged(creases=50, facets=0, outline=40) == (0, False)

@@ -108,9 +108,12 @@ def calibrate(images, board, min_views, max_view_error, output):
 )
 @click.option(
     "--silhouette",
-    is_flag=True,
-    help="The edge stage also matches the parts' outlines by their colour regions: for scanned and smooth "
-    "meshes with few crease edges (docs/edge-registration.md) [default: creases and contours only].",
+    type=click.Choice(["auto", "on", "off"]),
+    default="auto",
+    show_default=True,
+    help="The edge stage also matches parts' outlines by their colour regions: auto for the curved parts "
+    "(scans, pipes, bottles: their faces meet at under 30 deg), on for every part, off for none "
+    "(docs/edge-registration.md).",
 )
 @click.option(
     "-o",

@@ -32,18 +32,32 @@ CAMERA_KEYS = ("width", "height", "K", "dist", "R", "t")  # a camera JSON's keys
 
 
 @dataclass(frozen=True)
+class Anchors:
+    """The correspondences a markers or points pose was solved from (the inliers): ``world``
+    (n, 3), ``pixels`` (n, 2) and ``sigma_px``, their noise (px, 1 sigma per axis). Kept in
+    memory for the edge refinement's gate (:func:`mrcheck.mr.register.refinement_gate`); not
+    written to SHOT.json."""
+
+    world: Any
+    pixels: Any
+    sigma_px: float
+
+
+@dataclass(frozen=True)
 class Shot:
     """A photo and the camera that took it, with what its registration reported.
 
     ``photo``: the photo's absolute path, None for an image registered in memory
     (:func:`mrcheck.mr.registration.register_markers`) that no file is known for yet.
     ``report``: the registration's fields as JSON values (lists, dicts, numbers, strings), in
-    the order the SHOT.json lists them; never the camera keys or ``"photo"``.
+    the order the SHOT.json lists them; never the camera keys or ``"photo"``. ``anchors``: the
+    correspondences of a markers or points pose (:class:`Anchors`; not in the file).
     """
 
     camera: Camera
     photo: Path | None = None
     report: Mapping[str, Any] = field(default_factory=dict)
+    anchors: Anchors | None = field(default=None, compare=False)
 
     @property
     def method(self) -> str | None:
@@ -119,4 +133,4 @@ def photo_reference(photo: os.PathLike[str] | str, shot_file: os.PathLike[str] |
         return real_photo
 
 
-__all__ = ["Shot", "read_shot", "write_shot", "shot_text", "photo_reference", "CAMERA_KEYS"]
+__all__ = ["Anchors", "Shot", "read_shot", "write_shot", "shot_text", "photo_reference", "CAMERA_KEYS"]

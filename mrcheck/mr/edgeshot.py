@@ -9,6 +9,9 @@ as is) plus::
     "method": "edges",  "start": "initial" | "markers" | "points" (where the rough pose came from),
     "rms": edge RMS (px): distance of the supported edge samples to the photo's edges,
     "support": share of the visible CAD edge samples that found a photo edge,
+    "start_support": the same samples' support at the start's pose (null when unknown),
+    "support_change": {"gained", "lost"}: samples supported at the fit's pose and not at the
+        start's, and the reverse, "outlined": instance ids whose outlines were fitted,
     "above_chance": that support beyond what a pose a few px off gets by chance (0 .. 1; a fit
         below 0.08 fails; the crates' good fits 0.56-0.83, the dense generated cell's 0.12-0.28),
     "samples": visible CAD edge samples at full resolution,
@@ -51,6 +54,8 @@ def edge_shot(fit: EdgeFit, photo, start: str, rough: Camera) -> Shot:
         "start": start,
         "rms": round(fit.rms_px, 4),
         "support": round(fit.support, 4),
+        "start_support": None if np.isnan(fit.start_support) else round(fit.start_support, 4),
+        "support_change": {"gained": fit.gained[0], "lost": fit.gained[1]},
         "above_chance": None if np.isnan(fit.above_chance) else round(fit.above_chance, 4),
         "samples": fit.samples,
         "uncertainty": u.to_dict(),
@@ -58,6 +63,7 @@ def edge_shot(fit: EdgeFit, photo, start: str, rough: Camera) -> Shot:
         "camera_position": camera.center.tolist(),
         "moved_px": round(_moved(rough, camera), 3),
         "left_out": list(fit.dropped),
+        "outlined": list(fit.outlined),
         "times_s": {k: round(v, 3) for k, v in fit.times_s.items()},
         "warnings": list(fit.warnings),
     }
@@ -82,7 +88,8 @@ def snap_photo(
     the pose of ``rough``; ``camera``: the photo's intrinsics (rescaled to the photo when it was
     resized). Raises :class:`~mrcheck.mr.edges.EdgeFitError` (naming the photo) on failure."""
     # the region criterion of the silhouette samples compares colours: the photo as it is then
-    colour = options is not None and options.silhouette and options.region
+    settings = options if options is not None else EdgeOptions()
+    colour = settings.silhouette is not False and settings.region
     grey = read_photo(photo, grey=not colour)
     camera, warnings = fit_camera(camera, grey.shape[1], grey.shape[0], photo)
     rough = camera.with_pose(rough.R, rough.t)

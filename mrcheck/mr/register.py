@@ -46,6 +46,8 @@ _GATE_SIGMAS = 3.0
 _GATE_FLOOR_PX = 1.0  # ... and at least this far (a start's sigma of 0.1 px is a model, not a limit)
 # ... or further with edge support this far beyond chance (the crates' good fits 0.56-0.83)
 _GATE_STRONG = 0.5
+_ANCHOR_CHI2 = 16.81  # chi-square, 6 degrees of freedom, 99 %: refinement_gate's test 1
+_GAIN_CHI2 = 6.63  # chi-square, 1 degree of freedom, 99 %: refinement_gate's test 2
 
 
 @dataclass(frozen=True)
@@ -97,6 +99,9 @@ def _check_inputs(
         raise MrcheckError(f"not a scene (a .toml manifest or a mesh: {', '.join(MESH_SUFFIXES)})", scene)
 
 
+_SILHOUETTE = {"auto": None, "on": True, "off": False}  # register_command: EdgeOptions.silhouette
+
+
 def register_command(
     scene: PathArg,
     photo: PathArg,
@@ -108,13 +113,14 @@ def register_command(
     max_error: float | None = None,
     output: PathArg = "SHOT.json",
     click_sigma: float = CLICK_SIGMA_PX,
-    silhouette: bool = False,
+    silhouette: str = "auto",
 ) -> RegistrationResult:
     """``mrcheck register``: the start (``markers`` | ``points`` | ``initial``), the edge stage
     when ``initial`` is given or ``refine`` is true, then SHOT.json written atomically (its
     ``photo`` relative to it). Every input is read before the scene is loaded. ``click_sigma``:
     the clicked points' noise (px), which their outlier threshold follows from. ``silhouette``:
-    the edge stage also matches the parts' outlines by their colour regions (``EdgeOptions.silhouette``)."""
+    ``"auto"``, ``"on"`` or ``"off"``: which parts' outlines the edge stage also matches by their
+    colour regions (``EdgeOptions.silhouette``: the curved parts, every part, none)."""
     output = check_output_path(output, (".json",), "shot")
     edges = initial is not None or bool(refine)
     _start_option(initial, markers, points, edges)
@@ -138,7 +144,9 @@ def register_command(
             click_sigma=click_sigma,
         )
         shot, rough = first, first.camera
-    options = EdgeOptions(silhouette=True) if silhouette else None
+    if silhouette not in _SILHOUETTE:
+        raise MrcheckError(f"silhouette must be auto, on or off, got {silhouette!r}")
+    options = EdgeOptions(silhouette=_SILHOUETTE[silhouette])
     if initial is not None:
         shot = snap_photo(photo, camera, model, rough, "initial", options)
     elif edges:
@@ -169,11 +177,33 @@ def gated_refinement(
 def refinement_gate(start: Shot, refined: Shot, bounds: np.ndarray) -> str | None:
     """Why the edge-refined pose must not replace the markers' or points' pose, or None to take it.
 
-    The start's pose is known to ``expected_overlay_error_px`` (1 sigma, from its covariance); a
-    refinement that moves the scene's overlay (``bounds``' corners and centre) by more than
-    :data:`_GATE_SIGMAS` of that contradicts the start, and the edges must then prove themselves
-    with support :data:`_GATE_STRONG` beyond chance: otherwise a few clutter edges win over
-    clicks or markers that were right."""
+    1. The start's own correspondences (:attr:`Shot.anchors`) must allow the refined pose: their
+       squared reprojection errors may grow by at most :data:`_ANCHOR_CHI2` times their noise
+       squared (the 99 % region of a 6-parameter pose solved from them). Why: on BOP LM-O
+       (``tests/lmo_clicks.py --refine``: 8 clicks of 1.5 px on one scanned object, photos 3,
+       402 and 819, seeds 0-4) the outline fit made 93 of the 98 refinements that test 2 let
+       through worse than the clicks alone (median reprojection; at worst 0.9 -> 7.3 px and
+       3 -> 28 deg on the symmetric glue bottle), with support beyond chance up to 0.57.
+    2. The start's pose is known to ``expected_overlay_error_px`` (1 sigma, from its covariance); a
+       refinement that moves the scene's overlay (``bounds``' corners and centre) by more than
+       :data:`_GATE_SIGMAS` of that contradicts the start, and the edges must then prove themselves
+       with support :data:`_GATE_STRONG` beyond chance: otherwise a few clutter edges win over
+       clicks or markers that were right."""
+    excess = anchor_excess(start, refined.camera)
+    if excess is not None and excess > _ANCHOR_CHI2:
+        what = "clicked points" if start.method == "points" else "marker corners"
+        assert start.anchors is not None
+        return (
+            f"the edges' pose contradicts the {what}: their squared errors grow by {excess:.1f} times "
+            f"their noise squared ({start.anchors.sigma_px:.2f} px), more than {_ANCHOR_CHI2:g} (99 % of a pose's)"
+        )
+    gained = support_gain(refined)
+    if gained is not None and gained <= _GAIN_CHI2:
+        change = refined.report["support_change"]
+        return (
+            f"the edges find no more support at their pose than at the start's ({change['gained']} samples "
+            f"gained, {change['lost']} lost: McNemar's chi-square {gained:.1f}, at most {_GAIN_CHI2:g})"
+        )
     allowed = max(_GATE_SIGMAS * float(start.report["expected_overlay_error_px"]), _GATE_FLOOR_PX)
     moved = overlay_moved(start.camera, refined.camera, bounds)
     if moved <= allowed:
@@ -186,6 +216,30 @@ def refinement_gate(start: Shot, refined: Shot, bounds: np.ndarray) -> str | Non
         f"the edges moved the overlay {moved:.1f} px, beyond {_GATE_SIGMAS:g} sigma of the start "
         f"({allowed:.1f} px), with support {evidence} beyond chance (< {_GATE_STRONG:g})"
     )
+
+
+def support_gain(refined: Shot) -> float | None:
+    """McNemar's chi-square of the samples the edge fit gained against those it lost between the
+    start's pose and its own (signed: negative when it lost more), None when unreported."""
+    change = refined.report.get("support_change")
+    if not isinstance(change, dict):
+        return None
+    b, c = int(change.get("gained", 0)), int(change.get("lost", 0))
+    if b + c == 0:
+        return 0.0
+    return float(np.sign(b - c) * (b - c) ** 2 / (b + c))
+
+
+def anchor_excess(start: Shot, camera: Camera) -> float | None:
+    """How much the squared reprojection errors of the start's correspondences grow from its
+    pose to ``camera``'s, in units of their noise squared (None without correspondences): a
+    chi-square with 6 degrees of freedom when ``camera`` is the true pose (linearised)."""
+    anchors = start.anchors
+    if anchors is None or len(anchors.world) == 0:
+        return None
+    before = np.sum((start.camera.project(anchors.world) - anchors.pixels) ** 2)
+    after = np.sum((camera.project(anchors.world) - anchors.pixels) ** 2)
+    return float((after - before) / anchors.sigma_px**2)
 
 
 def overlay_moved(a: Camera, b: Camera, bounds: np.ndarray) -> float:
@@ -266,6 +320,8 @@ __all__ = [
     "RegistrationResult",
     "gated_refinement",
     "overlay_moved",
+    "anchor_excess",
+    "support_gain",
     "refinement_gate",
     "register_command",
     "summary_lines",

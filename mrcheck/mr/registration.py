@@ -37,7 +37,7 @@ from mrcheck.core.camera import Camera
 from mrcheck.core.camerafiles import read_photo
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.jsonfile import read_json
-from mrcheck.core.shot import Shot
+from mrcheck.core.shot import Anchors, Shot
 from mrcheck.mr.markers import Group, detect_markers, parse_marker_map
 from mrcheck.mr.pose import (
     CLICK_SIGMA_PX,
@@ -110,12 +110,17 @@ def _parse_points(data, source="correspondences") -> list:
     return groups
 
 
+def corner_noise(pose: Pose, n: int) -> float:
+    """The corners' noise (px, 1 sigma) estimated from the residuals of ``n`` inliers (6 pose
+    parameters use up 6 of the 2n residual dofs), at least :data:`_MIN_SIGMA_PX`."""
+    return max(_MIN_SIGMA_PX, pose.rms * math.sqrt(2 * n / (2 * n - 6)) if 2 * n > 6 else 0.0)
+
+
 def _geometry_warnings(camera: Camera, world, pose: Pose, single_marker: bool):
     """Warnings about poses the data barely constrain, and the predicted overlay error."""
     warnings = []
     n = len(world)
-    # residuals estimate the corner noise (6 pose parameters use up 6 of the 2n residual dofs)
-    sigma = max(_MIN_SIGMA_PX, pose.rms * math.sqrt(2 * n / (2 * n - 6)) if 2 * n > 6 else 0.0)
+    sigma = corner_noise(pose, n)
     overlay = expected_overlay_error(camera, world, sigma)
     if single_marker:
         warnings.append(
@@ -201,7 +206,9 @@ def _register(camera: Camera, groups: list, method: str, max_error, warnings: li
         "expected_overlay_error_px": round(overlay, 2),
         "warnings": warnings + more,
     }
-    return Shot(posed, None, report)
+    # the clicks' noise as given, the markers' corners' as their residuals tell
+    sigma = noise_px if noise_px is not None else corner_noise(pose, int(pose.inliers.sum()))
+    return Shot(posed, None, report, Anchors(world[pose.inliers], pixels[pose.inliers], float(sigma)))
 
 
 def _consensus_warnings(pose: Pose, owner: np.ndarray, method: str) -> list:

@@ -236,12 +236,14 @@ class AddPhoto:
         scene = self.review.source.loaded
         if self._edges is None:
             self._edges = scene_edges(scene)
-        grey = image.astype(np.float32) @ np.array([0.299, 0.587, 0.114], np.float32) / 255.0
+        # the photo in colour: the outline term of curved parts compares colour regions
+        # (mrcheck.mr.edges.region); refine_pose makes the grey image of the edges itself
+        photo = np.ascontiguousarray(image[..., :3])
 
         def snap(rough: Camera):
             return self.review.renders.call(
                 lambda renderer: refine_pose(
-                    scene, rough, grey, options=EdgeOptions(), renderer=renderer, edges=self._edges
+                    scene, rough, photo, options=EdgeOptions(), renderer=renderer, edges=self._edges
                 )
             )
 

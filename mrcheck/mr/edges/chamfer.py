@@ -25,6 +25,7 @@ import numpy as np
 
 BINS = 8
 TRUNCATE_PX = 4.0  # chamfer distances beyond this (level px) are "no edge here"
+HUBER_PX = 1.0  # the chamfer residual's Huber threshold (level px) in a descent on it
 _CANNY_HIGH = 3.0  # Canny's high threshold: this many times the median gradient ...
 _CANNY_LOW = 1.5  # ... and its low one
 
@@ -96,9 +97,15 @@ def lookup(cmap: ChamferMap, uv: np.ndarray, bins: np.ndarray) -> tuple:
     return d, g
 
 
+def huber_weights(distance: np.ndarray) -> np.ndarray:
+    """(n,) weights of a descent on the chamfer distance: Huber's within the truncation, 0 beyond
+    (a CAD edge with no photo edge of its direction nearby does not pull)."""
+    return np.where(distance < TRUNCATE_PX, np.minimum(1.0, HUBER_PX / np.maximum(distance, 1e-9)), 0.0)
+
+
 def cost(distance: np.ndarray) -> float:
     """The truncated chamfer cost: the mean squared distance, each capped at the truncation."""
     return float(np.mean(np.minimum(distance, TRUNCATE_PX) ** 2)) if distance.size else math.inf
 
 
-__all__ = ["ChamferMap", "chamfer_map", "bins_of", "lookup", "cost", "BINS", "TRUNCATE_PX"]
+__all__ = ["ChamferMap", "chamfer_map", "bins_of", "lookup", "cost", "huber_weights", "BINS", "TRUNCATE_PX", "HUBER_PX"]

@@ -24,7 +24,7 @@ import numpy as np
 from mrcheck.core.camera import Camera
 from mrcheck.mr.edges import chamfer, model, search, solver
 
-HUBER_PX = 1.0  # the chamfer residual's Huber threshold (level px)
+HUBER_PX = chamfer.HUBER_PX  # the chamfer residual's Huber threshold (level px)
 _CONVERGED_PX = 0.05  # a step moving no sample more than this (level px) ends the level
 _RIDGE = 1e-4  # times the trace of the normal equations (see chamfer_level)
 
@@ -92,7 +92,7 @@ def chamfer_level(
         near = d < chamfer.TRUNCATE_PX
         if np.count_nonzero(near) < 6:
             break
-        weights = np.where(near, np.minimum(1.0, HUBER_PX / np.maximum(d, 1e-9)), 0.0)
+        weights = chamfer.huber_weights(d)
         # a ridge: on a coarse level a direction the edges leave open (parallel lines) would
         # otherwise take any step the noise asks for (measured: a bar turned 6 degrees)
         step = solver.gauss_newton_step(rows[near], d[near], weights[near], damping, ridge=_RIDGE)
@@ -118,6 +118,42 @@ def chamfer_level(
     return ChamferLevelReport(pose, cmap.scale, done, len(samples), float(np.mean(d < chamfer.TRUNCATE_PX)))
 
 
+@dataclass
+class Searched:
+    """Step 1's outcome: ``report`` the search (its pose and alternates), ``images`` the photo's
+    levels and ``first`` the index of the level searched (step 2 starts there)."""
+
+    report: search.SearchReport
+    images: list
+    first: int
+
+
+def search_start(
+    pose: solver.PoseState, camera: Camera, sampler: Sampler, grey: np.ndarray, levels: int, search_px: float
+) -> Searched:
+    """Step 1 on the level :func:`~mrcheck.mr.edges.search.search_level` picks, from the rough
+    ``pose``. Levels coarser than the searched one are not used: at 160 px wide the generated
+    cell's true pose does not have the lowest chamfer cost (measured, seeds 0-9: a wrong pose's
+    9.5 against the truth's 10.2)."""
+    images = grey_levels(grey, levels)
+    first = search.search_level([image.shape[1] for image in images])
+    cmap = chamfer.chamfer_map(images[first], 0.5**first)
+    return Searched(search.search_pose(pose, camera, sampler(pose, cmap.scale), cmap, search_px), images, first)
+
+
+def descend(
+    searched: Searched, pose: solver.PoseState, camera: Camera, sampler: Sampler, iterations: int, rerender_px: float
+) -> CoarseReport:
+    """Step 2 from ``pose`` (the search's or one of its alternates) on the level searched and the
+    finer ones down to level 1 (none when the photo has one level)."""
+    reports = []
+    for index in range(searched.first, 0, -1):
+        cmap = chamfer.chamfer_map(searched.images[index], 0.5**index)
+        reports.append(chamfer_level(pose, camera, sampler, cmap, iterations, rerender_px))
+        pose = reports[-1].pose
+    return CoarseReport(pose, searched.report, reports)
+
+
 def coarse_align(
     pose: solver.PoseState,
     camera: Camera,
@@ -128,24 +164,10 @@ def coarse_align(
     iterations: int,
     rerender_px: float,
 ) -> CoarseReport:
-    """Step 1 on the level :func:`~mrcheck.mr.edges.search.search_level` picks, step 2 on that
-    level and the finer ones down to level 1 (only step 1 when ``levels`` is 1), from the rough
-    ``pose``; the report holds the pose reached (``camera``, ``sampler``: see
-    :func:`chamfer_level`). Levels coarser than the searched one are not used: at 160 px wide
-    the generated cell's true pose does not have the lowest chamfer cost (measured, seeds 0-9:
-    a wrong pose's 9.5 against the truth's 10.2)."""
-    images = grey_levels(grey, levels)
-    first = search.search_level([image.shape[1] for image in images])
-    cmap = chamfer.chamfer_map(images[first], 0.5**first)
-    found = search.search_pose(pose, camera, sampler(pose, cmap.scale), cmap, search_px)
-    pose = found.pose
-    reports = []
-    for index in range(first, 0, -1):
-        if index != first:
-            cmap = chamfer.chamfer_map(images[index], 0.5**index)
-        reports.append(chamfer_level(pose, camera, sampler, cmap, iterations, rerender_px))
-        pose = reports[-1].pose
-    return CoarseReport(pose, found, reports)
+    """Step 1 (:func:`search_start`) then step 2 (:func:`descend`) from the pose the search chose
+    (``camera``, ``sampler``: see :func:`chamfer_level`)."""
+    searched = search_start(pose, camera, sampler, grey, levels, search_px)
+    return descend(searched, searched.report.pose, camera, sampler, iterations, rerender_px)
 
 
 __all__ = [
@@ -155,5 +177,8 @@ __all__ = [
     "grey_levels",
     "chamfer_level",
     "coarse_align",
+    "search_start",
+    "descend",
+    "Searched",
     "HUBER_PX",
 ]

@@ -44,8 +44,10 @@ class EdgeOptions:
     region: a video frame, a few px from its prediction, where the cost test can keep the pose
     where it began, see :data:`mrcheck.apps.track.TRACK_OPTIONS`); ``silhouette``: also sample
     the outline of the rendered parts (:mod:`mrcheck.mr.edges.silhouette`: depth discontinuities
-    against the background or a farther part), for scanned and smooth meshes with few creases;
-    ``region``: match those outline samples by the colour region criterion
+    against the background or a farther part), for scanned and smooth meshes with few creases:
+    ``None`` (automatic, the default) for the parts whose outline in view the crease samples do
+    not cover (:data:`~mrcheck.mr.edges.fitter.SMOOTH_COVER`, judged once at the start pose),
+    ``True`` for every part, ``False`` for none; ``region``: match those outline samples by the colour region criterion
     (:mod:`mrcheck.mr.edges.region`) instead of the nearest gradient peak (needs the photo).
     """
 
@@ -59,7 +61,7 @@ class EdgeOptions:
     coarse: str = "chamfer"
     max_left_out: float = 0.7
     descent_only: bool = True
-    silhouette: bool = False
+    silhouette: bool | None = None
     region: bool = True
 
     def validated(self) -> EdgeOptions:
@@ -113,7 +115,10 @@ class EdgeFit:
     ``coarse``, ``match``, ``solve``, ``uncertainty``, ``total``); ``dropped``: instance ids whose
     edges found no support (left out); ``levels``: one :class:`LevelReport` per level, coarse to
     fine; ``above_chance``: the support of all visible samples (the left-out parts' too) beyond
-    what a pose a few px off gets by chance (:func:`~mrcheck.mr.edges.photo.support_above_chance`).
+    what a pose a few px off gets by chance (:func:`~mrcheck.mr.edges.photo.support_above_chance`);
+    ``start_support``: the support of the same samples at the start's pose, at the same scale;
+    ``gained``: (samples supported at the fit's pose but not at the start's, the reverse);
+    ``outlined``: the instances whose outlines were sampled (:attr:`EdgeOptions.silhouette`).
     """
 
     camera: Camera
@@ -126,6 +131,9 @@ class EdgeFit:
     dropped: list[str] = field(default_factory=list)
     levels: list[LevelReport] = field(default_factory=list)
     above_chance: float = math.nan
+    start_support: float = math.nan
+    gained: tuple[int, int] = (0, 0)
+    outlined: list[str] = field(default_factory=list)
 
 
 @dataclass
