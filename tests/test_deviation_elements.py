@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from mrcheck.apps.deviation.distances import closest_surface
-from mrcheck.apps.deviation.elements import element_status, fit_offsets, grouped_quantile
+from mrcheck.apps.deviation.elements import STATUSES, element_status, fit_offsets, grouped_quantile
 from mrcheck.cli import main
 from mrcheck.core.resources import sample_scene_path
 from mrcheck.eval.deviation_eval import score_seed
@@ -106,10 +106,67 @@ def test_offset_of_a_moved_box_and_no_data_for_an_unscanned_one():
     surface = closest_surface(scene, pts, normals=True)
     rows = element_status(surface, scene, pts, 10.0)
     moved, unscanned = rows
-    assert moved.status == "out of tolerance" and unscanned.status == "no data"
+    assert moved.status == "out of tolerance" and unscanned.status == "not enough data"  # no scanner positions
     assert np.allclose(moved.offset_mm, (30.0, -15.0, 0.0), atol=1.5)
     assert unscanned.points == 0 and unscanned.median_mm is None and unscanned.offset_mm is None
     assert 0.7 < moved.coverage <= 1.0  # the bottom rests on nothing but is still "open": see docs
+
+
+def _cubes(centres) -> Scene:
+    v, f = _box()
+    T = np.stack([np.eye(4)] * len(centres))
+    T[:, :3, 3] = centres
+    return Scene("cubes", Path("cubes"), [Part("cube", Path("cube"), v, f, T)])
+
+
+def test_scanner_positions_tell_occluded_from_not_found():
+    """Four 1 m cubes planned; the scanner (at their mid-height, the origin side) sees A and B;
+    C stands right behind A; D is not built. With the scanner's position: A and B installed,
+    C occluded (no evidence either way), D not found (its visible surface has no points);
+    without it D has no data to tell (not enough data) and C, open to the outside, too."""
+    planned = _cubes([(3.0, 0.0, 0.5), (0.0, 3.0, 0.5), (6.0, 0.0, 0.5), (0.0, -3.0, 0.5)])
+    built = _cubes([(3.0, 0.0, 0.5), (0.0, 3.0, 0.5), (6.0, 0.0, 0.5)])
+    station = np.array([[0.0, 0.0, 0.5]])
+    scan = simulate_scan(built, station, 200_000, 0)
+    surface = closest_surface(planned, scan.points, normals=True)
+    a, b, c, d = element_status(surface, planned, scan.points, 10.0, scanners=station)
+    assert (a.status, b.status, c.status, d.status) == ("installed", "installed", "occluded", "not found"), (
+        a,
+        b,
+        c,
+        d,
+    )
+    assert c.visible_samples == 0 and d.visible_samples > 0 and d.points < 20
+    blind = [r.status for r in element_status(surface, planned, scan.points, 10.0)]
+    assert blind[:2] == ["installed", "installed"] and blind[2:] == ["not enough data", "not enough data"], blind
+
+
+@pytest.mark.slow
+def test_the_cli_reads_the_scanner_position_from_the_e57_and_says_not_found_and_occluded(tmp_path, capsys):
+    """The cubes above through ``mrcheck deviation --per-element`` with the scan in an E57 whose
+    scan pose is the scanner's position: the same four statuses in elements.csv and the counts
+    in the console line."""
+    import pye57
+    import trimesh
+
+    centres = [(3.0, 0.0, 0.5), (0.0, 3.0, 0.5), (6.0, 0.0, 0.5), (0.0, -3.0, 0.5)]
+    station = np.array([0.0, 0.0, 0.5])
+    scan = simulate_scan(_cubes(centres[:3]), station[None], 200_000, 0)
+    local = scan.points - station
+    with pye57.E57(str(tmp_path / "scan.e57"), mode="w") as e57:
+        data = {"cartesianX": local[:, 0], "cartesianY": local[:, 1], "cartesianZ": local[:, 2]}
+        e57.write_scan_raw(data, name="station 0", rotation=np.array([1.0, 0, 0, 0]), translation=station)
+    trimesh.Trimesh(*_box(), process=False).export(tmp_path / "cube.ply")
+    instances = ", ".join(f"{{ translate = [{x}, {y}, {z}] }}" for x, y, z in centres)
+    manifest = 'format = 1\nname = "cubes"\n\n[[parts]]\nname = "cube"\nmesh = "cube.ply"\nunits = "m"\n'
+    (tmp_path / "scene.toml").write_text(manifest + f"instances = [{instances}]\n")
+    out = tmp_path / "out"
+    args = ["deviation", str(tmp_path / "scan.e57"), "--scene", str(tmp_path / "scene.toml"), "--per-element"]
+    assert main([*args, "--tolerance-mm", "10", "-o", str(out)]) == 0
+    with open(out / "elements.csv", newline="") as f:
+        statuses = [r["status"] for r in csv.DictReader(f)]
+    assert statuses == ["installed", "installed", "occluded", "not found"], statuses
+    assert "2 installed, 1 not found, 0 not enough data, 1 occluded" in capsys.readouterr().err
 
 
 def test_unconstrained_direction_gets_no_offset():
@@ -180,9 +237,7 @@ def test_cli_writes_the_table_picture_and_bcf(sample, simulated, tmp_path, capsy
     assert [e["id"] for e in doc["elements"]] == ids and doc["tolerance_mm"] == 10.0
     with open(out / "elements.csv", newline="") as f:
         rows = list(csv.DictReader(f))
-    assert [r["id"] for r in rows] == ids and all(
-        r["status"] in ("in tolerance", "out of tolerance", "no data") for r in rows
-    )
+    assert [r["id"] for r in rows] == ids and all(r["status"] in STATUSES for r in rows)
     out_ids = {r["id"] for r in rows if r["status"] == "out of tolerance"}
     moved = {s.id for s in shifts if math.hypot(*s.vector[:2]) > 0.012}  # clearly beyond 10 mm
     assert len(moved & out_ids) >= 0.8 * len(moved)

@@ -262,8 +262,9 @@ def discrepancies(shot, scene_path, tolerance_px, outdir, author):
 @click.option(
     "--per-element",
     is_flag=True,
-    help="Also a status per CAD instance (in / out of tolerance, no data): elements.csv, elements.json, "
-    "elements.png and elements.bcfzip (BCF 2.1).",
+    help="Also a status per CAD instance (installed, out of tolerance, not found, not enough data, occluded; "
+    "not found needs an E57 scan's scanner positions): elements.csv, elements.json, elements.png and "
+    "elements.bcfzip (BCF 2.1).",
 )
 @click.option(
     "--tolerance-mm",

@@ -5,9 +5,10 @@ Protocol (one seed): move ``share`` of the movable instances by ``low_mm`` .. ``
 horizontally, add clutter boxes, scan the result from ``stations`` scanner positions
 (2-5 mm range noise, occlusion, stray returns), then run :func:`element_status` of the scan
 against the *planned* scene at ``tolerance_mm``. Truth: "out of tolerance" for an instance
-moved by more than the tolerance, "in tolerance" for every other one. Positives are the
-"out of tolerance" calls; a "no data" call counts as not out (a moved element without data is
-a miss). Precision, recall and F1 over every instance with triangles, structure included.
+moved by more than the tolerance, "installed" for every other one. Positives are the
+"out of tolerance" calls; a call without evidence ("not found", "not enough data",
+"occluded") counts as not out (a moved element without data is a miss). Precision, recall
+and F1 over every instance with triangles, structure included.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from mrcheck.apps.deviation.distances import closest_surface
-from mrcheck.apps.deviation.elements import element_status
+from mrcheck.apps.deviation.elements import NO_EVIDENCE, element_status
 from mrcheck.eval.scansim import clutter_parts, scanner_stations, shifted_variant, simulate_scan
 
 
@@ -33,7 +34,7 @@ class ElementScore:
     fp: int
     fn: int
     tn: int
-    no_data: int  # instances called "no data"
+    no_data: int  # instances called "not found", "not enough data" or "occluded"
     moved_no_data: int  # of them moved beyond the tolerance
     seconds: float
     misses: list = field(default_factory=list)  # ids of the wrong calls, "fp:" / "fn:" prefixed
@@ -62,7 +63,7 @@ def _score(rows, shifts, tolerance_mm: float) -> dict:
         counts[key] += 1
         if key in ("fp", "fn"):
             misses.append(f"{key}:{row.id}")
-        if row.status == "no data":
+        if row.status in NO_EVIDENCE:
             counts["no_data"] += 1
             counts["moved_no_data"] += truth
     return {**counts, "misses": misses}

@@ -11,7 +11,8 @@ Outputs in OUTDIR, all written only after every check has passed, all or none::
 
 With ``--per-element`` (:mod:`~mrcheck.apps.deviation.elements`) also::
 
-    elements.csv, elements.json  every instance's status (in / out of tolerance, no data),
+    elements.csv, elements.json  every instance's status (installed, out of tolerance, not found,
+                                 not enough data, occluded),
                          points, coverage, median and p95 distance, offset (instance ids,
                          IFC GlobalIds where the scene came from IFC)
     elements.png         the CAD in vector AO tinted by status, over the shot's photo with --shot
@@ -41,7 +42,7 @@ from mrcheck.apps.deviation.element_report import (
     elements_json,
     make_element_report,
 )
-from mrcheck.apps.deviation.elements import SEARCH_MM, TOLERANCE_MM, element_status
+from mrcheck.apps.deviation.elements import SEARCH_MM, STATUSES, TOLERANCE_MM, element_status
 from mrcheck.apps.deviation.images import (
     SHOT_IMAGES,
     VIEW_IMAGES,
@@ -94,9 +95,8 @@ class DeviationRun:
         )
         if self.elements is not None:
             c = self.elements.counts
-            line += (
-                f"; per element at {self.elements.tolerance_mm:g} mm: {c['out of tolerance']} out of tolerance, "
-                f"{c['in tolerance']} in tolerance, {c['no data']} no data"
+            line += f"; per element at {self.elements.tolerance_mm:g} mm: " + ", ".join(
+                f"{c[status]} {status}" for status in STATUSES
             )
         return line
 

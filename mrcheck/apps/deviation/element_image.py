@@ -1,7 +1,8 @@
 """``elements.png``: the CAD rendered with vector AO, every instance tinted by its tolerance
 status, over the shot's photo when one is given, with a legend.
 
-Colours: in tolerance green, no data grey, out of tolerance from orange (just over the
+Colours: installed green, not found purple, not enough data light grey, occluded dark grey, out
+of tolerance from orange (just over the
 tolerance) to red (:data:`RED_AT` x the tolerance or more) by the size of the deviation (the
 offset's length, or the residual when that is larger); the legend's bar gives the mm. The tint
 multiplies the vector-AO render's brightness, so depth stays readable (AO darkens corners and
@@ -20,7 +21,12 @@ import numpy as np
 from mrcheck.core.camera import Camera
 
 IN_COLOUR = np.array([70, 190, 90], np.float64)
-NO_DATA_COLOUR = np.array([150, 150, 150], np.float64)
+FLAT_COLOURS = {  # the statuses without a deviation: one colour each
+    "installed": IN_COLOUR,
+    "not found": np.array([170, 70, 210], np.float64),
+    "not enough data": np.array([170, 170, 170], np.float64),
+    "occluded": np.array([95, 95, 95], np.float64),
+}
 OUT_LOW, OUT_HIGH = np.array([255, 170, 40], np.float64), np.array([220, 30, 30], np.float64)
 RED_AT = 5.0  # deviation / tolerance at which the tint is fully red
 PHOTO_ALPHA = 0.5
@@ -40,10 +46,8 @@ def status_colours(rows, tolerance_mm: float) -> np.ndarray:
     """(n, 3) float64 RGB of every row (module docstring)."""
     out = np.empty((len(rows), 3))
     for i, row in enumerate(rows):
-        if row.status == "in tolerance":
-            out[i] = IN_COLOUR
-        elif row.status == "no data":
-            out[i] = NO_DATA_COLOUR
+        if row.status in FLAT_COLOURS:
+            out[i] = FLAT_COLOURS[row.status]
         else:
             x = np.clip((_deviation_mm(row) / tolerance_mm - 1.0) / (RED_AT - 1.0), 0.0, 1.0)
             out[i] = OUT_LOW + x * (OUT_HIGH - OUT_LOW)
@@ -100,7 +104,7 @@ def _elements_seen(scene, camera: Camera) -> int:
 
 
 def legend(height: int, tolerance_mm: float) -> np.ndarray:
-    """The legend panel: swatches for in tolerance / no data, the out-of-tolerance bar in mm."""
+    """The legend panel: a swatch per status without a deviation, the out-of-tolerance bar in mm."""
     width = max(170, height // 4)
     panel = np.full((height, width, 3), BACKGROUND, np.uint8)
     scale = max(0.4, height / 1500.0)
@@ -112,7 +116,7 @@ def legend(height: int, tolerance_mm: float) -> np.ndarray:
         lineType=cv2.LINE_AA,
     )
     y, step = int(height * 0.06), int(height * 0.06)
-    for label, colour in (("in tolerance", IN_COLOUR), ("no data", NO_DATA_COLOUR)):
+    for label, colour in FLAT_COLOURS.items():
         cv2.rectangle(panel, (8, y - step // 2), (8 + step // 2, y), tuple(int(c) for c in colour), -1)
         cv2.putText(panel, label, (16 + step // 2, y), **text)
         y += step

@@ -19,6 +19,7 @@ from mrcheck.apps.bcf import (
     ifc_file_of,
     topic_guid,
 )
+from mrcheck.apps.deviation.elements import STATUSES
 
 ELEMENTS_CSV, ELEMENTS_JSON, ELEMENTS_PNG, ELEMENTS_BCF = (
     "elements.csv",
@@ -61,9 +62,7 @@ class ElementReport:
 
 
 def make_element_report(rows, scan, scene, tolerance_mm: float, search_mm: float, scanners) -> ElementReport:
-    counts = {
-        status: sum(r.status == status for r in rows) for status in ("out of tolerance", "in tolerance", "no data")
-    }
+    counts = {status: sum(r.status == status for r in rows) for status in STATUSES}
     return ElementReport(
         str(scan),
         str(scene),

@@ -1,13 +1,16 @@
-"""Per-element tolerance status from a scan (``mrcheck deviation --per-element``), as the
-tolerance checks of the scan-to-BIM tools: every CAD instance **in tolerance**, **out of
-tolerance** or **no data**.
+"""Per-element status from a scan (``mrcheck deviation --per-element``) in the vocabulary of the
+scan-to-BIM verification tools (ClearEdge3D Verity): every CAD instance **installed** (in
+tolerance), **out of tolerance** (with its offset), **not found**, **occluded** or **not enough
+data**.
 
 1. **Assignment.** Every scan point goes to the instance of its closest CAD triangle
    (:func:`~mrcheck.apps.deviation.distances.closest_surface`) if it lies within the search
    distance ``search`` of it (default :data:`SEARCH_MM`); farther points are clutter (people,
    tools, things not in the CAD) and belong to nothing.
 2. **Statistics** of an instance's points: the median of the signed distance ``d`` and the 95th
-   percentile of ``|d|`` (nearest rank), coverage (:mod:`~mrcheck.apps.deviation.coverage`).
+   percentile of ``|d|`` (nearest rank), coverage (:mod:`~mrcheck.apps.deviation.coverage`):
+   the share of the instance's *visible* surface samples with points, visible from a scanner
+   position (an E57 file's scan poses) or, without positions, open to the outside.
 3. **Offset.** A rigid move is estimated as the translation ``t`` that best explains the
    distances, point to plane: ``min sum w_i (n_i . t - d_i)^2`` (``n_i`` the closest triangle's
    normal; one Gauss-Newton step of point-to-plane ICP, Chen & Medioni 1992), iteratively
@@ -16,13 +19,20 @@ tolerance** or **no data**.
    :data:`MIN_CONSTRAINT` of the (weighted) points, or fewer than :data:`MIN_CONSTRAINT_POINTS`, constrain (the y
    shift of a wall seen only
    from its face) gets no offset: the scan cannot tell, and that component is 0.
-4. **Status**, for tolerance ``tol`` (default 20 mm):
+4. **Status** (:func:`status_of`), for tolerance ``tol`` (default 20 mm):
 
-   - *no data*: fewer than :data:`MIN_POINTS` assigned points or coverage below
-     :data:`MIN_COVERAGE`;
-   - *out of tolerance*: ``|t| > tol`` (a rigid move) or the median ``|d - n . t|`` > tol (what a
-     translation does not explain: a replaced, bent or rotated element);
-   - *in tolerance* otherwise.
+   - with at least :data:`MIN_POINTS` assigned points and :data:`MIN_COVERAGE` coverage:
+     *out of tolerance* when ``|t| > tol`` (a rigid move) or the median ``|d - n . t|`` > tol
+     (what a translation does not explain: a replaced, bent or rotated element), else
+     *installed*;
+   - else *occluded* when no surface sample of the instance is visible (from any scanner
+     position; without positions: no open surface): no evidence either way;
+   - else, with scanner positions, *not found* when less than :data:`MIN_COVERAGE` of its
+     visible surface has points: the scanners saw where it should be and found (almost) nothing
+     of it (missing, or moved beyond the search distance; clutter the CAD lacks can also hide it);
+   - else *not enough data*: enough of it covered but fewer than :data:`MIN_POINTS` points (a
+     small element), or no scanner positions (PLY, PCD, XYZ, LAS): an open surface no scanner
+     of this scan may have faced cannot tell "not found" from "occluded".
 
    The median of ``|d|`` is not the test: a box moved 30 mm along x has half its scanned faces at
    0 mm (top, sides), so its median ``|d|`` understates the move, while the offset finds it.
@@ -53,7 +63,8 @@ ICP_ROUNDS = 5
 ICP_POINTS = 4000
 REFINE_SHARE = 0.3  # instances whose first offset or residual exceeds this share of the tolerance are refined
 QUERY_CHUNK = 1 << 20
-STATUSES = ("out of tolerance", "in tolerance", "no data")
+STATUSES = ("out of tolerance", "installed", "not found", "not enough data", "occluded")
+NO_EVIDENCE = ("not found", "not enough data", "occluded")  # the statuses without an offset
 
 
 @dataclass
@@ -233,15 +244,23 @@ def element_figures(surface, scene, points, tolerance: float, search: float, sca
     )
 
 
-def status_of(points: int, share: float, offset_norm: float, residual: float, tolerance: float) -> str:
-    """Step 4 of the module docstring."""
-    if points < MIN_POINTS or not np.isfinite(share) or share < MIN_COVERAGE:
-        return "no data"
-    return "out of tolerance" if offset_norm > tolerance or residual > tolerance else "in tolerance"
+def status_of(
+    points: int, share: float, visible: int, offset_norm: float, residual: float, tolerance: float, positions: bool
+) -> str:
+    """Step 4 of the module docstring; ``visible``: the instance's visible surface samples,
+    ``positions``: whether visibility came from scanner positions."""
+    if points >= MIN_POINTS and np.isfinite(share) and share >= MIN_COVERAGE:
+        return "out of tolerance" if offset_norm > tolerance or residual > tolerance else "installed"
+    if visible == 0:
+        return "occluded"
+    if positions and (not np.isfinite(share) or share < MIN_COVERAGE):
+        return "not found"
+    return "not enough data"
 
 
-def element_rows(scene, figures: ElementFigures, tolerance: float) -> list[ElementStatus]:
-    """The table, in scene order (instances without triangles are not in it)."""
+def element_rows(scene, figures: ElementFigures, tolerance: float, positions: bool = False) -> list[ElementStatus]:
+    """The table, in scene order (instances without triangles are not in it); ``positions``:
+    whether the coverage's visibility came from scanner positions."""
     rows = []
     for i, (part, k) in enumerate(triangle_owners(scene)[0]):
         n = int(figures.points[i])
@@ -254,7 +273,7 @@ def element_rows(scene, figures: ElementFigures, tolerance: float) -> list[Eleme
                 id=part.instance_ids[k],
                 ifc_globalid=ifc_global_id(part, k),
                 part=part.name,
-                status=status_of(n, share, norm, residual, tolerance),
+                status=status_of(n, share, int(figures.visible[i]), norm, residual, tolerance, positions),
                 points=n,
                 coverage=None if not np.isfinite(share) else round(share, 4),
                 visible_samples=int(figures.visible[i]),
@@ -276,7 +295,8 @@ def element_status(
     positions or None (coverage then
     counts the open surface, :mod:`~mrcheck.apps.deviation.coverage`)."""
     tolerance, search = tolerance_mm / 1000.0, search_mm / 1000.0
-    return element_rows(scene, element_figures(surface, scene, points, tolerance, search, scanners), tolerance)
+    figures = element_figures(surface, scene, points, tolerance, search, scanners)
+    return element_rows(scene, figures, tolerance, scanners is not None and len(scanners) > 0)
 
 
 __all__ = [
@@ -291,4 +311,5 @@ __all__ = [
     "TOLERANCE_MM",
     "SEARCH_MM",
     "STATUSES",
+    "NO_EVIDENCE",
 ]
