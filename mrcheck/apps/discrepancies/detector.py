@@ -65,7 +65,9 @@ Method
    two moves there scores 0.41. On seeds 0-9 the rule adds 2 moves and 4 missing parts for 1
    false suspect.
 6. **Unexplained structure**: photo edge pixels farther than ``3 * tolerance`` from every CAD
-   edge, closed morphologically and grouped into connected regions; a region with at least
+   edge and not a contact line along a resting part's foot (its contact shadow or reflection,
+   :mod:`~mrcheck.apps.discrepancies.contact`), closed morphologically and grouped into
+   connected regions; a region with at least
    :data:`MIN_REGION_PIXELS` edge pixels is an "extra" suggestion (an added object, clutter).
    A group wholly inside CAD faces above floor level (``PlannedView.ground``,
    :func:`~mrcheck.apps.discrepancies.planned.ground_pixels`) is texture -- print, labels --
@@ -87,6 +89,7 @@ from dataclasses import asdict, dataclass, field, replace
 import cv2
 import numpy as np
 
+from mrcheck.apps.discrepancies.contact import contact_lines, metres_per_pixel, support_level
 from mrcheck.apps.discrepancies.edges import (
     edge_threshold,
     orientation_bin,
@@ -102,6 +105,7 @@ from mrcheck.apps.discrepancies.thresholds import (
     DISCRIMINATIVE_THRESHOLD,
     EXPECTED_CONTRAST,
     MIN_EDGE_PIXELS,
+    MIN_OBJECT_M,
     MIN_REGION_PIXELS,
     SCORE_THRESHOLD,
     default_tolerance,
@@ -208,6 +212,7 @@ class _Support:
     supported: np.ndarray  # (H, W) bool CAD edges with an oriented photo edge within the tolerance
     padded: np.ndarray  # the oriented support maps padded by radius
     radius: int  # px the shifted outlines reach
+    angle: np.ndarray  # (H, W) the photo edges' normal direction, radians mod pi
     expected: np.ndarray | None = None  # (H, W) bool outline pixels the planned render itself shows as an edge
 
 
@@ -218,7 +223,7 @@ def _support(photo: np.ndarray, cad: np.ndarray, tol: float, high: float | None 
     supported = cad & np.take_along_axis(support_maps, cad_bins[None], 0)[0]
     radius = shift_radius(tol)
     padded = np.pad(support_maps, ((0, 0), (radius, radius), (radius, radius)))
-    return _Support(edges, cad_bins, supported, padded, radius)
+    return _Support(edges, cad_bins, supported, padded, radius, angle)
 
 
 def _shift_score(mask: np.ndarray, sup: _Support):
@@ -335,6 +340,19 @@ def _regions(edges: np.ndarray, planned: PlannedView, tol: float) -> tuple[list[
     return regions, unexplained
 
 
+def object_sized(regions: list[Region], camera: Camera, support: float) -> list[Region]:
+    """The regions whose box's diagonal spans at least :data:`MIN_OBJECT_M` on the support plane
+    (world z = ``support``) at the box's bottom centre; a box whose bottom lies above the horizon
+    (a wall, a ceiling) is kept: its size cannot be told there."""
+    out = []
+    for r in regions:
+        x0, y0, x1, y1 = r.bbox
+        size = metres_per_pixel(camera, support, (x0 + x1) / 2.0, float(y1))
+        if size is None or size * float(np.hypot(x1 - x0 + 1, y1 - y0 + 1)) >= MIN_OBJECT_M:
+            out.append(r)
+    return out
+
+
 def _on_part(planned: PlannedView, s: Suspect) -> tuple[float, float]:
     """The pixel of the suspect's own planned image nearest to its centre: the centre of an
     unsupported outline may lie on the floor or a wall next to it, and a marker there would
@@ -410,7 +428,9 @@ def detect(
     ]
     suspects.sort(key=lambda s: (-s.score, s.id))
     _add_elements(scene, suspects)
-    regions, unexplained = _regions(sup.edges, planned, tol)
+    contact = contact_lines(scene, camera, planned, sup.edges, sup.angle, tol)
+    regions, unexplained = _regions(sup.edges & ~contact, planned, tol)
+    regions = object_sized(regions, camera, support_level(scene, camera, planned))
     return Detection(
         tol, threshold, suspects, regions, _markers(suspects, regions, planned), planned, sup.supported, unexplained
     )

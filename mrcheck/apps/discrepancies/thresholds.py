@@ -11,6 +11,9 @@ from mrcheck.core.camera import Camera
 SCORE_THRESHOLD = 0.55  # swept on the evaluation's development seeds 0-9 (recall against false suspects)
 MIN_EDGE_PIXELS = 20  # fewer visible edge pixels is too little evidence either way
 MIN_REGION_PIXELS = 25  # unexplained photo edge pixels a region needs to be reported
+# ... and its box's diagonal, measured on the support plane below it, this many metres: smaller
+# structure (a scratch, a coin, wood grain) is no object a planner looks for
+MIN_OBJECT_M = 0.05
 SHIFT_RADIUS = 4.0  # the displaced copies searched reach this many tolerances
 MAX_TOLERANCE_SHARE = 0.05  # --tolerance-px at most this share of the photo's shorter side
 # second rule (seeds 0-9): the outline the planned scene *without* the part would not show
@@ -44,6 +47,7 @@ __all__ = [
     "SCORE_THRESHOLD",
     "MIN_EDGE_PIXELS",
     "MIN_REGION_PIXELS",
+    "MIN_OBJECT_M",
     "SHIFT_RADIUS",
     "MAX_TOLERANCE_SHARE",
     "DISCRIMINATIVE_THRESHOLD",
