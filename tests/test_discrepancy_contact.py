@@ -10,8 +10,7 @@ import pytest
 import trimesh
 
 from mrcheck.apps.discrepancies import detect
-from mrcheck.apps.discrepancies.contact import instance_heights, metres_per_pixel
-from mrcheck.apps.discrepancies.detector import Region, object_sized
+from mrcheck.apps.discrepancies.contact import instance_heights, metres_per_pixel, object_sized
 from mrcheck.core.camera import Camera
 from mrcheck.eval.discrepancy_eval import synthetic_photo
 from mrcheck.scene.model import Scene, make_part
@@ -76,6 +75,6 @@ def test_regions_smaller_than_an_object_are_not_reported():
     intersection in front) the size cannot be told: kept."""
     u, v = _FAR.project(np.array([[0.5, 0.5, 0.0]]))[0]
     u, v = int(u), int(v)
-    big, small = Region([u, v - 9, u + 9, v], 60), Region([u, v - 2, u + 2, v], 30)
-    assert object_sized([big, small], _FAR, 0.0) == [big]
-    assert object_sized([big, small], _FAR, 2.0) == [big, small]
+    big, small = [u, v - 9, u + 9, v], [u, v - 2, u + 2, v]
+    assert object_sized(big, _FAR, 0.0) and not object_sized(small, _FAR, 0.0)
+    assert object_sized(big, _FAR, 2.0) and object_sized(small, _FAR, 2.0)

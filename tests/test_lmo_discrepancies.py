@@ -17,9 +17,9 @@ pytestmark = [
 
 
 def test_the_unchanged_plans_flag_at_most_two_objects_a_photo():
-    """A regression floor under the baseline, not issue 41's target (at most 1 false suspect per
-    unchanged photo): measured 2 on photo 3 (the egg box and the hole puncher, whose outlines
-    match best 9 and 3 px off the ground truth), 1 on 402 (the ape) and 1 on 819 (the glue)."""
+    """A regression floor, not issue 41's target (at most 1 false suspect per unchanged photo):
+    measured 1 on photo 3 (the egg box, whose outline matches best 9 px off the ground truth),
+    1 on 402 (the ape) and 0 on 819; before the photo's own null 2, 1 and 1."""
     cases = run([3, 402, 819], unchanged_only=True)
     flagged = {c.photo: c.false_flags for c in cases}
-    assert all(len(f) <= 2 for f in flagged.values()) and sum(len(f) for f in flagged.values()) <= 4, flagged
+    assert all(len(f) <= 2 for f in flagged.values()) and sum(len(f) for f in flagged.values()) <= 3, flagged

@@ -29,6 +29,7 @@ import numpy as np
 from mrcheck.apps.discrepancies.edges import ORIENTATION_BINS, orientation_bin, outline_normals
 from mrcheck.apps.discrepancies.ids import undistorted_pixels
 from mrcheck.apps.discrepancies.planned import PlannedView
+from mrcheck.apps.discrepancies.thresholds import MIN_OBJECT_M
 from mrcheck.core.camera import Camera
 from mrcheck.scene.model import Scene
 
@@ -111,6 +112,15 @@ def metres_per_pixel(camera: Camera, support: float, u: float, v: float) -> floa
     return float(depth / camera.fx) if depth > 0 else None
 
 
+def object_sized(bbox, camera: Camera, support: float) -> bool:
+    """Whether a region's box ([x0, y0, x1, y1]) spans at least :data:`MIN_OBJECT_M` (diagonal)
+    on the support plane (world z = ``support``) at its bottom centre; a box whose bottom ray
+    misses the plane (above the horizon: a wall, a ceiling) counts: its size cannot be told."""
+    x0, y0, x1, y1 = bbox
+    size = metres_per_pixel(camera, support, (x0 + x1) / 2.0, float(y1))
+    return size is None or size * float(np.hypot(x1 - x0 + 1, y1 - y0 + 1)) >= MIN_OBJECT_M
+
+
 def _foot(scene: Scene, camera: Camera, planned: PlannedView, tol: float) -> tuple[np.ndarray, np.ndarray]:
     """``(foot (H, W) bool, width (H, W) float32 px)``: the foot pixels and each one's band width."""
     ids, depth = planned.ids, planned.depth
@@ -137,6 +147,7 @@ __all__ = [
     "contact_lines",
     "instance_heights",
     "support_level",
+    "object_sized",
     "metres_per_pixel",
     "CONTACT_SHARE",
     "CONTACT_MAX_M",

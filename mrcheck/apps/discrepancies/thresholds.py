@@ -14,6 +14,10 @@ MIN_REGION_PIXELS = 25  # unexplained photo edge pixels a region needs to be rep
 # ... and its box's diagonal, measured on the support plane below it, this many metres: smaller
 # structure (a scratch, a coin, wood grain) is no object a planner looks for
 MIN_OBJECT_M = 0.05
+# the null of a part's move: the best shifts of this many nearest other parts (their median) ...
+CONSENSUS_PARTS = 6
+# ... and "as planned" is the best support within this many px of it
+CONSENSUS_REACH_PX = 1.0
 SHIFT_RADIUS = 4.0  # the displaced copies searched reach this many tolerances
 MAX_TOLERANCE_SHARE = 0.05  # --tolerance-px at most this share of the photo's shorter side
 # second rule (seeds 0-9): the outline the planned scene *without* the part would not show
@@ -48,6 +52,8 @@ __all__ = [
     "MIN_EDGE_PIXELS",
     "MIN_REGION_PIXELS",
     "MIN_OBJECT_M",
+    "CONSENSUS_PARTS",
+    "CONSENSUS_REACH_PX",
     "SHIFT_RADIUS",
     "MAX_TOLERANCE_SHARE",
     "DISCRIMINATIVE_THRESHOLD",
