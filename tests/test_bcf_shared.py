@@ -4,6 +4,7 @@ at the zip's root, and each topic a small crop of it (mrcheck.apps.bcf.write).""
 from __future__ import annotations
 
 import io
+import json
 import zipfile
 from dataclasses import replace
 from pathlib import Path
@@ -93,3 +94,6 @@ def test_the_quick_start_box_has_no_suspect_and_no_shadow_topic(box_run):
         assert overlap < 0.5 * (x1 - x0) * (y1 - y0), region
     assert 1 <= len(run.detection.regions) <= 5
     assert (out / "suspects.bcfzip").stat().st_size < 100_000
+    shot, _, _ = box_run
+    doc = json.loads((out / "suspects.json").read_text())
+    assert doc["pose_sigma_px"] == json.loads(shot.read_text())["expected_overlay_error_px"] > 0  # 1.2 px

@@ -78,3 +78,20 @@ def test_regions_smaller_than_an_object_are_not_reported():
     big, small = [u, v - 9, u + 9, v], [u, v - 2, u + 2, v]
     assert object_sized(big, _FAR, 0.0) and not object_sized(small, _FAR, 0.0)
     assert object_sized(big, _FAR, 2.0) and object_sized(small, _FAR, 2.0)
+
+
+@pytest.mark.slow
+def test_a_shift_within_the_poses_two_sigma_is_no_move():
+    """Floor and machine alone (too few parts for the neighbours' consensus), photographed with
+    the camera turned 3 px: judged unshifted the floor is flagged (score 0.84, measured); with
+    the pose's 1-sigma of 1.5 px (a SHOT.json's ``expected_overlay_error_px``) the 3 px lie
+    within 2 sigma and neither part is."""
+    import cv2
+
+    scene = _scene()
+    angle = 3.0 / _CAMERA.fx
+    R = cv2.Rodrigues(np.array([0.6 * angle, 0.8 * angle, 0.0]))[0] @ _CAMERA.R
+    photo = synthetic_photo(scene, _CAMERA.with_pose(R, -R @ _CAMERA.center), seed=0)
+    assert [s.id for s in detect(scene, _CAMERA, photo).flagged] == ["floor"]
+    allowed = detect(scene, _CAMERA, photo, pose_sigma_px=1.5)
+    assert allowed.flagged == [] and allowed.to_dict()["pose_sigma_px"] == 1.5

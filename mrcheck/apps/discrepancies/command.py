@@ -25,7 +25,7 @@ from mrcheck.apps.discrepancies.report import (
     summary_line,
     suspects_json,
 )
-from mrcheck.apps.discrepancies.thresholds import MAX_TOLERANCE_SHARE
+from mrcheck.apps.discrepancies.thresholds import MAX_TOLERANCE_SHARE, shift_radius
 from mrcheck.core.camerafiles import load_shot, read_photo
 from mrcheck.core.errors import MrcheckError, MrcheckWarning
 from mrcheck.core.images import encode_image
@@ -39,6 +39,7 @@ from mrcheck.core.output import (
     write_image,
     write_text,
 )
+from mrcheck.core.shot import read_shot
 from mrcheck.scene.manifest import scene_files
 from mrcheck.scene.model import load_scene
 
@@ -73,6 +74,12 @@ def _check_tolerance_limit(tolerance_px, camera, shot) -> None:
         )
 
 
+def pose_sigma(shot) -> float:
+    """The shot's 1-sigma overlay error (``expected_overlay_error_px``), 0 when it has none."""
+    value = read_shot(shot).report.get("expected_overlay_error_px")
+    return float(value) if isinstance(value, (int, float)) and math.isfinite(value) and value > 0 else 0.0
+
+
 def discrepancies_command(shot, scene, tolerance_px=None, outdir=None, author: str = "mrcheck") -> DiscrepancyRun:
     """Validate, detect, then write heatmap.png, suspects.json and suspects.md into ``outdir``.
     A shot that sees no CAD part is warned about (``MrcheckWarning``) and says so in its files."""
@@ -88,7 +95,14 @@ def discrepancies_command(shot, scene, tolerance_px=None, outdir=None, author: s
     check_own_output_dir(outdir)  # after the inputs: "would overwrite the input" says more
     photo = read_photo(photo_path, camera)  # missing, unreadable or wrong-size photo: exit 1
     loaded = load_scene(scene, progress=True)
-    detection = detect(loaded, camera, photo, tolerance_px)
+    sigma = pose_sigma(shot)
+    detection = detect(loaded, camera, photo, tolerance_px, pose_sigma_px=sigma)
+    if 2.0 * sigma >= shift_radius(detection.tolerance_px):
+        detection.warnings.append(
+            f"the shot's pose is uncertain by {2.0 * sigma:.1f} px (2 sigma of its expected_overlay_error_px), "
+            f"as far as the detector's shifted outlines reach ({shift_radius(detection.tolerance_px)} px): "
+            "a part moved less than that is not told from the pose's error; register it better"
+        )
     if not detection.suspects:  # "no suspects" would read as "all as planned"
         detection.warnings.append(NOTHING_IN_VIEW)
     for warning in detection.warnings:
@@ -141,4 +155,4 @@ def suspects_bcf(
     return bcf_bytes(topics, project=scene.name)
 
 
-__all__ = ["discrepancies_command", "DiscrepancyRun", "suspects_bcf"]
+__all__ = ["pose_sigma", "discrepancies_command", "DiscrepancyRun", "suspects_bcf"]

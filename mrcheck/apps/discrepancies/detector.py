@@ -191,6 +191,7 @@ class Detection:
     supported: np.ndarray  # (H, W) bool CAD edge pixels with an oriented photo edge near
     unexplained: np.ndarray  # (H, W) bool photo edge pixels far from every CAD edge
     warnings: list[str] = field(default_factory=list)  # for the report (the command adds them)
+    pose_sigma_px: float = 0.0  # the pose's 1-sigma overlay error the scores allowed for (detect)
 
     @property
     def flagged(self) -> list[Suspect]:
@@ -202,6 +203,7 @@ class Detection:
         return {
             "tolerance_px": self.tolerance_px,
             "threshold": self.threshold,
+            "pose_sigma_px": self.pose_sigma_px,
             "warnings": list(self.warnings),
             "suspects": [asdict(s) for s in self.suspects],
             "regions": [asdict(r) for r in self.regions],
@@ -232,19 +234,21 @@ def _support(photo: np.ndarray, cad: np.ndarray, tol: float, high: float | None 
     return _Support(edges, cad_bins, supported, padded, radius, angle)
 
 
-def _shift_score(mask: np.ndarray, sup: _Support, expected=(0, 0)):
+def _shift_score(mask: np.ndarray, sup: _Support, expected=(0, 0), pose_reach: float = 0.0):
     """(score, support as planned, best shifted support, (dy, dx) index of the best) of an
     outline; "as planned" is the unshifted support or, when larger, the best within
     :data:`CONSENSUS_REACH_PX` of the ``expected`` (dx, dy) shift
     (:func:`~mrcheck.apps.discrepancies.consensus.expected_shifts`): the
-    shift the parts around it show explains a shift, it never counts against a part in place."""
+    shift the parts around it show explains a shift, it never counts against a part in place;
+    nor does a shift within ``pose_reach`` px (the pose's own 2-sigma, ``detect``'s
+    ``pose_sigma_px``)."""
     shifts = shifted_support(mask, sup.cad_bins, sup.padded, sup.radius)
     best = float(shifts.max())
-    support = float(shifts[sup.radius, sup.radius])
+    dy, dx = np.mgrid[-sup.radius : sup.radius + 1, -sup.radius : sup.radius + 1]
+    near = np.hypot(dx, dy) <= pose_reach
     if expected != (0, 0):
-        dy, dx = np.mgrid[-sup.radius : sup.radius + 1, -sup.radius : sup.radius + 1]
-        near = np.hypot(dx - expected[0], dy - expected[1]) <= CONSENSUS_REACH_PX
-        support = max(support, float(shifts[near].max())) if near.any() else support
+        near |= np.hypot(dx - expected[0], dy - expected[1]) <= CONSENSUS_REACH_PX
+    support = max(float(shifts[sup.radius, sup.radius]), float(shifts[near].max()) if near.any() else 0.0)
     # a part where it was planned matches best unshifted, however faint its edges are; a
     # displaced copy matching better is a move, and a poor match everywhere is a missing part
     # (clipped at 0: float sums put a fully supported outline's support a hair above 1)
@@ -252,7 +256,7 @@ def _shift_score(mask: np.ndarray, sup: _Support, expected=(0, 0)):
     return score, support, best, np.unravel_index(int(np.argmax(shifts)), shifts.shape)
 
 
-def _discriminative_score(planned: PlannedView, index: int, sup: _Support, expected=(0, 0)):
+def _discriminative_score(planned: PlannedView, index: int, sup: _Support, expected=(0, 0), pose_reach: float = 0.0):
     """(score or None, pixels) on the discriminative outline only (what the scene without the
     part would not show): neighbours' parallel edges at the planned place no longer count."""
     if index not in planned.discriminative:
@@ -263,7 +267,7 @@ def _discriminative_score(planned: PlannedView, index: int, sup: _Support, expec
     pixels = int(np.count_nonzero(mask))
     if pixels < MIN_EDGE_PIXELS:
         return None, pixels
-    return _shift_score(mask, sup, expected)[0], pixels
+    return _shift_score(mask, sup, expected, pose_reach)[0], pixels
 
 
 def _revealed_support(planned: PlannedView, index: int, sup: _Support):
@@ -291,7 +295,13 @@ def _is_thin(inside: np.ndarray, tol: float) -> bool:
 
 
 def _suspect(
-    planned: PlannedView, index: int, sup: _Support, tol: float, threshold: float, expected=(0, 0)
+    planned: PlannedView,
+    index: int,
+    sup: _Support,
+    tol: float,
+    threshold: float,
+    expected=(0, 0),
+    pose_reach: float = 0.0,
 ) -> Suspect | None:
     """The scored instance ``index``, or None when its outline is too small to judge;
     ``expected``: the (dx, dy) shift the parts around it show
@@ -304,8 +314,8 @@ def _suspect(
         return None
     inside = planned.ids == index
     thin = _is_thin(inside, tol)
-    score, support, best, (dy, dx) = _shift_score(mask, sup, expected)
-    disc_score, disc_n = _discriminative_score(planned, index, sup, expected)
+    score, support, best, (dy, dx) = _shift_score(mask, sup, expected, pose_reach)
+    disc_score, disc_n = _discriminative_score(planned, index, sup, expected, pose_reach)
     rev_support, rev_n = _revealed_support(planned, index, sup)
     flagged = score >= threshold or (
         disc_score is not None and disc_score >= DISCRIMINATIVE_THRESHOLD and score >= DISCRIMINATIVE_FLOOR
@@ -411,8 +421,12 @@ def detect(
     renderer=None,
     threshold: float = None,
     planned: PlannedView | None = None,
+    pose_sigma_px: float = 0.0,
 ) -> Detection:
     """Compare the planned ``scene`` seen by ``camera`` with ``photo``; the reusable core.
+
+    ``pose_sigma_px``: the pose's 1-sigma overlay error (SHOT.json's ``expected_overlay_error_px``):
+    an outline matching best within 2 sigma of its plan is not moved (the pose cannot tell).
 
     ``planned`` is :func:`planned_view` of scene and camera
     when already computed (``renderer`` is used to make it otherwise). Returns the
@@ -430,14 +444,14 @@ def detect(
     first = [
         s
         for index in np.unique(owner[owner >= 0])
-        if (s := _suspect(planned, int(index), sup, tol, threshold)) is not None
+        if (s := _suspect(planned, int(index), sup, tol, threshold, pose_reach=2.0 * pose_sigma_px)) is not None
     ]
     # judged again against the shift the parts around each one show (a registration a few px off
     # shifts them all alike: not a move)
     index_of = {name: i for i, (_, name) in enumerate(planned.labels)}
     expected = expected_shifts([s.bbox for s in first], [s.best_shift for s in first])
     suspects = [
-        s if e == (0, 0) else _suspect(planned, index_of[s.id], sup, tol, threshold, e) or s
+        s if e == (0, 0) else _suspect(planned, index_of[s.id], sup, tol, threshold, e, 2.0 * pose_sigma_px) or s
         for s, e in zip(first, expected)
     ]
     suspects.sort(key=lambda s: (-s.score, s.id))
@@ -446,9 +460,8 @@ def detect(
     regions, unexplained = _regions(sup.edges & ~contact, planned, tol)
     support = support_level(scene, camera, planned)
     regions = [r for r in regions if object_sized(r.bbox, camera, support)]
-    return Detection(
-        tol, threshold, suspects, regions, _markers(suspects, regions, planned), planned, sup.supported, unexplained
-    )
+    markers, arrays = _markers(suspects, regions, planned), (planned, sup.supported, unexplained)
+    return Detection(tol, threshold, suspects, regions, markers, *arrays, pose_sigma_px=pose_sigma_px)
 
 
 def expected_outline(planned: PlannedView, photo: np.ndarray, tol: float, high: float | None = None) -> np.ndarray:
