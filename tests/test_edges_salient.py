@@ -121,8 +121,8 @@ def test_the_pose_search_offers_distinct_alternates_of_another_basin():
         cv2.rectangle(image, tuple(np.rint(lo).astype(int)), tuple(np.rint(hi).astype(int)), 0.8, -1)
     cmap = chamfer.chamfer_map(image, 1.0)
     report = search.search_pose(square.state, square.camera, square.samples, cmap, 40.0)
-    poses = [report.pose, *report.alternates]
-    assert 1 <= len(report.alternates) <= search.POLISHED
+    poses = [report.pose, *report.alternates()]
+    assert 1 <= len(report.alternates()) <= search.POLISHED
     shifts = [np.median(p.camera(square.camera).project(square.samples.points) - uv, axis=0) for p in poses]
     for i in range(len(shifts)):
         for j in range(i):

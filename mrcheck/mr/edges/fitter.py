@@ -132,7 +132,7 @@ class Fitter:
         self.candidates = candidates if candidates is not None else CandidateEdges(edges)
         self.seed = seed
         # per instance: its outline is sampled (EdgeOptions.silhouette; automatic: the curved parts,
-        # when their outline outnumbers the mesh edges in the first view, see _judge_outlines)
+        # when their outline outnumbers the crease samples in the first view, see judge_outlines)
         self.outlined = np.full(len(self.dropped), options.silhouette is True)
         self.judged = options.silhouette is not None
         if options.silhouette is None:

@@ -45,9 +45,11 @@ class EdgeOptions:
     where it began, see :data:`mrcheck.apps.track.TRACK_OPTIONS`); ``silhouette``: also sample
     the outline of the rendered parts (:mod:`mrcheck.mr.edges.silhouette`: depth discontinuities
     against the background or a farther part), for scanned and smooth meshes with few creases:
-    ``None`` (automatic, the default) for the parts whose outline in view the crease samples do
-    not cover (:data:`~mrcheck.mr.edges.fitter.SMOOTH_COVER`, judged once at the start pose),
-    ``True`` for every part, ``False`` for none; ``region``: match those outline samples by the colour region criterion
+    ``None`` (automatic, the default) for the curved parts
+    (:func:`~mrcheck.mr.edges.silhouette.curved_parts`) when their outline samples outnumber the
+    crease samples in the first view (:meth:`~mrcheck.mr.edges.fitter.Fitter.judge_outlines`),
+    ``True`` for every part, ``False`` for none; ``region``: match those outline samples by the
+    colour region criterion
     (:mod:`mrcheck.mr.edges.region`) instead of the nearest gradient peak (needs the photo).
     """
 

@@ -117,7 +117,7 @@ def _fit(fitter: Fitter, rough: Camera, grey: np.ndarray) -> EdgeFit:
     ``coarse="normal"`` the search along the normal on every level (:func:`normal_schedule`).
 
     A start the verdict refuses is not the end: the chamfer schedule is made again from each of
-    the search's alternates (:attr:`~mrcheck.mr.edges.search.SearchReport.alternates`: other
+    the search's alternates (:meth:`~mrcheck.mr.edges.search.SearchReport.alternates`: other
     basins, scored at their exact projection), then, when parts' outlines are sampled
     (:attr:`EdgeOptions.silhouette`), by the normal schedule, whose outline samples are matched
     by their colour regions from the coarsest level on; the first fit accepted is returned, else
@@ -134,7 +134,7 @@ def _fit(fitter: Fitter, rough: Camera, grey: np.ndarray) -> EdgeFit:
     )
     _count_coarse(fitter, start, before)
     failures = []
-    for attempt, found in enumerate([searched.report.pose, *searched.report.alternates]):
+    for attempt, found in enumerate(_starts(searched.report)):
         if attempt:
             fitter.restart()
         try:
@@ -148,6 +148,12 @@ def _fit(fitter: Fitter, rough: Camera, grey: np.ndarray) -> EdgeFit:
         except EdgeFitError:
             pass
     raise failures[0]
+
+
+def _starts(report):
+    """The search's choice, then (only when asked for: after a refusal) its alternates."""
+    yield report.pose
+    yield from report.alternates()
 
 
 def _count_coarse(fitter: Fitter, start: float, before: dict) -> None:

@@ -36,6 +36,7 @@ ended 19 of 20 within 1 px.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -63,7 +64,8 @@ _MOTION_SAMPLES = 100  # samples the median image motion of a candidate is measu
 class SearchReport:
     """What :func:`search_pose` did: ``pose`` the pose chosen, ``moved_px`` the chosen change's
     median image motion (full resolution px), ``cost`` / ``start_cost`` the chamfer cost there
-    and at the rough pose, ``candidates`` how many were scored, ``scale`` the level searched."""
+    and at the rough pose, ``candidates`` how many were scored, ``scale`` the level searched;
+    ``finder`` makes the alternates (:meth:`alternates`), only when a fit asks for them."""
 
     pose: solver.PoseState
     moved_px: float
@@ -71,7 +73,15 @@ class SearchReport:
     start_cost: float
     candidates: int
     scale: float
-    alternates: list = field(default_factory=list)
+    finder: Callable[[], list] | None = field(default=None, repr=False)
+    found: list | None = field(default=None, repr=False)
+
+    def alternates(self) -> list:
+        """Other basins' poses (:class:`_Exact`), best first; made on the first call (a fit asks
+        only after the pose chosen was refused), then kept."""
+        if self.found is None:
+            self.found = self.finder() if self.finder is not None else []
+        return self.found
 
 
 def search_level(widths: list) -> int:
@@ -161,14 +171,17 @@ def search_pose(
     D, cost = np.vstack(scored), np.concatenate(scores)
     best, moved = _nearest_of_the_best(D, cost, pool.motion)
     exact = _Exact(pose, camera, samples.points[pool.pick], samples.tangents[pool.pick], cmap)
-    others = [pose.moved(d) for d in exact.alternates(D, cost, pool.motion, D[best])]
+
+    def finder() -> list:
+        return [pose.moved(d) for d in exact.alternates(D, cost, pool.motion, D[best])]
+
     scale = cmap.scale
-    return SearchReport(pose.moved(D[best]), moved / scale, float(cost[best]), float(cost[0]), len(D), scale, others)
+    return SearchReport(pose.moved(D[best]), moved / scale, float(cost[best]), float(cost[0]), len(D), scale, finder)
 
 
 class _Exact:
     """The chamfer cost of pose changes at their exact projection, and a short descent on it:
-    the alternates of a search (:attr:`SearchReport.alternates`), tried by the fit when the pose
+    the alternates of a search (:meth:`SearchReport.alternates`), tried by the fit when the pose
     chosen is refused.
 
     Why: the linearised projection of the beam search errs by pixels for changes of tens of
