@@ -30,7 +30,7 @@ import cv2
 import numpy as np
 
 from mrcheck.apps.discrepancies import detect
-from mrcheck.eval.realbench import LMO_HELD_OUT
+from mrcheck.eval.realbench import lmo_splits
 from mrcheck.eval.realdata import anchored_scene, lmo_photo, real_root
 from mrcheck.render.renderer import Renderer
 
@@ -139,11 +139,9 @@ def main(argv=None) -> int:
     parser.add_argument("--photos", default="3,402,819")
     args = parser.parse_args(argv)
     cases = run([int(p) for p in args.photos.split(",")])
-    for held in (False, True):
-        mine = [c for c in cases if (c.photo in LMO_HELD_OUT) == held]
-        if mine:
-            print("held-out:" if held else "tuned:")
-            print("\n".join(summary(mine)))
+    for split, mine in lmo_splits(cases):
+        print(f"{split}:")
+        print("\n".join(summary(mine)))
     return 0
 
 

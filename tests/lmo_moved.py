@@ -21,7 +21,7 @@ import cv2
 import numpy as np
 
 from mrcheck.eval.edgephotos import perturbed, reprojection_error
-from mrcheck.eval.realbench import LMO_HELD_OUT, pose_errors
+from mrcheck.eval.realbench import lmo_splits, pose_errors
 from mrcheck.eval.realdata import anchored_scene, lmo_photo, real_root
 from mrcheck.mr.edges import EdgeFitError, refine_pose
 
@@ -99,10 +99,8 @@ def main(argv=None) -> int:
     parser.add_argument("--photos", default="3,402,819")
     args = parser.parse_args(argv)
     cases = run([int(p) for p in args.photos.split(",")])
-    for held in (False, True):
-        mine = [c for c in cases if (c.photo in LMO_HELD_OUT) == held]
-        if mine:
-            print(("held-out: " if held else "tuned: ") + summary(mine))
+    for split, mine in lmo_splits(cases):
+        print(f"{split}: {summary(mine)}")
     for c in cases:
         what = c.refused or f"{c.error_px:.2f} px, {c.rot_deg:.2f} deg, left out {list(c.left_out)}"
         print(f"  {c.photo} {c.moved} +{c.shift_cm:g} cm: {what}")

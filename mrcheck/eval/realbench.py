@@ -92,6 +92,14 @@ class RealBench:
     skipped: list = field(default_factory=list)
 
 
+def lmo_splits(items) -> list[tuple[str, list]]:
+    """``items`` (each with an LM-O ``photo`` number) as ``[("tuned", ...), ("held-out", ...)]``,
+    the held-out photos (:data:`LMO_HELD_OUT`) apart; a split without items is left out."""
+    splits = [("tuned", [i for i in items if i.photo not in LMO_HELD_OUT])]
+    splits.append(("held-out", [i for i in items if i.photo in LMO_HELD_OUT]))
+    return [(name, mine) for name, mine in splits if mine]
+
+
 def pose_errors(truth: Camera, estimate: Camera) -> tuple[float, float]:
     """Rotation (degrees) and translation (cm) error of the world-to-camera pose (the anchor's
     model-to-camera pose when world = its model frame), as BOP's 5cm5deg."""
@@ -298,6 +306,7 @@ __all__ = [
     "RealFit",
     "RealBench",
     "pose_errors",
+    "lmo_splits",
     "fit_starts",
     "lmo_fits",
     "m3t_fits",
