@@ -64,14 +64,15 @@ def _world_z(camera: Camera, depth: np.ndarray) -> np.ndarray:
 
 def contact_lines(
     scene: Scene, camera: Camera, planned: PlannedView, edges: np.ndarray, angle: np.ndarray, tol: float
-) -> np.ndarray:
-    """(H, W) bool: the photo ``edges`` (with their normal ``angle``, radians mod pi) that are
-    contact lines of a resting part's foot (module docstring): per orientation bin, the nearest
-    foot pixel of that bin or a neighbouring one, within its band width."""
-    foot, width = _foot(scene, camera, planned, tol)
+) -> tuple[np.ndarray, float]:
+    """``(lines, support)``: (H, W) bool, the photo ``edges`` (with their normal ``angle``,
+    radians mod pi) that are contact lines of a resting part's foot (module docstring): per
+    orientation bin, the nearest foot pixel of that bin or a neighbouring one, within its band
+    width; and the support's level (:func:`support_level`, found on the way)."""
+    foot, width, support = _foot(scene, camera, planned, tol)
     out = np.zeros_like(edges)
     if not foot.any():
-        return out
+        return out, support
     foot_bin = orientation_bin(outline_normals(planned.cad))
     edge_bin = orientation_bin(angle)
     candidates = edges & (cv2.distanceTransform((~foot).astype(np.uint8), cv2.DIST_L2, 5) <= width.max())
@@ -88,7 +89,7 @@ def contact_lines(
         k = labels[ys, xs] - 1
         near = dist[ys, xs] <= width[fy[k], fx[k]]
         out[ys[near], xs[near]] = True
-    return out
+    return out, support
 
 
 def support_level(scene: Scene, camera: Camera, planned: PlannedView, z: np.ndarray | None = None) -> float:
@@ -121,8 +122,9 @@ def object_sized(bbox, camera: Camera, support: float) -> bool:
     return size is None or size * float(np.hypot(x1 - x0 + 1, y1 - y0 + 1)) >= MIN_OBJECT_M
 
 
-def _foot(scene: Scene, camera: Camera, planned: PlannedView, tol: float) -> tuple[np.ndarray, np.ndarray]:
-    """``(foot (H, W) bool, width (H, W) float32 px)``: the foot pixels and each one's band width."""
+def _foot(scene: Scene, camera: Camera, planned: PlannedView, tol: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """``(foot (H, W) bool, width (H, W) float32 px, support level)``: the foot pixels and each
+    one's band width."""
     ids, depth = planned.ids, planned.depth
     z = _world_z(camera, depth)
     ground = planned.ground if planned.ground is not None and planned.ground.any() else None
@@ -140,7 +142,7 @@ def _foot(scene: Scene, camera: Camera, planned: PlannedView, tol: float) -> tup
     metres = np.minimum(CONTACT_SHARE * height[inst], CONTACT_MAX_M)
     band = np.where(surface, metres * camera.fx / np.maximum(depth, 1e-6), 0.0)
     band = cv2.dilate(band.astype(np.float32), np.ones((3, 3), np.uint8))
-    return foot, np.maximum(band, 3.0 * tol).astype(np.float32)
+    return foot, np.maximum(band, 3.0 * tol).astype(np.float32), support
 
 
 __all__ = [

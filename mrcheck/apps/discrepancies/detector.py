@@ -95,7 +95,7 @@ import cv2
 import numpy as np
 
 from mrcheck.apps.discrepancies.consensus import expected_shifts
-from mrcheck.apps.discrepancies.contact import contact_lines, object_sized, support_level
+from mrcheck.apps.discrepancies.contact import contact_lines, object_sized
 from mrcheck.apps.discrepancies.edges import (
     edge_threshold,
     orientation_bin,
@@ -456,9 +456,8 @@ def detect(
     ]
     suspects.sort(key=lambda s: (-s.score, s.id))
     _add_elements(scene, suspects)
-    contact = contact_lines(scene, camera, planned, sup.edges, sup.angle, tol)
+    contact, support = contact_lines(scene, camera, planned, sup.edges, sup.angle, tol)
     regions, unexplained = _regions(sup.edges & ~contact, planned, tol)
-    support = support_level(scene, camera, planned)
     regions = [r for r in regions if object_sized(r.bbox, camera, support)]
     markers, arrays = _markers(suspects, regions, planned), (planned, sup.supported, unexplained)
     return Detection(tol, threshold, suspects, regions, markers, *arrays, pose_sigma_px=pose_sigma_px)
