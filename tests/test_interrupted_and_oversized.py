@@ -13,6 +13,7 @@ import json
 import os
 import shutil
 import signal
+import stat
 import struct
 import subprocess
 import sys
@@ -205,8 +206,11 @@ def test_an_obj_without_read_permission_is_one_line():
         os.chmod(folder / "box.obj", 0)
         (folder / "cam.json").write_text(json.dumps(camera().to_dict()))
         os.chmod(folder / "cam.json", 0o644)
-        # root reads any file: the command runs as nobody
+        # root reads any file: the command runs as nobody, who must reach the repository's code
         prefix = ["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups"] if os.geteuid() == 0 else []
+        closed = [p for p in (ROOT_DIR, *ROOT_DIR.parents) if not p.stat().st_mode & stat.S_IXOTH]
+        if prefix and closed:
+            pytest.skip(f"{closed[0]} is closed to other users (a mktemp -d clone): nobody cannot import mrcheck")
         args = ["render", "box.obj", "--camera", "cam.json", "-o", "r.png"]
         env = {**os.environ, "PYTHONPATH": str(ROOT_DIR)}
         done = subprocess.run(
