@@ -8,7 +8,7 @@ import click
 
 from mrcheck.cli.group import cli, pixel_count
 from mrcheck.cli.messages import ProgressStream, console
-from mrcheck.cli.options import FINITE, positive, size
+from mrcheck.cli.options import FINITE, accumulate_option, positive, size
 
 AUTHOR = click.option(
     "--author", metavar="NAME", help="Author of the BCF topics and comments written [default: the OS user]."
@@ -46,7 +46,8 @@ AUTHOR = click.option(
     help="Anti-aliased renders (4x MSAA) [default: the job's `antialias` key, true]; part of the "
     "shots' fingerprints, so a change redoes them.",
 )
-def export(job, outdir, workers, scheduler, force, antialias):
+@accumulate_option(default=None)
+def export(job, outdir, workers, scheduler, force, antialias, accumulate):
     """Batch overlays, sheets, manifest and report for a whole job.
 
     Register every shot of JOB.toml, render the modes, blend the photo at every alpha and AO
@@ -69,6 +70,7 @@ def export(job, outdir, workers, scheduler, force, antialias):
                 force=force,
                 progress=bar,
                 antialias=antialias,
+                accumulate=accumulate,
             )
     finally:
         bar.close()

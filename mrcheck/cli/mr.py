@@ -6,7 +6,7 @@ import click
 
 from mrcheck.cli.group import cli
 from mrcheck.cli.messages import echo_lines, progress_bar, warning_line
-from mrcheck.cli.options import FINITE, MODE_CHOICES, positive, warn_unused_options
+from mrcheck.cli.options import FINITE, MODE_CHOICES, accumulate_option, positive, warn_unused_options
 from mrcheck.render import settings as defaults
 
 
@@ -190,8 +190,9 @@ def register(
     callback=positive,
     help="AO samples per pixel.",
 )
+@accumulate_option()
 @click.option("-o", "--output", required=True, metavar="OUT.png", help="Output image.")
-def overlay(shot, scene_path, mode, alpha, edges, edge_color, intensity, antialias, samples, output):
+def overlay(shot, scene_path, mode, alpha, edges, edge_color, intensity, antialias, samples, accumulate, output):
     """Blend the CAD rendered from a registered shot over its photo.
 
     The planned CAD rendered from the shot's camera, distorted like its lens, blended over the
@@ -216,5 +217,6 @@ def overlay(shot, scene_path, mode, alpha, edges, edge_color, intensity, antiali
         samples=samples,
         output=output,
         antialias=antialias,
+        accumulate=accumulate,
     )
     print(write_image(output, image))

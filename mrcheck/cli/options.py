@@ -88,7 +88,26 @@ OPTION_MODES = {
     "ao_scale": AO_MODES,
     "ao_direct": AO_MODES,
     "seed": AO_MODES,
+    "accumulate": AO_MODES,
 }
+
+
+def accumulate_option(default: int | None = 1):
+    """``--accumulate N`` of render, overlay and export (``default`` None: the job's key)."""
+    from mrcheck.render.settings import MAX_ACCUMULATE
+
+    shown = "" if default is not None else " [default: the job's `accumulate` key, 1]"
+    return click.option(
+        "--accumulate",
+        type=int,
+        default=default,
+        show_default=default is not None,
+        callback=positive,
+        metavar="N",
+        help="Progressive AO: the mean of N AO frames, each with its own kernel orientation and a sub-pixel "
+        "offset: removes the sampling noise and the moire of detail finer than a pixel (corrugated roof "
+        f"decks); about N times the AO time, 1 to {MAX_ACCUMULATE}.{shown}",
+    )
 
 
 def warn_unused_options(ctx: click.Context, mode: str) -> None:

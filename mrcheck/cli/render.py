@@ -10,6 +10,7 @@ from mrcheck.cli.group import cli
 from mrcheck.cli.options import (
     FINITE,
     MODE_CHOICES,
+    accumulate_option,
     odd_kernel,
     positive,
     warn_unused_options,
@@ -55,6 +56,7 @@ FIRST_DEMO_IMAGE = "robot_study.png"  # the sample cell's robot in D1 | D2 | D3:
     callback=positive,
     help="AO samples per pixel (the paper uses 16, 36, 64, 128).",
 )
+@accumulate_option()
 @click.option(
     "--radius-px",
     type=FINITE,
@@ -189,6 +191,7 @@ def render(
     width,
     height,
     samples,
+    accumulate,
     radius_px,
     radius_fraction,
     radius_world,
@@ -220,6 +223,7 @@ def render(
       mrcheck render factory_scenes/sample_cell/scene.toml --view overview --mode all -o study.png
       mrcheck render hall.glb --units mm --camera shot.json --mode vector --no-blur -o v.png --output-ao ao.npy
       mrcheck render factory_scenes/sample_cell/scene.toml --view robot --mode vbao --thickness 0.5 -o vbao.png
+      mrcheck render hall/scene.toml --view aisle --accumulate 16 -o aisle.png
     """
     from mrcheck.render.views import render_command
 
@@ -238,6 +242,7 @@ def render(
         output_ao=output_ao,
         settings=dict(
             samples=samples,
+            accumulate=accumulate,
             radius_px=radius_px,
             radius_fraction=radius_fraction or defaults.DEFAULT_RADIUS_FRACTION,
             radius_world=radius_world,

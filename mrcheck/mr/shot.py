@@ -93,6 +93,7 @@ def overlay_shot(
     samples=16,
     output=None,
     antialias=True,
+    accumulate=1,
 ) -> np.ndarray:
     """``mrcheck overlay``: the (H, W, 3) uint8 overlay of ``shot`` (the study's sheet for mode
     all). Everything is checked before the work: ``output``, when given, is where the caller
@@ -101,7 +102,7 @@ def overlay_shot(
         output = check_output_path(output, IMAGE_SUFFIXES)
     alpha = check_alpha(alpha)
     color = parse_edge_color(edge_color)
-    settings = RenderSettings(samples=samples, intensity=intensity, antialias=antialias)
+    settings = RenderSettings(samples=samples, intensity=intensity, antialias=antialias, accumulate=accumulate)
     camera, photo_path = load_shot(shot)
     check_not_inputs(
         [output] if output is not None else [],

@@ -9,7 +9,7 @@ one at a time.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import moderngl
 import numpy as np
@@ -152,24 +152,67 @@ class FramePasses:
     def ao(self, mode: str, settings: RenderSettings) -> None:
         """AO into the raw buffer of ``settings.ao_scale``: full resolution, or half resolution
         from the full-resolution G-buffer (the paper's 'Half Res.'; upsampled in the composite).
-        ``settings`` must be validated for this camera (``radius_px`` resolved)."""
+        ``settings`` must be validated for this camera (``radius_px`` resolved).
+
+        Progressive AO (``settings.accumulate`` frames > 1): the mean of that many AO frames, each
+        with its own kernel orientation and rotation tile, and each but frame 0 from a G-buffer
+        drawn a sub-pixel off (:func:`subpixel_offset`): the kernel alone averages the sampling
+        noise, but not the aliasing of detail finer than a pixel (a corrugated roof deck's
+        crests and valleys, which each pixel centre hits by chance, an AO moire no sample count
+        removes). Frame 0 is drawn last, so that the composite shades its G-buffer."""
         with made_current(self.ctx):
-            half = settings.ao_scale != 1.0
-            ao = self.passes.cache.ao(mode, settings, stride=2 if half else 1)
-            depth, normal, _ = self.targets.gbuffer.single_sampled()
-            intrinsics: tuple[float, ...] = (self.camera.fx, self.camera.fy, self.camera.cx, self.camera.cy)
-            if half:
-                # half-res pixel (i, j) is full-res pixel (2i, 2j): K halves exactly (ao_common.glsl)
-                intrinsics = tuple(v / 2.0 for v in intrinsics)
-                self.coverage()
-            ao.run(
-                self.targets.ao_buffers(settings.ao_scale).raw[1],
-                depth,
-                normal,
-                intrinsics,
-                settings,
-                scale=settings.ao_scale,
+            buffers = self.targets.ao_buffers(settings.ao_scale)
+            frames = settings.accumulate
+            if frames == 1:
+                self._ao_pass(mode, settings, self.camera, 0, buffers.raw[1])
+                return
+            stride = 1 if settings.ao_scale == 1.0 else 2
+            for done, frame in enumerate([*range(1, frames), 0]):
+                camera = self.camera if frame == 0 else jittered(self.camera, subpixel_offset(frame, stride))
+                self._draw_gbuffer(camera, settings.lod_px, restore=frame == 0)
+                self._ao_pass(mode, settings, camera, frame, buffers.raw[1])
+                self._accumulate(buffers.raw[0], buffers.scratch[1], 1.0 / frames, depth=frame == 0, add=done > 0)
+            # the mean back into the raw buffer, which the blur and the composite read
+            self._accumulate(buffers.scratch[0], buffers.raw[1], 1.0, depth=True, add=False)
+
+    def _draw_gbuffer(self, camera: Camera, lod_px: float, restore: bool) -> None:
+        """The single-sampled G-buffer the AO reads, from ``camera``; ``restore``: the frame's own
+        again (anti-aliased: resolved once more from the multisampled G-buffer, which the
+        sub-pixel frames leave alone)."""
+        if restore and self.antialias:
+            self.resolve()
+        else:
+            self.passes.geometry.draw(self.targets.gbuffer, camera, DrawOptions(lod_px=lod_px))
+
+    def _ao_pass(self, mode: str, settings: RenderSettings, camera: Camera, frame: int, target) -> None:
+        """One AO pass of accumulation frame ``frame`` on the G-buffer drawn from ``camera``."""
+        half = settings.ao_scale != 1.0
+        ao = self.passes.cache.ao(mode, settings, stride=2 if half else 1)
+        ao.use_frame(frame)
+        depth, normal, _ = self.targets.gbuffer.single_sampled()
+        intrinsics: tuple[float, ...] = (camera.fx, camera.fy, camera.cx, camera.cy)
+        if half:
+            # half-res pixel (i, j) is full-res pixel (2i, 2j): K halves exactly (ao_common.glsl)
+            intrinsics = tuple(v / 2.0 for v in intrinsics)
+            self.coverage()
+        ao.run(target, depth, normal, intrinsics, settings, scale=settings.ao_scale)
+
+    def _accumulate(self, source, target, weight: float, depth: bool, add: bool) -> None:
+        """``weight`` times ``source``'s AO written (or, ``add``, added) into ``target``
+        (shaders/ao_accumulate.glsl), with ``source``'s depth when ``depth`` (frame 0's: added to
+        the zeros of the frames before, it stays exact), else none. Every texel, background
+        included (its AO is 1 in every frame, so the mean is too); the G-buffer depth ``target``
+        carries is neither tested nor written."""
+        target.depth_mask = False
+        if add:
+            self.ctx.enable(moderngl.BLEND)
+            self.ctx.blend_func = moderngl.ONE, moderngl.ONE
+        try:
+            self.passes.cache.screen_pass(
+                "ao_accumulate", target, {"u_ao_depth": source}, u_weight=weight, u_depth_weight=1.0 if depth else 0.0
             )
+        finally:
+            self.ctx.disable(moderngl.BLEND)
 
     def coverage(self) -> None:
         """The half-resolution coverage depth (shaders/ao_coverage.glsl) of the current G-buffer,
@@ -265,4 +308,30 @@ class FramePasses:
             return np.frombuffer(texture.read(), np.float32).reshape(h, w, 2)[..., 0].copy()
 
 
-__all__ = ["FramePasses", "PassCache", "RendererPasses"]
+def subpixel_offset(frame: int, stride: int = 1) -> tuple[float, float]:
+    """Accumulation frame ``frame``'s offset of the image, pixels: the Halton (2, 3) sequence
+    centred on the pixel (frame 0 none), spread over the AO texel's footprint (``stride`` full
+    pixels: half-resolution AO reads one full pixel of each 2x2)."""
+    if frame == 0:
+        return 0.0, 0.0
+    return stride * (_halton(frame, 2) - 0.5), stride * (_halton(frame, 3) - 0.5)
+
+
+def _halton(index: int, base: int) -> float:
+    result, scale = 0.0, 1.0
+    while index:
+        scale /= base
+        index, digit = divmod(index, base)
+        result += digit * scale
+    return result
+
+
+def jittered(camera: Camera, offset: tuple[float, float]) -> Camera:
+    """``camera`` with its image moved by ``offset`` pixels (the principal point shifted)."""
+    K = camera.K.copy()
+    K[0, 2] += offset[0]
+    K[1, 2] += offset[1]
+    return replace(camera, K=K)
+
+
+__all__ = ["FramePasses", "PassCache", "RendererPasses", "subpixel_offset", "jittered"]

@@ -50,6 +50,7 @@ DEFAULT_ANTIALIAS = True  # 4x multisampled G-buffer, edge pixels shaded per sur
 DEFAULT_TONE = "filmic"  # one of TONES (shaders/composite.glsl, tone())
 DEFAULT_LOD_PX = 0.5  # allowed error of a level of detail on screen, pixels (mrcheck.render.lod)
 MAX_LOD_PX = 4.0  # larger: coarse levels visibly move silhouettes
+MAX_ACCUMULATE = 256  # AO frames averaged (--accumulate): 256 x 16 samples is past any visible change
 MAX_SAMPLES = 512  # more: llvmpipe compiles the shader for many seconds (ao_unroll.glsl)
 AO_SCALES = (1.0, 0.5)  # the AO resolutions there are
 
@@ -86,6 +87,9 @@ class RenderSettings:
         ``ao_scale`` 0.5 the frame is not anti-aliased.
     tone : how linear light becomes the output's sRGB: ``filmic`` (a shoulder below white) or
         ``clip`` (linear, clipped at 1: no tone curve).
+    accumulate : AO frames averaged, each with its own orientation of the sample kernel and its
+        own rotation tile (progressive AO: ``samples`` x ``accumulate`` samples per pixel, before
+        the blur); 1 is the single-frame render.
     """
 
     samples: int = DEFAULT_SAMPLES
@@ -106,6 +110,7 @@ class RenderSettings:
     lod_px: float = DEFAULT_LOD_PX
     antialias: bool = DEFAULT_ANTIALIAS
     tone: str = DEFAULT_TONE
+    accumulate: int = 1
 
     def validated(self, height: int | None) -> "RenderSettings":
         """A copy with ``radius_px`` resolved for an image ``height`` pixels high, checked;
@@ -141,6 +146,10 @@ class RenderSettings:
             ),
             (0 < self.thickness < math.inf, f"thickness must be positive and finite, got {self.thickness}"),
             (self.seed >= 0, f"seed must be >= 0, got {self.seed}"),
+            (
+                1 <= self.accumulate <= MAX_ACCUMULATE,
+                f"accumulate must be 1 to {MAX_ACCUMULATE} frames, got {self.accumulate}",
+            ),
             (self.ao_scale in AO_SCALES, f"ao scale must be 1.0 or 0.5, got {self.ao_scale}"),
             (blur_problem is None, f"blur size {blur_problem}"),
             (self.light in LIGHTS, f"light must be one of {', '.join(LIGHTS)}, got {self.light!r}"),
@@ -177,6 +186,7 @@ def check_screen_radius(radius_px: float, height: int, what: str) -> None:
 
 __all__ = [
     "RenderSettings",
+    "MAX_ACCUMULATE",
     "MODES",
     "SCREEN_RADIUS_MODES",
     "DEFAULT_THICKNESS",

@@ -13,6 +13,7 @@ Job file (TOML; every relative path is relative to the job file's folder)::
                                               # scaled to it, same aspect ratio (default: the photo's size)
     max_registration_error_px = 2.0           # optional: a shot registered with a larger RMS fails
     samples = 16                              # optional: AO samples per pixel
+    accumulate = 1                            # optional: AO frames averaged (progressive AO, 1..256)
     edges = false                             # optional: draw the CAD's edges over the overlays
     antialias = true                          # optional: anti-aliased renders (4x MSAA; about 1.3-1.5x the time)
     intrinsics = "camera.json"                # optional defaults for every [[shots]] entry below

@@ -19,6 +19,7 @@ from mrcheck.core.inputs import read_input_text, real_path
 from mrcheck.core.jsonfile import number_problem
 from mrcheck.mr.overlay import STUDY_ORDER, check_alpha
 from mrcheck.render.renderer import DEFAULT_SAMPLES, MODES
+from mrcheck.render.settings import MAX_ACCUMULATE
 
 SHEET_ALPHA = 0.5  # the photo's opacity in the study sheet's bottom row, and the default alpha
 TOP_KEYS = {
@@ -30,6 +31,7 @@ TOP_KEYS = {
     "width",
     "max_registration_error_px",
     "samples",
+    "accumulate",
     "edges",
     "antialias",
     "intrinsics",
@@ -56,6 +58,7 @@ class JobSettings:
     samples: int
     edges: bool
     antialias: bool = True  # the renders anti-aliased (mrcheck.render.antialias)
+    accumulate: int = 1  # AO frames averaged (RenderSettings.accumulate)
 
     def to_dict(self) -> dict:
         """As the manifest and the shots' fingerprints write them (the job file's key names)."""
@@ -74,6 +77,7 @@ class JobSettings:
                 "samples",
                 "edges",
                 "antialias",
+                "accumulate",
             )
         }
 
@@ -227,8 +231,11 @@ def _settings(reader: _Reader, scene: Path) -> JobSettings:
     if max_error is not None:
         max_error = reader.number("max_registration_error_px", max_error, lambda e: e > 0, "not positive")
     samples = _whole(reader, "samples", DEFAULT_SAMPLES, 1, 512, "a whole number 1..512")
+    accumulate = _whole(reader, "accumulate", 1, 1, MAX_ACCUMULATE, f"a whole number 1..{MAX_ACCUMULATE}")
     edges, antialias = (_flag(reader, key, default) for key, default in (("edges", False), ("antialias", True)))
-    return JobSettings(str(scene), modes, alphas, intensities, overlay, width, max_error, samples, edges, antialias)
+    return JobSettings(
+        str(scene), modes, alphas, intensities, overlay, width, max_error, samples, edges, antialias, accumulate
+    )
 
 
 def _flag(reader: _Reader, key: str, default: bool) -> bool:

@@ -25,6 +25,7 @@ from mrcheck.apps.names import MANIFEST, REPORT
 from mrcheck.core.errors import MrcheckError, MrcheckWarning
 from mrcheck.core.inputs import real_path
 from mrcheck.core.output import check_not_inputs, check_writable_ancestor, write_text
+from mrcheck.render.settings import MAX_ACCUMULATE
 from mrcheck.scene.manifest import scene_files
 
 STATUSES = ("done", "skipped", "failed")
@@ -174,16 +175,21 @@ def run_export(
     force: bool = False,
     progress: Callable[[ShotProgress], None] | None = None,
     antialias: bool | None = None,
+    accumulate: int | None = None,
 ) -> ExportResult:
     """``mrcheck export``: every shot of the job file ``job`` into ``outdir``, then its
     manifest.json and report.html. A bad job, option or OUTDIR is a :class:`MrcheckError` before
-    anything is written; a bad shot fails alone (``ExportResult.failed``). ``antialias``: overrides
-    the job's ``antialias`` key (part of the shots' fingerprints: a change redoes them)."""
+    anything is written; a bad shot fails alone (``ExportResult.failed``). ``antialias`` and
+    ``accumulate``: override the job's keys (part of the shots' fingerprints: a change redoes them)."""
     started = time.perf_counter()
     progress = progress or (lambda step: None)
     job = load_job(job)
     if antialias is not None:
         job = replace(job, settings=replace(job.settings, antialias=antialias))
+    if accumulate is not None:
+        if not 1 <= accumulate <= MAX_ACCUMULATE:
+            raise MrcheckError(f"--accumulate must be 1 to {MAX_ACCUMULATE} frames, got {accumulate}")
+        job = replace(job, settings=replace(job.settings, accumulate=accumulate))
     outdir = real_path(outdir)
     _check_options(outdir, workers, scheduler)
     tasks, entries, to_run, reads = _plan(job, outdir, scheduler, force)

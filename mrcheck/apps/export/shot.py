@@ -148,7 +148,11 @@ def _images(renderer, camera, photo, settings: JobSettings, timings: dict) -> di
             continue
         t = time.perf_counter()
         render_settings = RenderSettings(
-            samples=settings.samples, intensity=intensity, seed=0, antialias=settings.antialias
+            samples=settings.samples,
+            intensity=intensity,
+            seed=0,
+            antialias=settings.antialias,
+            accumulate=settings.accumulate,
         )
         renders, edges, offset, maps = render_for_photo(renderer, camera, wanted, render_settings, settings.edges, maps)
         render_s += time.perf_counter() - t

@@ -11,12 +11,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from mrcheck.render.ao import kernel
 from mrcheck.render.ao.base import AOPass
 
 GOLDEN_ANGLE = np.pi * (3.0 - np.sqrt(5.0))
 
 
-def disk_kernel(samples: int, seed: int = 0) -> np.ndarray:
+def disk_kernel(samples: int, seed: kernel.Seed = 0) -> np.ndarray:
     """(samples, 3) float32 points uniform on the unit disk, z = 0."""
     rng = np.random.default_rng(seed)
     i = np.arange(samples)

@@ -26,17 +26,29 @@ class AOPass:
         self.ctx = ctx
         self.samples = int(samples)
         self.stride = int(stride)
+        self.seed = int(seed)
         self.program = load_program(
             ctx, self.shader, {**kernel.defines(samples, stride), **self.method_defines(self.samples)}
         )
-        if "u_kernel" in self.program:  # a method may not use the kernel (hbao)
-            uniform(self.program, "u_kernel").write(self.offsets(self.samples, seed).tobytes())
-        tile = kernel.rotation_tile(seed)
-        self.noise = ctx.texture((kernel.NOISE_SIZE, kernel.NOISE_SIZE), 3, tile.tobytes(), dtype="f4")
+        self.noise = ctx.texture((kernel.NOISE_SIZE, kernel.NOISE_SIZE), 3, dtype="f4")
         self.noise.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.frame = -1
+        self.use_frame(0)
         for unit, name in enumerate(("u_depth", "u_normal", "u_noise")):
             set_if_present(self.program, name, unit)  # crytek reads no normal
         self.vao = ctx.vertex_array(self.program, [])
+
+    def use_frame(self, frame: int) -> None:
+        """Sample with accumulation frame ``frame``'s kernel and rotation tile (another random
+        orientation of the kernel, other reflection planes: :func:`kernel.frame_seed`); frame 0
+        is the render's own. Uniform and texture writes only: no shader is compiled again."""
+        if frame == self.frame:
+            return
+        seed = kernel.frame_seed(self.seed, frame)
+        if "u_kernel" in self.program:  # a method may not use the kernel (hbao)
+            uniform(self.program, "u_kernel").write(self.offsets(self.samples, seed).tobytes())
+        self.noise.write(kernel.rotation_tile(seed).tobytes())
+        self.frame = frame
 
     def run(
         self,

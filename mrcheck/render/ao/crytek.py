@@ -18,7 +18,7 @@ from mrcheck.render.ao import kernel
 from mrcheck.render.ao.base import AOPass
 
 
-def antipodal_kernel(samples: int, seed: int = 0) -> np.ndarray:
+def antipodal_kernel(samples: int, seed: kernel.Seed = 0) -> np.ndarray:
     """(samples, 3) float32: the shared sphere kernel's first ceil(samples / 2) directions with
     lengths growing to 1, each followed by its negation (an odd count leaves the last unpaired)."""
     pairs = (samples + 1) // 2

@@ -14,6 +14,7 @@ import numpy as np
 NOISE_SIZE = 4  # the rotation tile is NOISE_SIZE x NOISE_SIZE pixels
 MIN_OFFSET = 0.1  # shortest offset, as a fraction of the sampling radius
 PAPER_SAMPLE_COUNTS = (16, 36, 64, 128)  # Scheer & Keutel, table 1
+Seed = int | list[int]  # a render's seed, or an accumulation frame's (frame_seed)
 
 
 def _unit_vectors(rng: np.random.Generator, n: int) -> np.ndarray:
@@ -21,7 +22,7 @@ def _unit_vectors(rng: np.random.Generator, n: int) -> np.ndarray:
     return v / np.linalg.norm(v, axis=1, keepdims=True)
 
 
-def sphere_kernel(samples: int, seed: int = 0) -> np.ndarray:
+def sphere_kernel(samples: int, seed: Seed = 0) -> np.ndarray:
     """(samples, 3) float32 offsets inside the unit sphere, denser near the centre."""
     if samples < 1:
         raise ValueError("samples must be >= 1")
@@ -35,7 +36,7 @@ def sphere_kernel(samples: int, seed: int = 0) -> np.ndarray:
 GOLDEN = (np.sqrt(5.0) - 1.0) / 2.0
 
 
-def stratified_kernel(samples: int, seed: int = 0) -> np.ndarray:
+def stratified_kernel(samples: int, seed: Seed = 0) -> np.ndarray:
     """(samples, 3) float32 offsets inside the unit sphere, denser near the centre, with evenly
     spread directions: the vector mode's kernel (docs/reference-compare.md: against the
     ray-traced reference its error was mostly variance, not bias).
@@ -61,9 +62,16 @@ def stratified_kernel(samples: int, seed: int = 0) -> np.ndarray:
     return (directions * lengths[:, None]).astype(np.float32)
 
 
-def rotation_tile(seed: int = 0) -> np.ndarray:
-    """(NOISE_SIZE, NOISE_SIZE, 3) float32 unit normals of the per-pixel reflection planes."""
-    rng = np.random.default_rng(seed + 0x5EED)
+def frame_seed(seed: int, frame: int) -> Seed:
+    """The seed of accumulation frame ``frame`` of a render seeded ``seed``: ``seed`` itself for
+    frame 0 (a single frame is the render it always was), an independent stream for the others."""
+    return seed if frame == 0 else [seed, frame]
+
+
+def rotation_tile(seed: Seed = 0) -> np.ndarray:
+    """(NOISE_SIZE, NOISE_SIZE, 3) float32 unit normals of the per-pixel reflection planes;
+    ``seed``: an int or a :func:`frame_seed`."""
+    rng = np.random.default_rng([*seed, 0x5EED] if isinstance(seed, list) else seed + 0x5EED)
     return _unit_vectors(rng, NOISE_SIZE * NOISE_SIZE).reshape(NOISE_SIZE, NOISE_SIZE, 3).astype(np.float32)
 
 
@@ -73,4 +81,13 @@ def defines(samples: int, stride: int = 1) -> dict:
     return {"AO_SAMPLES": int(samples), "NOISE_SIZE": NOISE_SIZE, "AO_STRIDE": int(stride)}
 
 
-__all__ = ["sphere_kernel", "stratified_kernel", "rotation_tile", "defines", "NOISE_SIZE", "PAPER_SAMPLE_COUNTS"]
+__all__ = [
+    "sphere_kernel",
+    "stratified_kernel",
+    "rotation_tile",
+    "frame_seed",
+    "Seed",
+    "defines",
+    "NOISE_SIZE",
+    "PAPER_SAMPLE_COUNTS",
+]
