@@ -80,3 +80,19 @@ def marker_parts(markers):
         "dictionary": DICTIONARY,
         "markers": entries,
     }
+
+
+def sample_shot(ctx, root, camera, name: str = "p1"):
+    """A registered shot of the sample cell in folder ``root`` (made if needed): its synthetic
+    photo NAME.png and NAME.json (the camera and the photo's name), as ``mrcheck review SCENE
+    --shots ROOT`` reads; returns ``root``."""
+    import json
+
+    from mrcheck.core.output import write_image
+    from mrcheck.core.resources import sample_scene_path
+    from mrcheck.scene.model import load_scene
+
+    root.mkdir(parents=True, exist_ok=True)
+    write_image(root / f"{name}.png", render_photo(ctx, load_scene(sample_scene_path()), camera))
+    (root / f"{name}.json").write_text(json.dumps({**camera.to_dict(), "photo": f"{name}.png"}))
+    return root

@@ -26,6 +26,7 @@ NOT_RENDER_SETTINGS = {
     ("reference", "seed"),  # the reference's ray directions
     ("scene generate", "seed"),  # the generated scene
     ("scene asbuilt", "seed"),  # the as-built perturbations
+    ("review", "accumulate"),  # the AO frames of a navigated view at rest, not the shots' renders
 }
 
 # fields whose default is None, decided per frame: the numbers a help may name as their default

@@ -5,7 +5,6 @@ onto the markers."""
 from __future__ import annotations
 
 import io
-import json
 import zipfile
 
 import numpy as np
@@ -17,11 +16,9 @@ from fastapi.testclient import TestClient  # noqa: E402
 from mrcheck.apps.bcf import read_bcf_bytes  # noqa: E402
 from mrcheck.apps.review.app import create_app  # noqa: E402
 from mrcheck.apps.review.source import open_source  # noqa: E402
-from mrcheck.core.output import write_image  # noqa: E402
 from mrcheck.core.resources import sample_scene_path  # noqa: E402
-from mrcheck.scene.model import load_scene  # noqa: E402
 
-from .mr_helpers import make_camera, render_photo  # noqa: E402
+from .mr_helpers import make_camera, sample_shot  # noqa: E402
 from .test_bcf import validate_bcfzip  # noqa: E402
 
 OCTETS = {"Content-Type": "application/octet-stream"}  # what the page sends
@@ -32,8 +29,7 @@ EYE, TARGET = np.array([-11.4, -6.2, 1.7]), np.array([-5.0, -4.2, 0.9])
 def shots(ctx, tmp_path_factory):
     root = tmp_path_factory.mktemp("review_bcf")
     cam = make_camera(320, 240, 250.0, eye=EYE, target=TARGET)
-    write_image(root / "p1.png", render_photo(ctx, load_scene(sample_scene_path()), cam))
-    (root / "p1.json").write_text(json.dumps({**cam.to_dict(), "photo": "p1.png"}))
+    sample_shot(ctx, root, cam)
     return root
 
 

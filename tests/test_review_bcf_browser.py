@@ -5,8 +5,6 @@ import's reason is shown whole, with the option that fixes it."""
 
 from __future__ import annotations
 
-import json
-
 import pytest
 
 pytest.importorskip("fastapi")
@@ -14,23 +12,16 @@ pytest.importorskip("fastapi")
 from mrcheck.apps.bcf import read_bcf_bytes  # noqa: E402
 from mrcheck.apps.review.app import create_app  # noqa: E402
 from mrcheck.apps.review.source import open_source  # noqa: E402
-from mrcheck.core.output import write_image  # noqa: E402
 from mrcheck.core.resources import sample_scene_path  # noqa: E402
-from mrcheck.scene.model import load_scene  # noqa: E402
 
-from .mr_helpers import make_camera, render_photo  # noqa: E402
+from .mr_helpers import make_camera, sample_shot  # noqa: E402
 from .test_review import needs_chromium, open_browser, served_app  # noqa: E402
 from .test_review_bcf import EYE, TARGET  # noqa: E402
 
 
 @pytest.fixture()
 def shots(ctx, tmp_path):
-    root = tmp_path / "shots"
-    root.mkdir()
-    cam = make_camera(320, 240, 250.0, eye=EYE, target=TARGET)
-    write_image(root / "p1.png", render_photo(ctx, load_scene(sample_scene_path()), cam))
-    (root / "p1.json").write_text(json.dumps({**cam.to_dict(), "photo": "p1.png"}))
-    return root
+    return sample_shot(ctx, tmp_path / "shots", make_camera(320, 240, 250.0, eye=EYE, target=TARGET))
 
 
 @pytest.mark.slow

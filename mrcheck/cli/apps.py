@@ -9,6 +9,7 @@ import click
 from mrcheck.cli.group import cli, pixel_count
 from mrcheck.cli.messages import ProgressStream, console
 from mrcheck.cli.options import FINITE, accumulate_option, positive, size
+from mrcheck.render import settings as defaults
 
 AUTHOR = click.option(
     "--author", metavar="NAME", help="Author of the BCF topics and comments written [default: the OS user]."
@@ -173,12 +174,29 @@ class _ExportBar:
     help="Anti-aliased CAD renders (4x MSAA; --no-antialias: about 1.3-1.5x faster).",
 )
 @AUTHOR
-def review(target, shots_dir, host, port, token, db, suggestions, max_body, max_upload, max_pixels, antialias, author):
+@accumulate_option(default=defaults.REST_ACCUMULATE, what="Navigate, a view at rest")
+def review(
+    target,
+    shots_dir,
+    host,
+    port,
+    token,
+    db,
+    suggestions,
+    max_body,
+    max_upload,
+    max_pixels,
+    antialias,
+    author,
+    accumulate,
+):
     """Review shots in the browser and mark discrepancies.
 
     Photo and CAD blended, modes, zoom, discrepancy markers with a category, severity and note,
     the CAD part under the cursor; exports an HTML report and CSV. "Add photo" registers a new
-    photo by clicking 4+ points on it and on the CAD, and saves it as a shot.
+    photo by clicking 4+ points on it and on the CAD, and saves it as a shot. "Navigate" moves
+    through the CAD from a shot's pose (the server renders every view; --accumulate: the AO frames
+    of a view at rest).
 
     \b
     Example:
@@ -200,6 +218,7 @@ def review(target, shots_dir, host, port, token, db, suggestions, max_body, max_
             antialias=antialias,
             max_pixels=max_pixels,
             author=author,
+            accumulate=accumulate,
         )
         try:
             for line in server.messages():

@@ -54,7 +54,14 @@ from mrcheck.render import settings as defaults
     "photo 000819 of LM-O held out and reported apart; see docs/real-data.md (--quick: a few starts and 5 "
     "frames of the tea box).",
 )
-def bench(quick, json_path, repeat, edges, track, real):
+@click.option(
+    "--accumulate",
+    is_flag=True,
+    help="Only progressive AO (--accumulate N) on the generated hall's aisle view (5 M triangles, 640x480; "
+    "--quick: 320x240, fewer rays): 1 to 16 frames against the converged render and the ray-traced "
+    "references, seconds per render; see docs/rendering.md.",
+)
+def bench(quick, json_path, repeat, edges, track, real, accumulate):
     """Measure the AO passes and frames on this machine.
 
     Every AO mode at full and half resolution, over
@@ -76,9 +83,13 @@ def bench(quick, json_path, repeat, edges, track, real):
       mrcheck bench --edges --quick
       mrcheck bench --track --json track.json
       mrcheck bench --real --json real.json
+      mrcheck bench --accumulate --quick
     """
-    if edges + track + real > 1:
-        raise click.UsageError("--edges, --track and --real are separate benches: give one of them")
+    if edges + track + real + accumulate > 1:
+        raise click.UsageError("--edges, --track, --real and --accumulate are separate benches: give one of them")
+    if accumulate:
+        _accumulate_bench(quick, json_path)
+        return
     if real:
         from mrcheck.eval.realbench import real_bench, summary_lines
 
@@ -103,6 +114,20 @@ def bench(quick, json_path, repeat, edges, track, real):
     click.echo(result.text)
     if result.json_path is not None:
         click.echo(result.json_path)
+
+
+def _accumulate_bench(quick, json_path) -> None:
+    from mrcheck.eval.accbench import FULL, QUICK, accumulate_bench, table_lines
+    from mrcheck.eval.bench.figures import HALL_SEED, HALL_VIEW
+    from mrcheck.eval.bench.scenes import hall_scene_path
+
+    triangles = 5_000_000  # the hall preset's own budget (mrcheck scene generate --preset hall)
+    click.echo(f"generating or reusing the {triangles / 1e6:g} M-triangle hall ...", err=True)
+    scene = hall_scene_path(_hall_generator(), triangles, HALL_SEED)
+    size = QUICK if quick else FULL
+    rows = accumulate_bench(scene, HALL_VIEW, size, json_path=json_path, progress=lambda t: click.echo(t, err=True))
+    for line in table_lines(rows, f"hall {HALL_VIEW} {size.width}x{size.height}"):
+        click.echo(line)
 
 
 def _track_bench(quick, repeat, json_path) -> None:

@@ -92,8 +92,9 @@ OPTION_MODES = {
 }
 
 
-def accumulate_option(default: int | None = 1):
-    """``--accumulate N`` of render, overlay and export (``default`` None: the job's key)."""
+def accumulate_option(default: int | None = 1, what: str = "Progressive AO"):
+    """``--accumulate N`` of render, overlay, export (``default`` None: the job's key) and review
+    (``what``: the frames it sets)."""
     from mrcheck.render.settings import MAX_ACCUMULATE
 
     shown = "" if default is not None else " [default: the job's `accumulate` key, 1]"
@@ -104,7 +105,7 @@ def accumulate_option(default: int | None = 1):
         show_default=default is not None,
         callback=positive,
         metavar="N",
-        help="Progressive AO: the mean of N AO frames, each with its own kernel orientation and a sub-pixel "
+        help=f"{what}: the mean of N AO frames, each with its own kernel orientation and a sub-pixel "
         "offset: removes the sampling noise and the moire of detail finer than a pixel (corrugated roof "
         f"decks); about N times the AO time, 1 to {MAX_ACCUMULATE}.{shown}",
     )

@@ -51,6 +51,7 @@ DEFAULT_TONE = "filmic"  # one of TONES (shaders/composite.glsl, tone())
 DEFAULT_LOD_PX = 0.5  # allowed error of a level of detail on screen, pixels (mrcheck.render.lod)
 MAX_LOD_PX = 4.0  # larger: coarse levels visibly move silhouettes
 MAX_ACCUMULATE = 256  # AO frames averaged (--accumulate): 256 x 16 samples is past any visible change
+REST_ACCUMULATE = 8  # the review's navigated view at rest: noise 3.7-4.3x below one frame's (docs/rendering.md)
 MAX_SAMPLES = 512  # more: llvmpipe compiles the shader for many seconds (ao_unroll.glsl)
 AO_SCALES = (1.0, 0.5)  # the AO resolutions there are
 
@@ -187,6 +188,7 @@ def check_screen_radius(radius_px: float, height: int, what: str) -> None:
 __all__ = [
     "RenderSettings",
     "MAX_ACCUMULATE",
+    "REST_ACCUMULATE",
     "MODES",
     "SCREEN_RADIUS_MODES",
     "DEFAULT_THICKNESS",

@@ -25,6 +25,7 @@ from mrcheck.apps.review.renders import RenderService
 from mrcheck.apps.review.routes import ROUTERS
 from mrcheck.apps.review.state import Review
 from mrcheck.apps.review.storage import Store
+from mrcheck.apps.review.viewsession import DEFAULT_ACCUMULATE
 
 
 def database_path(source, db_path=None) -> Path:
@@ -49,6 +50,7 @@ def create_app(
     max_upload: int = MAX_UPLOAD,
     antialias: bool = True,
     author: str | None = None,
+    accumulate: int = DEFAULT_ACCUMULATE,
 ) -> FastAPI:
     """``suggestions``: {shot name: markers} (:func:`.suggestions.load_suggestions`), imported
     into the review's markers once; ``app.state.imported``: {shot name: markers added now}.
@@ -56,7 +58,8 @@ def create_app(
     give (:func:`.guard.host_names`); None checks no Host (an app not on a socket, as in tests).
     ``max_body``: the largest request body, in bytes; ``max_upload``: the largest upload of "Add photo".
     ``antialias``: the CAD renders anti-aliased (mrcheck.render.antialias); ``author``: who
-    writes the BCF topics and the comments made in the review (None: the OS user)."""
+    writes the BCF topics and the comments made in the review (None: the OS user); ``accumulate``:
+    the AO frames of a render session's frame at rest (:mod:`.viewsession`)."""
     db_path = database_path(source, db_path)
     store = Store(
         db_path,
@@ -64,7 +67,7 @@ def create_app(
         served_scales={s.name: s.served_scale() for s in source.shots.values() if s.served_size != s.size},
     )
     renders = RenderService(source, cache_dir or cache_path(db_path), samples=samples, antialias=antialias)
-    review = Review(source, store, renders, author=author or default_author())
+    review = Review(source, store, renders, author=author or default_author(), accumulate=accumulate)
     review.addphoto = AddPhoto(review, renders.cache)
     review.import_suggestions(suggestions or {})
 

@@ -23,7 +23,8 @@ from urllib.parse import urlsplit
 
 from fastapi import HTTPException, Request
 
-UNSAFE_METHODS = frozenset({"POST", "PUT", "PATCH", "DELETE"})
+WEBSOCKET = "WEBSOCKET"  # a WebSocket handshake: a GET, but any page may open one to any server
+UNSAFE_METHODS = frozenset({"POST", "PUT", "PATCH", "DELETE", WEBSOCKET})
 JSON = "application/json"
 OCTETS = "application/octet-stream"
 FOREIGN_SITES = ("cross-site", "same-site")
@@ -59,4 +60,4 @@ def requires(media_type: str):
     return check
 
 
-__all__ = ["cross_site_problem", "requires", "JSON", "OCTETS", "UNSAFE_METHODS"]
+__all__ = ["cross_site_problem", "requires", "JSON", "OCTETS", "UNSAFE_METHODS", "WEBSOCKET"]

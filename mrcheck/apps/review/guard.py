@@ -30,8 +30,9 @@ from dataclasses import dataclass
 from fastapi.responses import JSONResponse
 from starlette.datastructures import Headers
 from starlette.middleware.body_limit import RequestBodyLimitMiddleware
+from starlette.websockets import WebSocketClose
 
-from mrcheck.apps.review.crosssite import cross_site_problem
+from mrcheck.apps.review.crosssite import WEBSOCKET, cross_site_problem
 
 MAX_BODY = 1 << 20  # the default limit: 1 MiB, some 40 x the largest marker
 MIN_MAX_BODY = 64 << 10  # a smaller limit would refuse markers with long notes
@@ -129,10 +130,14 @@ class RequestCheck:
 
     async def __call__(self, scope, receive, send):
         upload = scope["type"] == "http" and scope.get("path") in UPLOAD_PATHS
-        if scope["type"] == "http":  # the app has no websocket routes: the router refuses those
+        if scope["type"] == "http":
             refused = self._refused(Headers(scope=scope), upload, scope.get("method", "GET"))
             if refused is not None:
                 return await JSONResponse({"error": refused[1]}, status_code=refused[0])(scope, receive, send)
+        if scope["type"] == "websocket":  # the render session: the same Host and other-site checks
+            refused = self._refused(Headers(scope=scope), False, WEBSOCKET)
+            if refused is not None:
+                return await WebSocketClose(code=1008, reason=refused[1][:120])(scope, receive, send)
         await (self.upload_app if upload else self.app)(scope, receive, send)
 
     def _refused(self, headers, upload: bool, method: str) -> tuple[int, str] | None:

@@ -47,16 +47,23 @@ def _error_handlers(app: FastAPI, max_body: int, max_upload: int) -> None:
         return JSONResponse({"error": str(exc)}, status_code=404 if gone else 500)
 
 
+def token_allows(app: FastAPI, given: str | None, cookies) -> bool:
+    """Whether a request giving ``given`` (or the cookie in ``cookies``) may use ``app``: always
+    without a token; the WebSocket route asks this itself (the middleware sees HTTP only)."""
+    token = getattr(app.state, "token", None)
+    given = given or cookies.get(COOKIE)
+    return token is None or (bool(given) and hmac.compare_digest(given.encode(), token.encode()))
+
+
 def _token_check(app: FastAPI, token: str) -> None:
     """Every request needs the token: query ``token``, header ``X-Review-Token`` or the cookie
     set when the page is opened with ``?token=``; else 401."""
+    app.state.token = token
 
     @app.middleware("http")
     async def _token(request: Request, call_next):
-        given = (
-            request.query_params.get("token") or request.headers.get("x-review-token") or request.cookies.get(COOKIE)
-        )
-        if not given or not hmac.compare_digest(given.encode(), token.encode()):
+        given = request.query_params.get("token") or request.headers.get("x-review-token")
+        if not token_allows(app, given, request.cookies):
             return JSONResponse({"error": "a valid token is required (?token=...)"}, status_code=401)
         response = await call_next(request)
         if request.query_params.get("token"):

@@ -20,9 +20,11 @@ from mrcheck.apps.review.guard import (
     format_size,
     is_loopback,
 )
+from mrcheck.apps.review.viewsession import DEFAULT_ACCUMULATE
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.images import parse_pixels
 from mrcheck.core.output import check_not_inputs
+from mrcheck.render.settings import MAX_ACCUMULATE
 
 
 def _url_host(host: str) -> str:
@@ -116,15 +118,18 @@ def start(
     antialias: bool = True,
     max_pixels: int | None = None,
     author: str | None = None,
+    accumulate: int = DEFAULT_ACCUMULATE,
 ) -> ReviewServer:
     """Everything but serving: the source opened and checked, the port bound, the app made (its
     database written). A bad input is a :class:`MrcheckError` before the port is bound. ``max_pixels``:
     the largest photo read (None: :data:`.source.MAX_PIXELS`); ``author``: of the BCF topics and
-    comments (None: the OS user)."""
+    comments (None: the OS user); ``accumulate``: the AO frames of a navigated view at rest."""
     from mrcheck.apps.review.source import open_source
     from mrcheck.apps.review.suggestions import load_suggestions, suggestions_file
 
     _check_options(token, db, max_body)
+    if not 1 <= accumulate <= MAX_ACCUMULATE:
+        raise MrcheckError(f"--accumulate must be 1 to {MAX_ACCUMULATE} frames, got {accumulate}")
     source = open_source(target, shots_dir, **({} if max_pixels is None else {"max_pixels": max_pixels}))
     suggested = load_suggestions(source, suggestions)
     database = database_path(source, db)
@@ -148,6 +153,7 @@ def start(
             max_upload=max_upload,
             antialias=antialias,
             author=author,
+            accumulate=accumulate,
         )
     except BaseException:
         sock.close()

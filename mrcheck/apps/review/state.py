@@ -12,6 +12,7 @@ from mrcheck.apps.review.renders import RenderService
 from mrcheck.apps.review.source import Source
 from mrcheck.apps.review.storage import Store
 from mrcheck.apps.review.suggestions import pending
+from mrcheck.apps.review.viewsession import DEFAULT_ACCUMULATE, ViewRenderer
 
 MAX_ID = 2**63 - 1  # SQLite's INTEGER range; a larger id cannot be bound (OverflowError), nor exist
 
@@ -24,7 +25,9 @@ class Review:
     imported: dict = field(default_factory=dict)  # shot -> suggestions added at this start
     author: str = "mrcheck"  # who writes the BCF topics and the comments made here (--author)
     addphoto: object = field(default=None, repr=False)  # "Add photo" (:class:`.addphoto.AddPhoto`), set by create_app
+    accumulate: int = DEFAULT_ACCUMULATE  # AO frames of a render session's frame at rest (--accumulate)
     _picker: object = field(default=None, init=False, repr=False)
+    _view: ViewRenderer | None = field(default=None, init=False, repr=False)
     _lock: threading.Lock = field(default_factory=threading.Lock, init=False, repr=False)
 
     def picker(self):
@@ -35,6 +38,13 @@ class Review:
 
                 self._picker = Picker(self.source.loaded)
             return self._picker
+
+    def view_renderer(self) -> ViewRenderer:
+        """The render sessions' renderer (:mod:`.viewsession`), shared by every page."""
+        with self._lock:
+            if self._view is None:
+                self._view = ViewRenderer(self.source, self.renders, self.accumulate)
+            return self._view
 
     def cad_under(self, shot, x, y) -> dict:
         """What a marker at photo pixel (x, y) of ``shot`` stores of the CAD: its part instance and distance."""
@@ -81,7 +91,11 @@ def suggested_cad(marker: dict, under: dict) -> dict:
 
 def check_xy(shot, x, y) -> None:
     """A marker's or pick's photo pixel lies inside the shot's photo, else 422."""
-    w, h = shot.size
+    check_pixel(*shot.size, x, y)
+
+
+def check_pixel(w: int, h: int, x, y) -> None:
+    """Pixel (x, y) lies inside a ``w`` x ``h`` image, else 422."""
     if not (0 <= x < w and 0 <= y < h):
         raise HTTPException(422, f"coordinates ({x}, {y}) are outside the {w}x{h} image")
 

@@ -11,6 +11,7 @@ STATIC = {
     "index.html": "text/html",
     "app.js": "text/javascript",
     "addphoto.js": "text/javascript",
+    "navigate.js": "text/javascript",
     "style.css": "text/css",
 }
 

@@ -34,9 +34,17 @@ def info(review: Current):
 @router.get("/shots")
 def shots(review: Current):
     return [
-        {"name": s.name, "error_px": s.error_px, "width": s.size[0], "height": s.size[1]}
+        {"name": s.name, "error_px": s.error_px, "width": s.size[0], "height": s.size[1], "camera": _served(s)}
         for s in review.source.shots.values()
     ]
+
+
+def _served(shot) -> dict:
+    """The shot's camera at the served size: what the render session renders and picks with
+    (the page moves its R and t; K is for the page's own projections, the lens stays the server's)."""
+    camera = shot.served_camera()
+    return {"width": camera.width, "height": camera.height, "K": camera.K.tolist(), "R": camera.R.tolist(),
+            "t": camera.t.tolist()}  # fmt: skip
 
 
 @router.get("/shots/{name}/{kind}.png")

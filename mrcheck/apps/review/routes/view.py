@@ -1,0 +1,52 @@
+"""The render session (:mod:`..viewsession`): the WebSocket a page moves its camera through, and
+the CAD point under a pixel of any camera (orbit pivot, measuring, the part's name)."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from fastapi import APIRouter, Depends, HTTPException, WebSocket
+from pydantic import BaseModel, Field
+
+from mrcheck.apps.review.crosssite import JSON, requires
+from mrcheck.apps.review.middleware import token_allows
+from mrcheck.apps.review.state import Review, check_pixel, current
+from mrcheck.apps.review.viewsession import ViewSession, parse_request
+
+router = APIRouter(prefix="/api")
+Current = Annotated[Review, Depends(current)]
+REFUSED = 1008  # WebSocket close code "policy violation": the token is missing or wrong
+
+
+@router.websocket("/view")
+async def view(websocket: WebSocket):
+    if not token_allows(websocket.app, websocket.query_params.get("token"), websocket.cookies):
+        await websocket.close(code=REFUSED, reason="a valid token is required (?token=...)")
+        return
+    review: Review = websocket.app.state.review
+    await websocket.accept()
+    await ViewSession(review.view_renderer(), review.source.shots).serve(websocket)
+
+
+class ViewPick(BaseModel):
+    shot: str
+    R: list[list[float]] = Field(min_length=3, max_length=3)
+    t: list[float] = Field(min_length=3, max_length=3)
+    x: float
+    y: float
+
+
+@router.post("/view/pick", dependencies=[Depends(requires(JSON))])
+def view_pick(review: Current, body: ViewPick):
+    """The CAD part and world point under pixel (x, y) of the shot's camera moved to (R, t)."""
+    review.shot_or_404(body.shot)
+    try:
+        request = parse_request({"shot": body.shot, "R": body.R, "t": body.t}, review.source.shots)
+    except ValueError as exc:
+        raise HTTPException(422, str(exc)) from None
+    camera = review.view_renderer().camera(request)  # at the served size, the page's pixels
+    check_pixel(camera.width, camera.height, body.x, body.y)
+    picker = review.picker()
+    hit = picker.pick(camera, body.x, body.y)
+    point = picker.world_point(camera, body.x, body.y)
+    return {**hit, "point": None if point is None else [round(float(v), 5) for v in point[0]]}
