@@ -5,13 +5,15 @@ are ray cast with Open3D (Embree) instead, and made to look like a camera's:
 
 * sun and sky: Lambert sun light with cast shadows (a second ray per sample towards the sun:
   shadow edges the CAD knows nothing about) plus a sky term brighter on upward faces;
-* albedo: the part colours' luminance with a smooth world-space variation (a few random
-  sinusoids, +-``albedo_noise``) and per-sample grain;
+* albedo: the part colours' luminance (``colour``: the colours themselves, linear RGB as the
+  scene gives them) with a smooth world-space variation (a few random sinusoids,
+  +-``albedo_noise``) and per-sample grain;
 * the lens: rays through the *distorted* pixel positions (``cv2.undistortPoints`` of every
   sample position), so the photo carries the camera's distortion exactly;
 * the sensor: 2x2 supersampling (optical integration), Gaussian blur, Gaussian noise, 8 bits;
 * the hall differs from the CAD: ``clutter`` boxes the CAD lacks stand on visible floor spots,
-  and one visible CAD part (an instance covering 1-12 % of the view) is left out.
+  and one visible CAD part (an instance covering 1-12 % of the view) is left out (both can be
+  turned off: the discrepancy evaluation photographs an as-built scene as it is).
 
 :func:`make_case` adds a rough pose ``offset_px`` off (median over the scene points) and the
 scene points the error is measured on (:func:`reprojection_error`).
@@ -48,12 +50,13 @@ class PhotoCase:
     offset_px: float
 
 
-def _soup(scene: Scene, origin: np.ndarray, skip=None):
+def _soup(scene: Scene, origin: np.ndarray, skip=None, colour: bool = False):
     """(V, 3) float32 vertices relative to ``origin``, (F, 3) faces, (F,) instance index,
-    (F,) albedo luminance, instance ids; ``skip``: an instance id left out."""
+    albedo (F,) luminance or, with ``colour``, (F, 3) linear RGB, instance ids; ``skip``: an
+    instance id left out."""
     verts, faces, owner, albedo, names, base = [], [], [], [], [], 0
     for part in scene.parts:
-        lum = float(np.dot(part.color, (0.2126, 0.7152, 0.0722)))
+        value = np.asarray(part.color, np.float32) if colour else float(np.dot(part.color, (0.2126, 0.7152, 0.0722)))
         for T, name in zip(part.transforms, part.instance_ids):
             names.append(name)
             if name == skip or len(part.faces) == 0:
@@ -61,7 +64,7 @@ def _soup(scene: Scene, origin: np.ndarray, skip=None):
             verts.append((part.vertices.astype(np.float64) @ T[:3, :3].T + (T[:3, 3] - origin)).astype(np.float32))
             faces.append(part.faces.astype(np.int64) + base)
             owner.append(np.full(len(part.faces), len(names) - 1))
-            albedo.append(np.full(len(part.faces), lum, np.float32))
+            albedo.append(np.full((len(part.faces), *np.shape(value)), value, np.float32))
             base += len(part.vertices)
     return (np.concatenate(verts), np.concatenate(faces), np.concatenate(owner), np.concatenate(albedo), names)
 
@@ -100,7 +103,8 @@ def _cast(vertices, faces, origin_rays):
 
 
 def _shade(hit, rays, albedo, rc, rng, sun, albedo_noise, origin) -> np.ndarray:
-    """Linear radiance of every ray: sun (with shadow rays) + sky, textured albedo."""
+    """Linear radiance of every ray, (N,) or (N, 3) as ``albedo`` per face: sun (with shadow
+    rays) + sky, textured albedo."""
     import open3d as o3d
 
     t = hit["t_hit"].numpy()
@@ -113,7 +117,8 @@ def _shade(hit, rays, albedo, rc, rng, sun, albedo_noise, origin) -> np.ndarray:
     waves = rng.normal(size=(4, 3)) * rng.uniform(2.0, 12.0, size=(4, 1))  # wavelengths 0.5-3 m
     phase = rng.uniform(0, 2 * np.pi, 4)
     texture = 1.0 + albedo_noise * np.mean(np.sin(world @ waves.T + phase), axis=1)
-    a = albedo[prim] * texture * (1.0 + 0.04 * rng.standard_normal(len(t)))
+    # one texture and grain for every channel: a stain darkens a colour, it does not change it
+    a = albedo[prim] * _per_channel(texture * (1.0 + 0.04 * rng.standard_normal(len(t))), albedo)
     lit = np.maximum(n @ sun, 0.0)
     shadow_rays = np.column_stack([p + n * 1e-3, np.broadcast_to(sun, p.shape)])
     todo = ok & (lit > 0)
@@ -122,8 +127,13 @@ def _shade(hit, rays, albedo, rc, rng, sun, albedo_noise, origin) -> np.ndarray:
         occ = rc.test_occlusions(o3d.core.Tensor(shadow_rays[todo].astype(np.float32))).numpy()
         blocked[todo] = occ
     sky = 0.35 * (0.6 + 0.4 * n[:, 2])
-    radiance = a * (1.2 * lit * ~blocked + sky)
-    return np.where(ok, radiance, 0.9), ok
+    radiance = a * _per_channel(1.2 * lit * ~blocked + sky, albedo)
+    return np.where(_per_channel(ok, albedo), radiance, 0.9), ok
+
+
+def _per_channel(values: np.ndarray, albedo: np.ndarray) -> np.ndarray:
+    """(N,) ``values`` shaped to multiply an (N,) or (N, 3) albedo."""
+    return values[:, None] if albedo.ndim == 2 else values
 
 
 def synthetic_photo(
@@ -135,24 +145,28 @@ def synthetic_photo(
     noise: float = 0.02,
     blur: float = 0.7,
     albedo_noise: float = 0.15,
+    colour: bool = False,
 ):
-    """``(photo, left_out, clutter_count)``: the (H, W) uint8 photo of ``scene`` from ``camera``."""
+    """``(photo, left_out, clutter_count)``: the (H, W) uint8 photo of ``scene`` from ``camera``;
+    with ``colour`` (H, W, 3) uint8 RGB, the channel order :func:`mrcheck.core.images.read_image`
+    gives a photo file."""
     rng = np.random.default_rng(seed)
     origin = camera.center
     f = _SUPERSAMPLE
     rays = _rays(camera, f).reshape(-1, 3)
-    verts, faces, owner, albedo, names = _soup(scene, origin)
-    _, first = _cast(verts, faces, np.column_stack([np.zeros_like(rays), rays]))
-    t = first["t_hit"].numpy()
-    left = _pick_left_out(owner, first, names, rng) if leave_out else None
-    if left is not None:
-        verts, faces, owner, albedo, names = _soup(scene, origin, skip=left)
-    verts, faces, albedo, placed = _add_clutter(verts, faces, albedo, rays, t, first, clutter, rng)
+    verts, faces, owner, albedo, names = _soup(scene, origin, colour=colour)
+    left, placed = None, 0
+    if clutter or leave_out:  # the first hits say where clutter stands and what is in view
+        _, first = _cast(verts, faces, np.column_stack([np.zeros_like(rays), rays]))
+        left = _pick_left_out(owner, first, names, rng) if leave_out else None
+        if left is not None:
+            verts, faces, owner, albedo, names = _soup(scene, origin, skip=left, colour=colour)
+        verts, faces, albedo, placed = _add_clutter(verts, faces, albedo, rays, first, clutter, rng)
     elevation, azimuth = rng.uniform(np.radians(35), np.radians(65)), rng.uniform(0, 2 * np.pi)
     sun = np.array([np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth), np.sin(elevation)])
     rc, hit = _cast(verts, faces, np.column_stack([np.zeros_like(rays), rays]))
     radiance, _ = _shade(hit, rays, albedo, rc, rng, sun, albedo_noise, origin)
-    image = radiance.reshape(camera.height, f, camera.width, f).mean(axis=(1, 3))
+    image = radiance.reshape(camera.height, f, camera.width, f, *radiance.shape[1:]).mean(axis=(1, 3))
     image = image / max(np.percentile(image, 99.5), 1e-6) * 0.8
     image = np.clip(image, 0, 1) ** (1 / 2.2)
     if blur > 0:
@@ -170,8 +184,9 @@ def _pick_left_out(owner, hit, names, rng):
     return names[int(rng.choice(candidates))] if len(candidates) else None
 
 
-def _add_clutter(verts, faces, albedo, rays, t, hit, count, rng):
-    """Boxes on floor spots (upward normals) seen in the photo."""
+def _add_clutter(verts, faces, albedo, rays, hit, count, rng):
+    """Boxes on floor spots (upward normals) seen in the photo; grey, also in a colour photo."""
+    t = hit["t_hit"].numpy()
     n = hit["primitive_normals"].numpy()
     floor = np.flatnonzero(
         np.isfinite(t) & (np.abs(n[:, 2]) > 0.95) & (t < np.nanpercentile(np.where(np.isfinite(t), t, np.nan), 60))
@@ -186,7 +201,7 @@ def _add_clutter(verts, faces, albedo, rays, t, hit, count, rng):
             v, fc = _box(point, size, rng.uniform(0, np.pi))
             boxes_v.append(v.astype(np.float32))
             boxes_f.append(fc + base)
-            boxes_a.append(np.full(12, rng.uniform(0.1, 0.8), np.float32))
+            boxes_a.append(np.full((12, *albedo.shape[1:]), rng.uniform(0.1, 0.8), np.float32))
             base += 8
             placed += 1
         verts, faces, albedo = np.concatenate(boxes_v), np.concatenate(boxes_f), np.concatenate(boxes_a)
