@@ -69,10 +69,13 @@ Method
    (within :data:`CONSENSUS_REACH_PX`): a pose a few px off shifts every outline alike, which is
    no move. Measured (sample cell, 640x480, the camera turned 2 / 4 px): conveyor, overview and
    robot views 3, 5, 3 / about 20 false suspects each before, 0, 0, 0 / 1, 2, 0 after.
-6. **Unexplained structure**: photo edge pixels farther than ``3 * tolerance`` from every CAD
-   edge and not a contact line along a resting part's foot (its contact shadow or reflection,
-   :mod:`~mrcheck.apps.discrepancies.contact`), closed morphologically and grouped into
-   connected regions; a region with at least
+6. **Unexplained structure** (:mod:`~mrcheck.apps.discrepancies.structure`): photo edge pixels
+   farther than ``3 * tolerance`` from every CAD edge, not a contact line along a resting part's
+   foot (its contact shadow or reflection, :mod:`~mrcheck.apps.discrepancies.contact`), not
+   weaker than the texture of the plain floor (:func:`~mrcheck.apps.discrepancies.edges.texture_edges`:
+   Canny's noise rule with the floor's texture as the noise) and not on the edge of a cast shadow
+   of the planned scene under the sun its shadows show (:mod:`~mrcheck.apps.discrepancies.shadows`),
+   closed morphologically and grouped into connected regions; a region with at least
    :data:`MIN_REGION_PIXELS` edge pixels is an "extra" suggestion (an added object, clutter).
    A group wholly inside CAD faces above floor level (``PlannedView.ground``,
    :func:`~mrcheck.apps.discrepancies.planned.ground_pixels`) is texture -- print, labels --
@@ -103,9 +106,12 @@ from mrcheck.apps.discrepancies.edges import (
     outline_normals,
     photo_edges,
     shifted_support,
+    texture_edges,
 )
 from mrcheck.apps.discrepancies.light import estimate_light, relit
 from mrcheck.apps.discrepancies.planned import PlannedView, planned_view
+from mrcheck.apps.discrepancies.shadows import fit_sun, shadow_edges
+from mrcheck.apps.discrepancies.structure import Region, plain_ground, unexplained_regions
 from mrcheck.apps.discrepancies.thresholds import (
     CONSENSUS_REACH_PX,
     DISCRIMINATIVE_FLOOR,
@@ -156,14 +162,6 @@ class Suspect:
         what = " ".join(v for v in (self.element["ifc_class"], self.element["name"]) if v)
         text = ", ".join(v for v in (what, self.element["storey"]) if v)
         return f" ({text})" if text else ""
-
-
-@dataclass
-class Region:
-    """Photo structure no CAD edge explains (an added object, clutter)."""
-
-    bbox: list[int]  # [x0, y0, x1, y1]
-    edge_pixels: int
 
 
 @dataclass
@@ -345,30 +343,6 @@ def _suspect(
     )
 
 
-def _regions(edges: np.ndarray, planned: PlannedView, tol: float) -> tuple[list[Region], np.ndarray]:
-    """Unexplained photo structure: photo edges far from every CAD edge, grouped into regions;
-    returns the regions (largest first) and the unexplained edge pixels. A group wholly inside
-    CAD faces above floor level is texture (print, labels), not structure: an added object
-    stands on the floor, so its edges reach down to the floor's pixels (``planned.ground``)."""
-    dist_to_cad = cv2.distanceTransform((~planned.cad).astype(np.uint8), cv2.DIST_L2, 5)
-    unexplained = edges & (dist_to_cad > 3.0 * tol)
-    k = max(3, int(round(3 * tol)) | 1)
-    grouped = cv2.morphologyEx(unexplained.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((k, k), np.uint8))
-    count, comp, stats, _ = cv2.connectedComponentsWithStats(grouped, connectivity=8)
-    on_face = planned.ids >= 0 if planned.ground is None else (planned.ids >= 0) & ~planned.ground
-    counts = np.bincount(comp[unexplained], minlength=count)
-    texture = counts == np.bincount(comp[unexplained & on_face], minlength=count)
-    texture[0] = False
-    unexplained &= ~texture[comp]  # texture is not shown as unexplained either
-    regions = []
-    for c in np.nonzero((counts >= MIN_REGION_PIXELS) & ~texture)[0]:
-        pixels = int(counts[c])
-        x, y, bw, bh = (int(v) for v in stats[c, :4])
-        regions.append(Region([x, y, x + bw - 1, y + bh - 1], pixels))
-    regions.sort(key=lambda r: -r.edge_pixels)
-    return regions, unexplained
-
-
 def _on_part(planned: PlannedView, s: Suspect) -> tuple[float, float]:
     """The pixel of the suspect's own planned image nearest to its centre: the centre of an
     unsupported outline may lie on the floor or a wall next to it, and a marker there would
@@ -439,7 +413,8 @@ def detect(
     threshold = SCORE_THRESHOLD if threshold is None else float(threshold)
     planned = planned_view(scene, camera, renderer) if planned is None else planned
     high = edge_threshold(photo)  # Canny's threshold of the photo, for its edges and the expected outline's
-    sup = replace(_support(photo, planned.cad, tol, high), expected=expected_outline(planned, photo, tol, high))
+    light = photo_light(planned, photo)
+    sup = replace(_support(photo, planned.cad, tol, high), expected=expected_outline(planned, photo, tol, high, light))
     owner = planned.owner
     first = [
         s
@@ -457,13 +432,29 @@ def detect(
     suspects.sort(key=lambda s: (-s.score, s.id))
     _add_elements(scene, suspects)
     contact, support = contact_lines(scene, camera, planned, sup.edges, sup.angle, tol)
-    regions, unexplained = _regions(sup.edges & ~contact, planned, tol)
+    texture = texture_edges(photo, sup.edges, plain_ground(planned, tol))
+    sun = fit_sun(planned.caster, camera, planned, photo)
+    shadow = shadow_edges(planned.caster, camera, planned.depth, planned.normals, sun)
+    regions, unexplained = unexplained_regions(sup.edges & ~contact & ~texture & ~shadow, planned, tol)
     regions = [r for r in regions if object_sized(r.bbox, camera, support)]
     markers, arrays = _markers(suspects, regions, planned), (planned, sup.supported, unexplained)
     return Detection(tol, threshold, suspects, regions, markers, *arrays, pose_sigma_px=pose_sigma_px)
 
 
-def expected_outline(planned: PlannedView, photo: np.ndarray, tol: float, high: float | None = None) -> np.ndarray:
+NOT_FITTED = object()  # expected_outline's light: fit it from the photo
+
+
+def photo_light(planned: PlannedView, photo: np.ndarray):
+    """The photo's light fitted over the planned surfaces (:func:`.light.estimate_light`), None
+    when it cannot be fitted (no shaded planned view, too few surface pixels)."""
+    if planned.shaded is None or planned.normals is None:
+        return None
+    return estimate_light(photo, planned.albedo, planned.normals, planned.ids, planned.cad)
+
+
+def expected_outline(
+    planned: PlannedView, photo: np.ndarray, tol: float, high: float | None = None, light=NOT_FITTED
+) -> np.ndarray:
     """(H, W) bool: the CAD outline pixels the photo can be expected to show (issue 22) -- the
     edges of the planned view relit by the photo's own light (:mod:`~mrcheck.apps.discrepancies.light`;
     the headlight render when no light can be fitted), found at :data:`EXPECTED_CONTRAST` times
@@ -473,8 +464,8 @@ def expected_outline(planned: PlannedView, photo: np.ndarray, tol: float, high: 
     lacks it."""
     predicted = planned.render
     shaded = planned.shaded
-    light = None if shaded is None else estimate_light(photo, planned.albedo, planned.normals, planned.ids, planned.cad)
-    if light is not None:
+    light = photo_light(planned, photo) if light is NOT_FITTED else light
+    if light is not None and shaded is not None:
         predicted = shaded.to_photo(relit(shaded.render, shaded.normals, shaded.light, light))
     high = edge_threshold(photo) if high is None else high
     return _support(predicted, planned.cad, tol, EXPECTED_CONTRAST * high).supported

@@ -53,6 +53,19 @@ def _threshold(photo: np.ndarray, gx: np.ndarray, gy: np.ndarray) -> float:
     return max(FLOOR_FACTOR * floor, 20.0)
 
 
+def texture_edges(photo: np.ndarray, edges: np.ndarray, plain: np.ndarray) -> np.ndarray:
+    """(H, W) bool: the ``edges`` no stronger than the texture of the ``plain`` pixels (planned
+    floor away from every CAD edge): their gradient magnitude is below :data:`FLOOR_FACTOR`
+    times the plain pixels' median, the rule Canny's threshold applies to the noise
+    (:func:`edge_threshold`), with the floor's texture as the noise. Stains, wear and the
+    texture of a concrete floor make such edges; an object standing there has its own outline,
+    far stronger. No plain pixels: none."""
+    if not np.any(plain):
+        return np.zeros_like(edges)
+    magnitude = np.hypot(*_blurred_gradient(photo)[1:])
+    return edges & (magnitude < FLOOR_FACTOR * float(np.median(magnitude[plain])))
+
+
 def _blurred_gradient(photo: np.ndarray):
     """(grey after a light Gaussian blur, its Sobel x and y gradients)."""
     grey = cv2.GaussianBlur(cv2.cvtColor(photo, cv2.COLOR_RGB2GRAY), (0, 0), 1.0)

@@ -104,6 +104,7 @@ class PlannedView:
     albedo: np.ndarray | None = None  # (H, W, 3) float32 linear part colour (the render's background elsewhere)
     normals: np.ndarray | None = None  # (H, W, 3) float32 unit camera-space normals (OpenCV axes; 0: none)
     shaded: Shaded | None = None  # the render before the lens resampling, to relight
+    caster: object = None  # the scene's SceneCaster around the camera (mrcheck.scene.raycast): cast shadows
 
 
 def discriminative_outlines(
@@ -252,6 +253,7 @@ def planned_view(scene: Scene, camera: Camera, renderer=None) -> PlannedView:
         _albedo(scene, ids, labels),
         _unit(distort_to_photo(frame.normals, maps, offset, shape)),
         shaded,
+        caster,
     )
 
 
