@@ -720,9 +720,11 @@ needs_chromium = pytest.mark.skipif(
 )
 
 
-def open_browser(pw, tmp_path):
-    """Headless Debian chromium driven by Playwright (a persistent profile in ``tmp_path``)."""
+def open_browser(pw, tmp_path, extra_args=()):
+    """Headless Debian chromium driven by Playwright (a persistent profile in ``tmp_path``),
+    with ``extra_args`` on its command line."""
     args = [
+        *extra_args,
         "--headless",
         "--no-sandbox",
         "--disable-gpu",

@@ -7,8 +7,9 @@ An export folder::
                       render_phong.png, render_MODE_iI.png, overlay_phong_aA.png, overlay_MODE_iI_aA.png
 
 (numbers as ``{x:g}``: ``i1``, ``i0.5``, ``a0``). The review keeps ``review.sqlite`` and its render
-cache ``.review-cache/`` in the reviewed folder, and names the downloads of its report and CSV
-``review.html`` and ``review.csv``.
+cache ``.review-cache/`` in the reviewed folder, with ``--self-signed`` its certificates in
+``review-tls/`` beside them, and names the downloads of its report and CSV ``review.html`` and
+``review.csv``.
 """
 
 from __future__ import annotations
@@ -27,6 +28,10 @@ SHEET = "sheet.png"  # a shot folder's study sheet
 
 REVIEW_DATABASE = "review.sqlite"  # the review's markers, in the reviewed folder (or --db)
 REVIEW_CACHE = ".review-cache"  # the review's render cache, beside its database
+REVIEW_TLS = "review-tls"  # --self-signed: the review's certificates, beside its database
+TLS_CA = "ca.pem"  # in REVIEW_TLS: the certificate a tablet trusts, which signed TLS_CERT
+TLS_CERT = "cert.pem"  # in REVIEW_TLS: the server's certificate
+TLS_KEY = "key.pem"  # in REVIEW_TLS: its private key (mode 0600)
 REVIEW_REPORT = "review.html"  # the review's HTML report, as downloaded
 REVIEW_CSV = "review.csv"  # the review's markers, as downloaded
 

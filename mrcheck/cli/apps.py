@@ -175,6 +175,19 @@ class _ExportBar:
 )
 @AUTHOR
 @accumulate_option(default=defaults.REST_ACCUMULATE, what="Navigate, a view at rest")
+@click.option(
+    "--tls-cert",
+    metavar="CERT.pem",
+    help="Serve HTTPS with this certificate (PEM; a chain, the server's first), with --tls-key. A tablet's "
+    "browser gives the page its camera only over HTTPS.",
+)
+@click.option("--tls-key", metavar="KEY.pem", help="The private key of --tls-cert (PEM, without a passphrase).")
+@click.option(
+    "--self-signed",
+    is_flag=True,
+    help="Serve HTTPS with a certificate made for this machine, kept in review-tls/ beside the database and "
+    "reused while it is valid; prints the file to trust on the tablet and how.",
+)
 def review(
     target,
     shots_dir,
@@ -189,6 +202,9 @@ def review(
     antialias,
     author,
     accumulate,
+    tls_cert,
+    tls_key,
+    self_signed,
 ):
     """Review shots in the browser and mark discrepancies.
 
@@ -196,13 +212,16 @@ def review(
     the CAD part under the cursor; exports an HTML report and CSV. "Add photo" registers a new
     photo by clicking 4+ points on it and on the CAD, and saves it as a shot. "Navigate" moves
     through the CAD from a shot's pose (the server renders every view; --accumulate: the AO frames
-    of a view at rest).
+    of a view at rest). --self-signed or --tls-cert serve it over HTTPS, which a tablet's camera
+    needs.
 
     \b
     Example:
       mrcheck review out --suggestions p1=suspects/suspects.json
+      mrcheck review out --host 0.0.0.0 --self-signed
     """
     from mrcheck.apps.review.server import start
+    from mrcheck.apps.review.tls import TlsOptions
 
     with console():  # skipped shots and registration warnings at start-up, internal errors while serving
         server = start(
@@ -219,6 +238,7 @@ def review(
             max_pixels=max_pixels,
             author=author,
             accumulate=accumulate,
+            tls=TlsOptions(tls_cert, tls_key, self_signed),
         )
         try:
             for line in server.messages():

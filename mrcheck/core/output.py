@@ -143,7 +143,7 @@ def _current_umask() -> int:
 _UMASK = _current_umask()
 
 
-def _atomic_write(path: Path, write) -> None:
+def _atomic_write(path: Path, write, mode: int | None = None) -> None:
     path = Path(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -153,7 +153,7 @@ def _atomic_write(path: Path, write) -> None:
     try:
         with os.fdopen(fd, "wb") as handle:
             write(handle)
-        replace_output(tmp, path)
+        replace_output(tmp, path, mode)
     except BaseException as exc:
         Path(tmp).unlink(missing_ok=True)
         if isinstance(exc, OSError):
@@ -161,19 +161,21 @@ def _atomic_write(path: Path, write) -> None:
         raise
 
 
-def replace_output(tmp, path) -> Path:
+def replace_output(tmp, path, mode: int | None = None) -> Path:
     """Move the finished temporary file ``tmp`` (made with ``tempfile.mkstemp`` beside ``path``)
     into place, with the permissions a new file would get (mkstemp makes 0600: a colleague could
-    not open a video or sheet written into a shared project folder)."""
-    os.chmod(tmp, 0o666 & ~_UMASK)
+    not open a video or sheet written into a shared project folder), or ``mode`` (0o600: a
+    private key, set before the rename, so that it is never readable by others)."""
+    os.chmod(tmp, 0o666 & ~_UMASK if mode is None else mode)
     os.replace(tmp, path)
     return Path(path)
 
 
-def write_bytes(path, data: bytes) -> Path:
-    """Write ``data`` to ``path`` atomically (temp file + rename)."""
+def write_bytes(path, data: bytes, mode: int | None = None) -> Path:
+    """Write ``data`` to ``path`` atomically (temp file + rename); ``mode``: its permissions
+    (None: a new file's, after the umask)."""
     path = Path(path)
-    _atomic_write(path, lambda handle: handle.write(data))
+    _atomic_write(path, lambda handle: handle.write(data), mode)
     return path
 
 

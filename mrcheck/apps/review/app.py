@@ -17,7 +17,7 @@ from pathlib import Path
 from fastapi import FastAPI
 
 from mrcheck.apps.bcf import default_author
-from mrcheck.apps.names import REVIEW_CACHE, REVIEW_DATABASE
+from mrcheck.apps.names import REVIEW_CACHE, REVIEW_DATABASE, REVIEW_TLS
 from mrcheck.apps.review import middleware
 from mrcheck.apps.review.addphoto import AddPhoto
 from mrcheck.apps.review.guard import MAX_BODY, MAX_UPLOAD
@@ -36,6 +36,11 @@ def database_path(source, db_path=None) -> Path:
 def cache_path(db_path: Path) -> Path:
     """The render cache: beside the database."""
     return Path(db_path).parent / REVIEW_CACHE
+
+
+def tls_path(db_path: Path) -> Path:
+    """The certificates of ``--self-signed``: beside the database, like the cache."""
+    return Path(db_path).parent / REVIEW_TLS
 
 
 def create_app(
@@ -86,4 +91,4 @@ def create_app(
     return app
 
 
-__all__ = ["create_app", "database_path", "cache_path"]
+__all__ = ["create_app", "database_path", "cache_path", "tls_path"]

@@ -81,10 +81,15 @@ def host_names(bound: str) -> Hosts:
     own = _host_name(bound)
     if is_loopback(bound):
         return Hosts(frozenset({own, *LOOPBACK_NAMES}))
-    machine = {n.lower().rstrip(".") for n in (socket.gethostname(), socket.getfqdn()) if n}
+    machine = machine_names()
     if bound in ALL_INTERFACES:
         return Hosts(frozenset({*LOOPBACK_NAMES, *machine}), any_address=True)
     return Hosts(frozenset({own, *machine}))
+
+
+def machine_names() -> set[str]:
+    """This machine's name and full name, lower case."""
+    return {n.lower().rstrip(".") for n in (socket.gethostname(), socket.getfqdn()) if n}
 
 
 def _host_name(host: str) -> str:

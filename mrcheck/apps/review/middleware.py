@@ -67,7 +67,9 @@ def _token_check(app: FastAPI, token: str) -> None:
             return JSONResponse({"error": "a valid token is required (?token=...)"}, status_code=401)
         response = await call_next(request)
         if request.query_params.get("token"):
-            response.set_cookie(COOKIE, token, httponly=True, samesite="strict")
+            # Secure over https: the browser never sends it over plain http (to port 80 of this name, say)
+            secure = request.url.scheme == "https"
+            response.set_cookie(COOKIE, token, httponly=True, samesite="strict", secure=secure)
         return response
 
 

@@ -11,7 +11,8 @@ import socket
 from dataclasses import dataclass
 from pathlib import Path
 
-from mrcheck.apps.review.app import cache_path, create_app, database_path
+from mrcheck.apps.names import TLS_CA, TLS_CERT, TLS_KEY
+from mrcheck.apps.review.app import cache_path, create_app, database_path, tls_path
 from mrcheck.apps.review.guard import (
     ALL_INTERFACES,
     MAX_BODY,
@@ -20,6 +21,8 @@ from mrcheck.apps.review.guard import (
     format_size,
     is_loopback,
 )
+from mrcheck.apps.review.selfsigned import self_signed_tls, server_names
+from mrcheck.apps.review.tls import Tls, TlsOptions, given_tls
 from mrcheck.apps.review.viewsession import DEFAULT_ACCUMULATE
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.images import parse_pixels
@@ -58,6 +61,7 @@ class ReviewServer:
     sock: socket.socket  # bound and listening
     url: str  # what the planner opens (with the token, if any)
     suggested: bool  # --suggestions were given
+    tls: Tls | None = None  # HTTPS with this certificate (None: plain http)
 
     def messages(self) -> list:
         """What the server says when it starts: what is reviewed, the database's other reviews,
@@ -76,15 +80,22 @@ class ReviewServer:
                 f"suggestions: {sum(added.values())} new marker(s) on {len(added)} shot(s) (category "
                 "'suggested'; each part or region is imported once per review)"
             )
+        lines += self.tls.lines() if self.tls else []
         lines.append(f"open {self.url}")
         return lines
+
+    def config(self):
+        """uvicorn's configuration of this server (HTTPS with :attr:`tls`)."""
+        import uvicorn
+
+        return uvicorn.Config(self.app, log_level="warning", **(self.tls.uvicorn_options() if self.tls else {}))
 
     def run(self) -> None:
         """Serve until interrupted (Ctrl-C), then close the socket."""
         import uvicorn
 
         try:
-            uvicorn.Server(uvicorn.Config(self.app, log_level="warning")).run(sockets=[self.sock])
+            uvicorn.Server(self.config()).run(sockets=[self.sock])
         except KeyboardInterrupt:  # uvicorn re-raises the Ctrl-C it shut down on: the normal way to stop
             pass
         finally:
@@ -119,15 +130,19 @@ def start(
     max_pixels: int | None = None,
     author: str | None = None,
     accumulate: int = DEFAULT_ACCUMULATE,
+    tls: TlsOptions = TlsOptions(),
 ) -> ReviewServer:
     """Everything but serving: the source opened and checked, the port bound, the app made (its
-    database written). A bad input is a :class:`MrcheckError` before the port is bound. ``max_pixels``:
-    the largest photo read (None: :data:`.source.MAX_PIXELS`); ``author``: of the BCF topics and
-    comments (None: the OS user); ``accumulate``: the AO frames of a navigated view at rest."""
+    database written), the certificate of ``--self-signed`` kept or made. A bad input is a
+    :class:`MrcheckError` before the port is bound. ``max_pixels``: the largest photo read
+    (None: :data:`.source.MAX_PIXELS`); ``author``: of the BCF topics and comments (None: the OS
+    user); ``accumulate``: the AO frames of a navigated view at rest; ``tls``: HTTPS."""
     from mrcheck.apps.review.source import open_source
     from mrcheck.apps.review.suggestions import load_suggestions, suggestions_file
 
     _check_options(token, db, max_body)
+    tls.check()
+    served = given_tls(tls)  # --tls-cert and --tls-key, as uvicorn will load them
     if not 1 <= accumulate <= MAX_ACCUMULATE:
         raise MrcheckError(f"--accumulate must be 1 to {MAX_ACCUMULATE} frames, got {accumulate}")
     source = open_source(target, shots_dir, **({} if max_pixels is None else {"max_pixels": max_pixels}))
@@ -135,7 +150,8 @@ def start(
     database = database_path(source, db)
     # SQLite writes the database and its -wal, -shm and -journal files; the cache prunes its own folder
     check_not_inputs(
-        [Path(f"{database}{suffix}") for suffix in ("", "-wal", "-shm", "-journal")],
+        [Path(f"{database}{suffix}") for suffix in ("", "-wal", "-shm", "-journal")]
+        + ([tls_path(database) / name for name in (TLS_CA, TLS_CERT, TLS_KEY)] if tls.self_signed else []),
         [*source.inputs(), ("--suggestions", [suggestions_file(s) for s in suggestions])],
         folders=[cache_path(database)],
     )
@@ -158,8 +174,16 @@ def start(
     except BaseException:
         sock.close()
         raise
-    url = f"http://{_url_host(host)}:{port}/" + (f"?token={token}" if token else "")
-    return ReviewServer(app, sock, url, bool(suggested))
+    url = f"{'https' if tls.wanted else 'http'}://{_url_host(host)}:{port}/" + (f"?token={token}" if token else "")
+    server = ReviewServer(app, sock, url, bool(suggested), served)
+    if tls.self_signed:  # after the database, whose problems (a --db in a missing folder) come first
+        try:
+            server.tls = self_signed_tls(tls_path(database), server_names(host))
+        except BaseException:
+            server.close()
+            app.state.renders.close()
+            raise
+    return server
 
 
 __all__ = ["start", "listen", "parse_pixels", "ReviewServer"]
