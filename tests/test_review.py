@@ -744,6 +744,17 @@ def open_browser(pw, tmp_path, extra_args=()):
     )
 
 
+def ready_page(browser, url):
+    """A page of ``browser`` at ``url``, the review started (``body[data-ready]``); and the list its
+    uncaught script errors are collected in."""
+    page = browser.new_page()
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.goto(url)
+    page.wait_for_selector("body[data-ready='1']", timeout=60000)
+    return page, errors
+
+
 @contextlib.contextmanager
 def served_app(app):
     """``app`` served by uvicorn in a thread of this process; yields its URL."""

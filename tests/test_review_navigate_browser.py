@@ -14,7 +14,7 @@ from mrcheck.apps.review.source import open_source  # noqa: E402
 from mrcheck.core.resources import sample_scene_path  # noqa: E402
 
 from .mr_helpers import make_camera, sample_shot  # noqa: E402
-from .test_review import needs_chromium, open_browser, served_app  # noqa: E402
+from .test_review import needs_chromium, open_browser, ready_page, served_app  # noqa: E402
 
 EYE, TARGET = np.array([-11.4, -6.2, 1.7]), np.array([-5.0, -4.2, 0.9])
 # two floor points in view of the shot, 1.5 m apart
@@ -57,11 +57,7 @@ def test_orbit_walk_back_to_the_shot_and_measure(shot, tmp_path, record_property
     app = create_app(open_source(sample_scene_path(), root), db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "c")
     with served_app(app) as url, sync_api.sync_playwright() as pw:
         browser = open_browser(pw, tmp_path)
-        page = browser.new_page()
-        errors = []
-        page.on("pageerror", lambda e: errors.append(str(e)))
-        page.goto(url)
-        page.wait_for_selector("body[data-ready='1']", timeout=60000)
+        page, errors = ready_page(browser, url)
         page.click("#navigate")
         seen = _wait_view(page, "rest", 0)
         assert float(page.evaluate("document.body.dataset.away")) == 0.0

@@ -94,7 +94,7 @@ TRACK_OPTIONS = EdgeOptions(
 # the visible edges found again after 3 px of steps (the schedule TRACK_OPTIONS was measured
 # against): the frame before's render is a frame's motion old, and where much comes into view or
 # goes out of it (the 60-frame `robot_cell` walk, frames 38 and 41) the support it gives falls below
-# LOST_SUPPORT; not after a lost frame (see _track_frame)
+# LOST_SUPPORT; not after a lost frame (see track_frame)
 RETRY_OPTIONS = replace(TRACK_OPTIONS, iterations=6, rerender_px=3.0)
 # the first frame: 1500 samples instead of register's 3000 (the generated cell from 15-40 px off,
 # seeds 0-9 at 640x480: 10 of 10 within 1 px, 0.06-0.37 px, 0.70 s per fit median, against
@@ -335,7 +335,7 @@ class _Loop:
             self._maps_job = ThreadPoolExecutor(max_workers=1)
             self._maps = self._maps_job.submit(distortion_map, self.camera)
             self.writer = BackgroundVideo(tmp_video, rgb.shape[1], rgb.shape[0], rate)
-        pose = _track_frame(
+        pose = track_frame(
             self.result.frames,
             self.scene,
             self.camera,
@@ -396,10 +396,19 @@ class _Loop:
             self.writer = None
 
 
-def _track_frame(
-    previous, scene, camera, photo: FramePhoto, initial, renderer, edges, index, candidates=None, seed=None
+def track_frame(
+    previous, scene, camera, photo: FramePhoto, initial, renderer, edges, index, candidates=None, seed=None, timed=False
 ) -> FramePose:
-    start = camera.with_pose(initial.R, initial.t) if not previous else predicted(previous)
+    """Frame ``index``'s pose from the frames before (``previous``: their :class:`FramePose`;
+    ``initial``: the start pose of frame 0): the snap from the constant-velocity prediction, the
+    retry and the relocalisation of the module docstring. ``candidates``: the edges seen so far
+    (:class:`~mrcheck.mr.edges.candidates.CandidateEdges`, not for frame 0); ``seed``: the frame
+    before's overlay render (:class:`~mrcheck.mr.edges.VisibilityRender`) or None; ``timed``:
+    predict by the frames' times (``photo.time_s``: frames at irregular intervals). What the
+    review's live session runs on every frame from the browser, too."""
+    start = (
+        camera.with_pose(initial.R, initial.t) if not previous else predicted(previous, photo.time_s if timed else None)
+    )
     began = time.perf_counter()
     pose, fit, reason = snap_frame(
         scene, camera, photo.grey, start, renderer, edges, frame_options(index), candidates, seed, pyramid=photo.pyramid
@@ -465,6 +474,8 @@ def track_command(video, scene, intrinsics, initial, output, poses=None, alpha=0
 
 __all__ = [
     "FramePose",
+    "track_frame",
+    "frame_options",
     "TrackResult",
     "predicted",
     "snap_frame",

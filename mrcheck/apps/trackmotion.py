@@ -17,12 +17,16 @@ from mrcheck.core.camera import Camera
 # come back; not sooner: a frame or two lost on a walk (a blank frame) is caught by the prediction
 RELOCALISE_AFTER = 3
 RELOCALISE_EVERY = 5
+MAX_STRETCH = 4.0  # a timed prediction moves on at most this many times the last frame-to-frame motion
 
 
-def predicted(previous: list) -> Camera:
+def predicted(previous: list, time_s: float | None = None) -> Camera:
     """Constant velocity: the last pose moved once more by the motion between the last two; a
     frame found again after a lost stretch moves by the mean motion per frame since the last good
-    frame before the stretch (the lost frames' poses are guesses, not motion)."""
+    frame before the stretch (the lost frames' poses are guesses, not motion). ``time_s``: the
+    new frame's time, for frames that come at irregular intervals (a live camera's, of which the
+    server takes what it has time for): the motion is then scaled by the time since the last
+    frame over the time between the last two (at most :data:`MAX_STRETCH`)."""
     last = previous[-1].camera
     if len(previous) < 2:
         return last
@@ -32,9 +36,20 @@ def predicted(previous: list) -> Camera:
             return last
         return _mean_motion(good[-1], previous[-1])
     before = previous[-2].camera
+    gap = None if time_s is None else previous[-1].time_s - previous[-2].time_s
+    if gap is not None and gap > 0:
+        return _moved(before, last, min(max((time_s - previous[-1].time_s) / gap, 0.0), MAX_STRETCH))
     dR = last.R @ before.R.T  # X_cam' = dR X_cam + dt between the two frames
     dt = last.t - dR @ before.t
     return last.with_pose(dR @ last.R, dR @ last.t + dt)
+
+
+def _moved(a: Camera, b: Camera, share: float) -> Camera:
+    """``b``'s pose moved on by ``share`` times the motion from ``a`` to it (rotation angle and
+    camera centre travel scaled)."""
+    dR = cv2.Rodrigues(cv2.Rodrigues(b.R @ a.R.T)[0] * share)[0]
+    R = dR @ b.R
+    return b.with_pose(R, -R @ (b.center + share * (b.center - a.center)))
 
 
 def _mean_motion(first, last) -> Camera:
@@ -74,4 +89,12 @@ def last_good(previous: list, initial: Camera) -> Camera:
     return initial
 
 
-__all__ = ["RELOCALISE_AFTER", "RELOCALISE_EVERY", "predicted", "lost_run", "relocalise_now", "last_good"]
+__all__ = [
+    "MAX_STRETCH",
+    "RELOCALISE_AFTER",
+    "RELOCALISE_EVERY",
+    "predicted",
+    "lost_run",
+    "relocalise_now",
+    "last_good",
+]

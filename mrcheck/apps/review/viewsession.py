@@ -23,7 +23,6 @@ GL context.
 
 from __future__ import annotations
 
-import asyncio
 import json
 import time
 from dataclasses import dataclass
@@ -31,6 +30,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from mrcheck.apps.review.newest import NewestOnly
 from mrcheck.apps.review.renders import INTENSITIES
 from mrcheck.core.camera import Camera
 from mrcheck.mr.lens import distort_to_photo, distortion_map, padded_camera
@@ -41,7 +41,6 @@ QUALITIES = ("move", "rest")
 MOVE_SCALE, MOVE_SAMPLES = 0.5, 8
 DEFAULT_ACCUMULATE = REST_ACCUMULATE  # AO frames of a frame at rest (--accumulate)
 JPEG_QUALITY = 88
-MAX_MESSAGE = 4096  # bytes of a request: a camera and a few names
 
 
 @dataclass(frozen=True)
@@ -148,55 +147,15 @@ class ViewRenderer:
         return header, jpeg.tobytes()
 
 
-class ViewSession:
-    """One page's session: reads requests as they come, renders the newest (module docstring)."""
+def view_session(renderer: ViewRenderer, shots) -> NewestOnly:
+    """One page's render session (module docstring): its requests parsed, the newest rendered."""
 
-    def __init__(self, renderer: ViewRenderer, shots):
-        self.renderer, self.shots = renderer, shots
-        self.latest: ViewRequest | None = None
-        self.wake = asyncio.Event()
-        self.closed = False
+    def parse(message: dict) -> ViewRequest:
+        if "text" not in message:
+            raise ValueError("a request is a JSON text message")
+        return parse_request(_json(message["text"]), shots)
 
-    async def serve(self, websocket) -> None:
-        reader = asyncio.create_task(self._read(websocket))
-        loop = asyncio.get_running_loop()
-        try:
-            while not self.closed:
-                await self.wake.wait()
-                self.wake.clear()
-                request, self.latest = self.latest, None
-                if request is None:
-                    continue
-                try:
-                    header, jpeg = await loop.run_in_executor(None, self.renderer.frame, request)
-                except Exception as exc:  # noqa: BLE001 -- a frame that fails is answered, the session goes on
-                    await websocket.send_json({"type": "error", "id": request.id, "error": str(exc)})
-                    continue
-                await websocket.send_json(header)
-                await websocket.send_bytes(jpeg)
-        finally:
-            reader.cancel()
-
-    async def _read(self, websocket) -> None:
-        """Every message: the newest valid request replaces the one waiting; a bad one is answered."""
-        from starlette.websockets import WebSocketDisconnect
-
-        try:
-            while True:
-                text = await websocket.receive_text()
-                try:
-                    if len(text) > MAX_MESSAGE:
-                        raise ValueError(f"a request is at most {MAX_MESSAGE} bytes")
-                    self.latest = parse_request(_json(text), self.shots)
-                except ValueError as exc:
-                    await websocket.send_json({"type": "error", "error": str(exc)})
-                    continue
-                self.wake.set()
-        except (WebSocketDisconnect, RuntimeError):
-            pass
-        finally:
-            self.closed = True
-            self.wake.set()
+    return NewestOnly(parse, renderer.frame)
 
 
 def _json(text: str):
@@ -206,4 +165,4 @@ def _json(text: str):
         raise ValueError(f"not JSON: {exc.msg}") from None
 
 
-__all__ = ["ViewRequest", "ViewRenderer", "ViewSession", "parse_request", "QUALITIES", "DEFAULT_ACCUMULATE"]
+__all__ = ["ViewRequest", "ViewRenderer", "view_session", "parse_request", "QUALITIES", "DEFAULT_ACCUMULATE"]

@@ -12,6 +12,7 @@ STATIC = {
     "app.js": "text/javascript",
     "addphoto.js": "text/javascript",
     "navigate.js": "text/javascript",
+    "live.js": "text/javascript",
     "style.css": "text/css",
 }
 

@@ -1,5 +1,6 @@
 """The render session (:mod:`..viewsession`): the WebSocket a page moves its camera through, and
-the CAD point under a pixel of any camera (orbit pivot, measuring, the part's name)."""
+the CAD point under a pixel of any camera (orbit pivot, measuring, the part's name); the live
+session (:mod:`..livesession`): a camera's video frames tracked."""
 
 from __future__ import annotations
 
@@ -9,9 +10,10 @@ from fastapi import APIRouter, Depends, HTTPException, WebSocket
 from pydantic import BaseModel, Field
 
 from mrcheck.apps.review.crosssite import JSON, requires
+from mrcheck.apps.review.livesession import live_session
 from mrcheck.apps.review.middleware import token_allows
 from mrcheck.apps.review.state import Review, check_pixel, current
-from mrcheck.apps.review.viewsession import ViewSession, parse_request
+from mrcheck.apps.review.viewsession import parse_request, view_session
 
 router = APIRouter(prefix="/api")
 Current = Annotated[Review, Depends(current)]
@@ -20,12 +22,28 @@ REFUSED = 1008  # WebSocket close code "policy violation": the token is missing 
 
 @router.websocket("/view")
 async def view(websocket: WebSocket):
+    """The render session (:mod:`..viewsession`)."""
+    review = await _accepted(websocket)
+    if review is not None:
+        await view_session(review.view_renderer(), review.source.shots).serve(websocket)
+
+
+@router.websocket("/live")
+async def live(websocket: WebSocket):
+    """The live check's frames, tracked (:mod:`..livesession`)."""
+    review = await _accepted(websocket)
+    if review is not None:
+        await live_session(review.source, review.renders).serve(websocket)
+
+
+async def _accepted(websocket: WebSocket) -> Review | None:
+    """The review, once the handshake is accepted; None when the token is missing or wrong
+    (closed with :data:`REFUSED`). The Host and other-site checks came first (.guard)."""
     if not token_allows(websocket.app, websocket.query_params.get("token"), websocket.cookies):
         await websocket.close(code=REFUSED, reason="a valid token is required (?token=...)")
-        return
-    review: Review = websocket.app.state.review
+        return None
     await websocket.accept()
-    await ViewSession(review.view_renderer(), review.source.shots).serve(websocket)
+    return websocket.app.state.review
 
 
 class ViewPick(BaseModel):

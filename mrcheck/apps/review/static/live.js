@@ -1,0 +1,97 @@
+// mrcheck review: "Live" -- the check through this device's camera. The video plays in the page at
+// its own rate; every new video frame is sent (its time and a JPEG at the shot's served size) to
+// api/live, which tracks the newest one waiting whenever it is done with the last (the others
+// are dropped there: no queue, and no round trip between two frames) from the shot's pose, and
+// answers the pose and the CAD layer at it; the layer is blended over the video with the CAD
+// opacity slider (no round trip). Frames are never stored. Uses app.js's S, $, $$, status, panes.
+"use strict";
+(() => {  // one scope: app.js, addphoto.js and navigate.js share the page's global names
+  const LIVE = { on: false, ws: null, stream: null, video: null, layer: null, encoding: false, sent: 0, got: 0,
+    lost: 0, times: [], url: null, canvas: document.createElement("canvas") };
+
+  function connect() {
+    const token = new URLSearchParams(location.search).get("token");
+    const base = location.pathname.replace(/[^/]*$/, "");
+    const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}${base}api/live` +
+      (token ? `?token=${encodeURIComponent(token)}` : ""));
+    let header = null;
+    ws.binaryType = "blob";
+    ws.onmessage = (ev) => {
+      if (typeof ev.data !== "string") { if (header) shown(header, ev.data); header = null; return; }
+      const m = JSON.parse(ev.data);
+      if (m.type === "pose") { header = m; return; }
+      status(`live: ${m.error}`);
+    };
+    ws.onclose = (ev) => { if (LIVE.ws === ws && LIVE.on) status(`live: connection closed ${ev.reason || ""}`); };
+    LIVE.ws = ws;
+    return new Promise((resolve, reject) => { ws.onopen = resolve; ws.onerror = reject; });
+  }
+  function sendFrame() {  // the current video frame, at the shot's served size
+    if (LIVE.on) nextFrame();
+    if (!LIVE.on || LIVE.encoding || !LIVE.ws || LIVE.ws.readyState !== WebSocket.OPEN || LIVE.video.readyState < 2) return;
+    if (LIVE.ws.bufferedAmount > 2e6) return;  // a slow link: let it drain rather than queue frames in the socket
+    const c = LIVE.canvas, cam = S.shot.camera;
+    c.width = cam.width; c.height = cam.height;
+    c.getContext("2d").drawImage(LIVE.video, 0, 0, c.width, c.height);
+    LIVE.encoding = true;
+    const taken = performance.now() / 1000;  // the frame's time: the server scales its motion prediction by it
+    c.toBlob((blob) => {
+      LIVE.encoding = false;
+      if (!blob || !LIVE.ws) return;
+      LIVE.ws.send(new Blob([new Float64Array([taken]).buffer, blob])); LIVE.sent++;  // little-endian on every browser's platform
+    }, "image/jpeg", 0.85);
+  }
+  function nextFrame() {  // once per new video frame where the browser can say so, else every 33 ms
+    if (LIVE.video.requestVideoFrameCallback) LIVE.video.requestVideoFrameCallback(sendFrame);
+    else setTimeout(sendFrame, 33);
+  }
+  function shown(h, blob) {
+    if (!LIVE.on) return;
+    const url = URL.createObjectURL(blob), old = LIVE.url;
+    LIVE.url = url; LIVE.layer.src = url;
+    if (old) setTimeout(() => URL.revokeObjectURL(old), 1000);
+    const now = performance.now();
+    LIVE.times = LIVE.times.filter((t) => now - t < 3000).concat([now]);
+    LIVE.got++; if (h.lost) LIVE.lost++;
+    const rate = LIVE.times.length > 1 ? (LIVE.times.length - 1) * 1000 / (now - LIVE.times[0]) : 0;
+    Object.assign(document.body.dataset, { liveFrames: LIVE.got, liveLost: LIVE.lost, livePose: JSON.stringify({ R: h.R, t: h.t }),
+      liveRate: rate.toFixed(2) });
+    status(`live: ${h.lost ? `LOST (${h.reason})` : `support ${Math.round(100 * h.support)} %, rms ${h.rms_px} px`}, ` +
+      `${rate.toFixed(1)} poses/s, ${Math.round(h.ms)} ms a frame`);
+  }
+  function blend() { if (LIVE.layer) LIVE.layer.style.opacity = S.opacity / 100; }
+
+  async function liveStart() {
+    if (!S.shot || !navigator.mediaDevices) { status("live: this page cannot open a camera (HTTPS is needed off this machine)"); return; }
+    try {
+      LIVE.stream = await navigator.mediaDevices.getUserMedia({ audio: false,
+        video: { facingMode: { ideal: "environment" }, width: { ideal: S.shot.camera.width }, height: { ideal: S.shot.camera.height } } });
+    } catch (e) { status(`live: no camera (${e.name}: ${e.message})`); return; }
+    LIVE.on = true; LIVE.sent = LIVE.got = LIVE.lost = 0; LIVE.times = []; LIVE.encoding = false;
+    const stage = $(".stage", panes[0]);
+    LIVE.video = Object.assign(document.createElement("video"), { muted: true, autoplay: true, playsInline: true });
+    LIVE.video.className = "live"; LIVE.video.srcObject = LIVE.stream;
+    LIVE.layer = Object.assign(document.createElement("img"), { className: "live-layer", alt: "" });
+    stage.append(LIVE.video, LIVE.layer); blend();
+    for (const el of $$(".photo, .render, .edges, .markers", stage)) el.style.visibility = "hidden";
+    $("#live").classList.add("active"); $("#navigate").disabled = true; $("#view").disabled = true;
+    await connect();
+    LIVE.ws.send(JSON.stringify({ type: "start", shot: S.shot.name }));
+    await LIVE.video.play().catch(() => {});
+    nextFrame();
+  }
+  function liveStop() {
+    LIVE.on = false;
+    if (LIVE.ws) LIVE.ws.close();
+    if (LIVE.stream) for (const track of LIVE.stream.getTracks()) track.stop();
+    for (const el of [LIVE.video, LIVE.layer]) if (el) el.remove();
+    LIVE.ws = LIVE.stream = LIVE.video = LIVE.layer = null;
+    for (const el of $$(".photo, .render, .edges, .markers", $(".stage", panes[0]))) el.style.visibility = "";
+    $("#live").classList.remove("active"); $("#navigate").disabled = false; $("#view").disabled = false;
+    applyView();
+  }
+  $("#live").onclick = () => (LIVE.on ? liveStop() : liveStart());
+  $("#opacity").addEventListener("input", blend);
+  const baseSelectShot = selectShot;
+  selectShot = async function (shot) { if (LIVE.on) liveStop(); return baseSelectShot(shot); };  // eslint-disable-line no-global-assign
+})();
