@@ -4,6 +4,7 @@ photos with known cameras measures the poses it returns."""
 
 from __future__ import annotations
 
+import base64
 import json
 import struct
 
@@ -96,3 +97,28 @@ def test_frames_sent_at_once_are_tracked_newest_first_and_bad_ones_answered(walk
         found = Camera(320, 240, truths[0].K, np.array(second["R"]), np.array(second["t"]))
         to = [float(np.median(reprojection_error(truths[k], found, points))) for k in (1, 3)]
         assert to[1] < to[0], to
+
+
+@pytest.mark.slow
+def test_a_frozen_frame_becomes_a_shot_to_mark(walk, tmp_path):
+    """Freeze and mark: a frame with its tracked pose is saved as a new shot (photo and
+    SHOT.json beside the review's other added shots); a marker on it is in the CSV export; a
+    frame that is no image is a 422."""
+    root, _, truths, frames = walk
+    image = base64.b64encode(frames[3]).decode()
+    pose = {"R": truths[3].R.tolist(), "t": truths[3].t.tolist()}
+    with _client(walk, tmp_path) as client:
+        bad = client.post("/api/live/freeze", json={"shot": "p1", **pose, "image": "bm90IGFuIGltYWdl"})
+        assert bad.status_code == 422 and "JPEG or PNG" in bad.json()["error"]
+        made = client.post("/api/live/freeze", json={"shot": "p1", **pose, "image": image})
+        assert made.status_code == 201, made.json()
+        shot = made.json()
+        assert shot["name"].startswith("live-p1") and shot["camera"]["t"] == pytest.approx(pose["t"])
+        assert shot["name"] in [s["name"] for s in client.get("/api/shots").json()]
+        marker = client.post(
+            "/api/markers", json={"shot": shot["name"], "x": 160, "y": 120, "category": "moved", "severity": 2}
+        )
+        assert marker.status_code in (200, 201), marker.json()
+        assert shot["name"] in client.get("/api/export/markers.csv").text
+    saved = list(root.rglob(f"{shot['name']}.json"))
+    assert len(saved) == 1 and (saved[0].parent / f"{shot['name']}.png").is_file()

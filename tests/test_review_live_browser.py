@@ -1,7 +1,8 @@
 """The live check in a real browser (issue 42): headless Chromium with a fake camera
 (``--use-fake-device-for-media-stream --use-file-for-fake-video-capture=FILE.y4m``) fed a walk
 of Open3D photos of the sample cell with known cameras; the page opens the camera, sends its
-frames to the server, which tracks them from the shot's pose, and blends the CAD over the video."""
+frames to the server, which tracks them from the shot's pose, and blends the CAD over the video;
+Freeze saves the frame as a new shot, whose marker is in the CSV export."""
 
 from __future__ import annotations
 

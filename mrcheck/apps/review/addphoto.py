@@ -280,6 +280,29 @@ class AddPhoto:
             self._solved.pop(ident, None)
             return added
 
+    def save_frame(self, stem: str, image: np.ndarray, camera: Camera, report: dict) -> Shot:
+        """A frame frozen in the live check as a new shot: ``image`` (RGB, ``camera``'s size) as a
+        PNG and its SHOT.json at the tracked pose, under free names in the folder shots are added
+        to, and in the review (report, CSV and BCF take it as any other shot)."""
+        from mrcheck.core.output import write_image
+        from mrcheck.core.shot import Shot as ShotRecord
+
+        with self._lock:
+            folder, source = self.folder, self.review.source
+            folder.mkdir(parents=True, exist_ok=True)
+            name, shot_file = _free_shot(folder, shot_name(stem), source.shots)
+            _, photo = _free(folder, name, ".png")
+            write_image(photo, image)
+            try:
+                write_shot(shot_file, ShotRecord(camera, photo, report))
+            except BaseException:
+                photo.unlink(missing_ok=True)
+                raise
+            added = Shot(name, camera, photo, None, shot_file)
+            source.shots[name] = added
+            source.files.append(shot_file)
+            return added
+
 
 def _overlay(renderer, camera: Camera, photo: np.ndarray) -> np.ndarray:
     """The CAD at ``camera`` over ``photo`` (at most :data:`SERVED_WIDTH` wide), edges on top."""

@@ -8,7 +8,7 @@ time in seconds (8 bytes, a little-endian float64: frames the server takes come 
 intervals, and the constant-velocity prediction scales the motion by the time between them)
 followed by the JPEG; the newest waiting frame is tracked when the one before is done
 (:mod:`.newest`: no queue builds up behind a slow frame). Each tracked frame is answered with a
-JSON header ``{"type": "pose", "frame", "R", "t", "support", "rms_px", "lost", "reason", "ms",
+JSON header ``{"type": "pose", "frame", "time" (the frame's own), "R", "t", "support", "rms_px", "lost", "reason", "ms",
 "width", "height"}`` and the CAD layer at that pose (vector AO in the lens's geometry, JPEG),
 which the page blends over its own video at the video's rate. Tracking is ``mrcheck track``'s per-frame step
 (:func:`mrcheck.apps.track.track_frame`: constant-velocity prediction, snap, retry,
@@ -18,6 +18,8 @@ Frames are never stored: each is decoded, tracked and dropped.
 
 from __future__ import annotations
 
+import base64
+import binascii
 import json
 import struct
 import time
@@ -107,10 +109,20 @@ def _decoded(jpeg: bytes, camera) -> np.ndarray:
     return cv2.cvtColor(image, cv2.COLOR_BGR2RGB)
 
 
+def frozen_image(encoded: str, camera) -> np.ndarray:
+    """The RGB frame of a freeze (base64 JPEG or PNG) at the camera's size; ValueError else."""
+    try:
+        data = base64.b64decode(encoded, validate=True)
+    except (binascii.Error, ValueError):
+        raise ValueError("image must be base64") from None
+    return _decoded(data, camera)
+
+
 def _header(pose: FramePose, camera, ms: float) -> dict:
     return {
         "type": "pose",
         "frame": pose.frame,
+        "time": pose.time_s,
         "R": pose.camera.R.tolist(),
         "t": pose.camera.t.tolist(),
         "support": round(pose.support, 4),
@@ -154,4 +166,4 @@ def live_session(source, renders) -> NewestOnly:
     return NewestOnly(parse, work)
 
 
-__all__ = ["LiveTracker", "live_session"]
+__all__ = ["LiveTracker", "live_session", "frozen_image"]

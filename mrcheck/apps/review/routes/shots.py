@@ -33,13 +33,16 @@ def info(review: Current):
 
 @router.get("/shots")
 def shots(review: Current):
-    return [
-        {"name": s.name, "error_px": s.error_px, "width": s.size[0], "height": s.size[1], "camera": _served(s)}
-        for s in review.source.shots.values()
-    ]
+    return [shot_entry(s) for s in review.source.shots.values()]
 
 
-def _served(shot) -> dict:
+def shot_entry(shot) -> dict:
+    """A shot as the page lists it: name, registration error, the photo's size, the served camera."""
+    return {"name": shot.name, "error_px": shot.error_px, "width": shot.size[0], "height": shot.size[1],
+            "camera": served_camera(shot)}  # fmt: skip
+
+
+def served_camera(shot) -> dict:
     """The shot's camera at the served size: what the render session renders and picks with
     (the page moves its R and t; K is for the page's own projections, the lens stays the server's)."""
     camera = shot.served_camera()

@@ -10,8 +10,9 @@ from fastapi import APIRouter, Depends, HTTPException, WebSocket
 from pydantic import BaseModel, Field
 
 from mrcheck.apps.review.crosssite import JSON, requires
-from mrcheck.apps.review.livesession import live_session
+from mrcheck.apps.review.livesession import frozen_image, live_session
 from mrcheck.apps.review.middleware import token_allows
+from mrcheck.apps.review.routes.shots import shot_entry
 from mrcheck.apps.review.state import Review, check_pixel, current
 from mrcheck.apps.review.viewsession import parse_request, view_session
 
@@ -44,6 +45,26 @@ async def _accepted(websocket: WebSocket) -> Review | None:
         return None
     await websocket.accept()
     return websocket.app.state.review
+
+
+class Frozen(BaseModel):
+    shot: str  # the shot the live track started from: its intrinsics and lens
+    R: list[list[float]] = Field(min_length=3, max_length=3)
+    t: list[float] = Field(min_length=3, max_length=3)
+    image: str = Field(max_length=4 << 20)  # base64 JPEG or PNG of the frame, at the served size
+
+
+@router.post("/live/freeze", status_code=201, dependencies=[Depends(requires(JSON))])
+def freeze(review: Current, body: Frozen):
+    """A frame of the live check, frozen: saved with its tracked pose as a new shot (freeze and
+    mark: the planner places markers on it as on any shot)."""
+    try:
+        request = parse_request({"shot": body.shot, "R": body.R, "t": body.t}, review.source.shots)
+        image = frozen_image(body.image, review.source.shots[body.shot].served_camera())
+    except ValueError as exc:
+        raise HTTPException(422, str(exc)) from None
+    camera = review.source.shots[body.shot].served_camera().with_pose(request.R, request.t)
+    return shot_entry(review.addphoto.save_frame(f"live-{body.shot}", image, camera, {"method": "live"}))
 
 
 class ViewPick(BaseModel):

@@ -7,7 +7,7 @@
 "use strict";
 (() => {  // one scope: app.js, addphoto.js and navigate.js share the page's global names
   const LIVE = { on: false, ws: null, stream: null, video: null, layer: null, encoding: false, sent: 0, got: 0,
-    lost: 0, times: [], url: null, canvas: document.createElement("canvas") };
+    lost: 0, times: [], url: null, canvas: document.createElement("canvas"), still: null };
 
   function connect() {
     const token = new URLSearchParams(location.search).get("token");
@@ -27,8 +27,8 @@
     return new Promise((resolve, reject) => { ws.onopen = resolve; ws.onerror = reject; });
   }
   function sendFrame() {  // the current video frame, at the shot's served size
-    if (LIVE.on) nextFrame();
-    if (!LIVE.on || LIVE.encoding || !LIVE.ws || LIVE.ws.readyState !== WebSocket.OPEN || LIVE.video.readyState < 2) return;
+    if (LIVE.on && !LIVE.still) nextFrame();
+    if (!LIVE.on || LIVE.still || LIVE.encoding || !LIVE.ws || LIVE.ws.readyState !== WebSocket.OPEN || LIVE.video.readyState < 2) return;
     if (LIVE.ws.bufferedAmount > 2e6) return;  // a slow link: let it drain rather than queue frames in the socket
     const c = LIVE.canvas, cam = S.shot.camera;
     c.width = cam.width; c.height = cam.height;
@@ -47,6 +47,7 @@
   }
   function shown(h, blob) {
     if (!LIVE.on) return;
+    if (LIVE.still && h.time === LIVE.still.time) { LIVE.still.resolve(h); return; }
     const url = URL.createObjectURL(blob), old = LIVE.url;
     LIVE.url = url; LIVE.layer.src = url;
     if (old) setTimeout(() => URL.revokeObjectURL(old), 1000);
@@ -58,6 +59,27 @@
       liveRate: rate.toFixed(2) });
     status(`live: ${h.lost ? `LOST (${h.reason})` : `support ${Math.round(100 * h.support)} %, rms ${h.rms_px} px`}, ` +
       `${rate.toFixed(1)} poses/s, ${Math.round(h.ms)} ms a frame`);
+  }
+  // freeze and mark: the video stops, its frame is tracked once more, and saved with that pose as
+  // a new shot of the review, on which the planner places markers as on any other
+  async function freeze() {
+    if (!LIVE.on || LIVE.still) return;
+    LIVE.video.pause();
+    const c = LIVE.canvas, cam = S.shot.camera, time = performance.now() / 1000;
+    c.width = cam.width; c.height = cam.height;
+    c.getContext("2d").drawImage(LIVE.video, 0, 0, c.width, c.height);
+    const posed = new Promise((resolve) => { LIVE.still = { time, resolve }; });
+    const jpeg = await new Promise((resolve) => c.toBlob(resolve, "image/jpeg", 0.92));
+    LIVE.ws.send(new Blob([new Float64Array([time]).buffer, jpeg]));
+    status("live: frozen; tracking the frame once more...");
+    const pose = await posed, from = S.shot.name;
+    const image = c.toDataURL("image/jpeg", 0.92).split(",")[1];
+    liveStop();
+    if (pose.lost) { status(`live: the frozen frame was not tracked (${pose.reason}): not saved`); return; }
+    const shot = await api("POST", "api/live/freeze", { shot: from, R: pose.R, t: pose.t, image });
+    S.shots.push(shot); addShotItem(shot); await selectShot(shot);
+    document.body.dataset.frozen = shot.name;
+    status(`frozen as shot ${shot.name} (from ${from}): click the image to place a marker`);
   }
   function blend() { if (LIVE.layer) LIVE.layer.style.opacity = S.opacity / 100; }
 
@@ -74,14 +96,14 @@
     LIVE.layer = Object.assign(document.createElement("img"), { className: "live-layer", alt: "" });
     stage.append(LIVE.video, LIVE.layer); blend();
     for (const el of $$(".photo, .render, .edges, .markers", stage)) el.style.visibility = "hidden";
-    $("#live").classList.add("active"); $("#navigate").disabled = true; $("#view").disabled = true;
+    $("#live").classList.add("active"); $("#navigate").disabled = true; $("#view").disabled = true; $("#freeze").hidden = false;
     await connect();
     LIVE.ws.send(JSON.stringify({ type: "start", shot: S.shot.name }));
     await LIVE.video.play().catch(() => {});
     nextFrame();
   }
   function liveStop() {
-    LIVE.on = false;
+    LIVE.on = false; LIVE.still = null; $("#freeze").hidden = true;
     if (LIVE.ws) LIVE.ws.close();
     if (LIVE.stream) for (const track of LIVE.stream.getTracks()) track.stop();
     for (const el of [LIVE.video, LIVE.layer]) if (el) el.remove();
@@ -91,6 +113,7 @@
     applyView();
   }
   $("#live").onclick = () => (LIVE.on ? liveStop() : liveStart());
+  $("#freeze").onclick = freeze;
   $("#opacity").addEventListener("input", blend);
   const baseSelectShot = selectShot;
   selectShot = async function (shot) { if (LIVE.on) liveStop(); return baseSelectShot(shot); };  // eslint-disable-line no-global-assign
