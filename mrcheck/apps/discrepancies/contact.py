@@ -27,7 +27,7 @@ import cv2
 import numpy as np
 
 from mrcheck.apps.discrepancies.edges import ORIENTATION_BINS, orientation_bin, outline_normals
-from mrcheck.apps.discrepancies.ids import undistorted_pixels
+from mrcheck.apps.discrepancies.ids import world_points
 from mrcheck.apps.discrepancies.planned import PlannedView
 from mrcheck.apps.discrepancies.thresholds import MIN_OBJECT_M
 from mrcheck.core.camera import Camera
@@ -56,10 +56,7 @@ def instance_heights(scene: Scene, labels: list) -> tuple[np.ndarray, np.ndarray
 
 def _world_z(camera: Camera, depth: np.ndarray) -> np.ndarray:
     """(H, W) world z of each pixel's planned surface (nan where there is none)."""
-    u, v = undistorted_pixels(camera)
-    cam = np.stack(((u - camera.cx) / camera.fx * depth, (v - camera.cy) / camera.fy * depth, depth), -1)
-    z = ((cam - camera.t.reshape(1, 1, 3)) @ camera.R)[..., 2]  # world = R^T (p - t)
-    return np.where(depth > 0, z, np.nan)
+    return np.where(depth > 0, world_points(camera, depth)[..., 2], np.nan)
 
 
 def contact_lines(

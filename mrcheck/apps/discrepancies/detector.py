@@ -111,7 +111,7 @@ from mrcheck.apps.discrepancies.edges import (
 from mrcheck.apps.discrepancies.light import estimate_light, relit
 from mrcheck.apps.discrepancies.planned import PlannedView, planned_view
 from mrcheck.apps.discrepancies.shadows import fit_sun, shadow_edges
-from mrcheck.apps.discrepancies.structure import Region, plain_ground, unexplained_regions
+from mrcheck.apps.discrepancies.structure import Region, far_from_cad, plain_ground, unexplained_regions
 from mrcheck.apps.discrepancies.thresholds import (
     CONSENSUS_REACH_PX,
     DISCRIMINATIVE_FLOOR,
@@ -432,10 +432,11 @@ def detect(
     suspects.sort(key=lambda s: (-s.score, s.id))
     _add_elements(scene, suspects)
     contact, support = contact_lines(scene, camera, planned, sup.edges, sup.angle, tol)
-    texture = texture_edges(photo, sup.edges, plain_ground(planned, tol))
+    far = far_from_cad(planned, tol)
+    texture = texture_edges(photo, sup.edges, plain_ground(planned, far))
     sun = fit_sun(planned.caster, camera, planned, photo)
     shadow = shadow_edges(planned.caster, camera, planned.depth, planned.normals, sun)
-    regions, unexplained = unexplained_regions(sup.edges & ~contact & ~texture & ~shadow, planned, tol)
+    regions, unexplained = unexplained_regions(sup.edges & ~contact & ~texture & ~shadow, planned, tol, far)
     regions = [r for r in regions if object_sized(r.bbox, camera, support)]
     markers, arrays = _markers(suspects, regions, planned), (planned, sup.supported, unexplained)
     return Detection(tol, threshold, suspects, regions, markers, *arrays, pose_sigma_px=pose_sigma_px)

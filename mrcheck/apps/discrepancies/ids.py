@@ -33,6 +33,14 @@ def undistorted_pixels(camera: Camera, maps=None) -> tuple[np.ndarray, np.ndarra
     return maps[0].astype(np.float64), maps[1].astype(np.float64)
 
 
+def world_points(camera: Camera, depth: np.ndarray, maps=None) -> np.ndarray:
+    """(H, W, 3) float64 world point of each photo pixel's planned surface at camera ``depth``
+    (through its undistorted pixel; meaningless where ``depth`` is 0, nothing seen)."""
+    u, v = undistorted_pixels(camera, maps)
+    cam = np.stack(((u - camera.cx) / camera.fx * depth, (v - camera.cy) / camera.fy * depth, depth), -1)
+    return (cam - camera.t.reshape(1, 1, 3)) @ camera.R  # world = R^T (p - t)
+
+
 def object_ids(scene: Scene, camera: Camera, maps=None, caster=None):
     """Per photo pixel the index of the visible instance (-1 = nothing) and its depth.
 
@@ -110,4 +118,4 @@ def behind_ids(
     return out_ids, out_depth
 
 
-__all__ = ["object_ids", "behind_ids", "undistorted_pixels", "BACKGROUND", "BEHIND_PASSES"]
+__all__ = ["object_ids", "behind_ids", "undistorted_pixels", "world_points", "BACKGROUND", "BEHIND_PASSES"]

@@ -23,7 +23,7 @@ from mrcheck.apps.discrepancies.edges import (
     outline_normals,
     silhouettes,
 )
-from mrcheck.apps.discrepancies.ids import behind_ids, object_ids, undistorted_pixels
+from mrcheck.apps.discrepancies.ids import behind_ids, object_ids, world_points
 from mrcheck.apps.discrepancies.light import Light
 from mrcheck.apps.discrepancies.thresholds import (
     FLOOR_BAND,
@@ -174,12 +174,10 @@ def ground_pixels(scene: Scene, camera: Camera, depth: np.ndarray, maps) -> np.n
     whose top is its lowest upward face). An added object stands on the floor, so the photo structure
     it makes reaches down to such pixels; structure wholly inside other CAD faces (the printed
     artwork of a box, a label on a machine) cannot be one (:func:`~.detector.detect`)."""
-    u, v = undistorted_pixels(camera, maps)
     seen = depth > 0
     if not seen.any():
         return seen
-    cam = np.stack(((u - camera.cx) / camera.fx * depth, (v - camera.cy) / camera.fy * depth, depth), -1)
-    world = (cam - camera.t.reshape(1, 1, 3)) @ camera.R  # world = R^T (p - t)
+    world = world_points(camera, depth, maps)
     # the surface normal from neighbouring pixels' points: only upward faces are a floor
     normal = np.cross(np.gradient(world, axis=1), np.gradient(world, axis=0))
     up = np.abs(normal[..., 2]) > 0.9 * np.maximum(np.linalg.norm(normal, axis=-1), 1e-12)

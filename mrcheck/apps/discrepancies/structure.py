@@ -22,13 +22,21 @@ class Region:
     edge_pixels: int
 
 
-def unexplained_regions(edges: np.ndarray, planned: PlannedView, tol: float) -> tuple[list[Region], np.ndarray]:
-    """Unexplained photo structure: photo edges far from every CAD edge, grouped into regions;
-    returns the regions (largest first) and the unexplained edge pixels. A group wholly inside
-    CAD faces above floor level is texture (print, labels), not structure: an added object
-    stands on the floor, so its edges reach down to the floor's pixels (``planned.ground``)."""
-    dist_to_cad = cv2.distanceTransform((~planned.cad).astype(np.uint8), cv2.DIST_L2, 5)
-    unexplained = edges & (dist_to_cad > 3.0 * tol)
+def far_from_cad(planned: PlannedView, tol: float) -> np.ndarray:
+    """(H, W) bool: the pixels farther than ``3 * tol`` from every CAD edge, where a photo edge
+    is unexplained (no CAD edge can account for it)."""
+    return cv2.distanceTransform((~planned.cad).astype(np.uint8), cv2.DIST_L2, 5) > 3.0 * tol
+
+
+def unexplained_regions(
+    edges: np.ndarray, planned: PlannedView, tol: float, far: np.ndarray
+) -> tuple[list[Region], np.ndarray]:
+    """Unexplained photo structure: photo edges ``far`` from every CAD edge (:func:`far_from_cad`),
+    grouped into regions; returns the regions (largest first) and the unexplained edge pixels. A
+    group wholly inside CAD faces above floor level is texture (print, labels), not structure: an
+    added object stands on the floor, so its edges reach down to the floor's pixels
+    (``planned.ground``)."""
+    unexplained = edges & far
     k = max(3, int(round(3 * tol)) | 1)
     grouped = cv2.morphologyEx(unexplained.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((k, k), np.uint8))
     count, comp, stats, _ = cv2.connectedComponentsWithStats(grouped, connectivity=8)
@@ -46,12 +54,10 @@ def unexplained_regions(edges: np.ndarray, planned: PlannedView, tol: float) -> 
     return regions, unexplained
 
 
-def plain_ground(planned: PlannedView, tol: float) -> np.ndarray:
-    """The planned floor away from every CAD edge (farther than the unexplained structure's
-    ``3 * tol``): where the photo shows the floor's own texture, if anything."""
-    if planned.ground is None:
-        return np.zeros_like(planned.cad)
-    return planned.ground & (cv2.distanceTransform((~planned.cad).astype(np.uint8), cv2.DIST_L2, 5) > 3.0 * tol)
+def plain_ground(planned: PlannedView, far: np.ndarray) -> np.ndarray:
+    """The planned floor ``far`` from every CAD edge (:func:`far_from_cad`): where the photo
+    shows the floor's own texture, if anything."""
+    return np.zeros_like(planned.cad) if planned.ground is None else planned.ground & far
 
 
-__all__ = ["Region", "unexplained_regions", "plain_ground"]
+__all__ = ["Region", "unexplained_regions", "plain_ground", "far_from_cad"]

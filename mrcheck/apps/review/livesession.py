@@ -20,17 +20,17 @@ from __future__ import annotations
 
 import base64
 import binascii
-import json
 import struct
 import time
 
 import cv2
 import numpy as np
 
-from mrcheck.apps.review.newest import NewestOnly
+from mrcheck.apps.review.newest import NewestOnly, json_message
 from mrcheck.apps.track import OVERLAY_SETTINGS, FramePose, frame_options, track_frame
 from mrcheck.apps.trackframes import FramePhoto
-from mrcheck.core.images import max_pixels
+from mrcheck.core.errors import MrcheckError
+from mrcheck.core.images import decode_image, max_pixels
 from mrcheck.mr.edges import VisibilityRender, photo_pyramid, scene_edges
 from mrcheck.mr.edges.candidates import CandidateEdges
 from mrcheck.mr.lens import distort_to_photo, distortion_map
@@ -98,15 +98,15 @@ class LiveTracker:
 
 
 def _decoded(jpeg: bytes, camera) -> np.ndarray:
-    """The frame as RGB at the camera's size; ValueError for what is no image or too large."""
-    image = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
-    if image is None:
-        raise ValueError("a frame is a JPEG or PNG image")
-    if image.shape[0] * image.shape[1] > max_pixels():
-        raise ValueError(f"a frame of {image.shape[1]}x{image.shape[0]} is over the pixel limit")
+    """The frame as RGB at the camera's size; ValueError for what is no image or too large (the
+    pixel limit checked on the header, before anything is decoded)."""
+    try:
+        image = decode_image(jpeg, what="the frame (a JPEG or PNG image)", max_pixels=max_pixels())
+    except MrcheckError as exc:
+        raise ValueError(exc.problem) from None
     if image.shape[:2] != (camera.height, camera.width):
         image = cv2.resize(image, (camera.width, camera.height), interpolation=cv2.INTER_AREA)
-    return cv2.cvtColor(image, cv2.COLOR_BGR2RGB)
+    return image
 
 
 def frozen_image(encoded: str, camera) -> np.ndarray:
@@ -141,10 +141,7 @@ def live_session(source, renders) -> NewestOnly:
 
     def parse(message: dict):
         if "text" in message:
-            try:
-                start = json.loads(message["text"])
-            except json.JSONDecodeError as exc:
-                raise ValueError(f"not JSON: {exc.msg}") from None
+            start = json_message(message["text"])
             if not isinstance(start, dict) or start.get("type") != "start" or start.get("shot") not in source.shots:
                 raise ValueError('start with {"type": "start", "shot": NAME}, NAME a shot of this review')
             tracker[:] = [LiveTracker(source, start["shot"])]

@@ -9,6 +9,7 @@ the session goes on; so is one whose work fails.
 from __future__ import annotations
 
 import asyncio
+import json
 from collections.abc import Callable
 
 MAX_TEXT = 4096  # characters of a text message: a camera and a few names
@@ -68,6 +69,14 @@ class NewestOnly:
             self.wake.set()
 
 
+def json_message(text: str):
+    """The JSON value of a text message; ValueError (answered to the page) when it is none."""
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"not JSON: {exc.msg}") from None
+
+
 def _checked(message: dict) -> dict:
     text, data = message.get("text"), message.get("bytes")
     if text is not None:
@@ -79,4 +88,4 @@ def _checked(message: dict) -> dict:
     return {"bytes": data}
 
 
-__all__ = ["NewestOnly", "MAX_TEXT", "MAX_BYTES"]
+__all__ = ["NewestOnly", "json_message", "MAX_TEXT", "MAX_BYTES"]

@@ -63,14 +63,17 @@ class Picker:
             return None
         return camera.center + float(hits.t[0]) * direction, caster.label(hits.instance[0])[1]
 
-    def pick(self, camera: Camera, u: float, v: float) -> dict:
-        """The part at pixel (u, v) of ``camera``'s (distorted) photo: name, instance, distance (m)."""
-        hits, caster, _ = self._cast(camera, u, v)
+    def pick(self, camera: Camera, u: float, v: float, point: bool = False) -> dict:
+        """The part at pixel (u, v) of ``camera``'s (distorted) photo: name, instance, distance (m);
+        with ``point``, also the world ``point`` hit (None where nothing is), from the same cast."""
+        hits, caster, direction = self._cast(camera, u, v)
         if hits is None:
-            return {"part": None, "instance": None, "distance": None}
+            return {"part": None, "instance": None, "distance": None, **({"point": None} if point else {})}
         part, instance = caster.label(hits.instance[0])
         info = self._elements().get(instance)
+        where = camera.center + float(hits.t[0]) * direction
         return {
+            **({"point": [round(float(c), 5) for c in where]} if point else {}),
             "part": part,
             "instance": instance,
             "distance": round(float(hits.t[0]), 3),

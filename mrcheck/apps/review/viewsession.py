@@ -23,14 +23,13 @@ GL context.
 
 from __future__ import annotations
 
-import json
 import time
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
-from mrcheck.apps.review.newest import NewestOnly
+from mrcheck.apps.review.newest import NewestOnly, json_message
 from mrcheck.apps.review.renders import INTENSITIES
 from mrcheck.core.camera import Camera
 from mrcheck.mr.lens import distort_to_photo, distortion_map, padded_camera
@@ -153,16 +152,9 @@ def view_session(renderer: ViewRenderer, shots) -> NewestOnly:
     def parse(message: dict) -> ViewRequest:
         if "text" not in message:
             raise ValueError("a request is a JSON text message")
-        return parse_request(_json(message["text"]), shots)
+        return parse_request(json_message(message["text"]), shots)
 
     return NewestOnly(parse, renderer.frame)
-
-
-def _json(text: str):
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"not JSON: {exc.msg}") from None
 
 
 __all__ = ["ViewRequest", "ViewRenderer", "view_session", "parse_request", "QUALITIES", "DEFAULT_ACCUMULATE"]

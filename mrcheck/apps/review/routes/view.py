@@ -85,7 +85,4 @@ def view_pick(review: Current, body: ViewPick):
         raise HTTPException(422, str(exc)) from None
     camera = review.view_renderer().camera(request)  # at the served size, the page's pixels
     check_pixel(camera.width, camera.height, body.x, body.y)
-    picker = review.picker()
-    hit = picker.pick(camera, body.x, body.y)
-    point = picker.world_point(camera, body.x, body.y)
-    return {**hit, "point": None if point is None else [round(float(v), 5) for v in point[0]]}
+    return review.picker().pick(camera, body.x, body.y, point=True)

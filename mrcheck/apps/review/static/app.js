@@ -15,6 +15,25 @@ async function api(method, url, body) {
   return data;
 }
 function status(text) { $("#status").textContent = text; }
+// one of the review's WebSockets (api/view, api/live), ws or wss as the page is, with the page's
+// token: a JSON header of type `kind` and the binary message after it go to onPair(header, blob),
+// an error to the status line as `what: ...`, as does the socket's closing while live() holds.
+// Resolves with the socket once open.
+function openSocket(path, kind, onPair, what, live) {
+  const token = new URLSearchParams(location.search).get("token");
+  const base = location.pathname.replace(/[^/]*$/, "");
+  const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}${base}${path}` +
+    (token ? `?token=${encodeURIComponent(token)}` : ""));
+  let header = null;
+  ws.binaryType = "blob";
+  ws.onmessage = (ev) => {
+    if (typeof ev.data !== "string") { if (header) onPair(header, ev.data); header = null; return; }
+    const m = JSON.parse(ev.data);
+    if (m.type === kind) header = m; else status(`${what}: ${m.error}`);
+  };
+  ws.onclose = (ev) => { if (live(ws)) status(`${what}: connection closed ${ev.reason || ""}`); };
+  return new Promise((resolve, reject) => { ws.onopen = () => resolve(ws); ws.onerror = reject; });
+}
 function imageUrl(kind, mode, level) {
   const q = kind === "render" ? `?mode=${enc(mode)}&intensity=${S.info.intensities[level]}` : "";
   return `api/shots/${enc(S.shot.name)}/${kind}.png${q}`;

@@ -9,23 +9,6 @@
   const LIVE = { on: false, ws: null, stream: null, video: null, layer: null, encoding: false, sent: 0, got: 0,
     lost: 0, times: [], url: null, canvas: document.createElement("canvas"), still: null };
 
-  function connect() {
-    const token = new URLSearchParams(location.search).get("token");
-    const base = location.pathname.replace(/[^/]*$/, "");
-    const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}${base}api/live` +
-      (token ? `?token=${encodeURIComponent(token)}` : ""));
-    let header = null;
-    ws.binaryType = "blob";
-    ws.onmessage = (ev) => {
-      if (typeof ev.data !== "string") { if (header) shown(header, ev.data); header = null; return; }
-      const m = JSON.parse(ev.data);
-      if (m.type === "pose") { header = m; return; }
-      status(`live: ${m.error}`);
-    };
-    ws.onclose = (ev) => { if (LIVE.ws === ws && LIVE.on) status(`live: connection closed ${ev.reason || ""}`); };
-    LIVE.ws = ws;
-    return new Promise((resolve, reject) => { ws.onopen = resolve; ws.onerror = reject; });
-  }
   function sendFrame() {  // the current video frame, at the shot's served size
     if (LIVE.on && !LIVE.still) nextFrame();
     if (!LIVE.on || LIVE.still || LIVE.encoding || !LIVE.ws || LIVE.ws.readyState !== WebSocket.OPEN || LIVE.video.readyState < 2) return;
@@ -97,7 +80,9 @@
     stage.append(LIVE.video, LIVE.layer); blend();
     for (const el of $$(".photo, .render, .edges, .markers", stage)) el.style.visibility = "hidden";
     $("#live").classList.add("active"); $("#navigate").disabled = true; $("#view").disabled = true; $("#freeze").hidden = false;
-    await connect();
+    try {
+      LIVE.ws = await openSocket("api/live", "pose", shown, "live", (ws) => LIVE.ws === ws && LIVE.on);
+    } catch (e) { liveStop(); status("live: no connection to the server's live session"); return; }
     LIVE.ws.send(JSON.stringify({ type: "start", shot: S.shot.name }));
     await LIVE.video.play().catch(() => {});
     nextFrame();

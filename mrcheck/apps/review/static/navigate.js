@@ -45,23 +45,6 @@
   }
 
   // -- the session ------------------------------------------------------------------------------
-  function connect() {
-    const token = new URLSearchParams(location.search).get("token");
-    const base = location.pathname.replace(/[^/]*$/, "");
-    const url = `${location.protocol === "https:" ? "wss" : "ws"}://${location.host}${base}api/view` +
-      (token ? `?token=${encodeURIComponent(token)}` : "");
-    const ws = new WebSocket(url);
-    let header = null;
-    ws.binaryType = "blob";
-    ws.onmessage = (ev) => {
-      if (typeof ev.data !== "string") { if (header) show(header, ev.data); header = null; return; }
-      const m = JSON.parse(ev.data);
-      if (m.type === "frame") header = m; else status(`view: ${m.error}`);
-    };
-    ws.onclose = (ev) => { if (NAV.ws === ws && NAV.on) status(`view: connection closed ${ev.reason || ""}`); };
-    NAV.ws = ws;
-    return new Promise((resolve) => { ws.onopen = resolve; });
-  }
   function send(quality) {
     if (!NAV.ws || NAV.ws.readyState !== WebSocket.OPEN) return;
     const id = ++NAV.id;
@@ -119,7 +102,9 @@
     NAV.on = true; NAV.cam = shotCam(); NAV.pivot = null; NAV.points = [];
     S.view = "overlay"; $("#view").value = "overlay"; $("#view").disabled = true; applyView();
     $("#navigate").classList.add("active"); $("#measure").hidden = false;
-    await connect();
+    try {
+      NAV.ws = await openSocket("api/view", "frame", show, "view", (ws) => NAV.ws === ws && NAV.on);
+    } catch (e) { navStop(); status("view: no connection to the server's render session"); return; }
     changed();
   }
   function navStop() {
