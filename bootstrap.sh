@@ -73,7 +73,7 @@ fi
 # the lock's build backend (hatchling), so nothing is resolved or downloaded beyond the lock.
 install_lock() {  # LOCK-FILE STAMP-FILE
     local want
-    want=$(sha256sum "$1" | cut -c1-16)
+    want=$(cat "$1" pyproject.toml | sha256sum | cut -c1-16)  # pyproject.toml: entry points, editable install
     if [[ ! -f $2 || $(cat "$2") != "$want" ]]; then
         echo "bootstrap: installing mrcheck and $1 into .venv" >&2
         .venv/bin/python -m pip install -q --require-hashes -r "$1"
