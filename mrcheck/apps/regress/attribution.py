@@ -1,0 +1,61 @@
+"""Which elements lie under a view's changed pixels, from the id buffers of both renders.
+
+At a changed pixel that shows the same element in both renders, that element changed its look
+(colour, shading). Where the two show different elements, the nearer of the two is the one that
+moved, appeared or went: what lies behind it was only uncovered or hidden (a conveyor moved
+over the floor: the conveyor is named, not the floor).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mrcheck.apps.regress.baseline import IdBuffer
+
+
+@dataclass(frozen=True)
+class ChangedElement:
+    """An element under changed pixels: its part, instance id (an IFC GlobalId for imported
+    scenes), element name and IFC class (empty when not imported), and how many changed pixels."""
+
+    part: str
+    instance: str
+    name: str
+    ifc_class: str
+    pixels: int
+
+
+def _keys(buffer: IdBuffer) -> np.ndarray:
+    """Per pixel the (part, instance) key of its element, "" for the background."""
+    labels = buffer.labels
+    keys = np.array([f"{p}\x00{i}" for p, i in labels[:, :2]] + [""], dtype=object)
+    return keys[np.where(buffer.ids >= 0, buffer.ids, len(labels))]
+
+
+def attribute(changed: np.ndarray, before: IdBuffer, now: IdBuffer) -> list[ChangedElement]:
+    """The elements under the ``changed`` (H, W) bool pixels, most pixels first."""
+    if before.ids.shape != changed.shape or now.ids.shape != changed.shape:
+        return []
+    key_before, key_now = _keys(before)[changed], _keys(now)[changed]
+    far = np.float32(np.inf)
+    depth_before = np.where(before.depth[changed] > 0, before.depth[changed], far)
+    depth_now = np.where(now.depth[changed] > 0, now.depth[changed], far)
+    key = np.where(depth_now < depth_before, key_now, key_before)  # the nearer of the two
+    names, counts = np.unique(key[key != ""].astype(str), return_counts=True)
+    info = {f"{row[0]}\x00{row[1]}": row for buffer in (before, now) for row in buffer.labels}
+    found = [ChangedElement(*(str(v) for v in info[k]), pixels=int(n)) for k, n in zip(names, counts)]
+    return sorted(found, key=lambda e: (-e.pixels, e.part, e.instance))
+
+
+def element_label(element: ChangedElement) -> str:
+    """``conveyor``, ``pallet#3`` or ``wall 2O2Fr$t4X7Zf8NOew3FLOH`` (part and GlobalId), with the
+    element's name and class for imported scenes."""
+    own = element.instance == element.part or element.instance.startswith(element.part + "#")
+    text = element.instance if own else f"{element.part} {element.instance}"
+    extra = " ".join(x for x in (element.name, element.ifc_class) if x)
+    return f"{text} ({extra})" if extra else text
+
+
+__all__ = ["ChangedElement", "attribute", "element_label"]
