@@ -104,4 +104,14 @@ def report_html(result, tolerances: Tolerances) -> str:
     )
 
 
-__all__ = ["report_writes", "junit_xml", "report_html", "picture_names"]
+def index_html(results, root: Path) -> str:
+    """The pytest plugin's summary: each snapshot's key, verdict and a link to its report."""
+    rows, root = [], root.resolve()
+    for key, passed, report in results:
+        report = Path(report).resolve()
+        href = report.relative_to(root).as_posix() if report.is_relative_to(root) else report.as_uri()
+        rows.append({"key": key, "passed": passed, "href": href})
+    return render("mrcheck.apps.regress", "index.html.j2", rows=rows, failed=sum(not r["passed"] for r in rows))
+
+
+__all__ = ["report_writes", "junit_xml", "report_html", "picture_names", "index_html"]
