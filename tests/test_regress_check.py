@@ -103,9 +103,22 @@ def test_checks_pass_between_runs_and_llvmpipe_thread_counts(baseline, tmp_path)
         report = tmp_path / f"report{threads}"
         env = {**os.environ, "LP_NUM_THREADS": threads}
         done = subprocess.run(
-            [sys.executable, "-m", "mrcheck.cli", "regress", "check", str(sample_scene_path()),
-             "--baseline", str(baseline.folder), "-o", str(report)],
-            env=env, capture_output=True, text=True, timeout=120,
+            [
+                sys.executable,
+                "-m",
+                "mrcheck.cli",
+                "regress",
+                "check",
+                str(sample_scene_path()),
+                "--baseline",
+                str(baseline.folder),
+                "-o",
+                str(report),
+            ],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=120,
         )
         assert done.returncode == 0, done.stdout + done.stderr
         assert done.stdout.count("ok       ") == 4
@@ -154,11 +167,15 @@ def test_bad_input_exits_2_with_one_line(tmp_path, baseline):
     cli = [sys.executable, "-m", "mrcheck.cli", "regress", "check", str(sample_scene_path())]
     broken = tmp_path / "broken"
     broken.mkdir()
-    (broken / "baseline.json").write_text("{\"format\": 1}")
+    (broken / "baseline.json").write_text('{"format": 1}')
     for folder, message in ((tmp_path / "none", "baseline folder not found"), (broken, "malformed baseline")):
-        done = subprocess.run([*cli, "--baseline", str(folder), "-o", str(tmp_path / "r")], capture_output=True, text=True)
+        done = subprocess.run(
+            [*cli, "--baseline", str(folder), "-o", str(tmp_path / "r")], capture_output=True, text=True
+        )
         assert done.returncode == 2 and message in done.stderr and len(done.stderr.splitlines()) == 1, done.stderr
-    done = subprocess.run([*cli, "--baseline", str(baseline.folder), "-o", str(baseline.folder)], capture_output=True, text=True)
+    done = subprocess.run(
+        [*cli, "--baseline", str(baseline.folder), "-o", str(baseline.folder)], capture_output=True, text=True
+    )
     assert done.returncode == 2 and "the report folder is the baseline folder" in done.stderr
 
 

@@ -9,12 +9,11 @@ from __future__ import annotations
 
 import shutil
 
-import pytest
-
 # pytester's in-process runs drop the modules a run imported; Open3D and FLIP's C++ extensions
 # cannot be imported twice in one process, so they are imported here, before any run
 import flip_evaluator  # noqa: F401
 import open3d  # noqa: F401
+import pytest
 
 import mrcheck.apps.regress.run  # noqa: F401
 from mrcheck.apps.regress.pytest_plugin import snapshot_key

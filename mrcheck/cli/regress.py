@@ -34,7 +34,7 @@ class RegressGroup(Group):
 
 @cli.group(cls=RegressGroup)
 def regress():
-    """Image regression tests: record a scene's views as a baseline, check them later.
+    """Image regression tests of a scene's views: record, check.
 
     \b
     Example:
@@ -71,9 +71,11 @@ def _modes(ctx, param, value):
 )
 @click.option("--width", type=click.IntRange(min=1), default=640, show_default=True, help="Image width in pixels.")
 @click.option("--height", type=click.IntRange(min=1), default=480, show_default=True, help="Image height in pixels.")
-@click.option("-o", "--output", "outdir", required=True, metavar="BASELINE/", help="Baseline folder (new or mrcheck's).")
+@click.option(
+    "-o", "--output", "outdir", required=True, metavar="BASELINE/", help="Baseline folder (new or mrcheck's)."
+)
 def regress_record(scene, views, modes, width, height, outdir):
-    """Render a scene's views and write them as a regression baseline.
+    """Render a scene's views and write them as a baseline.
 
     Writes one PNG per view and mode, each view's id buffer (which element every pixel shows)
     and baseline.json (mrcheck version, settings, GL renderer, pixel hashes, the cameras, the
@@ -102,7 +104,7 @@ def regress_record(scene, views, modes, width, height, outdir):
     help="Fraction of the pixels that may count as changed [default: 0.0001, 31 px at 640x480].",
 )
 def regress_check(scene, baseline_dir, outdir, max_mean, max_p999, pixel_flip, max_changed):
-    """Render a baseline's views again and report which changed, where, and which elements.
+    """Render a baseline's views again; name what changed, where.
 
     Each view and mode is compared with NVIDIA's FLIP; a view changed when a mode's mean or
     99.9th percentile or its count of changed pixels is over tolerance. Writes REPORT/report.html

@@ -35,7 +35,9 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     group.addoption(GENERATE, metavar="DIR", help="record each mrcheck_snapshot's views as the baseline DIR/TEST/")
     group.addoption(BASELINE, metavar="DIR", help="compare each mrcheck_snapshot with its baseline DIR/TEST/")
     group.addoption(
-        REPORT, metavar="DIR", help="write each check's HTML report to DIR/TEST/ and DIR/index.html [default: a temporary folder]"
+        REPORT,
+        metavar="DIR",
+        help="write each check's HTML report to DIR/TEST/ and DIR/index.html [default: a temporary folder]",
     )
 
 

@@ -43,7 +43,9 @@ def report_writes(outdir: Path, result, pictures: dict, tolerances: Tolerances) 
 def junit_xml(result) -> bytes:
     """One ``testcase`` per view (classname: the scene's name), a ``failure`` naming the modes
     over tolerance and the elements under the changed pixels."""
-    scene = Path(result.baseline.scene).parent.name if result.baseline.scene.endswith(".toml") else result.baseline.scene
+    scene = (
+        Path(result.baseline.scene).parent.name if result.baseline.scene.endswith(".toml") else result.baseline.scene
+    )
     suite = ET.Element(
         "testsuite",
         name="mrcheck regress check",
@@ -81,8 +83,14 @@ def report_html(result, tolerances: Tolerances) -> str:
                 for m in v.modes
             ],
             "elements": [
-                {"label": element_label(e), "part": e.part, "instance": e.instance, "name": e.name,
-                 "ifc_class": e.ifc_class, "pixels": e.pixels}
+                {
+                    "label": element_label(e),
+                    "part": e.part,
+                    "instance": e.instance,
+                    "name": e.name,
+                    "ifc_class": e.ifc_class,
+                    "pixels": e.pixels,
+                }
                 for e in v.elements[:SHOWN_ELEMENTS]
             ],
             "more": max(0, len(v.elements) - SHOWN_ELEMENTS),

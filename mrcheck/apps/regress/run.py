@@ -171,7 +171,9 @@ def check(
     outdir = check_own_output_dir(Path(outdir), "report folder")
     if outdir.resolve() == baseline.folder:
         raise MrcheckError("the report folder is the baseline folder; write the report elsewhere", outdir)
-    baseline_files = [baseline.folder / MANIFEST] + [baseline.folder / f for v in baseline.views for f in v.images.values()]
+    baseline_files = [baseline.folder / MANIFEST] + [
+        baseline.folder / f for v in baseline.views for f in v.images.values()
+    ]
     report_files = [outdir / "report.html", outdir / "junit.xml"]
     check_not_inputs(report_files, [("the scene", scene_files(scene)), ("the baseline", baseline_files)])
     loaded = load_scene(scene, progress=True)
