@@ -18,13 +18,20 @@ from mrcheck.apps.regress.baseline import IdBuffer
 @dataclass(frozen=True)
 class ChangedElement:
     """An element under changed pixels: its part, instance id (an IFC GlobalId for imported
-    scenes), element name and IFC class (empty when not imported), and how many changed pixels."""
+    scenes), element name and IFC class (empty when not imported), how many changed pixels, and
+    how many of them show this element in one render and another element in the other
+    (``moved``: it moved, appeared or went there)."""
 
     part: str
     instance: str
     name: str
     ifc_class: str
     pixels: int
+    moved: int = 0
+
+    @property
+    def kind(self) -> str:
+        return "moved, added or removed" if self.moved else "looks different"
 
 
 def _keys(buffer: IdBuffer) -> np.ndarray:
@@ -43,10 +50,17 @@ def attribute(changed: np.ndarray, before: IdBuffer, now: IdBuffer) -> list[Chan
     depth_before = np.where(before.depth[changed] > 0, before.depth[changed], far)
     depth_now = np.where(now.depth[changed] > 0, now.depth[changed], far)
     key = np.where(depth_now < depth_before, key_now, key_before)  # the nearer of the two
-    names, counts = np.unique(key[key != ""].astype(str), return_counts=True)
+    differs = key_before != key_now
+    seen = key != ""
+    names, counts = np.unique(key[seen].astype(str), return_counts=True)
+    moved_names, moved_counts = np.unique(key[seen & differs].astype(str), return_counts=True)
+    moved = dict(zip(moved_names, moved_counts))
     info = {f"{row[0]}\x00{row[1]}": row for buffer in (before, now) for row in buffer.labels}
-    found = [ChangedElement(*(str(v) for v in info[k]), pixels=int(n)) for k, n in zip(names, counts)]
-    return sorted(found, key=lambda e: (-e.pixels, e.part, e.instance))
+    found = [
+        ChangedElement(*(str(v) for v in info[k]), pixels=int(n), moved=int(moved.get(k, 0)))
+        for k, n in zip(names, counts)
+    ]
+    return sorted(found, key=lambda e: (not e.moved, -e.pixels, e.part, e.instance))
 
 
 def element_label(element: ChangedElement) -> str:

@@ -90,6 +90,7 @@ def report_html(result, tolerances: Tolerances) -> str:
                     "name": e.name,
                     "ifc_class": e.ifc_class,
                     "pixels": e.pixels,
+                    "kind": e.kind,
                 }
                 for e in v.elements[:SHOWN_ELEMENTS]
             ],
