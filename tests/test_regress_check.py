@@ -95,35 +95,41 @@ def test_a_render_is_byte_identical_to_the_recorded_one(baseline):
 
 
 @pytest.mark.slow
-def test_checks_pass_between_runs_and_llvmpipe_thread_counts(baseline, tmp_path):
-    """``regress check`` in a fresh process with LP_NUM_THREADS=1 (set before the GL context is
-    made) against a baseline recorded with llvmpipe's default here, one thread per core (2):
-    exit 0 (the renders are byte-identical; the speed test below checks again in-process)."""
-    for threads in ("1",):
-        report = tmp_path / f"report{threads}"
-        env = {**os.environ, "LP_NUM_THREADS": threads}
-        done = subprocess.run(
-            [
-                sys.executable,
-                "-m",
-                "mrcheck.cli",
-                "regress",
-                "check",
-                str(sample_scene_path()),
-                "--baseline",
-                str(baseline.folder),
-                "-o",
-                str(report),
-            ],
-            env=env,
-            capture_output=True,
-            text=True,
-            timeout=120,
-        )
-        assert done.returncode == 0, done.stdout + done.stderr
-        assert done.stdout.count("ok       ") == 4
-        suite = ET.parse(report / "junit.xml").getroot()
-        assert suite.get("tests") == "4" and suite.get("failures") == "0"
+def test_checks_pass_between_runs_and_llvmpipe_thread_counts_within_30_s(baseline, tmp_path):
+    """A check in this process (llvmpipe's default here: one thread per core, 2) and one in a
+    fresh process with LP_NUM_THREADS=1 (set before the GL context is made) against the fresh
+    baseline: both pass with every FLIP mean exactly 0 (byte-identical renders). The one here is
+    timed: 4.4-6 s measured on the idle machine, 15-17 s with the machine's load at 7 (scene
+    load 1 s, renders 0.7 s, FLIP 0.5-1 s per image, the id buffers' ray casts); 30 s is the
+    issue's target for the 3 viewpoints, and this baseline has 4 views."""
+    start = time.perf_counter()
+    result = check(sample_scene_path(), baseline.folder, tmp_path / "report")
+    seconds = time.perf_counter() - start
+    assert result.passed and all(m.mean == 0.0 for v in result.views for m in v.modes)
+    assert seconds < 30.0, seconds
+    env = {**os.environ, "LP_NUM_THREADS": "1"}
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "mrcheck.cli",
+            "regress",
+            "check",
+            str(sample_scene_path()),
+            "--baseline",
+            str(baseline.folder),
+            "-o",
+            str(tmp_path / "report1"),
+        ],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert done.stdout.count("ok       ") == 4
+    suite = ET.parse(tmp_path / "report1" / "junit.xml").getroot()
+    assert suite.get("tests") == "4" and suite.get("failures") == "0"
 
 
 @pytest.mark.slow
@@ -151,15 +157,6 @@ def test_a_colour_change_of_one_part_is_found_and_named(baseline, tmp_path):
     assert "machine" in seeing and {v.name for v in result.changed} == seeing
     for view in result.changed:
         assert view.elements[0].part == "control_cabinet", view.elements[:3]
-
-
-@pytest.mark.slow
-def test_check_of_three_views_two_modes_at_640x480_within_30_s(baseline, tmp_path):
-    """Measured 4.4-6 s here (scene load about 1 s, renders 0.7 s, FLIP and the id buffers
-    the rest) for the 3 viewpoints; this baseline has 4 views. 30 s is the issue's target."""
-    start = time.perf_counter()
-    result = check(sample_scene_path(), baseline.folder, tmp_path / "report")
-    assert result.passed and time.perf_counter() - start < 30.0
 
 
 @pytest.mark.slow
