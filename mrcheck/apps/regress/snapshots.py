@@ -9,6 +9,7 @@ depth, exactly in the render's pixel grid, with no change to the renderer.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -40,7 +41,10 @@ def element_labels(scene: Scene, labels) -> np.ndarray:
 
 
 def id_buffer(scene: Scene, camera: Camera) -> IdBuffer:
-    ids, depth, labels = object_ids(scene, camera)
+    # the renderer draws the ideal pinhole image of K (a SHOT.json's lens distortion is not
+    # applied to a render): the ids are cast through the same pixels, without the distortion
+    pinhole = dataclasses.replace(camera, dist=np.zeros(0))
+    ids, depth, labels = object_ids(scene, pinhole)
     return IdBuffer(ids, depth, element_labels(scene, labels))
 
 
