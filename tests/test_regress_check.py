@@ -189,3 +189,15 @@ def test_attribution_names_the_nearer_element_where_the_two_renders_differ():
     changed = np.array([[False, True, True, True]])
     found = attribute(changed, IdBuffer(ids_before, depth_before, labels), IdBuffer(ids_now, depth_now, labels))
     assert [(e.part, e.pixels) for e in found] == [("box", 2), ("floor", 1)]
+
+
+@pytest.mark.slow
+def test_views_rendered_by_local_workers_are_the_views_rendered_here(tmp_path):
+    """Two spawned workers (the export's pool: each with its own EGL context and
+    LP_NUM_THREADS=1) record the same pixels as this process, in the order asked for. (A Dask
+    cluster runs the same tasks: checked by hand with a LocalCluster of 2 workers, docs/regress.md.)"""
+    views = ["robot,conveyor"]
+    here = record(sample_scene_path(), tmp_path / "here", views, size=(320, 240))
+    there = record(sample_scene_path(), tmp_path / "there", views, size=(320, 240), workers=2)
+    assert [v.name for v in there.views] == ["robot", "conveyor"]
+    assert [v.hashes for v in there.views] == [v.hashes for v in here.views]

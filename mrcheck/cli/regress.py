@@ -43,6 +43,32 @@ def regress():
     """
 
 
+def workers_options(command):
+    """``--workers N`` and ``--scheduler ADDRESS``, as ``mrcheck export`` has them."""
+    command = click.option(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="Render the views on a Dask distributed cluster (e.g. tcp://10.0.0.5:8786); its workers load the "
+        "scene themselves from the path given.",
+    )(command)
+    return click.option(
+        "--workers",
+        type=click.IntRange(min=1),
+        default=1,
+        show_default=True,
+        help="Local worker processes rendering the views, each with its own EGL context.",
+    )(command)
+
+
+def _client(scheduler):
+    """The Dask client of ``--scheduler`` (a bad address is a one-line error before any work), or None."""
+    if not scheduler:
+        return None
+    from mrcheck.apps.export.execute import connect
+
+    return connect(scheduler)
+
+
 def _modes(ctx, param, value):
     from mrcheck.render.settings import MODES
 
@@ -74,7 +100,8 @@ def _modes(ctx, param, value):
 @click.option(
     "-o", "--output", "outdir", required=True, metavar="BASELINE/", help="Baseline folder (new or mrcheck's)."
 )
-def regress_record(scene, views, modes, width, height, outdir):
+@workers_options
+def regress_record(scene, views, modes, width, height, outdir, workers, scheduler):
     """Render a scene's views and write them as a baseline.
 
     Writes one PNG per view and mode, each view's id buffer (which element every pixel shows)
@@ -87,7 +114,8 @@ def regress_record(scene, views, modes, width, height, outdir):
     """
     from mrcheck.apps.regress.run import record
 
-    baseline = record(scene, outdir, views, modes, (width, height), progress=progress_bar)
+    client = _client(scheduler)
+    baseline = record(scene, outdir, views, modes, (width, height), None, progress_bar, workers, client)
     click.echo(f"{baseline.folder}: {len(baseline.views)} view(s) x {len(baseline.modes)} mode(s) recorded")
 
 
@@ -103,7 +131,8 @@ def regress_record(scene, views, modes, width, height, outdir):
     type=FINITE,
     help="Fraction of the pixels that may count as changed [default: 0.0001, 31 px at 640x480].",
 )
-def regress_check(scene, baseline_dir, outdir, max_mean, max_p999, pixel_flip, max_changed):
+@workers_options
+def regress_check(scene, baseline_dir, outdir, max_mean, max_p999, pixel_flip, max_changed, workers, scheduler):
     """Render a baseline's views again; name what changed, where.
 
     Each view and mode is compared with NVIDIA's FLIP; a view changed when a mode's mean or
@@ -121,7 +150,8 @@ def regress_check(scene, baseline_dir, outdir, max_mean, max_p999, pixel_flip, m
     given = {"mean": max_mean, "percentile_max": max_p999, "pixel_flip": max_pixel_check(pixel_flip)}
     given["max_changed"] = max_pixel_check(max_changed)
     tolerances = Tolerances(**{k: v for k, v in given.items() if v is not None})
-    result = check(scene, baseline_dir, outdir, tolerances, progress=progress_bar)
+    client = _client(scheduler)
+    result = check(scene, baseline_dir, outdir, tolerances, progress_bar, workers, client)
     for line in result.summary():
         click.echo(line)
     click.echo(f"report: {result.report}")

@@ -62,6 +62,18 @@ def local_workers(workers: int, shots: int) -> int:
     return 1 if workers <= 1 or shots <= 1 else min(workers, shots)
 
 
+def worker_pool(workers: int) -> ProcessPoolExecutor:
+    """``workers`` spawned processes that die with this one, each giving llvmpipe its share of
+    the cores (the export's shots; ``mrcheck regress``'s views)."""
+    threads = max(1, (os.cpu_count() or 1) // workers)
+    return ProcessPoolExecutor(
+        max_workers=workers,
+        mp_context=multiprocessing.get_context("spawn"),
+        initializer=_worker_init,
+        initargs=(threads,),
+    )
+
+
 def run_local(tasks, workers: int, scene=None):
     """The shots in this process (``scene``: the job's loaded Scene) or in spawned workers, each
     with its own EGL context, keeping its scene and Renderer across shots."""
@@ -70,13 +82,7 @@ def run_local(tasks, workers: int, scene=None):
         for task in tasks:
             yield task, run_shot(task, scene)
         return
-    threads = max(1, (os.cpu_count() or 1) // workers)
-    with ProcessPoolExecutor(
-        max_workers=workers,
-        mp_context=multiprocessing.get_context("spawn"),
-        initializer=_worker_init,
-        initargs=(threads,),
-    ) as pool:
+    with worker_pool(workers) as pool:
         futures = {pool.submit(run_shot, task): task for task in tasks}
         for future in as_completed(futures):
             task = futures[future]
@@ -123,4 +129,4 @@ def run_dask(tasks, client):
         yield task, record
 
 
-__all__ = ["run_local", "run_dask", "connect", "local_workers", "SCHEDULER_TIMEOUT"]
+__all__ = ["run_local", "run_dask", "connect", "local_workers", "worker_pool", "SCHEDULER_TIMEOUT"]

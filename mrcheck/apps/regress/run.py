@@ -29,8 +29,8 @@ from mrcheck.apps.regress.baseline import (
 )
 from mrcheck.apps.regress.compare import ModeComparison, Tolerances, compare_images
 from mrcheck.apps.regress.report import report_writes
-from mrcheck.apps.regress.snapshots import SnapshotRenderer
 from mrcheck.apps.regress.views import is_camera_file, resolve_views, split_views
+from mrcheck.apps.regress.workers import render_views
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.output import check_not_inputs, check_own_output_dir, mark_output_dir, write_all_or_none
 from mrcheck.core.progress import Progress, no_progress
@@ -103,9 +103,12 @@ def record(
     size: tuple[int, int] = DEFAULT_SIZE,
     settings: RenderSettings | None = None,
     progress: Progress = no_progress,
+    workers: int = 1,
+    client=None,
 ) -> Baseline:
     """Render ``views`` (default: the scene's viewpoints) in ``modes`` at ``size`` and write the
-    baseline into ``outdir``: the images, the id buffers and baseline.json."""
+    baseline into ``outdir``: the images, the id buffers and baseline.json. ``workers`` local
+    processes or the Dask cluster of ``client`` render the views (:mod:`.workers`)."""
     modes = check_modes(modes)
     settings = (settings or RenderSettings()).validated(size[1])
     outdir = check_own_output_dir(Path(outdir), "baseline folder")
@@ -114,14 +117,13 @@ def record(
     cameras = resolve_views(loaded, views, *size)
     outputs = [outdir / MANIFEST] + [outdir / image_file(n, m) for n, _ in cameras for m in modes]
     check_not_inputs(outputs, inputs)
-    images, id_buffers, entries = {}, {}, []
-    with SnapshotRenderer(loaded, modes, settings) as renderer:
-        for snap in renderer.render_all(cameras, progress):
-            images.update({(snap.name, m): im for m, im in snap.images.items()})
-            id_buffers[snap.name] = snap.ids
-            files = {m: image_file(snap.name, m) for m in modes}
-            entries.append(BaselineView(snap.name, snap.camera, files, {m: pixel_hash(snap.images[m]) for m in modes}))
-        gl_renderer = renderer.gl_renderer
+    images, id_buffers, entries, gl_renderer = {}, {}, {}, ""
+    for snap in render_views(scene, loaded, cameras, modes, settings, workers, client, progress):
+        images.update({(snap.name, m): im for m, im in snap.images.items()})
+        id_buffers[snap.name] = snap.ids
+        files = {m: image_file(snap.name, m) for m in modes}
+        entries[snap.name] = BaselineView(snap.name, snap.camera, files, {m: pixel_hash(snap.images[m]) for m in modes})
+        gl_renderer = snap.gl_renderer
     baseline = Baseline(
         outdir.resolve(),
         __version__,
@@ -132,7 +134,7 @@ def record(
         size[0],
         size[1],
         settings,
-        tuple(entries),
+        tuple(entries[name] for name, _ in cameras),  # the order asked for, not the order finished
     )
     stale = _previous_files(outdir)
     mark_output_dir(outdir)
@@ -163,9 +165,12 @@ def check(
     outdir,
     tolerances: Tolerances | None = None,
     progress: Progress = no_progress,
+    workers: int = 1,
+    client=None,
 ) -> CheckResult:
     """Render the baseline's views of ``scene`` again with its settings, compare each mode with
-    FLIP, name the elements under the changed pixels, and write the report into ``outdir``."""
+    FLIP, name the elements under the changed pixels, and write the report into ``outdir``.
+    ``workers``, ``client``: as for :func:`record`."""
     tolerances = tolerances or Tolerances()
     baseline = read_baseline(baseline_dir)
     outdir = check_own_output_dir(Path(outdir), "report folder")
@@ -179,19 +184,19 @@ def check(
     loaded = load_scene(scene, progress=True)
     cameras = [(v.name, v.camera) for v in baseline.views]
     by_name = {v.name: v for v in baseline.views}
-    checks, pictures = [], {}
-    with SnapshotRenderer(loaded, baseline.modes, baseline.settings) as renderer:
-        for snap in renderer.render_all(cameras, progress):
-            view = by_name[snap.name]
-            before = {m: read_view_image(baseline, view, m) for m in baseline.modes}
-            modes = [compare_images(m, before[m], snap.images[m], tolerances) for m in baseline.modes]
-            elements = []
-            if not all(m.passed for m in modes):
-                changed = np.logical_or.reduce([m.changed for m in modes])
-                elements = attribute(changed, read_id_buffer(baseline.folder / view.ids_file), snap.ids)
-            checks.append(ViewCheck(snap.name, modes, elements))
-            pictures[snap.name] = (before, snap.images)
-        gl_renderer = renderer.gl_renderer
+    found, pictures, gl_renderer = {}, {}, ""
+    for snap in render_views(scene, loaded, cameras, baseline.modes, baseline.settings, workers, client, progress):
+        view = by_name[snap.name]
+        before = {m: read_view_image(baseline, view, m) for m in baseline.modes}
+        modes = [compare_images(m, before[m], snap.images[m], tolerances) for m in baseline.modes]
+        elements = []
+        if not all(m.passed for m in modes):
+            changed = np.logical_or.reduce([m.changed for m in modes])
+            elements = attribute(changed, read_id_buffer(baseline.folder / view.ids_file), snap.ids)
+        found[snap.name] = ViewCheck(snap.name, modes, elements)
+        pictures[snap.name] = (before, snap.images)
+        gl_renderer = snap.gl_renderer
+    checks = [found[v.name] for v in baseline.views]  # the baseline's order, not the order finished
     stamp = files_stamp(scene_files(scene))
     mark_output_dir(outdir)
     result = CheckResult(baseline, checks, outdir / "report.html", [], gl_renderer, stamp)

@@ -31,6 +31,7 @@ class Snapshot:
     camera: Camera
     images: dict[str, np.ndarray]
     ids: IdBuffer
+    gl_renderer: str = ""  # the GL renderer that drew it (a worker's, on a cluster)
 
 
 def element_labels(scene: Scene, labels) -> np.ndarray:
@@ -59,7 +60,8 @@ class SnapshotRenderer:
 
     def render(self, name: str, camera: Camera) -> Snapshot:
         frame = self.renderer.render(camera, self.modes, self.settings)
-        return Snapshot(name, camera, {m: frame[m].image for m in self.modes}, id_buffer(self.scene, camera))
+        images = {m: frame[m].image for m in self.modes}
+        return Snapshot(name, camera, images, id_buffer(self.scene, camera), self.gl_renderer)
 
     def render_all(self, views: list[tuple[str, Camera]], progress: Progress = no_progress) -> Iterator[Snapshot]:
         """Each view in turn (a report may hold many views: their images are not all kept)."""
