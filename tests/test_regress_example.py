@@ -18,6 +18,8 @@ import pytest
 
 import mrcheck.apps.regress.run  # noqa: F401
 
+from .test_regress_plugin import PLUGIN
+
 pytest_plugins = ("pytester",)
 EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "regress"
 CV02 = "conveyor 2CvA0000000000000000A2 (CV-02 IfcTransportElement)"
@@ -62,7 +64,7 @@ def test_ci_passes_on_the_agreed_revision_and_names_the_change_of_the_next(repo)
 def test_the_example_pytest_file_through_the_plugin(repo, pytester, monkeypatch):
     for item in repo.iterdir():
         shutil.move(str(item), pytester.path / item.name)
-    plugin = ("-p", "mrcheck.apps.regress.pytest_plugin", "tests/test_views.py", "-k", "line")
+    plugin = (*PLUGIN, "tests/test_views.py", "-k", "line")
     pytester.runpytest(*plugin, "--mrcheck-generate", "baseline-pytest").assert_outcomes(passed=1, deselected=2)
     monkeypatch.setenv("MODEL", "model/rev2/scene.toml")
     result = pytester.runpytest(*plugin, "--mrcheck-baseline", "baseline-pytest")

@@ -1,12 +1,13 @@
 """The pytest plugin of ``mrcheck regress`` (``mrcheck_snapshot``), run on a made-up planning
-repo with pytester, in this process (``-p mrcheck.apps.regress.pytest_plugin``: the entry point
-is how an installed mrcheck loads it).
+repo with pytester, in this process (its ``pytest11`` entry point, or ``-p mrcheck.apps.regress.pytest_plugin``
+where the installed metadata predates it).
 
 One view of the sample cell at 320x240: generate, check the same scene (passes), check the
 scene with its conveyor moved 20 cm (fails, naming the view and the conveyor)."""
 
 from __future__ import annotations
 
+import importlib.metadata
 import shutil
 
 # pytester's in-process runs drop the modules a run imported; Open3D and FLIP's C++ extensions
@@ -20,7 +21,16 @@ from mrcheck.apps.regress.pytest_plugin import snapshot_key
 from mrcheck.core.resources import sample_scene_path
 
 pytest_plugins = ("pytester",)
-PLUGIN = ("-p", "mrcheck.apps.regress.pytest_plugin")
+
+
+def plugin_args() -> tuple[str, ...]:
+    """``-p`` the plugin unless its entry point loads it already (an installed mrcheck whose
+    metadata has it): a second registration under the module's name would be refused."""
+    names = {ep.name for ep in importlib.metadata.entry_points(group="pytest11")}
+    return () if "mrcheck_regress" in names else ("-p", "mrcheck.apps.regress.pytest_plugin")
+
+
+PLUGIN = plugin_args()
 TEST_FILE = """
 def test_cell(mrcheck_snapshot):
     mrcheck_snapshot("cell/scene.toml", view="conveyor", size=(320, 240))
