@@ -120,7 +120,7 @@ def write_id_buffer(path: Path, buffer: IdBuffer) -> Path:
 
 def read_baseline(folder) -> Baseline:
     """The baseline in ``folder`` (its baseline.json), or a one-line error naming the file."""
-    folder = Path(folder)
+    folder = Path(folder).resolve()  # compared with the report folder, and printed, as a whole path
     path = folder / MANIFEST
     if not folder.is_dir():
         raise MrcheckError("baseline folder not found", folder)

@@ -106,6 +106,7 @@ def report_html(result, tolerances: Tolerances) -> str:
         changed=len(result.changed),
         views=views,
         baseline=b,
+        scene=result.scene,
         gl_renderer=result.gl_renderer,
         scene_changed=result.scene_stamp != b.scene_stamp,
         tolerances=tolerances,

@@ -60,6 +60,7 @@ class CheckResult:
     """What ``regress check`` found and wrote."""
 
     baseline: Baseline
+    scene: str  # the scene checked (absolute path)
     views: list[ViewCheck]
     report: Path
     written: list[Path]
@@ -199,9 +200,10 @@ def check(
     checks = [found[v.name] for v in baseline.views]  # the baseline's order, not the order finished
     stamp = files_stamp(scene_files(scene))
     mark_output_dir(outdir)
-    result = CheckResult(baseline, checks, outdir / "report.html", [], gl_renderer, stamp)
+    checked = str(Path(scene).resolve())
+    result = CheckResult(baseline, checked, checks, outdir / "report.html", [], gl_renderer, stamp)
     written = write_all_or_none(report_writes(outdir, result, pictures, tolerances))
-    return CheckResult(baseline, checks, outdir / "report.html", written, gl_renderer, stamp)
+    return CheckResult(baseline, checked, checks, outdir / "report.html", written, gl_renderer, stamp)
 
 
 __all__ = ["record", "check", "CheckResult", "ViewCheck", "DEFAULT_MODES", "DEFAULT_SIZE"]
