@@ -33,6 +33,7 @@ from .project_files import (  # noqa: F401
     project,
     run_refused,
     shot,
+    snapshot,
     write_files,
 )
 
@@ -506,6 +507,28 @@ def test_nan_and_infinity_are_refused(project, capsys, args, fragments, files):
     run_refused(capsys, args, files, *fragments)
 
 
+# mrcheck regress exits 2 on bad input (1 says a view changed): its cases have their own test
+REGRESS_OPTION_CASES = [
+    case(
+        f"regress-check{option}={text(v)}",
+        ["regress", "check", "scene.toml", "--baseline", "b", "-o", "out/r", option, text(v)],
+        [option, f"{text(v)} is not a finite number"],
+    )
+    for option in ("--max-mean", "--max-p999", "--pixel-flip", "--max-changed")
+    for v in BAD
+]
+
+
+@pytest.mark.parametrize("args, fragments, files", REGRESS_OPTION_CASES)
+def test_nan_and_infinity_are_refused_by_regress_with_exit_2(project, capsys, args, fragments, files):
+    before = snapshot()
+    rc = main(args)
+    captured = capsys.readouterr()
+    assert rc == 2 and captured.out == "" and captured.err.count("\n") == 1, (rc, captured)
+    assert captured.err.startswith("error: ") and all(f in captured.err for f in fragments), captured.err
+    assert snapshot() == before
+
+
 @pytest.mark.slow
 def test_a_nan_in_one_shot_of_an_export_fails_that_shot_only(project, capsys):
     """A shot's own SHOT.json is read when the shot runs: a NaN there fails that shot, named with
@@ -574,8 +597,8 @@ def test_the_cases_cover_every_float_option():
         if opt.startswith("--")
     }
     covered = set()
-    for param in OPTION_CASES:
+    for param in OPTION_CASES + REGRESS_OPTION_CASES:
         args = param.values[0]
-        name = f"scene {args[1]}" if args[0] == "scene" else args[0]
+        name = f"{args[0]} {args[1]}" if args[0] in ("scene", "regress") else args[0]
         covered |= {(name, a) for a in args if a.startswith("--")}
     assert floats and floats <= covered, sorted(floats - covered)
