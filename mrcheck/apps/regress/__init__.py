@@ -10,5 +10,6 @@ the pytest plugin :mod:`mrcheck.apps.regress.pytest_plugin` (entry point ``pytes
 Modules: ``baseline`` (baseline.json and the files beside it: the one reader and writer),
 ``views`` (which views: viewpoints, camera files, SHOT.json), ``snapshots`` (a view rendered in
 its modes, with its id buffer), ``compare`` (FLIP and the tolerances), ``attribution`` (which
-elements lie under the changed pixels), ``report`` (HTML and JUnit XML), ``run`` (the commands).
+elements lie under the changed pixels), ``report`` (HTML and JUnit XML), ``workers`` (many views
+on the export's local workers or a Dask cluster), ``run`` (the commands).
 """
