@@ -205,3 +205,20 @@ def test_views_rendered_by_local_workers_are_the_views_rendered_here(tmp_path):
     there = record(sample_scene_path(), tmp_path / "there", views, size=(320, 240), workers=2)
     assert [v.name for v in there.views] == ["robot", "conveyor"]
     assert [v.hashes for v in there.views] == [v.hashes for v in here.views]
+
+
+def test_camera_file_views_are_named_after_their_file_and_names_must_differ(tmp_path):
+    from mrcheck.apps.regress.views import resolve_views
+    from mrcheck.core.errors import MrcheckError
+    from mrcheck.scene.model import Scene
+
+    camera = Camera.from_look_at([0, -5, 1.7], [0, 0, 1], [0, 0, 1], 50.0, 64, 48)
+    shot = write_camera(tmp_path / "hall_walk_3" / "SHOT.json", camera)
+    plain = write_camera(tmp_path / "north gate.json", camera)
+    scene = Scene("empty", tmp_path / "scene.toml", [])
+    views = resolve_views(scene, [f"{shot},{plain}"], 32, 24)
+    assert [(name, cam.width, cam.height) for name, cam in views] == [("hall_walk_3", 32, 24), ("north_gate", 32, 24)]
+    with pytest.raises(MrcheckError, match="two views named 'north_gate'"):
+        resolve_views(scene, [str(plain), str(plain)], 32, 24)
+    with pytest.raises(MrcheckError, match="no viewpoints"):
+        resolve_views(scene, [], 32, 24)
