@@ -72,3 +72,17 @@ def test_a_missing_baseline_fails_the_test_with_the_command_to_record_it(pyteste
     result = pytester.runpytest(*PLUGIN, "--mrcheck-baseline", str(pytester.path / "none"))
     result.assert_outcomes(failed=1)
     result.stdout.fnmatch_lines(["*no baseline*record it with --mrcheck-generate DIR*"])
+
+
+def test_the_plugin_imports_no_renderer():
+    """Every pytest run of an environment with mrcheck loads the plugin: it must not pull in
+    numpy, GL, Open3D or FLIP (checked in a fresh interpreter)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, mrcheck.apps.regress.pytest_plugin; "
+        "print(sorted(m for m in ('numpy', 'moderngl', 'open3d', 'flip_evaluator', 'cv2') if m in sys.modules))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stdout.strip() == "[]", done.stdout
