@@ -99,9 +99,9 @@ def test_checks_pass_between_runs_and_llvmpipe_thread_counts_within_30_s(baselin
     """A check in this process (llvmpipe's default here: one thread per core, 2) and one in a
     fresh process with LP_NUM_THREADS=1 (set before the GL context is made) against the fresh
     baseline: both pass with every FLIP mean exactly 0 (byte-identical renders). The one here is
-    timed: 7.8-8.7 s measured at a load average of 4, 15-17 s at 7 (scene
-    load 1 s, renders 0.7 s, FLIP 0.5-1 s per image, the id buffers' ray casts); 30 s is the
-    issue's target for the 3 viewpoints, and this baseline has 4 views."""
+    timed: identical images skip FLIP, and the command took 3.75-3.85 s at a load average of 3
+    (7.0-7.2 s with FLIP on all six images, the conveyor moved); 30 s is the issue's target for
+    the 3 viewpoints, and this baseline has 4 views."""
     start = time.perf_counter()
     result = check(sample_scene_path(), baseline.folder, tmp_path / "report")
     seconds = time.perf_counter() - start
@@ -178,6 +178,25 @@ def test_bad_input_exits_2_with_one_line(tmp_path, baseline):
         text=True,
     )
     assert done.returncode == 2 and "the report folder is the baseline folder" in done.stderr
+
+
+@pytest.mark.slow
+def test_a_baseline_edited_or_incomplete_is_refused_before_rendering(baseline, tmp_path):
+    from mrcheck.core.errors import MrcheckError
+    from mrcheck.core.images import read_image
+    from mrcheck.core.output import write_image
+
+    edited = tmp_path / "edited"
+    shutil.copytree(baseline.folder, edited)
+    image = read_image(edited / "robot_vector.png")
+    image[0, 0] ^= 1  # one bit of one pixel, as a lossy re-encoding would change many
+    write_image(edited / "robot_vector.png", image)
+    with pytest.raises(MrcheckError, match="pixels differ from their hash in baseline.json"):
+        check(sample_scene_path(), edited, tmp_path / "r1")
+    (edited / "overview_ids.npz").unlink()
+    with pytest.raises(MrcheckError, match="baseline file overview_ids.npz named in baseline.json is missing"):
+        check(sample_scene_path(), edited, tmp_path / "r2")
+    assert not (tmp_path / "r2").exists()  # refused before any output
 
 
 def test_attribution_names_the_nearer_element_where_the_two_renders_differ():

@@ -156,7 +156,23 @@ def read_baseline(folder) -> Baseline:
 
 
 def read_view_image(baseline: Baseline, view: BaselineView, mode: str) -> np.ndarray:
-    return read_image(baseline.folder / view.images[mode], what="baseline image")
+    """A view's baseline image, refused when its pixels are not the ones recorded (re-encoded
+    lossily, edited, or a Git LFS pointer checked out without LFS)."""
+    path = baseline.folder / view.images[mode]
+    image = read_image(path, what="baseline image")
+    if pixel_hash(image) != view.hashes.get(mode):
+        raise MrcheckError(
+            f"baseline image's pixels differ from their hash in {MANIFEST} (edited?); record again", path
+        )
+    return image
+
+
+def check_files(baseline: Baseline) -> None:
+    """Every file baseline.json names is there: a missing one fails before any render."""
+    for view in baseline.views:
+        for name in [*view.images.values(), view.ids_file]:
+            if not (baseline.folder / name).is_file():
+                raise MrcheckError(f"baseline file {name} named in {MANIFEST} is missing", baseline.folder / name)
 
 
 def read_id_buffer(path) -> IdBuffer:
@@ -176,6 +192,7 @@ __all__ = [
     "IdBuffer",
     "MANIFEST",
     "baseline_writes",
+    "check_files",
     "image_file",
     "pixel_hash",
     "read_baseline",

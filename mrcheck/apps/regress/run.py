@@ -21,6 +21,7 @@ from mrcheck.apps.regress.baseline import (
     Baseline,
     BaselineView,
     baseline_writes,
+    check_files,
     image_file,
     pixel_hash,
     read_baseline,
@@ -174,6 +175,7 @@ def check(
     ``workers``, ``client``: as for :func:`record`."""
     tolerances = tolerances or Tolerances()
     baseline = read_baseline(baseline_dir)
+    check_files(baseline)
     outdir = check_own_output_dir(Path(outdir), "report folder")
     if outdir.resolve() == baseline.folder:
         raise MrcheckError("the report folder is the baseline folder; write the report elsewhere", outdir)
@@ -182,13 +184,15 @@ def check(
     ]
     report_files = [outdir / "report.html", outdir / "junit.xml"]
     check_not_inputs(report_files, [("the scene", scene_files(scene)), ("the baseline", baseline_files)])
+    # every baseline image read (and its hash checked) before the scene loads: a bad one fails at once
+    recorded = {v.name: {m: read_view_image(baseline, v, m) for m in baseline.modes} for v in baseline.views}
     loaded = load_scene(scene, progress=True)
     cameras = [(v.name, v.camera) for v in baseline.views]
     by_name = {v.name: v for v in baseline.views}
     found, pictures, gl_renderer = {}, {}, ""
     for snap in render_views(scene, loaded, cameras, baseline.modes, baseline.settings, workers, client, progress):
         view = by_name[snap.name]
-        before = {m: read_view_image(baseline, view, m) for m in baseline.modes}
+        before = recorded[snap.name]
         modes = [compare_images(m, before[m], snap.images[m], tolerances) for m in baseline.modes]
         elements = []
         if not all(m.passed for m in modes):
