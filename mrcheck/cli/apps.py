@@ -183,6 +183,11 @@ class _ExportBar:
 )
 @click.option("--tls-key", metavar="KEY.pem", help="The private key of --tls-cert (PEM, without a passphrase).")
 @click.option(
+    "--marker-map",
+    metavar="MAP.json",
+    help="The markers in the hall (the marker map of `register --markers`): Live can start from the markers in view.",
+)
+@click.option(
     "--self-signed",
     is_flag=True,
     help="Serve HTTPS with a certificate made for this machine, kept in review-tls/ beside the database and "
@@ -204,6 +209,7 @@ def review(
     accumulate,
     tls_cert,
     tls_key,
+    marker_map,
     self_signed,
 ):
     """Review shots in the browser and mark discrepancies.
@@ -239,6 +245,7 @@ def review(
             author=author,
             accumulate=accumulate,
             tls=TlsOptions(tls_cert, tls_key, self_signed),
+            marker_map=marker_map,
         )
         try:
             for line in server.messages():

@@ -56,6 +56,7 @@ def create_app(
     antialias: bool = True,
     author: str | None = None,
     accumulate: int = DEFAULT_ACCUMULATE,
+    marker_map=None,
 ) -> FastAPI:
     """``suggestions``: {shot name: markers} (:func:`.suggestions.load_suggestions`), imported
     into the review's markers once; ``app.state.imported``: {shot name: markers added now}.
@@ -64,7 +65,8 @@ def create_app(
     ``max_body``: the largest request body, in bytes; ``max_upload``: the largest upload of "Add photo".
     ``antialias``: the CAD renders anti-aliased (mrcheck.render.antialias); ``author``: who
     writes the BCF topics and the comments made in the review (None: the OS user); ``accumulate``:
-    the AO frames of a render session's frame at rest (:mod:`.viewsession`)."""
+    the AO frames of a render session's frame at rest (:mod:`.viewsession`); ``marker_map``: the
+    markers Live may start from (:class:`mrcheck.mr.markers.MarkerMap`, ``--marker-map``)."""
     db_path = database_path(source, db_path)
     store = Store(
         db_path,
@@ -72,7 +74,9 @@ def create_app(
         served_scales={s.name: s.served_scale() for s in source.shots.values() if s.served_size != s.size},
     )
     renders = RenderService(source, cache_dir or cache_path(db_path), samples=samples, antialias=antialias)
-    review = Review(source, store, renders, author=author or default_author(), accumulate=accumulate)
+    review = Review(
+        source, store, renders, author=author or default_author(), accumulate=accumulate, marker_map=marker_map
+    )
     review.addphoto = AddPhoto(review, renders.cache)
     review.import_suggestions(suggestions or {})
 

@@ -27,6 +27,7 @@ from mrcheck.apps.review.viewsession import DEFAULT_ACCUMULATE
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.images import parse_pixels
 from mrcheck.core.output import check_not_inputs
+from mrcheck.mr.markers import load_marker_map
 from mrcheck.render.settings import MAX_ACCUMULATE
 
 
@@ -131,12 +132,14 @@ def start(
     author: str | None = None,
     accumulate: int = DEFAULT_ACCUMULATE,
     tls: TlsOptions = TlsOptions(),
+    marker_map=None,
 ) -> ReviewServer:
     """Everything but serving: the source opened and checked, the port bound, the app made (its
     database written), the certificate of ``--self-signed`` kept or made. A bad input is a
     :class:`MrcheckError` before the port is bound. ``max_pixels``: the largest photo read
     (None: :data:`.source.MAX_PIXELS`); ``author``: of the BCF topics and comments (None: the OS
-    user); ``accumulate``: the AO frames of a navigated view at rest; ``tls``: HTTPS."""
+    user); ``accumulate``: the AO frames of a navigated view at rest; ``tls``: HTTPS;
+    ``marker_map``: the marker map file Live may start from (``--marker-map``)."""
     from mrcheck.apps.review.source import open_source
     from mrcheck.apps.review.suggestions import load_suggestions, suggestions_file
 
@@ -145,6 +148,7 @@ def start(
     served = given_tls(tls)  # --tls-cert and --tls-key, as uvicorn will load them
     if not 1 <= accumulate <= MAX_ACCUMULATE:
         raise MrcheckError(f"--accumulate must be 1 to {MAX_ACCUMULATE} frames, got {accumulate}")
+    markers = load_marker_map(marker_map) if marker_map else None  # a bad map: one line, before anything
     source = open_source(target, shots_dir, **({} if max_pixels is None else {"max_pixels": max_pixels}))
     suggested = load_suggestions(source, suggestions)
     database = database_path(source, db)
@@ -152,7 +156,11 @@ def start(
     check_not_inputs(
         [Path(f"{database}{suffix}") for suffix in ("", "-wal", "-shm", "-journal")]
         + ([tls_path(database) / name for name in (TLS_CA, TLS_CERT, TLS_KEY)] if tls.self_signed else []),
-        [*source.inputs(), ("--suggestions", [suggestions_file(s) for s in suggestions])],
+        [
+            *source.inputs(),
+            ("--suggestions", [suggestions_file(s) for s in suggestions]),
+            ("--marker-map", [marker_map] if marker_map else []),
+        ],
         folders=[cache_path(database)],
     )
     if token is None and not is_loopback(host):
@@ -170,6 +178,7 @@ def start(
             antialias=antialias,
             author=author,
             accumulate=accumulate,
+            marker_map=markers,
         )
     except BaseException:
         sock.close()

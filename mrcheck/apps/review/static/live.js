@@ -3,7 +3,10 @@
 // api/live, which tracks the newest one waiting whenever it is done with the last (the others
 // are dropped there: no queue, and no round trip between two frames) from the shot's pose, and
 // answers the pose and the CAD layer at it; the layer is blended over the video with the CAD
-// opacity slider (no round trip). Frames are never stored. Uses app.js's S, $, $$, status, panes.
+// opacity slider (no round trip). Frames are never stored. The track starts at the shot's pose,
+// a named viewpoint's or the markers' (#live-start); "Clicks" freezes a frame and hands it to
+// "Add photo" (addphoto.js), and Live starts again from the shot saved there.
+// Uses app.js's S, $, $$, status, panes.
 "use strict";
 (() => {  // one scope: app.js, addphoto.js and navigate.js share the page's global names
   const LIVE = { on: false, ws: null, stream: null, video: null, layer: null, encoding: false, sent: 0, got: 0,
@@ -31,6 +34,11 @@
   function shown(h, blob) {
     if (!LIVE.on) return;
     if (LIVE.still && h.time === LIVE.still.time) { LIVE.still.resolve(h); return; }
+    document.body.dataset.liveWaiting = h.waiting ? "1" : "";
+    if (h.waiting) {  // no pose yet: no layer (the markers are not in view)
+      LIVE.layer.style.visibility = "hidden"; status(`live: ${h.reason}`); return;
+    }
+    LIVE.layer.style.visibility = "";
     const url = URL.createObjectURL(blob), old = LIVE.url;
     LIVE.url = url; LIVE.layer.src = url;
     if (old) setTimeout(() => URL.revokeObjectURL(old), 1000);
@@ -64,7 +72,27 @@
     document.body.dataset.frozen = shot.name;
     status(`frozen as shot ${shot.name} (from ${from}): click the image to place a marker`);
   }
+  // start from clicks: the frame stops, goes to "Add photo" with the live intrinsics; the shot
+  // saved there is where Live starts again
+  async function clicks() {
+    if (!LIVE.on) return;
+    LIVE.video.pause();
+    const c = LIVE.canvas, cam = S.shot.camera;
+    c.width = cam.width; c.height = cam.height;
+    c.getContext("2d").drawImage(LIVE.video, 0, 0, c.width, c.height);
+    const image = c.toDataURL("image/png").split(",")[1], from = S.shot.name;
+    liveStop();
+    const staged = await api("POST", "api/live/clicks", { shot: from, image });
+    status("live: click 4 or more points on the frame and the same on the CAD, Solve, Save: Live starts from that shot");
+    await apOpenWith(staged, (shot) => { $("#live-start").value = "shot"; liveStart(); });
+  }
   function blend() { if (LIVE.layer) LIVE.layer.style.opacity = S.opacity / 100; }
+  function startMessage() {  // where the track starts (#live-start): the shot's pose, a viewpoint's, the markers'
+    const from = $("#live-start").value, start = { type: "start", shot: S.shot.name };
+    if (from.startsWith("view:")) start.viewpoint = from.slice(5);
+    if (from === "markers") start.markers = true;
+    return start;
+  }
 
   async function liveStart() {
     if (!S.shot || !navigator.mediaDevices) { status("live: this page cannot open a camera (HTTPS is needed off this machine)"); return; }
@@ -79,16 +107,18 @@
     LIVE.layer = Object.assign(document.createElement("img"), { className: "live-layer", alt: "" });
     stage.append(LIVE.video, LIVE.layer); blend();
     for (const el of $$(".photo, .render, .edges, .markers", stage)) el.style.visibility = "hidden";
-    $("#live").classList.add("active"); $("#navigate").disabled = true; $("#view").disabled = true; $("#freeze").hidden = false;
+    $("#live").classList.add("active"); $("#navigate").disabled = true; $("#view").disabled = true;
+    $("#freeze").hidden = false; $("#live-clicks").hidden = false; $("#live-start").disabled = true;
     try {
       LIVE.ws = await openSocket("api/live", "pose", shown, "live", (ws) => LIVE.ws === ws && LIVE.on);
     } catch (e) { liveStop(); status("live: no connection to the server's live session"); return; }
-    LIVE.ws.send(JSON.stringify({ type: "start", shot: S.shot.name }));
+    LIVE.ws.send(JSON.stringify(startMessage()));
     await LIVE.video.play().catch(() => {});
     nextFrame();
   }
   function liveStop() {
-    LIVE.on = false; LIVE.still = null; $("#freeze").hidden = true;
+    LIVE.on = false; LIVE.still = null; $("#freeze").hidden = true; $("#live-clicks").hidden = true;
+    $("#live-start").disabled = false; document.body.dataset.liveWaiting = "";
     if (LIVE.ws) LIVE.ws.close();
     if (LIVE.stream) for (const track of LIVE.stream.getTracks()) track.stop();
     for (const el of [LIVE.video, LIVE.layer]) if (el) el.remove();
@@ -99,6 +129,7 @@
   }
   $("#live").onclick = () => (LIVE.on ? liveStop() : liveStart());
   $("#freeze").onclick = freeze;
+  $("#live-clicks").onclick = () => clicks().catch(() => {});
   $("#opacity").addEventListener("input", blend);
   const baseSelectShot = selectShot;
   selectShot = async function (shot) { if (LIVE.on) liveStop(); return baseSelectShot(shot); };  // eslint-disable-line no-global-assign
