@@ -116,7 +116,9 @@ def paste_marker(photo: np.ndarray, camera, marker_map: dict) -> np.ndarray:
     entry = marker_map["markers"][0]
     dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, marker_map["dictionary"]))
     cell = 40
-    pattern = cv2.resize(dictionary.generateImageMarker(entry["id"], 8), (8 * cell, 8 * cell), interpolation=cv2.INTER_NEAREST)
+    pattern = cv2.resize(
+        dictionary.generateImageMarker(entry["id"], 8), (8 * cell, 8 * cell), interpolation=cv2.INTER_NEAREST
+    )
     framed = cv2.copyMakeBorder(pattern, cell, cell, cell, cell, cv2.BORDER_CONSTANT, value=255)
     world = np.asarray(entry["corners"], np.float64)
     centre = world.mean(axis=0)

@@ -220,7 +220,9 @@ def test_a_frozen_frame_is_staged_for_add_photo_with_the_live_intrinsics(walk, t
         staged = client.post("/api/live/clicks", json={"shot": "p1", "image": image})
         assert staged.status_code == 201, staged.json()
         refs = staged.json()
-        info = client.get("/api/addphoto/photo", params={"photo": refs["photo"]["ref"], "intrinsics": refs["intrinsics"]["ref"]})
+        info = client.get(
+            "/api/addphoto/photo", params={"photo": refs["photo"]["ref"], "intrinsics": refs["intrinsics"]["ref"]}
+        )
         assert info.status_code == 200 and (info.json()["width"], info.json()["height"]) == (320, 240)
         bad = client.post("/api/live/clicks", json={"shot": "p1", "image": "bm90IGFuIGltYWdl"})
         assert bad.status_code == 422

@@ -62,7 +62,10 @@ def test_the_offset_across_the_view_is_measured_in_metres(shots, tmp_path):
     marker_xy = _photo_pixel(cam, moved)
     app = create_app(open_source(sample_scene_path(), root), db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "c")
     with TestClient(app) as client:
-        m = client.post("/api/markers", json={"shot": "p1", "x": marker_xy[0], "y": marker_xy[1], "category": "moved", "severity": 2}).json()
+        m = client.post(
+            "/api/markers",
+            json={"shot": "p1", "x": marker_xy[0], "y": marker_xy[1], "category": "moved", "severity": 2},
+        ).json()
         assert m["offset"] is None
         r = client.put(f"/api/markers/{m['id']}/offset", json={"x": CAD_PIXEL[0], "y": CAD_PIXEL[1]})
         assert r.status_code == 200, r.text
@@ -103,8 +106,13 @@ def test_along_the_line_of_sight_is_not_measured(shots, tmp_path):
     marker_xy = _photo_pixel(cam, farther)
     app = create_app(open_source(sample_scene_path(), root), db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "c")
     with TestClient(app) as client:
-        m = client.post("/api/markers", json={"shot": "p1", "x": marker_xy[0], "y": marker_xy[1], "category": "moved", "severity": 2}).json()
-        offset = client.put(f"/api/markers/{m['id']}/offset", json={"x": CAD_PIXEL[0], "y": CAD_PIXEL[1]}).json()["offset"]
+        m = client.post(
+            "/api/markers",
+            json={"shot": "p1", "x": marker_xy[0], "y": marker_xy[1], "category": "moved", "severity": 2},
+        ).json()
+        offset = client.put(f"/api/markers/{m['id']}/offset", json={"x": CAD_PIXEL[0], "y": CAD_PIXEL[1]}).json()[
+            "offset"
+        ]
         assert offset["distance_m"] < 2e-3
 
 
@@ -113,7 +121,9 @@ def test_bad_offset_requests_are_clear_4xx(shots, tmp_path):
     root, _ = shots
     app = create_app(open_source(sample_scene_path(), root), db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "c")
     with TestClient(app) as client:
-        m = client.post("/api/markers", json={"shot": "p1", "x": 100, "y": 100, "category": "moved", "severity": 2}).json()
+        m = client.post(
+            "/api/markers", json={"shot": "p1", "x": 100, "y": 100, "category": "moved", "severity": 2}
+        ).json()
         sky = client.put(f"/api/markers/{m['id']}/offset", json={"x": 5, "y": 2})
         assert sky.status_code == 422 and "no CAD part under" in sky.json()["error"]
         assert client.put(f"/api/markers/{m['id']}/offset", json={"x": 500, "y": 2}).status_code == 422
