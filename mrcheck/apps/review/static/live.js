@@ -10,7 +10,7 @@
 "use strict";
 (() => {  // one scope: app.js, addphoto.js and navigate.js share the page's global names
   const LIVE = { on: false, ws: null, stream: null, video: null, layer: null, encoding: false, sent: 0, got: 0,
-    lost: 0, times: [], url: null, canvas: document.createElement("canvas"), still: null };
+    lost: 0, recovered: 0, wasLost: false, times: [], url: null, canvas: document.createElement("canvas"), still: null };
 
   function sendFrame() {  // the current video frame, at the shot's served size
     if (LIVE.on && !LIVE.still) nextFrame();
@@ -44,9 +44,11 @@
     if (old) setTimeout(() => URL.revokeObjectURL(old), 1000);
     const now = performance.now();
     LIVE.times = LIVE.times.filter((t) => now - t < 3000).concat([now]);
-    LIVE.got++; if (h.lost) LIVE.lost++;
+    if (!h.lost && LIVE.wasLost) LIVE.recovered++;  // tracked again after a lost stretch
+    LIVE.got++; if (h.lost) LIVE.lost++; LIVE.wasLost = h.lost;
     const rate = LIVE.times.length > 1 ? (LIVE.times.length - 1) * 1000 / (now - LIVE.times[0]) : 0;
-    Object.assign(document.body.dataset, { liveFrames: LIVE.got, liveLost: LIVE.lost, livePose: JSON.stringify({ R: h.R, t: h.t }),
+    Object.assign(document.body.dataset, { liveFrames: LIVE.got, liveLost: LIVE.lost, liveRecovered: LIVE.recovered,
+      livePose: JSON.stringify({ R: h.R, t: h.t, lost: h.lost }),
       liveRate: rate.toFixed(2) });
     status(`live: ${h.lost ? `LOST (${h.reason})` : `support ${Math.round(100 * h.support)} %, rms ${h.rms_px} px`}, ` +
       `${rate.toFixed(1)} poses/s, ${Math.round(h.ms)} ms a frame`);
@@ -100,7 +102,9 @@
       LIVE.stream = await navigator.mediaDevices.getUserMedia({ audio: false,
         video: { facingMode: { ideal: "environment" }, width: { ideal: S.shot.camera.width }, height: { ideal: S.shot.camera.height } } });
     } catch (e) { status(`live: no camera (${e.name}: ${e.message})`); return; }
-    LIVE.on = true; LIVE.sent = LIVE.got = LIVE.lost = 0; LIVE.times = []; LIVE.encoding = false;
+    LIVE.on = true; LIVE.sent = LIVE.got = LIVE.lost = LIVE.recovered = 0; LIVE.wasLost = false; LIVE.times = [];
+    LIVE.encoding = false;
+    Object.assign(document.body.dataset, { liveFrames: 0, liveLost: 0, liveRecovered: 0, livePose: "" });
     const stage = $(".stage", panes[0]);
     LIVE.video = Object.assign(document.createElement("video"), { muted: true, autoplay: true, playsInline: true });
     LIVE.video.className = "live"; LIVE.video.srcObject = LIVE.stream;
