@@ -2,7 +2,8 @@
 
 One WebSocket per page (``/api/live``, :mod:`.routes.view`). The page first sends
 ``{"type": "start", "shot": NAME}``: the track starts at that shot's pose, with its intrinsics
-and lens (at the served size; a frame of another size is resized to it), so the camera should
+and lens (at the served size; a frame of another size is resized to it; Live's own intrinsics
+at their size when the review has them, :mod:`.livecamera`), so the camera should
 start roughly where the shot was taken. Then every video frame as a binary message: its capture
 time in seconds (8 bytes, a little-endian float64: frames the server takes come at irregular
 intervals, and the constant-velocity prediction scales the motion by the time between them)
@@ -44,9 +45,11 @@ class LiveTracker:
     """The track of one live session: the frames' poses so far and what the next frame reuses
     (the edges seen, the last overlay's depth and normals)."""
 
-    def __init__(self, source, shot_name: str):
+    def __init__(self, source, shot_name: str, live_camera=None):
         shot = source.shots[shot_name]
-        self.scene, self.camera = source.loaded, shot.served_camera()
+        # the shot's pose; the intrinsics Live is given (:mod:`.livecamera`), else the shot's
+        camera = shot.served_camera() if live_camera is None else live_camera.for_shot(shot)
+        self.scene, self.camera = source.loaded, camera
         self.initial = self.camera
         self.frames: list[FramePose] = []
         self.edges = scene_edges(self.scene)
@@ -135,8 +138,8 @@ def _header(pose: FramePose, camera, ms: float) -> dict:
     }
 
 
-def live_session(source, renders) -> NewestOnly:
-    """One page's live session (module docstring)."""
+def live_session(source, renders, live_camera=None) -> NewestOnly:
+    """One page's live session (module docstring); ``live_camera``: :class:`.livecamera.LiveCamera`."""
     tracker: list[LiveTracker] = []
 
     def parse(message: dict):
@@ -144,7 +147,7 @@ def live_session(source, renders) -> NewestOnly:
             start = json_message(message["text"])
             if not isinstance(start, dict) or start.get("type") != "start" or start.get("shot") not in source.shots:
                 raise ValueError('start with {"type": "start", "shot": NAME}, NAME a shot of this review')
-            tracker[:] = [LiveTracker(source, start["shot"])]
+            tracker[:] = [LiveTracker(source, start["shot"], live_camera)]
             return None
         if not tracker:
             raise ValueError('send {"type": "start", "shot": NAME} before the frames')

@@ -34,7 +34,7 @@ async def live(websocket: WebSocket):
     """The live check's frames, tracked (:mod:`..livesession`)."""
     review = await _accepted(websocket)
     if review is not None:
-        await live_session(review.source, review.renders).serve(websocket)
+        await live_session(review.source, review.renders, review.live_camera).serve(websocket)
 
 
 async def _accepted(websocket: WebSocket) -> Review | None:
@@ -60,10 +60,11 @@ def freeze(review: Current, body: Frozen):
     mark: the planner places markers on it as on any shot)."""
     try:
         request = parse_request({"shot": body.shot, "R": body.R, "t": body.t}, review.source.shots)
-        image = frozen_image(body.image, review.source.shots[body.shot].served_camera())
+        live = review.live_camera.for_shot(review.source.shots[body.shot])  # Live's intrinsics (.livecamera)
+        image = frozen_image(body.image, live)
     except ValueError as exc:
         raise HTTPException(422, str(exc)) from None
-    camera = review.source.shots[body.shot].served_camera().with_pose(request.R, request.t)
+    camera = live.with_pose(request.R, request.t)
     return shot_entry(review.addphoto.save_frame(f"live-{body.shot}", image, camera, {"method": "live"}))
 
 
