@@ -82,4 +82,6 @@ def chessboard_photo(rvec, tvec, seed: int = 0) -> np.ndarray:
 
 
 def jpeg(photo: np.ndarray, quality: int = 90) -> bytes:
-    return cv2.imencode(".jpg", cv2.cvtColor(photo, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, quality])[1].tobytes()
+    return cv2.imencode(".jpg", cv2.cvtColor(photo, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, quality])[
+        1
+    ].tobytes()
