@@ -41,7 +41,7 @@
     c.getContext("2d").drawImage(v, 0, 0);
     CB.busy = true;
     try {
-      const blob = await new Promise((resolve) => c.toBlob(resolve, "image/jpeg", 0.92));
+      const blob = await new Promise((resolve) => c.toBlob(resolve, "image/jpeg", 0.85));  // a 1920x1080 frame must stay within --max-body (1 MiB by default)
       if (!blob || !CB.on) return;
       const r = await call("POST", "api/calibrate/frame", null, blob);
       if (!CB.on) return;
