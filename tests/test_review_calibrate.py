@@ -5,6 +5,7 @@ kept, the camera solved, saved beside the database and made Live's."""
 
 from __future__ import annotations
 
+import base64
 import json
 
 import cv2
@@ -178,3 +179,19 @@ def test_a_still_camera_cannot_fill_the_set_and_the_set_is_bounded(monkeypatch, 
     assert calibrator.frame(frames[0][1])["kept"]
     full = calibrator.frame(frames[0][2])
     assert not full["kept"] and "the most" in full["reason"] and MAX_VIEWS == 40
+
+
+def test_a_frozen_frame_is_saved_with_lives_own_camera(tmp_path):
+    """Freeze (routes/view.py) saves the frame at Live's camera's size with its K and the pose tracked."""
+    write_camera(tmp_path / "tablet.json", TRUE, pose=False)
+    app = _app(tmp_path, live_intrinsics=read_intrinsics(tmp_path / "tablet.json"))
+    client = TestClient(app)
+    shot = app.state.review.source.shots["a"].served_camera()
+    image = base64.b64encode(jpeg(np.full((480, 640, 3), 90, np.uint8))).decode()
+    made = client.post(
+        "/api/live/freeze", json={"shot": "a", "R": shot.R.tolist(), "t": shot.t.tolist(), "image": image}
+    )
+    assert made.status_code == 201, made.text
+    frozen = made.json()
+    assert (frozen["width"], frozen["height"]) == (640, 480) and frozen["camera"]["K"] == TRUE.K.tolist()
+    assert np.allclose(frozen["camera"]["R"], shot.R) and np.allclose(frozen["camera"]["t"], shot.t)
