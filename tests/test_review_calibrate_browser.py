@@ -1,7 +1,8 @@
 """ "Calibrate this camera" in a real browser (issue 42): headless Chromium with a fake camera
 (``--use-fake-device-for-media-stream --use-file-for-fake-video-capture=FILE.y4m``) playing a
 chessboard held at 20 poses in front of a known camera (tests/chessboard_photos.py); the page
-sends frames, the server keeps the views, Solve calibrates, saves the camera and Live uses it."""
+sends frames, the server keeps the views, Solve calibrates, saves the camera and Live uses it
+(its CAD layer comes at the calibrated size)."""
 
 from __future__ import annotations
 
@@ -56,6 +57,13 @@ def test_the_page_calibrates_the_fake_camera(tmp_path):
         shown = page.inner_text("#cb-result")
         live = page.evaluate("fetch('api/live/camera').then((r) => r.json())")
         page.click("#cb-close")
+        # Live now sends its frames at the calibrated size, and the server tracks at it
+        page.click("#live")
+        page.wait_for_function("Number(document.body.dataset.liveFrames || 0) >= 1", timeout=60000)
+        layer = page.evaluate(
+            "[document.querySelector('.live-layer').naturalWidth, document.querySelector('.live-layer').naturalHeight]"
+        )
+        page.click("#live")
         browser.close()
     off = {k: round(got[k] - getattr(TRUE, k), 2) for k in ("fx", "fy", "cx", "cy")}
     print(f"browser calibration: {got['views']} views, RMS {got['rms_px']} px, off the truth by {off} px")
@@ -63,5 +71,5 @@ def test_the_page_calibrates_the_fake_camera(tmp_path):
     assert (got["width"], got["height"]) == (640, 480) and got["views"] >= VIEWS
     assert all(abs(d) < TOLERANCE_PX for d in off.values()), off
     assert got["rms_px"] < 0.5 and "fx" in shown and "+/-" in shown
-    assert live == {"width": 640, "height": 480, "source": "calibrated"}
+    assert live == {"width": 640, "height": 480, "source": "calibrated"} and layer == [640, 480]
     assert read_camera(calibrated_path(tmp_path / "r.sqlite")).fx == pytest.approx(got["fx"], abs=1e-3)
