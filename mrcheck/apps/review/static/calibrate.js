@@ -90,7 +90,7 @@
     const s = await call("GET", "api/calibrate").catch(() => null);
     if (!s) return;
     if (!$("#cb-board").value) $("#cb-board").value = s.board || "";
-    counted({ ...s, views: 0 });
+    counted(s);  // the server's calibration: views kept before (by this page or another) until the next Start
     message(s.board ? "print the board, then Start and show it to the camera" : "type the board you printed, then Start");
   }
   function close() { stopCamera(); $("#calibrate-panel").hidden = true; }
