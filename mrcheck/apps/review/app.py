@@ -20,7 +20,9 @@ from mrcheck.apps.bcf import default_author
 from mrcheck.apps.names import REVIEW_CACHE, REVIEW_DATABASE, REVIEW_TLS
 from mrcheck.apps.review import middleware
 from mrcheck.apps.review.addphoto import AddPhoto
+from mrcheck.apps.review.calibrator import Calibrator
 from mrcheck.apps.review.guard import MAX_BODY, MAX_UPLOAD
+from mrcheck.apps.review.livecamera import LiveCamera, LiveIntrinsics
 from mrcheck.apps.review.renders import RenderService
 from mrcheck.apps.review.routes import ROUTERS
 from mrcheck.apps.review.state import Review
@@ -57,6 +59,8 @@ def create_app(
     author: str | None = None,
     accumulate: int = DEFAULT_ACCUMULATE,
     marker_map=None,
+    live_intrinsics: LiveIntrinsics | None = None,
+    board: str | None = None,
 ) -> FastAPI:
     """``suggestions``: {shot name: markers} (:func:`.suggestions.load_suggestions`), imported
     into the review's markers once; ``app.state.imported``: {shot name: markers added now}.
@@ -66,7 +70,10 @@ def create_app(
     ``antialias``: the CAD renders anti-aliased (mrcheck.render.antialias); ``author``: who
     writes the BCF topics and the comments made in the review (None: the OS user); ``accumulate``:
     the AO frames of a render session's frame at rest (:mod:`.viewsession`); ``marker_map``: the
-    markers Live may start from (:class:`mrcheck.mr.markers.MarkerMap`, ``--marker-map``)."""
+    markers Live may start from (:class:`mrcheck.mr.markers.MarkerMap`, ``--marker-map``);
+    ``live_intrinsics``: Live's camera (``--live-intrinsics``, :mod:`.livecamera`), else the one
+    "Calibrate" saved beside the database, else each shot's; ``board``: the board SPEC
+    "Calibrate" offers (``--board``)."""
     db_path = database_path(source, db_path)
     store = Store(
         db_path,
@@ -78,6 +85,7 @@ def create_app(
         source, store, renders, author=author or default_author(), accumulate=accumulate, marker_map=marker_map
     )
     review.addphoto = AddPhoto(review, renders.cache)
+    review.live_camera, review.calibrator = LiveCamera(db_path, live_intrinsics), Calibrator(board)
     review.import_suggestions(suggestions or {})
 
     @contextlib.asynccontextmanager

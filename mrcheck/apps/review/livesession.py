@@ -2,7 +2,8 @@
 
 One WebSocket per page (``/api/live``, :mod:`.routes.view`). The page first sends
 ``{"type": "start", "shot": NAME}`` (:class:`LiveStart`): the track uses that shot's intrinsics
-and lens (at the served size; a frame of another size is resized to it) and starts
+and lens (at the served size; a frame of another size is resized to it; Live's own intrinsics
+at their size when the review has them, :mod:`.livecamera`) and starts
 
 * at the shot's pose (the camera should start roughly where the shot was taken), or
 * with ``"viewpoint": VIEW``, at the scene's named viewpoint (then snaps onto the frame's
@@ -86,9 +87,11 @@ class LiveTracker:
     """The track of one live session: the frames' poses so far and what the next frame reuses
     (the edges seen, the last overlay's depth and normals)."""
 
-    def __init__(self, source, start: LiveStart, marker_map=None):
+    def __init__(self, source, start: LiveStart, marker_map=None, live_camera=None):
         shot = source.shots[start.shot]
-        self.scene, self.camera = source.loaded, shot.served_camera()
+        # the shot's pose; the intrinsics Live is given (:mod:`.livecamera`), else the shot's
+        camera = shot.served_camera() if live_camera is None else live_camera.for_shot(shot)
+        self.scene, self.camera = source.loaded, camera
         self.initial = self.camera
         if start.viewpoint is not None:
             view = self.scene.camera(start.viewpoint)
@@ -218,14 +221,15 @@ def _waiting(frame: int, time_s: float, reason: str, camera: Camera, began: floa
     }
 
 
-def live_session(source, renders, marker_map=None) -> NewestOnly:
-    """One page's live session (module docstring); ``marker_map``: the review's (``--marker-map``)."""
+def live_session(source, renders, marker_map=None, live_camera=None) -> NewestOnly:
+    """One page's live session (module docstring); ``marker_map``: the review's (``--marker-map``);
+    ``live_camera``: :class:`.livecamera.LiveCamera`."""
     tracker: list[LiveTracker] = []
 
     def parse(message: dict):
         if "text" in message:
             start = parse_start(json_message(message["text"]), source, marker_map)
-            tracker[:] = [LiveTracker(source, start, marker_map)]
+            tracker[:] = [LiveTracker(source, start, marker_map, live_camera)]
             return None
         if not tracker:
             raise ValueError('send {"type": "start", "shot": NAME} before the frames')

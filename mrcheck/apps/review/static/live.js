@@ -12,11 +12,11 @@
   const LIVE = { on: false, ws: null, stream: null, video: null, layer: null, encoding: false, sent: 0, got: 0,
     lost: 0, recovered: 0, wasLost: false, times: [], url: null, canvas: document.createElement("canvas"), still: null };
 
-  function sendFrame() {  // the current video frame, at the shot's served size
+  function sendFrame() {  // the current video frame, at Live's camera's size (LIVE.cam)
     if (LIVE.on && !LIVE.still) nextFrame();
     if (!LIVE.on || LIVE.still || LIVE.encoding || !LIVE.ws || LIVE.ws.readyState !== WebSocket.OPEN || LIVE.video.readyState < 2) return;
     if (LIVE.ws.bufferedAmount > 2e6) return;  // a slow link: let it drain rather than queue frames in the socket
-    const c = LIVE.canvas, cam = S.shot.camera;
+    const c = LIVE.canvas, cam = LIVE.cam;
     c.width = cam.width; c.height = cam.height;
     c.getContext("2d").drawImage(LIVE.video, 0, 0, c.width, c.height);
     LIVE.encoding = true;
@@ -58,7 +58,7 @@
   async function freeze() {
     if (!LIVE.on || LIVE.still) return;
     LIVE.video.pause();
-    const c = LIVE.canvas, cam = S.shot.camera, time = performance.now() / 1000;
+    const c = LIVE.canvas, cam = LIVE.cam, time = performance.now() / 1000;
     c.width = cam.width; c.height = cam.height;
     c.getContext("2d").drawImage(LIVE.video, 0, 0, c.width, c.height);
     const posed = new Promise((resolve) => { LIVE.still = { time, resolve }; });
@@ -79,7 +79,7 @@
   async function clicks() {
     if (!LIVE.on) return;
     LIVE.video.pause();
-    const c = LIVE.canvas, cam = S.shot.camera;
+    const c = LIVE.canvas, cam = LIVE.cam;
     c.width = cam.width; c.height = cam.height;
     c.getContext("2d").drawImage(LIVE.video, 0, 0, c.width, c.height);
     const image = c.toDataURL("image/png").split(",")[1], from = S.shot.name;
@@ -98,9 +98,12 @@
 
   async function liveStart() {
     if (!S.shot || !navigator.mediaDevices) { status("live: this page cannot open a camera (HTTPS is needed off this machine)"); return; }
+    // Live's own intrinsics (--live-intrinsics or Calibrate), at their size; else the shot's served camera
+    const own = await api("GET", "api/live/camera").catch(() => ({}));
+    LIVE.cam = own.width ? own : S.shot.camera;
     try {
       LIVE.stream = await navigator.mediaDevices.getUserMedia({ audio: false,
-        video: { facingMode: { ideal: "environment" }, width: { ideal: S.shot.camera.width }, height: { ideal: S.shot.camera.height } } });
+        video: { facingMode: { ideal: "environment" }, width: { ideal: LIVE.cam.width }, height: { ideal: LIVE.cam.height } } });
     } catch (e) { status(`live: no camera (${e.name}: ${e.message})`); return; }
     LIVE.on = true; LIVE.sent = LIVE.got = LIVE.lost = LIVE.recovered = 0; LIVE.wasLost = false; LIVE.times = [];
     LIVE.encoding = false;
