@@ -19,7 +19,7 @@ from fastapi.testclient import TestClient  # noqa: E402
 from mrcheck.apps.review.app import create_app  # noqa: E402
 from mrcheck.apps.review.calibrator import MAX_VIEWS, Calibrator  # noqa: E402
 from mrcheck.apps.review.livecamera import calibrated_path, read_intrinsics  # noqa: E402
-from mrcheck.apps.review.livesession import LiveTracker  # noqa: E402
+from mrcheck.apps.review.livesession import LiveStart, LiveTracker  # noqa: E402
 from mrcheck.apps.review.server import start  # noqa: E402
 from mrcheck.core.camera import Camera  # noqa: E402
 from mrcheck.core.camerafiles import read_camera, write_camera  # noqa: E402
@@ -127,10 +127,10 @@ def test_solve_saves_the_camera_and_live_uses_it(tmp_path, frames):
     # Live tracks with it, from the shot's pose
     review = app.state.review
     shot = review.source.shots["a"]
-    camera = LiveTracker(review.source, "a", review.live_camera).camera
+    camera = LiveTracker(review.source, LiveStart("a"), live_camera=review.live_camera).camera
     assert (camera.width, camera.height) == (640, 480) and camera.fx == pytest.approx(got["fx"], abs=1e-3)
     assert np.allclose(camera.R, shot.served_camera().R) and np.allclose(camera.t, shot.served_camera().t)
-    assert LiveTracker(review.source, "a").camera.width == shot.served_camera().width  # without: the shot's
+    assert LiveTracker(review.source, LiveStart("a")).camera.width == shot.served_camera().width  # without: the shot's
     # the file persists: a new server loads it
     assert TestClient(_app(tmp_path)).get("/api/live/camera").json()["source"] == "calibrated"
 
