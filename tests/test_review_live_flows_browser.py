@@ -146,7 +146,9 @@ def test_live_starts_from_markers_and_from_clicks(tmp_path):
     scene = load_scene(sample_scene_path())
     truth = scene.camera("conveyor", 320, 240)
     marker_map = standing_marker(truth, (60, 190), 3.0, 0.5)
-    photo = paste_marker(synthetic_photo(scene, truth, 0, clutter=0, leave_out=False, colour=True)[0], truth, marker_map)
+    photo = paste_marker(
+        synthetic_photo(scene, truth, 0, clutter=0, leave_out=False, colour=True)[0], truth, marker_map
+    )
     root = _shots(tmp_path, photo, walk_camera(truth, "side", 15))
     app = create_app(
         open_source(sample_scene_path(), root),
