@@ -4,7 +4,8 @@ the element diff drawn over it.
 * unchanged elements: the vector-AO render in grey (its brightness), so that no part colour is
   mistaken for a change;
 * added: green, changed geometry: blue, moved: amber -- where NEW shows them (the tint times the
-  render's brightness, so AO still gives the depth);
+  render's brightness, so AO still gives the depth), and at :data:`HIDDEN_ALPHA` where other
+  elements hide them (an added column inside a building still shows);
 * removed: red, ghosted from OLD: drawn at :data:`FRONT_ALPHA` where nothing of NEW is in front
   of it, at :data:`HIDDEN_ALPHA` where NEW hides it;
 * moved: the outline of the element where OLD had it, and an arrow from its old to its new box
@@ -35,7 +36,7 @@ COLOURS = {  # RGB
     "changed geometry": (70, 140, 255),
 }
 FRONT_ALPHA = 0.7  # a removed element where nothing of NEW hides it
-HIDDEN_ALPHA = 0.3  # a removed element behind NEW's surfaces (x-ray)
+HIDDEN_ALPHA = 0.3  # a changed element behind NEW's surfaces (x-ray)
 DEPTH_TOLERANCE = (0.002, 0.002)  # same surface: depths within 2 mm + 0.2 % of the depth
 MIN_ARROW_PX = 4.0  # shorter moves get their label only
 LEGEND_HEIGHT = 28  # pixels of the legend strip at 640 pixels wide
@@ -159,12 +160,17 @@ def legend(width: int, counts: dict, scale: float) -> np.ndarray:
     """The strip under the picture: a swatch and the count in view of each kind of change."""
     height = int(round(LEGEND_HEIGHT * scale))
     strip = np.full((height, width, 3), 40, np.uint8)
-    x, step = int(8 * scale), width // len(COLOURS)
-    for kind, colour in COLOURS.items():
-        side = height // 2
-        cv2.rectangle(strip, (x, height // 4), (x + side, height // 4 + side), colour, -1)
-        _text(strip, f"{kind} {counts.get(kind, 0)}", (x + side + 6 * scale, height * 0.7), 0.45 * scale)
-        x += step
+    labels = [f"{kind} {counts.get(kind, 0)}" for kind in COLOURS]
+    side, gap = height // 2, int(6 * scale)
+    font = 0.45 * scale
+    widths = [cv2.getTextSize(t, cv2.FONT_HERSHEY_SIMPLEX, font, max(1, int(round(font * 1.5))))[0][0] for t in labels]
+    room = (width - sum(w + side + 3 * gap for w in widths)) / (len(labels) + 1)
+    x = max(room, 2.0)
+    for label, colour, text_width in zip(labels, COLOURS.values(), widths):
+        cv2.rectangle(strip, (int(x), height // 4), (int(x) + side, height // 4 + side), colour, -1)
+        org = (int(x + side + gap), int(height * 0.7))  # on the dark strip: no outline needed
+        cv2.putText(strip, label, org, cv2.FONT_HERSHEY_SIMPLEX, font, (235, 235, 235), 1, cv2.LINE_AA)
+        x += text_width + side + 3 * gap + max(room, 2.0)
     return strip
 
 
@@ -183,8 +189,10 @@ def diff_picture(old: Scene, new: Scene, diff: ModelDiff, name: str, camera: Cam
     by_kind = {kind: [c for c in diff.changes if c.kind == kind] for kind in COLOURS}
     scale = max(camera.width / 640.0, 0.6)
     for kind in ("added", "changed geometry", "moved"):
-        mask = visible(render_depth(subset(new, [c.id for c in by_kind[kind]]), camera, ctx), depth)
+        drawn = render_depth(subset(new, [c.id for c in by_kind[kind]]), camera, ctx)
+        mask = visible(drawn, depth)
         _tint(image, shade[..., None], mask, COLOURS[kind])
+        _blend(image, (drawn > 0) & ~mask, COLOURS[kind], HIDDEN_ALPHA)  # behind other elements: x-ray
     gone = render_depth(subset(old, [c.id for c in by_kind["removed"]]), camera, ctx)
     front = (gone > 0) & ((depth == 0) | (gone < depth))
     _blend(image, front, COLOURS["removed"], FRONT_ALPHA)
