@@ -20,7 +20,7 @@ from pathlib import Path
 
 from mrcheck.apps.bcf import ifc_file_of
 from mrcheck.apps.modeldiff.compare import TOLERANCE_DEG, TOLERANCE_M, ModelDiff, diff_scenes
-from mrcheck.apps.modeldiff.picture import ViewPicture, diff_picture
+from mrcheck.apps.modeldiff.picture import Painter, ViewPicture
 from mrcheck.apps.modeldiff.report import CHANGES_BCF, CHANGES_CSV, CHANGES_JSON, changes_bcf, changes_csv, changes_json
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.images import encode_image
@@ -104,8 +104,12 @@ def draw_views(old: Scene, new: Scene, diff: ModelDiff, cameras: dict, progress:
 
     ctx = create_context()
     try:
-        with contextlib.closing(progress(list(cameras.items()), "drawing views", "view")) as bar:
-            return [diff_picture(old, new, diff, name, camera, ctx) for name, camera in bar]
+        painter = Painter(old, new, diff, ctx)
+        try:
+            with contextlib.closing(progress(list(cameras.items()), "drawing views", "view")) as bar:
+                return [painter.view(name, camera) for name, camera in bar]
+        finally:
+            painter.release()
     finally:
         ctx.release()
 

@@ -117,9 +117,12 @@ def compare_pair(old: Element, new: Element, tolerance_m: float, tolerance_deg: 
         old_centre=_rounded(old.centre),
         new_centre=_rounded(new.centre),
     )
+    same = meshes.same(old.part, new.part)
+    if same and np.array_equal(old.matrix, new.matrix):  # most elements of a weekly revision
+        return Change(kind="unchanged", **base)
     offset = new.centre - old.centre
     rotation, residual = rigid_fit(old.corners(), new.corners())
-    if not meshes.same(old.part, new.part) or residual > tolerance_m:
+    if not same or residual > tolerance_m:
         return Change(
             kind="changed geometry",
             offset_m=_rounded(offset),

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mrcheck.apps.bcf import element_label, ifc_global_id
+from mrcheck.apps.bcf import ifc_global_id, info_label
 from mrcheck.scene.model import Part, Scene
 
 
@@ -70,7 +70,7 @@ def scene_elements(scene: Scene) -> dict[str, Element]:
                 instance_id,
                 part,
                 np.asarray(part.transforms[k], np.float64),
-                element_label(scene, instance_id),
+                info_label(instance_id, part.instance_info[k]),
                 ifc_global_id(part, k),
             )
     return out

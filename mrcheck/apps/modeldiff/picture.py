@@ -174,49 +174,63 @@ def legend(width: int, counts: dict, scale: float) -> np.ndarray:
     return strip
 
 
-def diff_picture(old: Scene, new: Scene, diff: ModelDiff, name: str, camera: Camera, ctx) -> ViewPicture:
-    """The picture of one view (module docstring); ``ctx``: the GL context every render shares."""
-    from mrcheck.render.renderer import Renderer
+class Painter:
+    """Draws the views of one diff: NEW's renderer is made once (its upload is the cost of a
+    large model) and serves every view; the changed sets are rendered per view."""
 
-    renderer = Renderer(new, ctx)
-    try:
-        frame = renderer.render(camera, ["vector"])
-    finally:
-        renderer.release()
-    render, depth = frame["vector"].image, frame.depth
-    shade = render.astype(np.float64).mean(axis=2) / 255.0
-    image = np.repeat((shade * 255.0)[..., None], 3, axis=2)
-    by_kind = {kind: [c for c in diff.changes if c.kind == kind] for kind in COLOURS}
-    scale = max(camera.width / 640.0, 0.6)
-    for kind in ("added", "changed geometry", "moved"):
-        drawn = render_depth(subset(new, [c.id for c in by_kind[kind]]), camera, ctx)
-        mask = visible(drawn, depth)
-        _tint(image, shade[..., None], mask, COLOURS[kind])
-        _blend(image, (drawn > 0) & ~mask, COLOURS[kind], HIDDEN_ALPHA)  # behind other elements: x-ray
-    gone = render_depth(subset(old, [c.id for c in by_kind["removed"]]), camera, ctx)
-    front = (gone > 0) & ((depth == 0) | (gone < depth))
-    _blend(image, front, COLOURS["removed"], FRONT_ALPHA)
-    _blend(image, (gone > 0) & ~front, COLOURS["removed"], HIDDEN_ALPHA)
-    image = image.astype(np.uint8)
-    _outline(image, render_depth(subset(old, [c.id for c in by_kind["moved"]]), camera, ctx) > 0, COLOURS["moved"], scale)
-    _draw_moves(image, camera, by_kind["moved"], scale)
-    boxes = change_boxes(old, new, diff, camera)
-    counts = {kind: sum(c.kind == kind and c.id in boxes for c in diff.changes) for kind in COLOURS}
-    return ViewPicture(name, camera, np.vstack([image, legend(camera.width, counts, scale)]), boxes)
+    def __init__(self, old: Scene, new: Scene, diff: ModelDiff, ctx):
+        from mrcheck.render.renderer import Renderer
+
+        self.old, self.new, self.diff, self.ctx = old, new, diff, ctx
+        self.by_kind = {kind: [c.id for c in diff.changes if c.kind == kind] for kind in COLOURS}
+        self.sets = {kind: subset(old if kind == "removed" else new, ids) for kind, ids in self.by_kind.items()}
+        self.moved_from = subset(old, self.by_kind["moved"])
+        self.boxes_of = change_corners(old, new, diff)
+        self.renderer = Renderer(new, ctx)
+
+    def release(self) -> None:
+        self.renderer.release()
+
+    def view(self, name: str, camera: Camera) -> ViewPicture:
+        """The picture of one view (module docstring)."""
+        frame = self.renderer.render(camera, ["vector"])
+        render, depth = frame["vector"].image, frame.depth
+        shade = render.astype(np.float64).mean(axis=2) / 255.0
+        image = np.repeat((shade * 255.0)[..., None], 3, axis=2)
+        for kind in ("added", "changed geometry", "moved"):
+            drawn = render_depth(self.sets[kind], camera, self.ctx)
+            mask = visible(drawn, depth)
+            _tint(image, shade[..., None], mask, COLOURS[kind])
+            _blend(image, (drawn > 0) & ~mask, COLOURS[kind], HIDDEN_ALPHA)  # behind other elements: x-ray
+        gone = render_depth(self.sets["removed"], camera, self.ctx)
+        front = (gone > 0) & ((depth == 0) | (gone < depth))
+        _blend(image, front, COLOURS["removed"], FRONT_ALPHA)
+        _blend(image, (gone > 0) & ~front, COLOURS["removed"], HIDDEN_ALPHA)
+        image = image.astype(np.uint8)
+        scale = max(camera.width / 640.0, 0.6)
+        _outline(image, render_depth(self.moved_from, camera, self.ctx) > 0, COLOURS["moved"], scale)
+        _draw_moves(image, camera, [c for c in self.diff.changes if c.kind == "moved"], scale)
+        boxes = {i: box for i, corners in self.boxes_of.items() if (box := pixel_box(camera, corners)) is not None}
+        counts = {kind: sum(i in boxes for i in ids) for kind, ids in self.by_kind.items()}
+        return ViewPicture(name, camera, np.vstack([image, legend(camera.width, counts, scale)]), boxes)
 
 
-def change_boxes(old: Scene, new: Scene, diff: ModelDiff, camera: Camera) -> dict:
-    """The pixel box of every change in view: the NEW element's box, the OLD one's if removed."""
+def change_corners(old: Scene, new: Scene, diff: ModelDiff) -> dict:
+    """{change id: (8, 3) world box corners}: the NEW element's box, the OLD one's if removed."""
     from mrcheck.apps.modeldiff.elements import scene_elements
 
     before, after = scene_elements(old), scene_elements(new)
-    boxes = {}
-    for change in diff.changes:
-        element = before[change.id] if change.kind == "removed" else after[change.id]
-        box = pixel_box(camera, element.corners())
-        if box is not None:
-            boxes[change.id] = box
-    return boxes
+    return {c.id: (before[c.id] if c.kind == "removed" else after[c.id]).corners() for c in diff.changes}
 
 
-__all__ = ["ViewPicture", "diff_picture", "subset", "visible", "pixel_box", "change_boxes", "legend", "COLOURS"]
+def diff_picture(old: Scene, new: Scene, diff: ModelDiff, name: str, camera: Camera, ctx) -> ViewPicture:
+    """The picture of one view; ``ctx``: the GL context the renders share. Several views of one
+    diff: :class:`Painter`."""
+    painter = Painter(old, new, diff, ctx)
+    try:
+        return painter.view(name, camera)
+    finally:
+        painter.release()
+
+
+__all__ = ["ViewPicture", "Painter", "diff_picture", "subset", "visible", "pixel_box", "change_corners", "legend", "COLOURS"]
