@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -108,7 +109,7 @@ def compare_pair(old: Element, new: Element, tolerance_m: float, tolerance_deg: 
     """The row of an element in both revisions (module docstring); ``meshes``: a
     :class:`MeshPairs` shared by the pairs of one diff."""
     meshes = meshes if meshes is not None else MeshPairs(tolerance_m)
-    base = dict(
+    base: dict[str, Any] = dict(
         id=new.id,
         label=new.label,
         global_id=new.global_id or old.global_id,
@@ -132,7 +133,9 @@ def compare_pair(old: Element, new: Element, tolerance_m: float, tolerance_deg: 
         )
     angle, axis = rotation_angle_axis(rotation)
     if float(np.linalg.norm(offset)) > tolerance_m or angle > tolerance_deg:
-        return Change(kind="moved", offset_m=_rounded(offset), rotation_deg=round(angle, 4), axis=_rounded(axis), **base)
+        return Change(
+            kind="moved", offset_m=_rounded(offset), rotation_deg=round(angle, 4), axis=_rounded(axis), **base
+        )
     return Change(kind="unchanged", **base)
 
 

@@ -233,4 +233,14 @@ def diff_picture(old: Scene, new: Scene, diff: ModelDiff, name: str, camera: Cam
         painter.release()
 
 
-__all__ = ["ViewPicture", "Painter", "diff_picture", "subset", "visible", "pixel_box", "change_corners", "legend", "COLOURS"]
+__all__ = [
+    "ViewPicture",
+    "Painter",
+    "diff_picture",
+    "subset",
+    "visible",
+    "pixel_box",
+    "change_corners",
+    "legend",
+    "COLOURS",
+]

@@ -92,7 +92,9 @@ def _size(size) -> str:
     return " x ".join(f"{v:.3f}" for v in size)
 
 
-def change_topics(diff: ModelDiff, pictures, pngs: dict, key: str, project_ifc: str = "", author: str = "mrcheck") -> list:
+def change_topics(
+    diff: ModelDiff, pictures, pngs: dict, key: str, project_ifc: str = "", author: str = "mrcheck"
+) -> list:
     """One topic per change, in the diff's order. Its viewpoint and snapshot are the first of
     ``pictures`` (:class:`~mrcheck.apps.modeldiff.picture.ViewPicture`, their PNG bytes in
     ``pngs`` by view name) that shows it: the view's picture is shared, the snapshot a crop
