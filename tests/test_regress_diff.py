@@ -216,3 +216,56 @@ def test_an_input_is_never_overwritten(tmp_path, capsys):
     code = main(["regress", "diff", scene, str(tmp_path / "changes.csv"), "-o", str(tmp_path)])
     assert code == 2
     assert (tmp_path / "changes.csv").read_text() == "x"
+
+
+def _glb(path: Path, nodes) -> Path:
+    """A glTF file of ``nodes``: (name, mesh name, trimesh mesh, translation); repeated names
+    are written as repeated names (trimesh's writer would number them, so they are renamed in
+    the file's JSON afterwards: ``NAME~`` -> ``NAME``)."""
+    import trimesh
+
+    scene = trimesh.Scene()
+    for name, mesh_name, mesh, at in nodes:
+        scene.add_geometry(
+            mesh, node_name=name, geom_name=mesh_name, transform=trimesh.transformations.translation_matrix(at)
+        )
+    data = scene.export(file_type="glb")
+    path.write_bytes(data.replace(b'~"', b'" '))  # same length (JSON allows the space): chunk sizes stay right
+    return path
+
+
+def test_glb_revisions_by_node_path_with_repeated_names(tmp_path):
+    import trimesh
+
+    box, post = trimesh.creation.box((1, 1, 1)), trimesh.creation.cylinder(0.2, 2.0)
+    floor = ("floor", "floor", trimesh.creation.box((10, 10, 0.1)), (0, 0, -0.05))
+    old = _glb(
+        tmp_path / "old.glb",
+        [
+            floor,
+            ("rack", "box", box, (0, 0, 0.5)),
+            ("rack~", "box", box, (3, 0, 0.5)),
+            ("post", "post", post, (0, 3, 1)),
+        ],
+    )
+    new = _glb(
+        tmp_path / "new.glb",
+        [
+            floor,
+            ("rack", "box", box, (0, 0, 0.5)),
+            ("rack~", "box", box, (3.4, 0, 0.5)),
+            ("cab", "cab", box, (-3, -3, 0.5)),
+        ],
+    )
+    code = main(["regress", "diff", str(old), str(new), "--no-pictures", "-o", str(tmp_path / "r")])
+    assert code == 1
+    rows = {r["id"]: r for r in _rows(tmp_path / "r")}
+    # the second "rack" is "rack_1" (trimesh numbers repeated names in file order) in both revisions
+    assert {i: r["kind"] for i, r in rows.items()} == {
+        "cab": "added",
+        "post": "removed",
+        "rack_1": "moved",
+        "rack": "unchanged",
+        "floor": "unchanged",
+    }
+    assert float(rows["rack_1"]["offset_x_m"]) == pytest.approx(0.4, abs=1e-6)
