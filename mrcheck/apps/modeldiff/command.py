@@ -9,7 +9,7 @@ Outputs in REPORT::
                                 (:mod:`~mrcheck.apps.modeldiff.picture`)
     changes.bcfzip              with ``bcf``: one BCF 2.1 topic per change
 
-OLD and NEW are read by :func:`~mrcheck.apps.modeldiff.glb.load_revision`: a glTF file by its
+OLD and NEW are read by :func:`~mrcheck.apps.modeldiff.revisions.load_revisions`: a glTF file by its
 nodes, anything else as every command reads a scene. The views are NEW's viewpoints (else
 OLD's; else one overview of NEW), or those named.
 """
@@ -22,9 +22,9 @@ from pathlib import Path
 
 from mrcheck.apps.bcf import ifc_file_of
 from mrcheck.apps.modeldiff.compare import TOLERANCE_DEG, TOLERANCE_M, ModelDiff, diff_scenes
-from mrcheck.apps.modeldiff.glb import load_revision
 from mrcheck.apps.modeldiff.picture import Painter, ViewPicture
 from mrcheck.apps.modeldiff.report import CHANGES_BCF, CHANGES_CSV, CHANGES_JSON, changes_bcf, changes_csv, changes_json
+from mrcheck.apps.modeldiff.revisions import load_revisions
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.images import encode_image
 from mrcheck.core.output import (
@@ -134,7 +134,7 @@ def diff_command(
     inputs = [("OLD", scene_files(old_path)), ("NEW", scene_files(new_path))]
     check_not_inputs([outdir / n for n in fixed], inputs)
     check_own_output_dir(outdir)
-    old, new = load_revision(Path(old_path)), load_revision(Path(new_path))
+    old, new = load_revisions(Path(old_path), Path(new_path))
     diff = diff_scenes(old, new, settings.tolerance_m, settings.tolerance_deg)
     cameras = view_cameras(old, new, settings) if settings.pictures else {}
     taken: set = set(fixed)

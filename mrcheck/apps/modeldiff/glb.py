@@ -72,17 +72,4 @@ def glb_scene(path: Path) -> Scene:
     return Scene(name=path.stem, source=path, parts=parts)
 
 
-def load_revision(path: Path, progress: bool = True) -> Scene:
-    """OLD or NEW: a glTF file by its nodes (:func:`glb_scene`), anything else as
-    :func:`mrcheck.scene.model.load_scene` reads it (a manifest, an IFC or STEP model)."""
-    from mrcheck.core.inputs import check_input
-    from mrcheck.scene.model import load_scene
-
-    path = Path(path)
-    if path.suffix.lower() in GLTF_SUFFIXES and not path.is_dir():
-        check_input(path, "model file")
-        return glb_scene(path)
-    return load_scene(path, progress=progress)
-
-
-__all__ = ["glb_scene", "load_revision", "GLTF_SUFFIXES"]
+__all__ = ["glb_scene", "GLTF_SUFFIXES"]

@@ -9,7 +9,9 @@ the element diff drawn over it.
 * removed: red, ghosted from OLD: drawn at :data:`FRONT_ALPHA` where nothing of NEW is in front
   of it, at :data:`HIDDEN_ALPHA` where NEW hides it;
 * moved: the outline of the element where OLD had it, and an arrow from its old to its new box
-  centre, labelled with the distance and the rotation.
+  centre, labelled with the distance and the rotation;
+* every change in the view's frustum: a frame of its colour around its box (seen or hidden),
+  so that small and far changes are found.
 
 Which pixels an element set covers comes from rendering that set alone with the same camera and
 comparing its depth with the whole model's (:func:`visible`): a handful of changed elements
@@ -36,9 +38,10 @@ COLOURS = {  # RGB
     "changed geometry": (70, 140, 255),
 }
 FRONT_ALPHA = 0.7  # a removed element where nothing of NEW hides it
-HIDDEN_ALPHA = 0.3  # a changed element behind NEW's surfaces (x-ray)
+HIDDEN_ALPHA = 0.4  # a changed element behind NEW's surfaces (x-ray)
 DEPTH_TOLERANCE = (0.002, 0.002)  # same surface: depths within 2 mm + 0.2 % of the depth
 MIN_ARROW_PX = 4.0  # shorter moves get their label only
+MIN_FRAME_PX = 24.0  # the smallest frame around a change, pixels at 640 wide
 LEGEND_HEIGHT = 28  # pixels of the legend strip at 640 pixels wide
 
 
@@ -79,7 +82,7 @@ def render_depth(scene: Scene | None, camera: Camera, ctx) -> np.ndarray:
         return np.zeros((camera.height, camera.width), np.float32)
     renderer = Renderer(scene, ctx)
     try:
-        return renderer.render(camera, ["phong"], RenderSettings(antialias=False)).depth
+        return renderer.render(camera, ["phong"], RenderSettings(antialias=False, lod_px=0.0)).depth
     finally:
         renderer.release()
 
@@ -151,6 +154,19 @@ def _draw_moves(image: np.ndarray, camera: Camera, moves, scale: float) -> None:
             _text(image, label, (u1 + 6 * scale, v1 - 6 * scale), 0.45 * scale, COLOURS["moved"])
 
 
+def _frame(image: np.ndarray, box, colour, scale: float) -> None:
+    """A frame around a change's pixel box, at least :data:`MIN_FRAME_PX` across: in a hall a
+    changed pallet 80 m away is a few pixels, and the frame is what finds it."""
+    x0, y0, x1, y1 = box
+    half = MIN_FRAME_PX * scale / 2.0
+    cx, cy = (x0 + x1) / 2.0, (y0 + y1) / 2.0
+    x0, x1 = int(min(x0, cx - half)) - 3, int(max(x1, cx + half)) + 3
+    y0, y1 = int(min(y0, cy - half)) - 3, int(max(y1, cy + half)) + 3
+    width = max(1, int(round(scale)))
+    cv2.rectangle(image, (x0, y0), (x1, y1), (0, 0, 0), width + 2, cv2.LINE_AA)
+    cv2.rectangle(image, (x0, y0), (x1, y1), colour, width, cv2.LINE_AA)
+
+
 def _outline(image: np.ndarray, mask: np.ndarray, colour, scale: float) -> None:
     contours, _ = cv2.findContours(mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
     cv2.drawContours(image, contours, -1, colour, max(1, int(round(scale))), cv2.LINE_AA)
@@ -192,8 +208,11 @@ class Painter:
         self.renderer.release()
 
     def view(self, name: str, camera: Camera) -> ViewPicture:
-        """The picture of one view (module docstring)."""
-        frame = self.renderer.render(camera, ["vector"])
+        """The picture of one view (module docstring). Every part at full detail (``lod_px`` 0):
+        building levels of detail costs more than a few frames save (the 5 M-triangle hall:
+        45 s of levels against 4 views), unless a persistent cache already holds them."""
+        from mrcheck.render.renderer import RenderSettings
+        frame = self.renderer.render(camera, ["vector"], RenderSettings(lod_px=0.0))
         render, depth = frame["vector"].image, frame.depth
         shade = render.astype(np.float64).mean(axis=2) / 255.0
         image = np.repeat((shade * 255.0)[..., None], 3, axis=2)
@@ -211,6 +230,9 @@ class Painter:
         _outline(image, render_depth(self.moved_from, camera, self.ctx) > 0, COLOURS["moved"], scale)
         _draw_moves(image, camera, [c for c in self.diff.changes if c.kind == "moved"], scale)
         boxes = {i: box for i, corners in self.boxes_of.items() if (box := pixel_box(camera, corners)) is not None}
+        kinds = {c.id: c.kind for c in self.diff.changes}
+        for change_id, box in boxes.items():
+            _frame(image, box, COLOURS[kinds[change_id]], scale)
         counts = {kind: sum(i in boxes for i in ids) for kind, ids in self.by_kind.items()}
         return ViewPicture(name, camera, np.vstack([image, legend(camera.width, counts, scale)]), boxes)
 
