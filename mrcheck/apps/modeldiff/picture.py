@@ -212,6 +212,7 @@ class Painter:
         building levels of detail costs more than a few frames save (the 5 M-triangle hall:
         45 s of levels against 4 views), unless a persistent cache already holds them."""
         from mrcheck.render.renderer import RenderSettings
+
         frame = self.renderer.render(camera, ["vector"], RenderSettings(lod_px=0.0))
         render, depth = frame["vector"].image, frame.depth
         shade = render.astype(np.float64).mean(axis=2) / 255.0
