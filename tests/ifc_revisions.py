@@ -114,3 +114,32 @@ def edit_wall_file(path: Path, out: Path, offset=(0.25, -0.4, 0.0), angle_deg: f
         return {"moved": wall.GlobalId, "added": column.GlobalId}
 
     return _edit(path, out, change)
+
+
+def edit_hall(path: Path, out: Path) -> dict:
+    """The generated hall's next revision (docs/regress-diff.md's speed figure): three elements
+    moved 0.3, 1.3 and 2.3 m (turned 0, 10 and 20 degrees), two deleted, a column added;
+    {kind: [GlobalId, ...]}."""
+
+    def change(model):
+        import ifcopenshell.api.root
+
+        proxies, furniture = model.by_type("IfcBuildingElementProxy"), model.by_type("IfcFurnishingElement")
+        moved = [proxies[3], proxies[40], furniture[5]]
+        for i, element in enumerate(moved):
+            move(model, element, (0.3 + i, 0.5, 0.0), 10.0 * i)
+        gone = [proxies[100], furniture[20]]
+        removed = [e.GlobalId for e in gone]
+        for element in gone:
+            ifcopenshell.api.root.remove_product(model, product=element)
+        storey = model.by_type("IfcBuildingStorey")[0]
+        column = _box(model, (0.4, 0.4, 8.0), "column-new", "IfcColumn", (10.0, 10.0, 0.0), storey)
+        return {"moved": [e.GlobalId for e in moved], "removed": removed, "added": [column.GlobalId]}
+
+    return _edit(path, out, change)
+
+
+if __name__ == "__main__":  # python -m tests.ifc_revisions HALL.ifc OUT.ifc: the docs' hall revision
+    import sys
+
+    print(edit_hall(Path(sys.argv[1]), Path(sys.argv[2])))
