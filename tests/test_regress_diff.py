@@ -199,15 +199,25 @@ def test_same_revision_exits_0_with_every_element_unchanged(tmp_path):
         ["regress", "diff", "missing.ifc", "{scene}", "-o", "{out}"],
         ["regress", "diff", "{scene}", "{scene}", "--width", "0", "-o", "{out}"],
         ["regress", "diff", "{scene}", "{scene}", "--view", "nowhere", "-o", "{out}"],
+        ["regress", "diff", "{scene}", "{glb}", "-o", "{out}"],
     ],
 )
 def test_bad_input_one_line_exit_2_nothing_written(tmp_path, capsys, args):
     out = tmp_path / "r"
-    code = main([a.format(scene=sample_scene_path(), out=out) for a in args])
+    (tmp_path / "broken.glb").write_bytes(b"glTF\x02\x00\x00\x00 not really")
+    code = main([a.format(scene=sample_scene_path(), out=out, glb=tmp_path / "broken.glb") for a in args])
     err = capsys.readouterr().err
     assert code == 2
     assert err.startswith("error: ") and err.count("\n") == 1 and "Traceback" not in err
     assert not out.exists() or not any(p.name != ".mrcheck-output" for p in out.iterdir())
+
+
+def test_no_change_no_tint(tmp_path):
+    """A revision against itself: the picture is the grey render and the legend, no change colour."""
+    scene = str(sample_scene_path())
+    assert main(["regress", "diff", scene, scene, "--view", "overview", "--width", "320", "-o", str(tmp_path)]) == 0
+    picture = read_image(tmp_path / "view-overview.png")[:-30]  # without the legend strip
+    assert not any(_has_colour(picture, colour, min_pixels=1) for colour in COLOURS.values())
 
 
 def test_an_input_is_never_overwritten(tmp_path, capsys):

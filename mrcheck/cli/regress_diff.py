@@ -79,8 +79,9 @@ def _bad_input(message: str):
 def diff(ctx, old, new, outdir, views, width, bcf, no_pictures, tolerance_mm, tolerance_deg):
     """Compare two revisions of a model: which elements changed, where, and in pictures.
 
-    OLD and NEW are scenes or model files (IFC, STEP, a manifest). Elements are matched by id
-    (IFC GlobalId; STEP assembly path; manifest instance id) and reported as added, removed,
+    OLD and NEW are scenes or model files (IFC, STEP, glTF, a manifest). Elements are matched
+    by id (IFC GlobalId; STEP assembly path; glTF node path; manifest instance id) and reported
+    as added, removed,
     moved (offset in metres, rotation in degrees), changed geometry or unchanged in
     changes.csv and changes.json. Each view gets view-NAME.png: NEW in vector AO, added
     elements green, removed red (ghosted from OLD), moved amber with an arrow from the old

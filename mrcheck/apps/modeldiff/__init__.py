@@ -3,6 +3,8 @@
 * ``elements`` -- :class:`Element`: a part instance as the diff compares it (id, mesh, transform);
 * ``compare`` -- :func:`diff_scenes`: added, removed, moved (offset, rotation), changed geometry,
   unchanged (:class:`ModelDiff` of :class:`Change` rows), no rendering needed;
+* ``glb`` -- :func:`glb_scene`: a glTF file node by node (ids: node paths); ``revisions`` --
+  :func:`load_revisions`: OLD and NEW, glTF through ``glb``, anything else as a scene;
 * ``picture`` -- :func:`diff_picture`: a view of both revisions over the vector-AO render, the
   changes tinted and the moves drawn as arrows;
 * ``report`` -- ``changes.csv``, ``changes.json`` and the BCF topics of the changes;
