@@ -20,6 +20,7 @@ from mrcheck.apps.modeldiff import diff_scenes
 from mrcheck.apps.modeldiff.compare import compare_pair, rigid_fit, rotation_angle_axis
 from mrcheck.apps.modeldiff.elements import Element
 from mrcheck.apps.modeldiff.picture import COLOURS
+from mrcheck.apps.modeldiff.revisions import load_revision
 from mrcheck.cli import main
 from mrcheck.core.images import read_image
 from mrcheck.core.resources import sample_scene_path
@@ -279,3 +280,30 @@ def test_glb_revisions_by_node_path_with_repeated_names(tmp_path):
         "floor": "unchanged",
     }
     assert float(rows["rack_1"]["offset_x_m"]) == pytest.approx(0.4, abs=1e-6)
+
+
+def test_a_shape_baked_into_its_mesh_moved_is_moved_not_changed(tmp_path):
+    """An exporter that writes world coordinates into the mesh (no node transform): the same
+    faces at rigidly moved vertices are a move, with its offset and angle; stretched, a change."""
+    import trimesh
+
+    def placed(mesh, turn_deg, at):
+        matrix = np.eye(4)
+        matrix[:3, :3], matrix[:3, 3] = _turn_z(turn_deg), at
+        return mesh.copy().apply_transform(matrix)
+
+    cabinet, bench = trimesh.creation.box((0.6, 0.4, 1.8)), trimesh.creation.box((2.0, 0.8, 0.9))
+    old = _glb(
+        tmp_path / "old.glb",
+        [("cab", "cab", placed(cabinet, 0, (1, 1, 0.9)), (0, 0, 0)), ("bench", "bench", bench, (0, 0, 0))],
+    )
+    stretched = bench.copy().apply_scale((1.1, 1.0, 1.0))
+    new = _glb(
+        tmp_path / "new.glb",
+        [("cab", "cab", placed(cabinet, 30, (1.5, 1, 0.9)), (0, 0, 0)), ("bench", "bench", stretched, (0, 0, 0))],
+    )
+    diff = diff_scenes(load_revision(old), load_revision(new))
+    rows = {c.id: c for c in diff.rows}
+    assert rows["cab"].kind == "moved" and rows["bench"].kind == "changed geometry"
+    assert rows["cab"].rotation_deg == pytest.approx(30.0, abs=1e-3)
+    assert rows["cab"].offset_m == pytest.approx((0.5, 0.0, 0.0), abs=1e-5)  # its centre, turned in place

@@ -9,7 +9,10 @@ Elements are matched by id (:mod:`mrcheck.apps.modeldiff.elements`). A matched p
 * **moved** when the geometry is the same and the rigid motion between the two placements moves
   the element's box centre by more than :data:`TOLERANCE_M` or turns it by more than
   :data:`TOLERANCE_DEG`; the offset (metres, world axes) and the rotation (degrees, about
-  ``axis``) are reported;
+  ``axis``) are reported. A shape whose exporter baked its position into the mesh (a STEP shape
+  outside an assembly, a glTF mesh with identity nodes) is moved too when the two meshes have the
+  same faces and their world vertices differ by a rigid motion (every vertex within
+  :data:`TOLERANCE_M` of the fit); otherwise it is changed geometry;
 * **unchanged** otherwise.
 
 The tolerances are what a planner cares about (a millimetre, a tenth of a degree: the 1 mm
@@ -25,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from mrcheck.apps.modeldiff.elements import Element, same_mesh, scene_elements
+from mrcheck.apps.modeldiff.elements import Element, same_mesh, same_topology, scene_elements
 from mrcheck.scene.model import Scene
 
 TOLERANCE_M = 0.001  # a move, a vertex's difference or a deformation below this is no change, metres
@@ -121,22 +124,36 @@ def compare_pair(old: Element, new: Element, tolerance_m: float, tolerance_deg: 
     same = meshes.same(old.part, new.part)
     if same and np.array_equal(old.matrix, new.matrix):  # most elements of a weekly revision
         return Change(kind="unchanged", **base)
-    offset = new.centre - old.centre
-    rotation, residual = rigid_fit(old.corners(), new.corners())
-    if not same or residual > tolerance_m:
-        return Change(
-            kind="changed geometry",
-            offset_m=_rounded(offset),
-            size_old_m=_rounded(old.size()),
-            size_new_m=_rounded(new.size()),
-            **base,
-        )
+    if same:  # the placement changed: its box's corners say how
+        points = old.corners(), new.corners()
+    elif same_topology(old.part, new.part):  # a shape whose position is baked into its mesh
+        points = old.world_vertices(), new.world_vertices()
+    else:
+        return _changed(old, new, base)
+    rotation, residual = rigid_fit(*points)
+    if residual > tolerance_m:
+        return _changed(old, new, base)
+    # where the motion takes the old box centre (for a baked shape the new box is not the old one
+    # turned: the axis-aligned box of a turned mesh is another box)
+    moved_centre = rotation @ (old.centre - points[0].mean(axis=0)) + points[1].mean(axis=0)
+    offset = moved_centre - old.centre
     angle, axis = rotation_angle_axis(rotation)
     if float(np.linalg.norm(offset)) > tolerance_m or angle > tolerance_deg:
+        base["new_centre"] = _rounded(moved_centre)
         return Change(
             kind="moved", offset_m=_rounded(offset), rotation_deg=round(angle, 4), axis=_rounded(axis), **base
         )
     return Change(kind="unchanged", **base)
+
+
+def _changed(old: Element, new: Element, base: dict) -> Change:
+    return Change(
+        kind="changed geometry",
+        offset_m=_rounded(new.centre - old.centre),
+        size_old_m=_rounded(old.size()),
+        size_new_m=_rounded(new.size()),
+        **base,
+    )
 
 
 class MeshPairs:

@@ -4,8 +4,10 @@ instance id (an IFC element's GlobalId, a STEP assembly path, a manifest's ``id`
 The comparison needs no rendering and no new triangulation: an element is its part's local mesh
 (already loaded, shared by the part's instances) and its float64 local -> world transform.
 Two elements have the same geometry when their meshes agree vertex for vertex within the
-tolerance and their transforms differ by a rigid motion only; then the motion says whether the
-element moved (:mod:`mrcheck.apps.modeldiff.compare`).
+tolerance and their transforms differ by a rigid motion only, or, for a shape whose exporter
+baked its position into the mesh, when the meshes have the same faces and their world vertices
+differ by a rigid motion; the motion says whether the element moved
+(:mod:`mrcheck.apps.modeldiff.compare`).
 """
 
 from __future__ import annotations
@@ -55,6 +57,10 @@ class Element:
         local = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
         return local @ self.matrix[:3, :3].T + self.matrix[:3, 3]
 
+    def world_vertices(self) -> np.ndarray:
+        """(n, 3) float64 world positions of the mesh's vertices."""
+        return self.part.vertices.astype(np.float64) @ self.matrix[:3, :3].T + self.matrix[:3, 3]
+
     def size(self) -> np.ndarray:
         """(3,) float64 extent of its world axis-aligned bounding box, metres."""
         corners = self.corners()
@@ -82,11 +88,15 @@ def same_mesh(a: Part, b: Part, tolerance_m: float) -> bool:
     one re-triangulated differently counts as changed)."""
     if a is b:
         return True
-    if a.vertices.shape != b.vertices.shape or a.faces.shape != b.faces.shape:
-        return False
-    if not np.array_equal(a.faces, b.faces):
+    if not same_topology(a, b):
         return False
     return float(np.abs(a.vertices.astype(np.float64) - b.vertices.astype(np.float64)).max(initial=0.0)) <= tolerance_m
 
 
-__all__ = ["Element", "scene_elements", "same_mesh"]
+def same_topology(a: Part, b: Part) -> bool:
+    """Whether two meshes have as many vertices and the same faces (their positions may differ:
+    a shape whose coordinates an exporter baked into the mesh, moved)."""
+    return a.vertices.shape == b.vertices.shape and np.array_equal(a.faces, b.faces)
+
+
+__all__ = ["Element", "scene_elements", "same_mesh", "same_topology"]
