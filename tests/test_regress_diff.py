@@ -30,6 +30,7 @@ from mrcheck.scene.model import load_scene, make_part
 
 from .ifc_house import build_house
 from .ifc_revisions import edit_house, edit_wall_file, house_with_door
+from .step_revisions import shift_solid
 
 TRUTH_KINDS = {
     "moved": "moved",
@@ -307,3 +308,14 @@ def test_a_shape_baked_into_its_mesh_moved_is_moved_not_changed(tmp_path):
     assert rows["cab"].kind == "moved" and rows["bench"].kind == "changed geometry"
     assert rows["cab"].rotation_deg == pytest.approx(30.0, abs=1e-3)
     assert rows["cab"].offset_m == pytest.approx((0.5, 0.0, 0.0), abs=1e-5)  # its centre, turned in place
+
+
+def test_step_solid_moved_in_its_own_coordinates_is_moved(tmp_path):
+    """tests/data's red cube and blue cylinder (two solids, no assembly): the cylinder's points
+    shifted 20 mm along x in the file; ids are the STEP import's names."""
+    source = Path(__file__).parent / "data" / "cad" / "step" / "red_cube_blue_cylinder.step"
+    shift_solid(source, tmp_path / "next.step", "blue_cylinder", (0.02, 0.0, 0.0))  # the file is in metres
+    diff = diff_scenes(load_scene(source), load_scene(tmp_path / "next.step"))
+    assert {c.id: c.kind for c in diff.rows} == {"blue_cylinder": "moved", "red_cube": "unchanged"}
+    assert diff.changes[0].offset_m == pytest.approx((0.02, 0.0, 0.0), abs=1e-6)
+    assert diff.changes[0].rotation_deg == pytest.approx(0.0, abs=1e-3)
