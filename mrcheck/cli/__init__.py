@@ -18,7 +18,7 @@ import sys
 
 import click
 
-from mrcheck.cli import apps, evaluate, mr, render, scene  # noqa: F401  (they add their commands)
+from mrcheck.cli import apps, evaluate, mr, regress, render, scene  # noqa: F401  (they add their commands)
 from mrcheck.cli.group import cli
 from mrcheck.cli.messages import progress_bar, warning_lines
 from mrcheck.core.errors import DISPLAY_ERRORS, MrcheckError, bug_reason
