@@ -57,13 +57,14 @@ def _solid(picker, camera: Camera, pixel, hit) -> bool:
     return True
 
 
-def scene_points(scene, view: Camera, count: int = 8) -> np.ndarray:
-    """World points on the CAD seen by both the truth camera and ``view`` (the ray cast from each
-    hits the same point, on a solid face), spread over the photo: what a planner would click."""
-    picker, truth = Picker(scene), truth_camera()
+def scene_points(scene, view: Camera, count: int = 8, truth: Camera | None = None) -> np.ndarray:
+    """World points on the CAD seen by both the truth camera (default :func:`truth_camera`) and
+    ``view`` (the ray cast from each hits the same point, on a solid face), spread over the
+    photo: what a planner would click."""
+    picker, truth = Picker(scene), truth or truth_camera()
     points = []
-    for v in np.linspace(0.1, 0.9, 9) * SIZE[1]:
-        for u in np.linspace(0.05, 0.95, 10) * SIZE[0]:
+    for v in np.linspace(0.1, 0.9, 9) * truth.height:
+        for u in np.linspace(0.05, 0.95, 10) * truth.width:
             hit = picker.world_point(truth, u, v)
             if hit is None or not _solid(picker, truth, (u, v), hit):
                 continue

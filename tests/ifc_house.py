@@ -33,7 +33,7 @@ def build_house(path: Path, *, length_unit: str = "MILLIMETRE", schema: str = "I
     s = 1000.0 if length_unit == "MILLIMETRE" else 1.0  # file units per metre
     a = 1.0 if units else s  # ifcopenshell.api takes metres and converts them to the declared unit
     f = ifcopenshell.api.project.create_file(version=schema)
-    restore = _owner(f) if schema == "IFC2X3" else None
+    restore = owner_hooks(f) if schema == "IFC2X3" else None
     project = ifcopenshell.api.root.create_entity(f, ifc_class="IfcProject", name="house")
     if units:
         raw = "MILLIMETERS" if length_unit == "MILLIMETRE" else "METERS"
@@ -151,7 +151,7 @@ def clip_away_first_wall(path: Path) -> str:
     return str(wall.GlobalId)
 
 
-def _owner(f):
+def owner_hooks(f):
     """IFC2X3 requires an owner history on every rooted entity: a user and an application
     (ifcopenshell.api asks module-level hooks for them); what puts the hooks back."""
     import ifcopenshell.api.owner.settings

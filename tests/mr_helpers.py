@@ -96,3 +96,38 @@ def sample_shot(ctx, root, camera, name: str = "p1"):
     write_image(root / f"{name}.png", render_photo(ctx, load_scene(sample_scene_path()), camera))
     (root / f"{name}.json").write_text(json.dumps({**camera.to_dict(), "photo": f"{name}.png"}))
     return root
+
+
+def standing_marker(camera, pixel, distance: float, size: float = 0.4, marker_id: int = 0) -> dict:
+    """A ``size``-metre marker standing upright ``distance`` metres from ``camera`` on the ray
+    through ``pixel``, facing the camera (as on a column or a stand): a marker map."""
+    direction = camera.R.T @ np.linalg.solve(camera.K, np.array([pixel[0], pixel[1], 1.0]))
+    centre = camera.center + direction / np.linalg.norm(direction) * distance
+    right = camera.R[0] * np.array([1.0, 1.0, 0.0])  # the camera's right, level
+    right /= np.linalg.norm(right)
+    down = np.array([0.0, 0.0, -1.0])
+    corners = [centre + (sx * right + sy * down) * size / 2 for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+    return {"dictionary": DICTIONARY, "markers": [{"id": marker_id, "corners": [c.tolist() for c in corners]}]}
+
+
+def paste_marker(photo: np.ndarray, camera, marker_map: dict) -> np.ndarray:
+    """``photo`` with the map's first marker painted in (a pinhole ``camera``: projected corners,
+    a perspective warp of the pattern with one white cell of quiet zone around it)."""
+    entry = marker_map["markers"][0]
+    dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, marker_map["dictionary"]))
+    cell = 40
+    pattern = cv2.resize(
+        dictionary.generateImageMarker(entry["id"], 8), (8 * cell, 8 * cell), interpolation=cv2.INTER_NEAREST
+    )
+    framed = cv2.copyMakeBorder(pattern, cell, cell, cell, cell, cv2.BORDER_CONSTANT, value=255)
+    world = np.asarray(entry["corners"], np.float64)
+    centre = world.mean(axis=0)
+    quiet = centre + (world - centre) * 10.0 / 8.0  # the white border's outer corners
+    image_pts = camera.project(quiet).astype(np.float32)
+    source = np.float32([[0, 0], [10 * cell, 0], [10 * cell, 10 * cell], [0, 10 * cell]])
+    warp = cv2.getPerspectiveTransform(source, image_pts)
+    h, w = photo.shape[:2]
+    painted = cv2.warpPerspective(framed, warp, (w, h), flags=cv2.INTER_AREA)
+    mask = cv2.warpPerspective(np.full_like(framed, 255), warp, (w, h), flags=cv2.INTER_AREA) / 255.0
+    out = photo.astype(np.float64) * (1 - mask[..., None]) + painted[..., None] * mask[..., None]
+    return out.round().astype(np.uint8)

@@ -647,6 +647,7 @@ def test_csv_defuses_spreadsheet_formulas():
             "distance": None,
             "mode": None,
             "updated": 0.0,
+            "offset": None,
         }
         for i, n in enumerate(notes)
     ]

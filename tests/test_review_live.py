@@ -23,9 +23,12 @@ from mrcheck.core.output import write_image  # noqa: E402
 from mrcheck.core.resources import sample_scene_path  # noqa: E402
 from mrcheck.eval.edgephotos import reprojection_error, scene_points, synthetic_photo  # noqa: E402
 from mrcheck.eval.walks import walk_camera  # noqa: E402
+from mrcheck.mr.markers import parse_marker_map  # noqa: E402
 from mrcheck.scene.model import load_scene  # noqa: E402
 
-FRAMES = 8
+from .mr_helpers import paste_marker, standing_marker  # noqa: E402
+
+FRAMES = 9
 
 
 @pytest.fixture(scope="module")
@@ -122,3 +125,104 @@ def test_a_frozen_frame_becomes_a_shot_to_mark(walk, tmp_path):
         assert shot["name"] in client.get("/api/export/markers.csv").text
     saved = list(root.rglob(f"{shot['name']}.json"))
     assert len(saved) == 1 and (saved[0].parent / f"{shot['name']}.png").is_file()
+
+
+def _shot_folder(tmp_path, walk, camera) -> object:
+    """A shots folder whose p1 is frame 0's photo at ``camera``'s pose (a wrong one, to start from
+    elsewhere)."""
+    root = tmp_path / "shots"
+    root.mkdir()
+    write_image(root / "p1.png", cv2.imread(str(walk[0] / "p1.png"))[..., ::-1])
+    (root / "p1.json").write_text(json.dumps({**camera.to_dict(), "photo": "p1.png"}))
+    return root
+
+
+def _median_px(scene, truth, header) -> float:
+    found = Camera(320, 240, truth.K, np.array(header["R"]), np.array(header["t"]))
+    return float(np.median(reprojection_error(truth, found, scene_points(scene, truth))))
+
+
+@pytest.mark.slow
+def test_live_starts_from_a_named_viewpoint_and_snaps(walk, tmp_path):
+    """The shot's pose 0.6 m off; started at the `conveyor` viewpoint, a camera 4-24 cm beside
+    it (1 to 6 steps of the walk: 1.2-7.7 px median from the viewpoint's pose) is snapped onto
+    and tracked for 3 frames. Measured after the 3rd frame (2 runs): 0.18-1.06 px from five of
+    the six starts, 1.75-1.96 px from the 8 cm one (the snap settles on a pose 1.9 px off there
+    and the track keeps it); from 9 px and farther the snap does not reach (docs/review.md). Asserted:
+    the median under 1 px and every start better than the viewpoint's pose."""
+    _, scene, truths, frames = walk
+    root = _shot_folder(tmp_path, walk, walk_camera(truths[0], "side", 15))
+    app = create_app(open_source(sample_scene_path(), root), db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "c")
+    ends, before = [], []
+    with TestClient(app) as client:
+        with client.websocket_connect("/api/live") as ws:
+            ws.send_text(json.dumps({"type": "start", "shot": "p1", "viewpoint": "nope"}))
+            assert "no viewpoint named 'nope'" in ws.receive_json()["error"]
+            ws.send_text(json.dumps({"type": "start", "shot": "p1", "markers": True}))
+            assert "no marker map" in ws.receive_json()["error"]
+        for first in range(1, 7):
+            with client.websocket_connect("/api/live") as ws:
+                ws.send_text(json.dumps({"type": "start", "shot": "p1", "viewpoint": "conveyor"}))
+                for k in range(first, first + 3):
+                    ws.send_bytes(struct.pack("<d", 0.1 * k) + frames[k])
+                    header = _pose(ws)
+                    assert not header["lost"] and not header["waiting"], header
+            ends.append(_median_px(scene, truths[k], header))
+            before.append(_median_px(scene, truths[k], {"R": truths[0].R, "t": truths[0].t}))
+    print("from the viewpoint, px after 3 frames:", np.round(ends, 2), "the viewpoint's pose:", np.round(before, 2))
+    assert np.median(ends) < 1.0 and all(e < b for e, b in zip(ends, before)), (ends, before)
+
+
+@pytest.mark.slow
+def test_live_waits_for_markers_then_tracks_from_their_pose(walk, tmp_path):
+    """The shot's pose 0.6 m off and a marker map: frames without the marker are answered
+    "waiting" (lost, no layer); the first frame showing it starts the track at the markers' pose
+    (1.9 px median alone, one 0.5 m marker 3 m away), snapped onto the frame's edges. Measured:
+    0.09-0.25 px over the frames after; limit 1.5 px, as the walk's."""
+    _, scene, truths, frames = walk
+    root = _shot_folder(tmp_path, walk, walk_camera(truths[0], "side", 15))
+    marker_map = standing_marker(truths[0], (60, 190), 3.0, 0.5)
+    photos = [cv2.imdecode(np.frombuffer(f, np.uint8), cv2.IMREAD_COLOR)[..., ::-1] for f in frames]
+    marked = [paste_marker(p, t, marker_map) for p, t in zip(photos, truths)]
+    jpegs = [cv2.imencode(".jpg", cv2.cvtColor(p, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, 90])[1].tobytes()
+             for p in marked]  # fmt: skip
+    app = create_app(
+        open_source(sample_scene_path(), root),
+        db_path=tmp_path / "r.sqlite",
+        cache_dir=tmp_path / "c",
+        marker_map=parse_marker_map(marker_map),
+    )
+    with TestClient(app) as client:
+        assert client.get("/api/info").json()["markers"] is True
+        with client.websocket_connect("/api/live") as ws:
+            ws.send_text(json.dumps({"type": "start", "shot": "p1", "markers": True}))
+            ws.send_bytes(struct.pack("<d", 0.0) + frames[0])  # no marker in view
+            header = ws.receive_json()
+            assert header["waiting"] and header["lost"] and "waiting for markers" in header["reason"], header
+            assert ws.receive_bytes() == b""
+            errors = []
+            for k in range(1, 5):
+                ws.send_bytes(struct.pack("<d", 0.1 * k) + jpegs[k])
+                header = _pose(ws)
+                assert not header["lost"] and not header["waiting"], header
+                errors.append(_median_px(scene, truths[k], header))
+    print("from the markers, px:", np.round(errors, 2))
+    assert max(errors) < 1.5, errors
+
+
+@pytest.mark.slow
+def test_a_frozen_frame_is_staged_for_add_photo_with_the_live_intrinsics(walk, tmp_path):
+    """Live from clicks: the frozen frame and the shot's intrinsics become "Add photo" uploads
+    of the frame's size (the browser test clicks on them); a frame that is no image is a 422."""
+    root, scene, truths, frames = walk
+    image = base64.b64encode(frames[2]).decode()
+    with _client(walk, tmp_path) as client:
+        staged = client.post("/api/live/clicks", json={"shot": "p1", "image": image})
+        assert staged.status_code == 201, staged.json()
+        refs = staged.json()
+        info = client.get(
+            "/api/addphoto/photo", params={"photo": refs["photo"]["ref"], "intrinsics": refs["intrinsics"]["ref"]}
+        )
+        assert info.status_code == 200 and (info.json()["width"], info.json()["height"]) == (320, 240)
+        bad = client.post("/api/live/clicks", json={"shot": "p1", "image": "bm90IGFuIGltYWdl"})
+        assert bad.status_code == 422

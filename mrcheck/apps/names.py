@@ -8,8 +8,8 @@ An export folder::
 
 (numbers as ``{x:g}``: ``i1``, ``i0.5``, ``a0``). The review keeps ``review.sqlite`` and its render
 cache ``.review-cache/`` in the reviewed folder, with ``--self-signed`` its certificates in
-``review-tls/`` beside them, and names the downloads of its report and CSV ``review.html`` and
-``review.csv``.
+``review-tls/`` beside them, the camera its "Calibrate" solved in ``review-camera/camera.json``,
+and names the downloads of its report and CSV ``review.html`` and ``review.csv``.
 """
 
 from __future__ import annotations
@@ -32,6 +32,8 @@ REVIEW_TLS = "review-tls"  # --self-signed: the review's certificates, beside it
 TLS_CA = "ca.pem"  # in REVIEW_TLS: the certificate a tablet trusts, which signed TLS_CERT
 TLS_CERT = "cert.pem"  # in REVIEW_TLS: the server's certificate
 TLS_KEY = "key.pem"  # in REVIEW_TLS: its private key (mode 0600)
+REVIEW_CAMERA = "review-camera"  # the camera "Calibrate" solved in the review, beside its database
+LIVE_CAMERA = "camera.json"  # in REVIEW_CAMERA: Live's intrinsics (intrinsics only, no pose)
 REVIEW_REPORT = "review.html"  # the review's HTML report, as downloaded
 REVIEW_CSV = "review.csv"  # the review's markers, as downloaded
 

@@ -183,10 +183,28 @@ class _ExportBar:
 )
 @click.option("--tls-key", metavar="KEY.pem", help="The private key of --tls-cert (PEM, without a passphrase).")
 @click.option(
+    "--marker-map",
+    metavar="MAP.json",
+    help="The markers in the hall (the marker map of `register --markers`): Live can start from the markers in view.",
+)
+@click.option(
     "--self-signed",
     is_flag=True,
     help="Serve HTTPS with a certificate made for this machine, kept in review-tls/ beside the database and "
     "reused while it is valid; prints the file to trust on the tablet and how.",
+)
+@click.option(
+    "--live-intrinsics",
+    metavar="CAM.json",
+    help="Live tracks with this camera's intrinsics (camera JSON or OpenCV YAML, with distortion; the page "
+    "sends frames at its size) and each shot's pose [default: the camera the page's Calibrate saved in "
+    "review-camera/ beside the database, else each shot's own].",
+)
+@click.option(
+    "--board",
+    metavar="SPEC",
+    help="The board the page's Calibrate looks for, as mrcheck calibrate's --board: chessboard:COLSxROWS:SQUARE "
+    "(inner corners) or charuco:COLSxROWS:SQUARE:MARKER:DICT [default: the page asks].",
 )
 def review(
     target,
@@ -204,7 +222,10 @@ def review(
     accumulate,
     tls_cert,
     tls_key,
+    marker_map,
     self_signed,
+    live_intrinsics,
+    board,
 ):
     """Review shots in the browser and mark discrepancies.
 
@@ -213,12 +234,15 @@ def review(
     photo by clicking 4+ points on it and on the CAD, and saves it as a shot. "Navigate" moves
     through the CAD from a shot's pose (the server renders every view; --accumulate: the AO frames
     of a view at rest). --self-signed or --tls-cert serve it over HTTPS, which a tablet's camera
-    needs.
+    needs. "Live" checks through the device's camera; "Calibrate" calibrates that camera from a
+    chessboard held in front of it (--board) and Live then uses it (or --live-intrinsics).
 
     \b
     Example:
       mrcheck review out --suggestions p1=suspects/suspects.json
       mrcheck review out --host 0.0.0.0 --self-signed
+      mrcheck review out --host 0.0.0.0 --self-signed --board chessboard:9x6:0.025
+      mrcheck review out --host 0.0.0.0 --self-signed --live-intrinsics tablet.json
     """
     from mrcheck.apps.review.server import start
     from mrcheck.apps.review.tls import TlsOptions
@@ -239,6 +263,9 @@ def review(
             author=author,
             accumulate=accumulate,
             tls=TlsOptions(tls_cert, tls_key, self_signed),
+            marker_map=marker_map,
+            live_intrinsics=live_intrinsics,
+            board=board,
         )
         try:
             for line in server.messages():

@@ -1,9 +1,12 @@
-"""``mrcheck regress``: image regression tests of a scene's agreed views (record, check).
+"""``mrcheck regress``: image regression tests of a model (issue 43): ``record`` and ``check``
+the agreed views of a scene here, ``diff`` two revisions element by element
+(:mod:`mrcheck.cli.regress_diff`).
 
 Exit status of ``regress check``: 0 when every view is within tolerance, 1 when any view
 changed (each named), 2 on bad input (a missing baseline, an unreadable scene, a bad option):
 the group turns every one-line error of its commands into exit 2, as pytest-mpl's and a
-compiler's callers expect (1 is "the test failed").
+compiler's callers expect (1 is "the test failed"). ``diff`` does the same in its own command
+class.
 """
 
 from __future__ import annotations
@@ -13,6 +16,7 @@ import click
 from mrcheck.cli.group import Group, cli
 from mrcheck.cli.messages import progress_bar
 from mrcheck.cli.options import FINITE
+from mrcheck.cli.regress_diff import diff
 from mrcheck.core.errors import MrcheckError
 
 EXIT_CHANGED = 1
@@ -34,13 +38,17 @@ class RegressGroup(Group):
 
 @cli.group(cls=RegressGroup)
 def regress():
-    """Image regression tests of a scene's views: record, check.
+    """Image regression tests: record, check views; diff revisions.
 
     \b
     Example:
       mrcheck regress record factory_scenes/sample_cell/scene.toml -o baseline/
       mrcheck regress check factory_scenes/sample_cell/scene.toml --baseline baseline/ -o report/
+      mrcheck regress diff week48.ifc week49.ifc -o diff49
     """
+
+
+regress.add_command(diff)
 
 
 def workers_options(command):

@@ -214,11 +214,8 @@ def _common_size(sizes: dict):
     return size
 
 
-def calibrate(images, board: Board, min_views=None, max_view_error=None, progress: Progress = no_progress):
-    """Detect, calibrate, reject outlier views and recalibrate until every kept view is within the threshold.
-
-    Returns (camera, extra, report lines); ``extra`` holds the JSON's rms, per_view_errors, ...
-    """
+def checked_min_views(min_views) -> int:
+    """``--min-views`` (None: the default), or MrcheckError when it is below MIN_VIEWS_FLOOR."""
     min_views = DEFAULT_MIN_VIEWS if min_views is None else int(min_views)
     if min_views < MIN_VIEWS_FLOOR:
         raise MrcheckError(
@@ -226,6 +223,49 @@ def calibrate(images, board: Board, min_views=None, max_view_error=None, progres
             "equations on the camera from each photo of a flat board, so fewer photos leave it "
             "undetermined (a low RMS error with a wrong camera)"
         )
+    return min_views
+
+
+@dataclass(frozen=True)
+class SolvedViews:
+    """:func:`calibrate_views`' result: the camera (no pose), the RMS error over the views kept,
+    {view: its RMS error} of those, {rejected view: its error}, the outlier threshold (px) and
+    OpenCV's standard deviations ({"fx", "fy", "cx", "cy": px, "dist": [...]})."""
+
+    camera: Camera
+    rms: float
+    per_view_errors: dict
+    rejected: dict
+    threshold: float
+    std: dict
+
+
+def calibrate_views(views: dict, size, board: Board, min_views=None, max_view_error=None) -> SolvedViews:
+    """The camera of board detections already made, ``views``: {name: (object points, image
+    points)} of images of ``size`` (width, height), as :meth:`Board.detect` gives them; outlier
+    views rejected as ``mrcheck calibrate`` does (module docstring). ``mrcheck calibrate`` and the
+    review's "Calibrate" (its views come from a video, not files) share it; MrcheckError when
+    fewer than ``min_views`` views are given or remain."""
+    min_views = checked_min_views(min_views)
+    if len(views) < min_views:
+        raise MrcheckError(f"{_count(len(views), 'view')} of board {board.spec}, need at least {min_views}")
+    result, rejected, threshold = _without_outliers(views, size, min_views, max_view_error)
+    return SolvedViews(
+        Camera(size[0], size[1], result.K, dist=result.dist),
+        result.rms,
+        {n: float(e) for n, e in zip(result.names, result.per_view)},
+        rejected,
+        threshold,
+        result.std_dict(),
+    )
+
+
+def calibrate(images, board: Board, min_views=None, max_view_error=None, progress: Progress = no_progress):
+    """Detect, calibrate, reject outlier views and recalibrate until every kept view is within the threshold.
+
+    Returns (camera, extra, report lines); ``extra`` holds the JSON's rms, per_view_errors, ...
+    """
+    min_views = checked_min_views(min_views)
     found = detect_views(images, board, progress)
     views, size, skipped, duplicates = found.views, found.size, found.skipped, found.duplicates
     # a board missing from most photos that could be read more likely has a wrong SPEC than bad photos
@@ -241,18 +281,18 @@ def calibrate(images, board: Board, min_views=None, max_view_error=None, progres
             f"found in only {len(views)} of {len(views) + len(found.without_board)} readable images{hint}",
             f"board {board.spec}",
         )
-    result, rejected, threshold = _without_outliers(views, size, min_views, max_view_error)
-    camera = Camera(size[0], size[1], result.K, dist=result.dist)
+    solved = calibrate_views(views, size, board, min_views, max_view_error)
+    camera, rejected = solved.camera, solved.rejected
     extra = {
-        "rms": result.rms,
-        "per_view_errors": {n: float(e) for n, e in zip(result.names, result.per_view)},
+        "rms": solved.rms,
+        "per_view_errors": solved.per_view_errors,
         "rejected_views": list(rejected),
         "skipped_views": skipped,
         "duplicate_views": duplicates,
-        "std": result.std_dict(),
+        "std": solved.std,
         "board": board.spec,
     }
-    return camera, extra, _report(camera, extra, rejected, threshold, len(images))
+    return camera, extra, _report(camera, extra, rejected, solved.threshold, len(images))
 
 
 def _unreadable(problems: dict, listed: int = 5) -> str:
@@ -356,7 +396,7 @@ def _count(n, noun) -> str:
     return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
 
 
-def _poorly_determined(camera, std):
+def poorly_determined(camera, std):
     """A warning naming fx, fy, cx, cy whose standard deviation is above POOR_STD_FRACTION of the
     focal length, or None."""
     focal = {"fx": camera.fx, "fy": camera.fy, "cx": camera.fx, "cy": camera.fy}
@@ -393,8 +433,19 @@ def calibrate_command(
     check_not_inputs([output], [("an image", images)])  # a glob of a folder takes in its old camera file too
     camera, extra, report = calibrate(images, spec, min_views, max_view_error, progress)
     write_camera(output, camera, extra, pose=False)  # a calibration has no pose
-    problem = _poorly_determined(camera, extra["std"])
+    problem = poorly_determined(camera, extra["std"])
     return Calibrated(camera, output, report, problem and f"{output}: {problem}")
 
 
-__all__ = ["detect_views", "calibrate", "calibrate_command", "Calibrated", "Detected", "DEFAULT_MIN_VIEWS"]
+__all__ = [
+    "detect_views",
+    "calibrate",
+    "calibrate_views",
+    "checked_min_views",
+    "poorly_determined",
+    "SolvedViews",
+    "calibrate_command",
+    "Calibrated",
+    "Detected",
+    "DEFAULT_MIN_VIEWS",
+]

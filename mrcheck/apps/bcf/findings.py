@@ -91,7 +91,13 @@ def element_label(scene, instance_id: str | None) -> str:
     if not instance_id:
         return ""
     found = scene.element(instance_id) if scene is not None else None
-    info = found[2] if found else None
+    return info_label(instance_id, found[2] if found else None)
+
+
+def info_label(instance_id: str, info) -> str:
+    """:func:`element_label` of an instance whose :class:`~mrcheck.scene.elements.ElementInfo`
+    the caller has already (no search through the scene's parts: a caller labelling every
+    element of a large model would search once per element)."""
     if info is None or not info.name:
         return instance_id
     where = ", ".join(v for v in (info.ifc_class, info.storey) if v)
@@ -123,6 +129,7 @@ def ifc_file_of(scene) -> str:
 __all__ = [
     "default_author",
     "element_label",
+    "info_label",
     "ifc_file_of",
     "priority",
     "severity_of",

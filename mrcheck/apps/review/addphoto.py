@@ -280,6 +280,16 @@ class AddPhoto:
             self._solved.pop(ident, None)
             return added
 
+    def stage_frame(self, image: np.ndarray, camera: Camera) -> dict:
+        """A frame frozen in the live check, to start Live from clicks: the frame (PNG) and the
+        intrinsics it was taken with (camera JSON, no pose), staged as "Add photo" uploads;
+        ``{"photo": {"ref", "name"}, "intrinsics": {"ref", "name"}}``."""
+        import json
+
+        photo = self.upload("photo", "live-frame.png", encode_image(".png", image))
+        intrinsics = self.upload("intrinsics", "live-camera.json", json.dumps(camera.to_dict(pose=False)).encode())
+        return {"photo": photo, "intrinsics": intrinsics}
+
     def save_frame(self, stem: str, image: np.ndarray, camera: Camera, report: dict) -> Shot:
         """A frame frozen in the live check as a new shot: ``image`` (RGB, ``camera``'s size) as a
         PNG and its SHOT.json at the tracked pose, under free names in the folder shots are added

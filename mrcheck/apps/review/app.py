@@ -20,7 +20,9 @@ from mrcheck.apps.bcf import default_author
 from mrcheck.apps.names import REVIEW_CACHE, REVIEW_DATABASE, REVIEW_TLS
 from mrcheck.apps.review import middleware
 from mrcheck.apps.review.addphoto import AddPhoto
+from mrcheck.apps.review.calibrator import Calibrator
 from mrcheck.apps.review.guard import MAX_BODY, MAX_UPLOAD
+from mrcheck.apps.review.livecamera import LiveCamera, LiveIntrinsics
 from mrcheck.apps.review.renders import RenderService
 from mrcheck.apps.review.routes import ROUTERS
 from mrcheck.apps.review.state import Review
@@ -56,6 +58,9 @@ def create_app(
     antialias: bool = True,
     author: str | None = None,
     accumulate: int = DEFAULT_ACCUMULATE,
+    marker_map=None,
+    live_intrinsics: LiveIntrinsics | None = None,
+    board: str | None = None,
 ) -> FastAPI:
     """``suggestions``: {shot name: markers} (:func:`.suggestions.load_suggestions`), imported
     into the review's markers once; ``app.state.imported``: {shot name: markers added now}.
@@ -64,7 +69,11 @@ def create_app(
     ``max_body``: the largest request body, in bytes; ``max_upload``: the largest upload of "Add photo".
     ``antialias``: the CAD renders anti-aliased (mrcheck.render.antialias); ``author``: who
     writes the BCF topics and the comments made in the review (None: the OS user); ``accumulate``:
-    the AO frames of a render session's frame at rest (:mod:`.viewsession`)."""
+    the AO frames of a render session's frame at rest (:mod:`.viewsession`); ``marker_map``: the
+    markers Live may start from (:class:`mrcheck.mr.markers.MarkerMap`, ``--marker-map``);
+    ``live_intrinsics``: Live's camera (``--live-intrinsics``, :mod:`.livecamera`), else the one
+    "Calibrate" saved beside the database, else each shot's; ``board``: the board SPEC
+    "Calibrate" offers (``--board``)."""
     db_path = database_path(source, db_path)
     store = Store(
         db_path,
@@ -72,8 +81,11 @@ def create_app(
         served_scales={s.name: s.served_scale() for s in source.shots.values() if s.served_size != s.size},
     )
     renders = RenderService(source, cache_dir or cache_path(db_path), samples=samples, antialias=antialias)
-    review = Review(source, store, renders, author=author or default_author(), accumulate=accumulate)
+    review = Review(
+        source, store, renders, author=author or default_author(), accumulate=accumulate, marker_map=marker_map
+    )
     review.addphoto = AddPhoto(review, renders.cache)
+    review.live_camera, review.calibrator = LiveCamera(db_path, live_intrinsics), Calibrator(board)
     review.import_suggestions(suggestions or {})
 
     @contextlib.asynccontextmanager

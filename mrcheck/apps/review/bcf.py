@@ -34,6 +34,7 @@ from mrcheck.apps.bcf import (
 )
 from mrcheck.apps.bcf.write import JPEG_QUALITY, SNAPSHOT_WIDTH
 from mrcheck.apps.review.bcf_place import place_topic
+from mrcheck.apps.review.measure import offset_line
 from mrcheck.apps.review.storage import DEFAULT_STATUS, MAX_NOTE, BcfChange, BcfMarker
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.images import encode_image, read_image
@@ -69,7 +70,7 @@ def _finding(m: dict, guid: str) -> Finding:
         guid,
         m["category"],
         m["severity"],
-        m["note"],
+        "\n".join(filter(None, [m["note"], offset_line(m["offset"]) if m["offset"] else ""])),
         m["part"],
         m["shot"],
         created,

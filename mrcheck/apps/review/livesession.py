@@ -1,9 +1,20 @@
 """The live check's server side (issue 42): a camera's video frames tracked as they arrive.
 
 One WebSocket per page (``/api/live``, :mod:`.routes.view`). The page first sends
-``{"type": "start", "shot": NAME}``: the track starts at that shot's pose, with its intrinsics
-and lens (at the served size; a frame of another size is resized to it), so the camera should
-start roughly where the shot was taken. Then every video frame as a binary message: its capture
+``{"type": "start", "shot": NAME}`` (:class:`LiveStart`): the track uses that shot's intrinsics
+and lens (at the served size; a frame of another size is resized to it; Live's own intrinsics
+at their size when the review has them, :mod:`.livecamera`) and starts
+
+* at the shot's pose (the camera should start roughly where the shot was taken), or
+* with ``"viewpoint": VIEW``, at the scene's named viewpoint (then snaps onto the frame's
+  edges, as ``track`` does from ``--initial``), or
+* with ``"markers": true``, at the pose the markers of the review's marker map
+  (``--marker-map``) give, as ``register --markers`` solves it. Until markers are seen, each
+  frame is answered as lost and ``"waiting": true`` with no layer; after a lost frame the markers
+  are looked for again, and a frame that shows them restarts the track from their pose.
+
+A start from clicks is the page's: a frozen frame goes through "Add photo" (the shot's
+intrinsics) and Live starts again from the shot it saves. Then every video frame as a binary message: its capture
 time in seconds (8 bytes, a little-endian float64: frames the server takes come at irregular
 intervals, and the constant-velocity prediction scales the motion by the time between them)
 followed by the JPEG; the newest waiting frame is tracked when the one before is done
@@ -22,6 +33,7 @@ import base64
 import binascii
 import struct
 import time
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -29,25 +41,63 @@ import numpy as np
 from mrcheck.apps.review.newest import NewestOnly, json_message
 from mrcheck.apps.track import OVERLAY_SETTINGS, FramePose, frame_options, track_frame
 from mrcheck.apps.trackframes import FramePhoto
+from mrcheck.core.camera import Camera
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.images import decode_image, max_pixels
 from mrcheck.mr.edges import VisibilityRender, photo_pyramid, scene_edges
 from mrcheck.mr.edges.candidates import CandidateEdges
 from mrcheck.mr.lens import distort_to_photo, distortion_map
+from mrcheck.mr.registration import register_markers
 from mrcheck.mr.shot import photo_frame
 
 KEEP_FRAMES = 100  # frame records kept: the prediction and relocalisation look back this far at most
 JPEG_QUALITY = 85
 
 
+@dataclass(frozen=True)
+class LiveStart:
+    """Where a live track starts (the module docstring): the shot whose intrinsics it uses and,
+    instead of that shot's pose, a named viewpoint's or the markers'."""
+
+    shot: str
+    viewpoint: str | None = None
+    markers: bool = False
+
+
+def parse_start(start, source, marker_map) -> LiveStart:
+    """The start message as a :class:`LiveStart`; ValueError saying what is wrong with it."""
+    if not isinstance(start, dict) or start.get("type") != "start" or start.get("shot") not in source.shots:
+        raise ValueError('start with {"type": "start", "shot": NAME}, NAME a shot of this review')
+    if set(start) - {"type", "shot", "viewpoint", "markers"}:
+        raise ValueError(
+            f"unknown start keys: {', '.join(sorted(set(start) - {'type', 'shot', 'viewpoint', 'markers'}))}"
+        )
+    viewpoint, markers = start.get("viewpoint"), start.get("markers", False)
+    if viewpoint is not None and viewpoint not in source.loaded.viewpoints:
+        known = ", ".join(sorted(source.loaded.viewpoints)) or "none"
+        raise ValueError(f"no viewpoint named {viewpoint!r} (the scene has: {known})")
+    if not isinstance(markers, bool) or (markers and viewpoint is not None):
+        raise ValueError('"markers" is true or false, and not given with "viewpoint"')
+    if markers and marker_map is None:
+        raise ValueError("this review has no marker map: start it with --marker-map MAP.json")
+    return LiveStart(start["shot"], viewpoint, markers)
+
+
 class LiveTracker:
     """The track of one live session: the frames' poses so far and what the next frame reuses
     (the edges seen, the last overlay's depth and normals)."""
 
-    def __init__(self, source, shot_name: str):
-        shot = source.shots[shot_name]
-        self.scene, self.camera = source.loaded, shot.served_camera()
+    def __init__(self, source, start: LiveStart, marker_map=None, live_camera=None):
+        shot = source.shots[start.shot]
+        # the shot's pose; the intrinsics Live is given (:mod:`.livecamera`), else the shot's
+        camera = shot.served_camera() if live_camera is None else live_camera.for_shot(shot)
+        self.scene, self.camera = source.loaded, camera
         self.initial = self.camera
+        if start.viewpoint is not None:
+            view = self.scene.camera(start.viewpoint)
+            self.initial = self.camera.with_pose(view.R, view.t)
+        self.marker_map = marker_map if start.markers else None
+        self.waiting = start.markers  # for the first frame that shows markers
         self.frames: list[FramePose] = []
         self.edges = scene_edges(self.scene)
         self.candidates = CandidateEdges(self.edges)
@@ -57,9 +107,14 @@ class LiveTracker:
 
     def step(self, renderer, jpeg: bytes, time_s: float) -> tuple[dict, bytes]:
         """Track one frame taken at ``time_s`` (``renderer``: the render thread's); (header, CAD
-        layer JPEG)."""
+        layer JPEG, or no bytes while waiting for markers)."""
         began = time.perf_counter()
         rgb = _decoded(jpeg, self.camera)
+        if self.marker_map is not None and (self.waiting or (self.frames and self.frames[-1].lost)):
+            reason = self._restart_from_markers(rgb)
+            if self.waiting:
+                self.count += 1
+                return _waiting(self.count - 1, time_s, reason, self.camera, began), b""
         grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
         index = len(self.frames)
         photo = FramePhoto(rgb, time_s, grey, photo_pyramid(grey, frame_options(index)))
@@ -81,6 +136,17 @@ class LiveTracker:
         self.frames = [*self.frames, pose][-KEEP_FRAMES:]
         layer = self._layer(renderer, pose)
         return _header(pose, self.camera, (time.perf_counter() - began) * 1000.0), layer
+
+    def _restart_from_markers(self, rgb: np.ndarray) -> str:
+        """The markers' pose as the new start when the frame shows them (the track begins again
+        there); else why not."""
+        try:
+            shot = register_markers(rgb, self.camera, self.marker_map)
+        except MrcheckError as exc:
+            return f"waiting for markers: {exc.problem}"
+        self.initial = self.camera.with_pose(shot.camera.R, shot.camera.t)
+        self.frames, self.seed, self.waiting = [], None, False
+        return ""
 
     def _layer(self, renderer, pose: FramePose) -> bytes:
         """The CAD at the frame's pose in the lens's geometry; its depth and normals seed the next
@@ -128,6 +194,7 @@ def _header(pose: FramePose, camera, ms: float) -> dict:
         "support": round(pose.support, 4),
         "rms_px": None if pose.rms_px is None else round(pose.rms_px, 3),
         "lost": pose.lost,
+        "waiting": False,
         "reason": pose.reason,
         "ms": round(ms, 1),
         "width": camera.width,
@@ -135,16 +202,34 @@ def _header(pose: FramePose, camera, ms: float) -> dict:
     }
 
 
-def live_session(source, renders) -> NewestOnly:
-    """One page's live session (module docstring)."""
+def _waiting(frame: int, time_s: float, reason: str, camera: Camera, began: float) -> dict:
+    """The answer to a frame before the markers were seen: lost, waiting, no pose."""
+    return {
+        "type": "pose",
+        "frame": frame,
+        "time": time_s,
+        "R": camera.R.tolist(),
+        "t": camera.t.tolist(),
+        "support": 0.0,
+        "rms_px": None,
+        "lost": True,
+        "waiting": True,
+        "reason": reason,
+        "ms": round((time.perf_counter() - began) * 1000.0, 1),
+        "width": camera.width,
+        "height": camera.height,
+    }
+
+
+def live_session(source, renders, marker_map=None, live_camera=None) -> NewestOnly:
+    """One page's live session (module docstring); ``marker_map``: the review's (``--marker-map``);
+    ``live_camera``: :class:`.livecamera.LiveCamera`."""
     tracker: list[LiveTracker] = []
 
     def parse(message: dict):
         if "text" in message:
-            start = json_message(message["text"])
-            if not isinstance(start, dict) or start.get("type") != "start" or start.get("shot") not in source.shots:
-                raise ValueError('start with {"type": "start", "shot": NAME}, NAME a shot of this review')
-            tracker[:] = [LiveTracker(source, start["shot"])]
+            start = parse_start(json_message(message["text"]), source, marker_map)
+            tracker[:] = [LiveTracker(source, start, marker_map, live_camera)]
             return None
         if not tracker:
             raise ValueError('send {"type": "start", "shot": NAME} before the frames')
@@ -163,4 +248,4 @@ def live_session(source, renders) -> NewestOnly:
     return NewestOnly(parse, work)
 
 
-__all__ = ["LiveTracker", "live_session", "frozen_image"]
+__all__ = ["LiveStart", "LiveTracker", "parse_start", "live_session", "frozen_image"]

@@ -47,3 +47,12 @@ class CommentIn(BaseModel):
 
     model_config = _STRICT
     text: str = Field(min_length=1, max_length=MAX_NOTE)
+
+
+class OffsetIn(BaseModel):
+    """The pixel (the shot's photo pixels, as a marker's) of the CAD point that should be where
+    the marker is: the marker's offset is measured from it (:mod:`.measure`)."""
+
+    model_config = _STRICT
+    x: float
+    y: float

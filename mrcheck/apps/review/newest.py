@@ -12,6 +12,8 @@ import asyncio
 import json
 from collections.abc import Callable
 
+from starlette.websockets import WebSocketDisconnect
+
 MAX_TEXT = 4096  # characters of a text message: a camera and a few names
 MAX_BYTES = 8 << 20  # bytes of a binary message: a JPEG video frame (the live session)
 
@@ -40,11 +42,12 @@ class NewestOnly:
                 try:
                     header, data = await loop.run_in_executor(None, self.work, request)
                 except Exception as exc:  # noqa: BLE001 -- a request that fails is answered, the session goes on
-                    await websocket.send_json({"type": "error", "error": str(exc)})
-                    continue
+                    header, data = {"type": "error", "error": str(exc)}, None
                 await websocket.send_json(header)
                 if data is not None:
                     await websocket.send_bytes(data)
+        except (WebSocketDisconnect, RuntimeError):  # the page went away while its answer was worked on
+            pass
         finally:
             reader.cancel()
 

@@ -44,12 +44,17 @@ class Picker:
         self._casters = [entry] + self._casters[: MAX_ORIGINS - 1]
         return entry
 
-    def _cast(self, camera: Camera, u: float, v: float):
-        """(hits or None for no hit, caster, unit ray direction) of pixel (u, v)."""
+    @staticmethod
+    def ray(camera: Camera, u: float, v: float) -> np.ndarray:
+        """The unit world direction of the ray through the (distorted) photo pixel (u, v)."""
         pixel = np.array([[[u, v]]], np.float64)
         x, y = cv2.undistortPoints(pixel, camera.K, camera.dist).reshape(2)
         direction = camera.R.T @ np.array([x, y, 1.0])
-        direction /= np.linalg.norm(direction)
+        return direction / np.linalg.norm(direction)
+
+    def _cast(self, camera: Camera, u: float, v: float):
+        """(hits or None for no hit, caster, unit ray direction) of pixel (u, v)."""
+        direction = self.ray(camera, u, v)
         with self._lock:
             origin, caster = self._caster_for(camera.center)
             ray = np.concatenate([camera.center - origin, direction]).astype(np.float32)[None]

@@ -12,6 +12,7 @@ import cv2
 import numpy as np
 from markupsafe import Markup
 
+from mrcheck.apps.review.measure import offset_line
 from mrcheck.apps.templating import render
 from mrcheck.core.errors import MrcheckError, display
 from mrcheck.core.images import encode_image
@@ -47,7 +48,11 @@ def _when(seconds: float) -> str:
 def markers_csv(markers: list) -> str:
     out = io.StringIO()
     writer = csv.writer(out)
-    writer.writerow(["id", "shot", "x", "y", "category", "severity", "note", "part", "distance_m", "mode", "updated"])
+    # the offset's columns last: a spreadsheet reading the earlier ones by position still does
+    writer.writerow(
+        ["id", "shot", "x", "y", "category", "severity", "note", "part", "distance_m", "mode", "updated"]
+        + ["offset_m", "offset_x_m", "offset_y_m", "offset_z_m"]
+    )
     for m in markers:
         writer.writerow(
             [
@@ -62,9 +67,16 @@ def markers_csv(markers: list) -> str:
                 "" if m["distance"] is None else f"{m['distance']:.3f}",
                 m["mode"] or "",
                 _when(m["updated"]),
+                *_offset_cells(m["offset"]),
             ]
         )
     return out.getvalue()
+
+
+def _offset_cells(offset: dict | None) -> list[str]:
+    if offset is None:
+        return ["", "", "", ""]
+    return [f"{offset['distance_m']:.4f}", *(f"{c:.4f}" for c in offset["offset_m"])]
 
 
 def _shot_images(source, renders, shot: str, intensity: float):
@@ -102,6 +114,7 @@ def _marker(m: dict, crops, served_scale) -> dict:
         "created": _when(m["created"]),
         "changed": "" if m["updated"] == m["created"] else f", last changed {_when(m['updated'])}",
         "note": m["note"],
+        "offset": offset_line(m["offset"]) if m["offset"] else "",
         "problem": problem,
         "crops": figures,
     }

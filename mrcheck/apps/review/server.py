@@ -21,12 +21,14 @@ from mrcheck.apps.review.guard import (
     format_size,
     is_loopback,
 )
+from mrcheck.apps.review.livecamera import calibrated_path, read_intrinsics
 from mrcheck.apps.review.selfsigned import self_signed_tls, server_names
 from mrcheck.apps.review.tls import Tls, TlsOptions, given_tls
 from mrcheck.apps.review.viewsession import DEFAULT_ACCUMULATE
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.images import parse_pixels
 from mrcheck.core.output import check_not_inputs
+from mrcheck.mr.markers import load_marker_map
 from mrcheck.render.settings import MAX_ACCUMULATE
 
 
@@ -80,6 +82,7 @@ class ReviewServer:
                 f"suggestions: {sum(added.values())} new marker(s) on {len(added)} shot(s) (category "
                 "'suggested'; each part or region is imported once per review)"
             )
+        lines += self.app.state.review.live_camera.lines()
         lines += self.tls.lines() if self.tls else []
         lines.append(f"open {self.url}")
         return lines
@@ -131,28 +134,44 @@ def start(
     author: str | None = None,
     accumulate: int = DEFAULT_ACCUMULATE,
     tls: TlsOptions = TlsOptions(),
+    marker_map=None,
+    live_intrinsics=None,
+    board: str | None = None,
 ) -> ReviewServer:
     """Everything but serving: the source opened and checked, the port bound, the app made (its
     database written), the certificate of ``--self-signed`` kept or made. A bad input is a
     :class:`MrcheckError` before the port is bound. ``max_pixels``: the largest photo read
     (None: :data:`.source.MAX_PIXELS`); ``author``: of the BCF topics and comments (None: the OS
-    user); ``accumulate``: the AO frames of a navigated view at rest; ``tls``: HTTPS."""
+    user); ``accumulate``: the AO frames of a navigated view at rest; ``tls``: HTTPS;
+    ``marker_map``: the marker map file Live may start from (``--marker-map``); ``live_intrinsics``:
+    Live's camera file (:mod:`.livecamera`); ``board``: "Calibrate"'s board SPEC."""
     from mrcheck.apps.review.source import open_source
     from mrcheck.apps.review.suggestions import load_suggestions, suggestions_file
+    from mrcheck.mr.boards import parse_board
 
     _check_options(token, db, max_body)
     tls.check()
     served = given_tls(tls)  # --tls-cert and --tls-key, as uvicorn will load them
     if not 1 <= accumulate <= MAX_ACCUMULATE:
         raise MrcheckError(f"--accumulate must be 1 to {MAX_ACCUMULATE} frames, got {accumulate}")
+    markers = load_marker_map(marker_map) if marker_map else None  # a bad map: one line, before anything
+    if board is not None:
+        parse_board(board)  # a bad SPEC now, not when the page starts a calibration
+    given = None if live_intrinsics is None else read_intrinsics(live_intrinsics)
     source = open_source(target, shots_dir, **({} if max_pixels is None else {"max_pixels": max_pixels}))
     suggested = load_suggestions(source, suggestions)
     database = database_path(source, db)
     # SQLite writes the database and its -wal, -shm and -journal files; the cache prunes its own folder
     check_not_inputs(
         [Path(f"{database}{suffix}") for suffix in ("", "-wal", "-shm", "-journal")]
-        + ([tls_path(database) / name for name in (TLS_CA, TLS_CERT, TLS_KEY)] if tls.self_signed else []),
-        [*source.inputs(), ("--suggestions", [suggestions_file(s) for s in suggestions])],
+        + ([tls_path(database) / name for name in (TLS_CA, TLS_CERT, TLS_KEY)] if tls.self_signed else [])
+        + [calibrated_path(database)],  # "Calibrate" writes it: --live-intrinsics must not be it
+        [
+            *source.inputs(),
+            ("--suggestions", [suggestions_file(s) for s in suggestions]),
+            ("--live-intrinsics", live_intrinsics),
+            ("--marker-map", [marker_map] if marker_map else []),
+        ],
         folders=[cache_path(database)],
     )
     if token is None and not is_loopback(host):
@@ -170,6 +189,9 @@ def start(
             antialias=antialias,
             author=author,
             accumulate=accumulate,
+            marker_map=markers,
+            live_intrinsics=given,
+            board=board,
         )
     except BaseException:
         sock.close()

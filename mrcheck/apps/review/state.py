@@ -26,6 +26,9 @@ class Review:
     author: str = "mrcheck"  # who writes the BCF topics and the comments made here (--author)
     addphoto: object = field(default=None, repr=False)  # "Add photo" (:class:`.addphoto.AddPhoto`), set by create_app
     accumulate: int = DEFAULT_ACCUMULATE  # AO frames of a render session's frame at rest (--accumulate)
+    marker_map: object = None  # Live's start from markers (--marker-map; :class:`mrcheck.mr.markers.MarkerMap`)
+    live_camera: object = field(default=None, repr=False)  # Live's intrinsics (:class:`.livecamera.LiveCamera`)
+    calibrator: object = field(default=None, repr=False)  # "Calibrate" (:class:`.calibrator.Calibrator`)
     _picker: object = field(default=None, init=False, repr=False)
     _view: ViewRenderer | None = field(default=None, init=False, repr=False)
     _lock: threading.Lock = field(default_factory=threading.Lock, init=False, repr=False)

@@ -22,7 +22,21 @@ DEFAULT_STATUS = "Open"  # a marker's BCF status until one is set (in the review
 # pixels, one review per job, export or shots folder (reviews.source: its path relative to the database)
 VERSION = 1
 TABLES = {"reviews", "markers", "imported", "sqlite_sequence", "bcf"}  # a database with others is another program's
-_FIELDS = ("id", "shot", "x", "y", "category", "severity", "note", "part", "distance", "mode", "created", "updated")
+_FIELDS = (
+    "id",
+    "shot",
+    "x",
+    "y",
+    "category",
+    "severity",
+    "note",
+    "part",
+    "distance",
+    "mode",
+    "created",
+    "updated",
+    "photo_offset",
+)
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS reviews (id INTEGER PRIMARY KEY, source TEXT NOT NULL, created REAL NOT NULL);
@@ -32,13 +46,21 @@ CREATE TABLE IF NOT EXISTS markers (
     shot TEXT NOT NULL, x REAL NOT NULL, y REAL NOT NULL,
     category TEXT NOT NULL, severity INTEGER NOT NULL, note TEXT NOT NULL DEFAULT '',
     part TEXT, distance REAL, mode TEXT,
-    created REAL NOT NULL, updated REAL NOT NULL);
+    created REAL NOT NULL, updated REAL NOT NULL, photo_offset TEXT);
 CREATE INDEX IF NOT EXISTS markers_shot ON markers(review, shot);
 CREATE TABLE IF NOT EXISTS imported (review INTEGER NOT NULL, shot TEXT NOT NULL, key TEXT NOT NULL,
     PRIMARY KEY (review, shot, key));
 CREATE TABLE IF NOT EXISTS bcf (review INTEGER NOT NULL, marker INTEGER NOT NULL, status TEXT NOT NULL,
     comments TEXT NOT NULL, PRIMARY KEY (review, marker));
 """
+
+
+def _marker(row) -> dict:
+    """A marker row as the API answers it: its offset decoded (None: not measured)."""
+    marker = dict(row)
+    stored = marker.pop("photo_offset")
+    marker["offset"] = json.loads(stored) if stored else None
+    return marker
 
 
 @dataclass(frozen=True)
@@ -112,6 +134,7 @@ class Store:
                     db.execute(statement)
                 self.review, self.created = self._review(db, review, version)
                 self._add_guids(db)
+                self._add_offsets(db)
                 if version < 1:
                     for shot, (sx, sy) in (served_scales or {}).items():
                         db.execute(
@@ -151,6 +174,13 @@ class Store:
             legacy = topic_guid("review", self.path.resolve(), row["review"], row["id"])
             db.execute("UPDATE markers SET guid = ? WHERE id = ?", (legacy, row["id"]))
 
+    @staticmethod
+    def _add_offsets(db) -> None:
+        """markers.photo_offset (JSON of :meth:`.measure.PhotoOffset.to_dict`, NULL: not measured) in a
+        database made before it; an older mrcheck reading the database ignores the column."""
+        if "photo_offset" not in {row[1] for row in db.execute("PRAGMA table_info(markers)")}:
+            db.execute("ALTER TABLE markers ADD COLUMN photo_offset TEXT")
+
     def _connect(self):
         db = sqlite3.connect(self.path, timeout=10, isolation_level=None)  # autocommit: each statement commits
         db.execute("PRAGMA synchronous=FULL")
@@ -164,14 +194,23 @@ class Store:
             if shot is not None:
                 sql += " AND shot = ?"
                 args.append(shot)
-            return [dict(r) for r in db.execute(sql + " ORDER BY id", args)]
+            return [_marker(r) for r in db.execute(sql + " ORDER BY id", args)]
 
     def get(self, marker_id: int) -> dict | None:
         with self._connect() as db:
             row = db.execute(
                 f"SELECT {', '.join(_FIELDS)} FROM markers WHERE review = ? AND id = ?", (self.review, marker_id)
             ).fetchone()
-            return dict(row) if row else None
+            return _marker(row) if row else None
+
+    def set_offset(self, marker_id: int, offset: dict | None) -> dict | None:
+        """Store the marker's measured offset (None: clear it); the marker as it is now."""
+        with self._connect() as db:
+            db.execute(
+                "UPDATE markers SET photo_offset = ?, updated = ? WHERE review = ? AND id = ?",
+                (None if offset is None else json.dumps(offset), time.time(), self.review, marker_id),
+            )
+        return self.get(marker_id)
 
     def add(self, values: dict) -> dict:
         with self._connect() as db:

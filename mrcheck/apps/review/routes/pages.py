@@ -13,6 +13,7 @@ STATIC = {
     "addphoto.js": "text/javascript",
     "navigate.js": "text/javascript",
     "live.js": "text/javascript",
+    "calibrate.js": "text/javascript",
     "style.css": "text/css",
 }
 

@@ -28,6 +28,9 @@ def info(review: Current):
         "intensities": list(INTENSITIES),
         "categories": list(CATEGORIES),
         "max_note": MAX_NOTE,
+        # where Live can start besides a shot's pose: the scene's named viewpoints, the marker map
+        "viewpoints": sorted(review.source.loaded.viewpoints),
+        "markers": review.marker_map is not None,
     }
 
 

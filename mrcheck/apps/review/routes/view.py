@@ -34,7 +34,7 @@ async def live(websocket: WebSocket):
     """The live check's frames, tracked (:mod:`..livesession`)."""
     review = await _accepted(websocket)
     if review is not None:
-        await live_session(review.source, review.renders).serve(websocket)
+        await live_session(review.source, review.renders, review.marker_map, review.live_camera).serve(websocket)
 
 
 async def _accepted(websocket: WebSocket) -> Review | None:
@@ -60,11 +60,29 @@ def freeze(review: Current, body: Frozen):
     mark: the planner places markers on it as on any shot)."""
     try:
         request = parse_request({"shot": body.shot, "R": body.R, "t": body.t}, review.source.shots)
-        image = frozen_image(body.image, review.source.shots[body.shot].served_camera())
+        live = review.live_camera.for_shot(review.source.shots[body.shot])  # Live's intrinsics (.livecamera)
+        image = frozen_image(body.image, live)
     except ValueError as exc:
         raise HTTPException(422, str(exc)) from None
-    camera = review.source.shots[body.shot].served_camera().with_pose(request.R, request.t)
+    camera = live.with_pose(request.R, request.t)
     return shot_entry(review.addphoto.save_frame(f"live-{body.shot}", image, camera, {"method": "live"}))
+
+
+class Staged(BaseModel):
+    shot: str  # the shot whose intrinsics the live track uses
+    image: str = Field(max_length=4 << 20)  # base64 JPEG or PNG of the frame, at Live's camera's size
+
+
+@router.post("/live/clicks", status_code=201, dependencies=[Depends(requires(JSON))])
+def clicks(review: Current, body: Staged):
+    """A frozen frame of the live check staged for "Add photo" with the live intrinsics: the
+    planner clicks 4+ points on it and the CAD, saves the shot, and Live starts from it."""
+    live = review.live_camera.for_shot(review.shot_or_404(body.shot))  # Live's intrinsics (.livecamera)
+    try:
+        image = frozen_image(body.image, live)
+    except ValueError as exc:
+        raise HTTPException(422, str(exc)) from None
+    return review.addphoto.stage_frame(image, live)
 
 
 class ViewPick(BaseModel):

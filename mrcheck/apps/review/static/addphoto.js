@@ -4,7 +4,7 @@
 // Uses app.js's globals ($, $$, enc, S, addShotItem, selectShot, zoomed, panOrClick).
 "use strict";
 const AP = { photo: null, intrinsics: null, view: null, size: null, cad: null, clicks: { photo: [], cad: [] },
-  panes: {}, result: null, busy: false };
+  panes: {}, result: null, busy: false, afterSave: null };
 
 function apMessage(text, error = false) {
   const m = $("#ap-msg"); m.textContent = text; m.classList.toggle("error", error);
@@ -102,6 +102,14 @@ async function apOpen() {
   await apSetView(vs.value);
   document.body.dataset.apOpen = "1";
 }
+async function apOpenWith(staged, afterSave) {  // a frozen live frame and the live intrinsics (live.js: Live from clicks)
+  await apOpen();
+  $("#ap-photo").add(new Option(`${staged.photo.name} (live frame)`, staged.photo.ref)); $("#ap-photo").value = staged.photo.ref;
+  $("#ap-intrinsics").add(new Option(`${staged.intrinsics.name} (live camera)`, staged.intrinsics.ref));
+  $("#ap-intrinsics").value = staged.intrinsics.ref;
+  AP.afterSave = afterSave;  // once the shot is saved: Live starts from it
+  await apInputs();
+}
 async function apSetView(name) {
   AP.view = name; AP.clicks.cad = []; apForget();
   const o = [...$("#ap-view").options].find((k) => k.value === name);
@@ -160,14 +168,16 @@ async function apSave() {
   apMessage(`saved shot ${shot.name} (photo ${shot.photo}) in ${shot.folder}`);
   document.body.dataset.apSaved = shot.name;
   apForget(); AP.clicks = { photo: [], cad: [] }; apDrawClicks();
-  $("#addphoto").hidden = true; selectShot(shot);
+  $("#addphoto").hidden = true; await selectShot(shot);
+  const after = AP.afterSave; AP.afterSave = null;
+  if (after) after(shot);
 }
 
 apInit("photo", $("#ap-left"), $("#ap-photo-img"), (x, y) => apClicked("photo", x, y));
 apInit("cad", $("#ap-right"), $("#ap-cad-img"), (x, y) => apCadClick(x, y).catch(() => {}));
 AP.panes.photo.overlay = $("#ap-overlay-img");
 $("#add-photo").onclick = () => apOpen().catch(() => {});
-$("#ap-close").onclick = () => { $("#addphoto").hidden = true; };
+$("#ap-close").onclick = () => { $("#addphoto").hidden = true; AP.afterSave = null; };
 $("#ap-photo").onchange = () => apInputs().catch(() => {});
 $("#ap-intrinsics").onchange = () => apInputs().catch(() => {});
 $("#ap-view").onchange = (ev) => apSetView(ev.target.value).catch(() => {});

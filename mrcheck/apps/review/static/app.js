@@ -3,7 +3,7 @@
 const $ = (s, root = document) => root.querySelector(s);
 const $$ = (s, root = document) => [...root.querySelectorAll(s)];
 const S = { info: null, shots: [], shot: null, mode: "phong", level: 1, view: "overlay", edges: false,
-  opacity: 50, t: { s: 1, x: 0, y: 0 }, markers: [], selected: null };
+  opacity: 50, t: { s: 1, x: 0, y: 0 }, markers: [], selected: null, offsetFor: null };
 const panes = [$("#pane-a"), $("#pane-b")];
 const enc = encodeURIComponent;
 
@@ -205,10 +205,33 @@ async function select(id) {
     $("#ed-part").textContent = m.part ? `on ${m.part_label || m.part}` + (m.distance != null ? ` (${m.distance.toFixed(2)} m)` : "") : "(no CAD part)";
     $("#ed-part").title = m.part || "";
     $("#ed-category").value = m.category; $("#ed-severity").value = m.severity; $("#ed-note").value = m.note;
-    fillStatus(m.status || "Open"); fillComments(m);
+    fillStatus(m.status || "Open"); fillComments(m); fillOffset(m);
   }
+  S.offsetFor = null; $("#ed-measure").classList.remove("active");
   drawMarkers();
 }
+// the marker's offset from the CAD point that should be there (api/markers/ID/offset): "Offset
+// to CAD", then a click on the image at that CAD point
+function fillOffset(m) {
+  const o = m.offset;
+  $("#ed-offset-out").textContent = o ? `${o.distance_m.toFixed(3)} m (x ${o.offset_m.map((c) => (c >= 0 ? "+" : "") + c.toFixed(3)).join(", ")})` : "";
+  $("#ed-offset-clear").hidden = !o;
+  document.body.dataset.offset = o ? o.distance_m : "";
+}
+async function measureOffset(x, y) {
+  const id = S.offsetFor; S.offsetFor = null; $("#ed-measure").classList.remove("active");
+  const m = await api("PUT", `api/markers/${id}/offset`, { x, y });
+  replaceMarker(m); fillOffset(m); drawMarkers();
+  status(`marker #${id}: ${m.offset.distance_m.toFixed(3)} m from the planned position (across the line of sight)`);
+}
+$("#ed-measure").onclick = () => {
+  if (S.selected === null) return;
+  S.offsetFor = S.offsetFor === null ? S.selected : null; $("#ed-measure").classList.toggle("active", S.offsetFor !== null);
+  if (S.offsetFor !== null) status(`marker #${S.selected}: click the point of the CAD that should be where the marker is`);
+};
+$("#ed-offset-clear").onclick = async () => {
+  const m = await api("DELETE", `api/markers/${S.selected}/offset`); replaceMarker(m); fillOffset(m); drawMarkers();
+};
 // a status another tool wrote (BCF's TopicStatus is free text) is offered beside the usual four
 function fillStatus(value) {
   const select = $("#ed-status");
@@ -305,8 +328,9 @@ for (const pane of panes) {
   pane.addEventListener("mousedown", (ev) => {
     if (ev.button !== 0 || !S.shot) return;
     panOrClick(ev, () => S.t, () => { S.fitted = false; applyTransform(); }, (e) => {
-      if (S.selected !== null) { select(null); return; }  // the first click closes the editor (saved), the next places a marker
       const p = toImage(pane, e);
+      if (S.offsetFor !== null) { measureOffset(p.x, p.y).catch(() => {}); return; }
+      if (S.selected !== null) { select(null); return; }  // the first click closes the editor (saved), the next places a marker
       if (p.x >= 0 && p.y >= 0 && p.x < S.shot.width && p.y < S.shot.height) addMarker(p.x, p.y);
     });
   });
@@ -363,6 +387,8 @@ async function start() {
     $("#modes").appendChild(b);
   }
   for (const c of S.info.categories) $("#ed-category").add(new Option(c, c));
+  for (const v of S.info.viewpoints) $("#live-start").add(new Option(`from viewpoint ${v}`, `view:${v}`));
+  if (S.info.markers) $("#live-start").add(new Option("from the markers in view", "markers"));
   $("#intensity-out").textContent = S.info.intensities[S.level];
   S.shots = await api("GET", "api/shots");
   for (const shot of S.shots) addShotItem(shot);
