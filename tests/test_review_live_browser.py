@@ -32,7 +32,7 @@ from .test_review import needs_chromium, open_browser, ready_page, served_app  #
 STEPS, PER_STEP, RATE = 6, 15, 30
 
 
-def _offline(tmp_path, photos, root, truths, points) -> tuple[float, float]:
+def offline_track(tmp_path, photos, root, truths, points) -> tuple[float, float]:
     """``mrcheck track`` on the same frames as a video from the same start: (frames/s after the
     first frame, median px from the truth over the frames)."""
     video = tmp_path / "walk.mp4"
@@ -101,7 +101,7 @@ def test_the_live_check_tracks_the_fake_camera(ctx, tmp_path, record_property):
         page.screenshot(path=str(tmp_path / "live.png"))
         page.click("#live")  # stop: the camera is released
         browser.close()
-    offline = _offline(tmp_path, photos, root, [*truths, *truths[-2:0:-1]], points)
+    offline = offline_track(tmp_path, photos, root, [*truths, *truths[-2:0:-1]], points)
     record_property("live_poses_per_s", rate)
     record_property("offline_frames_per_s", offline[0])
     print(f"live: {frames} poses, {lost} lost, {rate:.1f} poses/s; px to the nearest truth: {np.round(errors, 2)}")
