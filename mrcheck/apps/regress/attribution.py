@@ -1,4 +1,5 @@
-"""Which elements lie under a view's changed pixels, from the id buffers of both renders.
+"""Which elements lie under a view's changed pixels, from the id buffers of both renders; and
+where the scene's geometry changed (:func:`geometry_changes`).
 
 At a changed pixel that shows the same element in both renders, that element changed its look
 (colour, shading). Where the two show different elements, the nearer of the two is the one that
@@ -63,6 +64,24 @@ def attribute(changed: np.ndarray, before: IdBuffer, now: IdBuffer) -> list[Chan
     return sorted(found, key=lambda e: (not e.moved, -e.pixels, e.part, e.instance))
 
 
+DEPTH_TOLERANCE_M = 1e-3  # a depth change below this is float32 rounding of the cast, not a move
+DEPTH_TOLERANCE_REL = 1e-5  # ... and below this fraction of the depth (float32: 6e-8 relative)
+
+
+def geometry_changes(before: IdBuffer, now: IdBuffer) -> np.ndarray:
+    """(H, W) bool: the pixels whose ray cast hits another element (or none) now, or the same
+    one more than 1 mm (and 1e-5 of the depth) nearer or farther. The id buffers are cast on the
+    CPU (Open3D) through the pixel centres, not rasterised, so no GPU, driver or thread count
+    changes them: they differ where the scene's geometry moved, appeared or went, by however
+    little (a conveyor 2 cm off at 10 m moves its outline by a pixel, which FLIP's tolerance,
+    sized for other rasterisers, lets pass)."""
+    if before.ids.shape != now.ids.shape:
+        return np.ones(now.ids.shape, bool)
+    key_before, key_now = _keys(before), _keys(now)
+    tolerance = np.maximum(DEPTH_TOLERANCE_M, DEPTH_TOLERANCE_REL * np.maximum(before.depth, now.depth))
+    return (key_before != key_now) | (np.abs(before.depth - now.depth) > tolerance)
+
+
 def element_label(element: ChangedElement) -> str:
     """``conveyor``, ``pallet#3`` or ``wall 2O2Fr$t4X7Zf8NOew3FLOH`` (part and GlobalId), with the
     element's name and class for imported scenes."""
@@ -72,4 +91,4 @@ def element_label(element: ChangedElement) -> str:
     return f"{text} ({extra})" if extra else text
 
 
-__all__ = ["ChangedElement", "attribute", "element_label"]
+__all__ = ["ChangedElement", "attribute", "element_label", "geometry_changes"]

@@ -57,7 +57,7 @@ def junit_xml(result) -> bytes:
     for view in result.views:
         case = ET.SubElement(suite, "testcase", classname=f"mrcheck.regress.{Path(scene).name}", name=view.name)
         if not view.passed:
-            why = "; ".join(f"{m.mode}: {m.reason}" for m in view.modes if not m.passed)
+            why = view.reasons()
             names = ", ".join(element_label(e) for e in view.elements) or "no element (background)"
             failure = ET.SubElement(case, "failure", message=f"view {view.name} changed: {why}")
             failure.text = f"elements under the changed pixels: {names}\nsee {picture_names(view.name, 'MODE')['diff']}"
@@ -95,6 +95,7 @@ def report_html(result, tolerances: Tolerances) -> str:
                 for e in v.elements[:SHOWN_ELEMENTS]
             ],
             "more": max(0, len(v.elements) - SHOWN_ELEMENTS),
+            "geometry": {"pixels": v.geometry_pixels, "limit": v.geometry_limit, "passed": v.geometry_passed},
         }
         for v in result.views
     ]

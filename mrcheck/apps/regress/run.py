@@ -8,6 +8,7 @@ is never overwritten.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -15,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from mrcheck import __version__
-from mrcheck.apps.regress.attribution import ChangedElement, attribute, element_label
+from mrcheck.apps.regress.attribution import ChangedElement, attribute, element_label, geometry_changes
 from mrcheck.apps.regress.baseline import (
     MANIFEST,
     Baseline,
@@ -45,15 +46,30 @@ DEFAULT_SIZE = (640, 480)  # width, height in pixels
 
 @dataclass(frozen=True)
 class ViewCheck:
-    """One view checked: each mode's comparison and the elements under its changed pixels."""
+    """One view checked: each mode's comparison, the pixels where the geometry changed (the ray
+    cast id buffers, :func:`~mrcheck.apps.regress.attribution.geometry_changes`) with their
+    limit, and the elements under the changed pixels."""
 
     name: str
     modes: list[ModeComparison]
     elements: list[ChangedElement] = field(default_factory=list)
+    geometry_pixels: int = 0
+    geometry_limit: int = 0
+
+    @property
+    def geometry_passed(self) -> bool:
+        return self.geometry_pixels <= self.geometry_limit
 
     @property
     def passed(self) -> bool:
-        return all(m.passed for m in self.modes)
+        return self.geometry_passed and all(m.passed for m in self.modes)
+
+    def reasons(self) -> str:
+        """Why the view changed: the modes over tolerance, the geometry."""
+        why = [f"{m.mode}: {m.reason}" for m in self.modes if not m.passed]
+        if not self.geometry_passed:
+            why.append(f"geometry: {self.geometry_pixels} px hit other elements or depths > {self.geometry_limit}")
+        return "; ".join(why)
 
 
 @dataclass(frozen=True)
@@ -83,9 +99,8 @@ class CheckResult:
             if view.passed:
                 lines.append(f"ok       {view.name}")
                 continue
-            why = "; ".join(f"{m.mode}: {m.reason}" for m in view.modes if not m.passed)
             names = ", ".join(element_label(e) for e in view.elements[:5]) or "no element (background)"
-            lines.append(f"CHANGED  {view.name}: {why}; elements: {names}")
+            lines.append(f"CHANGED  {view.name}: {view.reasons()}; elements: {names}")
         return lines
 
 
@@ -194,11 +209,13 @@ def check(
         view = by_name[snap.name]
         before = recorded[snap.name]
         modes = [compare_images(m, before[m], snap.images[m], tolerances) for m in baseline.modes]
-        elements = []
-        if not all(m.passed for m in modes):
-            changed = np.logical_or.reduce([m.changed for m in modes])
-            elements = attribute(changed, read_id_buffer(baseline.folder / view.ids_file), snap.ids)
-        found[snap.name] = ViewCheck(snap.name, modes, elements)
+        ids = read_id_buffer(baseline.folder / view.ids_file)
+        moved = geometry_changes(ids, snap.ids)
+        checked = ViewCheck(snap.name, modes, [], int(moved.sum()), int(tolerances.max_changed * moved.size))
+        if not checked.passed:
+            changed = np.logical_or.reduce([m.changed for m in modes] + [moved])
+            checked = dataclasses.replace(checked, elements=attribute(changed, ids, snap.ids))
+        found[snap.name] = checked
         pictures[snap.name] = (before, snap.images)
         gl_renderer = snap.gl_renderer
     checks = [found[v.name] for v in baseline.views]  # the baseline's order, not the order finished
