@@ -45,6 +45,16 @@ def _photo_pixel(cam, world) -> tuple[float, float]:
     return tuple(float(c) for c in px.reshape(2))
 
 
+def _app(root, tmp_path):
+    return create_app(open_source(sample_scene_path(), root), db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "c")
+
+
+def _marker(client, xy) -> dict:
+    """A "moved" marker placed at photo pixel ``xy`` of shot p1."""
+    marker = {"shot": "p1", "x": xy[0], "y": xy[1], "category": "moved", "severity": 2}
+    return client.post("/api/markers", json=marker).json()
+
+
 def _cad_point(cam) -> np.ndarray:
     hit = Picker(load_scene(sample_scene_path())).world_point(cam, *CAD_PIXEL)
     assert hit is not None, "the test's CAD pixel must lie on a part"
@@ -60,12 +70,8 @@ def test_the_offset_across_the_view_is_measured_in_metres(shots, tmp_path):
     planned = _cad_point(cam)
     moved = planned + 0.40 * cam.R[0] + 0.15 * cam.R[1]  # camera right and down, in world axes
     marker_xy = _photo_pixel(cam, moved)
-    app = create_app(open_source(sample_scene_path(), root), db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "c")
-    with TestClient(app) as client:
-        m = client.post(
-            "/api/markers",
-            json={"shot": "p1", "x": marker_xy[0], "y": marker_xy[1], "category": "moved", "severity": 2},
-        ).json()
+    with TestClient(_app(root, tmp_path)) as client:
+        m = _marker(client, marker_xy)
         assert m["offset"] is None
         r = client.put(f"/api/markers/{m['id']}/offset", json={"x": CAD_PIXEL[0], "y": CAD_PIXEL[1]})
         assert r.status_code == 200, r.text
@@ -104,12 +110,8 @@ def test_along_the_line_of_sight_is_not_measured(shots, tmp_path):
     planned = _cad_point(cam)
     farther = planned + (planned - cam.center) / np.linalg.norm(planned - cam.center)
     marker_xy = _photo_pixel(cam, farther)
-    app = create_app(open_source(sample_scene_path(), root), db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "c")
-    with TestClient(app) as client:
-        m = client.post(
-            "/api/markers",
-            json={"shot": "p1", "x": marker_xy[0], "y": marker_xy[1], "category": "moved", "severity": 2},
-        ).json()
+    with TestClient(_app(root, tmp_path)) as client:
+        m = _marker(client, marker_xy)
         offset = client.put(f"/api/markers/{m['id']}/offset", json={"x": CAD_PIXEL[0], "y": CAD_PIXEL[1]}).json()[
             "offset"
         ]
@@ -119,11 +121,8 @@ def test_along_the_line_of_sight_is_not_measured(shots, tmp_path):
 def test_bad_offset_requests_are_clear_4xx(shots, tmp_path):
     """No CAD under the pixel, outside the photo, no such marker, wrong types: 4xx with a reason."""
     root, _ = shots
-    app = create_app(open_source(sample_scene_path(), root), db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "c")
-    with TestClient(app) as client:
-        m = client.post(
-            "/api/markers", json={"shot": "p1", "x": 100, "y": 100, "category": "moved", "severity": 2}
-        ).json()
+    with TestClient(_app(root, tmp_path)) as client:
+        m = _marker(client, (100, 100))
         sky = client.put(f"/api/markers/{m['id']}/offset", json={"x": 5, "y": 2})
         assert sky.status_code == 422 and "no CAD part under" in sky.json()["error"]
         assert client.put(f"/api/markers/{m['id']}/offset", json={"x": 500, "y": 2}).status_code == 422

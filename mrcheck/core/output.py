@@ -205,6 +205,16 @@ def write_ao(path, ao: np.ndarray) -> Path:
     return path
 
 
+def writer(path, content):
+    """The write (a callable, for :func:`write_all_or_none`) of ``content`` to ``path``: bytes as
+    they are, text as UTF-8, an array as the image format of ``path``'s suffix."""
+    if isinstance(content, bytes):
+        return lambda: write_bytes(path, content)
+    if isinstance(content, str):
+        return lambda: write_text(path, content)
+    return lambda: write_image(path, content)
+
+
 def write_all_or_none(writes) -> list[Path]:
     """Run ``writes`` (callables that each write one file atomically and return its path); if
     one fails, remove the files already written and re-raise. Several outputs that belong
@@ -293,6 +303,7 @@ def labelled_sheet(images, labels) -> np.ndarray:
 
 
 __all__ = [
+    "writer",
     "write_image",
     "write_bytes",
     "write_text",

@@ -68,9 +68,7 @@ from mrcheck.core.output import (
     check_own_output_dir,
     mark_output_dir,
     write_all_or_none,
-    write_bytes,
-    write_image,
-    write_text,
+    writer,
 )
 from mrcheck.scene.manifest import scene_files
 from mrcheck.scene.scans import read_scan
@@ -156,14 +154,6 @@ def element_outputs(
     }
 
 
-def _writer(path: Path, content):
-    if isinstance(content, bytes):
-        return lambda: write_bytes(path, content)
-    if isinstance(content, str):
-        return lambda: write_text(path, content)
-    return lambda: write_image(path, content)
-
-
 def deviation_command(
     scan, scene, shot=None, units=None, outdir="deviation", per_element: PerElement | None = None
 ) -> DeviationRun:
@@ -206,7 +196,7 @@ def deviation_command(
         outputs.update(more)
     # all or none: a deviations.npy without its parts.json would pass for a complete result
     mark_output_dir(outdir)
-    write_all_or_none([_writer(outdir / name, content) for name, content in outputs.items()])
+    write_all_or_none([writer(outdir / name, content) for name, content in outputs.items()])
     return DeviationRun(outdir, report, elements, element_label(loaded, report.parts[0].id))
 
 

@@ -32,9 +32,7 @@ from mrcheck.core.output import (
     check_own_output_dir,
     mark_output_dir,
     write_all_or_none,
-    write_bytes,
-    write_image,
-    write_text,
+    writer,
 )
 from mrcheck.core.progress import Progress, no_progress
 from mrcheck.scene.manifest import scene_files
@@ -117,14 +115,6 @@ def draw_views(old: Scene, new: Scene, diff: ModelDiff, cameras: dict, progress:
         ctx.release()
 
 
-def _writer(path: Path, content):
-    if isinstance(content, bytes):
-        return lambda: write_bytes(path, content)
-    if isinstance(content, str):
-        return lambda: write_text(path, content)
-    return lambda: write_image(path, content)
-
-
 def diff_command(
     old_path, new_path, outdir, settings: DiffSettings = DiffSettings(), progress: Progress = no_progress
 ) -> DiffRun:
@@ -149,7 +139,7 @@ def diff_command(
         key = str(outdir.resolve())
         outputs[CHANGES_BCF] = changes_bcf(diff, pictures, pngs, key, new.name, ifc_file_of(new))
     mark_output_dir(outdir)
-    written = write_all_or_none([_writer(outdir / name, content) for name, content in outputs.items()])
+    written = write_all_or_none([writer(outdir / name, content) for name, content in outputs.items()])
     return DiffRun(outdir, diff, written)
 
 
