@@ -127,6 +127,7 @@ def test_the_review_report_escapes_notes_parts_and_names(tmp_path):
         "mode": None,
         "created": 0.0,
         "updated": 0.0,
+        "offset": None,
     }
     report = report_html(source, Renders(), [marker, {**marker, "id": 2, "shot": HOSTILE}])
     # the label, the scene; the part and the note of each marker, the shot of the second
