@@ -407,9 +407,7 @@ def detect(
     shadow = shadow_edges(planned.caster, camera, planned.depth, planned.normals, sun)
     regions, unexplained = unexplained_regions(sup.edges & ~contact & ~texture & ~shadow, planned, tol, far)
     regions = [r for r in regions if object_sized(r.bbox, camera, support)]
-    suspects = separate_neighbours(
-        suspects, index_of, planned.ids, rescore, shift_radius(tol)
-    )
+    suspects = separate_neighbours(suspects, index_of, planned.ids, rescore, shift_radius(tol))
     _add_elements(scene, suspects)
     markers, arrays = suggested_markers(suspects, regions, planned), (planned, sup.supported, unexplained)
     return Detection(tol, threshold, suspects, regions, markers, *arrays, pose_sigma_px=pose_sigma_px)

@@ -36,19 +36,14 @@ def claimed_pixels(inside: np.ndarray, shift, reach: int) -> np.ndarray:
     return cv2.dilate(grown, kernel).astype(bool)
 
 
-def separate_neighbours(
-    suspects: list, index_of: dict, ids: np.ndarray, rescore: Callable, reach: int, regions=()
-) -> list:
+def separate_neighbours(suspects: list, index_of: dict, ids: np.ndarray, rescore: Callable, reach: int) -> list:
     """``suspects`` with the flags a neighbour's change explains taken off (module docstring).
     ``index_of``: instance id -> index in ``ids``; ``rescore(index, claimed, suspect)``: the
-    suspect scored on its outline outside ``claimed`` (None: too little of it left to judge);
-    ``regions``: the boxes [x0, y0, x1, y1] of unexplained photo structure, claimed from the
-    start. A flag is explained away only one way: when the neighbour's flag also rests on the
-    pixels the part would claim, neither explains the other and both stay."""
-    unexplained = np.zeros(ids.shape, bool)
-    for x0, y0, x1, y1 in regions:
-        unexplained[max(0, y0 - reach) : y1 + reach + 1, max(0, x0 - reach) : x1 + reach + 1] = True
-    claimed, accepted, out = unexplained.copy(), [], []
+    suspect scored on its outline outside ``claimed`` (None: too little of it left to judge).
+    A flag is explained away only one way: when the neighbour's flag also rests on the pixels
+    the part would claim, neither explains the other and both stay. (Unexplained regions claim
+    nothing: on a cluttered desk their boxes cover every object.)"""
+    claimed, accepted, out = np.zeros(ids.shape, bool), [], []
     for s in suspects:
         if not s.suspect:
             out.append(s)
@@ -56,7 +51,7 @@ def separate_neighbours(
         index = index_of[s.id]
         own_claim = claimed_pixels(ids == index, s.best_shift, reach)
         if claimed.any() and not _stands_alone(rescore(index, claimed, s)):
-            by = _explained_by(s, own_claim, accepted, unexplained, index_of, rescore)
+            by = _explained_by(s, own_claim, accepted, index_of, rescore)
             if by is not None:
                 out.append(replace(s, suspect=False, explained_by=by))
                 continue
@@ -71,17 +66,13 @@ def _stands_alone(rescored) -> bool:
     return rescored is not None and rescored.suspect
 
 
-def _explained_by(s, own_claim, accepted, unexplained, index_of, rescore) -> str | None:
+def _explained_by(s, own_claim, accepted, index_of, rescore) -> str | None:
     """Who explains ``s``'s flag: the nearest accepted suspect next to it whose own flag does not
-    rest on ``s``'s pixels, else "unexplained structure" when that lies next to it; None when
-    every neighbour's flag needs ``s``'s pixels too (mutual: both stay)."""
+    rest on ``s``'s pixels; None when every neighbour's flag needs ``s``'s pixels too (mutual:
+    both stay)."""
     touching = [a for a, claim in accepted if (claim & own_claim).any()]
     independent = [a for a in touching if _stands_alone(rescore(index_of[a.id], own_claim, a))]
-    if independent:
-        return _claimant(independent, s)
-    if not touching and (unexplained & own_claim).any():
-        return "unexplained structure"
-    return None
+    return _claimant(independent, s) if independent else None
 
 
 def _claimant(flagged: list, s) -> str:
