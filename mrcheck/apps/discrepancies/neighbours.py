@@ -11,6 +11,10 @@ search (:func:`~mrcheck.apps.discrepancies.thresholds.shift_radius`, 4 tolerance
 flagged part is scored again on its outline outside the pixels claimed so far; it stays a
 suspect only when that outline alone is large enough to judge and still scores as a suspect.
 Otherwise it is kept, unflagged, with ``explained_by`` naming the part whose change explains it.
+
+Measured on held-out seeds 760-769 (docs/discrepancy-evaluation.md): flags on unchanged parts
+next to a change 70 -> 47 (mrcheck's photos), 81 -> 57 (Open3D's); target recall 172 -> 165
+and 161 -> 160 of about 230.
 """
 
 from __future__ import annotations
