@@ -80,6 +80,24 @@ def _tracked(page, truths, points, samples: int = 6) -> list[float]:
     return errors
 
 
+def _freeze(page) -> str:
+    """Freeze a tracked frame into a new shot; its name. The fake camera loops its file, covered
+    stretch included: a frame frozen there is lost and not saved (the page says so and stops), so
+    Live is started again and a tracked frame frozen, at most three times, as a planner would."""
+    tracked = "(() => { const p = document.body.dataset.livePose; return p && !JSON.parse(p).lost; })()"
+    for _ in range(3):
+        page.wait_for_function(tracked, timeout=60000)
+        page.click("#freeze")
+        page.wait_for_function(
+            "document.body.dataset.frozen || document.querySelector('#status').textContent.includes('not saved')",
+            timeout=60000,
+        )
+        if page.evaluate("document.body.dataset.frozen"):
+            return page.evaluate("document.body.dataset.frozen")
+        page.click("#live")
+    raise AssertionError("three frozen frames in a row were not tracked")
+
+
 def _client_xy(page, pixel, width: int = 320) -> tuple[float, float]:
     """Where photo pixel ``pixel`` of the selected shot is on the screen."""
     box = page.evaluate("(() => { const r = document.querySelector('#pane-a .photo').getBoundingClientRect();"
@@ -90,9 +108,9 @@ def _client_xy(page, pixel, width: int = 320) -> tuple[float, float]:
 
 @needs_chromium
 def test_lost_and_recovered_then_frozen_marked_and_in_bcf(tmp_path):
-    """Lost while covered, then tracked again: the first poses after it settle (measured: 3.0 px
-    0.4 s after, 1.1 px at 0.8 s, then 0.1-0.2 px), so the last four of eight poses sampled every
-    0.4 s are held to the walk's limit (1.5 px)."""
+    """Lost while covered, then tracked again: the first poses after it settle (measured, 3 runs:
+    0.08-3.0 px 0.4 s after, 0.18-1.1 px at 0.8 s, then 0.06-0.21 px), so the last four of eight
+    poses sampled every 0.4 s are held to the walk's limit (1.5 px)."""
     sync_api = pytest.importorskip("playwright.sync_api")
     scene = load_scene(sample_scene_path())
     camera = scene.camera("conveyor", 320, 240)
@@ -113,9 +131,7 @@ def test_lost_and_recovered_then_frozen_marked_and_in_bcf(tmp_path):
         errors = _tracked(page, truths, points, 8)
         page.screenshot(path=str(tmp_path / "recovered.png"))
 
-        page.click("#freeze")
-        page.wait_for_function("document.body.dataset.frozen", timeout=60000)
-        frozen = page.evaluate("document.body.dataset.frozen")
+        frozen = _freeze(page)
         page.wait_for_function(f"document.body.dataset.loaded === '{frozen}|phong|1'", timeout=60000)
         page.mouse.click(*_client_xy(page, (200, 150)))  # a marker where the photo shows something
         page.wait_for_selector("#editor:not([hidden])", timeout=30000)
