@@ -114,7 +114,8 @@ class LiveTracker:
             reason = self._restart_from_markers(rgb)
             if self.waiting:
                 self.count += 1
-                return _waiting(self.count - 1, time_s, reason, self.camera, began), b""
+                ms = (time.perf_counter() - began) * 1000.0
+                return _header(self.count - 1, time_s, self.camera, ms, reason=reason), b""
         grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
         index = len(self.frames)
         photo = FramePhoto(rgb, time_s, grey, photo_pyramid(grey, frame_options(index)))
@@ -135,7 +136,8 @@ class LiveTracker:
         self.count += 1
         self.frames = [*self.frames, pose][-KEEP_FRAMES:]
         layer = self._layer(renderer, pose)
-        return _header(pose, self.camera, (time.perf_counter() - began) * 1000.0), layer
+        ms = (time.perf_counter() - began) * 1000.0
+        return _header(pose.frame, pose.time_s, self.camera, ms, pose), layer
 
     def _restart_from_markers(self, rgb: np.ndarray) -> str:
         """The markers' pose as the new start when the frame shows them (the track begins again
@@ -184,38 +186,24 @@ def frozen_image(encoded: str, camera) -> np.ndarray:
     return _decoded(data, camera)
 
 
-def _header(pose: FramePose, camera, ms: float) -> dict:
-    return {
-        "type": "pose",
-        "frame": pose.frame,
-        "time": pose.time_s,
-        "R": pose.camera.R.tolist(),
-        "t": pose.camera.t.tolist(),
-        "support": round(pose.support, 4),
-        "rms_px": None if pose.rms_px is None else round(pose.rms_px, 3),
-        "lost": pose.lost,
-        "waiting": False,
-        "reason": pose.reason,
-        "ms": round(ms, 1),
-        "width": camera.width,
-        "height": camera.height,
-    }
-
-
-def _waiting(frame: int, time_s: float, reason: str, camera: Camera, began: float) -> dict:
-    """The answer to a frame before the markers were seen: lost, waiting, no pose."""
+def _header(
+    frame: int, time_s: float, camera: Camera, ms: float, pose: FramePose | None = None, reason: str = ""
+) -> dict:
+    """The answer to a frame: its tracked ``pose``, or without one (before the markers were seen)
+    lost and waiting at ``camera``'s pose with the ``reason``."""
+    posed = pose.camera if pose is not None else camera
     return {
         "type": "pose",
         "frame": frame,
         "time": time_s,
-        "R": camera.R.tolist(),
-        "t": camera.t.tolist(),
-        "support": 0.0,
-        "rms_px": None,
-        "lost": True,
-        "waiting": True,
-        "reason": reason,
-        "ms": round((time.perf_counter() - began) * 1000.0, 1),
+        "R": posed.R.tolist(),
+        "t": posed.t.tolist(),
+        "support": 0.0 if pose is None else round(pose.support, 4),
+        "rms_px": None if pose is None or pose.rms_px is None else round(pose.rms_px, 3),
+        "lost": True if pose is None else pose.lost,
+        "waiting": pose is None,
+        "reason": reason if pose is None else pose.reason,
+        "ms": round(ms, 1),
         "width": camera.width,
         "height": camera.height,
     }
