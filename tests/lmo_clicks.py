@@ -25,7 +25,7 @@ import numpy as np
 
 from mrcheck.core.camera import Camera
 from mrcheck.core.errors import MrcheckError
-from mrcheck.eval.realdata import real_root
+from mrcheck.eval.realdata import LMO_NAMES, real_root
 from mrcheck.mr.registration import register_points
 
 LMO = real_root() / "lmo"
@@ -141,25 +141,19 @@ def run_case(case: Case, truth: Camera, vertices: np.ndarray, targets: np.ndarra
 
 
 def refiner(photo: int, obj: int):
-    """``--points --refine`` on the anchor's mesh: (reason not applied or None, camera)."""
-    from mrcheck.mr.edgeshot import snap_photo
-    from mrcheck.scene.model import load_scene
+    """``--points --refine`` on the whole desk (the photo's annotated objects, world = the
+    anchor's model frame: the plan a planner would have, other objects hiding parts of the
+    anchor's outline): (reason not applied or None, camera)."""
+    from mrcheck.eval.realdata import anchored_scene, lmo_photo
+    from mrcheck.mr.register import gated_refinement
 
-    try:
-        from mrcheck.mr.register import gated_refinement
-    except ImportError:  # the code before the gate: the snap's pose or its refusal
-        gated_refinement = None
-    model = load_scene(LMO / "models" / f"obj_{obj:06d}.ply", units="mm")
+    desk = lmo_photo(LMO.parent, photo)
+    model = anchored_scene(desk, [o.name for o in desk.objects].index(LMO_NAMES[obj]))[0]
     image = SCENE / "rgb" / f"{photo:06d}.png"
 
     def refine(shot):
-        if gated_refinement is not None:
-            done = gated_refinement(shot, image, shot.camera, model, "points")
-            return done.report.get("refinement"), done.camera
-        try:
-            return None, snap_photo(image, shot.camera, model, shot.camera, "points").camera
-        except MrcheckError as exc:
-            return f"refused: {exc}", None
+        done = gated_refinement(shot, image, shot.camera, model, "points")
+        return done.report.get("refinement"), done.camera
 
     return refine
 
@@ -204,9 +198,13 @@ def summary(outcomes: list[Outcome]) -> str:
         failed = sum(math.isnan(r.median_px) for _, r in refined)
         worse = [(o, r) for o, r in refined if r.median_px > o.median_px + 1e-9]
         worse_rot = [(o, r) for o, r in refined if r.rot_deg > o.rot_deg + 0.5]
+        much = [(o, r) for o, r in worse if r.median_px > o.median_px + 1.0]
+        final = np.array([o.median_px if r.refused else r.median_px for o, r in refined])
         lines.append(
             f"  refine: applied {len(refined) - len(kept)}, not applied {len(kept)}, refused (no pose) {failed}; "
-            f"worse than points: median px {len(worse)}, rotation by > 0.5 deg {len(worse_rot)}"
+            f"worse than points: median px {len(worse)} (by > 1 px {len(much)}), rotation by > 0.5 deg "
+            f"{len(worse_rot)}; reprojection px median {np.median(final):.2f} p90 {np.percentile(final, 90):.2f} "
+            f"max {final.max():.2f}"
         )
         reasons = sorted({(r.refused or "")[:70] for r in kept})
         lines += [f"    {reason}" for reason in reasons[:5]]

@@ -213,9 +213,9 @@ def test_register_silhouette_flag_snaps_the_balls_from_the_command_line(balls, t
 
 
 def test_automatic_outlines_follow_the_view_not_only_the_mesh():
-    """``Fitter.judge_outlines``: the curved parts' outline samples are kept when they outnumber
-    the samples on crease edges in the first view, else dropped for the whole fit (contours
-    off); a curved mesh's own facet contours do not count as creases."""
+    """``Fitter.judge_outlines``: when the curved parts' outline samples outnumber the samples on
+    crease edges in the first view, every part's outline is used (the box's too), else none for
+    the whole fit (contours off); a curved mesh's own facet contours do not count as creases."""
     from mrcheck.mr.edges.fitter import Fitter
 
     meshes = {
@@ -235,14 +235,15 @@ def test_automatic_outlines_follow_the_view_not_only_the_mesh():
         z = np.zeros((count, 3))
         return model.Samples(z, z, np.full(count, group), np.full(count, edge), np.zeros(count))
 
-    def judged(creases: int, facets: int, outline: int) -> tuple[int, bool]:
+    def judged(creases: int, facets: int, outline: int) -> tuple[list, bool]:
         fitter = Fitter.__new__(Fitter)
         fitter.edges, fitter.judged = edges, False
         fitter.outlined = silhouette.curved_parts(edges)
         fitter.contours = silhouette.ContourModel(edges)
         mesh = silhouette.joined(samples(crease_edge, box, creases), samples(facet_edge, ball, facets))
-        kept = fitter.judge_outlines(mesh, samples(facet_edge, ball, outline))
-        return len(kept), fitter.contours is not None
+        assert fitter.outlined.tolist() == [True, False]  # the ball is curved, the box is not
+        fitter.judge_outlines(mesh, samples(facet_edge, ball, outline))
+        return fitter.outlined.tolist(), fitter.contours is not None
 
-    assert judged(creases=10, facets=50, outline=40) == (40, True)  # facet contours do not count
-    assert judged(creases=50, facets=0, outline=40) == (0, False)
+    assert judged(creases=10, facets=50, outline=40) == ([True, True], True)  # facet contours do not count
+    assert judged(creases=50, facets=0, outline=40) == ([False, False], False)

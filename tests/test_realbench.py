@@ -116,7 +116,8 @@ def test_both_methods_get_the_same_starts_and_the_truth_first(monkeypatch):
     truth = _box_camera()
     points = cuboid_corners(np.array([[0, 0, 0], [0.189, 0.258, 0.075]]))
     label = {"dataset": "t", "photo": "p", "split": "tuned", "anchor": "a"}
-    rows = realbench.fit_starts(label, None, truth, None, points, (10.0, 40.0), 2)
+    photo = np.zeros((truth.height, truth.width, 3), np.uint8)  # rapid is given its grey
+    rows = realbench.fit_starts(label, None, truth, photo, points, (10.0, 40.0), 2)
     assert len(rows) == 2 * (1 + 2 * 2) and len(seen["mrcheck"]) == 5
     for a, b in zip(seen["mrcheck"], seen["cv2.rapid"]):
         assert np.array_equal(a.R, b.R) and np.array_equal(a.t, b.t)

@@ -7,7 +7,8 @@ import numpy as np
 
 from mrcheck.core.camera import Camera
 from mrcheck.core.shot import Anchors, Shot
-from mrcheck.mr.register import anchor_excess, refinement_gate, support_gain
+from mrcheck.mr.edges import EdgeOptions
+from mrcheck.mr.register import anchor_excess, refinement_gate, start_options, start_sigma_px, support_gain
 
 _BOUNDS = np.array([[-0.5, -0.5, -0.5], [0.5, 0.5, 0.5]])
 
@@ -61,3 +62,23 @@ def test_edges_that_gain_no_support_over_the_start_are_not_taken():
     assert refinement_gate(start, _refined(start, 0.0016, 30, 10), _BOUNDS) is None
     reason = refinement_gate(start, _refined(start, 0.0016, 12, 8), _BOUNDS)
     assert reason is not None and reason.startswith("the edges find no more support"), reason
+
+
+def test_the_refinement_searches_as_far_as_the_start_can_be_off_where_the_scene_is():
+    """Clicks on a 10 cm object 3 m away: its pose is known to about a pixel there, far worse
+    at the image's corners (``expected_overlay_error_px``). The search radius is 3 sigma at the
+    object's box (at least 4 px), from the level where it is about 4 level px, along the normal;
+    the other settings are the caller's."""
+    camera = Camera.from_look_at([0.0, -3.0, 0.5], [0.0, 0.0, 0.0], [0, 0, 1], 50.0, 640, 480)
+    world = np.array([[x, y, z] for x in (-0.05, 0.05) for y in (-0.05, 0.05) for z in (-0.05, 0.05)])
+    start = Shot(camera, None, {"expected_overlay_error_px": 40.0}, Anchors(world, camera.project(world), 1.5))
+    box = np.array([[-0.05, -0.05, -0.05], [0.05, 0.05, 0.05]])
+    sigma = start_sigma_px(start, box)
+    assert 0.3 < sigma < 3.0, sigma  # about the clicks' own noise, not the corners' 40 px
+    options = start_options(start, box, EdgeOptions(silhouette=True))
+    assert options.search_px == max(3 * sigma, 4.0) and options.coarse == "normal" and options.silhouette
+    assert options.levels == 1 + max(0, int(np.floor(np.log2(options.search_px / 4.0))))
+    far = start_options(start, box * 40)  # a scene reaching the image's corners: wider, coarser
+    assert far.search_px > 3 * sigma and far.levels > options.levels
+    without = Shot(camera, None, {"expected_overlay_error_px": 5.0})  # no correspondences kept
+    assert start_sigma_px(without, box) == 5.0

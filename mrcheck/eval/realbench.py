@@ -35,6 +35,7 @@ import cv2
 import numpy as np
 
 from mrcheck.core.camera import Camera
+from mrcheck.core.camerafiles import read_photo
 from mrcheck.core.errors import MrcheckError
 from mrcheck.core.output import check_output_path, write_text
 from mrcheck.eval.edgebench import rapid_refine
@@ -108,13 +109,16 @@ def pose_errors(truth: Camera, estimate: Camera) -> tuple[float, float]:
     return math.degrees(angle), 100.0 * float(np.linalg.norm(estimate.t - truth.t))
 
 
-def _run(method, scene, truth, grey, start, edges, offset):
-    """(camera or None, seconds, note) of one method from ``start``."""
+def _run(method, scene, truth, rgb, start, edges, offset):
+    """(camera or None, seconds, note) of one method from ``start`` on the photo ``rgb``: in
+    colour for mrcheck, as ``register`` reads it (the outline's region criterion compares
+    colours), grey for ``cv2.rapid``."""
     began = time.perf_counter()
     try:
         if method == "mrcheck":
-            camera = refine_pose(scene, truth, grey, initial=start, edges=edges).camera
+            camera = refine_pose(scene, truth, rgb, initial=start, edges=edges).camera
         else:
+            grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
             camera = rapid_refine(scene, truth, grey, start, max(1.5 * offset, 3.0))
         return camera, time.perf_counter() - began, ""
     except EdgeFitError as exc:
@@ -123,7 +127,7 @@ def _run(method, scene, truth, grey, start, edges, offset):
         return None, time.perf_counter() - began, str(exc).splitlines()[0][:160]
 
 
-def fit_starts(label: dict, scene, truth: Camera, grey, points, offsets, seeds) -> list[RealFit]:
+def fit_starts(label: dict, scene, truth: Camera, rgb, points, offsets, seeds) -> list[RealFit]:
     """Both methods from the truth and from every (offset, seed) start; ``label``: the
     :class:`RealFit` fields naming the case (dataset, photo, split, anchor)."""
     edges = scene_edges(scene)
@@ -136,7 +140,7 @@ def fit_starts(label: dict, scene, truth: Camera, grey, points, offsets, seeds) 
     for offset, seed, start in starts:
         start_px = float(np.median(reprojection_error(truth, start, points)))
         for method in METHODS:
-            camera, seconds, note = _run(method, scene, truth, grey, start, edges, offset)
+            camera, seconds, note = _run(method, scene, truth, rgb, start, edges, offset)
             case = {**label, "method": method, "seed": seed, "offset_px": offset, "start_px": start_px}
             if camera is None:
                 rows.append(RealFit(**case, error_px=None, rot_deg=None, trans_cm=None, refused=True,
@@ -163,12 +167,12 @@ def lmo_fits(root, quick: bool, progress=None) -> list[RealFit]:
     rows = []
     for image in images:
         photo = lmo_photo(root, image, meshes)
-        grey = cv2.imread(str(photo.photo), cv2.IMREAD_GRAYSCALE)
+        rgb = read_photo(photo.photo)
         split = "held-out" if image in LMO_HELD_OUT else "tuned"
         for anchor, obj in enumerate(photo.objects[:2] if quick else photo.objects):
             scene, truth = anchored_scene(photo, anchor)
             label = {"dataset": "lmo", "photo": photo.name, "split": split, "anchor": obj.name}
-            rows += fit_starts(label, scene, truth, grey, _sample(obj.vertices), offsets, seeds)
+            rows += fit_starts(label, scene, truth, rgb, _sample(obj.vertices), offsets, seeds)
             if progress:
                 progress(f"{photo.name} anchor {obj.name}: {len(rows)} fits")
     return rows
@@ -178,10 +182,10 @@ def m3t_fits(root, quick: bool, progress=None) -> list[RealFit]:
     """M3T frame 200 from the published pose and from 20 px off."""
     photo = m3t_photo(root, 200)
     scene, truth = camera_scene(photo)
-    grey = cv2.imread(str(photo.photo), cv2.IMREAD_GRAYSCALE)
+    rgb = read_photo(photo.photo)
     points = np.concatenate([_sample(o.vertices) @ o.pose[:3, :3].T + o.pose[:3, 3] for o in photo.objects])
     label = {"dataset": "m3t", "photo": photo.name, "split": "tuned", "anchor": "camera"}
-    rows = fit_starts(label, scene, truth, grey, points, (20.0,), 1 if quick else SEEDS)
+    rows = fit_starts(label, scene, truth, rgb, points, (20.0,), 1 if quick else SEEDS)
     if progress:
         progress(f"{photo.name}: {len(rows)} fits")
     return rows

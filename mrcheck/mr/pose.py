@@ -273,21 +273,29 @@ def expected_overlay_error(camera: Camera, world, sigma_px: float) -> float:
     The pose covariance ``sigma^2 (J^T J)^-1`` of the registration points, propagated to points that
     fill the image at the median depth of the registration points: a small far marker pins down
     only its own neighbourhood, and this number says how badly the rest of the view may be off.
-    Computed with the world origin moved to the points' mean (the same first-order result; with the
-    points 1e6 m from the origin the rotation columns of J would swamp the normal matrix).
     """
     world = np.asarray(world, np.float64).reshape(-1, 3)
-    centre = world.mean(axis=0)
-    world, t = world - centre, camera.t + camera.R @ centre
-    rvec, no_dist = cv2.Rodrigues(camera.R)[0], np.zeros(5)
-    # pinhole Jacobians: a distortion polynomial extrapolated to the image corners would blow up
-    _, J = cv2.projectPoints(world, rvec, t, camera.K, no_dist)
-    information = J[:, :6].T @ J[:, :6]
-    depth = float(np.median(world @ camera.R[2] + t[2]))
+    depth = float(np.median(world @ camera.R[2] + camera.t[2]))
     u, v = np.meshgrid(np.linspace(0, camera.width - 1, 5), np.linspace(0, camera.height - 1, 5))
     rays = np.linalg.solve(camera.K, np.stack([u.ravel(), v.ravel(), np.ones(u.size)]))
-    grid = (depth * rays - t[:, None]).T @ camera.R  # R.T @ (depth * ray - t), row-wise
-    _, Jg = cv2.projectPoints(grid, rvec, t, camera.K, no_dist)
+    grid = (depth * rays - camera.t[:, None]).T @ camera.R  # R.T @ (depth * ray - t), row-wise
+    return overlay_error_at(camera, world, sigma_px, grid)
+
+
+def overlay_error_at(camera: Camera, world, sigma_px: float, targets) -> float:
+    """Predicted overlay error (px, 1 sigma, RMS) at the world points ``targets`` of a pose
+    registered on the points ``world`` with noise ``sigma_px``: the pose covariance
+    ``sigma^2 (J^T J)^-1`` propagated to them (first order). Computed with the world origin moved
+    to the points' mean (the same first-order result; with the points 1e6 m from the origin the
+    rotation columns of J would swamp the normal matrix)."""
+    world = np.asarray(world, np.float64).reshape(-1, 3)
+    centre = world.mean(axis=0)
+    t = camera.t + camera.R @ centre
+    rvec, no_dist = cv2.Rodrigues(camera.R)[0], np.zeros(5)
+    # pinhole Jacobians: a distortion polynomial extrapolated to the image corners would blow up
+    _, J = cv2.projectPoints(world - centre, rvec, t, camera.K, no_dist)
+    information = J[:, :6].T @ J[:, :6]
+    _, Jg = cv2.projectPoints(np.asarray(targets, np.float64).reshape(-1, 3) - centre, rvec, t, camera.K, no_dist)
     try:
         covariance = sigma_px**2 * np.linalg.inv(information)
     except np.linalg.LinAlgError:
@@ -305,6 +313,7 @@ __all__ = [
     "rotation_sigma",
     "solve_pose",
     "expected_overlay_error",
+    "overlay_error_at",
     "principal_axes",
     "reprojection_errors",
     "inlier_rms",

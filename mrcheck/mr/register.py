@@ -16,8 +16,9 @@ shot's report. A failed edge fit after markers or points keeps the start the sam
 
 from __future__ import annotations
 
+import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -32,7 +33,7 @@ from mrcheck.core.shot import Shot, write_shot
 from mrcheck.mr.edges import EdgeOptions
 from mrcheck.mr.edgeshot import snap_photo
 from mrcheck.mr.markers import load_marker_map
-from mrcheck.mr.pose import CLICK_SIGMA_PX
+from mrcheck.mr.pose import CLICK_SIGMA_PX, overlay_error_at
 from mrcheck.mr.registration import load_points, register_photo
 from mrcheck.scene.manifest import scene_files
 from mrcheck.scene.meshes import MESH_SUFFIXES
@@ -46,6 +47,8 @@ _GATE_SIGMAS = 3.0
 _GATE_FLOOR_PX = 1.0  # ... and at least this far (a start's sigma of 0.1 px is a model, not a limit)
 # ... or further with edge support this far beyond chance (the crates' good fits 0.56-0.83)
 _GATE_STRONG = 0.5
+_SEARCH_FLOOR_PX = 4.0  # start_options: the refinement's search radius at least (px) ...
+_SEARCH_LEVEL_PX = 4.0  # ... and about this many px of its coarsest level
 _ANCHOR_CHI2 = 16.81  # chi-square, 6 degrees of freedom, 99 %: refinement_gate's test 1
 _GAIN_CHI2 = 6.63  # chi-square, 1 degree of freedom, 99 %: refinement_gate's test 2
 
@@ -162,7 +165,7 @@ def gated_refinement(
     """The edge refinement of a markers or points shot, or that shot with the reason it was not applied."""
     reason: str | None
     try:
-        refined = snap_photo(photo, camera, model, start.camera, how, options)
+        refined = snap_photo(photo, camera, model, start.camera, how, start_options(start, model.bounds(), options))
     except MrcheckError as exc:
         reason = f"the edge fit failed ({exc.problem.removeprefix('edge registration failed: ')})"
     else:
@@ -172,6 +175,40 @@ def gated_refinement(
     return start.with_report(
         refinement=f"not applied: {reason}", warnings=[*start.warnings, f"refinement not applied: {reason}"]
     )
+
+
+def start_options(start: Shot, bounds: np.ndarray, options: EdgeOptions | None = None) -> EdgeOptions:
+    """The edge stage's settings after markers or points: it searches only as far as the start
+    can be off where the scene is (:data:`_GATE_SIGMAS` times :func:`start_sigma_px`, at least
+    :data:`_SEARCH_FLOOR_PX`), along the normal from the pyramid level where that radius is about
+    :data:`_SEARCH_LEVEL_PX` level px, not by a whole-pose search from a 160 px wide level. Why:
+    on BOP LM-O (``tests/lmo_clicks.py --refine``, photos 3 and 402) a single scanned object
+    showed 0-25 outline samples on that coarsest level, fewer than a fit needs, though the
+    clicks had put it within 1-2 px."""
+    settings = options if options is not None else EdgeOptions()
+    search = max(_GATE_SIGMAS * start_sigma_px(start, bounds), _SEARCH_FLOOR_PX)
+    levels = 1 + max(0, int(math.floor(math.log2(search / _SEARCH_LEVEL_PX))))
+    return replace(settings, search_px=search, levels=min(levels, 8), coarse="normal")
+
+
+def start_sigma_px(start: Shot, bounds: np.ndarray) -> float:
+    """How far (px, 1 sigma) the start may put the scene: its pose covariance propagated to the
+    corners and centre of the box ``bounds`` in front of the camera (``expected_overlay_error_px``,
+    at the image's corners, where there is nothing in front or no correspondences)."""
+    whole = float(start.report.get("expected_overlay_error_px") or 0.0)
+    anchors = start.anchors
+    points = _box_points(bounds)
+    points = points[(points @ start.camera.R.T + start.camera.t)[:, 2] > 0]
+    if anchors is None or len(anchors.world) < 4 or not len(points):
+        return whole
+    return overlay_error_at(start.camera, anchors.world, anchors.sigma_px, points)
+
+
+def _box_points(bounds: np.ndarray) -> np.ndarray:
+    """The 8 corners and the centre of the box ``bounds`` (2, 3)."""
+    lo, hi = np.asarray(bounds, float)
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    return np.vstack([corners, (lo + hi) / 2])
 
 
 def refinement_gate(start: Shot, refined: Shot, bounds: np.ndarray) -> str | None:
@@ -204,7 +241,7 @@ def refinement_gate(start: Shot, refined: Shot, bounds: np.ndarray) -> str | Non
             f"the edges find no more support at their pose than at the start's ({change['gained']} samples "
             f"gained, {change['lost']} lost: McNemar's chi-square {gained:.1f}, at most {_GAIN_CHI2:g})"
         )
-    allowed = max(_GATE_SIGMAS * float(start.report["expected_overlay_error_px"]), _GATE_FLOOR_PX)
+    allowed = max(_GATE_SIGMAS * start_sigma_px(start, bounds), _GATE_FLOOR_PX)
     moved = overlay_moved(start.camera, refined.camera, bounds)
     if moved <= allowed:
         return None
@@ -245,9 +282,7 @@ def anchor_excess(start: Shot, camera: Camera) -> float | None:
 def overlay_moved(a: Camera, b: Camera, bounds: np.ndarray) -> float:
     """Median image displacement (px) between two poses of a camera at the corners and the centre
     of the box ``bounds`` (2, 3), over the points in front of both; inf if none is."""
-    lo, hi = np.asarray(bounds, float)
-    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-    points = np.vstack([corners, (lo + hi) / 2])
+    points = _box_points(bounds)
     front = ((points @ a.R.T + a.t)[:, 2] > 0) & ((points @ b.R.T + b.t)[:, 2] > 0)
     if not front.any():
         return float("inf")

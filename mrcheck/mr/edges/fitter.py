@@ -180,10 +180,10 @@ class Fitter:
             self.candidates.remember(cam, scale, samples)
         if self.contours is not None:  # the rendered outline's samples (mrcheck.mr.edges.silhouette)
             spacing = self.options.spacing_px * depth.shape[1] / (self.camera.width * scale)
-            found = silhouette.contour_samples(self.contours, view, depth, spacing, self.options.max_samples)
-            found = model.subset(found, self.outlined[found.group])
+            every = silhouette.contour_samples(self.contours, view, depth, spacing, self.options.max_samples)
             if not self.judged:
-                found = self.judge_outlines(samples, found)
+                self.judge_outlines(samples, model.subset(every, self.outlined[every.group]))
+            found = model.subset(every, self.outlined[every.group])
             samples = silhouette.joined(samples, found)
             if len(found):
                 self.update_posterior(depth, scale, view, found)
@@ -195,23 +195,27 @@ class Fitter:
         self.clock.add("edges", start)
         return thinned(samples, self.options.max_samples)
 
-    def judge_outlines(self, edges: model.Samples, outline: model.Samples) -> model.Samples:
+    def judge_outlines(self, edges: model.Samples, outline: model.Samples) -> None:
         """Automatic outlines (``EdgeOptions.silhouette`` None), judged once, in the first view:
-        the curved parts' outline samples are used when they outnumber the samples on crease
-        edges in ``edges`` (every part's visible mesh-edge samples; a curved mesh's own facet
-        contours do not count), else none for the whole fit. Why the view as a whole, measured at
-        the level searched: the generated cell (rollers, pipes, bollards among racks and fences;
-        ``mrcheck bench --edges``, seeds 0-9) has 542-652 such outline samples against 1752-2063
-        crease ones, and its curved parts' outlines turned 2 of 10 good fits into refusals; LM-O's
-        scanned objects have 337-453 against 0-1, M3T's bottle and prism 47-63 against 17-41,
-        and the fit rests on them."""
+        when the curved parts' outline samples ``outline`` outnumber the samples on crease edges
+        in ``edges`` (every part's visible mesh-edge samples; a curved mesh's own facet contours
+        do not count), the view rests on outlines and every part's outline is used; else none for
+        the whole fit. Why the view as a whole, measured at the level searched: the generated
+        cell (rollers, pipes, bollards among racks and fences; ``mrcheck bench --edges``, seeds
+        0-9) has 542-652 such outline samples against 1752-2063 crease ones, and its curved
+        parts' outlines turned 2 of 10 good fits into refusals; LM-O's scanned objects have
+        337-453 against 0-1, M3T's bottle 47-63 against the prism's and the bottle's 17-41
+        crease samples, and the fit rests on them. Why every part's then: M3T frame 200 from 20
+        px off (seeds 0-3) ended 1.3-7.0 px from the published pose with the bottle's outline
+        alone, 1.5-2.9 px with the 3D-printed prism's outline as well (its low-contrast creases
+        find few photo edges)."""
         self.judged = True
         creases = int(np.count_nonzero(self.edges.crease[edges.edge])) if len(edges) else 0
         if len(outline) > creases:
-            return outline
+            self.outlined[:] = True
+            return
         self.outlined[:] = False
         self.contours = None
-        return model.subset(outline, np.zeros(len(outline), bool))
 
     def match(
         self, level: photo.Level, pose: solver.PoseState, samples: model.Samples, radius: int, polarity
