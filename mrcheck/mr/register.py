@@ -164,12 +164,13 @@ def gated_refinement(
 ) -> Shot:
     """The edge refinement of a markers or points shot, or that shot with the reason it was not applied."""
     reason: str | None
+    bounds = model.bounds()
     try:
-        refined = snap_photo(photo, camera, model, start.camera, how, start_options(start, model.bounds(), options))
+        refined = snap_photo(photo, camera, model, start.camera, how, start_options(start, bounds, options))
     except MrcheckError as exc:
         reason = f"the edge fit failed ({exc.problem.removeprefix('edge registration failed: ')})"
     else:
-        reason = refinement_gate(start, refined, model.bounds())
+        reason = refinement_gate(start, refined, bounds)
         if reason is None:
             return refined
     return start.with_report(
