@@ -222,9 +222,9 @@ def refinement_gate(start: Shot, refined: Shot, bounds: np.ndarray) -> str | Non
        402 and 819, seeds 0-4) the outline fit made 93 of the 98 refinements that test 2 let
        through worse than the clicks alone (median reprojection; at worst 0.9 -> 7.3 px and
        3 -> 28 deg on the symmetric glue bottle), with support beyond chance up to 0.57.
-    2. The start's pose is known to ``expected_overlay_error_px`` (1 sigma, from its covariance); a
-       refinement that moves the scene's overlay (``bounds``' corners and centre) by more than
-       :data:`_GATE_SIGMAS` of that contradicts the start, and the edges must then prove themselves
+    2. The start's pose is known to :func:`start_sigma_px` at ``bounds``' corners and centre (1
+       sigma, from its covariance); a refinement that moves the scene's overlay there by more
+       than :data:`_GATE_SIGMAS` of that contradicts the start, and the edges must then prove themselves
        with support :data:`_GATE_STRONG` beyond chance: otherwise a few clutter edges win over
        clicks or markers that were right."""
     excess = anchor_excess(start, refined.camera)
