@@ -231,10 +231,13 @@ def test_a_frozen_frame_is_staged_for_add_photo_with_the_live_intrinsics(walk, t
 @pytest.mark.slow
 def test_the_server_alone_keeps_up_with_offline_track(tmp_path):
     """The live rate without a browser on the same cores: a client sends a 320x240 walk at 30
-    frames/s over a real socket (uvicorn, `websockets`) for 4 s; poses per second against
-    ``mrcheck track`` on the same frames. Measured (4 runs): 0.99-1.00x, 19.3-20.5 poses/s (the
-    Chromium test, whose browser decodes, draws and encodes every frame on the same two cores:
-    0.77-0.79x). Asserted: 0.8x, issue 42's target."""
+    frames/s over a real socket (uvicorn, `websockets`) for two windows of 3 s; poses per second
+    against ``mrcheck track`` on the same frames, run before and after. Each side counts its
+    better run (best of two, as ``timeit``): the machine's speed drifts during a suite (offline
+    measured 9.6-20.5 frames/s on this machine in two days), and a slow spell on one side made the
+    ratio 0.51x once. Measured (4 runs, one window): 0.99-1.07x, 15.1-20.5 poses/s (the Chromium
+    test, whose browser decodes, draws and encodes every frame on the same two cores: 0.45-0.81x
+    on a drifting machine). Asserted: 0.8x, issue 42's target."""
     import threading
     import time
 
@@ -254,6 +257,8 @@ def test_the_server_alone_keeps_up_with_offline_track(tmp_path):
     write_image(root / "p1.png", photos[0])
     (root / "p1.json").write_text(json.dumps({**camera.to_dict(), "photo": "p1.png"}))
     app = create_app(open_source(sample_scene_path(), root), db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "c")
+    points = scene_points(scene, truths[0])
+    offline = [offline_track(tmp_path, [*photos, *photos[-2:0:-1]], root, truths, points)[0]]
     stop, answered = threading.Event(), []
     with served_app(app) as url, connect(url.replace("http", "ws", 1) + "api/live", max_size=None) as ws:
         ws.send(json.dumps({"type": "start", "shot": "p1"}))
@@ -275,11 +280,15 @@ def test_the_server_alone_keeps_up_with_offline_track(tmp_path):
             assert header["type"] == "pose" and not header["lost"], header
             answered.append(time.perf_counter())
             if len(answered) == 10:  # warm: the first frames find the edges
-                deadline = answered[-1] + 4.0
+                deadline = answered[-1] + 6.0
         stop.set()
         sender.join()
-    warm = [t for t in answered if t >= answered[9]]
-    live = (len(warm) - 1) / (warm[-1] - warm[0])
-    offline, _ = offline_track(tmp_path, [*photos, *photos[-2:0:-1]], root, truths, scene_points(scene, truths[0]))
-    print(f"server alone: {live:.1f} poses/s; offline track {offline:.1f} frames/s: {live / offline:.2f}x")
-    assert live >= 0.8 * offline, (live, offline)
+    offline.append(offline_track(tmp_path, [*photos, *photos[-2:0:-1]], root, truths, points)[0])
+    warm = np.array([t for t in answered if t >= answered[9]])
+    windows = [warm[(warm >= warm[0] + 3 * k) & (warm < warm[0] + 3 * (k + 1))] for k in range(2)]
+    rates = [(len(w) - 1) / (w[-1] - w[0]) for w in windows]
+    live, best = max(rates), max(offline)
+    print(
+        f"server alone: {np.round(rates, 1)} poses/s; offline track {np.round(offline, 1)} frames/s: {live / best:.2f}"
+    )
+    assert live >= 0.8 * best, (rates, offline)

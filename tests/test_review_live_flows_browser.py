@@ -108,9 +108,11 @@ def _client_xy(page, pixel, width: int = 320) -> tuple[float, float]:
 
 @needs_chromium
 def test_lost_and_recovered_then_frozen_marked_and_in_bcf(tmp_path):
-    """Lost while covered, then tracked again: the first poses after it settle (measured, 3 runs:
-    0.08-3.0 px 0.4 s after, 0.18-1.1 px at 0.8 s, then 0.06-0.21 px), so the last four of eight
-    poses sampled every 0.4 s are held to the walk's limit (1.5 px)."""
+    """Lost while covered, then tracked again: the first poses after it settle (measured, 3 runs
+    on an idle machine: 0.08-3.0 px 0.4 s after, 0.18-1.1 px at 0.8 s, then 0.06-0.21 px; one
+    run inside a loaded CI suite: 2.4-6.9 px for 2.0 s, then 0.07-0.19 px), so the last four of
+    ten poses sampled every 0.4 s (from 2.8 s on, before the looped video covers the lens again
+    at about 5.4 s) are held to the walk's limit (1.5 px)."""
     sync_api = pytest.importorskip("playwright.sync_api")
     scene = load_scene(sample_scene_path())
     camera = scene.camera("conveyor", 320, 240)
@@ -128,7 +130,7 @@ def test_lost_and_recovered_then_frozen_marked_and_in_bcf(tmp_path):
         page.click("#live")
         page.wait_for_function("Number(document.body.dataset.liveRecovered || 0) >= 1", timeout=90000)
         lost = int(page.evaluate("document.body.dataset.liveLost"))
-        errors = _tracked(page, truths, points, 8)
+        errors = _tracked(page, truths, points, 10)
         page.screenshot(path=str(tmp_path / "recovered.png"))
 
         frozen = _freeze(page)
@@ -146,7 +148,7 @@ def test_lost_and_recovered_then_frozen_marked_and_in_bcf(tmp_path):
         snapshots = [n for n in z.namelist() if n.endswith(".png") or n.endswith(".jpg")]
     print(f"lost {lost} frame(s), then tracked: px to the nearest truth {np.round(errors, 2)}; offset {offset} m")
     assert not problems, problems
-    assert lost >= 1 and max(errors[4:]) < LIMIT_PX, (lost, errors)
+    assert lost >= 1 and max(errors[6:]) < LIMIT_PX, (lost, errors)
     # 40 px across the view at about 4-6 m: decimetres (the API test checks the value itself)
     assert 0.05 < offset < 2.0, offset
     assert len(markups) == 1 and f"offset {offset:.3f} m" in markups[0] and snapshots, (markups, snapshots)
