@@ -84,6 +84,8 @@ def test_quick_real_bench_harness(tmp_path):
     assert all(f.note for f in bench.fits if f.refused)
     moved = [f for f in lmo if f.offset_px == 20.0]
     assert all(abs(f.start_px - 20.0) < 0.1 for f in moved)
+    # the anchor is one of the objects (500 of its vertices): the farthest is at least about it
+    assert all(f.farthest_px >= 0.9 * f.start_px for f in moved)
     held = {f.photo for f in lmo if f.split == "held-out"}
     assert held == {f"lmo-{i:06d}" for i in LMO_HELD_OUT} and {f.photo for f in lmo if f.split == "tuned"} - held
     table = summary_lines(bench)
@@ -117,8 +119,11 @@ def test_both_methods_get_the_same_starts_and_the_truth_first(monkeypatch):
     points = cuboid_corners(np.array([[0, 0, 0], [0.189, 0.258, 0.075]]))
     label = {"dataset": "t", "photo": "p", "split": "tuned", "anchor": "a"}
     photo = np.zeros((truth.height, truth.width, 3), np.uint8)  # rapid is given its grey
-    rows = realbench.fit_starts(label, None, truth, photo, points, (10.0, 40.0), 2)
+    # the anchor and a second object beside it: the farthest offset is at least the anchor's
+    far = points + np.array([0.5, 0.0, 0.0])
+    rows = realbench.fit_starts(label, None, truth, photo, points, (10.0, 40.0), 2, [points, far])
     assert len(rows) == 2 * (1 + 2 * 2) and len(seen["mrcheck"]) == 5
+    assert all(r.farthest_px >= r.start_px - 1e-9 for r in rows) and rows[0].farthest_px == 0.0
     for a, b in zip(seen["mrcheck"], seen["cv2.rapid"]):
         assert np.array_equal(a.R, b.R) and np.array_equal(a.t, b.t)
     assert seen["mrcheck"][0] is truth
@@ -126,3 +131,16 @@ def test_both_methods_get_the_same_starts_and_the_truth_first(monkeypatch):
     # each stand-in fit returned its start: only the truth start succeeds, and its error is 0
     assert [r.ok_px for r in rows] == [r.offset_px == 0 for r in rows]
     assert all(r.error_px == pytest.approx(r.start_px, abs=1e-9) for r in rows)
+
+
+def test_reach_lines_count_starts_beyond_the_search_radius():
+    from mrcheck.eval.realbench import RealFit, reach_lines
+
+    def fit(split, farthest, refused):
+        return RealFit("lmo", "p", split, "a", "mrcheck", 0, 20.0, 20.0, None if refused else 1.0,
+                       None if refused else 0.5, None if refused else 0.5, refused, 1.0, farthest_px=farthest)  # fmt: skip
+
+    fits = [fit("tuned", 30.0, False), fit("tuned", 60.0, True), fit("tuned", 100.0, False), fit("tuned", 20.0, True)]
+    (line,) = reach_lines(fits, 48.0)
+    assert "tuned: 2 of 4 starts put an object beyond the 48 px" in line
+    assert "(refused 1, succeeded 1); the other 2: refused 1, succeeded 1" in line

@@ -41,7 +41,7 @@ from mrcheck.core.output import check_output_path, write_text
 from mrcheck.eval.edgebench import rapid_refine
 from mrcheck.eval.edgephotos import perturbed, reprojection_error
 from mrcheck.eval.realdata import anchored_scene, camera_scene, lmo_photo, m3t_photo, real_root
-from mrcheck.mr.edges import EdgeFitError, refine_pose, scene_edges
+from mrcheck.mr.edges import EdgeFitError, EdgeOptions, refine_pose, scene_edges
 
 LMO_TUNED = (3, 402)
 LMO_HELD_OUT = (819,)
@@ -50,12 +50,15 @@ SEEDS = 2
 SUCCESS_DEG, SUCCESS_CM, SUCCESS_PX, TRUTH_PX = 5.0, 5.0, 2.0, 1.0
 METHODS = ("mrcheck", "cv2.rapid")
 _MAX_POINTS = 3000
+_OBJECT_POINTS = 500  # per object, for RealFit.farthest_px
 
 
 @dataclass
 class RealFit:
     """One method from one start: ``split`` "tuned" or "held-out"; ``offset_px`` 0 for the
-    truth start; errors None when refused (``note`` the reason)."""
+    truth start; errors None when refused (``note`` the reason); ``farthest_px``: the start's
+    offset (median px) at the scene's object it puts farthest off (an LM-O start is
+    ``offset_px`` off at the anchor only: a turn about a small anchor moves the rest more)."""
 
     dataset: str
     photo: str
@@ -71,6 +74,7 @@ class RealFit:
     refused: bool
     seconds: float
     note: str = ""
+    farthest_px: float | None = None
 
     @property
     def ok_5deg5cm(self) -> bool:
@@ -127,9 +131,10 @@ def _run(method, scene, truth, rgb, start, edges, offset):
         return None, time.perf_counter() - began, str(exc).splitlines()[0][:160]
 
 
-def fit_starts(label: dict, scene, truth: Camera, rgb, points, offsets, seeds) -> list[RealFit]:
+def fit_starts(label: dict, scene, truth: Camera, rgb, points, offsets, seeds, objects=()) -> list[RealFit]:
     """Both methods from the truth and from every (offset, seed) start; ``label``: the
-    :class:`RealFit` fields naming the case (dataset, photo, split, anchor)."""
+    :class:`RealFit` fields naming the case (dataset, photo, split, anchor); ``objects``: each
+    object's world points, for :attr:`RealFit.farthest_px`."""
     edges = scene_edges(scene)
     starts = [(0.0, 0, truth)]
     for offset in offsets:
@@ -139,9 +144,12 @@ def fit_starts(label: dict, scene, truth: Camera, rgb, points, offsets, seeds) -
     rows = []
     for offset, seed, start in starts:
         start_px = float(np.median(reprojection_error(truth, start, points)))
+        offsets_at = [float(np.median(reprojection_error(truth, start, p))) for p in objects]
+        farthest = max(offsets_at) if offsets_at else None
         for method in METHODS:
             camera, seconds, note = _run(method, scene, truth, rgb, start, edges, offset)
-            case = {**label, "method": method, "seed": seed, "offset_px": offset, "start_px": start_px}
+            case = {**label, "method": method, "seed": seed, "offset_px": offset, "start_px": start_px,
+                    "farthest_px": farthest}  # fmt: skip
             if camera is None:
                 rows.append(RealFit(**case, error_px=None, rot_deg=None, trans_cm=None, refused=True,
                                     seconds=seconds, note=note))  # fmt: skip
@@ -152,10 +160,15 @@ def fit_starts(label: dict, scene, truth: Camera, rgb, points, offsets, seeds) -
     return rows
 
 
-def _sample(points: np.ndarray, seed: int = 0) -> np.ndarray:
-    if len(points) <= _MAX_POINTS:
+def _sample(points: np.ndarray, seed: int = 0, most: int = _MAX_POINTS) -> np.ndarray:
+    if len(points) <= most:
         return points
-    return points[np.random.default_rng(seed).choice(len(points), _MAX_POINTS, replace=False)]
+    return points[np.random.default_rng(seed).choice(len(points), most, replace=False)]
+
+
+def _placed(vertices: np.ndarray, pose: np.ndarray) -> np.ndarray:
+    """Up to :data:`_OBJECT_POINTS` of an object's ``vertices`` moved by the 4x4 ``pose``."""
+    return _sample(vertices, most=_OBJECT_POINTS) @ pose[:3, :3].T + pose[:3, 3]
 
 
 def lmo_fits(root, quick: bool, progress=None) -> list[RealFit]:
@@ -172,7 +185,9 @@ def lmo_fits(root, quick: bool, progress=None) -> list[RealFit]:
         for anchor, obj in enumerate(photo.objects[:2] if quick else photo.objects):
             scene, truth = anchored_scene(photo, anchor)
             label = {"dataset": "lmo", "photo": photo.name, "split": split, "anchor": obj.name}
-            rows += fit_starts(label, scene, truth, rgb, _sample(obj.vertices), offsets, seeds)
+            inv = np.linalg.inv(obj.pose)
+            objects = [_placed(o.vertices, inv @ o.pose) for o in photo.objects]
+            rows += fit_starts(label, scene, truth, rgb, _sample(obj.vertices), offsets, seeds, objects)
             if progress:
                 progress(f"{photo.name} anchor {obj.name}: {len(rows)} fits")
     return rows
@@ -184,8 +199,9 @@ def m3t_fits(root, quick: bool, progress=None) -> list[RealFit]:
     scene, truth = camera_scene(photo)
     rgb = read_photo(photo.photo)
     points = np.concatenate([_sample(o.vertices) @ o.pose[:3, :3].T + o.pose[:3, 3] for o in photo.objects])
+    objects = [_placed(o.vertices, o.pose) for o in photo.objects]
     label = {"dataset": "m3t", "photo": photo.name, "split": "tuned", "anchor": "camera"}
-    rows = fit_starts(label, scene, truth, rgb, points, (20.0,), 1 if quick else SEEDS)
+    rows = fit_starts(label, scene, truth, rgb, points, (20.0,), 1 if quick else SEEDS, objects)
     if progress:
         progress(f"{photo.name}: {len(rows)} fits")
     return rows
@@ -269,6 +285,28 @@ def reason_lines(fits: list, most: int = 6) -> list[str]:
     return lines
 
 
+def reach_lines(fits: list, radius: float) -> list[str]:
+    """Per LM-O split, mrcheck's starts off the truth: how many put some object of the scene beyond
+    the snap's search ``radius`` (:attr:`RealFit.farthest_px`), and the refusals among those
+    and among the others."""
+    lines = []
+    for split in ("tuned", "held-out"):
+        mine = [
+            f for f in fits if f.dataset == "lmo" and f.split == split and f.method == "mrcheck" and f.offset_px > 0
+        ]
+        if not mine:
+            continue
+        beyond = [f for f in mine if f.farthest_px is not None and f.farthest_px > radius]
+        within = [f for f in mine if f not in beyond]
+        lines.append(
+            f"  mrcheck, {split}: {len(beyond)} of {len(mine)} starts put an object beyond the {radius:g} px "
+            f"search radius (refused {sum(f.refused for f in beyond)}, succeeded "
+            f"{sum(f.ok_5deg5cm and f.ok_px for f in beyond)}); the other {len(within)}: refused "
+            f"{sum(f.refused for f in within)}, succeeded {sum(f.ok_5deg5cm and f.ok_px for f in within)}"
+        )
+    return lines
+
+
 def video_lines(videos: list) -> list[str]:
     lines = [
         f"{'video':<10} {'frames':>6} {'lost':>4} {'held':>4} {'outline px med/90%/max':>22} {'fps':>5} "
@@ -295,6 +333,7 @@ def summary_lines(bench: RealBench) -> list[str]:
         + ") ==",
         *fit_lines(bench.fits),
         *reason_lines(bench.fits),
+        *reach_lines(bench.fits, EdgeOptions().search_px),
     ]
     if bench.videos:
         lines += [
@@ -307,6 +346,7 @@ def summary_lines(bench: RealBench) -> list[str]:
 
 __all__ = [
     "summary_lines",
+    "reach_lines",
     "RealFit",
     "RealBench",
     "pose_errors",
