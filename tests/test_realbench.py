@@ -124,6 +124,7 @@ def test_both_methods_get_the_same_starts_and_the_truth_first(monkeypatch):
     rows = realbench.fit_starts(label, None, truth, photo, points, (10.0, 40.0), 2, [points, far])
     assert len(rows) == 2 * (1 + 2 * 2) and len(seen["mrcheck"]) == 5
     assert all(r.farthest_px >= r.start_px - 1e-9 for r in rows) and rows[0].farthest_px == 0.0
+    assert all(r.worst_px == pytest.approx(r.farthest_px, abs=1e-9) for r in rows)  # each fit returned its start
     for a, b in zip(seen["mrcheck"], seen["cv2.rapid"]):
         assert np.array_equal(a.R, b.R) and np.array_equal(a.t, b.t)
     assert seen["mrcheck"][0] is truth
