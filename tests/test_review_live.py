@@ -250,15 +250,16 @@ def test_the_server_alone_keeps_up_with_offline_track(tmp_path):
     camera = scene.camera("conveyor", 320, 240)
     truths = [walk_camera(camera, "side", 6 * k / 90) for k in range(91)]
     photos = [synthetic_photo(scene, c, 0, clutter=0, leave_out=False, colour=True)[0] for c in truths]
+    forth_back = [*photos, *photos[-2:0:-1]]
     jpegs = [cv2.imencode(".jpg", cv2.cvtColor(p, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, 85])[1].tobytes()
-             for p in [*photos, *photos[-2:0:-1]]]  # fmt: skip
+             for p in forth_back]  # fmt: skip
     root = tmp_path / "shots"
     root.mkdir()
     write_image(root / "p1.png", photos[0])
     (root / "p1.json").write_text(json.dumps({**camera.to_dict(), "photo": "p1.png"}))
     app = create_app(open_source(sample_scene_path(), root), db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "c")
     points = scene_points(scene, truths[0])
-    offline = [offline_track(tmp_path, [*photos, *photos[-2:0:-1]], root, truths, points)[0]]
+    offline = [offline_track(tmp_path, forth_back, root, truths, points)[0]]
     stop, answered = threading.Event(), []
     with served_app(app) as url, connect(url.replace("http", "ws", 1) + "api/live", max_size=None) as ws:
         ws.send(json.dumps({"type": "start", "shot": "p1"}))
@@ -283,7 +284,7 @@ def test_the_server_alone_keeps_up_with_offline_track(tmp_path):
                 deadline = answered[-1] + 6.0
         stop.set()
         sender.join()
-    offline.append(offline_track(tmp_path, [*photos, *photos[-2:0:-1]], root, truths, points)[0])
+    offline.append(offline_track(tmp_path, forth_back, root, truths, points)[0])
     warm = np.array([t for t in answered if t >= answered[9]])
     windows = [warm[(warm >= warm[0] + 3 * k) & (warm < warm[0] + 3 * (k + 1))] for k in range(2)]
     rates = [(len(w) - 1) / (w[-1] - w[0]) for w in windows]

@@ -176,9 +176,9 @@ def _sample(points: np.ndarray, seed: int = 0, most: int = _MAX_POINTS) -> np.nd
     return points[np.random.default_rng(seed).choice(len(points), most, replace=False)]
 
 
-def _placed(vertices: np.ndarray, pose: np.ndarray) -> np.ndarray:
-    """Up to :data:`_OBJECT_POINTS` of an object's ``vertices`` moved by the 4x4 ``pose``."""
-    return _sample(vertices, most=_OBJECT_POINTS) @ pose[:3, :3].T + pose[:3, 3]
+def _placed(vertices: np.ndarray, pose: np.ndarray, most: int = _OBJECT_POINTS) -> np.ndarray:
+    """Up to ``most`` of an object's ``vertices`` moved by the 4x4 ``pose``."""
+    return _sample(vertices, most=most) @ pose[:3, :3].T + pose[:3, 3]
 
 
 def lmo_fits(root, quick: bool, progress=None) -> list[RealFit]:
@@ -208,7 +208,7 @@ def m3t_fits(root, quick: bool, progress=None) -> list[RealFit]:
     photo = m3t_photo(root, 200)
     scene, truth = camera_scene(photo)
     rgb = read_photo(photo.photo)
-    points = np.concatenate([_sample(o.vertices) @ o.pose[:3, :3].T + o.pose[:3, 3] for o in photo.objects])
+    points = np.concatenate([_placed(o.vertices, o.pose, _MAX_POINTS) for o in photo.objects])
     objects = [_placed(o.vertices, o.pose) for o in photo.objects]
     label = {"dataset": "m3t", "photo": photo.name, "split": "tuned", "anchor": "camera"}
     rows = fit_starts(label, scene, truth, rgb, points, (20.0,), 1 if quick else M3T_SEEDS, objects)
