@@ -231,18 +231,14 @@ def test_a_frozen_frame_is_staged_for_add_photo_with_the_live_intrinsics(walk, t
 @pytest.mark.slow
 def test_the_server_alone_keeps_up_with_offline_track(tmp_path):
     """The live rate without a browser on the same cores: a client sends a 320x240 walk at 30
-    frames/s over a real socket (uvicorn, `websockets`) for two windows of 3 s; poses per second
-    against ``mrcheck track`` on the same frames, run before and after. Each side counts its
-    better run (best of two, as ``timeit``): the machine's speed drifts during a suite (offline
-    measured 9.6-20.5 frames/s on this machine in two days), and a slow spell on one side made the
-    ratio 0.51x once. Measured (4 runs, one window): 0.99-1.07x, 15.1-20.5 poses/s (the Chromium
-    test, whose browser decodes, draws and encodes every frame on the same two cores: 0.45-0.81x
-    on a drifting machine). Asserted: 0.8x, issue 42's target."""
-    import threading
-    import time
-
-    from websockets.sync.client import connect
-
+    frames/s over a real socket (uvicorn, `websockets`) for 3 s after 10 warm-up answers; poses per
+    second against ``mrcheck track`` on the same frames. Interleaved (offline, live, offline, live,
+    offline) and each side counts its best run (as ``timeit``): the machine's speed drifts during
+    a suite (offline 8.3-20.5 frames/s on this machine in three days), and one live run beside
+    one offline run measured 0.80-1.07x (10 runs; a slow spell over one side made it 0.51x once).
+    Why the live rate can equal offline's: a live step costs what an offline frame does (measured
+    85-90 ms each on a slow day, whether the tracker sees every frame or every third as live
+    does), and the socket adds little. Asserted: 0.8x, issue 42's target."""
     from .test_review import served_app
     from .test_review_live_browser import offline_track
 
@@ -259,9 +255,28 @@ def test_the_server_alone_keeps_up_with_offline_track(tmp_path):
     (root / "p1.json").write_text(json.dumps({**camera.to_dict(), "photo": "p1.png"}))
     app = create_app(open_source(sample_scene_path(), root), db_path=tmp_path / "r.sqlite", cache_dir=tmp_path / "c")
     points = scene_points(scene, truths[0])
-    offline = [offline_track(tmp_path, forth_back, root, truths, points)[0]]
+    offline, rates = [offline_track(tmp_path, forth_back, root, truths, points)[0]], []
+    with served_app(app) as url:
+        for _ in range(2):
+            rates.append(_live_rate(url.replace("http", "ws", 1) + "api/live", jpegs, 3.0))
+            offline.append(offline_track(tmp_path, forth_back, root, truths, points)[0])
+    live, best = max(rates), max(offline)
+    print(
+        f"server alone: {np.round(rates, 1)} poses/s; offline track {np.round(offline, 1)} frames/s: {live / best:.2f}"
+    )
+    assert live >= 0.8 * best, (rates, offline)
+
+
+def _live_rate(url: str, jpegs: list, window_s: float) -> float:
+    """Poses per second a live session at ``url`` answers over ``window_s`` after 10 warm-up
+    answers (the first frames find the edges), ``jpegs`` sent in a loop at 30 frames/s."""
+    import threading
+    import time
+
+    from websockets.sync.client import connect
+
     stop, answered = threading.Event(), []
-    with served_app(app) as url, connect(url.replace("http", "ws", 1) + "api/live", max_size=None) as ws:
+    with connect(url, max_size=None) as ws:
         ws.send(json.dumps({"type": "start", "shot": "p1"}))
 
         def send():
@@ -274,22 +289,11 @@ def test_the_server_alone_keeps_up_with_offline_track(tmp_path):
 
         sender = threading.Thread(target=send, daemon=True)
         sender.start()
-        deadline = None
-        while deadline is None or time.perf_counter() < deadline:
+        while len(answered) < 10 or answered[-1] < answered[9] + window_s:
             header = json.loads(ws.recv())
             ws.recv()  # the layer
             assert header["type"] == "pose" and not header["lost"], header
             answered.append(time.perf_counter())
-            if len(answered) == 10:  # warm: the first frames find the edges
-                deadline = answered[-1] + 6.0
         stop.set()
         sender.join()
-    offline.append(offline_track(tmp_path, forth_back, root, truths, points)[0])
-    warm = np.array([t for t in answered if t >= answered[9]])
-    windows = [warm[(warm >= warm[0] + 3 * k) & (warm < warm[0] + 3 * (k + 1))] for k in range(2)]
-    rates = [(len(w) - 1) / (w[-1] - w[0]) for w in windows]
-    live, best = max(rates), max(offline)
-    print(
-        f"server alone: {np.round(rates, 1)} poses/s; offline track {np.round(offline, 1)} frames/s: {live / best:.2f}"
-    )
-    assert live >= 0.8 * best, (rates, offline)
+    return (len(answered) - 10) / (answered[-1] - answered[9])
