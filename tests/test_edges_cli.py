@@ -56,6 +56,8 @@ def test_register_initial_writes_an_edge_shot(project, capsys):
     assert set(shot["uncertainty"]["corner_px"]) == {"top_left", "top_right", "bottom_right", "bottom_left"}
     assert len(shot["uncertainty"]["position_mm"]) == 3 and len(shot["uncertainty"]["angle_deg"]) == 3
     assert set(shot["times_s"]) >= {"render", "edges", "match", "solve", "total"}
+    assert shot["part_above"] and all(-1.0 <= v <= 1.0 for v in shot["part_above"].values())
+    assert "restart" in shot
     fitted = load_camera(out)
     assert np.median(reprojection_error(case.truth, fitted, case.points)) < 1.0  # measured 0.06
     printed = capsys.readouterr().out

@@ -106,7 +106,7 @@ def test_both_methods_get_the_same_starts_and_the_truth_first(monkeypatch):
 
     def ours(scene, camera, grey, initial, edges):
         seen["mrcheck"].append(initial)
-        return type("Fit", (), {"camera": initial})()
+        return type("Fit", (), {"camera": initial, "restart": "", "part_above": {}})()
 
     def rapid(scene, camera, grey, initial, search_px):
         seen["cv2.rapid"].append(initial)
@@ -121,7 +121,7 @@ def test_both_methods_get_the_same_starts_and_the_truth_first(monkeypatch):
     photo = np.zeros((truth.height, truth.width, 3), np.uint8)  # rapid is given its grey
     # the anchor and a second object beside it: the farthest offset is at least the anchor's
     far = points + np.array([0.5, 0.0, 0.0])
-    rows = realbench.fit_starts(label, None, truth, photo, points, (10.0, 40.0), 2, [points, far])
+    rows = realbench.fit_starts(label, None, truth, photo, points, (10.0, 40.0), range(2), [points, far])
     assert len(rows) == 2 * (1 + 2 * 2) and len(seen["mrcheck"]) == 5
     assert all(r.farthest_px >= r.start_px - 1e-9 for r in rows) and rows[0].farthest_px == 0.0
     assert all(r.worst_px == pytest.approx(r.farthest_px, abs=1e-9) for r in rows)  # each fit returned its start
@@ -145,3 +145,19 @@ def test_reach_lines_count_starts_beyond_the_search_radius():
     (line,) = reach_lines(fits, 48.0)
     assert "tuned: 2 of 4 starts put an object beyond the 48 px" in line
     assert "(refused 1, succeeded 1); the other 2: refused 1, succeeded 1" in line
+
+
+def test_restart_lines_count_the_fits_made_again_per_set_and_split():
+    from mrcheck.eval.realbench import RealFit, restart_lines
+
+    def fit(dataset, split, note, refused=False):
+        return RealFit(dataset, "p", split, "a", "mrcheck", 0, 20.0, 20.0, 1.0, 0.5, 0.5, refused, 1.0, note=note)
+
+    kept = "prism fitted far worse than the other parts (...): 8 restarts along the weakest directions, kept a restart"
+    first = kept.replace("kept a restart", "kept the first fit")
+    fits = [fit("m3t", "tuned", kept), fit("m3t", "tuned", first), fit("m3t", "tuned", ""),
+            fit("m3t", "tuned", "too little support", refused=True), fit("lmo", "held-out", "")]  # fmt: skip
+    assert restart_lines(fits) == [
+        "  mrcheck, lmo held-out: 0 of 1 fits restarted (a part lagging), 0 kept a restart",
+        "  mrcheck, m3t tuned: 2 of 3 fits restarted (a part lagging), 1 kept a restart",
+    ]

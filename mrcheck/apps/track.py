@@ -88,6 +88,7 @@ TRACK_OPTIONS = EdgeOptions(
     coarse="normal",
     descent_only=False,
     rerender_px=math.inf,
+    restarts=False,
     silhouette=False,  # the outline term (register's default for curved parts) is not measured on video yet
 )
 # a frame lost with TRACK_OPTIONS, snapped again from its start with a render of its own there and
@@ -99,7 +100,7 @@ RETRY_OPTIONS = replace(TRACK_OPTIONS, iterations=6, rerender_px=3.0)
 # the first frame: 1500 samples instead of register's 3000 (the generated cell from 15-40 px off,
 # seeds 0-9 at 640x480: 10 of 10 within 1 px, 0.06-0.37 px, 0.70 s per fit median, against
 # 0.06-0.45 px and 0.81 s; the crates the same, they have fewer)
-FIRST_OPTIONS = EdgeOptions(min_support=0.0, max_samples=1500, silhouette=False)
+FIRST_OPTIONS = EdgeOptions(min_support=0.0, max_samples=1500, silhouette=False, restarts=False)
 # a frame lost within a lost stretch, snapped again from the last good pose's neighbourhood when
 # relocalise_now says (mrcheck.apps.trackmotion): coarse to fine as from ROUGH.json
 RELOCALISE_OPTIONS = FIRST_OPTIONS

@@ -6,7 +6,8 @@ licences) and the protocol:
 * **Held-out split, fixed before any tuning.** LM-O has three photos (``test/000002/rgb``):
   000003 and 000402 are the photos a method may be tuned on; **000819 is held out** (all its
   objects) and reported separately everywhere. M3T has two frames but only frame 200 has a
-  published pose (frame 201 has none), so it has no held-out frame: frame 200 is tuned-on data.
+  published pose (frame 201 has none), so it has no held-out frame: its held-out part is the
+  starts of :data:`M3T_HELD_OUT_SEEDS`.
 * **LM-O**: each annotated object in turn is the anchor: the scene is the photo's 8 objects as
   parts, world = the anchor's model frame, the others placed by their ground-truth poses; the
   camera pose is what is registered. Starts: the truth, and the truth moved in a random
@@ -20,7 +21,8 @@ licences) and the protocol:
   A refused fit counts as a failure (its pose is not the truth).
 * **M3T frame 200**: the two bodies in the camera frame, from the published pose and from
   20 px off (:data:`M3T_SEEDS` seeds); error vs the published pose (px, all vertices; and at
-  the worse of the two bodies).
+  the worse of the two bodies). Frame 201 has no pose, so the held-out part is starts, not a
+  frame: seeds :data:`M3T_HELD_OUT_SEEDS`, reported as split "held-out".
 * **Videos** (:mod:`mrcheck.eval.realvideo`): ``track`` from a start solved from corners
   marked by eye on frame 0 (``tests/data/*_clicks.json``).
 """
@@ -49,6 +51,9 @@ LMO_HELD_OUT = (819,)
 OFFSETS_PX = (10.0, 20.0, 40.0)
 SEEDS = 2
 M3T_SEEDS = 10  # M3T's only frame with a pose: more starts instead of another frame
+# starts held out instead of a frame: never run while the per-part restarts were tuned (on seeds
+# 0-9; seeds 20-29 were looked at once during that work)
+M3T_HELD_OUT_SEEDS = range(40, 50)
 SUCCESS_DEG, SUCCESS_CM, SUCCESS_PX, TRUTH_PX = 5.0, 5.0, 2.0, 1.0
 METHODS = ("mrcheck", "cv2.rapid")
 _MAX_POINTS = 3000
@@ -62,7 +67,9 @@ class RealFit:
     offset (median px) at the scene's object it puts farthest off (an LM-O start is
     ``offset_px`` off at the anchor only: a turn about a small anchor moves the rest more);
     ``worst_px``: the same for the fitted pose (M3T's error over all vertices is mostly the
-    bottle's: a prism 12 px off hides in it)."""
+    bottle's: a prism 12 px off hides in it); ``part_above``: mrcheck's support beyond chance
+    per part (:attr:`~mrcheck.mr.edges.EdgeFit.part_above`); ``note`` of a fit not refused: its
+    restart (:attr:`~mrcheck.mr.edges.EdgeFit.restart`), if any."""
 
     dataset: str
     photo: str
@@ -80,6 +87,7 @@ class RealFit:
     note: str = ""
     farthest_px: float | None = None
     worst_px: float | None = None
+    part_above: dict = field(default_factory=dict)
 
     @property
     def ok_5deg5cm(self) -> bool:
@@ -119,31 +127,34 @@ def pose_errors(truth: Camera, estimate: Camera) -> tuple[float, float]:
 
 
 def _run(method, scene, truth, rgb, start, edges, offset):
-    """(camera or None, seconds, note) of one method from ``start`` on the photo ``rgb``: in
-    colour for mrcheck, as ``register`` reads it (the outline's region criterion compares
-    colours), grey for ``cv2.rapid``."""
+    """(camera or None, seconds, note, per-part support beyond chance) of one method from
+    ``start`` on the photo ``rgb``: in colour for mrcheck, as ``register`` reads it (the
+    outline's region criterion compares colours), grey for ``cv2.rapid``."""
     began = time.perf_counter()
     try:
         if method == "mrcheck":
-            camera = refine_pose(scene, truth, rgb, initial=start, edges=edges).camera
-        else:
-            grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
-            camera = rapid_refine(scene, truth, grey, start, max(1.5 * offset, 3.0))
-        return camera, time.perf_counter() - began, ""
+            fit = refine_pose(scene, truth, rgb, initial=start, edges=edges)
+            return fit.camera, time.perf_counter() - began, fit.restart, fit.part_above
+        grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
+        camera = rapid_refine(scene, truth, grey, start, max(1.5 * offset, 3.0))
+        return camera, time.perf_counter() - began, "", {}
     except EdgeFitError as exc:
-        return None, time.perf_counter() - began, str(exc)
+        return None, time.perf_counter() - began, str(exc), {}
     except (cv2.error, MrcheckError) as exc:
-        return None, time.perf_counter() - began, str(exc).splitlines()[0][:160]
+        return None, time.perf_counter() - began, str(exc).splitlines()[0][:160], {}
 
 
-def fit_starts(label: dict, scene, truth: Camera, rgb, points, offsets, seeds, objects=()) -> list[RealFit]:
-    """Both methods from the truth and from every (offset, seed) start; ``label``: the
-    :class:`RealFit` fields naming the case (dataset, photo, split, anchor); ``objects``: each
-    object's world points, for :attr:`RealFit.farthest_px` and :attr:`RealFit.worst_px`."""
+def fit_starts(
+    label: dict, scene, truth: Camera, rgb, points, offsets, seeds, objects=(), from_truth: bool = True
+) -> list[RealFit]:
+    """Both methods from the truth (``from_truth``) and from every (offset, seed) start (``seeds``:
+    the seed numbers); ``label``: the :class:`RealFit` fields naming the case (dataset, photo,
+    split, anchor); ``objects``: each object's world points, for :attr:`RealFit.farthest_px` and
+    :attr:`RealFit.worst_px`."""
     edges = scene_edges(scene)
-    starts = [(0.0, 0, truth)]
+    starts = [(0.0, 0, truth)] if from_truth else []
     for offset in offsets:
-        for seed in range(seeds):
+        for seed in seeds:
             rng = np.random.default_rng(1000 * seed + int(offset))
             starts.append((offset, seed, perturbed(truth, points, offset, rng)))
     rows = []
@@ -151,7 +162,7 @@ def fit_starts(label: dict, scene, truth: Camera, rgb, points, offsets, seeds, o
         start_px = float(np.median(reprojection_error(truth, start, points)))
         farthest = _worst(truth, start, objects)
         for method in METHODS:
-            camera, seconds, note = _run(method, scene, truth, rgb, start, edges, offset)
+            camera, seconds, note, parts = _run(method, scene, truth, rgb, start, edges, offset)
             case = {**label, "method": method, "seed": seed, "offset_px": offset, "start_px": start_px,
                     "farthest_px": farthest}  # fmt: skip
             if camera is None:
@@ -161,7 +172,7 @@ def fit_starts(label: dict, scene, truth: Camera, rgb, points, offsets, seeds, o
             rot, trans = pose_errors(truth, camera)
             error = float(np.median(reprojection_error(truth, camera, points)))
             rows.append(RealFit(**case, error_px=error, rot_deg=rot, trans_cm=trans, refused=False, seconds=seconds,
-                                worst_px=_worst(truth, camera, objects)))  # fmt: skip
+                                note=note, worst_px=_worst(truth, camera, objects), part_above=parts))  # fmt: skip
     return rows
 
 
@@ -197,21 +208,25 @@ def lmo_fits(root, quick: bool, progress=None) -> list[RealFit]:
             label = {"dataset": "lmo", "photo": photo.name, "split": split, "anchor": obj.name}
             inv = np.linalg.inv(obj.pose)
             objects = [_placed(o.vertices, inv @ o.pose) for o in photo.objects]
-            rows += fit_starts(label, scene, truth, rgb, _sample(obj.vertices), offsets, seeds, objects)
+            rows += fit_starts(label, scene, truth, rgb, _sample(obj.vertices), offsets, range(seeds), objects)
             if progress:
                 progress(f"{photo.name} anchor {obj.name}: {len(rows)} fits")
     return rows
 
 
 def m3t_fits(root, quick: bool, progress=None) -> list[RealFit]:
-    """M3T frame 200 from the published pose and from 20 px off (:data:`M3T_SEEDS` starts)."""
+    """M3T frame 200 from the published pose and from 20 px off (:data:`M3T_SEEDS` starts), and
+    (not ``quick``) from the held-out starts :data:`M3T_HELD_OUT_SEEDS`."""
     photo = m3t_photo(root, 200)
     scene, truth = camera_scene(photo)
     rgb = read_photo(photo.photo)
     points = np.concatenate([_placed(o.vertices, o.pose, _MAX_POINTS) for o in photo.objects])
     objects = [_placed(o.vertices, o.pose) for o in photo.objects]
     label = {"dataset": "m3t", "photo": photo.name, "split": "tuned", "anchor": "camera"}
-    rows = fit_starts(label, scene, truth, rgb, points, (20.0,), 1 if quick else M3T_SEEDS, objects)
+    rows = fit_starts(label, scene, truth, rgb, points, (20.0,), range(1 if quick else M3T_SEEDS), objects)
+    if not quick:
+        held = {**label, "split": "held-out"}
+        rows += fit_starts(held, scene, truth, rgb, points, (20.0,), M3T_HELD_OUT_SEEDS, objects, from_truth=False)
     if progress:
         progress(f"{photo.name}: {len(rows)} fits")
     return rows
@@ -243,7 +258,10 @@ def bench_json(bench: RealBench, quick: bool) -> dict:
     fits = [dict(asdict(f), ok_5deg5cm=f.ok_5deg5cm, ok_px=f.ok_px) for f in bench.fits]
     return {
         "quick": quick,
-        "held_out": {"lmo": [f"lmo-{i:06d}" for i in LMO_HELD_OUT], "m3t": []},
+        "held_out": {
+            "lmo": [f"lmo-{i:06d}" for i in LMO_HELD_OUT],
+            "m3t": [f"m3t-000200 seed {s}" for s in M3T_HELD_OUT_SEEDS],
+        },
         "criteria": {"deg": SUCCESS_DEG, "cm": SUCCESS_CM, "px": SUCCESS_PX, "truth_px": TRUTH_PX},
         "fits": fits,
         "videos": [asdict(v) for v in bench.videos],
@@ -317,6 +335,23 @@ def reach_lines(fits: list, radius: float) -> list[str]:
     return lines
 
 
+def restart_lines(fits: list) -> list[str]:
+    """Per data set and split, mrcheck's fits that were made again because one part lagged
+    (:mod:`mrcheck.mr.edges.restarts`), and how many kept a restart."""
+    lines = []
+    for dataset in ("lmo", "m3t"):
+        for split in ("tuned", "held-out"):
+            mine = [f for f in fits if (f.dataset, f.split, f.method) == (dataset, split, "mrcheck") and not f.refused]
+            restarted = [f for f in mine if "restarts along" in f.note]
+            if mine:
+                kept = sum("kept a restart" in f.note for f in restarted)
+                lines.append(
+                    f"  mrcheck, {dataset} {split}: {len(restarted)} of {len(mine)} fits restarted (a part "
+                    f"lagging), {kept} kept a restart"
+                )
+    return lines
+
+
 def video_lines(videos: list) -> list[str]:
     lines = [
         f"{'video':<10} {'frames':>6} {'lost':>4} {'held':>4} {'outline px med/90%/max':>22} {'fps':>5} "
@@ -344,6 +379,7 @@ def summary_lines(bench: RealBench) -> list[str]:
         *fit_lines(bench.fits),
         *reason_lines(bench.fits),
         *reach_lines(bench.fits, EdgeOptions().search_px),
+        *restart_lines(bench.fits),
     ]
     if bench.videos:
         lines += [
@@ -357,6 +393,7 @@ def summary_lines(bench: RealBench) -> list[str]:
 __all__ = [
     "summary_lines",
     "reach_lines",
+    "restart_lines",
     "RealFit",
     "RealBench",
     "pose_errors",
@@ -370,5 +407,6 @@ __all__ = [
     "LMO_HELD_OUT",
     "OFFSETS_PX",
     "SEEDS",
+    "M3T_HELD_OUT_SEEDS",
     "METHODS",
 ]

@@ -21,6 +21,9 @@ as is) plus::
     "expected_overlay_error_px": RMS of the four corners' 1 sigma (the markers' field, same meaning),
     "camera_position": world [x, y, z], "moved_px": how far the snap moved the view from the start
         (median over the edge samples), "left_out": instance ids whose edges found no support,
+    "part_above": {instance id: its own support beyond chance} (the parts with >= 20 samples),
+    "restart": what was done when one part fitted far worse than the others (made again from
+        poses along the weakest directions, :mod:`mrcheck.mr.edges.restarts`), or null,
     "times_s": seconds per stage, "warnings": [str, ...]
 
 These keys after ``photo`` are the :class:`mrcheck.core.shot.Shot`'s ``report``. A failed fit
@@ -64,6 +67,8 @@ def edge_shot(fit: EdgeFit, photo, start: str, rough: Camera) -> Shot:
         "moved_px": round(_moved(rough, camera), 3),
         "left_out": list(fit.dropped),
         "outlined": list(fit.outlined),
+        "part_above": dict(fit.part_above),
+        "restart": fit.restart or None,
         "times_s": {k: round(v, 3) for k, v in fit.times_s.items()},
         "warnings": list(fit.warnings),
     }

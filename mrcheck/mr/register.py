@@ -348,6 +348,8 @@ def _edge_lines(shot: Shot) -> list[str]:
             f"  left out (no support in the photo): {', '.join(left_out[:_LEFT_OUT_MAX])}"
             + (f" and {more} more" if more > 0 else "")
         )
+    if r.get("restart"):
+        lines.append(f"  {r['restart']}")
     lines.append(f"  time {times['total']:.2f} s ({stages})")
     return lines
 

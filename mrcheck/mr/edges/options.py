@@ -50,7 +50,10 @@ class EdgeOptions:
     crease samples in the first view (:meth:`~mrcheck.mr.edges.fitter.Fitter.judge_outlines`),
     ``True`` for every part, ``False`` for none; ``region``: match those outline samples by the
     colour region criterion
-    (:mod:`mrcheck.mr.edges.region`) instead of the nearest gradient peak (needs the photo).
+    (:mod:`mrcheck.mr.edges.region`) instead of the nearest gradient peak (needs the photo);
+    ``restarts``: make an accepted fit again from poses along its weakest directions when one
+    part fits far worse than the others (:mod:`mrcheck.mr.edges.restarts`; off for video frames,
+    a few px from their prediction, where a dozen more fits per frame would not keep up).
     """
 
     search_px: float = 48.0
@@ -65,6 +68,7 @@ class EdgeOptions:
     descent_only: bool = True
     silhouette: bool | None = None
     region: bool = True
+    restarts: bool = True
 
     def validated(self) -> EdgeOptions:
         checks = [
@@ -120,7 +124,10 @@ class EdgeFit:
     what a pose a few px off gets by chance (:func:`~mrcheck.mr.edges.photo.support_above_chance`);
     ``start_support``: the support of the same samples at the start's pose, at the same scale;
     ``gained``: (samples supported at the fit's pose but not at the start's, the reverse);
-    ``outlined``: the instances whose outlines were sampled (:attr:`EdgeOptions.silhouette`).
+    ``outlined``: the instances whose outlines were sampled (:attr:`EdgeOptions.silhouette`);
+    ``part_above``: instance id -> the same figure as ``above_chance`` on that part's samples
+    alone (the parts with at least 20 of them); ``restart``: when one part fitted far worse than
+    the others and the fit was made again (:mod:`~mrcheck.mr.edges.restarts`), what was done.
     """
 
     camera: Camera
@@ -136,6 +143,8 @@ class EdgeFit:
     start_support: float = math.nan
     gained: tuple[int, int] = (0, 0)
     outlined: list[str] = field(default_factory=list)
+    part_above: dict[str, float] = field(default_factory=dict)
+    restart: str = ""
 
 
 @dataclass

@@ -18,6 +18,7 @@ from mrcheck.mr.edges.uncertainty import WEAK_CORNER_PX, PoseUncertainty, parall
 
 _MIN_ABOVE_CHANCE = 0.10  # see _check_above_chance (measured figures there)
 _LEFT_OUT_WARN = 0.3  # _left_out_warning: above this share of the visible samples left out
+_PART_SAMPLES = 20  # _part_above: fewer samples give a figure too coarse to compare (1/20 steps)
 _DIVERGED_SHARE = 0.25  # the pose moved the view by more than this share of the image diagonal
 
 
@@ -55,7 +56,7 @@ def finish(fitter: Fitter, pose: solver.PoseState, rough: Camera, reports: list[
             f"{options.search_px:g} px, and does the photo show the scene?"
         )
     _check_left_out(fitter, support)
-    above = _check_above_chance(fitter, pose)
+    above, parts = _check_above_chance(fitter, pose)
     rows_full = rows / fitter.pyramid[0].scale
     cov = solver.covariance(rows_full, np.where(ok, r, 0.0), weights, samples.edge, samples.group)
     depth = float(np.median(proj.depth[weights > 0]))
@@ -76,6 +77,7 @@ def finish(fitter: Fitter, pose: solver.PoseState, rough: Camera, reports: list[
         start_support=float(np.mean(at_start)) if len(r) else math.nan,
         gained=(gained, lost),
         outlined=fitter.outlined_names(),
+        part_above=parts,
     )
 
 
@@ -113,10 +115,10 @@ def _check_left_out(fitter: Fitter, support: float) -> None:
         )
 
 
-def _check_above_chance(fitter: Fitter, pose: solver.PoseState) -> float:
+def _check_above_chance(fitter: Fitter, pose: solver.PoseState) -> tuple[float, dict[str, float]]:
     """Fail when the visible samples (all parts) at ``pose`` find support hardly more often
     than by chance (:func:`photo.support_above_chance` below :data:`_MIN_ABOVE_CHANCE`);
-    returns the figure.
+    returns the figure and each part's with at least :data:`_PART_SAMPLES` of those samples.
 
     Measured (edges sampled evenly on screen, the whole-pose search; 640x480, fits with the
     other failure tests off): the generated cell's good fits (seeds 0-19 from 15-38 px off, and
@@ -133,10 +135,11 @@ def _check_above_chance(fitter: Fitter, pose: solver.PoseState) -> float:
     shows without contrast (a good pose's support is lower)."""
     samples = fitter.all_visible
     if samples is None or len(samples) == 0:
-        return math.nan
+        return math.nan, {}
     samples = thinned(samples, fitter.options.max_samples)
     proj = solver.project(pose, fitter.camera, samples.points, samples.tangents)
     support, chance, above = photo.support_above_chance(fitter.pyramid[0], proj.uv, proj.normal)
+    parts = _part_above(fitter, samples.group, proj)
     if above < _MIN_ABOVE_CHANCE:
         raise EdgeFitError(
             f"too little support beyond chance: {support:.0%} of the {len(samples)} visible CAD edge "
@@ -145,7 +148,20 @@ def _check_above_chance(fitter: Fitter, pose: solver.PoseState) -> float:
             f"photo's edges, most likely a wrong pose; is the rough pose within "
             f"{fitter.options.search_px:g} px?"
         )
-    return above
+    return above, parts
+
+
+def _part_above(fitter: Fitter, group: np.ndarray, proj) -> dict[str, float]:
+    """Per part with at least :data:`_PART_SAMPLES` of the projected samples ``proj``: its own
+    support beyond chance (a part fitted in a wrong basin while the others fit scores far below
+    them, see :attr:`~mrcheck.mr.edges.options.EdgeFit.part_above`)."""
+    out = {}
+    for g in np.unique(group):
+        mine = group == g
+        if np.count_nonzero(mine) >= _PART_SAMPLES:
+            above = photo.support_above_chance(fitter.pyramid[0], proj.uv[mine], proj.normal[mine])[2]
+            out[fitter.edges.group_names[g]] = round(float(above), 4)
+    return out
 
 
 def _left_out(fitter: Fitter) -> tuple[float, int]:
