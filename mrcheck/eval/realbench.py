@@ -56,7 +56,7 @@ M3T_SEEDS = 10  # M3T's only frame with a pose: more starts instead of another f
 M3T_HELD_OUT_SEEDS = range(40, 50)
 SUCCESS_DEG, SUCCESS_CM, SUCCESS_PX, TRUTH_PX = 5.0, 5.0, 2.0, 1.0
 METHODS = ("mrcheck", "cv2.rapid")
-_MAX_POINTS = 3000
+MAX_POINTS = 3000
 _OBJECT_POINTS = 500  # per object, for RealFit.farthest_px
 
 
@@ -181,13 +181,13 @@ def _worst(truth: Camera, camera: Camera, objects) -> float | None:
     return max((float(np.median(reprojection_error(truth, camera, p))) for p in objects), default=None)
 
 
-def _sample(points: np.ndarray, seed: int = 0, most: int = _MAX_POINTS) -> np.ndarray:
+def _sample(points: np.ndarray, seed: int = 0, most: int = MAX_POINTS) -> np.ndarray:
     if len(points) <= most:
         return points
     return points[np.random.default_rng(seed).choice(len(points), most, replace=False)]
 
 
-def _placed(vertices: np.ndarray, pose: np.ndarray, most: int = _OBJECT_POINTS) -> np.ndarray:
+def placed(vertices: np.ndarray, pose: np.ndarray, most: int = _OBJECT_POINTS) -> np.ndarray:
     """Up to ``most`` of an object's ``vertices`` moved by the 4x4 ``pose``."""
     return _sample(vertices, most=most) @ pose[:3, :3].T + pose[:3, 3]
 
@@ -207,7 +207,7 @@ def lmo_fits(root, quick: bool, progress=None) -> list[RealFit]:
             scene, truth = anchored_scene(photo, anchor)
             label = {"dataset": "lmo", "photo": photo.name, "split": split, "anchor": obj.name}
             inv = np.linalg.inv(obj.pose)
-            objects = [_placed(o.vertices, inv @ o.pose) for o in photo.objects]
+            objects = [placed(o.vertices, inv @ o.pose) for o in photo.objects]
             rows += fit_starts(label, scene, truth, rgb, _sample(obj.vertices), offsets, range(seeds), objects)
             if progress:
                 progress(f"{photo.name} anchor {obj.name}: {len(rows)} fits")
@@ -220,8 +220,8 @@ def m3t_fits(root, quick: bool, progress=None) -> list[RealFit]:
     photo = m3t_photo(root, 200)
     scene, truth = camera_scene(photo)
     rgb = read_photo(photo.photo)
-    points = np.concatenate([_placed(o.vertices, o.pose, _MAX_POINTS) for o in photo.objects])
-    objects = [_placed(o.vertices, o.pose) for o in photo.objects]
+    points = np.concatenate([placed(o.vertices, o.pose, MAX_POINTS) for o in photo.objects])
+    objects = [placed(o.vertices, o.pose) for o in photo.objects]
     label = {"dataset": "m3t", "photo": photo.name, "split": "tuned", "anchor": "camera"}
     rows = fit_starts(label, scene, truth, rgb, points, (20.0,), range(1 if quick else M3T_SEEDS), objects)
     if not quick:
@@ -408,5 +408,7 @@ __all__ = [
     "OFFSETS_PX",
     "SEEDS",
     "M3T_HELD_OUT_SEEDS",
+    "MAX_POINTS",
+    "placed",
     "METHODS",
 ]

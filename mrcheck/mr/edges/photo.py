@@ -160,13 +160,46 @@ def support_above_chance(level: Level, uv: np.ndarray, normals: np.ndarray) -> t
     merely lies among edges."""
     if len(uv) == 0:
         return 0.0, 0.0, 0.0
+    return above_from_hits(edge_hits(level, uv, normals))
+
+
+def edge_hits(level: Level, uv: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """(1 + len(:data:`CHANCE_OFFSETS`), n) bool: whether each point finds a photo edge within
+    about 1.5 px at its place (row 0) and at each chance offset along its normal (the rest): what
+    :func:`support_above_chance` and per-part figures (:func:`above_per_group`) count."""
     offsets = np.array((0.0, *CHANCE_OFFSETS))
     # one search over every offset at once (the profiles are 5 px long: numpy's overhead would rule)
     shifted = (uv[None, :, :] + offsets[:, None, None] * normals[None, :, :]).reshape(-1, 2)
     found = np.isfinite(search(level, shifted, np.tile(normals, (len(offsets), 1)), 1).offset)
-    hits = found.reshape(len(offsets), -1).mean(axis=1)
-    support, chance = float(hits[0]), float(np.mean(hits[1:]))
+    return found.reshape(len(offsets), -1)
+
+
+def above_per_group(hits: np.ndarray, group: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    """The support beyond chance of the :func:`edge_hits` points of each of ``groups``
+    (``group``: each point's), counted from ``hits`` without another search."""
+    size = int(group.max()) + 1
+    counts = np.maximum(np.bincount(group, minlength=size)[groups], 1)
+    share = np.stack([np.bincount(group, weights=row, minlength=size)[groups] for row in hits.astype(float)]) / counts
+    support, chance = share[0], share[1:].mean(axis=0)
+    return (support - chance) / np.maximum(1.0 - chance, 1e-9)
+
+
+def above_from_hits(hits: np.ndarray) -> tuple[float, float, float]:
+    """``(support, chance, above)`` of :func:`support_above_chance` from :func:`edge_hits`."""
+    shares = hits.mean(axis=1)
+    support, chance = float(shares[0]), float(np.mean(shares[1:]))
     return support, chance, (support - chance) / max(1.0 - chance, 1e-9)
 
 
-__all__ = ["Level", "Matches", "pyramid", "search", "to_level", "support_above_chance", "CHANCE_OFFSETS"]
+__all__ = [
+    "Level",
+    "Matches",
+    "pyramid",
+    "search",
+    "to_level",
+    "support_above_chance",
+    "edge_hits",
+    "above_from_hits",
+    "above_per_group",
+    "CHANCE_OFFSETS",
+]

@@ -169,7 +169,8 @@ def _restarted(fitter: Fitter, rough: Camera, fit: EdgeFit, other: bool = False)
         except EdgeFitError:
             return best
         if candidate.above_chance > best.above_chance + restarts.MIN_GAIN:
-            best = candidate
+            chamfer = f"the chamfer schedule's fit had {fit.above_chance:.2f} beyond chance, the normal schedule's"
+            best, candidate.restart = candidate, "; ".join(filter(None, [chamfer + " is kept", candidate.restart]))
     return best
 
 

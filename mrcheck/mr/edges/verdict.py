@@ -138,8 +138,9 @@ def _check_above_chance(fitter: Fitter, pose: solver.PoseState) -> tuple[float, 
         return math.nan, {}
     samples = thinned(samples, fitter.options.max_samples)
     proj = solver.project(pose, fitter.camera, samples.points, samples.tangents)
-    support, chance, above = photo.support_above_chance(fitter.pyramid[0], proj.uv, proj.normal)
-    parts = _part_above(fitter, samples.group, proj)
+    hits = photo.edge_hits(fitter.pyramid[0], proj.uv, proj.normal)
+    support, chance, above = photo.above_from_hits(hits)
+    parts = _part_above(fitter, samples.group, hits)
     if above < _MIN_ABOVE_CHANCE:
         raise EdgeFitError(
             f"too little support beyond chance: {support:.0%} of the {len(samples)} visible CAD edge "
@@ -151,17 +152,17 @@ def _check_above_chance(fitter: Fitter, pose: solver.PoseState) -> tuple[float, 
     return above, parts
 
 
-def _part_above(fitter: Fitter, group: np.ndarray, proj) -> dict[str, float]:
-    """Per part with at least :data:`_PART_SAMPLES` of the projected samples ``proj``: its own
-    support beyond chance (a part fitted in a wrong basin while the others fit scores far below
-    them, see :attr:`~mrcheck.mr.edges.options.EdgeFit.part_above`)."""
-    out = {}
-    for g in np.unique(group):
-        mine = group == g
-        if np.count_nonzero(mine) >= _PART_SAMPLES:
-            above = photo.support_above_chance(fitter.pyramid[0], proj.uv[mine], proj.normal[mine])[2]
-            out[fitter.edges.group_names[g]] = round(float(above), 4)
-    return out
+def _part_above(fitter: Fitter, group: np.ndarray, hits: np.ndarray) -> dict[str, float]:
+    """Per part with at least :data:`_PART_SAMPLES` of the samples: its own support beyond
+    chance from the samples' edge ``hits`` (:func:`photo.edge_hits`; a part fitted in a wrong
+    basin while the others fit scores far below them, see
+    :attr:`~mrcheck.mr.edges.options.EdgeFit.part_above`)."""
+    groups, counts = np.unique(group, return_counts=True)
+    groups = groups[counts >= _PART_SAMPLES]
+    if len(groups) == 0:
+        return {}
+    figures = photo.above_per_group(hits, group, groups)
+    return {fitter.edges.group_names[g]: round(float(a), 4) for g, a in zip(groups, figures)}
 
 
 def _left_out(fitter: Fitter) -> tuple[float, int]:
