@@ -24,9 +24,10 @@ def _fit(parts: dict) -> EdgeFit:
     return EdgeFit(camera, 1.0, 0.5, 100, PoseUncertainty.__new__(PoseUncertainty), part_above=parts)
 
 
-def test_the_lagging_part_is_the_lowest_below_three_quarters_of_the_best():
+def test_the_lagging_part_is_the_lowest_below_nine_tenths_of_the_best():
     assert lagging_part(_fit({"prism": 0.24, "bottle": 0.57})) == "prism"
-    assert lagging_part(_fit({"prism": 0.82, "bottle": 0.71})) is None  # 0.87 of the best: no restart
+    assert lagging_part(_fit({"prism": 0.85, "bottle": 0.71})) == "bottle"  # 0.83 of the best
+    assert lagging_part(_fit({"prism": 0.82, "bottle": 0.79})) is None  # 0.96 of the best: no restart
     assert lagging_part(_fit({"a": 0.5, "b": 0.3, "c": 0.1})) == "c"
     assert lagging_part(_fit({"only": 0.1})) is None  # one part: nothing to compare with
     assert lagging_part(_fit({"a": -0.1, "b": -0.2})) is None  # no part fits: the verdict's matter
@@ -88,7 +89,7 @@ def _m3t_fits(seed: int) -> tuple:
 def test_m3t_prism_in_a_wrong_basin_is_restarted_into_the_right_one():
     """M3T frame 200 from 20 px off (``bench --real``'s seed 1): without restarts the bottle fits
     (2.4 px) and the prism is 11.9 px off; with them both are within 2 px (measured 1.49 and
-    1.35 px, the same in every run: the fit is deterministic; seeds 0-9: 9 of 10 within 2 px
+    1.35 px, the same in every run: the fit is deterministic; seeds 0-9: 10 of 10 within 2 px
     over all vertices, seeds 40-49 held out: 9 of 10)."""
     (alone, errors), (first, fit) = _m3t_fits(1)
     assert max(alone.values()) > 5.0 and first.restart == ""
