@@ -180,15 +180,19 @@ def above_per_group(hits: np.ndarray, group: np.ndarray, groups: np.ndarray) -> 
     size = int(group.max()) + 1
     counts = np.maximum(np.bincount(group, minlength=size)[groups], 1)
     share = np.stack([np.bincount(group, weights=row, minlength=size)[groups] for row in hits.astype(float)]) / counts
-    support, chance = share[0], share[1:].mean(axis=0)
-    return (support - chance) / np.maximum(1.0 - chance, 1e-9)
+    return _beyond(share[0], share[1:].mean(axis=0))
 
 
 def above_from_hits(hits: np.ndarray) -> tuple[float, float, float]:
     """``(support, chance, above)`` of :func:`support_above_chance` from :func:`edge_hits`."""
     shares = hits.mean(axis=1)
     support, chance = float(shares[0]), float(np.mean(shares[1:]))
-    return support, chance, (support - chance) / max(1.0 - chance, 1e-9)
+    return support, chance, float(_beyond(support, chance))
+
+
+def _beyond(support, chance):
+    """The support beyond chance (:func:`support_above_chance`), of floats or arrays alike."""
+    return (support - chance) / np.maximum(1.0 - chance, 1e-9)
 
 
 __all__ = [
