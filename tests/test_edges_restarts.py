@@ -98,11 +98,16 @@ def test_m3t_prism_in_a_wrong_basin_is_restarted_into_the_right_one():
 
 
 @needs_m3t
-def test_m3t_wrong_chamfer_pose_loses_to_the_normal_schedule():
-    """M3T frame 200 from ``bench --real``'s 20 px start 4: the chamfer schedule's fit is a wrong
-    pose the verdict accepts (measured 52.8 px, 0.12 beyond chance, the bottle's own 0.06); with
-    the restarts the normal schedule's fit is a candidate and wins (1.3 px, 0.80)."""
+def test_m3t_second_start_in_a_wrong_basin_is_mended():
+    """M3T frame 200 from ``bench --real``'s 20 px start 4: the chamfer schedule's fit leaves the
+    prism in a wrong basin, and the restarts or the normal schedule's fit (a candidate after a
+    chamfer fit with a part lagging) mend it. Which wrong basin depends on the CPU's floating
+    point (the fit is deterministic on one machine, not across CPUs): measured on two 2-core
+    x86_64 machines, one put the prism 52.8 px off (0.12 beyond chance, the bottle's own 0.06) and
+    the normal schedule's fit won (1.3 px, 0.80); an AMD EPYC put it 14.5 px off (0.55) and a
+    restart won (1.7 px, 0.80). Either way the fit kept says so, and both bodies end within 2 px."""
     (alone, errors), (first, fit) = _m3t_fits(4)
-    assert max(alone.values()) > 20.0 and first.above_chance < 0.2
+    assert max(alone.values()) > 5.0 and first.restart == ""
     assert max(errors.values()) < 2.0, errors
-    assert fit.restart.startswith("the chamfer schedule's fit had")
+    assert fit.restart.startswith("the chamfer schedule's fit had") or "kept a restart" in fit.restart, fit.restart
+    assert fit.above_chance > first.above_chance + 0.05
