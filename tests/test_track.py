@@ -231,6 +231,36 @@ def test_no_second_snap_right_after_a_lost_frame(video, tmp_path, monkeypatch):
 
 
 @pytest.mark.slow
+def test_outline_fits_every_frame_after_the_first_in_colour(video, tmp_path, monkeypatch):
+    """``track --outline``: the frames after the first (their retries too) are snapped with the
+    outlines on and read in colour (the outlines' region criterion compares colours); the first
+    frame and the relocalisation as without it. The crate walk is tracked as well as without."""
+    import mrcheck.apps.track as track
+
+    folder, manifest, truths, points = video
+    calls, real = [], track.refine_pose
+
+    def recording(scene, camera, image, *args, options=None, **kwargs):
+        calls.append((options, np.asarray(image).ndim))
+        return real(scene, camera, image, *args, options=options, **kwargs)
+
+    monkeypatch.setattr(track, "refine_pose", recording)
+    args = ["--intrinsics", str(folder / "cam.json"), "--initial", str(folder / "rough.json")]
+    out = tmp_path / "overlay.mp4"
+    code = main(["track", str(folder / "walk.mp4"), "--scene", str(manifest), *args, "--outline", "-o", str(out)])
+    assert code == 0
+    assert calls[0] == (track.FIRST_OPTIONS, 2)
+    assert all(o.silhouette is True and ndim == 3 for o, ndim in calls[1:] if o is not track.RELOCALISE_OPTIONS)
+    assert calls[1][0] is track.OUTLINE_OPTIONS and any(o.rerender_px < math.inf for o, _ in calls[1:])  # a retry
+    poses = [json.loads(line) for line in out.with_suffix(".poses.jsonl").read_text().splitlines()]
+    assert [p["frame"] for p in poses if p["lost"]] == [BLANK]
+    for truth, pose in zip(truths, poses):
+        if not pose["lost"]:
+            found = truth.with_pose(np.array(pose["R"]), np.array(pose["t"]))
+            assert np.median(reprojection_error(truth, found, points)) < 1.0
+
+
+@pytest.mark.slow
 def test_numpy_blas_runs_on_one_thread_while_tracking(video, tmp_path, monkeypatch):
     """OpenBLAS's idle threads spin on the core that llvmpipe and the encoder need: the track
     keeps numpy's BLAS on one thread while it runs and gives the threads back after (measured

@@ -34,13 +34,14 @@ import os
 import tempfile
 import time
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from pathlib import Path
 
 from threadpoolctl import threadpool_limits
 
 from mrcheck.apps.trackframes import FramePhoto, FrameReader
 from mrcheck.apps.trackmotion import last_good, predicted, relocalise_now
+from mrcheck.apps.trackresult import FramePose, TrackResult
 from mrcheck.apps.videoout import BackgroundVideo, video_stream
 from mrcheck.core.camera import Camera
 from mrcheck.core.camerafiles import load_camera, read_camera
@@ -109,93 +110,29 @@ RELOCALISE_OPTIONS = FIRST_OPTIONS
 OVERLAY_SETTINGS = RenderSettings(samples=8, ao_scale=0.5, lod_px=0.0)
 
 
-def frame_options(index: int) -> EdgeOptions:
+# ``--outline``: the parts' rendered outlines matched by their colour regions on every frame after
+# the first (EdgeOptions.silhouette; register's term for curved parts). Measured (2026-12-07, AMD
+# EPYC): the real box video (tests/test_track_real.py's start, f = 680 px) 1 of 455 frames lost
+# and 454 held within 3 px, against 147 lost and 203 held without; with the tutorial's nominal
+# camera (non-square pixels, no calibration) 256 lost and 192 held, against 15 and 359; the tea
+# box 39 of 39 either way; the generated cell's walks (dozens of parts, grey video) lose 18-21 of
+# 24 frames. So: for a few objects filmed with a calibrated camera, not a hall; off by default.
+OUTLINE_OPTIONS = replace(TRACK_OPTIONS, silhouette=True)
+
+
+def frame_options(index: int, outline: bool = False) -> EdgeOptions:
     """The snap's options of frame ``index`` (0: from ROUGH.json; the reader makes each frame's
-    pyramid with them too)."""
-    return FIRST_OPTIONS if index == 0 else TRACK_OPTIONS
+    pyramid with them too); ``outline``: ``--outline``'s."""
+    if index == 0:
+        return FIRST_OPTIONS
+    return OUTLINE_OPTIONS if outline else TRACK_OPTIONS
 
 
-@dataclass
-class FramePose:
-    """The pose of one frame and how it was found (see the module docstring)."""
-
-    frame: int
-    time_s: float
-    camera: Camera
-    rms_px: float | None
-    support: float
-    corner_px: list
-    lost: bool
-    reason: str = ""
-    seconds: float = 0.0
-    times_s: dict = field(default_factory=dict, repr=False)
-
-    def to_dict(self) -> dict:
-        out = {
-            "frame": self.frame,
-            "time_s": round(self.time_s, 4),
-            "R": self.camera.R.tolist(),
-            "t": self.camera.t.tolist(),
-            "rms_px": None if self.rms_px is None else round(self.rms_px, 4),
-            "support": round(self.support, 4),
-            "corner_px": [round(v, 3) for v in self.corner_px],
-            "lost": self.lost,
-            "seconds": round(self.seconds, 3),
-        }
-        if self.lost:
-            out["reason"] = self.reason
-        return out
-
-
-@dataclass
-class TrackResult:
-    """``frames``: every frame's :class:`FramePose`; ``seconds``: wall time of the whole run;
-    ``first_s``: of it, the time until the first frame was handed to the writer (the start-up
-    and the first frame's full snap from the rough pose);
-    ``times_s``: seconds per stage over the run (``decode wait``, ``snap <stage>`` of
-    :attr:`mrcheck.mr.edges.EdgeFit.times_s`, ``overlay render``, ``writer wait``; ``decode
-    (thread)`` and ``photo (thread)`` ran on the reader's thread, ``compose (thread)`` and
-    ``encode (thread)`` on the writer's, beside the others)."""
-
-    frames: list = field(default_factory=list)
-    seconds: float = 0.0
-    first_s: float = 0.0
-    times_s: dict = field(default_factory=dict)
-
-    @property
-    def lost(self) -> list:
-        return [f.frame for f in self.frames if f.lost]
-
-    @property
-    def fps(self) -> float:
-        return len(self.frames) / self.seconds if self.seconds > 0 else math.inf
-
-    @property
-    def fps_after_first(self) -> float:
-        """Frames per second after the first frame (the tracking rate; nan for a single frame)."""
-        later = self.seconds - self.first_s
-        return (len(self.frames) - 1) / later if len(self.frames) > 1 and later > 0 else math.nan
-
-    def summary_line(self) -> str:
-        rate = f"{self.fps:.2f} frames/s"
-        if len(self.frames) > 1:
-            rate += f"; {self.fps_after_first:.2f} after the first frame, which took {self.first_s:.2f} s"
-        return (
-            f"tracked {len(self.frames)} frames in {self.seconds:.2f} s ({rate}); "
-            f"lost: {', '.join(map(str, self.lost)) or 'none'}"
-        )
-
-    def stage_line(self) -> str:
-        """The stages' seconds, largest first."""
-        stages = sorted(self.times_s.items(), key=lambda kv: -kv[1])
-        return "time per stage (s): " + ", ".join(f"{k} {v:.2f}" for k, v in stages if v >= 0.005)
-
-    def lost_lines(self) -> list[str]:
-        return [
-            f"  frame {f.frame} lost ({f.reason}): its pose is the prediction, not trusted"
-            for f in self.frames
-            if f.lost
-        ]
+def retry_options(outline: bool = False) -> EdgeOptions | None:
+    """The retry's options (:data:`RETRY_OPTIONS`, with ``--outline`` its outlines on)."""
+    if RETRY_OPTIONS is None or not outline:
+        return RETRY_OPTIONS
+    return replace(RETRY_OPTIONS, silhouette=True)
 
 
 def snap_frame(
@@ -210,7 +147,8 @@ def snap_frame(
     seed: VisibilityRender | None = None,
     pyramid: list | None = None,
 ) -> tuple:
-    """``(camera at the pose, fit or None, reason)`` of one frame from ``start``; ``candidates``:
+    """``(camera at the pose, fit or None, reason)`` of one frame (``grey``; in colour when
+    ``options`` sample outlines) from ``start``; ``candidates``:
     the :class:`~mrcheck.mr.edges.candidates.CandidateEdges` kept from the frames before;
     ``seed``: the frame before's overlay render (its visible edges); ``pyramid``: the frame's
     gradient pyramid made beforehand (see ``refine_pose``)."""
@@ -235,10 +173,19 @@ def snap_frame(
 
 
 def track_video(
-    video, scene, intrinsics: Camera, initial: Camera, output, poses_path, alpha: float = 0.5, progress=None
+    video,
+    scene,
+    intrinsics: Camera,
+    initial: Camera,
+    output,
+    poses_path,
+    alpha: float = 0.5,
+    progress=None,
+    outline: bool = False,
 ) -> TrackResult:
     """Track ``video`` (a path) from the pose of ``initial``; write the overlay video ``output``
-    and ``poses_path`` (JSON lines) atomically; ``progress(done, total)`` after every frame.
+    and ``poses_path`` (JSON lines) atomically; ``progress(done, total)`` after every frame;
+    ``outline``: ``--outline`` (:data:`OUTLINE_OPTIONS`).
 
     One renderer (GL context, uploaded scene) and one set of the scene's edges serve the whole
     video; the overlay's compose and encode run on a thread (:class:`BackgroundVideo`) beside the
@@ -248,10 +195,10 @@ def track_video(
     # 60-frame cell walk: 23 s of CPU in 13-14 s wall with the default two threads, 15 s in 12 s
     # with one, the poses identical; see docs/edge-registration.md)
     with threadpool_limits(limits=1, user_api="blas"):
-        return _track_video(video, scene, intrinsics, initial, output, poses_path, alpha, progress)
+        return _track_video(video, scene, intrinsics, initial, output, poses_path, alpha, progress, outline)
 
 
-def _track_video(video, scene, intrinsics, initial, output, poses_path, alpha, progress) -> TrackResult:
+def _track_video(video, scene, intrinsics, initial, output, poses_path, alpha, progress, outline) -> TrackResult:
     import av
 
     result = TrackResult()
@@ -272,7 +219,7 @@ def _track_video(video, scene, intrinsics, initial, output, poses_path, alpha, p
                 )
                 os.close(handle)  # the encoder opens the file by its name
                 tmp_video = Path(name)
-                loop = _Loop(result, scene, intrinsics, initial, renderer, edges, alpha)
+                loop = _Loop(result, scene, intrinsics, initial, renderer, edges, alpha, outline)
                 while True:
                     began = time.perf_counter()
                     photo = reader.next()
@@ -310,9 +257,9 @@ class _Loop:
     """The per-frame work of :func:`track_video` and what the frames share (camera, lens map,
     writer, the stage clock in ``result.times_s``)."""
 
-    def __init__(self, result, scene, intrinsics, initial, renderer, edges, alpha):
+    def __init__(self, result, scene, intrinsics, initial, renderer, edges, alpha, outline=False):
         self.result, self.scene, self.intrinsics, self.initial = result, scene, intrinsics, initial
-        self.renderer, self.edges, self.alpha = renderer, edges, alpha
+        self.renderer, self.edges, self.alpha, self.outline = renderer, edges, alpha, outline
         # the edges seen, kept from frame to frame (not from the first frame's fit: its sample
         # spacing is that of FIRST_OPTIONS' 1500 samples, about twice the candidates to test)
         self.candidates = CandidateEdges(edges)
@@ -347,6 +294,7 @@ class _Loop:
             len(self.result.frames),
             candidates=self.candidates if self.result.frames else None,
             seed=self.seed,
+            outline=self.outline,
         )
         self.seed = None
         for stage, seconds in pose.times_s.items():
@@ -398,36 +346,50 @@ class _Loop:
 
 
 def track_frame(
-    previous, scene, camera, photo: FramePhoto, initial, renderer, edges, index, candidates=None, seed=None, timed=False
+    previous,
+    scene,
+    camera,
+    photo: FramePhoto,
+    initial,
+    renderer,
+    edges,
+    index,
+    candidates=None,
+    seed=None,
+    timed=False,
+    outline=False,
 ) -> FramePose:
     """Frame ``index``'s pose from the frames before (``previous``: their :class:`FramePose`;
     ``initial``: the start pose of frame 0): the snap from the constant-velocity prediction, the
     retry and the relocalisation of the module docstring. ``candidates``: the edges seen so far
     (:class:`~mrcheck.mr.edges.candidates.CandidateEdges`, not for frame 0); ``seed``: the frame
     before's overlay render (:class:`~mrcheck.mr.edges.VisibilityRender`) or None; ``timed``:
-    predict by the frames' times (``photo.time_s``: frames at irregular intervals). What the
-    review's live session runs on every frame from the browser, too."""
+    predict by the frames' times (``photo.time_s``: frames at irregular intervals); ``outline``:
+    ``--outline`` (:data:`OUTLINE_OPTIONS`). What the review's live session runs on every frame
+    from the browser, too."""
     start = (
         camera.with_pose(initial.R, initial.t) if not previous else predicted(previous, photo.time_s if timed else None)
     )
+
+    def snap(options, begin, cands=None, seed=None, pyramid=None):
+        image = photo.rgb if options.silhouette is not False and options.region else photo.grey  # outlines: colour
+        return snap_frame(scene, camera, image, begin, renderer, edges, options, cands, seed, pyramid=pyramid)
+
     began = time.perf_counter()
-    pose, fit, reason = snap_frame(
-        scene, camera, photo.grey, start, renderer, edges, frame_options(index), candidates, seed, pyramid=photo.pyramid
-    )
+    pose, fit, reason = snap(frame_options(index, outline), start, candidates, seed, photo.pyramid)
     times = _fit_times(fit, {})
     # not within a lost stretch: there both snaps start from the same coasting prediction (on the
     # 60-frame `robot_cell` walk sideways, 25 frames of a bare wall, the retries cost a fifth of the run)
-    if reason and index > 0 and not previous[-1].lost and RETRY_OPTIONS is not None:
-        pose, fit, reason = snap_frame(
-            scene, camera, photo.grey, start, renderer, edges, RETRY_OPTIONS, candidates, pyramid=photo.pyramid
-        )
+    retry = retry_options(outline)
+    if reason and index > 0 and not previous[-1].lost and retry is not None:
+        pose, fit, reason = snap(retry, start, candidates, pyramid=photo.pyramid)
         times = _fit_times(fit, times)
     if index > 0 and relocalise_now(previous):
         # also when the snap held: from the coasted prediction it may hold on other edges (the
         # better supported of the two is kept); its own pyramid (the reader's has TRACK_OPTIONS'
         # one level) and no candidates (their spacing is TRACK_OPTIONS')
         again = last_good(previous, camera.with_pose(initial.R, initial.t))
-        pose2, fit2, reason2 = snap_frame(scene, camera, photo.grey, again, renderer, edges, RELOCALISE_OPTIONS)
+        pose2, fit2, reason2 = snap(RELOCALISE_OPTIONS, again)
         times = _fit_times(fit2, times)
         if not reason2 and (reason or fit2.support > fit.support):
             pose, fit, reason = pose2, fit2, reason2
@@ -448,9 +410,11 @@ def _fit_times(fit, times: dict) -> dict:
     return times
 
 
-def track_command(video, scene, intrinsics, initial, output, poses=None, alpha=0.5, progress=None) -> TrackResult:
+def track_command(
+    video, scene, intrinsics, initial, output, poses=None, alpha=0.5, progress=None, outline=False
+) -> TrackResult:
     """``mrcheck track``: check the inputs, track, write OUT.mp4 and poses.jsonl (default: beside
-    the video output, ``OUT.poses.jsonl``)."""
+    the video output, ``OUT.poses.jsonl``); ``outline``: ``--outline``."""
     output = check_output_path(output, (".mp4",), "video")
     poses = Path(poses) if poses else output.with_suffix(".poses.jsonl")
     check_not_inputs(
@@ -470,6 +434,7 @@ def track_command(video, scene, intrinsics, initial, output, poses=None, alpha=0
         poses,
         alpha=alpha,
         progress=progress,
+        outline=outline,
     )
 
 
@@ -477,6 +442,8 @@ __all__ = [
     "FramePose",
     "track_frame",
     "frame_options",
+    "retry_options",
+    "OUTLINE_OPTIONS",
     "TrackResult",
     "predicted",
     "snap_frame",

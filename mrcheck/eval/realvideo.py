@@ -148,17 +148,21 @@ def _teabox_scene(folder: Path, corners: np.ndarray) -> Path:
     return write_text(folder / "scene.toml", manifest)
 
 
-def track_one(name, video, scene, camera: Camera, clicks: Path, corners, limit, folder: Path) -> VideoRun:
-    """Track ``video`` (its first ``limit`` frames when given) from the clicks' pose."""
+def track_one(
+    name, video, scene, camera: Camera, clicks: Path, corners, limit, folder: Path, outline: bool = False
+) -> VideoRun:
+    """Track ``video`` (its first ``limit`` frames when given) from the clicks' pose; ``outline``:
+    ``track --outline`` (the run's name says so)."""
     frames = _frames(video, limit)
     if limit is not None:
         video = _write_video(folder / f"{name}-first.mp4", frames)
     start, rms = start_from_clicks(camera, *read_clicks(clicks))
+    name = f"{name} --outline" if outline else name
     intrinsics, rough = folder / f"{name}.cam.json", folder / f"{name}.rough.json"
     write_camera(intrinsics, camera, pose=False)
     write_camera(rough, start)
     try:
-        result = track_command(video, scene, intrinsics, rough, folder / f"{name}-overlay.mp4")
+        result = track_command(video, scene, intrinsics, rough, folder / f"{name}-overlay.mp4", outline=outline)
     except MrcheckError as exc:
         return VideoRun(name, 0, 0, 0, 0.0, rms, error=str(exc))
     outline = [
@@ -171,7 +175,8 @@ def track_one(name, video, scene, camera: Camera, clicks: Path, corners, limit, 
 
 def video_runs(root: Path, quick: bool, progress=None) -> tuple[list, list]:
     """(runs, skipped reasons): the box video (not with ``quick``) and the tea box (``quick``:
-    its first :data:`QUICK_FRAMES` frames)."""
+    its first :data:`QUICK_FRAMES` frames), each also with ``track --outline`` (not with
+    ``quick``)."""
     runs, skipped = [], []
     box_scene, tea = _REPO / "examples" / "box" / "scene.toml", Path(root) / "teabox"
     clicks = _REPO / "tests" / "data"
@@ -184,20 +189,22 @@ def video_runs(root: Path, quick: bool, progress=None) -> tuple[list, list]:
         else:
             corners = cuboid_corners(np.array([[0, 0, 0], [0.189, 0.258, 0.075]]))
             camera = Camera(640, 480, np.array(BOX_K))
-            runs.append(track_one("box_video", Path(root) / "box_video" / "box.mp4", box_scene, camera,
-                                  clicks / "box_video_clicks.json", corners, None, out))  # fmt: skip
-            if progress:
-                progress(f"box video: {runs[-1].frames} frames")
+            for outline in (False, True):
+                runs.append(track_one("box_video", Path(root) / "box_video" / "box.mp4", box_scene, camera,
+                                      clicks / "box_video_clicks.json", corners, None, out, outline))  # fmt: skip
+                if progress:
+                    progress(f"{runs[-1].video}: {runs[-1].frames} frames")
         if not (tea / "teabox.mp4").exists():
             skipped.append(f"tea box: {tea / 'teabox.mp4'} is absent")
         else:
             corners = cuboid_corners(cao_points(tea / "teabox.cao"))
             scene = _teabox_scene(out, corners)
             camera = Camera(640, 480, np.array(TEA_K))
-            runs.append(track_one("teabox", tea / "teabox.mp4", scene, camera, clicks / "teabox_clicks.json",
-                                  corners, QUICK_FRAMES if quick else None, out))  # fmt: skip
-            if progress:
-                progress(f"tea box: {runs[-1].frames} frames")
+            for outline in (False,) if quick else (False, True):
+                runs.append(track_one("teabox", tea / "teabox.mp4", scene, camera, clicks / "teabox_clicks.json",
+                                      corners, QUICK_FRAMES if quick else None, out, outline))  # fmt: skip
+                if progress:
+                    progress(f"{runs[-1].video}: {runs[-1].frames} frames")
     return runs, skipped
 
 
