@@ -243,9 +243,14 @@ def refuse_ambiguous(pose: Pose) -> None:
     def names(mask):
         return ", ".join(str(i) for i in np.flatnonzero(mask))
 
+    # the two sets by their first point: which one the fit kept is a tie broken by rounding
+    # (exact clicks: both at RMS 0.00 px), and the same clicks should read the same on any CPU
+    (first, rms_1), (second, rms_2) = sorted(
+        [(pose.inliers, pose.rms), (rival.inliers, rival.rms)], key=lambda s: int(np.flatnonzero(s[0])[0])
+    )
     raise MrcheckError(
-        f"ambiguous clicks: points {names(pose.inliers)} (RMS {pose.rms:.2f} px) and {names(rival.inliers)} "
-        f"(RMS {rival.rms:.2f} px, 0-based) agree equally well within {pose.threshold:.1f} px but their poses "
+        f"ambiguous clicks: points {names(first)} (RMS {rms_1:.2f} px) and {names(second)} "
+        f"(RMS {rms_2:.2f} px, 0-based) agree equally well within {pose.threshold:.1f} px but their poses "
         f"turn {rival.rotation_deg:.1f} deg apart (1 sigma {rival.sigma_deg:.1f} deg); fix the mis-clicks or add points"
     )
 
