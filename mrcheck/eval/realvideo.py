@@ -165,12 +165,12 @@ def track_one(
         result = track_command(video, scene, intrinsics, rough, folder / f"{name}-overlay.mp4", outline=outline)
     except MrcheckError as exc:
         return VideoRun(name, 0, 0, 0, 0.0, rms, error=str(exc))
-    outline = [
+    distances = [
         outline_distance(f.camera, corners, cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY))
         for f, frame in zip(result.frames, frames)
     ]
-    held = sum(not f.lost and d <= OUTLINE_PX for f, d in zip(result.frames, outline))
-    return VideoRun(name, len(result.frames), len(result.lost), held, result.fps, rms, outline)
+    held = sum(not f.lost and d <= OUTLINE_PX for f, d in zip(result.frames, distances))
+    return VideoRun(name, len(result.frames), len(result.lost), held, result.fps, rms, distances)
 
 
 def video_runs(root: Path, quick: bool, progress=None) -> tuple[list, list]:
