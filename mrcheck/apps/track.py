@@ -372,7 +372,7 @@ def track_frame(
     )
 
     def snap(options, begin, cands=None, seed=None, pyramid=None):
-        image = photo.rgb if options.silhouette is not False and options.region else photo.grey  # outlines: colour
+        image = photo.rgb if options.reads_colour else photo.grey
         return snap_frame(scene, camera, image, begin, renderer, edges, options, cands, seed, pyramid=pyramid)
 
     began = time.perf_counter()

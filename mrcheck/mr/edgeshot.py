@@ -93,9 +93,7 @@ def snap_photo(
     the pose of ``rough``; ``camera``: the photo's intrinsics (rescaled to the photo when it was
     resized). Raises :class:`~mrcheck.mr.edges.EdgeFitError` (naming the photo) on failure."""
     # the region criterion of the silhouette samples compares colours: the photo as it is then
-    settings = options if options is not None else EdgeOptions()
-    colour = settings.silhouette is not False and settings.region
-    grey = read_photo(photo, grey=not colour)
+    grey = read_photo(photo, grey=not (options or EdgeOptions()).reads_colour)
     camera, warnings = fit_camera(camera, grey.shape[1], grey.shape[0], photo)
     rough = camera.with_pose(rough.R, rough.t)
     try:

@@ -70,6 +70,12 @@ class EdgeOptions:
     region: bool = True
     restarts: bool = True
 
+    @property
+    def reads_colour(self) -> bool:
+        """Whether the fit reads the photo in colour: outlines may be sampled and matched by the
+        region criterion, which compares colours (else the photo is read grey)."""
+        return self.silhouette is not False and self.region
+
     def validated(self) -> EdgeOptions:
         checks = [
             (0 < self.search_px < math.inf, f"search radius must be positive, got {self.search_px}"),

@@ -71,7 +71,7 @@ def refine_pose(
     wrong pose fitting a few parts).
     """
     options = (options or EdgeOptions()).validated()
-    colour = np.asarray(grey) if options.silhouette is not False and options.region else None
+    colour = np.asarray(grey) if options.reads_colour else None
     grey = _grey(grey)
     if grey.shape != (camera.height, camera.width):
         raise MrcheckError(f"photo is {grey.shape[1]}x{grey.shape[0]} but the camera is {camera.width}x{camera.height}")
