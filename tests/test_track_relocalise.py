@@ -84,6 +84,26 @@ def test_relocalisation_comes_after_three_lost_frames_then_every_fifth():
     assert trackmotion.last_good(stretch[1:], stretch[0].camera) is stretch[0].camera  # none good: the start
 
 
+def test_the_relocalisation_starts_also_from_the_best_supported_recent_frame():
+    """A weakly supported last good frame may hold the wrong place: the best supported of the last
+    RECENT_GOOD good frames is the second start (lost frames and older ones do not count)."""
+    cams = [Camera(640, 480, np.diag([500.0, 500.0, 1.0]), t=np.array([0.01 * k, 0.0, 0.0])) for k in range(80)]
+    frames = [_Frame(k, False, cams[k], support=0.5) for k in range(80)]
+    frames[5].support = 0.99  # beyond the recent window of 60 good frames
+    frames[40].support, frames[41].support = 0.9, 0.9  # equals: the latest is taken
+    frames[50].support, frames[50].lost = 0.95, True  # lost: not a start
+    frames[79].support = 0.3
+    anchors = trackmotion.relocalisation_anchors(frames, None)
+    assert len(anchors) == 2 and anchors[0][1] is cams[79] and anchors[1][1] is cams[41]
+    assert anchors[0][0] == "the last good pose" and "frame 41" in anchors[1][0], anchors
+    frames[79].support = 0.95  # the last good pose is the best supported: one start
+    again = trackmotion.relocalisation_anchors(frames, None)
+    assert len(again) == 1 and again[0][1] is cams[79]
+    lost = [_Frame(k, True, cams[k]) for k in range(3)]
+    again = trackmotion.relocalisation_anchors(lost, cams[7])
+    assert len(again) == 1 and again[0] == ("the start", cams[7])
+
+
 def test_a_frame_found_again_predicts_with_the_mean_motion_since_the_last_good_one():
     camera = crate_camera(480, 360)
     walk = [walk_camera(camera, "side", k) for k in range(8)]
@@ -93,8 +113,8 @@ def test_a_frame_found_again_predicts_with_the_mean_motion_since_the_last_good_o
 
 
 class _Frame:
-    def __init__(self, frame, lost, camera=None):
-        self.frame, self.lost = frame, lost
+    def __init__(self, frame, lost, camera=None, support=0.5):
+        self.frame, self.lost, self.support = frame, lost, support
         self.camera = camera if camera is not None else Camera(640, 480, np.diag([500.0, 500.0, 1.0]))
 
 

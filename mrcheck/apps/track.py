@@ -10,10 +10,12 @@ a thread beside this one's snap). A frame whose fit fails or ends with its suppo
 :data:`LOST_SUPPORT` is snapped once more with a render of its own (:data:`RETRY_OPTIONS`; not
 when the frame before was lost too); failing again it is *lost*: its pose is the prediction, not
 trusted, the next frame starts from it, and ``poses.jsonl`` says so. Within a lost stretch a
-frame still lost is snapped once more coarse to fine from the last good pose
-(:data:`RELOCALISE_OPTIONS`, when :func:`mrcheck.apps.trackmotion.relocalise_now` says: after
-three lost frames, then every fifth), so that the track comes back when the object does; the
-frame found again starts the next one with the mean motion since the last good frame. The overlay (vector AO at
+frame still lost is snapped once more coarse to fine from the last good pose, and from the best
+supported recent one when that is another (:data:`RELOCALISE_OPTIONS`, when
+:func:`mrcheck.apps.trackmotion.relocalise_now` says: after three lost frames, then every
+fifth; :func:`~mrcheck.apps.trackmotion.relocalisation_anchors`), so that the track comes back
+when the object does; the frame found again starts the next one with the mean motion since the
+last good frame. The overlay (vector AO at
 half resolution, lens distortion as calibrated) is drawn at every frame's pose, lost ones
 included, so that the video shows what the log says; a lost frame whose predicted pose lies
 inside a part is written without overlay (its ``reason`` says so).
@@ -40,7 +42,7 @@ from pathlib import Path
 from threadpoolctl import threadpool_limits
 
 from mrcheck.apps.trackframes import FramePhoto, FrameReader
-from mrcheck.apps.trackmotion import last_good, predicted, relocalise_now
+from mrcheck.apps.trackmotion import predicted, relocalisation_anchors, relocalise_now
 from mrcheck.apps.trackresult import FramePose, TrackResult
 from mrcheck.apps.videoout import BackgroundVideo, video_stream
 from mrcheck.core.camera import Camera
@@ -102,8 +104,9 @@ RETRY_OPTIONS = replace(TRACK_OPTIONS, iterations=6, rerender_px=3.0)
 # seeds 0-9 at 640x480: 10 of 10 within 1 px, 0.06-0.37 px, 0.70 s per fit median, against
 # 0.06-0.45 px and 0.81 s; the crates the same, they have fewer)
 FIRST_OPTIONS = EdgeOptions(min_support=0.0, max_samples=1500, silhouette=False, restarts=False)
-# a frame lost within a lost stretch, snapped again from the last good pose's neighbourhood when
-# relocalise_now says (mrcheck.apps.trackmotion): coarse to fine as from ROUGH.json
+# a frame lost within a lost stretch, snapped again from the neighbourhood of the last good pose
+# (and of the best supported recent one) when relocalise_now says (mrcheck.apps.trackmotion):
+# coarse to fine as from ROUGH.json
 RELOCALISE_OPTIONS = FIRST_OPTIONS
 # full detail (lod_px 0): the overlay's depth and normals find the next frame's visible edges
 # (VisibilityRender), and a simplified mesh moves surfaces off the exact edges' planes
@@ -388,13 +391,13 @@ def track_frame(
         # also when the snap held: from the coasted prediction it may hold on other edges (the
         # better supported of the two is kept); its own pyramid (the reader's has TRACK_OPTIONS'
         # one level) and no candidates (their spacing is TRACK_OPTIONS')
-        again = last_good(previous, camera.with_pose(initial.R, initial.t))
-        pose2, fit2, reason2 = snap(RELOCALISE_OPTIONS, again)
-        times = _fit_times(fit2, times)
-        if not reason2 and (reason or fit2.support > fit.support):
-            pose, fit, reason = pose2, fit2, reason2
-        elif reason:
-            reason += f"; relocalised from the last good pose: {reason2 or 'less support'}"
+        for what, again in relocalisation_anchors(previous, camera.with_pose(initial.R, initial.t)):
+            pose2, fit2, reason2 = snap(RELOCALISE_OPTIONS, again)
+            times = _fit_times(fit2, times)
+            if not reason2 and (reason or fit2.support > fit.support):
+                pose, fit, reason = pose2, fit2, reason2
+            elif reason:
+                reason += f"; relocalised from {what}: {reason2 or 'less support'}"
     corners = list(fit.uncertainty.corner_px) if fit is not None else []
     rms, support = (None, 0.0) if fit is None else (fit.rms_px, fit.support)
     return FramePose(

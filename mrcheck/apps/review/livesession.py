@@ -23,7 +23,8 @@ JSON header ``{"type": "pose", "frame", "time" (the frame's own), "R", "t", "sup
 "width", "height"}`` and the CAD layer at that pose (vector AO in the lens's geometry, JPEG),
 which the page blends over its own video at the video's rate. Tracking is ``mrcheck track``'s per-frame step
 (:func:`mrcheck.apps.track.track_frame`: constant-velocity prediction, snap, retry,
-relocalisation from the last good pose after a lost stretch), on the review's render thread.
+relocalisation from the last good pose and the best supported recent one after a lost
+stretch), on the review's render thread.
 Frames are never stored: each is decoded, tracked and dropped.
 """
 
