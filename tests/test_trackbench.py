@@ -82,6 +82,8 @@ def test_the_track_bench_refuses_a_second_bench_and_a_bad_json_path_before_any_w
     monkeypatch.setattr(walks, "synthetic_photo", lambda *a, **k: pytest.fail("work was started"))
     assert main(["bench", "--track", "--edges"]) == 2
     assert "give one of them" in capsys.readouterr().err
+    assert main(["bench", "--outline"]) == 2
+    assert "--outline goes with --track" in capsys.readouterr().err
     assert main(["bench", "--track", "--quick", "--json", str(tmp_path / "out.txt")]) == 1
     err = capsys.readouterr().err
     assert "JSON output must end in .json" in err and "Traceback" not in err
@@ -113,5 +115,15 @@ def test_the_track_bench_makes_its_walks_once_and_writes_its_runs_as_json(tmp_pa
     # progress in frames: 3 photos, then 3 frames tracked per round
     assert [done for done, _, _ in seen] == [1, 2, 3, 3, 6, 9] and {total for _, total, _ in seen} == {9}
     seen.clear()
-    bench.track_bench(quick=True, rounds=1, folder=tmp_path / "walks", progress=lambda *a: seen.append(a))
+    runs, lines = bench.track_bench(
+        quick=True,
+        rounds=1,
+        json_path=tmp_path / "outline.json",
+        folder=tmp_path / "walks",
+        progress=lambda *a: seen.append(a),
+        outline=True,
+    )
     assert seen[0] == (3, 6, "crates-side ready")  # found made: no photos
+    assert lines[0] == "== mrcheck track: 1 walks of 3 frames at 320x240, 1 round, --outline =="
+    assert json.loads((tmp_path / "outline.json").read_text())["outline"] is True
+    assert runs[0].frames == 3 and np.isfinite(runs[0].error_median_px)

@@ -114,12 +114,12 @@ OVERLAY_SETTINGS = RenderSettings(samples=8, ao_scale=0.5, lod_px=0.0)
 
 
 # ``--outline``: the parts' rendered outlines matched by their colour regions on every frame after
-# the first (EdgeOptions.silhouette; register's term for curved parts). Measured (2026-12-07, AMD
-# EPYC): the real box video (tests/test_track_real.py's start, f = 680 px) 1 of 455 frames lost
-# and 454 held within 3 px, against 147 lost and 203 held without; with the tutorial's nominal
-# camera (non-square pixels, no calibration) 256 lost and 192 held, against 15 and 359; the tea
-# box 39 of 39 either way; the generated cell's walks (dozens of parts, grey video) lose 18-21 of
-# 24 frames. So: for a few objects filmed with a calibrated camera, not a hall; off by default.
+# the first (EdgeOptions.silhouette; register's term for curved parts). Measured (2026-12-08, AMD
+# EPYC), frames held within 3 px of 455 with and without it: the real box video from
+# tests/test_track_real.py's start (f = 680 px) 454 / 432, from bench --real's clicks 431 / 445,
+# with the tutorial's nominal camera 427 / 379; the tea box 39 of 39 either way; the generated
+# cell's walks (dozens of parts whose outlines cross) lose 18 of 24 frames each with it, none
+# without (bench --track --outline). So: for a few objects filmed in colour, not a hall; off by default.
 OUTLINE_OPTIONS = replace(TRACK_OPTIONS, silhouette=True)
 
 

@@ -47,6 +47,11 @@ from mrcheck.render import settings as defaults
     "against the true path.",
 )
 @click.option(
+    "--outline",
+    is_flag=True,
+    help="With --track: the walks tracked with `mrcheck track --outline` (the parts' outlines fitted too).",
+)
+@click.option(
     "--real",
     is_flag=True,
     help="Only the markerless registration (against cv2.rapid, same starts) and `track` on the shared real data "
@@ -61,7 +66,7 @@ from mrcheck.render import settings as defaults
     "--quick: 320x240, fewer rays): 1 to 16 frames against the converged render and the ray-traced "
     "references, seconds per render; see docs/rendering.md.",
 )
-def bench(quick, json_path, repeat, edges, track, real, accumulate):
+def bench(quick, json_path, repeat, edges, track, outline, real, accumulate):
     """Measure the AO passes and frames on this machine.
 
     Every AO mode at full and half resolution, over
@@ -82,11 +87,14 @@ def bench(quick, json_path, repeat, edges, track, real, accumulate):
       mrcheck bench --quick --json bench.json
       mrcheck bench --edges --quick
       mrcheck bench --track --json track.json
+      mrcheck bench --track --outline --repeat 1
       mrcheck bench --real --json real.json
       mrcheck bench --accumulate --quick
     """
     if edges + track + real + accumulate > 1:
         raise click.UsageError("--edges, --track, --real and --accumulate are separate benches: give one of them")
+    if outline and not track:
+        raise click.UsageError("--outline goes with --track (the walks tracked with `track --outline`)")
     if accumulate:
         _accumulate_bench(quick, json_path)
         return
@@ -98,7 +106,7 @@ def bench(quick, json_path, repeat, edges, track, real, accumulate):
             click.echo(line)
         return
     if track:
-        _track_bench(quick, repeat, json_path)
+        _track_bench(quick, repeat, json_path, outline)
         return
     if edges:
         from mrcheck.eval.edgebench import edge_bench
@@ -130,10 +138,12 @@ def _accumulate_bench(quick, json_path) -> None:
         click.echo(line)
 
 
-def _track_bench(quick, repeat, json_path) -> None:
+def _track_bench(quick, repeat, json_path, outline) -> None:
     from mrcheck.eval.trackbench import track_bench
 
-    _, lines = track_bench(quick=quick, rounds=repeat, json_path=json_path, progress=_progress_bar("frame"))
+    _, lines = track_bench(
+        quick=quick, rounds=repeat, json_path=json_path, progress=_progress_bar("frame"), outline=outline
+    )
     for line in lines:
         click.echo(line)
 

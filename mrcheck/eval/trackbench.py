@@ -58,9 +58,9 @@ class TrackRun:
     times_s: dict = field(default_factory=dict)
 
 
-def run_walk(walk: Walk, manifest: Path, folder: Path) -> TrackRun:
+def run_walk(walk: Walk, manifest: Path, folder: Path, outline: bool = False) -> TrackRun:
     """Track ``walk`` over the scene of ``manifest`` once, in a fresh process (outputs into
-    ``folder``, removed after), and measure it."""
+    ``folder``, removed after), and measure it; ``outline``: ``track --outline``."""
     folder = Path(folder)
     camera, rough = folder / f"{walk.name}.cam.json", folder / f"{walk.name}.rough.json"
     write_camera(camera, walk.camera, pose=False)
@@ -69,7 +69,7 @@ def run_walk(walk: Walk, manifest: Path, folder: Path) -> TrackRun:
     poses = output.with_suffix(".poses.jsonl")
     try:
         with ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn")) as pool:
-            result = pool.submit(_track, walk.video, manifest, camera, rough, output).result()
+            result = pool.submit(_track, walk.video, manifest, camera, rough, output, outline).result()
     finally:
         for path in (output, poses, camera, rough):
             path.unlink(missing_ok=True)
@@ -91,9 +91,9 @@ def run_walk(walk: Walk, manifest: Path, folder: Path) -> TrackRun:
     )
 
 
-def _track(video, manifest, camera, rough, output) -> TrackResult:
+def _track(video, manifest, camera, rough, output, outline) -> TrackResult:
     """The child process's work: the command's own function."""
-    return track_command(video, manifest, camera, rough, output)
+    return track_command(video, manifest, camera, rough, output, outline=outline)
 
 
 @dataclass
@@ -133,8 +133,11 @@ def bench_plan(quick: bool, folder: Path) -> list[WalkPlan]:
     return plan + [WalkPlan("crates-side", crate_scene(), crates, crate_camera(640, 480), "side", frames)]
 
 
-def track_bench(quick: bool = False, rounds: int | None = None, json_path=None, progress=None, folder=None) -> tuple:
+def track_bench(
+    quick: bool = False, rounds: int | None = None, json_path=None, progress=None, folder=None, outline=False
+) -> tuple:
     """``(runs, lines)``: every :class:`TrackRun` and the table of :func:`summary_lines`;
+    ``outline``: the walks tracked with ``track --outline`` (the title says so);
     ``json_path``: the runs written there as JSON too (checked before the work, written before
     the table is made); ``progress(done, total, label)`` in frames (each photo made, a walk found
     made at once, and each frame tracked). The walks are kept in ``folder`` (default
@@ -171,21 +174,27 @@ def track_bench(quick: bool = False, rounds: int | None = None, json_path=None, 
     with tempfile.TemporaryDirectory(prefix="mrcheck-trackbench-") as out:
         for round_ in range(rounds):
             for walk, manifest in walks:
-                run = run_walk(walk, manifest, Path(out))
+                run = run_walk(walk, manifest, Path(out), outline)
                 runs.append(run)
                 step(run.frames, f"round {round_ + 1}, {walk.name}: {run.fps:.2f} frames/s")
     if json_path is not None:
         write_text(
             json_path,
             json.dumps(
-                {"quick": quick, "rounds": rounds, "target_fps": TARGET_FPS, "runs": [asdict(run) for run in runs]},
+                {
+                    "quick": quick,
+                    "rounds": rounds,
+                    "outline": outline,
+                    "target_fps": TARGET_FPS,
+                    "runs": [asdict(run) for run in runs],
+                },
                 indent=2,
             ),
         )
     first = walks[0][0]
     title = (
         f"{len(walks)} walks of {len(first.truths)} frames at {first.camera.width}x{first.camera.height}, "
-        f"{rounds} round{'s' if rounds > 1 else ''}"
+        f"{rounds} round{'s' if rounds > 1 else ''}{', --outline' if outline else ''}"
     )
     return runs, summary_lines(runs, title)
 
