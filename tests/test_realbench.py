@@ -161,3 +161,27 @@ def test_restart_lines_count_the_fits_made_again_per_set_and_split():
         "  mrcheck, lmo held-out: 0 of 1 fits restarted (a part lagging), 0 kept a restart",
         "  mrcheck, m3t tuned: 2 of 3 fits restarted (a part lagging), 1 kept a restart",
     ]
+
+
+def test_the_box_video_is_tracked_with_the_nominal_and_the_fitted_camera(tmp_path, monkeypatch):
+    """Each with and without ``--outline``; the fitted camera is the repository's
+    (``tests/data/track/box_video/camera.json``, f = 680 px), the start the same clicks."""
+    import mrcheck.eval.realvideo as realvideo
+
+    (tmp_path / "box_video").mkdir()
+    (tmp_path / "box_video" / "box.mp4").write_bytes(b"")  # only looked for: track_one is replaced
+    calls = []
+
+    def track_one(name, video, scene, camera, clicks, corners, limit, folder, outline=False):
+        calls.append((name, float(camera.K[0, 0]), float(camera.K[1, 1]), clicks.name, outline))
+        return realvideo.VideoRun(name, 1, 0, 1, 1.0, 0.0)
+
+    monkeypatch.setattr(realvideo, "track_one", track_one)
+    runs, skipped = realvideo.video_runs(tmp_path, quick=False)
+    assert calls == [
+        ("box_video", 1578.48, 1771.81, "box_video_clicks.json", False),
+        ("box_video", 1578.48, 1771.81, "box_video_clicks.json", True),
+        ("box_video_f680", 680.0, 680.0, "box_video_clicks.json", False),
+        ("box_video_f680", 680.0, 680.0, "box_video_clicks.json", True),
+    ]
+    assert len(runs) == 4 and any("tea box" in reason for reason in skipped)

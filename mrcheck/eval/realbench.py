@@ -354,16 +354,16 @@ def restart_lines(fits: list) -> list[str]:
 
 def video_lines(videos: list) -> list[str]:
     lines = [
-        f"{'video':<19} {'frames':>6} {'lost':>4} {'held':>4} {'outline px med/90%/max':>22} {'fps':>5} "
+        f"{'video':<24} {'frames':>6} {'lost':>4} {'held':>4} {'outline px med/90%/max':>22} {'fps':>5} "
         f"{'clicks px':>9}"
     ]
     for v in videos:
         if v.error:
-            lines.append(f"{v.video:<19} track failed: {v.error} (clicks RMS {v.click_rms_px:.2f} px)")
+            lines.append(f"{v.video:<24} track failed: {v.error} (clicks RMS {v.click_rms_px:.2f} px)")
             continue
         finite = [d for d in v.outline_px if np.isfinite(d)]
         lines.append(
-            f"{v.video:<19} {v.frames:6d} {v.lost:4d} {v.held:4d} {_pct(finite):>22} {v.fps:5.2f} {v.click_rms_px:9.2f}"
+            f"{v.video:<24} {v.frames:6d} {v.lost:4d} {v.held:4d} {_pct(finite):>22} {v.fps:5.2f} {v.click_rms_px:9.2f}"
         )
     return lines
 
