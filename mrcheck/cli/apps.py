@@ -404,8 +404,8 @@ def deviation(scan, scene_path, shot, units, per_element, tolerance_mm, search_m
     "--outline",
     is_flag=True,
     help="Also fit the parts' outlines, matched by their colour regions, on every frame: can hold a few "
-    "objects filmed with a calibrated camera where the edges alone slide off; worse with rough intrinsics "
-    "and in dense scenes (docs/edge-registration.md).",
+    "objects filmed in colour where the edges alone slide off; fails in dense scenes of many parts "
+    "(docs/edge-registration.md).",
 )
 @click.option(
     "-o", "--output", required=True, metavar="OUT.mp4", help="The overlay video (vector AO at half resolution)."
