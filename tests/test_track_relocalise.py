@@ -80,8 +80,10 @@ def test_relocalisation_comes_after_three_lost_frames_then_every_fifth():
     due = [run for run in range(16) if trackmotion.relocalise_now(frames(run))]
     assert due == [3, 8, 13]
     stretch = frames(4)
-    assert trackmotion.last_good(stretch, None) is stretch[0].camera
-    assert trackmotion.last_good(stretch[1:], stretch[0].camera) is stretch[0].camera  # none good: the start
+    anchors = trackmotion.relocalisation_anchors(stretch, None)
+    assert len(anchors) == 1 and anchors[0][1] is stretch[0].camera  # the last good pose
+    none_good = trackmotion.relocalisation_anchors(stretch[1:], stretch[0].camera)
+    assert len(none_good) == 1 and none_good[0][1] is stretch[0].camera  # none good: the start
 
 
 def test_the_relocalisation_starts_also_from_the_best_supported_recent_frame():

@@ -105,14 +105,6 @@ def relocalisation_anchors(previous: list, initial: Camera) -> list[tuple[str, C
     return out
 
 
-def last_good(previous: list, initial: Camera) -> Camera:
-    """The pose of the last frame not lost (``initial``'s before any)."""
-    for f in reversed(previous):
-        if not f.lost:
-            return f.camera
-    return initial
-
-
 __all__ = [
     "MAX_STRETCH",
     "RELOCALISE_AFTER",
@@ -122,5 +114,4 @@ __all__ = [
     "lost_run",
     "relocalise_now",
     "relocalisation_anchors",
-    "last_good",
 ]
