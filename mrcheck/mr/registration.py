@@ -243,10 +243,11 @@ def refuse_ambiguous(pose: Pose) -> None:
     def names(mask):
         return ", ".join(str(i) for i in np.flatnonzero(mask))
 
-    # the two sets by their first point: which one the fit kept is a tie broken by rounding
-    # (exact clicks: both at RMS 0.00 px), and the same clicks should read the same on any CPU
+    # the two sets in point order (their index lists compared, so sets sharing their first point
+    # are ordered too): which one the fit kept is a tie broken by rounding (exact clicks: both at
+    # RMS 0.00 px), and the same clicks should read the same on any CPU
     (first, rms_1), (second, rms_2) = sorted(
-        [(pose.inliers, pose.rms), (rival.inliers, rival.rms)], key=lambda s: int(np.flatnonzero(s[0])[0])
+        [(pose.inliers, pose.rms), (rival.inliers, rival.rms)], key=lambda s: tuple(np.flatnonzero(s[0]).tolist())
     )
     raise MrcheckError(
         f"ambiguous clicks: points {names(first)} (RMS {rms_1:.2f} px) and {names(second)} "
